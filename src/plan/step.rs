@@ -1,0 +1,190 @@
+//! The step vocabulary shared by all plan builders and the Vulkan executor.
+//!
+//! Depth semantics are written for the standard convention: smaller depth is
+//! nearer, `0.0` is the near plane and `1.0` the far plane. With reversed Z the
+//! executor mirrors every compare op, clear value and constant depth, and the
+//! shaders flip their own comparisons, so plans never mention the convention.
+
+/// Index of a depth-stencil image of the plan (`0 .. Plan::depth_stencils`).
+pub type Ds = u8;
+/// Index of a single-channel `f32` depth texture of the plan (`0 .. Plan::textures`):
+/// colour targets that hold copies of depths and are sampled by later passes.
+pub type Tex = u8;
+/// Index of a mesh: primitives in file order (0-based), then surfaces.
+pub type MeshId = u32;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CompareOp {
+    Never,
+    Less,
+    Equal,
+    LessOrEqual,
+    Greater,
+    NotEqual,
+    GreaterOrEqual,
+    Always,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum StencilOp {
+    Keep,
+    Zero,
+    Replace,
+    IncrementAndClamp,
+    DecrementAndClamp,
+    Invert,
+    IncrementAndWrap,
+    DecrementAndWrap,
+}
+
+/// Which faces are discarded before rasterization. Front faces are the
+/// counter-clockwise ones seen from the eye, i.e. outward-facing ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Cull {
+    None,
+    Back,
+    Front,
+}
+
+/// Stencil ops and compare for one face orientation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct StencilFace {
+    pub compare: CompareOp,
+    pub fail: StencilOp,
+    pub pass: StencilOp,
+    pub depth_fail: StencilOp,
+}
+
+/// The full stencil state of a draw. Masks and reference apply to both faces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct StencilState {
+    pub front: StencilFace,
+    pub back: StencilFace,
+    pub compare_mask: u8,
+    pub write_mask: u8,
+    pub reference: u8,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct DepthState {
+    pub compare: CompareOp,
+    pub write: bool,
+}
+
+/// What a draw rasterizes.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Geometry {
+    /// All triangles of one mesh.
+    Mesh(MeshId),
+    /// Several meshes, in this order (e.g. the union of all faces for a Blister peel).
+    Meshes(Vec<MeshId>),
+    /// A rectangle covering the (scissored) screen at constant normalized depth
+    /// (`0.0` near, `1.0` far).
+    FullScreen { depth: f32 },
+}
+
+/// Where a draw may touch pixels. The executor turns mesh bounds into the
+/// screen rectangle of their projected bounding boxes (the full screen when a box
+/// crosses the near plane), so full-screen passes only sweep what they can change.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Scissor {
+    Full,
+    BoundsOf(Vec<MeshId>),
+}
+
+/// The fragment program of a draw and the colour targets it writes. Every variant
+/// that writes `color` writes the primitive index (mesh index + 1) to the
+/// primitive-id target too; both targets are shared by the whole plan.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fragment {
+    /// Depth and stencil only; no colour target is bound.
+    None,
+    /// Shaded colour (flat, headlight, two-sided) and primitive id of the mesh.
+    Shade,
+    /// Paint colour (given as RGB) and the mesh's primitive id: CST painting.
+    Paint { rgb: [u8; 3] },
+    /// Background colour and primitive id 0 (resets of rejected pixels).
+    Background,
+    /// Depth peeling: discard fragments not strictly behind texture `prev` at this
+    /// pixel; write the fragment's depth into texture `out`. With `shade`, also
+    /// write colour and primitive id.
+    Peel { prev: Tex, out: Tex, shade: bool },
+    /// Write the fragment's depth into texture `out` (and nothing else).
+    WriteDepth { out: Tex },
+    /// Full-screen copy of texture `src` into the fragment depth (`gl_FragDepth`),
+    /// discarding pixels where `src` holds the far value 1.0 (nothing there).
+    DepthFromTexture { src: Tex },
+}
+
+/// One rasterization.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Draw {
+    pub geometry: Geometry,
+    pub scissor: Scissor,
+    pub cull: Cull,
+    /// The depth-stencil image tested and written.
+    pub ds: Ds,
+    pub depth: DepthState,
+    /// `None`: stencil test disabled.
+    pub stencil: Option<StencilState>,
+    pub fragment: Fragment,
+    /// Count samples passing this draw with an occlusion query; a [`Loop`] stops
+    /// when the counted draws of its `head` pass no sample.
+    pub count_samples: bool,
+}
+
+/// Whole-image clears.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Clear {
+    /// Depth (`0.0` near, `1.0` far) and stencil of one depth-stencil image.
+    DepthStencil { ds: Ds, depth: f32, stencil: u8 },
+    /// A depth texture to a normalized depth value.
+    Texture { tex: Tex, depth: f32 },
+    /// Colour to the background, primitive id to 0.
+    Color,
+}
+
+/// A data-dependent repeat: run `head`; stop when its `count_samples` draws passed
+/// no sample (or after `max_iterations`); otherwise run `tail` and repeat.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Loop {
+    pub head: Vec<Step>,
+    pub tail: Vec<Step>,
+    pub max_iterations: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Step {
+    /// Starts a named pass group: a timestamp boundary in `stats.json` and a
+    /// heading in the plan printout. Groups with the same name are summed.
+    Pass(String),
+    Clear(Clear),
+    Draw(Draw),
+    /// Copy one depth texture into another (same size and format).
+    CopyTexture {
+        src: Tex,
+        dst: Tex,
+    },
+    /// Copy the depth of a depth-stencil image into a depth texture.
+    CopyDepthToTexture {
+        ds: Ds,
+        dst: Tex,
+    },
+    Loop(Loop),
+}
+
+/// An algorithm's complete work for one frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    /// The algorithm's name as on the command line (`blister`, `cst-i`, ...).
+    pub algo: String,
+    /// Number of depth-stencil images used (at least 1).
+    pub depth_stencils: u8,
+    /// Number of depth textures used.
+    pub textures: u8,
+    /// Stencil bits the plan relies on (for reporting; all formats have 8).
+    pub stencil_bits: u8,
+    /// The depth-stencil image whose depth is the visible surface at the end.
+    pub output_ds: Ds,
+    pub steps: Vec<Step>,
+}

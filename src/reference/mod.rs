@@ -1,0 +1,4 @@
+//! The exact CPU reference (the oracle): one `f64` ray per pixel centre, all
+//! crossings with every primitive, intervals classified against the expression and
+//! regularized; plus the image comparison metrics of `compare`.
+#![deny(unsafe_code)]

@@ -1,0 +1,1 @@
+//! Tests that need a Vulkan device (lavapipe in CI), run with validation layers.
