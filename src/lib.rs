@@ -17,5 +17,6 @@ pub mod csg;
 pub mod output;
 pub mod plan;
 pub mod reference;
+pub mod render;
 pub mod scene;
 pub mod vk;

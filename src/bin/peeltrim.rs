@@ -1,1 +1,218 @@
-fn main() {}
+//! The `peeltrim` command line (CONTRACT.md §4): render, blist, compare, bench,
+//! plan, view. `anyhow` lives here only; the library reports typed errors.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context as _, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+
+use peeltrim::plan::Algo;
+use peeltrim::render::{self, DepthSetup, RenderOptions};
+use peeltrim::scene::{self, LoadOptions};
+
+#[derive(Parser)]
+#[command(name = "peeltrim", version, about = "CSG rendering by depth peeling and trimming on Vulkan, with an exact CPU reference")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum DeviceArg {
+    Auto,
+    Cpu,
+    Gpu,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum DepthFormatArg {
+    D24s8,
+    D32s8,
+}
+
+#[derive(clap::Args, Clone)]
+struct GpuArgs {
+    /// auto: a hardware GPU when present, else lavapipe; cpu: lavapipe; gpu: hardware only
+    #[arg(long, value_enum, default_value = "auto")]
+    device: DeviceArg,
+    /// Depth-stencil format of the GPU algorithms
+    #[arg(long, value_enum, default_value = "d32s8")]
+    depth_format: DepthFormatArg,
+    /// Reversed depth (near = 1) in a floating-point depth buffer (needs d32s8)
+    #[arg(long)]
+    reversed_z: bool,
+    /// Run with the Vulkan validation layers (always on in debug builds)
+    #[arg(long)]
+    validation: bool,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Render a scene with one algorithm into color.png, depth.npy, prim.png, stats.json
+    Render {
+        scene: PathBuf,
+        #[arg(long, default_value = "reference", value_parser = parse_algo)]
+        algo: Algo,
+        /// Image size WxH (overrides [render] width/height)
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+    /// Print the Blist of an expression or of a scene's solid(s) as JSON
+    Blist {
+        /// An expression such as "(A+B)(C-(D-E))", or a scene file
+        input: String,
+    },
+    /// Compare two render output directories (depth.npy and prim.png)
+    Compare { a: PathBuf, b: PathBuf },
+    /// Print an algorithm's plan (the steps it records) for a scene
+    Plan {
+        scene: PathBuf,
+        #[arg(long, default_value = "blister", value_parser = parse_algo)]
+        algo: Algo,
+    },
+}
+
+fn parse_algo(s: &str) -> Result<Algo, String> {
+    Algo::parse(s).ok_or_else(|| {
+        let names: Vec<&str> = Algo::ALL.iter().map(|a| a.name()).collect();
+        format!("unknown algorithm '{s}'; choose one of {}", names.join(", "))
+    })
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let err = || format!("size '{s}' is not WxH with positive integers, e.g. 800x600");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
+    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| err())?, h.trim().parse().map_err(|_| err())?);
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("size '{s}' must be between 1x1 and 16384x16384"));
+    }
+    Ok((w, h))
+}
+
+fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
+    let depth = match (g.depth_format, g.reversed_z) {
+        (DepthFormatArg::D24s8, true) => {
+            bail!("--reversed-z needs a floating-point depth buffer: use --depth-format d32s8")
+        }
+        (DepthFormatArg::D24s8, false) => DepthSetup::D24S8,
+        (DepthFormatArg::D32s8, false) => DepthSetup::D32S8,
+        (DepthFormatArg::D32s8, true) => DepthSetup::D32S8Reversed,
+    };
+    let device = match g.device {
+        DeviceArg::Auto => peeltrim::vk::DeviceChoice::Auto,
+        DeviceArg::Cpu => peeltrim::vk::DeviceChoice::Cpu,
+        DeviceArg::Gpu => peeltrim::vk::DeviceChoice::Gpu,
+    };
+    Ok(RenderOptions { algo, device, depth, validation: g.validation || cfg!(debug_assertions) })
+}
+
+fn load(path: &Path, size: Option<(u32, u32)>) -> Result<scene::Scene> {
+    let scene = scene::load(path, &LoadOptions { size })?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
+}
+
+fn run(cli: Cli) -> Result<ExitCode> {
+    match cli.cmd {
+        Cmd::Render { scene, algo, size, out, gpu } => {
+            let opts = render_options(algo, &gpu)?;
+            let scene = load(&scene, size)?;
+            let frame = match render::render(&scene, &opts) {
+                Err(render::RenderError::Plan(e @ peeltrim::plan::PlanError::NotImplemented(_))) => {
+                    eprintln!("peeltrim: {e}");
+                    return Ok(ExitCode::from(2));
+                }
+                r => r?,
+            };
+            peeltrim::output::write_images(&out, &frame.images)
+                .with_context(|| format!("writing images into {}", out.display()))?;
+            peeltrim::output::write_stats(&out, &frame.stats)
+                .with_context(|| format!("writing stats.json into {}", out.display()))?;
+            eprintln!(
+                "{}: {}x{} with {} in {:.1} ms (gpu {:.2} ms) -> {}",
+                scene.path.display(),
+                frame.images.width,
+                frame.images.height,
+                algo,
+                frame.stats["cpu_ms"].as_f64().unwrap_or(0.0),
+                frame.stats["gpu_ms"].as_f64().unwrap_or(0.0),
+                out.display()
+            );
+        }
+        Cmd::Blist { input } => {
+            let json = blist_json(&input)?;
+            println!("{}", serde_json::to_string_pretty(&json)?);
+        }
+        Cmd::Compare { a, b } => {
+            let ia = peeltrim::output::read_images(&a)?;
+            let ib = peeltrim::output::read_images(&b)?;
+            let report = peeltrim::reference::compare::compare(&ia, &ib)?;
+            println!("{}", serde_json::to_string_pretty(&report)?);
+        }
+        Cmd::Plan { scene, algo } => {
+            let scene = load(&scene, None)?;
+            let prep = peeltrim::plan::Prepared::new(&scene)?;
+            if algo == Algo::Reference {
+                bail!("the reference ray caster has no GPU plan; choose a GPU algorithm");
+            }
+            let plan = match peeltrim::plan::build(algo, &prep) {
+                Err(e @ peeltrim::plan::PlanError::NotImplemented(_)) => {
+                    eprintln!("peeltrim: {e}");
+                    return Ok(ExitCode::from(2));
+                }
+                r => r?,
+            };
+            print!("{}", peeltrim::plan::print::print(&plan, &prep, &scene.mesh_names()));
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `blist EXPR` names its own primitives; `blist SCENE.toml` uses the scene's.
+fn blist_json(input: &str) -> Result<serde_json::Value> {
+    use peeltrim::csg::{Blist, PositiveExpr};
+    let path = Path::new(input);
+    let (expr, names) = if input.ends_with(".toml") || path.is_file() {
+        let scene = load(path, None)?;
+        let expr = peeltrim::plan::union_of_solids(&scene)
+            .with_context(|| format!("{}: the scene has no [csg] or [[solid]]", path.display()))?;
+        (expr, scene.primitives.iter().map(|p| p.name.clone()).collect::<Vec<_>>())
+    } else {
+        let mut names: Vec<String> = Vec::new();
+        let expr = peeltrim::csg::parse(input, &mut |n: &str| {
+            Some(match names.iter().position(|x| x == n) {
+                Some(i) => i as u32,
+                None => {
+                    names.push(n.to_string());
+                    names.len() as u32 - 1
+                }
+            })
+        })
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        (expr, names)
+    };
+    let positive = PositiveExpr::from_expr(&expr);
+    if !positive.is_bounded() {
+        eprintln!("warning: the expression is unbounded (a scene would refuse it as a solid)");
+    }
+    let blist = Blist::new(&positive);
+    Ok(blist.to_json(&names))
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("peeltrim: error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}

@@ -3,9 +3,156 @@
 //! sweep the screen to rewrite stencil values — built by one module per algorithm
 //! and executed by [`crate::vk`]. Nothing here touches `ash`.
 //!
-//! A plan is also a cost model: [`Plan`] steps can be printed and counted
-//! (rasterized triangles, full-screen passes, scissored pixels).
+//! A plan is also a cost model: it can be printed ([`print`]) and its executed
+//! counts (rasterized triangles, full-screen passes, swept pixels) are
+//! deterministic, unlike timings on a shared machine.
 #![deny(unsafe_code)]
 
+pub mod blister;
+pub mod print;
+pub mod stencil;
 pub mod step;
 pub use step::*;
+
+use crate::csg::{Expr, Node, PositiveExpr};
+use crate::scene::{Aabb, Scene};
+
+/// The algorithms of the command line (`--algo`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Algo {
+    Reference,
+    Goldfeather,
+    GoldfeatherLayered,
+    Trickle,
+    Blister,
+    CstZ,
+    CstI,
+    CstG,
+}
+
+impl Algo {
+    pub const ALL: [Algo; 8] = [
+        Algo::Reference,
+        Algo::Goldfeather,
+        Algo::GoldfeatherLayered,
+        Algo::Trickle,
+        Algo::Blister,
+        Algo::CstZ,
+        Algo::CstI,
+        Algo::CstG,
+    ];
+    pub fn name(self) -> &'static str {
+        match self {
+            Algo::Reference => "reference",
+            Algo::Goldfeather => "goldfeather",
+            Algo::GoldfeatherLayered => "goldfeather-layered",
+            Algo::Trickle => "trickle",
+            Algo::Blister => "blister",
+            Algo::CstZ => "cst-z",
+            Algo::CstI => "cst-i",
+            Algo::CstG => "cst-g",
+        }
+    }
+    pub fn parse(s: &str) -> Option<Algo> {
+        Algo::ALL.into_iter().find(|a| a.name() == s)
+    }
+}
+
+impl std::fmt::Display for Algo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    #[error("the scene has no solid to draw: add a [csg] expr or a [[solid]]")]
+    NoSolid,
+    #[error(
+        "the Blist needs {labels} labels, more than 7 stencil bits hold with the parity bit; \
+         rebalance the expression (or use --algo cst-i, which classifies smaller active zones)"
+    )]
+    TooManyLabels { labels: u32 },
+    #[error("algorithm '{0}' is not implemented yet")]
+    NotImplemented(Algo),
+    #[error("{0}")]
+    Products(String),
+}
+
+/// What every plan builder needs of a scene, computed once.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// The union of all solids' expressions.
+    pub expr: Expr,
+    pub positive: PositiveExpr,
+    /// Primitives named by a solid, in file order.
+    pub solid_meshes: Vec<MeshId>,
+    /// Triangle count per mesh (primitives, then surfaces).
+    pub mesh_triangles: Vec<usize>,
+    /// World bounds per mesh.
+    pub mesh_bounds: Vec<Aabb>,
+}
+
+impl Prepared {
+    pub fn new(scene: &Scene) -> Result<Self, PlanError> {
+        let expr = union_of_solids(scene).ok_or(PlanError::NoSolid)?;
+        let positive = PositiveExpr::from_expr(&expr);
+        let mut solid_meshes: Vec<MeshId> = expr.leaves();
+        solid_meshes.sort_unstable();
+        solid_meshes.dedup();
+        let meshes = scene.primitives.iter().map(|p| &p.mesh).chain(scene.surfaces.iter().map(|s| &s.mesh));
+        let (mut mesh_triangles, mut mesh_bounds) = (Vec::new(), Vec::new());
+        for m in meshes {
+            mesh_triangles.push(m.triangles.len());
+            mesh_bounds.push(bounds(&m.positions));
+        }
+        Ok(Prepared { expr, positive, solid_meshes, mesh_triangles, mesh_bounds })
+    }
+
+    pub fn triangles_in(&self, meshes: &[MeshId]) -> usize {
+        meshes.iter().map(|&m| self.mesh_triangles[m as usize]).sum()
+    }
+}
+
+fn bounds(points: &[glam::DVec3]) -> Aabb {
+    let mut b = Aabb { min: glam::DVec3::splat(f64::INFINITY), max: glam::DVec3::splat(f64::NEG_INFINITY) };
+    for &p in points {
+        b.min = b.min.min(p);
+        b.max = b.max.max(p);
+    }
+    b
+}
+
+/// One expression for the whole scene: the union of its solids (an assembly is
+/// drawn as the union of its parts; each keeps its primitives' colours).
+pub fn union_of_solids(scene: &Scene) -> Option<Expr> {
+    let mut nodes: Vec<Node> = Vec::new();
+    let mut root: Option<u32> = None;
+    for solid in &scene.solids {
+        let off = nodes.len() as u32;
+        nodes.extend(solid.expr.nodes.iter().map(|n| match *n {
+            Node::Leaf { prim } => Node::Leaf { prim },
+            Node::Not(a) => Node::Not(a + off),
+            Node::Union(a, b) => Node::Union(a + off, b + off),
+            Node::Inter(a, b) => Node::Inter(a + off, b + off),
+            Node::Diff(a, b) => Node::Diff(a + off, b + off),
+        }));
+        let r = solid.expr.root + off;
+        root = Some(match root {
+            None => r,
+            Some(prev) => {
+                nodes.push(Node::Union(prev, r));
+                nodes.len() as u32 - 1
+            }
+        });
+    }
+    root.map(|root| Expr { nodes, root })
+}
+
+/// Builds the plan of a GPU algorithm.
+pub fn build(algo: Algo, prep: &Prepared) -> Result<Plan, PlanError> {
+    match algo {
+        Algo::Blister => blister::plan(prep),
+        other => Err(PlanError::NotImplemented(other)),
+    }
+}

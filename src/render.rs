@@ -1,0 +1,142 @@
+//! One frame of one algorithm, start to finish: the reference ray caster, or a
+//! plan built for the scene and executed on a Vulkan device. Shared by the command
+//! line, the benchmark harness and the GPU tests so they measure the same thing.
+#![deny(unsafe_code)]
+
+use std::time::Instant;
+
+use serde_json::json;
+
+use crate::output::Images;
+use crate::plan::{self, Algo, PlanError, Prepared};
+use crate::scene::Scene;
+use crate::vk;
+
+/// Depth-buffer set-ups of the speed-against-error studies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DepthSetup {
+    D24S8,
+    D32S8,
+    /// D32S8 with reversed depth (near = 1): floating-point precision where
+    /// perspective needs it.
+    D32S8Reversed,
+}
+
+impl DepthSetup {
+    pub const ALL: [DepthSetup; 3] = [DepthSetup::D24S8, DepthSetup::D32S8, DepthSetup::D32S8Reversed];
+    pub fn name(self) -> &'static str {
+        match self {
+            DepthSetup::D24S8 => "d24s8",
+            DepthSetup::D32S8 => "d32s8",
+            DepthSetup::D32S8Reversed => "d32s8-reversed",
+        }
+    }
+    pub fn exec_format(self) -> (vk::DepthFormat, bool) {
+        match self {
+            DepthSetup::D24S8 => (vk::DepthFormat::D24S8, false),
+            DepthSetup::D32S8 => (vk::DepthFormat::D32S8, false),
+            DepthSetup::D32S8Reversed => (vk::DepthFormat::D32S8, true),
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    pub algo: Algo,
+    pub device: vk::DeviceChoice,
+    pub depth: DepthSetup,
+    pub validation: bool,
+}
+
+/// Images and the `stats.json` of one frame.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub images: Images,
+    pub stats: serde_json::Value,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+    #[error(transparent)]
+    Vk(#[from] vk::VkError),
+    #[error("Vulkan validation reported {} message(s); first: {}", .0.len(), .0.first().map(String::as_str).unwrap_or(""))]
+    Validation(Vec<String>),
+}
+
+/// The CPU reference: exact ray casting.
+pub fn render_reference(scene: &Scene) -> Frame {
+    let t = Instant::now();
+    let images = crate::reference::render(scene, scene.render.width, scene.render.height);
+    let cpu_ms = t.elapsed().as_secs_f64() * 1e3;
+    let stats = json!({
+        "algo": "reference",
+        "width": images.width,
+        "height": images.height,
+        "device": format!("cpu: exact f64 ray casting on {} threads", rayon::current_num_threads()),
+        "gpu_ms": 0.0,
+        "cpu_ms": cpu_ms,
+        "passes": 0,
+        "rays": images.width as u64 * images.height as u64,
+    });
+    Frame { images, stats }
+}
+
+/// A Vulkan device with the scene uploaded, ready to run plans repeatedly.
+pub struct GpuRenderer {
+    // Field order is drop order: the executor's objects go before the context.
+    exec: vk::Executor,
+    ctx: vk::Context,
+    depth: DepthSetup,
+}
+
+impl GpuRenderer {
+    pub fn new(scene: &Scene, device: vk::DeviceChoice, depth: DepthSetup, validation: bool) -> Result<Self, RenderError> {
+        let ctx = vk::Context::new(&vk::ContextDesc { device, validation })?;
+        let (depth_format, reversed_z) = depth.exec_format();
+        let desc = vk::ExecDesc { width: scene.render.width, height: scene.render.height, depth_format, reversed_z };
+        let mut exec = vk::Executor::new(&ctx, &desc)?;
+        exec.upload(scene)?;
+        Ok(GpuRenderer { exec, ctx, depth })
+    }
+
+    pub fn device_name(&self) -> String {
+        self.ctx.device_name()
+    }
+
+    /// Validation messages collected so far (empty when validation is off).
+    pub fn validation_messages(&self) -> Vec<String> {
+        self.ctx.validation_messages()
+    }
+
+    /// Executes a plan once.
+    pub fn frame(&mut self, plan: &plan::Plan) -> Result<Frame, RenderError> {
+        let f = self.exec.execute(plan)?;
+        let mut stats = serde_json::to_value(&f.stats).unwrap_or_else(|_| json!({}));
+        let obj = stats.as_object_mut().expect("ExecStats serializes to an object");
+        obj.insert("algo".into(), json!(plan.algo));
+        obj.insert("width".into(), json!(f.images.width));
+        obj.insert("height".into(), json!(f.images.height));
+        obj.insert("device".into(), json!(self.ctx.device_name()));
+        obj.insert("depth_setup".into(), json!(self.depth.name()));
+        obj.insert("stencil_bits".into(), json!(plan.stencil_bits));
+        Ok(Frame { images: f.images, stats })
+    }
+}
+
+/// Renders one frame with the chosen algorithm.
+pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError> {
+    if opts.algo == Algo::Reference {
+        return Ok(render_reference(scene));
+    }
+    let prep = Prepared::new(scene)?;
+    let plan = plan::build(opts.algo, &prep)?;
+    let mut gpu = GpuRenderer::new(scene, opts.device, opts.depth, opts.validation)?;
+    let frame = gpu.frame(&plan)?;
+    let msgs = gpu.validation_messages();
+    if !msgs.is_empty() {
+        return Err(RenderError::Validation(msgs));
+    }
+    Ok(frame)
+}

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Installs what peeltrim needs on a fresh Debian 12 machine: the Vulkan loader,
+# Mesa's lavapipe (software Vulkan 1.3) and the Khronos validation layers.
+# Idempotent: does nothing when everything is already installed.
+set -euo pipefail
+pkgs=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers)
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "tools/setup.sh: installing ${missing[*]}" >&2
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
