@@ -9,9 +9,11 @@
 #![deny(unsafe_code)]
 
 pub mod blister;
+pub mod goldfeather;
 pub mod print;
 pub mod stencil;
 pub mod step;
+pub mod trickle;
 pub use step::*;
 
 use crate::csg::{Expr, Node, PositiveExpr};
@@ -91,6 +93,8 @@ pub struct Prepared {
     pub mesh_triangles: Vec<usize>,
     /// World bounds per mesh.
     pub mesh_bounds: Vec<Aabb>,
+    /// Per mesh: convex (Goldfeather's one-layer fast path), see [`goldfeather::is_convex`].
+    pub mesh_convex: Vec<bool>,
 }
 
 impl Prepared {
@@ -101,12 +105,13 @@ impl Prepared {
         solid_meshes.sort_unstable();
         solid_meshes.dedup();
         let meshes = scene.primitives.iter().map(|p| &p.mesh).chain(scene.surfaces.iter().map(|s| &s.mesh));
-        let (mut mesh_triangles, mut mesh_bounds) = (Vec::new(), Vec::new());
+        let (mut mesh_triangles, mut mesh_bounds, mut mesh_convex) = (Vec::new(), Vec::new(), Vec::new());
         for m in meshes {
             mesh_triangles.push(m.triangles.len());
             mesh_bounds.push(bounds(&m.positions));
+            mesh_convex.push(goldfeather::is_convex(m));
         }
-        Ok(Prepared { expr, positive, solid_meshes, mesh_triangles, mesh_bounds })
+        Ok(Prepared { expr, positive, solid_meshes, mesh_triangles, mesh_bounds, mesh_convex })
     }
 
     pub fn triangles_in(&self, meshes: &[MeshId]) -> usize {
@@ -153,6 +158,9 @@ pub fn union_of_solids(scene: &Scene) -> Option<Expr> {
 pub fn build(algo: Algo, prep: &Prepared) -> Result<Plan, PlanError> {
     match algo {
         Algo::Blister => blister::plan(prep),
+        Algo::Goldfeather => goldfeather::plan(prep, &Default::default()),
+        Algo::GoldfeatherLayered => goldfeather::layered::plan(prep, &Default::default()),
+        Algo::Trickle => trickle::plan(prep, &Default::default()),
         other => Err(PlanError::NotImplemented(other)),
     }
 }

@@ -114,6 +114,13 @@ pub enum Fragment {
     /// Full-screen copy of texture `src` into the fragment depth (`gl_FragDepth`),
     /// discarding pixels where `src` holds the far value 1.0 (nothing there).
     DepthFromTexture { src: Tex },
+    /// Tolerant depth peeling: discard fragments not behind texture `prev` by more
+    /// than `eps` (normalized depth; kept: `z - eps > prev`); write the fragment's
+    /// depth into texture `out`. Depth-stencil ops apply to the kept fragments only.
+    PeelTolerant { prev: Tex, out: Tex, eps: f32 },
+    /// Full-screen copy of texture `src` into texture `out` at the pixels the draw's
+    /// stencil (and depth) tests pass; the fragment depth is the rectangle's.
+    CopyTexel { src: Tex, out: Tex },
 }
 
 /// One rasterization.

@@ -1,0 +1,69 @@
+//! Goldfeather by layers, O(kn) (Stewart, Leach & John, seed 004 §4–5): instead of
+//! one surface per literal, the union of a product's potentially visible faces is
+//! cut into its depth-complexity layers, and each whole layer is clipped at once
+//! against *all* primitives of the product — including the primitive each layer
+//! pixel came from, which the less-or-equal parity test classifies as §4.3 asks
+//! (a front face of a positive primitive counts itself: inside; a back face of a
+//! complemented one sees two faces: outside). The nearest surviving point of every
+//! layer is merged into the output depth with less-than. Per product of n
+//! literals and depth complexity k: k layer extractions of n meshes, k clips of n
+//! meshes and k merges, instead of n² rasterizations.
+//!
+//! Layer extraction: the paper's stencil-count rule (`EQUAL i`, `INCR`) needs a
+//! stencil reference that changes with the layer number i, which a static plan
+//! cannot express inside a data-dependent loop, and k is only known after a
+//! read-back. So layer i is extracted by depth peeling instead — the nearest
+//! visible face strictly behind layer i−1 (a texture) — in a [`Loop`] whose
+//! occlusion query stops at the first empty layer. The layers are then depth
+//! sorted (the stencil rule's are in draw order; either is a partition of the same
+//! fragments up to coincident faces, which classify alike), and the depth
+//! complexity k is the executor's `loop_iterations` minus one per product.
+//! Non-convex primitives need nothing special: their extra faces are extra layers.
+#![deny(unsafe_code)]
+
+use super::*;
+
+/// Builds the layered Goldfeather plan.
+pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
+    let prods = products(prep, opts.limit)?;
+    let mut steps = init_steps();
+    for p in &prods {
+        let pos: Vec<MeshId> = p.iter().filter(|l| !l.negated).map(|l| l.prim).collect();
+        let neg: Vec<MeshId> = p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
+        let all: Vec<MeshId> = p.iter().map(|l| l.prim).collect();
+        steps.push(Step::Pass("layer".into()));
+        steps.push(Step::Clear(Clear::Texture { tex: PREV, depth: 0.0 }));
+        steps.push(Step::Clear(Clear::Texture { tex: CUR, depth: 0.0 }));
+        let mut head = vec![Step::Pass("layer".into()), clear_surface()];
+        for (meshes, cull) in [(pos, Cull::Back), (neg, Cull::Front)] {
+            if meshes.is_empty() {
+                continue;
+            }
+            head.push(Step::Draw(Draw {
+                geometry: Geometry::Meshes(meshes.clone()),
+                scissor: Scissor::BoundsOf(meshes),
+                cull,
+                ds: SURFACE,
+                depth: DepthState { compare: CompareOp::Less, write: true },
+                stencil: None,
+                fragment: Fragment::Peel { prev: PREV, out: CUR, shade: false },
+                count_samples: true,
+            }));
+        }
+        let mut tail = clip_steps(p, &all);
+        tail.extend(merge_steps(&all));
+        tail.push(Step::CopyTexture { src: CUR, dst: PREV });
+        // Each layer holds at least one face per pixel it reaches.
+        let max_iterations = prep.triangles_in(&all).max(1) as u32 + 1;
+        steps.push(Step::Loop(Loop { head, tail, max_iterations }));
+    }
+    steps.extend(shade_steps(prep));
+    Ok(Plan {
+        algo: "goldfeather-layered".into(),
+        depth_stencils: 2,
+        textures: 3,
+        stencil_bits: 1,
+        output_ds: OUTPUT,
+        steps,
+    })
+}

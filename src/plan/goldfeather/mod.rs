@@ -1,0 +1,304 @@
+//! Goldfeather's z-buffer CSG (Goldfeather et al. via Stewart, Leach & John, seed 004
+//! §3): the positive form becomes a sum of products (§3.2); per product and per
+//! literal, the literal's *potentially visible* faces — front faces of a positive,
+//! back faces of a complemented primitive (§3.4) — are drawn into a *surface*
+//! depth-stencil image, clipped there by parity against every other primitive of the
+//! product (§3.1, §3.3), and the survivors are merged into the *output* depth with a
+//! less-than test (§3.5). A final pass shades by depth-equal.
+//!
+//! Parity counts a primitive's faces at *or in front of* the surface point (depth
+//! `LessOrEqual`), so it classifies the point just behind the surface — where the
+//! ray enters the product. On coincident faces the answer depends on which of the
+//! two triangles rasterizes nearer, i.e. on depth quantization: Goldfeather's
+//! classic speckles (Trickle's eps removes them, [`super::trickle`]).
+//!
+//! Non-convex primitives (§3.5, Goldfeather's layers): a mesh may show several
+//! potentially visible faces at one pixel, and the nearest one may be clipped away
+//! while a deeper one survives, so each such literal's faces are *peeled* layer by
+//! layer (strictly behind the previous layer, a texture) in a loop that an occlusion
+//! query stops when a layer is empty. Convexity is decided per mesh on the CPU
+//! (every vertex on the inner side of every face plane, [`is_convex`]); a convex
+//! mesh has one such face per pixel and takes the single-draw fast path.
+//!
+//! Depth tolerance: none. Survivors keep the exact rasterized depth, the merge and
+//! the depth-equal shading compare bit-identical values (one invariant vertex
+//! shader), so where faces of several primitives coincide the shading pass decides:
+//! it draws the primitives in *descending* index order with depth `Equal`, so the
+//! lowest index is written last and wins (CONTRACT.md §4, `prim.png`).
+#![deny(unsafe_code)]
+
+pub mod layered;
+
+use super::step::*;
+use super::{PlanError, Prepared};
+use crate::csg::products::{sum_of_products, Literal};
+
+/// Default bound on the number of products of the sum-of-products form.
+pub const DEFAULT_PRODUCT_LIMIT: usize = 4096;
+
+/// Options shared by the product-based builders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ProductOptions {
+    /// The expansion fails fast (with a [`PlanError::Products`] naming the count and
+    /// suggesting `--algo cst-i`) past this many products.
+    pub limit: usize,
+}
+
+impl Default for ProductOptions {
+    fn default() -> Self {
+        ProductOptions { limit: DEFAULT_PRODUCT_LIMIT }
+    }
+}
+
+/// Vertex-plane tests [`is_convex`] may spend on one mesh.
+pub const CONVEXITY_WORK: usize = 20_000_000;
+
+/// One literal of a product, as the plan builders need it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Lit {
+    pub prim: MeshId,
+    pub negated: bool,
+}
+
+impl Lit {
+    /// The faces that may be visible on the product: front faces of a positive,
+    /// back faces of a complemented primitive (seed 004 §3.4).
+    pub fn visible_cull(self) -> Cull {
+        if self.negated {
+            Cull::Front
+        } else {
+            Cull::Back
+        }
+    }
+}
+
+/// The sum of products of the prepared scene, pruned by bounding boxes; products
+/// without a positive literal (unbounded) are dropped.
+pub fn products(prep: &Prepared, limit: usize) -> Result<Vec<Vec<Lit>>, PlanError> {
+    let bounds = |prim: u32| {
+        let b = &prep.mesh_bounds[prim as usize];
+        (b.min.to_array(), b.max.to_array())
+    };
+    let prods =
+        sum_of_products(&prep.positive, &bounds, limit).map_err(|e| PlanError::Products(e.to_string()))?;
+    let lit = |l: &Literal| Lit { prim: l.prim, negated: l.negated };
+    let mut out: Vec<Vec<Lit>> = Vec::with_capacity(prods.len());
+    for p in &prods {
+        let mut lits: Vec<Lit> = p.literals.iter().map(lit).collect();
+        // Positive literals first: the Trickle traversal and the scissors use the first.
+        lits.sort_by_key(|l| (l.negated, l.prim));
+        lits.dedup();
+        if lits.first().is_some_and(|l| !l.negated) {
+            out.push(lits);
+        }
+    }
+    Ok(out)
+}
+
+/// True when the closed mesh is convex: every vertex lies on the inner side of
+/// every triangle's plane (relative tolerance 1e-9 of the mesh size). O(T·V), run
+/// once per mesh at preparation; meshes past [`CONVEXITY_WORK`] are reported
+/// non-convex unchecked (always correct, only slower: their faces are peeled).
+pub fn is_convex(mesh: &crate::scene::Mesh) -> bool {
+    let p = &mesh.positions;
+    if p.is_empty() {
+        return true;
+    }
+    if p.len().saturating_mul(mesh.triangles.len()) > CONVEXITY_WORK {
+        return false;
+    }
+    let (mut lo, mut hi) = (p[0], p[0]);
+    for &q in p {
+        lo = lo.min(q);
+        hi = hi.max(q);
+    }
+    let tol = 1e-9 * (hi - lo).length().max(f64::MIN_POSITIVE);
+    for t in &mesh.triangles {
+        let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
+        let n = (b - a).cross(c - a);
+        let len = n.length();
+        if len == 0.0 {
+            continue;
+        }
+        let n = n / len;
+        if p.iter().any(|&q| n.dot(q - a) > tol) {
+            return false;
+        }
+    }
+    true
+}
+
+/// The depth-stencil image holding the final visible surface.
+pub(crate) const OUTPUT: Ds = 0;
+/// The surface depth-stencil image of one product's literal or layer.
+pub(crate) const SURFACE: Ds = 1;
+/// Texture: the clipped surface, copied for the merge.
+pub(crate) const SURF: Tex = 0;
+/// Textures of the layer peel: the previous and the current layer.
+pub(crate) const PREV: Tex = 1;
+pub(crate) const CUR: Tex = 2;
+/// Stencil bit of the surface image that holds a primitive's parity.
+pub(crate) const PARITY: u8 = 1;
+pub(crate) const FAR: f32 = 1.0;
+
+/// Builds the Goldfeather plan (O(n²) rasterizations per product of n literals).
+pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
+    let prods = products(prep, opts.limit)?;
+    let mut steps = init_steps();
+    let mut loops = false;
+    for p in &prods {
+        for (i, &a) in p.iter().enumerate() {
+            let others: Vec<Lit> = p.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, &l)| l).collect();
+            let mut clip_merge = clip_steps(&others, &[a.prim]);
+            clip_merge.extend(merge_steps(&[a.prim]));
+            if prep.mesh_convex.get(a.prim as usize).copied().unwrap_or(false) {
+                steps.push(Step::Pass("surface".into()));
+                steps.push(clear_surface());
+                steps.push(surface_draw(a, Fragment::None, false));
+                steps.extend(clip_merge);
+            } else {
+                // Goldfeather's layers (§3.5): peel the literal's visible faces.
+                loops = true;
+                steps.push(Step::Pass("surface".into()));
+                steps.push(Step::Clear(Clear::Texture { tex: PREV, depth: 0.0 }));
+                steps.push(Step::Clear(Clear::Texture { tex: CUR, depth: 0.0 }));
+                let head = vec![
+                    Step::Pass("surface".into()),
+                    clear_surface(),
+                    surface_draw(a, Fragment::Peel { prev: PREV, out: CUR, shade: false }, true),
+                ];
+                let mut tail = clip_merge;
+                tail.push(Step::CopyTexture { src: CUR, dst: PREV });
+                let max_iterations = prep.triangles_in(&[a.prim]).max(1) as u32 + 1;
+                steps.push(Step::Loop(Loop { head, tail, max_iterations }));
+            }
+        }
+    }
+    steps.extend(shade_steps(prep));
+    Ok(Plan {
+        algo: "goldfeather".into(),
+        depth_stencils: 2,
+        textures: if loops { 3 } else { 1 },
+        stencil_bits: 1,
+        output_ds: OUTPUT,
+        steps,
+    })
+}
+
+pub(crate) fn init_steps() -> Vec<Step> {
+    vec![
+        Step::Pass("init".into()),
+        Step::Clear(Clear::DepthStencil { ds: OUTPUT, depth: FAR, stencil: 0 }),
+        Step::Clear(Clear::Color),
+    ]
+}
+
+pub(crate) fn clear_surface() -> Step {
+    Step::Clear(Clear::DepthStencil { ds: SURFACE, depth: FAR, stencil: 0 })
+}
+
+/// The literal's potentially visible faces into the surface image, nearest wins.
+pub(crate) fn surface_draw(a: Lit, fragment: Fragment, count_samples: bool) -> Step {
+    Step::Draw(Draw {
+        geometry: Geometry::Mesh(a.prim),
+        scissor: Scissor::BoundsOf(vec![a.prim]),
+        cull: a.visible_cull(),
+        ds: SURFACE,
+        depth: DepthState { compare: CompareOp::Less, write: true },
+        stencil: None,
+        fragment,
+        count_samples,
+    })
+}
+
+/// Parity clipping of the surface image against each literal in `against`
+/// (seed 004 §3.3): toggle the parity bit for every face of the primitive at or in
+/// front of the surface point, then one sweep that resets the depth to far where
+/// the parity says the point is outside the literal (even for a positive, odd for a
+/// complemented primitive) and clears the parity bit everywhere. `surface` names
+/// the meshes whose faces may be in the surface image (its scissor).
+pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId]) -> Vec<Step> {
+    let mut steps = vec![Step::Pass("clip".into())];
+    for &b in against {
+        steps.push(Step::Draw(Draw {
+            geometry: Geometry::Mesh(b.prim),
+            scissor: Scissor::BoundsOf(vec![b.prim]),
+            cull: Cull::None,
+            ds: SURFACE,
+            depth: DepthState { compare: CompareOp::LessOrEqual, write: false },
+            stencil: Some(super::stencil::both(CompareOp::Always, StencilOp::Invert, 0, PARITY, 0)),
+            fragment: Fragment::None,
+            count_samples: false,
+        }));
+        // Outside a positive primitive is everywhere its faces are not (the whole
+        // surface); outside a complemented one only within its bounds.
+        let (outside, scissor) = if b.negated {
+            (PARITY, vec![b.prim])
+        } else {
+            let mut s = surface.to_vec();
+            s.push(b.prim);
+            (0, s)
+        };
+        steps.push(reject_sweep(outside, Scissor::BoundsOf(scissor)));
+    }
+    steps
+}
+
+/// Where `(stencil & PARITY) == outside`, depth := far (the pixel leaves the
+/// surface); the parity bit is cleared on every swept pixel, pass or fail.
+fn reject_sweep(outside: u8, scissor: Scissor) -> Step {
+    let face = StencilFace {
+        compare: CompareOp::Equal,
+        fail: StencilOp::Zero,
+        pass: StencilOp::Zero,
+        depth_fail: StencilOp::Zero,
+    };
+    Step::Draw(Draw {
+        geometry: Geometry::FullScreen { depth: FAR },
+        scissor,
+        cull: Cull::None,
+        ds: SURFACE,
+        depth: DepthState { compare: CompareOp::Always, write: true },
+        stencil: Some(StencilState { front: face, back: face, compare_mask: PARITY, write_mask: PARITY, reference: outside }),
+        fragment: Fragment::None,
+        count_samples: false,
+    })
+}
+
+/// Merge of the clipped surface into the output depth with less-than (§3.5).
+pub(crate) fn merge_steps(surface: &[MeshId]) -> Vec<Step> {
+    vec![
+        Step::Pass("merge".into()),
+        Step::CopyDepthToTexture { ds: SURFACE, dst: SURF },
+        Step::Draw(Draw {
+            geometry: Geometry::FullScreen { depth: FAR },
+            scissor: Scissor::BoundsOf(surface.to_vec()),
+            cull: Cull::None,
+            ds: OUTPUT,
+            depth: DepthState { compare: CompareOp::Less, write: true },
+            stencil: None,
+            fragment: Fragment::DepthFromTexture { src: SURF },
+            count_samples: false,
+        }),
+    ]
+}
+
+/// Shading by depth-equal on the output depth: every solid primitive's faces (both
+/// orientations: complemented primitives show their back faces), in descending
+/// index order so that on coincident faces the lowest index is written last.
+pub(crate) fn shade_steps(prep: &Prepared) -> Vec<Step> {
+    let mut steps = vec![Step::Pass("shade".into())];
+    for &m in prep.solid_meshes.iter().rev() {
+        steps.push(Step::Draw(Draw {
+            geometry: Geometry::Mesh(m),
+            scissor: Scissor::BoundsOf(vec![m]),
+            cull: Cull::None,
+            ds: OUTPUT,
+            depth: DepthState { compare: CompareOp::Equal, write: false },
+            stencil: None,
+            fragment: Fragment::Shade,
+            count_samples: false,
+        }));
+    }
+    steps
+}
