@@ -23,7 +23,6 @@ fn main() {
         Err(e) => eprintln!("skipping the scaling family: {e}"),
     }
     let cfg = BenchConfig {
-        scenes: scenes.iter().map(|s| s.path.clone()).collect(),
         algos: vec![Algo::Blister, Algo::CstZ, Algo::CstI, Algo::CstG, Algo::Goldfeather, Algo::GoldfeatherLayered, Algo::Trickle],
         sizes: vec![(400, 400)],
         depth_setups: vec![DepthSetup::D32S8],

@@ -29,7 +29,6 @@ use crate::vk::DeviceChoice;
 /// What to run.
 #[derive(Clone, Debug)]
 pub struct BenchConfig {
-    pub scenes: Vec<PathBuf>,
     pub algos: Vec<Algo>,
     pub sizes: Vec<(u32, u32)>,
     pub depth_setups: Vec<DepthSetup>,

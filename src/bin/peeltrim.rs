@@ -239,7 +239,6 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 list.extend(families::generate_hard(&gen_dir)?);
             }
             let cfg = BenchConfig {
-                scenes: list.iter().map(|s| s.path.clone()).collect(),
                 algos,
                 sizes: vec![size.unwrap_or((400, 400))],
                 depth_setups: if all_depths { DepthSetup::ALL.to_vec() } else { vec![opts.depth] },
