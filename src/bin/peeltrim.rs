@@ -105,6 +105,8 @@ enum Cmd {
         #[command(flatten)]
         gpu: GpuArgs,
     },
+    /// Open a window showing the scene (interactive viewer)
+    View { scene: PathBuf },
     /// Print an algorithm's plan (the steps it records) for a scene
     Plan {
         scene: PathBuf,
@@ -253,6 +255,11 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let records = bench::run_and_report(&cfg, &list)?;
             print!("{}", bench::report::summary(&records));
             eprintln!("results in {}/ (results.json, results.csv, summary.md, plots/, images/)", out.display());
+        }
+        Cmd::View { scene } => {
+            load(&scene, None)?;
+            eprintln!("peeltrim: the interactive viewer is not implemented yet; use `peeltrim render` and open color.png");
+            return Ok(ExitCode::from(2));
         }
         Cmd::Plan { scene, algo } => {
             let scene = load(&scene, None)?;
