@@ -15,3 +15,6 @@ pub use blist::{Blist, BlistEntry, Target};
 pub use expr::{Expr, LeafId, Node, NodeId};
 pub use parse::{parse, ParseError, ParseErrorKind};
 pub use positive::{Literal, PNode, PNodeId, PositiveExpr};
+
+#[cfg(test)]
+mod tests;
