@@ -6,6 +6,7 @@
 //! iterative, so 10⁵-deep nesting and 10⁶ leaves cannot overflow the stack.
 #![deny(unsafe_code)]
 
+pub mod active_zone;
 pub mod blist;
 pub mod expr;
 pub mod parse;

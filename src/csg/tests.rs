@@ -347,3 +347,37 @@ fn label_bound_million() {
         check_large(1_000_000, shape, true);
     }
 }
+
+/// Seed 000 §5: a point on leaf L's boundary is on the solid's boundary iff it is in
+/// L's active zone; in Boolean terms, toggling L's value changes the expression's
+/// value exactly when Z(L) holds. The I form must contain Z, and both Blists must
+/// agree with their trees.
+#[test]
+fn active_zone_property() {
+    use active_zone::ActiveZones;
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    for case in 0..300 {
+        let leaves = rng.gen_range(1..=40);
+        let prims = rng.gen_range(1..=6);
+        let e = random_expr(&mut rng, leaves, prims);
+        let pos = PositiveExpr::from_expr(&e);
+        let zones = ActiveZones::new(&pos);
+        for leaf in 0..leaves as u32 {
+            let z = zones.z_form(leaf);
+            let i = zones.i_form(leaf);
+            let (zb, ib) = (Blist::new(&z), Blist::new(&i));
+            for _ in 0..8 {
+                let mut bits: Vec<bool> = (0..leaves).map(|_| rng.gen_bool(0.5)).collect();
+                let before = e.eval(|l, _| bits[l as usize]);
+                bits[leaf as usize] = !bits[leaf as usize];
+                let after = e.eval(|l, _| bits[l as usize]);
+                let zv = z.eval(|l| bits[l.leaf as usize]);
+                let iv = i.eval(|l| bits[l.leaf as usize]);
+                assert_eq!(before != after, zv, "case {case} leaf {leaf}");
+                assert!(!zv || iv, "Z is inside I");
+                assert_eq!(zb.eval(|x| bits[x.leaf as usize]), zv);
+                assert_eq!(ib.eval(|x| bits[x.leaf as usize]), iv);
+            }
+        }
+    }
+}
