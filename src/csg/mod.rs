@@ -11,6 +11,7 @@ pub mod blist;
 pub mod expr;
 pub mod parse;
 pub mod positive;
+pub mod products;
 
 pub use blist::{Blist, BlistEntry, Target};
 pub use expr::{Expr, LeafId, Node, NodeId};
