@@ -6,10 +6,12 @@
 //! iterative, so 10⁵-deep nesting and 10⁶ leaves cannot overflow the stack.
 #![deny(unsafe_code)]
 
+pub mod active_zone;
 pub mod blist;
 pub mod expr;
 pub mod parse;
 pub mod positive;
+pub mod products;
 
 pub use blist::{Blist, BlistEntry, Target};
 pub use expr::{Expr, LeafId, Node, NodeId};
