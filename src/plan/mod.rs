@@ -104,23 +104,41 @@ impl Prepared {
         let mut solid_meshes: Vec<MeshId> = expr.leaves();
         solid_meshes.sort_unstable();
         solid_meshes.dedup();
-        let meshes = scene.primitives.iter().map(|p| &p.mesh).chain(scene.surfaces.iter().map(|s| &s.mesh));
-        let (mut mesh_triangles, mut mesh_bounds, mut mesh_convex) = (Vec::new(), Vec::new(), Vec::new());
+        let meshes = scene
+            .primitives
+            .iter()
+            .map(|p| &p.mesh)
+            .chain(scene.surfaces.iter().map(|s| &s.mesh));
+        let (mut mesh_triangles, mut mesh_bounds, mut mesh_convex) =
+            (Vec::new(), Vec::new(), Vec::new());
         for m in meshes {
             mesh_triangles.push(m.triangles.len());
             mesh_bounds.push(bounds(&m.positions));
             mesh_convex.push(goldfeather::is_convex(m));
         }
-        Ok(Prepared { expr, positive, solid_meshes, mesh_triangles, mesh_bounds, mesh_convex })
+        Ok(Prepared {
+            expr,
+            positive,
+            solid_meshes,
+            mesh_triangles,
+            mesh_bounds,
+            mesh_convex,
+        })
     }
 
     pub fn triangles_in(&self, meshes: &[MeshId]) -> usize {
-        meshes.iter().map(|&m| self.mesh_triangles[m as usize]).sum()
+        meshes
+            .iter()
+            .map(|&m| self.mesh_triangles[m as usize])
+            .sum()
     }
 }
 
 fn bounds(points: &[glam::DVec3]) -> Aabb {
-    let mut b = Aabb { min: glam::DVec3::splat(f64::INFINITY), max: glam::DVec3::splat(f64::NEG_INFINITY) };
+    let mut b = Aabb {
+        min: glam::DVec3::splat(f64::INFINITY),
+        max: glam::DVec3::splat(f64::NEG_INFINITY),
+    };
     for &p in points {
         b.min = b.min.min(p);
         b.max = b.max.max(p);

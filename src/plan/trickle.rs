@@ -95,10 +95,23 @@ pub fn plan(prep: &Prepared, opts: &TrickleOptions) -> Result<Plan, PlanError> {
         steps.extend(product_steps(prep, p, eps));
     }
     steps.extend(shade_steps(prep));
-    Ok(Plan { algo: "trickle".into(), depth_stencils: 2, textures: 3, stencil_bits: 1, output_ds: OUTPUT, steps })
+    Ok(Plan {
+        algo: "trickle".into(),
+        depth_stencils: 2,
+        textures: 3,
+        stencil_bits: 1,
+        output_ds: OUTPUT,
+        steps,
+    })
 }
 
-fn full(scissor: Vec<MeshId>, ds: Ds, depth: DepthState, stencil: Option<StencilState>, fragment: Fragment) -> Draw {
+fn full(
+    scissor: Vec<MeshId>,
+    ds: Ds,
+    depth: DepthState,
+    stencil: Option<StencilState>,
+    fragment: Fragment,
+) -> Draw {
     Draw {
         geometry: Geometry::FullScreen { depth: 0.0 },
         scissor: Scissor::BoundsOf(scissor),
@@ -114,17 +127,42 @@ fn full(scissor: Vec<MeshId>, ds: Ds, depth: DepthState, stencil: Option<Stencil
 fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
     // `products` puts a positive literal first; the product lies in its bounds.
     let region = vec![p[0].prim];
-    let no_depth = DepthState { compare: CompareOp::Always, write: false };
+    let no_depth = DepthState {
+        compare: CompareOp::Always,
+        write: false,
+    };
     let mut steps = vec![
         Step::Pass("product".into()),
-        Step::Clear(Clear::Texture { tex: Z2, depth: FAR }),
+        Step::Clear(Clear::Texture {
+            tex: Z2,
+            depth: FAR,
+        }),
         // Z2 = near plane (depth 0.0 of the full-screen rectangle) where the product may be.
-        Step::Draw(full(region.clone(), SCAN, no_depth, None, Fragment::WriteDepth { out: Z2 })),
+        Step::Draw(full(
+            region.clone(),
+            SCAN,
+            no_depth,
+            None,
+            Fragment::WriteDepth { out: Z2 },
+        )),
     ];
-    let mut head = vec![Step::Pass("trickle".into()), Step::CopyTexture { src: Z2, dst: Z2_START }];
+    let mut head = vec![
+        Step::Pass("trickle".into()),
+        Step::CopyTexture {
+            src: Z2,
+            dst: Z2_START,
+        },
+    ];
     for &q in p {
-        head.push(Step::Clear(Clear::DepthStencil { ds: SCAN, depth: FAR, stencil: if q.negated { 0 } else { FF } }));
-        head.push(Step::Clear(Clear::Texture { tex: Z3, depth: FAR }));
+        head.push(Step::Clear(Clear::DepthStencil {
+            ds: SCAN,
+            depth: FAR,
+            stencil: if q.negated { 0 } else { FF },
+        }));
+        head.push(Step::Clear(Clear::Texture {
+            tex: Z3,
+            depth: FAR,
+        }));
         let flip = StencilFace {
             compare: CompareOp::Always,
             fail: StencilOp::Keep,
@@ -136,14 +174,31 @@ fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
             scissor: Scissor::BoundsOf(vec![q.prim]),
             cull: Cull::None,
             ds: SCAN,
-            depth: DepthState { compare: CompareOp::Less, write: true },
-            stencil: Some(StencilState { front: flip, back: flip, compare_mask: 0, write_mask: FF, reference: 0 }),
-            fragment: Fragment::PeelTolerant { prev: Z2, out: Z3, eps },
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: Some(StencilState {
+                front: flip,
+                back: flip,
+                compare_mask: 0,
+                write_mask: FF,
+                reference: 0,
+            }),
+            fragment: Fragment::PeelTolerant {
+                prev: Z2,
+                out: Z3,
+                eps,
+            },
             count_samples: false,
         }));
         // ff = 1 outside a positive Q's projection too, so its move covers the
         // product's region; a complemented Q only sets ff within its own bounds.
-        let moved = if q.negated { vec![q.prim] } else { region.clone() };
+        let moved = if q.negated {
+            vec![q.prim]
+        } else {
+            region.clone()
+        };
         head.push(Step::Draw(full(
             moved,
             SCAN,
@@ -157,14 +212,20 @@ fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
     head.push(Step::Draw(full(
         region.clone(),
         SCAN,
-        DepthState { compare: CompareOp::Always, write: true },
+        DepthState {
+            compare: CompareOp::Always,
+            write: true,
+        },
         None,
         Fragment::DepthFromTexture { src: Z2_START },
     )));
     let mut count = full(
         region.clone(),
         SCAN,
-        DepthState { compare: CompareOp::NotEqual, write: false },
+        DepthState {
+            compare: CompareOp::NotEqual,
+            write: false,
+        },
         None,
         Fragment::DepthFromTexture { src: Z2 },
     );
@@ -172,12 +233,19 @@ fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
     head.push(Step::Draw(count));
     let all: Vec<MeshId> = p.iter().map(|l| l.prim).collect();
     let max_iterations = prep.triangles_in(&all).max(1) as u32 + 2;
-    steps.push(Step::Loop(Loop { head, tail: Vec::new(), max_iterations }));
+    steps.push(Step::Loop(Loop {
+        head,
+        tail: Vec::new(),
+        max_iterations,
+    }));
     steps.push(Step::Pass("merge".into()));
     steps.push(Step::Draw(full(
         region,
         OUTPUT,
-        DepthState { compare: CompareOp::Less, write: true },
+        DepthState {
+            compare: CompareOp::Less,
+            write: true,
+        },
         None,
         Fragment::DepthFromTexture { src: Z2 },
     )));

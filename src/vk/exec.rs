@@ -635,6 +635,18 @@ impl Executor {
                         }
                         Fragment::WriteDepth { out } => check_tex(out)?,
                         Fragment::DepthFromTexture { src } => check_tex(src)?,
+                        Fragment::PeelTolerant {
+                            prev: a, out: b, ..
+                        }
+                        | Fragment::CopyTexel { src: a, out: b } => {
+                            check_tex(a)?;
+                            check_tex(b)?;
+                            if a == b {
+                                return Err(VkError::Plan(
+                                    "a fragment reads and writes the same texture".into(),
+                                ));
+                            }
+                        }
                         _ => {}
                     }
                 }
@@ -1224,6 +1236,17 @@ impl Executor {
                     vec![],
                     Some(res.tex_sets[src as usize]),
                 ),
+                Fragment::PeelTolerant { prev, out, .. } => (
+                    FragmentKind::PeelTolerant,
+                    vec![Target::Tex(out)],
+                    Some(res.tex_sets[prev as usize]),
+                ),
+                // The texel copy is the depth-copy shader reading a depth texture.
+                Fragment::CopyTexel { src, out } => (
+                    FragmentKind::CopyDepth,
+                    vec![Target::Tex(out)],
+                    Some(res.tex_sets[src as usize]),
+                ),
             }
         };
         let key = BlockKey {
@@ -1301,6 +1324,7 @@ impl Executor {
                     let color = match draw.fragment {
                         Fragment::Paint { rgb: c } => rgb(c),
                         Fragment::Background => rgb(scene.background),
+                        Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
                         _ => rgb(scene.colors[m as usize]),
                     };
                     let pc = PushConstants {

@@ -21,6 +21,8 @@ pub enum FragmentKind {
     Background,
     Peel,
     PeelShade,
+    /// Peel with a tolerance: behind the previous layer by more than eps (`color.x`).
+    PeelTolerant,
     WriteDepth,
     DepthFromTexture,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
@@ -41,6 +43,7 @@ impl FragmentKind {
             FragmentKind::Background => spv!("background.frag"),
             FragmentKind::Peel => spv!("peel.frag"),
             FragmentKind::PeelShade => spv!("peel_shade.frag"),
+            FragmentKind::PeelTolerant => spv!("peel_tolerant.frag"),
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),

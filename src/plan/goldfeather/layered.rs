@@ -32,8 +32,14 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         let neg: Vec<MeshId> = p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
         let all: Vec<MeshId> = p.iter().map(|l| l.prim).collect();
         steps.push(Step::Pass("layer".into()));
-        steps.push(Step::Clear(Clear::Texture { tex: PREV, depth: 0.0 }));
-        steps.push(Step::Clear(Clear::Texture { tex: CUR, depth: 0.0 }));
+        steps.push(Step::Clear(Clear::Texture {
+            tex: PREV,
+            depth: 0.0,
+        }));
+        steps.push(Step::Clear(Clear::Texture {
+            tex: CUR,
+            depth: 0.0,
+        }));
         let mut head = vec![Step::Pass("layer".into()), clear_surface()];
         for (meshes, cull) in [(pos, Cull::Back), (neg, Cull::Front)] {
             if meshes.is_empty() {
@@ -44,18 +50,32 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                 scissor: Scissor::BoundsOf(meshes),
                 cull,
                 ds: SURFACE,
-                depth: DepthState { compare: CompareOp::Less, write: true },
+                depth: DepthState {
+                    compare: CompareOp::Less,
+                    write: true,
+                },
                 stencil: None,
-                fragment: Fragment::Peel { prev: PREV, out: CUR, shade: false },
+                fragment: Fragment::Peel {
+                    prev: PREV,
+                    out: CUR,
+                    shade: false,
+                },
                 count_samples: true,
             }));
         }
         let mut tail = clip_steps(p, &all);
         tail.extend(merge_steps(&all));
-        tail.push(Step::CopyTexture { src: CUR, dst: PREV });
+        tail.push(Step::CopyTexture {
+            src: CUR,
+            dst: PREV,
+        });
         // Each layer holds at least one face per pixel it reaches.
         let max_iterations = prep.triangles_in(&all).max(1) as u32 + 1;
-        steps.push(Step::Loop(Loop { head, tail, max_iterations }));
+        steps.push(Step::Loop(Loop {
+            head,
+            tail,
+            max_iterations,
+        }));
     }
     steps.extend(shade_steps(prep));
     Ok(Plan {

@@ -46,7 +46,9 @@ pub struct ProductOptions {
 
 impl Default for ProductOptions {
     fn default() -> Self {
-        ProductOptions { limit: DEFAULT_PRODUCT_LIMIT }
+        ProductOptions {
+            limit: DEFAULT_PRODUCT_LIMIT,
+        }
     }
 }
 
@@ -79,9 +81,12 @@ pub fn products(prep: &Prepared, limit: usize) -> Result<Vec<Vec<Lit>>, PlanErro
         let b = &prep.mesh_bounds[prim as usize];
         (b.min.to_array(), b.max.to_array())
     };
-    let prods =
-        sum_of_products(&prep.positive, &bounds, limit).map_err(|e| PlanError::Products(e.to_string()))?;
-    let lit = |l: &Literal| Lit { prim: l.prim, negated: l.negated };
+    let prods = sum_of_products(&prep.positive, &bounds, limit)
+        .map_err(|e| PlanError::Products(e.to_string()))?;
+    let lit = |l: &Literal| Lit {
+        prim: l.prim,
+        negated: l.negated,
+    };
     let mut out: Vec<Vec<Lit>> = Vec::with_capacity(prods.len());
     for p in &prods {
         let mut lits: Vec<Lit> = p.literals.iter().map(lit).collect();
@@ -148,10 +153,20 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let mut loops = false;
     for p in &prods {
         for (i, &a) in p.iter().enumerate() {
-            let others: Vec<Lit> = p.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, &l)| l).collect();
+            let others: Vec<Lit> = p
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, &l)| l)
+                .collect();
             let mut clip_merge = clip_steps(&others, &[a.prim]);
             clip_merge.extend(merge_steps(&[a.prim]));
-            if prep.mesh_convex.get(a.prim as usize).copied().unwrap_or(false) {
+            if prep
+                .mesh_convex
+                .get(a.prim as usize)
+                .copied()
+                .unwrap_or(false)
+            {
                 steps.push(Step::Pass("surface".into()));
                 steps.push(clear_surface());
                 steps.push(surface_draw(a, Fragment::None, false));
@@ -160,17 +175,38 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                 // Goldfeather's layers (§3.5): peel the literal's visible faces.
                 loops = true;
                 steps.push(Step::Pass("surface".into()));
-                steps.push(Step::Clear(Clear::Texture { tex: PREV, depth: 0.0 }));
-                steps.push(Step::Clear(Clear::Texture { tex: CUR, depth: 0.0 }));
+                steps.push(Step::Clear(Clear::Texture {
+                    tex: PREV,
+                    depth: 0.0,
+                }));
+                steps.push(Step::Clear(Clear::Texture {
+                    tex: CUR,
+                    depth: 0.0,
+                }));
                 let head = vec![
                     Step::Pass("surface".into()),
                     clear_surface(),
-                    surface_draw(a, Fragment::Peel { prev: PREV, out: CUR, shade: false }, true),
+                    surface_draw(
+                        a,
+                        Fragment::Peel {
+                            prev: PREV,
+                            out: CUR,
+                            shade: false,
+                        },
+                        true,
+                    ),
                 ];
                 let mut tail = clip_merge;
-                tail.push(Step::CopyTexture { src: CUR, dst: PREV });
+                tail.push(Step::CopyTexture {
+                    src: CUR,
+                    dst: PREV,
+                });
                 let max_iterations = prep.triangles_in(&[a.prim]).max(1) as u32 + 1;
-                steps.push(Step::Loop(Loop { head, tail, max_iterations }));
+                steps.push(Step::Loop(Loop {
+                    head,
+                    tail,
+                    max_iterations,
+                }));
             }
         }
     }
@@ -188,13 +224,21 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
 pub(crate) fn init_steps() -> Vec<Step> {
     vec![
         Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil { ds: OUTPUT, depth: FAR, stencil: 0 }),
+        Step::Clear(Clear::DepthStencil {
+            ds: OUTPUT,
+            depth: FAR,
+            stencil: 0,
+        }),
         Step::Clear(Clear::Color),
     ]
 }
 
 pub(crate) fn clear_surface() -> Step {
-    Step::Clear(Clear::DepthStencil { ds: SURFACE, depth: FAR, stencil: 0 })
+    Step::Clear(Clear::DepthStencil {
+        ds: SURFACE,
+        depth: FAR,
+        stencil: 0,
+    })
 }
 
 /// The literal's potentially visible faces into the surface image, nearest wins.
@@ -204,7 +248,10 @@ pub(crate) fn surface_draw(a: Lit, fragment: Fragment, count_samples: bool) -> S
         scissor: Scissor::BoundsOf(vec![a.prim]),
         cull: a.visible_cull(),
         ds: SURFACE,
-        depth: DepthState { compare: CompareOp::Less, write: true },
+        depth: DepthState {
+            compare: CompareOp::Less,
+            write: true,
+        },
         stencil: None,
         fragment,
         count_samples,
@@ -225,8 +272,17 @@ pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId]) -> Vec<Step> {
             scissor: Scissor::BoundsOf(vec![b.prim]),
             cull: Cull::None,
             ds: SURFACE,
-            depth: DepthState { compare: CompareOp::LessOrEqual, write: false },
-            stencil: Some(super::stencil::both(CompareOp::Always, StencilOp::Invert, 0, PARITY, 0)),
+            depth: DepthState {
+                compare: CompareOp::LessOrEqual,
+                write: false,
+            },
+            stencil: Some(super::stencil::both(
+                CompareOp::Always,
+                StencilOp::Invert,
+                0,
+                PARITY,
+                0,
+            )),
             fragment: Fragment::None,
             count_samples: false,
         }));
@@ -258,8 +314,17 @@ fn reject_sweep(outside: u8, scissor: Scissor) -> Step {
         scissor,
         cull: Cull::None,
         ds: SURFACE,
-        depth: DepthState { compare: CompareOp::Always, write: true },
-        stencil: Some(StencilState { front: face, back: face, compare_mask: PARITY, write_mask: PARITY, reference: outside }),
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: true,
+        },
+        stencil: Some(StencilState {
+            front: face,
+            back: face,
+            compare_mask: PARITY,
+            write_mask: PARITY,
+            reference: outside,
+        }),
         fragment: Fragment::None,
         count_samples: false,
     })
@@ -269,13 +334,19 @@ fn reject_sweep(outside: u8, scissor: Scissor) -> Step {
 pub(crate) fn merge_steps(surface: &[MeshId]) -> Vec<Step> {
     vec![
         Step::Pass("merge".into()),
-        Step::CopyDepthToTexture { ds: SURFACE, dst: SURF },
+        Step::CopyDepthToTexture {
+            ds: SURFACE,
+            dst: SURF,
+        },
         Step::Draw(Draw {
             geometry: Geometry::FullScreen { depth: FAR },
             scissor: Scissor::BoundsOf(surface.to_vec()),
             cull: Cull::None,
             ds: OUTPUT,
-            depth: DepthState { compare: CompareOp::Less, write: true },
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
             stencil: None,
             fragment: Fragment::DepthFromTexture { src: SURF },
             count_samples: false,
@@ -294,11 +365,214 @@ pub(crate) fn shade_steps(prep: &Prepared) -> Vec<Step> {
             scissor: Scissor::BoundsOf(vec![m]),
             cull: Cull::None,
             ds: OUTPUT,
-            depth: DepthState { compare: CompareOp::Equal, write: false },
+            depth: DepthState {
+                compare: CompareOp::Equal,
+                write: false,
+            },
             stencil: None,
             fragment: Fragment::Shade,
             count_samples: false,
         }));
     }
     steps
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::plan::print::count;
+    use crate::reference::fixtures::{self, ExprBuilder};
+    use crate::scene::Scene;
+    use glam::DVec3;
+
+    /// A block minus `n` small spheres in a row along x (seed 004 Fig. 7–8).
+    pub(crate) fn block_minus_spheres(n: u32) -> Scene {
+        let mut prims = vec![fixtures::prim(
+            "block",
+            fixtures::box_mesh(DVec3::new(-2.0, -0.5, -0.5), DVec3::new(2.0, 0.5, 0.5)),
+            [200, 160, 60],
+        )];
+        let mut b = ExprBuilder::default();
+        let mut acc = b.leaf(0);
+        for i in 0..n {
+            let x = -1.8 + 3.6 * (i as f64 + 0.5) / n as f64;
+            let r = (1.6 / n as f64).min(0.4);
+            prims.push(fixtures::prim(
+                &format!("s{i}"),
+                fixtures::sphere_mesh(DVec3::new(x, 0.0, 0.5), r, 12, 6),
+                [80, 120, 200],
+            ));
+            let l = b.leaf(i + 1);
+            acc = b.diff(acc, l);
+        }
+        let cam = fixtures::camera(DVec3::new(0.0, 2.0, 6.0), DVec3::ZERO, 35.0, 1.0, 20.0);
+        fixtures::scene(cam, prims, b.build(acc))
+    }
+
+    fn static_counts(plan: &Plan, prep: &Prepared) -> crate::plan::print::StaticCounts {
+        count(&plan.steps, prep)
+    }
+
+    #[test]
+    fn convexity() {
+        let b = fixtures::box_mesh(DVec3::ZERO, DVec3::ONE);
+        assert!(is_convex(&b));
+        assert!(is_convex(&fixtures::sphere_mesh(DVec3::ZERO, 1.0, 16, 8)));
+        // An L-shaped union of two boxes glued into one mesh is not.
+        let mut l = fixtures::box_mesh(DVec3::ZERO, DVec3::ONE);
+        let other = fixtures::box_mesh(DVec3::new(1.0, 0.0, 0.0), DVec3::new(2.0, 3.0, 1.0));
+        let off = l.positions.len() as u32;
+        l.positions.extend(other.positions);
+        l.triangles.extend(
+            other
+                .triangles
+                .iter()
+                .map(|t| [t[0] + off, t[1] + off, t[2] + off]),
+        );
+        assert!(!is_convex(&l));
+    }
+
+    #[test]
+    fn one_product_for_block_minus_spheres() {
+        let scene = block_minus_spheres(8);
+        let prep = Prepared::new(&scene).unwrap();
+        let p = products(&prep, 4096).unwrap();
+        assert_eq!(p.len(), 1);
+        assert_eq!(p[0].len(), 9);
+        assert!(!p[0][0].negated && p[0][1..].iter().all(|l| l.negated));
+    }
+
+    #[test]
+    fn layered_is_kn_and_goldfeather_is_n_squared() {
+        let mut rows = Vec::new();
+        for n in [4u32, 8, 16, 32] {
+            let scene = block_minus_spheres(n);
+            let prep = Prepared::new(&scene).unwrap();
+            let g = plan(&prep, &ProductOptions::default()).unwrap();
+            let l = layered::plan(&prep, &ProductOptions::default()).unwrap();
+            let (gc, lc) = (static_counts(&g, &prep), static_counts(&l, &prep));
+            // Goldfeather: every primitive is convex, so no loop; per literal one
+            // surface draw, n parity draws and n sweeps over n+1 literals.
+            assert!(!g.steps.iter().any(|s| matches!(s, Step::Loop(_))));
+            let lits = n as u64 + 1;
+            assert_eq!(gc.mesh_draws, lits * lits + prep.solid_meshes.len() as u64);
+            // Layered: one layer (loop body counted once) draws every mesh twice.
+            assert_eq!(lc.mesh_draws, 2 + lits + prep.solid_meshes.len() as u64);
+            rows.push((n, gc.triangles, lc.triangles));
+        }
+        // Triangles per frame grow quadratically for Goldfeather, linearly per
+        // layer for the layered form.
+        let (n0, g0, l0) = rows[0];
+        let (n1, g1, l1) = rows[3];
+        let r = (n1 / n0) as f64;
+        assert!(g1 as f64 / g0 as f64 > 0.6 * r * r, "{rows:?}");
+        assert!((l1 as f64 / l0 as f64) < 1.5 * r, "{rows:?}");
+    }
+
+    #[test]
+    fn non_convex_literal_is_peeled_in_a_loop() {
+        let mut scene = block_minus_spheres(2);
+        let mut l = fixtures::box_mesh(DVec3::new(-3.0, -1.0, -1.0), DVec3::new(-1.0, 1.0, 1.0));
+        let other = fixtures::box_mesh(DVec3::new(-1.0, -1.0, -1.0), DVec3::new(0.0, 2.0, 1.0));
+        let off = l.positions.len() as u32;
+        l.positions.extend(other.positions);
+        l.triangles.extend(
+            other
+                .triangles
+                .iter()
+                .map(|t| [t[0] + off, t[1] + off, t[2] + off]),
+        );
+        scene.primitives[0].mesh = l;
+        let prep = Prepared::new(&scene).unwrap();
+        assert!(!prep.mesh_convex[0]);
+        let g = plan(&prep, &ProductOptions::default()).unwrap();
+        assert_eq!(
+            g.steps
+                .iter()
+                .filter(|s| matches!(s, Step::Loop(_)))
+                .count(),
+            1
+        );
+    }
+
+    /// `(A0 + B0)(A1 + B1)...(A(m-1) + B(m-1))`: 2^m products, all overlapping.
+    pub(crate) fn product_blowup(m: u32) -> Scene {
+        let mut prims = Vec::new();
+        let mut b = ExprBuilder::default();
+        let mut acc = None;
+        for i in 0..m {
+            let s = 0.01 * i as f64;
+            prims.push(fixtures::prim(
+                &format!("a{i}"),
+                fixtures::box_mesh(DVec3::splat(-1.0 - s), DVec3::splat(1.0)),
+                [1, 2, 3],
+            ));
+            prims.push(fixtures::prim(
+                &format!("b{i}"),
+                fixtures::box_mesh(DVec3::splat(-1.0), DVec3::splat(1.0 + s)),
+                [1, 2, 3],
+            ));
+            let (x, y) = (b.leaf(2 * i), b.leaf(2 * i + 1));
+            let u = b.union(x, y);
+            acc = Some(match acc {
+                None => u,
+                Some(a) => b.inter(a, u),
+            });
+        }
+        let cam = fixtures::camera(DVec3::new(0.0, 2.0, 6.0), DVec3::ZERO, 35.0, 1.0, 20.0);
+        fixtures::scene(cam, prims, b.build(acc.unwrap()))
+    }
+
+    #[test]
+    fn too_many_products_fail_fast_naming_count_and_cst_i() {
+        let scene = product_blowup(40);
+        let prep = Prepared::new(&scene).unwrap();
+        for algo in [
+            crate::plan::Algo::Goldfeather,
+            crate::plan::Algo::GoldfeatherLayered,
+            crate::plan::Algo::Trickle,
+        ] {
+            let t = std::time::Instant::now();
+            let err = crate::plan::build(algo, &prep).unwrap_err().to_string();
+            assert!(t.elapsed().as_secs_f64() < 1.0, "{algo}: {:?}", t.elapsed());
+            assert!(err.contains("cst-i") && err.contains("4096"), "{err}");
+        }
+        // Just under the limit it builds.
+        let small = Prepared::new(&product_blowup(6)).unwrap();
+        assert_eq!(products(&small, 4096).unwrap().len(), 64);
+    }
+
+    #[test]
+    fn trickle_eps_is_reported_and_overridable() {
+        let prep = Prepared::new(&block_minus_spheres(3)).unwrap();
+        let t = crate::plan::trickle::plan(&prep, &Default::default()).unwrap();
+        assert_eq!(
+            t.steps[0],
+            Step::Pass(crate::plan::trickle::init_pass_name(
+                crate::plan::trickle::DEFAULT_EPS
+            ))
+        );
+        let opts = crate::plan::trickle::TrickleOptions {
+            eps: Some(1e-5),
+            ..Default::default()
+        };
+        let t = crate::plan::trickle::plan(&prep, &opts).unwrap();
+        assert_eq!(t.steps[0], Step::Pass("init eps=1.000e-5".into()));
+        let mut found = false;
+        for s in &t.steps {
+            if let Step::Loop(l) = s {
+                for h in &l.head {
+                    if let Step::Draw(Draw {
+                        fragment: Fragment::PeelTolerant { eps, .. },
+                        ..
+                    }) = h
+                    {
+                        assert_eq!(*eps, 1e-5);
+                        found = true;
+                    }
+                }
+            }
+        }
+        assert!(found);
+    }
 }

@@ -1,0 +1,27 @@
+#version 450
+// Tolerant depth peeling: keep fragments behind the previous layer (texture) by
+// more than eps, record their depth. eps (normalized depth) arrives in color.x.
+layout(push_constant) uniform Push {
+    mat4 mvp;
+    // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
+    vec4 view;
+    // x: eps (this shader only)
+    vec4 color;
+    // primitive id written to the id target (mesh index + 1)
+    uint prim;
+    // bit 0: reversed Z (near = 1, far = 0)
+    uint flags;
+} pc;
+layout(set = 0, binding = 0) uniform texture2D u_tex;
+layout(set = 0, binding = 1) uniform sampler u_samp;
+layout(location = 0) out float o_depth;
+
+void main() {
+    float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    float eps = pc.color.x;
+    bool behind = (pc.flags & 1u) != 0u ? gl_FragCoord.z + eps < prev : gl_FragCoord.z - eps > prev;
+    if (!behind) {
+        discard;
+    }
+    o_depth = gl_FragCoord.z;
+}
