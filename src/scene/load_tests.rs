@@ -432,3 +432,16 @@ fn boundedness() {
         assert_eq!(is_bounded(&e), want, "{e:?}");
     }
 }
+
+#[test]
+#[ignore]
+fn print_examples() {
+    for extra in [
+        "[[primitive]]\nname = \"B\"\nshape = \"sphere\"\nradius = 0.0\n[csg]\nexpr = \"A\"\n",
+        "[csg]\nexpr = \"A + Q\"\n",
+        "[csg]\nexpr = \"A\"\ncolour = 3\n",
+        "[csg]\nexpr = \"!A + A\"\n",
+    ] {
+        println!("{}\n---", err(&with(extra)));
+    }
+}
