@@ -125,6 +125,9 @@ impl Line {
             return None;
         }
         let t = (u * az + v * bz + w * cz) / det;
+        if !t.is_finite() {
+            return None;
+        }
         // The shear has determinant one, so sign(dot(n, dir)) = sign(-det * dir[kz]).
         let entering = det * self.dir[self.kz] > 0.0;
         Some((t, entering))
