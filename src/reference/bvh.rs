@@ -389,7 +389,12 @@ mod tests {
     fn crossings(bvh: &MeshBvh, o: DVec3, d: DVec3) -> Vec<Crossing> {
         let mut out = vec![];
         bvh.cast_local(&Line::new(o, d), &mut out);
-        out.sort_by(|a, b| a.t.total_cmp(&b.t));
+        // Crossings at equal t (a tangent line) are one event; list entering first.
+        out.sort_by(|a, b| {
+            a.t.partial_cmp(&b.t)
+                .unwrap()
+                .then(b.entering.cmp(&a.entering))
+        });
         out
     }
 
@@ -515,5 +520,33 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Axis-aligned lines exactly through every vertex of a UV sphere (fans of up to
+    /// 24 triangles at the poles, exact-zero edge functions everywhere): crossings
+    /// still alternate entering/exiting, starting with entering.
+    #[test]
+    fn axis_lines_through_vertices_keep_parity() {
+        let mesh = sphere_mesh(DVec3::new(0.25, -0.5, 0.125), 2.0, 24, 12);
+        let bvh = MeshBvh::new(&mesh);
+        let mut through = 0;
+        for &p in &mesh.positions {
+            for d in [
+                DVec3::X,
+                DVec3::Y,
+                DVec3::Z,
+                -DVec3::X,
+                -DVec3::Y,
+                -DVec3::Z,
+            ] {
+                let cs = crossings(&bvh, p, d);
+                assert_eq!(cs.len() % 2, 0, "p {p} d {d}: {cs:?}");
+                for (i, c) in cs.iter().enumerate() {
+                    assert_eq!(c.entering, i % 2 == 0, "p {p} d {d}: {cs:?}");
+                }
+                through += cs.iter().any(|c| c.t == 0.0) as usize;
+            }
+        }
+        assert!(through > 100, "{through}");
     }
 }
