@@ -391,7 +391,7 @@ mod tests {
         std::fs::remove_file(sub.join("prim.png")).unwrap();
         let err = read_images(&sub).unwrap_err().to_string();
         assert!(err.contains("prim.png"), "{err}");
-        let err = read_images(&dir.join("nope")).unwrap_err().to_string();
+        let err = read_images(dir.join("nope")).unwrap_err().to_string();
         assert!(err.contains("depth.npy"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }

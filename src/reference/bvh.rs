@@ -231,7 +231,9 @@ impl MeshBvh {
             } else {
                 2
             };
-            if e - s <= LEAF_MAX || !(ext[axis] > 0.0) {
+            // `ext` may be NaN for non-finite input: make a leaf then too.
+            if e - s <= LEAF_MAX || ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            {
                 nodes[ni].first = s as u32;
                 nodes[ni].count = (e - s) as u32;
                 continue;
