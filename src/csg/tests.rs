@@ -507,3 +507,18 @@ fn groups_counter_data() {
     let g = GroupedBlist::new(&PositiveExpr::from_expr(&e));
     assert_eq!((g.entries.len(), g.num_groups()), (1, 1));
 }
+
+#[test]
+fn boundedness() {
+    let names = ["A", "B", "C"];
+    let mut resolve = |n: &str| names.iter().position(|&x| x == n).map(|i| i as u32);
+    let bounded = |s: &str| PositiveExpr::from_expr(&parse(s, &mut resolve).unwrap()).is_bounded();
+    assert!(bounded("A"));
+    assert!(!bounded("!A"));
+    assert!(!bounded("!A + B"));
+    assert!(bounded("A - B"));
+    assert!(bounded("!A B"));
+    assert!(!bounded("!(A B)"));
+    assert!(bounded("!(!A + !B)"));
+    assert!(!bounded("A - (B - C) + !C"));
+}
