@@ -356,8 +356,8 @@ impl Loader<'_> {
                     .map(|(i, s)| ("surface", i, s)),
             );
         for (kind, i, t) in tables {
-            let key = format!("{kind}[{}]", i + 1);
             let name = &t.get_ref().name;
+            let key = format!("{kind}[{}] \"{name}\"", i + 1);
             if !valid_name(name) {
                 return Err(self.invalid(
                     self.line(t.span()),
@@ -371,7 +371,10 @@ impl Loader<'_> {
                 return Err(self.invalid(
                     self.line(t.span()),
                     format!("{key}: name"),
-                    format!("\"{name}\" is already the name of {prev}; names must be unique in the file"),
+                    format!(
+                        "\"{name}\" is already the name of {}; names must be unique in the file",
+                        prev.split(' ').next().unwrap_or(&prev)
+                    ),
                 ));
             }
         }

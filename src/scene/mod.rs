@@ -140,3 +140,6 @@ pub struct Scene {
     /// Non-fatal remarks from loading (unused primitives, ignored keys), one line each.
     pub warnings: Vec<String>,
 }
+
+#[cfg(test)]
+mod load_tests;
