@@ -194,11 +194,50 @@ fn full_memory_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
     };
 }
 
-fn count_queries(steps: &[Step]) -> (u32, u32) {
+/// Layout transitions of whole images, with full execution and memory dependencies.
+fn transition(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    images: &[(&Image, vk::ImageLayout, vk::ImageLayout)],
+) {
+    let barriers: Vec<_> = images
+        .iter()
+        .map(|(img, old, new)| {
+            vk::ImageMemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
+                .dst_access_mask(vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE)
+                .old_layout(*old)
+                .new_layout(*new)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(img.raw)
+                .subresource_range(range(img.desc.aspect()))
+        })
+        .collect();
+    // SAFETY: recording, outside rendering; the images are live and in `old`.
+    unsafe {
+        device.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::ALL_COMMANDS,
+            vk::PipelineStageFlags::ALL_COMMANDS,
+            vk::DependencyFlags::empty(),
+            &[],
+            &[],
+            &barriers,
+        )
+    };
+}
+
+const GENERAL: vk::ImageLayout = vk::ImageLayout::GENERAL;
+const SRC: vk::ImageLayout = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+const DST: vk::ImageLayout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+
+/// Occlusion and timestamp queries one submission of `steps` needs.
+fn count_queries(steps: &[&Step]) -> (u32, u32) {
     let mut occlusion = 0;
     let mut passes = 0;
     for s in steps {
-        match s {
+        match *s {
             Step::Draw(d) if d.count_samples => occlusion += 1,
             Step::Pass(_) => passes += 1,
             _ => {}
@@ -657,17 +696,7 @@ impl Executor {
     /// Records `steps` into one command buffer, submits and waits. Returns the
     /// samples passed by its counted draws.
     fn submit(&mut self, steps: &[&Step], run: &mut Run) -> Result<u64, VkError> {
-        let owned: Vec<Step> = Vec::new();
-        let _ = owned;
-        let (n_occ, n_ts) = {
-            let (mut o, mut p) = (0u32, 2u32);
-            for s in steps {
-                let (a, b) = count_queries(std::slice::from_ref(*s));
-                o += a;
-                p += b - 2;
-            }
-            (o, p)
-        };
+        let (n_occ, n_ts) = count_queries(steps);
         self.ensure_queries(n_occ.max(1), n_ts)?;
         let device = self.shared.device.clone();
         let cmd = self.cmd;
@@ -746,7 +775,9 @@ impl Executor {
             for i in 0..rec.marks.len() - 1 {
                 let ms = ts[i + 1].saturating_sub(ts[i]) as f64 * period * 1e-6;
                 run.stats.gpu_ms += ms;
-                pass_entry(&mut run.stats, &rec.marks[i].1).gpu_ms += ms;
+                if let Some(p) = pass_entry(&mut run.stats, &rec.marks[i].1) {
+                    p.gpu_ms += ms;
+                }
             }
         }
         Ok(samples)
@@ -981,18 +1012,23 @@ impl Executor {
                         depth: 1,
                     },
                 };
-                // SAFETY: outside rendering; both images allow transfer, same format.
-                unsafe {
-                    device.cmd_copy_image(
-                        cmd,
-                        res.tex[*src as usize].raw,
-                        vk::ImageLayout::GENERAL,
-                        res.tex[*dst as usize].raw,
-                        vk::ImageLayout::GENERAL,
-                        &[region],
-                    )
-                };
-                full_memory_barrier(&device, cmd);
+                let (s_img, d_img) = (&res.tex[*src as usize], &res.tex[*dst as usize]);
+                if src == dst {
+                    return Ok(());
+                }
+                transition(
+                    &device,
+                    cmd,
+                    &[(s_img, GENERAL, SRC), (d_img, GENERAL, DST)],
+                );
+                // SAFETY: outside rendering; both images allow transfer, same format,
+                // in the layouts given.
+                unsafe { device.cmd_copy_image(cmd, s_img.raw, SRC, d_img.raw, DST, &[region]) };
+                transition(
+                    &device,
+                    cmd,
+                    &[(s_img, SRC, GENERAL), (d_img, DST, GENERAL)],
+                );
             }
             Step::CopyDepthToTexture { ds, dst } => {
                 let key = BlockKey {
@@ -1269,7 +1305,9 @@ impl Executor {
             None
         };
         run.stats.draws += 1;
-        pass_entry(&mut run.stats, &run.pass).draws += 1;
+        if let Some(p) = pass_entry(&mut run.stats, &run.pass) {
+            p.draws += 1;
+        }
         match &draw.geometry {
             Geometry::FullScreen { depth } => {
                 let color = match draw.fragment {
@@ -1364,6 +1402,8 @@ impl Executor {
                 plane * 2,
             ),
         ];
+        let imgs: Vec<_> = copies.iter().map(|c| (c.0, GENERAL, SRC)).collect();
+        transition(&device, cmd, &imgs);
         for (img, aspect, offset) in copies {
             let region = vk::BufferImageCopy {
                 buffer_offset: offset,
@@ -1383,16 +1423,10 @@ impl Executor {
                 },
             };
             // SAFETY: outside rendering; the image allows transfer src; the region fits.
-            unsafe {
-                device.cmd_copy_image_to_buffer(
-                    cmd,
-                    img.raw,
-                    vk::ImageLayout::GENERAL,
-                    buffer,
-                    &[region],
-                )
-            };
+            unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, SRC, buffer, &[region]) };
         }
+        let back: Vec<_> = copies.iter().map(|c| (c.0, SRC, GENERAL)).collect();
+        transition(&device, cmd, &back);
         let to_host = [vk::MemoryBarrier::default()
             .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
             .dst_access_mask(vk::AccessFlags::HOST_READ)];
@@ -1400,7 +1434,7 @@ impl Executor {
         unsafe {
             device.cmd_pipeline_barrier(
                 cmd,
-                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::ALL_COMMANDS,
                 vk::PipelineStageFlags::HOST,
                 vk::DependencyFlags::empty(),
                 &to_host,
@@ -1466,7 +1500,11 @@ impl Executor {
     }
 }
 
-fn pass_entry<'a>(stats: &'a mut ExecStats, name: &str) -> &'a mut PassStats {
+/// The per-pass entry of `name`; none for work before the first `Step::Pass`.
+fn pass_entry<'a>(stats: &'a mut ExecStats, name: &str) -> Option<&'a mut PassStats> {
+    if name.is_empty() {
+        return None;
+    }
     let i = match stats.per_pass.iter().position(|p| p.name == name) {
         Some(i) => i,
         None => {
@@ -1477,7 +1515,7 @@ fn pass_entry<'a>(stats: &'a mut ExecStats, name: &str) -> &'a mut PassStats {
             stats.per_pass.len() - 1
         }
     };
-    &mut stats.per_pass[i]
+    Some(&mut stats.per_pass[i])
 }
 
 impl Drop for Executor {

@@ -246,7 +246,10 @@ impl Context {
         let queue_ci = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        let mut f13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true);
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
+            .dynamic_rendering(true)
+            // Lets depth-only fragment shaders ignore the shared vertex outputs.
+            .maintenance4(true);
         let dci = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_ci)
             .push_next(&mut f13);
@@ -391,7 +394,7 @@ impl Context {
     /// # Safety
     /// - `instance` was created from `entry` with API version 1.3 or later, and
     ///   `device` from `physical_device` of `instance` with Vulkan 1.3 and the
-    ///   `dynamicRendering` feature enabled;
+    ///   `dynamicRendering` and `maintenance4` features enabled;
     /// - `queue` is a queue of family `queue_family`, which supports graphics;
     /// - the instance, device and queue stay valid until this context and every
     ///   executor made from it are dropped; the context does not destroy them;
