@@ -102,7 +102,7 @@ impl GpuRenderer {
     }
 
     pub fn device_name(&self) -> String {
-        self.ctx.device_name()
+        self.ctx.device_name().to_string()
     }
 
     /// Validation messages collected so far (empty when validation is off).

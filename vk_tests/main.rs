@@ -99,6 +99,7 @@ fn scene(meshes: Vec<Mesh>) -> Scene {
             .collect(),
         solids: vec![],
         surfaces: vec![],
+        warnings: vec![],
     }
 }
 

@@ -96,17 +96,23 @@ pub struct Prepared {
 impl Prepared {
     pub fn new(scene: &Scene) -> Result<Self, PlanError> {
         let expr = union_of_solids(scene).ok_or(PlanError::NoSolid)?;
-        let positive = PositiveExpr::from_expr(&expr);
-        let mut solid_meshes: Vec<MeshId> = expr.leaves();
-        solid_meshes.sort_unstable();
-        solid_meshes.dedup();
         let meshes = scene.primitives.iter().map(|p| &p.mesh).chain(scene.surfaces.iter().map(|s| &s.mesh));
         let (mut mesh_triangles, mut mesh_bounds) = (Vec::new(), Vec::new());
         for m in meshes {
             mesh_triangles.push(m.triangles.len());
             mesh_bounds.push(bounds(&m.positions));
         }
-        Ok(Prepared { expr, positive, solid_meshes, mesh_triangles, mesh_bounds })
+        Ok(Self::from_parts(expr, mesh_triangles, mesh_bounds))
+    }
+
+    /// From an expression and per-mesh triangle counts and bounds (tests and
+    /// cost models that need no geometry).
+    pub fn from_parts(expr: Expr, mesh_triangles: Vec<usize>, mesh_bounds: Vec<Aabb>) -> Self {
+        let positive = PositiveExpr::from_expr(&expr);
+        let mut solid_meshes: Vec<MeshId> = expr.leaves();
+        solid_meshes.sort_unstable();
+        solid_meshes.dedup();
+        Prepared { expr, positive, solid_meshes, mesh_triangles, mesh_bounds }
     }
 
     pub fn triangles_in(&self, meshes: &[MeshId]) -> usize {

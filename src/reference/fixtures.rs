@@ -212,5 +212,6 @@ pub fn scene(camera: Camera, primitives: Vec<Primitive>, expr: Expr) -> Scene {
             expr,
         }],
         surfaces: vec![],
+        warnings: vec![],
     }
 }
