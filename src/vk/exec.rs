@@ -1521,15 +1521,13 @@ fn pass_entry<'a>(stats: &'a mut ExecStats, name: &str) -> Option<&'a mut PassSt
 impl Drop for Executor {
     fn drop(&mut self) {
         let d = &self.shared.device;
-        // SAFETY: waiting for the fence-tracked submissions (already waited) and any
-        // other work on the device before destroying what it may use.
-        unsafe {
-            let _ = d.device_wait_idle();
-        }
+        // Every submission is waited on before `submit`/`read_back` return, so the
+        // GPU uses none of our objects now (no device-wide wait: an embedding host may
+        // be using its queues).
         self.readback = None;
         self.resources = None;
         self.scene = None;
-        // SAFETY: the device is idle; each handle is destroyed once; null is ignored.
+        // SAFETY: no submission is pending; each handle is destroyed once; null is ignored.
         unsafe { d.destroy_query_pool(self.timestamps, None) };
         // SAFETY: as above.
         unsafe { d.destroy_query_pool(self.occlusion, None) };

@@ -58,7 +58,7 @@ pub(crate) struct Shared {
     pub instance: ash::Instance,
     pub debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     /// Pointed to by the messenger's user data; outlives the messenger.
-    pub messages: Box<Arc<Messages>>,
+    pub messages: Arc<Messages>,
     pub physical: vk::PhysicalDevice,
     pub device: ash::Device,
     pub queue_family: u32,
@@ -115,9 +115,9 @@ unsafe extern "system" fn debug_callback(
     let message = unsafe { (*data).message_as_c_str() }
         .map(|m| m.to_string_lossy().into_owned())
         .unwrap_or_default();
-    // SAFETY: `user` is the `Arc<Messages>` boxed in `Shared`, alive as long as the
-    // messenger that calls us.
-    let messages = unsafe { &*(user as *const Arc<Messages>) };
+    // SAFETY: `user` points into the `Arc<Messages>` held by `Shared` (or by
+    // `Context::new` while it runs), alive as long as the messenger that calls us.
+    let messages = unsafe { &*(user as *const Messages) };
     let line = format!("[{severity:?}] {message}");
     eprintln!("vulkan validation: {line}");
     if let Ok(mut m) = messages.lock() {
@@ -138,7 +138,7 @@ fn debug_info(messages: &Arc<Messages>) -> vk::DebugUtilsMessengerCreateInfoEXT<
                 | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
         )
         .pfn_user_callback(Some(debug_callback))
-        .user_data(messages as *const Arc<Messages> as *mut c_void)
+        .user_data(Arc::as_ptr(messages) as *mut c_void)
 }
 
 fn device_type_rank(t: vk::PhysicalDeviceType) -> Option<u32> {
@@ -157,7 +157,7 @@ impl Context {
         // preconditions beyond being a genuine loader library.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| VkError::Loader(e.to_string()))?;
 
-        let messages: Box<Arc<Messages>> = Box::new(Arc::new(Mutex::new(Vec::new())));
+        let messages: Arc<Messages> = Arc::new(Mutex::new(Vec::new()));
         let mut layers = Vec::new();
         let mut extensions = Vec::new();
         if desc.validation {
@@ -209,7 +209,7 @@ impl Context {
         let debug = if desc.validation {
             let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = debug_info(&messages);
-            // SAFETY: the user-data pointer (boxed Arc) outlives the messenger.
+            // SAFETY: the user-data pointer (the Arc's contents) outlives the messenger.
             let m = unsafe { du.create_debug_utils_messenger(&info, None) }
                 .check("vkCreateDebugUtilsMessengerEXT")?;
             Some((du, m))
@@ -334,7 +334,7 @@ impl Context {
         entry: ash::Entry,
         instance: ash::Instance,
         debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
-        messages: Box<Arc<Messages>>,
+        messages: Arc<Messages>,
         physical: vk::PhysicalDevice,
         device: ash::Device,
         queue_family: u32,
@@ -408,7 +408,7 @@ impl Context {
         queue_family: u32,
         queue: vk::Queue,
     ) -> Result<Context, VkError> {
-        let messages: Box<Arc<Messages>> = Box::new(Arc::new(Mutex::new(Vec::new())));
+        let messages: Arc<Messages> = Arc::new(Mutex::new(Vec::new()));
         Self::finish(
             entry,
             instance,
