@@ -21,6 +21,7 @@ use super::image::{range, Image, ImageDesc};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_REVERSED_Z};
+use super::readback::{decode, Raw};
 use super::scissor::{bounds_rect, Rect};
 use crate::output::Images;
 use crate::plan::{Clear, Draw, Fragment, Geometry, Plan, Scissor, Step, Tex};
@@ -1462,41 +1463,20 @@ impl Executor {
             .transpose()?
             .unwrap_or(&[]);
         let scene = self.scene.as_ref().expect("scene uploaded");
-        let conv = self.convention();
-        let n = (w * h) as usize;
-        let word = |base: usize, i: usize| {
-            let o = base + i * 4;
-            [bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]
-        };
-        let bg = scene.background;
-        let mut images = Images {
-            width: w,
-            height: h,
-            color: Vec::with_capacity(n),
-            depth: Vec::with_capacity(n),
-            prim: Vec::with_capacity(n),
-        };
-        for i in 0..n {
-            let prim = u32::from_ne_bytes(word(plane as usize, i));
-            let dw = u32::from_ne_bytes(word(2 * plane as usize, i));
-            let z = match self.desc.depth_format {
-                DepthFormat::D32S8 => f32::from_bits(dw) as f64,
-                DepthFormat::D24S8 => (dw & 0x00ff_ffff) as f64 / 16_777_215.0,
-            };
-            if prim == 0 {
-                images.color.push([bg[0], bg[1], bg[2], 255]);
-                images.depth.push(f32::INFINITY);
-                images.prim.push(0);
-            } else {
-                let c = word(0, i);
-                images.color.push([c[0], c[1], c[2], 255]);
-                images
-                    .depth
-                    .push(scene.camera.view_depth_from_ndc(z, conv) as f32);
-                images.prim.push(prim.min(u16::MAX as u32) as u16);
-            }
-        }
-        Ok(images)
+        let plane = plane as usize;
+        Ok(decode(
+            Raw {
+                width: w,
+                height: h,
+                color: &bytes[..plane],
+                prim: &bytes[plane..2 * plane],
+                depth: &bytes[2 * plane..3 * plane],
+            },
+            self.desc.depth_format,
+            &scene.camera,
+            self.convention(),
+            scene.background,
+        ))
     }
 }
 

@@ -4,8 +4,8 @@
 //! Modules: `instance` ([`Context`]: instance, debug messenger, device, allocator);
 //! `memory` and `image` (buffers and images that own their memory); `pipeline`
 //! (one per fragment program, all depth/stencil state dynamic); `conv` and
-//! `scissor` (pure mappings, tested without a GPU); `exec` (the plan executor, its
-//! statistics and the readback).
+//! `scissor` (pure mappings, tested without a GPU); `exec` (the plan executor and its
+//! statistics); `readback` (GPU bytes to output images).
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod conv;
@@ -15,6 +15,7 @@ pub mod image;
 pub mod instance;
 pub mod memory;
 pub mod pipeline;
+pub mod readback;
 pub mod scissor;
 
 pub use error::VkError;
