@@ -734,10 +734,14 @@ impl Executor {
         unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
         let cmds = [cmd];
         let si = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        // SAFETY: the command buffer is executable; the fence is unsignaled; the queue
-        // is used only by this thread (see Context::from_raw).
-        unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
-            .check("vkQueueSubmit")?;
+        {
+            let _queue = self.shared.queue_lock.lock();
+            // SAFETY: the command buffer is executable; the fence is unsignaled; the
+            // lock serializes our submissions (an embedding host synchronizes its own,
+            // see Context::from_raw).
+            unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
+                .check("vkQueueSubmit")?;
+        }
         // SAFETY: the fence was just submitted.
         unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
             .check("vkWaitForFences")?;
@@ -1447,9 +1451,12 @@ impl Executor {
         unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
         let cmds = [cmd];
         let si = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        // SAFETY: executable buffer, unsignaled fence.
-        unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
-            .check("vkQueueSubmit")?;
+        {
+            let _queue = self.shared.queue_lock.lock();
+            // SAFETY: executable buffer, unsignaled fence, submissions serialized.
+            unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
+                .check("vkQueueSubmit")?;
+        }
         // SAFETY: the fence was just submitted.
         unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
             .check("vkWaitForFences")?;

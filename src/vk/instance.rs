@@ -63,6 +63,9 @@ pub(crate) struct Shared {
     pub device: ash::Device,
     pub queue_family: u32,
     pub queue: vk::Queue,
+    /// Held while submitting: `vkQueueSubmit` needs external synchronization, and
+    /// executors of one context may live on different threads.
+    pub queue_lock: Mutex<()>,
     pub limits: vk::PhysicalDeviceLimits,
     pub timestamp_valid_bits: u32,
     pub device_name: String,
@@ -373,6 +376,7 @@ impl Context {
             device,
             queue_family,
             queue,
+            queue_lock: Mutex::new(()),
             limits: props.limits,
             timestamp_valid_bits,
             device_name,
