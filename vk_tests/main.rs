@@ -615,3 +615,33 @@ fn invalid_plans_are_errors() {
     drop(ex);
     assert_clean(&ctx);
 }
+
+/// An embedding host's device: the wrapped context runs plans and, when dropped,
+/// destroys nothing it did not create (the owner's teardown stays clean).
+#[test]
+fn from_raw_borrows_the_hosts_device() {
+    let host = context();
+    // SAFETY: the handles come from a live context that outlives `embedded`; it was
+    // created with Vulkan 1.3, dynamicRendering and maintenance4; nothing else submits
+    // to the queue meanwhile.
+    let embedded = unsafe {
+        Context::from_raw(
+            host.raw_entry().clone(),
+            host.raw_instance().clone(),
+            host.raw_physical_device(),
+            host.raw_device().clone(),
+            host.queue_family(),
+            host.raw_queue(),
+        )
+    }
+    .expect("from_raw");
+    assert_eq!(embedded.device_name(), host.device_name());
+    let sc = scene(vec![unit_box()]);
+    let f = run(&embedded, std_desc(), &sc, &one_box_plan(Cull::Back));
+    assert!(f.images.prim.contains(&1));
+    drop(embedded);
+    // The host's device still works.
+    let g = run(&host, std_desc(), &sc, &one_box_plan(Cull::Back));
+    assert_eq!(f.images, g.images);
+    assert_clean(&host);
+}

@@ -456,4 +456,16 @@ impl Context {
     pub fn raw_entry(&self) -> &ash::Entry {
         &self.shared.entry
     }
+
+    pub fn raw_physical_device(&self) -> vk::PhysicalDevice {
+        self.shared.physical
+    }
+
+    pub fn queue_family(&self) -> u32 {
+        self.shared.queue_family
+    }
+
+    pub fn raw_queue(&self) -> vk::Queue {
+        self.shared.queue
+    }
 }
