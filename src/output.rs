@@ -171,7 +171,8 @@ pub fn decode_npy(bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), String> {
 }
 
 /// Writes `color.png`, `depth.npy` and `prim.png` into `dir` (created if missing).
-pub fn write_images(dir: &Path, img: &Images) -> Result<(), OutputError> {
+pub fn write_images(dir: impl AsRef<Path>, img: &Images) -> Result<(), OutputError> {
+    let dir = dir.as_ref();
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let n = img.width as usize * img.height as usize;
     assert!(
@@ -209,7 +210,8 @@ pub fn write_images(dir: &Path, img: &Images) -> Result<(), OutputError> {
 }
 
 /// Writes `stats.json` (pretty-printed) into `dir` (created if missing).
-pub fn write_stats(dir: &Path, stats: &serde_json::Value) -> Result<(), OutputError> {
+pub fn write_stats(dir: impl AsRef<Path>, stats: &serde_json::Value) -> Result<(), OutputError> {
+    let dir = dir.as_ref();
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let path = dir.join("stats.json");
     let text = serde_json::to_string_pretty(stats).map_err(|source| OutputError::Json {
@@ -221,7 +223,8 @@ pub fn write_stats(dir: &Path, stats: &serde_json::Value) -> Result<(), OutputEr
 
 /// Reads `depth.npy` and `prim.png` (required) and `color.png` (if present; else
 /// black) from `dir`.
-pub fn read_images(dir: &Path) -> Result<Images, OutputError> {
+pub fn read_images(dir: impl AsRef<Path>) -> Result<Images, OutputError> {
+    let dir = dir.as_ref();
     let path = dir.join("depth.npy");
     let mut bytes = vec![];
     std::fs::File::open(&path)
@@ -388,7 +391,7 @@ mod tests {
         std::fs::remove_file(sub.join("prim.png")).unwrap();
         let err = read_images(&sub).unwrap_err().to_string();
         assert!(err.contains("prim.png"), "{err}");
-        let err = read_images(&dir.join("nope")).unwrap_err().to_string();
+        let err = read_images(dir.join("nope")).unwrap_err().to_string();
         assert!(err.contains("depth.npy"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }

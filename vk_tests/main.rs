@@ -217,7 +217,7 @@ fn shade_one_box_coverage_depth_prim() {
     // The centre pixel looks straight at the face: |n . v| ~ 1, full colour.
     let c = im.color[idx(W / 2, H / 2)];
     for k in 0..3 {
-        let want = [200, 100, 50][k] as i32;
+        let want: i32 = [200, 100, 50][k];
         assert!((c[k] as i32 - want).abs() <= 1, "{c:?}");
     }
     assert_eq!(f.stats.draws, 1);
@@ -507,7 +507,7 @@ fn depth_formats_agree() {
     })
     .collect();
     let a = &frames[1].images;
-    assert!(a.prim.iter().any(|&p| p == 2) && a.prim.iter().any(|&p| p == 1));
+    assert!(a.prim.contains(&2) && a.prim.contains(&1));
     for f in &frames {
         let b = &f.images;
         let diff = a.prim.iter().zip(&b.prim).filter(|(x, y)| x != y).count();
@@ -520,4 +520,129 @@ fn depth_formats_agree() {
         }
     }
     assert_clean(&ctx);
+}
+
+/// Paint writes the paint colour and the mesh's id; WriteDepth records depths that
+/// DepthFromTexture restores, leaving far (empty) pixels untouched.
+#[test]
+fn paint_write_depth_and_restore() {
+    let ctx = context();
+    let sc = scene(vec![unit_box()]);
+    let mut steps = clear_all();
+    steps.push(Step::Clear(Clear::Texture { tex: 0, depth: 1.0 }));
+    steps.push(Step::Draw(Draw {
+        fragment: Fragment::Paint { rgb: [255, 0, 0] },
+        ..shade_draw(0, Cull::Back)
+    }));
+    steps.push(Step::Draw(Draw {
+        depth: DepthState {
+            compare: CompareOp::Equal,
+            write: false,
+        },
+        fragment: Fragment::WriteDepth { out: 0 },
+        ..shade_draw(0, Cull::Back)
+    }));
+    steps.push(Step::Clear(Clear::DepthStencil {
+        ds: 1,
+        depth: 0.25,
+        stencil: 0,
+    }));
+    steps.push(Step::Draw(Draw {
+        geometry: Geometry::FullScreen { depth: 0.0 },
+        ds: 1,
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: true,
+        },
+        fragment: Fragment::DepthFromTexture { src: 0 },
+        count_samples: true,
+        ..shade_draw(0, Cull::None)
+    }));
+    for reversed_z in [false, true] {
+        let mut p = plan(steps.clone(), 1);
+        p.depth_stencils = 2;
+        p.output_ds = 1;
+        let desc = ExecDesc {
+            reversed_z,
+            ..std_desc()
+        };
+        let f = run(&ctx, desc, &sc, &p);
+        let base = run(&ctx, desc, &sc, &one_box_plan(Cull::Back));
+        assert_eq!(f.images.prim, base.images.prim);
+        let covered = f.images.prim.iter().filter(|&&p| p == 1).count() as u64;
+        // Only the box's pixels pass the restore draw.
+        assert_eq!(f.stats.samples_counted, covered);
+        for i in 0..f.images.prim.len() {
+            if f.images.prim[i] == 1 {
+                assert_eq!(f.images.color[i], [255, 0, 0, 255]);
+                assert_eq!(f.images.depth[i], base.images.depth[i]);
+            }
+        }
+    }
+    assert_clean(&ctx);
+}
+
+/// Out-of-range ids and nested loops are plan errors, not crashes.
+#[test]
+fn invalid_plans_are_errors() {
+    let ctx = context();
+    let sc = scene(vec![unit_box()]);
+    let mut ex = Executor::new(&ctx, &std_desc()).expect("executor");
+    assert!(
+        ex.execute(&one_box_plan(Cull::Back)).is_err(),
+        "no scene yet"
+    );
+    ex.upload(&sc).expect("upload");
+    let mut bad = one_box_plan(Cull::Back);
+    bad.steps.push(Step::Draw(shade_draw(7, Cull::Back)));
+    assert!(ex.execute(&bad).is_err());
+    let inner = Loop {
+        head: vec![],
+        tail: vec![],
+        max_iterations: 1,
+    };
+    let nested = plan(
+        vec![Step::Loop(Loop {
+            head: vec![Step::Loop(inner)],
+            tail: vec![],
+            max_iterations: 2,
+        })],
+        0,
+    );
+    assert!(ex.execute(&nested).is_err());
+    // The executor still works afterwards.
+    let f = ex.execute(&one_box_plan(Cull::Back)).expect("execute");
+    assert!(f.images.prim.contains(&1));
+    drop(ex);
+    assert_clean(&ctx);
+}
+
+/// An embedding host's device: the wrapped context runs plans and, when dropped,
+/// destroys nothing it did not create (the owner's teardown stays clean).
+#[test]
+fn from_raw_borrows_the_hosts_device() {
+    let host = context();
+    // SAFETY: the handles come from a live context that outlives `embedded`; it was
+    // created with Vulkan 1.3, dynamicRendering and maintenance4; nothing else submits
+    // to the queue meanwhile.
+    let embedded = unsafe {
+        Context::from_raw(
+            host.raw_entry().clone(),
+            host.raw_instance().clone(),
+            host.raw_physical_device(),
+            host.raw_device().clone(),
+            host.queue_family(),
+            host.raw_queue(),
+        )
+    }
+    .expect("from_raw");
+    assert_eq!(embedded.device_name(), host.device_name());
+    let sc = scene(vec![unit_box()]);
+    let f = run(&embedded, std_desc(), &sc, &one_box_plan(Cull::Back));
+    assert!(f.images.prim.contains(&1));
+    drop(embedded);
+    // The host's device still works.
+    let g = run(&host, std_desc(), &sc, &one_box_plan(Cull::Back));
+    assert_eq!(f.images, g.images);
+    assert_clean(&host);
 }

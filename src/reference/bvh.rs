@@ -125,6 +125,9 @@ impl Line {
             return None;
         }
         let t = (u * az + v * bz + w * cz) / det;
+        if !t.is_finite() {
+            return None;
+        }
         // The shear has determinant one, so sign(dot(n, dir)) = sign(-det * dir[kz]).
         let entering = det * self.dir[self.kz] > 0.0;
         Some((t, entering))
@@ -228,7 +231,9 @@ impl MeshBvh {
             } else {
                 2
             };
-            if e - s <= LEAF_MAX || !(ext[axis] > 0.0) {
+            // `ext` may be NaN for non-finite input: make a leaf then too.
+            if e - s <= LEAF_MAX || ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            {
                 nodes[ni].first = s as u32;
                 nodes[ni].count = (e - s) as u32;
                 continue;
@@ -386,7 +391,12 @@ mod tests {
     fn crossings(bvh: &MeshBvh, o: DVec3, d: DVec3) -> Vec<Crossing> {
         let mut out = vec![];
         bvh.cast_local(&Line::new(o, d), &mut out);
-        out.sort_by(|a, b| a.t.total_cmp(&b.t));
+        // Crossings at equal t (a tangent line) are one event; list entering first.
+        out.sort_by(|a, b| {
+            a.t.partial_cmp(&b.t)
+                .unwrap()
+                .then(b.entering.cmp(&a.entering))
+        });
         out
     }
 
@@ -512,5 +522,33 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Axis-aligned lines exactly through every vertex of a UV sphere (fans of up to
+    /// 24 triangles at the poles, exact-zero edge functions everywhere): crossings
+    /// still alternate entering/exiting, starting with entering.
+    #[test]
+    fn axis_lines_through_vertices_keep_parity() {
+        let mesh = sphere_mesh(DVec3::new(0.25, -0.5, 0.125), 2.0, 24, 12);
+        let bvh = MeshBvh::new(&mesh);
+        let mut through = 0;
+        for &p in &mesh.positions {
+            for d in [
+                DVec3::X,
+                DVec3::Y,
+                DVec3::Z,
+                -DVec3::X,
+                -DVec3::Y,
+                -DVec3::Z,
+            ] {
+                let cs = crossings(&bvh, p, d);
+                assert_eq!(cs.len() % 2, 0, "p {p} d {d}: {cs:?}");
+                for (i, c) in cs.iter().enumerate() {
+                    assert_eq!(c.entering, i % 2 == 0, "p {p} d {d}: {cs:?}");
+                }
+                through += cs.iter().any(|c| c.t == 0.0) as usize;
+            }
+        }
+        assert!(through > 100, "{through}");
     }
 }

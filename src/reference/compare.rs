@@ -97,6 +97,7 @@ pub fn compare(a: &Images, b: &Images) -> Result<CompareReport, CompareError> {
     let edge = boundary_mask(a);
     let (mut cov, mut prim, mut cov_i, mut prim_i, mut interior) = (0u64, 0u64, 0u64, 0u64, 0u64);
     let (mut err, mut err_i) = (vec![], vec![]);
+    #[allow(clippy::needless_range_loop)] // five parallel buffers
     for i in 0..n {
         let ca = covered(a.depth[i], a.prim[i]);
         let cb = covered(b.depth[i], b.prim[i]);

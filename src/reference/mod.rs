@@ -8,5 +8,7 @@ pub mod compare;
 pub mod fixtures;
 pub mod raycast;
 
+pub use bvh::{Crossing, Line, MeshBvh, SceneBvh, WorldCrossing};
 pub use compare::{compare, CompareError, CompareReport};
 pub use raycast::{render, render_with_normals};
+pub use raycast::{Hit, Prepared, GROUP_TOL_REL};

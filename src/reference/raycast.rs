@@ -16,8 +16,8 @@
 //!    united); the visible point is the start of the first interval inside the solid
 //!    whose start has a view depth within `[near, far]` (what lies outside is clipped,
 //!    like on the GPU: an interval starting before `near` shows nothing at `near`);
-//! 4. its primitive is the lowest-index primitive with a crossing in that event group
-//!    (CONTRACT §4: lowest index wins on coincident faces, within `tol`), its normal
+//! 4. its primitive is the lowest-index primitive (among those a solid names) with a
+//!    crossing in that event group (CONTRACT §4: lowest index wins on coincident faces, within `tol`), its normal
 //!    that crossing's triangle's geometric normal;
 //! 5. surfaces: the nearest crossing (within `[near, far]`) of each surface mesh whose
 //!    point is in the trim volume (`keep = In`), outside it (`Out`), or any crossing
@@ -92,6 +92,8 @@ pub struct Prepared<'a> {
     scene: &'a Scene,
     prims: SceneBvh,
     needed: Vec<bool>,
+    /// Primitives some solid names: only these give the visible point its index.
+    in_solids: Vec<bool>,
     surfaces: SceneBvh,
     solids: Vec<Compiled>,
     trims: Vec<Compiled>,
@@ -140,6 +142,14 @@ impl<'a> Prepared<'a> {
                 }
             }
         }
+        let mut in_solids = vec![false; n];
+        for sol in &scene.solids {
+            for p in sol.expr.leaves() {
+                if let Some(x) = in_solids.get_mut(p as usize) {
+                    *x = true;
+                }
+            }
+        }
         // Unneeded primitives get an empty BVH so indices stay aligned.
         let empty = crate::scene::Mesh::default();
         let prims = SceneBvh::new((0..n).map(|i| {
@@ -157,6 +167,7 @@ impl<'a> Prepared<'a> {
             scene,
             prims,
             needed,
+            in_solids,
             surfaces,
             solids: scene
                 .solids
@@ -230,7 +241,12 @@ impl<'a> Prepared<'a> {
             {
                 let e = s.events[j];
                 s.count[e.shape as usize] += if e.crossing.entering { 1 } else { -1 };
-                if e.shape < best.shape {
+                // Lowest index among the crossing primitives a solid names (a
+                // primitive only trimming surfaces is no face of the solid).
+                let named = |p: u32| self.in_solids[p as usize];
+                if (named(e.shape) && (!named(best.shape) || e.shape < best.shape))
+                    || (!named(best.shape) && e.shape < best.shape)
+                {
                     best = e;
                 }
                 j += 1;
@@ -770,5 +786,78 @@ mod tests {
         assert!(a.prim.iter().any(|&p| p != 0));
         let r = crate::reference::compare(&a, &b).unwrap();
         assert_eq!(r.coverage_mismatch + r.prim_mismatch, 0);
+    }
+
+    /// Self-consistency against point classification: just before each visible
+    /// point the line is outside the solid, just after it inside.
+    #[test]
+    fn visible_points_are_solid_boundary_points() {
+        for seed in [1u64, 2, 3] {
+            let sc = random_scene(15, seed);
+            let prep = Prepared::new(&sc);
+            let (w, h) = (60u32, 50u32);
+            let mut checked = 0;
+            let mut bad = 0;
+            for y in 0..h {
+                for x in 0..w {
+                    let Some(hit) = prep.cast_pixel(x as f64 + 0.5, y as f64 + 0.5, w, h) else {
+                        continue;
+                    };
+                    let d = 1e-7;
+                    checked += 1;
+                    if prep.inside_solid(hit.point - hit.dir * d)
+                        || !prep.inside_solid(hit.point + hit.dir * d)
+                    {
+                        bad += 1;
+                    }
+                }
+            }
+            // Lines grazing an edge may have intervals shorter than 1e-7.
+            assert!(
+                checked > 100 && bad * 200 <= checked,
+                "seed {seed}: {bad} of {checked}"
+            );
+        }
+    }
+
+    /// Two solids are united; a primitive that only trims a surface never gives
+    /// the solid its index, even on a coincident face with a lower index.
+    #[test]
+    fn several_solids_and_trim_only_primitives() {
+        let mut sc = scene(
+            cam(),
+            vec![
+                prim("t", b([-3.0, -3.0, 0.0], [3.0, 3.0, 1.0]), [9, 9, 9]),
+                prim("a", b([-1.0; 3], [1.0; 3]), [200, 0, 0]),
+                prim("c", b([-2.0, -0.2, -1.0], [-1.5, 0.2, 1.0]), [0, 0, 200]),
+            ],
+            {
+                let mut e = ExprBuilder::default();
+                let l = e.leaf(1);
+                e.build(l)
+            },
+        );
+        sc.solids.push(crate::scene::Solid {
+            name: "second".into(),
+            expr: {
+                let mut e = ExprBuilder::default();
+                let l = e.leaf(2);
+                e.build(l)
+            },
+        });
+        let plane = box_mesh(DVec3::new(-5.0, -5.0, -5.0), DVec3::new(-4.0, -4.0, -4.0));
+        sc.surfaces.push(surface(
+            "s",
+            plane,
+            [1, 1, 1],
+            union_all(1),
+            Keep::In,
+            [0, 0, 0],
+        ));
+        let img = render(&sc, W, H);
+        let ids: std::collections::BTreeSet<u16> = img.prim.iter().copied().collect();
+        assert_eq!(ids, [0u16, 2, 3].into_iter().collect());
+        let c = img.prim[(H / 2 * W + W / 2) as usize];
+        assert_eq!(c, 2);
     }
 }

@@ -21,6 +21,7 @@ use super::image::{range, Image, ImageDesc};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_REVERSED_Z};
+use super::readback::{decode, Raw};
 use super::scissor::{bounds_rect, Rect};
 use crate::output::Images;
 use crate::plan::{Clear, Draw, Fragment, Geometry, Plan, Scissor, Step, Tex};
@@ -733,10 +734,14 @@ impl Executor {
         unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
         let cmds = [cmd];
         let si = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        // SAFETY: the command buffer is executable; the fence is unsignaled; the queue
-        // is used only by this thread (see Context::from_raw).
-        unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
-            .check("vkQueueSubmit")?;
+        {
+            let _queue = self.shared.queue_lock.lock();
+            // SAFETY: the command buffer is executable; the fence is unsignaled; the
+            // lock serializes our submissions (an embedding host synchronizes its own,
+            // see Context::from_raw).
+            unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
+                .check("vkQueueSubmit")?;
+        }
         // SAFETY: the fence was just submitted.
         unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
             .check("vkWaitForFences")?;
@@ -1446,9 +1451,12 @@ impl Executor {
         unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
         let cmds = [cmd];
         let si = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        // SAFETY: executable buffer, unsignaled fence.
-        unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
-            .check("vkQueueSubmit")?;
+        {
+            let _queue = self.shared.queue_lock.lock();
+            // SAFETY: executable buffer, unsignaled fence, submissions serialized.
+            unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
+                .check("vkQueueSubmit")?;
+        }
         // SAFETY: the fence was just submitted.
         unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
             .check("vkWaitForFences")?;
@@ -1462,41 +1470,20 @@ impl Executor {
             .transpose()?
             .unwrap_or(&[]);
         let scene = self.scene.as_ref().expect("scene uploaded");
-        let conv = self.convention();
-        let n = (w * h) as usize;
-        let word = |base: usize, i: usize| {
-            let o = base + i * 4;
-            [bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]
-        };
-        let bg = scene.background;
-        let mut images = Images {
-            width: w,
-            height: h,
-            color: Vec::with_capacity(n),
-            depth: Vec::with_capacity(n),
-            prim: Vec::with_capacity(n),
-        };
-        for i in 0..n {
-            let prim = u32::from_ne_bytes(word(plane as usize, i));
-            let dw = u32::from_ne_bytes(word(2 * plane as usize, i));
-            let z = match self.desc.depth_format {
-                DepthFormat::D32S8 => f32::from_bits(dw) as f64,
-                DepthFormat::D24S8 => (dw & 0x00ff_ffff) as f64 / 16_777_215.0,
-            };
-            if prim == 0 {
-                images.color.push([bg[0], bg[1], bg[2], 255]);
-                images.depth.push(f32::INFINITY);
-                images.prim.push(0);
-            } else {
-                let c = word(0, i);
-                images.color.push([c[0], c[1], c[2], 255]);
-                images
-                    .depth
-                    .push(scene.camera.view_depth_from_ndc(z, conv) as f32);
-                images.prim.push(prim.min(u16::MAX as u32) as u16);
-            }
-        }
-        Ok(images)
+        let plane = plane as usize;
+        Ok(decode(
+            Raw {
+                width: w,
+                height: h,
+                color: &bytes[..plane],
+                prim: &bytes[plane..2 * plane],
+                depth: &bytes[2 * plane..3 * plane],
+            },
+            self.desc.depth_format,
+            &scene.camera,
+            self.convention(),
+            scene.background,
+        ))
     }
 }
 
@@ -1521,15 +1508,13 @@ fn pass_entry<'a>(stats: &'a mut ExecStats, name: &str) -> Option<&'a mut PassSt
 impl Drop for Executor {
     fn drop(&mut self) {
         let d = &self.shared.device;
-        // SAFETY: waiting for the fence-tracked submissions (already waited) and any
-        // other work on the device before destroying what it may use.
-        unsafe {
-            let _ = d.device_wait_idle();
-        }
+        // Every submission is waited on before `submit`/`read_back` return, so the
+        // GPU uses none of our objects now (no device-wide wait: an embedding host may
+        // be using its queues).
         self.readback = None;
         self.resources = None;
         self.scene = None;
-        // SAFETY: the device is idle; each handle is destroyed once; null is ignored.
+        // SAFETY: no submission is pending; each handle is destroyed once; null is ignored.
         unsafe { d.destroy_query_pool(self.timestamps, None) };
         // SAFETY: as above.
         unsafe { d.destroy_query_pool(self.occlusion, None) };
