@@ -13,8 +13,12 @@ use peeltrim::vk::DeviceChoice;
 const ALGOS: [Algo; 3] = [Algo::Goldfeather, Algo::GoldfeatherLayered, Algo::Trickle];
 
 fn load(name: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
-    let opts = scene::load::LoadOptions { size: Some((128, 128)) };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    let opts = scene::load::LoadOptions {
+        size: Some((128, 128)),
+    };
     scene::load::load(&path, &opts).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
@@ -24,7 +28,8 @@ fn check(name: &str, algos: &[Algo], max_interior_mismatch: f64) {
     let scene = load(name);
     let reference = reference::render(&scene, scene.render.width, scene.render.height);
     let prep = Prepared::new(&scene).expect("prepared");
-    let mut gpu = GpuRenderer::new(&scene, DeviceChoice::Cpu, DepthSetup::D24S8, true).expect("lavapipe");
+    let mut gpu =
+        GpuRenderer::new(&scene, DeviceChoice::Cpu, DepthSetup::D24S8, true).expect("lavapipe");
     let mut failures = Vec::new();
     for &algo in algos {
         let plan = plan::build(algo, &prep).expect("plan");
@@ -47,12 +52,18 @@ fn check(name: &str, algos: &[Algo], max_interior_mismatch: f64) {
             s["loop_iterations"],
         );
         if r.coverage_mismatch_interior_frac > max_interior_mismatch {
-            failures.push(format!("{name} {algo}: interior coverage mismatch {}", r.coverage_mismatch_interior_frac));
+            failures.push(format!(
+                "{name} {algo}: interior coverage mismatch {}",
+                r.coverage_mismatch_interior_frac
+            ));
         }
         // A few depth quanta of a 24-bit buffer over the scene's depth range.
         let range = scene.camera.far - scene.camera.near;
         if r.depth_abs_err_p99_interior > 1e-3 * range {
-            failures.push(format!("{name} {algo}: interior depth p99 {}", r.depth_abs_err_p99_interior));
+            failures.push(format!(
+                "{name} {algo}: interior depth p99 {}",
+                r.depth_abs_err_p99_interior
+            ));
         }
     }
     let msgs = gpu.validation_messages();
@@ -97,17 +108,26 @@ fn classic_too_many_products_fail_fast() {
     let mut expr = Vec::new();
     for i in 0..40 {
         let s = 1.0 + 0.01 * i as f64;
-        text += &format!("[[primitive]]\nname = \"a{i}\"\nshape = \"box\"\nsize = [{s}, 1.0, 1.0]\n");
-        text += &format!("[[primitive]]\nname = \"b{i}\"\nshape = \"box\"\nsize = [1.0, {s}, 1.0]\n");
+        text +=
+            &format!("[[primitive]]\nname = \"a{i}\"\nshape = \"box\"\nsize = [{s}, 1.0, 1.0]\n");
+        text +=
+            &format!("[[primitive]]\nname = \"b{i}\"\nshape = \"box\"\nsize = [1.0, {s}, 1.0]\n");
         expr.push(format!("(a{i} + b{i})"));
     }
     text += &format!("[csg]\nexpr = \"{}\"\n", expr.join(" "));
-    let scene = scene::load::load_str(&text, Path::new("blowup.toml"), &Default::default()).expect("scene");
+    let scene =
+        scene::load::load_str(&text, Path::new("blowup.toml"), &Default::default()).expect("scene");
     let prep = Prepared::new(&scene).expect("prepared");
     for algo in ALGOS {
         let t = std::time::Instant::now();
-        let err = plan::build(algo, &prep).expect_err("too many products").to_string();
-        assert!(t.elapsed().as_secs_f64() < 1.0, "{algo} took {:?}", t.elapsed());
+        let err = plan::build(algo, &prep)
+            .expect_err("too many products")
+            .to_string();
+        assert!(
+            t.elapsed().as_secs_f64() < 1.0,
+            "{algo} took {:?}",
+            t.elapsed()
+        );
         assert!(err.contains("cst-i") && err.contains("products"), "{err}");
     }
 }

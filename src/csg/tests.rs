@@ -454,3 +454,72 @@ fn products_limit_fails_fast() {
     assert!(at_least > limit as u64);
     assert!(err.to_string().contains("--algo cst-i"), "{err}");
 }
+
+#[test]
+fn grouped_blist_equals_tree() {
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    for case in 0..600 {
+        let leaves = rng.gen_range(1..=60);
+        let prims = rng.gen_range(1..=8);
+        let e = random_expr(&mut rng, leaves, prims);
+        let pos = PositiveExpr::from_expr(&e);
+        let g = GroupedBlist::new(&pos);
+        let n: usize = g
+            .entries
+            .iter()
+            .map(|e| match &e.item {
+                Item::Literal(_) => 1,
+                Item::Group(g) => g.literals.len(),
+            })
+            .sum();
+        assert_eq!(n, leaves);
+        for _ in 0..24 {
+            let bits: Vec<bool> = (0..leaves).map(|_| rng.gen_bool(0.5)).collect();
+            let tree = e.eval(|l, _| bits[l as usize]);
+            assert_eq!(g.eval(|l| bits[l.leaf as usize]), tree, "case {case}");
+        }
+    }
+}
+
+#[test]
+fn groups_counter_data() {
+    let names = ["A", "B", "C", "D", "E"];
+    let mut resolve = |n: &str| names.iter().position(|&x| x == n).map(|i| i as u32);
+    let e = parse("(A + B + C + !D) - E", &mut resolve).unwrap();
+    let g = GroupedBlist::new(&PositiveExpr::from_expr(&e));
+    assert_eq!(g.entries.len(), 2, "{g:?}");
+    let union = g
+        .entries
+        .iter()
+        .find_map(|e| match &e.item {
+            Item::Group(g) => Some(g.clone()),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(union.kind, GroupKind::Union);
+    // De Morgan: !A !B !C D -> counter-positive D, counter-negative A, B, C.
+    assert_eq!((union.c_p(), union.c_n()), (1, 3));
+    assert_eq!(union.c0(2), 5);
+    assert_eq!(union.counter_bits(2), 3); // ceil(log2(1 + 3 + 4)) = 3
+    assert_eq!(g.stencil_bits(2), g.label_bits() + 3);
+    // A left-deep chain of unions is one group.
+    let e = parse("A + B + C + D", &mut resolve).unwrap();
+    let g = GroupedBlist::new(&PositiveExpr::from_expr(&e));
+    assert_eq!((g.entries.len(), g.num_groups()), (1, 1));
+}
+
+#[test]
+fn boundedness() {
+    let names = ["A", "B", "C"];
+    let mut resolve = |n: &str| names.iter().position(|&x| x == n).map(|i| i as u32);
+    let mut bounded =
+        |s: &str| PositiveExpr::from_expr(&parse(s, &mut resolve).unwrap()).is_bounded();
+    assert!(bounded("A"));
+    assert!(!bounded("!A"));
+    assert!(!bounded("!A + B"));
+    assert!(bounded("A - B"));
+    assert!(bounded("!A B"));
+    assert!(!bounded("!(A B)"));
+    assert!(bounded("!(!A + !B)"));
+    assert!(!bounded("A - (B - C) + !C"));
+}

@@ -100,10 +100,6 @@ pub struct Prepared {
 impl Prepared {
     pub fn new(scene: &Scene) -> Result<Self, PlanError> {
         let expr = union_of_solids(scene).ok_or(PlanError::NoSolid)?;
-        let positive = PositiveExpr::from_expr(&expr);
-        let mut solid_meshes: Vec<MeshId> = expr.leaves();
-        solid_meshes.sort_unstable();
-        solid_meshes.dedup();
         let meshes = scene
             .primitives
             .iter()
@@ -116,14 +112,28 @@ impl Prepared {
             mesh_bounds.push(bounds(&m.positions));
             mesh_convex.push(goldfeather::is_convex(m));
         }
-        Ok(Prepared {
+        let mut prep = Self::from_parts(expr, mesh_triangles, mesh_bounds);
+        prep.mesh_convex = mesh_convex;
+        Ok(prep)
+    }
+
+    /// From an expression and per-mesh triangle counts and bounds (tests and
+    /// cost models that need no geometry).
+    pub fn from_parts(expr: Expr, mesh_triangles: Vec<usize>, mesh_bounds: Vec<Aabb>) -> Self {
+        let positive = PositiveExpr::from_expr(&expr);
+        let mut solid_meshes: Vec<MeshId> = expr.leaves();
+        solid_meshes.sort_unstable();
+        solid_meshes.dedup();
+        // Without geometry no mesh is known convex (Goldfeather then peels: always correct).
+        let mesh_convex = vec![false; mesh_triangles.len()];
+        Prepared {
             expr,
             positive,
             solid_meshes,
             mesh_triangles,
             mesh_bounds,
             mesh_convex,
-        })
+        }
     }
 
     pub fn triangles_in(&self, meshes: &[MeshId]) -> usize {

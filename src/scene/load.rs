@@ -38,7 +38,7 @@ use super::validate::{check_closed, signed_volume};
 use super::{
     Camera, Keep, Mesh, Primitive, Projection, RenderSettings, Scene, Shape, Solid, Surface,
 };
-use crate::csg::{Expr, Node};
+use crate::csg::Expr;
 
 /// Options from the command line that change how a scene is resolved.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -1000,36 +1000,12 @@ impl Loader<'_> {
 
 /// Parses a solid or trim expression over the primitive names. The one call site of
 /// the expression parser.
-// TODO(merge): replace `tmp_parse::parse` by `crate::csg::parse`.
 pub fn parse_expr(src: &str, prims: &HashMap<&str, u32>) -> Result<Expr, String> {
-    super::tmp_parse::parse(src, &mut |n| prims.get(n).copied()).map_err(|e| e.to_string())
+    crate::csg::parse(src, &mut |n| prims.get(n).copied()).map_err(|e| e.to_string())
 }
 
-/// Whether the point set of `e` is bounded (primitives are bounded). Computes for
-/// every node (bounded, complement bounded), bottom-up without recursion.
+/// Whether the point set of `e` is bounded (primitives are bounded): decided on
+/// the positive form, where a complemented leaf is the unbounded part.
 pub fn is_bounded(e: &Expr) -> bool {
-    let mut v = vec![(false, false); e.nodes.len()];
-    for n in e.postorder() {
-        v[n as usize] = match e.nodes[n as usize] {
-            Node::Leaf { .. } => (true, false),
-            Node::Not(a) => {
-                let (b, c) = v[a as usize];
-                (c, b)
-            }
-            Node::Union(a, b) => {
-                let (x, y) = (v[a as usize], v[b as usize]);
-                (x.0 && y.0, x.1 || y.1)
-            }
-            Node::Inter(a, b) => {
-                let (x, y) = (v[a as usize], v[b as usize]);
-                (x.0 || y.0, x.1 && y.1)
-            }
-            // a - b = a ∩ !b
-            Node::Diff(a, b) => {
-                let (x, y) = (v[a as usize], v[b as usize]);
-                (x.0 || y.1, x.1 && y.0)
-            }
-        };
-    }
-    v[e.root as usize].0
+    crate::csg::PositiveExpr::from_expr(e).is_bounded()
 }

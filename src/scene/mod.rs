@@ -12,7 +12,6 @@ pub mod load;
 pub mod obj;
 pub mod shapes;
 // TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
-mod tmp_parse;
 pub mod validate;
 pub use camera::{Camera, Projection};
 pub use load::{is_bounded, load, load_str, LoadOptions, SceneError};
@@ -143,3 +142,14 @@ pub struct Scene {
 
 #[cfg(test)]
 mod load_tests;
+
+impl Scene {
+    /// Mesh names in mesh-index order: primitives, then surfaces.
+    pub fn mesh_names(&self) -> Vec<String> {
+        self.primitives
+            .iter()
+            .map(|p| p.name.clone())
+            .chain(self.surfaces.iter().map(|s| s.name.clone()))
+            .collect()
+    }
+}

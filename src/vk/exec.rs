@@ -21,6 +21,7 @@ use super::image::{range, Image, ImageDesc};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_REVERSED_Z};
+use super::readback::{decode, Raw};
 use super::scissor::{bounds_rect, Rect};
 use crate::output::Images;
 use crate::plan::{Clear, Draw, Fragment, Geometry, Plan, Scissor, Step, Tex};
@@ -194,11 +195,50 @@ fn full_memory_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
     };
 }
 
-fn count_queries(steps: &[Step]) -> (u32, u32) {
+/// Layout transitions of whole images, with full execution and memory dependencies.
+fn transition(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    images: &[(&Image, vk::ImageLayout, vk::ImageLayout)],
+) {
+    let barriers: Vec<_> = images
+        .iter()
+        .map(|(img, old, new)| {
+            vk::ImageMemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
+                .dst_access_mask(vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE)
+                .old_layout(*old)
+                .new_layout(*new)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(img.raw)
+                .subresource_range(range(img.desc.aspect()))
+        })
+        .collect();
+    // SAFETY: recording, outside rendering; the images are live and in `old`.
+    unsafe {
+        device.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::ALL_COMMANDS,
+            vk::PipelineStageFlags::ALL_COMMANDS,
+            vk::DependencyFlags::empty(),
+            &[],
+            &[],
+            &barriers,
+        )
+    };
+}
+
+const GENERAL: vk::ImageLayout = vk::ImageLayout::GENERAL;
+const SRC: vk::ImageLayout = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+const DST: vk::ImageLayout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+
+/// Occlusion and timestamp queries one submission of `steps` needs.
+fn count_queries(steps: &[&Step]) -> (u32, u32) {
     let mut occlusion = 0;
     let mut passes = 0;
     for s in steps {
-        match s {
+        match *s {
             Step::Draw(d) if d.count_samples => occlusion += 1,
             Step::Pass(_) => passes += 1,
             _ => {}
@@ -669,17 +709,7 @@ impl Executor {
     /// Records `steps` into one command buffer, submits and waits. Returns the
     /// samples passed by its counted draws.
     fn submit(&mut self, steps: &[&Step], run: &mut Run) -> Result<u64, VkError> {
-        let owned: Vec<Step> = Vec::new();
-        let _ = owned;
-        let (n_occ, n_ts) = {
-            let (mut o, mut p) = (0u32, 2u32);
-            for s in steps {
-                let (a, b) = count_queries(std::slice::from_ref(*s));
-                o += a;
-                p += b - 2;
-            }
-            (o, p)
-        };
+        let (n_occ, n_ts) = count_queries(steps);
         self.ensure_queries(n_occ.max(1), n_ts)?;
         let device = self.shared.device.clone();
         let cmd = self.cmd;
@@ -716,10 +746,14 @@ impl Executor {
         unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
         let cmds = [cmd];
         let si = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        // SAFETY: the command buffer is executable; the fence is unsignaled; the queue
-        // is used only by this thread (see Context::from_raw).
-        unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
-            .check("vkQueueSubmit")?;
+        {
+            let _queue = self.shared.queue_lock.lock();
+            // SAFETY: the command buffer is executable; the fence is unsignaled; the
+            // lock serializes our submissions (an embedding host synchronizes its own,
+            // see Context::from_raw).
+            unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
+                .check("vkQueueSubmit")?;
+        }
         // SAFETY: the fence was just submitted.
         unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
             .check("vkWaitForFences")?;
@@ -758,7 +792,9 @@ impl Executor {
             for i in 0..rec.marks.len() - 1 {
                 let ms = ts[i + 1].saturating_sub(ts[i]) as f64 * period * 1e-6;
                 run.stats.gpu_ms += ms;
-                pass_entry(&mut run.stats, &rec.marks[i].1).gpu_ms += ms;
+                if let Some(p) = pass_entry(&mut run.stats, &rec.marks[i].1) {
+                    p.gpu_ms += ms;
+                }
             }
         }
         Ok(samples)
@@ -993,18 +1029,23 @@ impl Executor {
                         depth: 1,
                     },
                 };
-                // SAFETY: outside rendering; both images allow transfer, same format.
-                unsafe {
-                    device.cmd_copy_image(
-                        cmd,
-                        res.tex[*src as usize].raw,
-                        vk::ImageLayout::GENERAL,
-                        res.tex[*dst as usize].raw,
-                        vk::ImageLayout::GENERAL,
-                        &[region],
-                    )
-                };
-                full_memory_barrier(&device, cmd);
+                let (s_img, d_img) = (&res.tex[*src as usize], &res.tex[*dst as usize]);
+                if src == dst {
+                    return Ok(());
+                }
+                transition(
+                    &device,
+                    cmd,
+                    &[(s_img, GENERAL, SRC), (d_img, GENERAL, DST)],
+                );
+                // SAFETY: outside rendering; both images allow transfer, same format,
+                // in the layouts given.
+                unsafe { device.cmd_copy_image(cmd, s_img.raw, SRC, d_img.raw, DST, &[region]) };
+                transition(
+                    &device,
+                    cmd,
+                    &[(s_img, SRC, GENERAL), (d_img, DST, GENERAL)],
+                );
             }
             Step::CopyDepthToTexture { ds, dst } => {
                 let key = BlockKey {
@@ -1292,7 +1333,9 @@ impl Executor {
             None
         };
         run.stats.draws += 1;
-        pass_entry(&mut run.stats, &run.pass).draws += 1;
+        if let Some(p) = pass_entry(&mut run.stats, &run.pass) {
+            p.draws += 1;
+        }
         match &draw.geometry {
             Geometry::FullScreen { depth } => {
                 let color = match draw.fragment {
@@ -1388,6 +1431,8 @@ impl Executor {
                 plane * 2,
             ),
         ];
+        let imgs: Vec<_> = copies.iter().map(|c| (c.0, GENERAL, SRC)).collect();
+        transition(&device, cmd, &imgs);
         for (img, aspect, offset) in copies {
             let region = vk::BufferImageCopy {
                 buffer_offset: offset,
@@ -1407,16 +1452,10 @@ impl Executor {
                 },
             };
             // SAFETY: outside rendering; the image allows transfer src; the region fits.
-            unsafe {
-                device.cmd_copy_image_to_buffer(
-                    cmd,
-                    img.raw,
-                    vk::ImageLayout::GENERAL,
-                    buffer,
-                    &[region],
-                )
-            };
+            unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, SRC, buffer, &[region]) };
         }
+        let back: Vec<_> = copies.iter().map(|c| (c.0, SRC, GENERAL)).collect();
+        transition(&device, cmd, &back);
         let to_host = [vk::MemoryBarrier::default()
             .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
             .dst_access_mask(vk::AccessFlags::HOST_READ)];
@@ -1424,7 +1463,7 @@ impl Executor {
         unsafe {
             device.cmd_pipeline_barrier(
                 cmd,
-                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::ALL_COMMANDS,
                 vk::PipelineStageFlags::HOST,
                 vk::DependencyFlags::empty(),
                 &to_host,
@@ -1436,9 +1475,12 @@ impl Executor {
         unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
         let cmds = [cmd];
         let si = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        // SAFETY: executable buffer, unsignaled fence.
-        unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
-            .check("vkQueueSubmit")?;
+        {
+            let _queue = self.shared.queue_lock.lock();
+            // SAFETY: executable buffer, unsignaled fence, submissions serialized.
+            unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
+                .check("vkQueueSubmit")?;
+        }
         // SAFETY: the fence was just submitted.
         unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
             .check("vkWaitForFences")?;
@@ -1452,45 +1494,28 @@ impl Executor {
             .transpose()?
             .unwrap_or(&[]);
         let scene = self.scene.as_ref().expect("scene uploaded");
-        let conv = self.convention();
-        let n = (w * h) as usize;
-        let word = |base: usize, i: usize| {
-            let o = base + i * 4;
-            [bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]
-        };
-        let bg = scene.background;
-        let mut images = Images {
-            width: w,
-            height: h,
-            color: Vec::with_capacity(n),
-            depth: Vec::with_capacity(n),
-            prim: Vec::with_capacity(n),
-        };
-        for i in 0..n {
-            let prim = u32::from_ne_bytes(word(plane as usize, i));
-            let dw = u32::from_ne_bytes(word(2 * plane as usize, i));
-            let z = match self.desc.depth_format {
-                DepthFormat::D32S8 => f32::from_bits(dw) as f64,
-                DepthFormat::D24S8 => (dw & 0x00ff_ffff) as f64 / 16_777_215.0,
-            };
-            if prim == 0 {
-                images.color.push([bg[0], bg[1], bg[2], 255]);
-                images.depth.push(f32::INFINITY);
-                images.prim.push(0);
-            } else {
-                let c = word(0, i);
-                images.color.push([c[0], c[1], c[2], 255]);
-                images
-                    .depth
-                    .push(scene.camera.view_depth_from_ndc(z, conv) as f32);
-                images.prim.push(prim.min(u16::MAX as u32) as u16);
-            }
-        }
-        Ok(images)
+        let plane = plane as usize;
+        Ok(decode(
+            Raw {
+                width: w,
+                height: h,
+                color: &bytes[..plane],
+                prim: &bytes[plane..2 * plane],
+                depth: &bytes[2 * plane..3 * plane],
+            },
+            self.desc.depth_format,
+            &scene.camera,
+            self.convention(),
+            scene.background,
+        ))
     }
 }
 
-fn pass_entry<'a>(stats: &'a mut ExecStats, name: &str) -> &'a mut PassStats {
+/// The per-pass entry of `name`; none for work before the first `Step::Pass`.
+fn pass_entry<'a>(stats: &'a mut ExecStats, name: &str) -> Option<&'a mut PassStats> {
+    if name.is_empty() {
+        return None;
+    }
     let i = match stats.per_pass.iter().position(|p| p.name == name) {
         Some(i) => i,
         None => {
@@ -1501,21 +1526,19 @@ fn pass_entry<'a>(stats: &'a mut ExecStats, name: &str) -> &'a mut PassStats {
             stats.per_pass.len() - 1
         }
     };
-    &mut stats.per_pass[i]
+    Some(&mut stats.per_pass[i])
 }
 
 impl Drop for Executor {
     fn drop(&mut self) {
         let d = &self.shared.device;
-        // SAFETY: waiting for the fence-tracked submissions (already waited) and any
-        // other work on the device before destroying what it may use.
-        unsafe {
-            let _ = d.device_wait_idle();
-        }
+        // Every submission is waited on before `submit`/`read_back` return, so the
+        // GPU uses none of our objects now (no device-wide wait: an embedding host may
+        // be using its queues).
         self.readback = None;
         self.resources = None;
         self.scene = None;
-        // SAFETY: the device is idle; each handle is destroyed once; null is ignored.
+        // SAFETY: no submission is pending; each handle is destroyed once; null is ignored.
         unsafe { d.destroy_query_pool(self.timestamps, None) };
         // SAFETY: as above.
         unsafe { d.destroy_query_pool(self.occlusion, None) };

@@ -58,11 +58,14 @@ pub(crate) struct Shared {
     pub instance: ash::Instance,
     pub debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     /// Pointed to by the messenger's user data; outlives the messenger.
-    pub messages: Box<Arc<Messages>>,
+    pub messages: Arc<Messages>,
     pub physical: vk::PhysicalDevice,
     pub device: ash::Device,
     pub queue_family: u32,
     pub queue: vk::Queue,
+    /// Held while submitting: `vkQueueSubmit` needs external synchronization, and
+    /// executors of one context may live on different threads.
+    pub queue_lock: Mutex<()>,
     pub limits: vk::PhysicalDeviceLimits,
     pub timestamp_valid_bits: u32,
     pub device_name: String,
@@ -115,9 +118,9 @@ unsafe extern "system" fn debug_callback(
     let message = unsafe { (*data).message_as_c_str() }
         .map(|m| m.to_string_lossy().into_owned())
         .unwrap_or_default();
-    // SAFETY: `user` is the `Arc<Messages>` boxed in `Shared`, alive as long as the
-    // messenger that calls us.
-    let messages = unsafe { &*(user as *const Arc<Messages>) };
+    // SAFETY: `user` points into the `Arc<Messages>` held by `Shared` (or by
+    // `Context::new` while it runs), alive as long as the messenger that calls us.
+    let messages = unsafe { &*(user as *const Messages) };
     let line = format!("[{severity:?}] {message}");
     eprintln!("vulkan validation: {line}");
     if let Ok(mut m) = messages.lock() {
@@ -138,7 +141,7 @@ fn debug_info(messages: &Arc<Messages>) -> vk::DebugUtilsMessengerCreateInfoEXT<
                 | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
         )
         .pfn_user_callback(Some(debug_callback))
-        .user_data(messages as *const Arc<Messages> as *mut c_void)
+        .user_data(Arc::as_ptr(messages) as *mut c_void)
 }
 
 fn device_type_rank(t: vk::PhysicalDeviceType) -> Option<u32> {
@@ -157,7 +160,7 @@ impl Context {
         // preconditions beyond being a genuine loader library.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| VkError::Loader(e.to_string()))?;
 
-        let messages: Box<Arc<Messages>> = Box::new(Arc::new(Mutex::new(Vec::new())));
+        let messages: Arc<Messages> = Arc::new(Mutex::new(Vec::new()));
         let mut layers = Vec::new();
         let mut extensions = Vec::new();
         if desc.validation {
@@ -209,7 +212,7 @@ impl Context {
         let debug = if desc.validation {
             let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = debug_info(&messages);
-            // SAFETY: the user-data pointer (boxed Arc) outlives the messenger.
+            // SAFETY: the user-data pointer (the Arc's contents) outlives the messenger.
             let m = unsafe { du.create_debug_utils_messenger(&info, None) }
                 .check("vkCreateDebugUtilsMessengerEXT")?;
             Some((du, m))
@@ -246,7 +249,10 @@ impl Context {
         let queue_ci = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        let mut f13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true);
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
+            .dynamic_rendering(true)
+            // Lets depth-only fragment shaders ignore the shared vertex outputs.
+            .maintenance4(true);
         let dci = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_ci)
             .push_next(&mut f13);
@@ -331,7 +337,7 @@ impl Context {
         entry: ash::Entry,
         instance: ash::Instance,
         debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
-        messages: Box<Arc<Messages>>,
+        messages: Arc<Messages>,
         physical: vk::PhysicalDevice,
         device: ash::Device,
         queue_family: u32,
@@ -370,6 +376,7 @@ impl Context {
             device,
             queue_family,
             queue,
+            queue_lock: Mutex::new(()),
             limits: props.limits,
             timestamp_valid_bits,
             device_name,
@@ -391,7 +398,7 @@ impl Context {
     /// # Safety
     /// - `instance` was created from `entry` with API version 1.3 or later, and
     ///   `device` from `physical_device` of `instance` with Vulkan 1.3 and the
-    ///   `dynamicRendering` feature enabled;
+    ///   `dynamicRendering` and `maintenance4` features enabled;
     /// - `queue` is a queue of family `queue_family`, which supports graphics;
     /// - the instance, device and queue stay valid until this context and every
     ///   executor made from it are dropped; the context does not destroy them;
@@ -405,7 +412,7 @@ impl Context {
         queue_family: u32,
         queue: vk::Queue,
     ) -> Result<Context, VkError> {
-        let messages: Box<Arc<Messages>> = Box::new(Arc::new(Mutex::new(Vec::new())));
+        let messages: Arc<Messages> = Arc::new(Mutex::new(Vec::new()));
         Self::finish(
             entry,
             instance,
@@ -448,5 +455,17 @@ impl Context {
 
     pub fn raw_entry(&self) -> &ash::Entry {
         &self.shared.entry
+    }
+
+    pub fn raw_physical_device(&self) -> vk::PhysicalDevice {
+        self.shared.physical
+    }
+
+    pub fn queue_family(&self) -> u32 {
+        self.shared.queue_family
+    }
+
+    pub fn raw_queue(&self) -> vk::Queue {
+        self.shared.queue
     }
 }

@@ -1,11 +1,11 @@
 //! The Vulkan executor: runs [`crate::plan::Plan`]s. Knows images, pipelines,
 //! stencil and depth state, queries; knows nothing of CSG.
 //!
-//! - [`instance`]: [`Context`] (instance, debug messenger, device, allocator)
-//! - [`memory`], [`image`]: buffers and images that own their memory
-//! - [`pipeline`]: pipelines per fragment program, all depth/stencil state dynamic
-//! - [`conv`], [`scissor`]: pure mappings (tested without a GPU)
-//! - [`exec`]: the plan executor and its statistics; readback lives there too
+//! Modules: `instance` ([`Context`]: instance, debug messenger, device, allocator);
+//! `memory` and `image` (buffers and images that own their memory); `pipeline`
+//! (one per fragment program, all depth/stencil state dynamic); `conv` and
+//! `scissor` (pure mappings, tested without a GPU); `exec` (the plan executor and its
+//! statistics); `readback` (GPU bytes to output images).
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod conv;
@@ -15,6 +15,7 @@ pub mod image;
 pub mod instance;
 pub mod memory;
 pub mod pipeline;
+pub mod readback;
 pub mod scissor;
 
 pub use error::VkError;
