@@ -51,6 +51,30 @@ fn check(name: &str, algos: &[Algo], max_interior_mismatch: f64) {
             s["fullscreen_passes"],
             s["loop_iterations"],
         );
+        let extra = (0..reference.depth.len())
+            .filter(|&i| reference.prim[i] == 0 && frame.images.prim[i] != 0)
+            .count();
+        let missing = (0..reference.depth.len())
+            .filter(|&i| reference.prim[i] != 0 && frame.images.prim[i] == 0)
+            .count();
+        println!("    extra {extra} missing {missing}");
+        if std::env::var("CLASSIC_DUMP").is_ok() {
+            let w = frame.images.width as usize;
+            for y in (0..frame.images.height as usize).step_by(2) {
+                let row: String = (0..w)
+                    .map(|x| {
+                        let i = y * w + x;
+                        match (reference.prim[i] != 0, frame.images.prim[i] != 0) {
+                            (true, true) => '#',
+                            (false, false) => '.',
+                            (true, false) => 'm',
+                            (false, true) => 'x',
+                        }
+                    })
+                    .collect();
+                println!("{row}");
+            }
+        }
         if r.coverage_mismatch_interior_frac > max_interior_mismatch {
             failures.push(format!(
                 "{name} {algo}: interior coverage mismatch {}",

@@ -36,16 +36,12 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             tex: PREV,
             depth: 0.0,
         }));
-        steps.push(Step::Clear(Clear::Texture {
-            tex: CUR,
-            depth: 0.0,
-        }));
-        let mut head = vec![Step::Pass("layer".into()), clear_surface()];
+        let mut draws = Vec::new();
         for (meshes, cull) in [(pos, Cull::Back), (neg, Cull::Front)] {
             if meshes.is_empty() {
                 continue;
             }
-            head.push(Step::Draw(Draw {
+            draws.push(Step::Draw(Draw {
                 geometry: Geometry::Meshes(meshes.clone()),
                 scissor: Scissor::BoundsOf(meshes),
                 cull,
@@ -63,7 +59,12 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                 count_samples: true,
             }));
         }
-        let mut tail = clip_steps(p, &all);
+        let head = peel_head(draws);
+        let mut tail = vec![Step::CopyTexture {
+            src: CUR,
+            dst: SURF,
+        }];
+        tail.extend(clip_steps(p, &all));
         tail.extend(merge_steps(&all));
         tail.push(Step::CopyTexture {
             src: CUR,

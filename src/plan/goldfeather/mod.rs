@@ -169,7 +169,11 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             {
                 steps.push(Step::Pass("surface".into()));
                 steps.push(clear_surface());
-                steps.push(surface_draw(a, Fragment::None, false));
+                steps.push(Step::Clear(Clear::Texture {
+                    tex: SURF,
+                    depth: FAR,
+                }));
+                steps.push(surface_draw(a, Fragment::WriteDepth { out: SURF }, false));
                 steps.extend(clip_merge);
             } else {
                 // Goldfeather's layers (§3.5): peel the literal's visible faces.
@@ -179,24 +183,17 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                     tex: PREV,
                     depth: 0.0,
                 }));
-                steps.push(Step::Clear(Clear::Texture {
-                    tex: CUR,
-                    depth: 0.0,
-                }));
-                let head = vec![
-                    Step::Pass("surface".into()),
-                    clear_surface(),
-                    surface_draw(
-                        a,
-                        Fragment::Peel {
-                            prev: PREV,
-                            out: CUR,
-                            shade: false,
-                        },
-                        true,
-                    ),
-                ];
-                let mut tail = clip_merge;
+                let peel = Fragment::Peel {
+                    prev: PREV,
+                    out: CUR,
+                    shade: false,
+                };
+                let head = peel_head(vec![surface_draw(a, peel, true)]);
+                let mut tail = vec![Step::CopyTexture {
+                    src: CUR,
+                    dst: SURF,
+                }];
+                tail.extend(clip_merge);
                 tail.push(Step::CopyTexture {
                     src: CUR,
                     dst: PREV,
@@ -231,6 +228,21 @@ pub(crate) fn init_steps() -> Vec<Step> {
         }),
         Step::Clear(Clear::Color),
     ]
+}
+
+/// The head of a layer-peeling loop: fresh surface image, the current layer
+/// texture at far (a pixel without a layer now has none behind either), `draws`.
+pub(crate) fn peel_head(draws: Vec<Step>) -> Vec<Step> {
+    let mut head = vec![
+        Step::Pass("surface".into()),
+        clear_surface(),
+        Step::Clear(Clear::Texture {
+            tex: CUR,
+            depth: FAR,
+        }),
+    ];
+    head.extend(draws);
+    head
 }
 
 pub(crate) fn clear_surface() -> Step {
@@ -300,8 +312,9 @@ pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId]) -> Vec<Step> {
     steps
 }
 
-/// Where `(stencil & PARITY) == outside`, depth := far (the pixel leaves the
-/// surface); the parity bit is cleared on every swept pixel, pass or fail.
+/// Where `(stencil & PARITY) == outside`, depth := far in the image and in the
+/// surface texture `SURF` (the pixel leaves the surface); the parity bit is cleared
+/// on every swept pixel, pass or fail.
 fn reject_sweep(outside: u8, scissor: Scissor) -> Step {
     let face = StencilFace {
         compare: CompareOp::Equal,
@@ -325,7 +338,7 @@ fn reject_sweep(outside: u8, scissor: Scissor) -> Step {
             write_mask: PARITY,
             reference: outside,
         }),
-        fragment: Fragment::None,
+        fragment: Fragment::WriteDepth { out: SURF },
         count_samples: false,
     })
 }
@@ -334,10 +347,6 @@ fn reject_sweep(outside: u8, scissor: Scissor) -> Step {
 pub(crate) fn merge_steps(surface: &[MeshId]) -> Vec<Step> {
     vec![
         Step::Pass("merge".into()),
-        Step::CopyDepthToTexture {
-            ds: SURFACE,
-            dst: SURF,
-        },
         Step::Draw(Draw {
             geometry: Geometry::FullScreen { depth: FAR },
             scissor: Scissor::BoundsOf(surface.to_vec()),
