@@ -121,6 +121,11 @@ pub enum Fragment {
     /// Full-screen copy of texture `src` into texture `out` at the pixels the draw's
     /// stencil (and depth) tests pass; the fragment depth is the rectangle's.
     CopyTexel { src: Tex, out: Tex },
+    /// [`Fragment::Shade`] restricted to fragments whose depth is within `eps`
+    /// (normalized depth) of texture `depth` at this pixel (not far there): shades
+    /// a visible surface given as depths, coincident faces included, whatever
+    /// their rasterized rounding. Later draws overwrite earlier ones.
+    ShadeNear { depth: Tex, eps: f32 },
 }
 
 /// One rasterization.

@@ -25,8 +25,9 @@
 //! is the paper's; a product takes at most one round more than the paper's
 //! circulation. A one-primitive product still takes two rounds, as with k = −1.
 //! The merge into buffer 1 is a depth-less test (line 33's eps only kept colours
-//! apart; shading here is a separate depth-equal pass, lowest primitive index wins
-//! on coincident faces, as in [`super::goldfeather`]).
+//! apart; shading here is a separate pass that paints faces within
+//! [`super::goldfeather::SHADE_EPS`] of the final depth, lowest primitive index
+//! winning on coincident faces, as in [`super::goldfeather`]).
 //!
 //! ## eps (§3.2–3.3)
 //! Every comparison of a scanned depth with `Z2` is made `eps` behind the scanned
@@ -94,7 +95,7 @@ pub fn plan(prep: &Prepared, opts: &TrickleOptions) -> Result<Plan, PlanError> {
     for p in &prods {
         steps.extend(product_steps(prep, p, eps));
     }
-    steps.extend(shade_steps(prep));
+    steps.extend(shade_steps(prep, Z3));
     Ok(Plan {
         algo: "trickle".into(),
         depth_stencils: 2,

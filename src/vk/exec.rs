@@ -675,6 +675,7 @@ impl Executor {
                         }
                         Fragment::WriteDepth { out } => check_tex(out)?,
                         Fragment::DepthFromTexture { src } => check_tex(src)?,
+                        Fragment::ShadeNear { depth, .. } => check_tex(depth)?,
                         Fragment::PeelTolerant {
                             prev: a, out: b, ..
                         }
@@ -1282,6 +1283,11 @@ impl Executor {
                     vec![Target::Tex(out)],
                     Some(res.tex_sets[prev as usize]),
                 ),
+                Fragment::ShadeNear { depth, .. } => (
+                    FragmentKind::ShadeNear,
+                    vec![Target::Color, Target::Prim],
+                    Some(res.tex_sets[depth as usize]),
+                ),
                 // The texel copy is the depth-copy shader reading a depth texture.
                 Fragment::CopyTexel { src, out } => (
                     FragmentKind::CopyDepth,
@@ -1368,6 +1374,10 @@ impl Executor {
                         Fragment::Paint { rgb: c } => rgb(c),
                         Fragment::Background => rgb(scene.background),
                         Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
+                        Fragment::ShadeNear { eps, .. } => {
+                            let [r, g, b, _] = rgb(scene.colors[m as usize]);
+                            [r, g, b, eps]
+                        }
                         _ => rgb(scene.colors[m as usize]),
                     };
                     let pc = PushConstants {

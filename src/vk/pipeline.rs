@@ -23,6 +23,8 @@ pub enum FragmentKind {
     PeelShade,
     /// Peel with a tolerance: behind the previous layer by more than eps (`color.x`).
     PeelTolerant,
+    /// Shade within eps (`color.w`) of a depth texture.
+    ShadeNear,
     WriteDepth,
     DepthFromTexture,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
@@ -44,6 +46,7 @@ impl FragmentKind {
             FragmentKind::Peel => spv!("peel.frag"),
             FragmentKind::PeelShade => spv!("peel_shade.frag"),
             FragmentKind::PeelTolerant => spv!("peel_tolerant.frag"),
+            FragmentKind::ShadeNear => spv!("shade_near.frag"),
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),

@@ -78,7 +78,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             max_iterations,
         }));
     }
-    steps.extend(shade_steps(prep));
+    steps.extend(shade_steps(prep, SURF));
     Ok(Plan {
         algo: "goldfeather-layered".into(),
         depth_stencils: 2,

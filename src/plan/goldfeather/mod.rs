@@ -20,11 +20,14 @@
 //! (every vertex on the inner side of every face plane, [`is_convex`]); a convex
 //! mesh has one such face per pixel and takes the single-draw fast path.
 //!
-//! Depth tolerance: none. Survivors keep the exact rasterized depth, the merge and
-//! the depth-equal shading compare bit-identical values (one invariant vertex
-//! shader), so where faces of several primitives coincide the shading pass decides:
-//! it draws the primitives in *descending* index order with depth `Equal`, so the
-//! lowest index is written last and wins (CONTRACT.md §4, `prim.png`).
+//! Depth tolerance: none in the classification (parity is exact `LessOrEqual` on
+//! rasterized depths; survivors keep their `f32` fragment depth in a texture, so
+//! the merge loses nothing to a depth-buffer round trip). The shading pass then
+//! paints every face within [`SHADE_EPS`] (2⁻¹⁹ normalized depth) of the final
+//! depth, primitives in *descending* index order, so where faces of several
+//! primitives coincide the lowest index is written last and wins (CONTRACT.md §4,
+//! `prim.png`) — depth-equal would fail on coincident faces of different triangles,
+//! which rasterize an ulp or two apart.
 #![deny(unsafe_code)]
 
 pub mod layered;
@@ -207,7 +210,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             }
         }
     }
-    steps.extend(shade_steps(prep));
+    steps.extend(shade_steps(prep, SURF));
     Ok(Plan {
         algo: "goldfeather".into(),
         depth_stencils: 2,
@@ -363,11 +366,24 @@ pub(crate) fn merge_steps(surface: &[MeshId]) -> Vec<Step> {
     ]
 }
 
-/// Shading by depth-equal on the output depth: every solid primitive's faces (both
-/// orientations: complemented primitives show their back faces), in descending
-/// index order so that on coincident faces the lowest index is written last.
-pub(crate) fn shade_steps(prep: &Prepared) -> Vec<Step> {
-    let mut steps = vec![Step::Pass("shade".into())];
+/// Depth tolerance (normalized depth) of the shading pass: 32 quanta of a 24-bit
+/// depth buffer, 2⁻¹⁹. Faces within it of the visible depth count as coincident.
+pub const SHADE_EPS: f32 = 1.0 / (1 << 19) as f32;
+
+/// Shading of the output depth (copied into texture `tex`): every solid
+/// primitive's faces (both orientations: complemented primitives show their back
+/// faces) within [`SHADE_EPS`] of it, in descending index order, so that on
+/// coincident faces the lowest index is written last and wins. A tolerance rather
+/// than depth-equal, because coincident faces of different triangles rasterize to
+/// depths an ulp or two apart.
+pub(crate) fn shade_steps(prep: &Prepared, tex: Tex) -> Vec<Step> {
+    let mut steps = vec![
+        Step::Pass("shade".into()),
+        Step::CopyDepthToTexture {
+            ds: OUTPUT,
+            dst: tex,
+        },
+    ];
     for &m in prep.solid_meshes.iter().rev() {
         steps.push(Step::Draw(Draw {
             geometry: Geometry::Mesh(m),
@@ -375,11 +391,14 @@ pub(crate) fn shade_steps(prep: &Prepared) -> Vec<Step> {
             cull: Cull::None,
             ds: OUTPUT,
             depth: DepthState {
-                compare: CompareOp::Equal,
+                compare: CompareOp::Always,
                 write: false,
             },
             stencil: None,
-            fragment: Fragment::Shade,
+            fragment: Fragment::ShadeNear {
+                depth: tex,
+                eps: SHADE_EPS,
+            },
             count_samples: false,
         }));
     }
