@@ -126,6 +126,10 @@ pub enum Fragment {
     /// a visible surface given as depths, coincident faces included, whatever
     /// their rasterized rounding. Later draws overwrite earlier ones.
     ShadeNear { depth: Tex, eps: f32 },
+    /// Depth and stencil only, with the fragment's depth moved `eps` (normalized
+    /// depth) nearer: depth tests then count faces up to `eps` behind what the
+    /// image holds (a tolerant `LessOrEqual`).
+    Nearer { eps: f32 },
 }
 
 /// One rasterization.

@@ -1283,6 +1283,7 @@ impl Executor {
                     vec![Target::Tex(out)],
                     Some(res.tex_sets[prev as usize]),
                 ),
+                Fragment::Nearer { .. } => (FragmentKind::Nearer, vec![], None),
                 Fragment::ShadeNear { depth, .. } => (
                     FragmentKind::ShadeNear,
                     vec![Target::Color, Target::Prim],
@@ -1346,6 +1347,7 @@ impl Executor {
             Geometry::FullScreen { depth } => {
                 let color = match draw.fragment {
                     Fragment::Paint { rgb: c } => rgb(c),
+                    Fragment::Nearer { eps } => [0.0, 0.0, 0.0, eps],
                     _ => rgb(scene.background),
                 };
                 let pc = PushConstants {
@@ -1374,6 +1376,7 @@ impl Executor {
                         Fragment::Paint { rgb: c } => rgb(c),
                         Fragment::Background => rgb(scene.background),
                         Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
+                        Fragment::Nearer { eps } => [0.0, 0.0, 0.0, eps],
                         Fragment::ShadeNear { eps, .. } => {
                             let [r, g, b, _] = rgb(scene.colors[m as usize]);
                             [r, g, b, eps]

@@ -25,6 +25,8 @@ pub enum FragmentKind {
     PeelTolerant,
     /// Shade within eps (`color.w`) of a depth texture.
     ShadeNear,
+    /// Depth only, moved eps (`color.w`) nearer.
+    Nearer,
     WriteDepth,
     DepthFromTexture,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
@@ -47,6 +49,7 @@ impl FragmentKind {
             FragmentKind::PeelShade => spv!("peel_shade.frag"),
             FragmentKind::PeelTolerant => spv!("peel_tolerant.frag"),
             FragmentKind::ShadeNear => spv!("shade_near.frag"),
+            FragmentKind::Nearer => spv!("nearer.frag"),
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),

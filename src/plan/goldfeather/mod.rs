@@ -8,9 +8,13 @@
 //!
 //! Parity counts a primitive's faces at *or in front of* the surface point (depth
 //! `LessOrEqual`), so it classifies the point just behind the surface — where the
-//! ray enters the product. On coincident faces the answer depends on which of the
-//! two triangles rasterizes nearer, i.e. on depth quantization: Goldfeather's
-//! classic speckles (Trickle's eps removes them, [`super::trickle`]).
+//! ray enters the product. Exactly so, on coincident faces the answer would depend
+//! on which of the two triangles rasterizes nearer (Goldfeather's classic
+//! speckles); so by default the parity faces are moved [`ProductOptions::eps`]
+//! nearer ([`Fragment::Nearer`]), which classifies the point `eps` behind the
+//! surface, as Trickle does (seed 003 §3.2): coincident faces classify alike, and
+//! parts of the solid thinner than `eps` along the ray vanish. `eps = 0` gives the
+//! exact test.
 //!
 //! Non-convex primitives (§3.5, Goldfeather's layers): a mesh may show several
 //! potentially visible faces at one pixel, and the nearest one may be clipped away
@@ -20,9 +24,9 @@
 //! (every vertex on the inner side of every face plane, [`is_convex`]); a convex
 //! mesh has one such face per pixel and takes the single-draw fast path.
 //!
-//! Depth tolerance: none in the classification (parity is exact `LessOrEqual` on
-//! rasterized depths; survivors keep their `f32` fragment depth in a texture, so
-//! the merge loses nothing to a depth-buffer round trip). The shading pass then
+//! Depth tolerances: `eps` in the classification (above); survivors keep their
+//! `f32` fragment depth in a texture, so the merge loses nothing to a depth-buffer
+//! round trip. The shading pass then
 //! paints every face within [`SHADE_EPS`] (2⁻¹⁹ normalized depth) of the final
 //! depth, primitives in *descending* index order, so where faces of several
 //! primitives coincide the lowest index is written last and wins (CONTRACT.md §4,
@@ -40,20 +44,30 @@ use crate::csg::products::{sum_of_products, Literal};
 pub const DEFAULT_PRODUCT_LIMIT: usize = 4096;
 
 /// Options shared by the product-based builders.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ProductOptions {
     /// The expansion fails fast (with a [`PlanError::Products`] naming the count and
     /// suggesting `--algo cst-i`) past this many products.
     pub limit: usize,
+    /// Goldfeather's parity tolerance (normalized depth): a face counts for the
+    /// parity of a surface point when it is at most `eps` behind it, so the point
+    /// classified is `eps` behind the surface and coincident faces classify alike
+    /// whatever their rounding (Trickle's rule, seed 003 §3.2). 0: exact
+    /// `LessOrEqual`, with Goldfeather's speckles on coincident faces.
+    pub eps: f32,
 }
 
 impl Default for ProductOptions {
     fn default() -> Self {
         ProductOptions {
             limit: DEFAULT_PRODUCT_LIMIT,
+            eps: CLIP_EPS,
         }
     }
 }
+
+/// Default parity tolerance: 32 quanta of a 24-bit depth buffer, 2⁻¹⁹.
+pub const CLIP_EPS: f32 = 1.0 / (1 << 19) as f32;
 
 /// Vertex-plane tests [`is_convex`] may spend on one mesh.
 pub const CONVEXITY_WORK: usize = 20_000_000;
@@ -162,7 +176,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                 .filter(|&(j, _)| j != i)
                 .map(|(_, &l)| l)
                 .collect();
-            let mut clip_merge = clip_steps(&others, &[a.prim]);
+            let mut clip_merge = clip_steps(&others, &[a.prim], opts.eps);
             clip_merge.extend(merge_steps(&[a.prim]));
             if prep
                 .mesh_convex
@@ -279,7 +293,7 @@ pub(crate) fn surface_draw(a: Lit, fragment: Fragment, count_samples: bool) -> S
 /// the parity says the point is outside the literal (even for a positive, odd for a
 /// complemented primitive) and clears the parity bit everywhere. `surface` names
 /// the meshes whose faces may be in the surface image (its scissor).
-pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId]) -> Vec<Step> {
+pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId], eps: f32) -> Vec<Step> {
     let mut steps = vec![Step::Pass("clip".into())];
     for &b in against {
         steps.push(Step::Draw(Draw {
@@ -298,7 +312,11 @@ pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId]) -> Vec<Step> {
                 PARITY,
                 0,
             )),
-            fragment: Fragment::None,
+            fragment: if eps > 0.0 {
+                Fragment::Nearer { eps }
+            } else {
+                Fragment::None
+            },
             count_samples: false,
         }));
         // Outside a positive primitive is everywhere its faces are not (the whole
