@@ -22,6 +22,19 @@ fn load(name: &str) -> Scene {
     scene::load::load(&path, &opts).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
+/// One step of a 24-bit depth buffer in view-space units at the deepest point the
+/// reference shows (perspective: `z² (f − n) / (f n) · 2⁻²⁴`).
+fn depth_quantum(scene: &Scene, reference: &peeltrim::output::Images) -> f64 {
+    let z = reference
+        .depth
+        .iter()
+        .copied()
+        .filter(|d| d.is_finite())
+        .fold(0.0f32, f32::max) as f64;
+    let (n, f) = (scene.camera.near, scene.camera.far);
+    z * z * (f - n) / (f * n) / (1u64 << 24) as f64
+}
+
 /// Renders `scene` with each algorithm and compares with the reference; returns
 /// one line per algorithm and panics (after printing all) on a failed bound.
 fn check(name: &str, algos: &[Algo], max_interior_mismatch: f64) {
@@ -81,12 +94,26 @@ fn check(name: &str, algos: &[Algo], max_interior_mismatch: f64) {
                 r.coverage_mismatch_interior_frac
             ));
         }
-        // A few depth quanta of a 24-bit buffer over the scene's depth range.
-        let range = scene.camera.far - scene.camera.near;
-        if r.depth_abs_err_p99_interior > 1e-3 * range {
+        if r.prim_mismatch_interior_frac > max_interior_mismatch {
             failures.push(format!(
-                "{name} {algo}: interior depth p99 {}",
+                "{name} {algo}: interior primitive mismatch {}",
+                r.prim_mismatch_interior_frac
+            ));
+        }
+        // A few quanta of a 24-bit depth buffer at the deepest visible point. The
+        // readback's f32 inversion of the projection alone costs several (every
+        // algorithm, blister included, shows the same p99 here), hence 16.
+        let bound = 16.0 * depth_quantum(&scene, &reference);
+        if r.depth_abs_err_p99_interior > bound {
+            failures.push(format!(
+                "{name} {algo}: interior depth p99 {} > {bound}",
                 r.depth_abs_err_p99_interior
+            ));
+        }
+        if algo == Algo::Trickle && name == "coincident.toml" && r.coverage_mismatch_interior != 0 {
+            failures.push(format!(
+                "{name} trickle: {} dangling interior pixels",
+                r.coverage_mismatch_interior
             ));
         }
     }
@@ -154,4 +181,80 @@ fn classic_too_many_products_fail_fast() {
         );
         assert!(err.contains("cst-i") && err.contains("products"), "{err}");
     }
+}
+
+/// Seed 004 Fig. 7–8: a block minus many small spheres, which barely overlap on
+/// screen, so the layered form clips a few layers instead of n surfaces.
+#[test]
+fn classic_block_minus_spheres_layered_is_kn() {
+    use glam::DVec3;
+    use peeltrim::reference::fixtures::{self, ExprBuilder};
+    let n = 32u32;
+    let mut prims = vec![fixtures::prim(
+        "block",
+        fixtures::box_mesh(DVec3::new(-2.0, -0.5, -0.5), DVec3::new(2.0, 0.5, 0.5)),
+        [200, 160, 60],
+    )];
+    let mut b = ExprBuilder::default();
+    let mut acc = b.leaf(0);
+    for i in 0..n {
+        let (col, row) = (i % 16, i / 16);
+        let c = DVec3::new(
+            -1.85 + 3.7 * (col as f64 + 0.5) / 16.0,
+            0.0,
+            -0.25 + 0.5 * row as f64,
+        );
+        prims.push(fixtures::prim(
+            &format!("s{i}"),
+            fixtures::sphere_mesh(c + DVec3::Y * 0.5, 0.1, 16, 8),
+            [80, 120, 200],
+        ));
+        let l = b.leaf(i + 1);
+        acc = b.diff(acc, l);
+    }
+    let cam = fixtures::camera(DVec3::new(0.0, 3.0, 4.0), DVec3::ZERO, 35.0, 1.0, 10.0);
+    let mut scene = fixtures::scene(cam, prims, b.build(acc));
+    scene.render.width = 128;
+    scene.render.height = 128;
+    let reference = reference::render(&scene, 128, 128);
+    let prep = Prepared::new(&scene).expect("prepared");
+    let mut gpu =
+        GpuRenderer::new(&scene, DeviceChoice::Cpu, DepthSetup::D24S8, true).expect("lavapipe");
+    let mut tris = Vec::new();
+    for algo in ALGOS {
+        let plan = plan::build(algo, &prep).expect("plan");
+        let frame = gpu.frame(&plan).expect("frame");
+        let r = reference::compare::compare(&reference, &frame.images).expect("compare");
+        let s = &frame.stats;
+        println!(
+            "block-32-spheres {:20} cov_int {} prim_int {} | draws {} tris {} fullscreen {} gpu_ms {:.1} loops {}",
+            algo.name(),
+            r.coverage_mismatch_interior,
+            r.prim_mismatch_interior,
+            s["draws"],
+            s["triangles"],
+            s["fullscreen_passes"],
+            s["gpu_ms"].as_f64().unwrap_or(0.0),
+            s["loop_iterations"]
+        );
+        assert!(
+            r.coverage_mismatch_interior_frac <= 0.001,
+            "{algo}: {}",
+            r.coverage_mismatch_interior_frac
+        );
+        tris.push(s["triangles"].as_u64().unwrap());
+    }
+    // n + 1 = 33 literals: Goldfeather rasterizes each against all others (O(n²));
+    // the layered form, k ≈ 3 layers of 2n meshes.
+    assert!(
+        tris[1] * 4 < tris[0],
+        "layered {} vs goldfeather {}",
+        tris[1],
+        tris[0]
+    );
+    assert!(
+        gpu.validation_messages().is_empty(),
+        "{:?}",
+        gpu.validation_messages()
+    );
 }
