@@ -38,6 +38,10 @@ fn depth_quantum(scene: &Scene, reference: &peeltrim::output::Images) -> f64 {
 /// Renders `scene` with each algorithm and compares with the reference; returns
 /// one line per algorithm and panics (after printing all) on a failed bound.
 fn check(name: &str, algos: &[Algo], max_interior_mismatch: f64) {
+    check_with(name, algos, max_interior_mismatch, DepthSetup::D24S8)
+}
+
+fn check_with(name: &str, algos: &[Algo], max_interior_mismatch: f64, depth: DepthSetup) {
     let scene = load(name);
     let reference = reference::render(&scene, scene.render.width, scene.render.height);
     let prep = Prepared::new(&scene).expect("prepared");
@@ -150,6 +154,12 @@ fn classic_paper_example() {
 #[test]
 fn classic_speckle() {
     check("speckle.toml", &ALGOS, 0.001);
+}
+
+#[test]
+fn classic_reversed_z_and_d32() {
+    check_with("coincident.toml", &ALGOS, 0.001, DepthSetup::D32S8Reversed);
+    check_with("drilled_block.toml", &ALGOS, 0.001, DepthSetup::D32S8);
 }
 
 #[test]
