@@ -9,16 +9,20 @@
 //! `if_true`; swapped for a complemented leaf), then one push sweep that resets
 //! rejected pixels (`F`) to the first label with a far depth and the background.
 //!
-//! Parity counts the primitive's faces at or in front of the candidate (depth
-//! `LessOrEqual`), which classifies the point just *behind* the candidate: the
-//! first layer whose point-just-behind is in the solid is where the ray enters it.
-//! A candidate lying on another primitive's face is thus decided by depth
-//! quantization — Blister's known speckles (seed 000 Fig. 2), which CST removes.
+//! Parity counts the primitive's faces at or in front of the candidate, which
+//! classifies the point just *behind* the candidate: the first layer whose
+//! point-just-behind is in the solid is where the ray enters it. The paper counts
+//! with the depth test (`LessOrEqual`), so a candidate lying on another
+//! primitive's face is decided by rounding — Blister's speckles and cracks on
+//! coincident faces (seed 000 Fig. 2). Here a face counts when it lies within
+//! [`SHADE_EPS`] behind the candidate too (the peel's exact candidate depth is in
+//! a texture), so coincident faces are all passed and the solid stays
+//! regularized; features thinner than that tolerance are lost instead.
 #![deny(unsafe_code)]
 
 use super::stencil::{self, LabelLayout, Next};
 use super::step::*;
-use super::{PlanError, Prepared};
+use super::{PlanError, Prepared, SHADE_EPS};
 use crate::csg::{Blist, Target};
 
 /// Depth texture holding the previous layer (read by the peel).
@@ -37,8 +41,9 @@ fn next(t: Target) -> Next {
 /// Builds the Blister plan of the prepared scene's solid(s).
 pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
     let blist = Blist::new(&prep.positive);
-    let layout = LabelLayout::new(blist.num_labels)
-        .ok_or(PlanError::TooManyLabels { labels: blist.num_labels })?;
+    let layout = LabelLayout::new(blist.num_labels).ok_or(PlanError::TooManyLabels {
+        labels: blist.num_labels,
+    })?;
     let start = match blist.entries.first() {
         Some(e) => Next::Label(e.label),
         None => return Err(PlanError::NoSolid),
@@ -51,10 +56,20 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
 
     let mut steps = vec![
         Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil { ds: 0, depth: far, stencil: layout.value(start) }),
+        Step::Clear(Clear::DepthStencil {
+            ds: 0,
+            depth: far,
+            stencil: layout.value(start),
+        }),
         Step::Clear(Clear::Color),
-        Step::Clear(Clear::Texture { tex: PREV, depth: 0.0 }),
-        Step::Clear(Clear::Texture { tex: CUR, depth: 0.0 }),
+        Step::Clear(Clear::Texture {
+            tex: PREV,
+            depth: 0.0,
+        }),
+        Step::Clear(Clear::Texture {
+            tex: CUR,
+            depth: 0.0,
+        }),
     ];
 
     // Peel: the nearest face strictly behind the previous layer, at unlocked pixels.
@@ -65,9 +80,16 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
             scissor: Scissor::Full,
             cull: Cull::None,
             ds: 0,
-            depth: DepthState { compare: CompareOp::Less, write: true },
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
             stencil: Some(stencil::test_not_equal(locked, label_mask)),
-            fragment: Fragment::Peel { prev: PREV, out: CUR, shade: true },
+            fragment: Fragment::Peel {
+                prev: PREV,
+                out: CUR,
+                shade: true,
+            },
             count_samples: true,
         }),
     ];
@@ -75,16 +97,29 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
     let mut tail = vec![Step::Pass("trim".into())];
     for e in &blist.entries {
         let here = layout.value(Next::Label(e.label));
-        let (on_inside, on_outside) =
-            if e.negated { (next(e.if_false), next(e.if_true)) } else { (next(e.if_true), next(e.if_false)) };
+        let (on_inside, on_outside) = if e.negated {
+            (next(e.if_false), next(e.if_true))
+        } else {
+            (next(e.if_true), next(e.if_false))
+        };
         tail.push(Step::Draw(Draw {
             geometry: Geometry::Mesh(e.prim),
             scissor: Scissor::BoundsOf(vec![e.prim]),
             cull: Cull::None,
             ds: 0,
-            depth: DepthState { compare: CompareOp::LessOrEqual, write: false },
-            stencil: Some(stencil::toggle_parity(here, label_mask, LabelLayout::PARITY)),
-            fragment: Fragment::None,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: false,
+            },
+            stencil: Some(stencil::toggle_parity(
+                here,
+                label_mask,
+                LabelLayout::PARITY,
+            )),
+            fragment: Fragment::NearerThan {
+                tex: CUR,
+                eps: SHADE_EPS,
+            },
             count_samples: false,
         }));
         // Parity clear first: with label reuse `if_true` may be this entry's own
@@ -98,7 +133,11 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
         // Parity can only be set inside the primitive's screen bounds.
         tail.push(sweep(
             Scissor::BoundsOf(vec![e.prim]),
-            stencil::change_stencil_state(here | LabelLayout::PARITY, layout.value(on_inside), all_mask),
+            stencil::change_stencil_state(
+                here | LabelLayout::PARITY,
+                layout.value(on_inside),
+                all_mask,
+            ),
         ));
     }
     // Push: rejected candidates go back to the first label with a far depth and the
@@ -109,16 +148,38 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
         scissor: Scissor::BoundsOf(all.clone()),
         cull: Cull::None,
         ds: 0,
-        depth: DepthState { compare: CompareOp::Always, write: true },
-        stencil: Some(stencil::change_stencil_state(layout.value(Next::False), layout.value(start), all_mask)),
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: true,
+        },
+        stencil: Some(stencil::change_stencil_state(
+            layout.value(Next::False),
+            layout.value(start),
+            all_mask,
+        )),
         fragment: Fragment::Background,
         count_samples: false,
     }));
-    tail.push(Step::CopyTexture { src: CUR, dst: PREV });
+    tail.push(Step::CopyTexture {
+        src: CUR,
+        dst: PREV,
+    });
 
     // Each layer of the union of faces is peeled once; the face count bounds them.
     let max_layers = prep.triangles_in(&all).max(1) as u32 + 1;
-    steps.push(Step::Loop(Loop { head, tail, max_iterations: max_layers }));
+    steps.push(Step::Loop(Loop {
+        head,
+        tail,
+        max_iterations: max_layers,
+    }));
+    // Coincident faces: the peel kept whichever was nearest by a rounding error;
+    // re-shade the locked pixels so the lowest index within tolerance wins.
+    steps.extend(super::shade_near_depth(
+        &all,
+        0,
+        PREV,
+        Some(stencil::test_equal(locked, label_mask)),
+    ));
     Ok(Plan {
         algo: "blister".into(),
         depth_stencils: 1,
@@ -136,7 +197,10 @@ fn sweep(scissor: Scissor, stencil: StencilState) -> Step {
         scissor,
         cull: Cull::None,
         ds: 0,
-        depth: DepthState { compare: CompareOp::Always, write: false },
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        },
         stencil: Some(stencil),
         fragment: Fragment::None,
         count_samples: false,
@@ -158,7 +222,9 @@ mod tests {
         let mut nodes = Vec::new();
         let mut pool: Vec<u32> = (0..leaves)
             .map(|_| {
-                nodes.push(Node::Leaf { prim: rng.gen_range(0..prims) });
+                nodes.push(Node::Leaf {
+                    prim: rng.gen_range(0..prims),
+                });
                 nodes.len() as u32 - 1
             })
             .collect();
@@ -177,7 +243,10 @@ mod tests {
             nodes.push(n);
             pool.push(nodes.len() as u32 - 1);
         }
-        Expr { root: pool[0], nodes }
+        Expr {
+            root: pool[0],
+            nodes,
+        }
     }
 
     /// Runs one layer's trim steps for one pixel in the software stencil unit:
@@ -190,7 +259,9 @@ mod tests {
                 let Some(st) = &d.stencil else { continue };
                 match &d.geometry {
                     Geometry::Mesh(m) if inside[*m as usize] => v = simulate(st, v, true),
-                    Geometry::FullScreen { .. } if d.fragment == Fragment::None => v = simulate(st, v, true),
+                    Geometry::FullScreen { .. } if d.fragment == Fragment::None => {
+                        v = simulate(st, v, true)
+                    }
                     _ => {}
                 }
             }
@@ -207,14 +278,23 @@ mod tests {
             let prims = rng.gen_range(1..12u32);
             let leaves = rng.gen_range(1..40);
             let expr = random_expr(&mut rng, leaves, prims);
-            let unit = Aabb { min: DVec3::ZERO, max: DVec3::ONE };
-            let prep = Prepared::from_parts(expr.clone(), vec![12; prims as usize], vec![unit; prims as usize]);
+            let unit = Aabb {
+                min: DVec3::ZERO,
+                max: DVec3::ONE,
+            };
+            let prep = Prepared::from_parts(
+                expr.clone(),
+                vec![12; prims as usize],
+                vec![unit; prims as usize],
+            );
             let plan = match plan(&prep) {
                 Ok(p) => p,
                 Err(PlanError::TooManyLabels { .. }) => continue,
                 Err(e) => panic!("{e}"),
             };
-            let Some(Step::Loop(l)) = plan.steps.iter().find(|s| matches!(s, Step::Loop(_))) else { panic!("no loop") };
+            let Some(Step::Loop(l)) = plan.steps.iter().find(|s| matches!(s, Step::Loop(_))) else {
+                panic!("no loop")
+            };
             let start = match plan.steps[1] {
                 Step::Clear(Clear::DepthStencil { stencil, .. }) => stencil,
                 _ => panic!("first clear"),

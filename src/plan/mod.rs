@@ -17,6 +17,48 @@ pub use step::*;
 use crate::csg::{Expr, Node, PositiveExpr};
 use crate::scene::{Aabb, Scene};
 
+/// Depth tolerance of depth-equal shading (normalized depth, 2⁻²⁰ ≈ 9.5e-7,
+/// about 16 quanta of a 24-bit buffer): faces of several primitives closer than
+/// this to the visible point count as coincident, and the lowest index wins
+/// (CONTRACT.md §4, `prim.png`).
+pub const SHADE_EPS: f32 = 1.0 / (1u32 << 20) as f32;
+
+/// The final depth-equal shading of locked pixels: every mesh with a face within
+/// [`SHADE_EPS`] of the visible depth (held in `tex`) writes colour and id, the
+/// lowest index last so that it wins.
+pub fn shade_near_depth(
+    meshes: &[MeshId],
+    ds: Ds,
+    tex: Tex,
+    stencil: Option<StencilState>,
+) -> Vec<Step> {
+    let mut steps = vec![
+        Step::Pass("shade".into()),
+        Step::CopyDepthToTexture { ds, dst: tex },
+    ];
+    let mut order = meshes.to_vec();
+    order.sort_unstable_by(|a, b| b.cmp(a));
+    steps.extend(order.into_iter().map(|m| {
+        Step::Draw(Draw {
+            geometry: Geometry::Mesh(m),
+            scissor: Scissor::BoundsOf(vec![m]),
+            cull: Cull::None,
+            ds,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: false,
+            },
+            stencil,
+            fragment: Fragment::ShadeNearDepth {
+                tex,
+                eps: SHADE_EPS,
+            },
+            count_samples: false,
+        })
+    }));
+    steps
+}
+
 /// The algorithms of the command line (`--algo`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Algo {
@@ -96,7 +138,11 @@ pub struct Prepared {
 impl Prepared {
     pub fn new(scene: &Scene) -> Result<Self, PlanError> {
         let expr = union_of_solids(scene).ok_or(PlanError::NoSolid)?;
-        let meshes = scene.primitives.iter().map(|p| &p.mesh).chain(scene.surfaces.iter().map(|s| &s.mesh));
+        let meshes = scene
+            .primitives
+            .iter()
+            .map(|p| &p.mesh)
+            .chain(scene.surfaces.iter().map(|s| &s.mesh));
         let (mut mesh_triangles, mut mesh_bounds) = (Vec::new(), Vec::new());
         for m in meshes {
             mesh_triangles.push(m.triangles.len());
@@ -112,16 +158,28 @@ impl Prepared {
         let mut solid_meshes: Vec<MeshId> = expr.leaves();
         solid_meshes.sort_unstable();
         solid_meshes.dedup();
-        Prepared { expr, positive, solid_meshes, mesh_triangles, mesh_bounds }
+        Prepared {
+            expr,
+            positive,
+            solid_meshes,
+            mesh_triangles,
+            mesh_bounds,
+        }
     }
 
     pub fn triangles_in(&self, meshes: &[MeshId]) -> usize {
-        meshes.iter().map(|&m| self.mesh_triangles[m as usize]).sum()
+        meshes
+            .iter()
+            .map(|&m| self.mesh_triangles[m as usize])
+            .sum()
     }
 }
 
 fn bounds(points: &[glam::DVec3]) -> Aabb {
-    let mut b = Aabb { min: glam::DVec3::splat(f64::INFINITY), max: glam::DVec3::splat(f64::NEG_INFINITY) };
+    let mut b = Aabb {
+        min: glam::DVec3::splat(f64::INFINITY),
+        max: glam::DVec3::splat(f64::NEG_INFINITY),
+    };
     for &p in points {
         b.min = b.min.min(p);
         b.max = b.max.max(p);

@@ -111,6 +111,16 @@ pub enum Fragment {
     Peel { prev: Tex, out: Tex, shade: bool },
     /// Write the fragment's depth into texture `out` (and nothing else).
     WriteDepth { out: Tex },
+    /// Keep only fragments at or in front of texture `tex` plus `eps` (normalized
+    /// depth); no colour output. Parity counting that treats faces coincident with
+    /// the candidate (within `eps`) as in front of it, so the point classified is
+    /// the one just behind all of them — regularized, whatever the rounding.
+    NearerThan { tex: Tex, eps: f32 },
+    /// Shade and write the primitive id only where the fragment's depth is within
+    /// `eps` (normalized depth) of texture `tex` at this pixel: depth-equal shading
+    /// with a documented tolerance, so coincident faces of several primitives all
+    /// qualify and the draw order decides which id stays (the last drawn wins).
+    ShadeNearDepth { tex: Tex, eps: f32 },
     /// Full-screen copy of texture `src` into the fragment depth (`gl_FragDepth`),
     /// discarding pixels where `src` holds the far value 1.0 (nothing there).
     DepthFromTexture { src: Tex },

@@ -146,6 +146,10 @@ mod load_tests;
 impl Scene {
     /// Mesh names in mesh-index order: primitives, then surfaces.
     pub fn mesh_names(&self) -> Vec<String> {
-        self.primitives.iter().map(|p| p.name.clone()).chain(self.surfaces.iter().map(|s| s.name.clone())).collect()
+        self.primitives
+            .iter()
+            .map(|p| p.name.clone())
+            .chain(self.surfaces.iter().map(|s| s.name.clone()))
+            .collect()
     }
 }

@@ -675,6 +675,9 @@ impl Executor {
                         }
                         Fragment::WriteDepth { out } => check_tex(out)?,
                         Fragment::DepthFromTexture { src } => check_tex(src)?,
+                        Fragment::ShadeNearDepth { tex, .. } | Fragment::NearerThan { tex, .. } => {
+                            check_tex(tex)?
+                        }
                         _ => {}
                     }
                 }
@@ -1265,6 +1268,16 @@ impl Executor {
                     vec![],
                     Some(res.tex_sets[src as usize]),
                 ),
+                Fragment::NearerThan { tex, .. } => (
+                    FragmentKind::NearerThan,
+                    vec![],
+                    Some(res.tex_sets[tex as usize]),
+                ),
+                Fragment::ShadeNearDepth { tex, .. } => (
+                    FragmentKind::ShadeNearDepth,
+                    vec![Target::Color, Target::Prim],
+                    Some(res.tex_sets[tex as usize]),
+                ),
             }
         };
         let key = BlockKey {
@@ -1344,6 +1357,11 @@ impl Executor {
                     let color = match draw.fragment {
                         Fragment::Paint { rgb: c } => rgb(c),
                         Fragment::Background => rgb(scene.background),
+                        // The tolerance travels in the colour's alpha.
+                        Fragment::ShadeNearDepth { eps, .. } | Fragment::NearerThan { eps, .. } => {
+                            let [r, g, b, _] = rgb(scene.colors[m as usize]);
+                            [r, g, b, eps]
+                        }
                         _ => rgb(scene.colors[m as usize]),
                     };
                     let pc = PushConstants {

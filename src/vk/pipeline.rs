@@ -23,6 +23,8 @@ pub enum FragmentKind {
     PeelShade,
     WriteDepth,
     DepthFromTexture,
+    ShadeNearDepth,
+    NearerThan,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
     CopyDepth,
 }
@@ -43,6 +45,8 @@ impl FragmentKind {
             FragmentKind::PeelShade => spv!("peel_shade.frag"),
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
+            FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
+            FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
         }
     }
