@@ -2,6 +2,8 @@
 //! They create a CPU (lavapipe) context and fail, not skip, when none exists; every
 //! test ends by asserting that the validation layer reported nothing.
 
+mod algorithms;
+
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{
     Clear, CompareOp, Cull, DepthState, Draw, Fragment, Geometry, Loop, Plan, Scissor, StencilFace,
