@@ -2,6 +2,7 @@
 //! They create a CPU (lavapipe) context and fail, not skip, when none exists; every
 //! test ends by asserting that the validation layer reported nothing.
 
+mod algorithms;
 mod classic;
 
 use glam::{DMat4, DVec3};

@@ -9,16 +9,20 @@
 //! `if_true`; swapped for a complemented leaf), then one push sweep that resets
 //! rejected pixels (`F`) to the first label with a far depth and the background.
 //!
-//! Parity counts the primitive's faces at or in front of the candidate (depth
-//! `LessOrEqual`), which classifies the point just *behind* the candidate: the
-//! first layer whose point-just-behind is in the solid is where the ray enters it.
-//! A candidate lying on another primitive's face is thus decided by depth
-//! quantization — Blister's known speckles (seed 000 Fig. 2), which CST removes.
+//! Parity counts the primitive's faces at or in front of the candidate, which
+//! classifies the point just *behind* the candidate: the first layer whose
+//! point-just-behind is in the solid is where the ray enters it. The paper counts
+//! with the depth test (`LessOrEqual`), so a candidate lying on another
+//! primitive's face is decided by rounding — Blister's speckles and cracks on
+//! coincident faces (seed 000 Fig. 2). Here a face counts when it lies within
+//! [`SHADE_EPS`] behind the candidate too (the peel's exact candidate depth is in
+//! a texture), so coincident faces are all passed and the solid stays
+//! regularized; features thinner than that tolerance are lost instead.
 #![deny(unsafe_code)]
 
 use super::stencil::{self, LabelLayout, Next};
 use super::step::*;
-use super::{PlanError, Prepared};
+use super::{PlanError, Prepared, SHADE_EPS};
 use crate::csg::{Blist, Target};
 
 /// Depth texture holding the previous layer (read by the peel).
@@ -104,7 +108,7 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
             cull: Cull::None,
             ds: 0,
             depth: DepthState {
-                compare: CompareOp::LessOrEqual,
+                compare: CompareOp::Always,
                 write: false,
             },
             stencil: Some(stencil::toggle_parity(
@@ -112,7 +116,10 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
                 label_mask,
                 LabelLayout::PARITY,
             )),
-            fragment: Fragment::None,
+            fragment: Fragment::NearerThan {
+                tex: CUR,
+                eps: SHADE_EPS,
+            },
             count_samples: false,
         }));
         // Parity clear first: with label reuse `if_true` may be this entry's own
@@ -165,6 +172,14 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
         tail,
         max_iterations: max_layers,
     }));
+    // Coincident faces: the peel kept whichever was nearest by a rounding error;
+    // re-shade the locked pixels so the lowest index within tolerance wins.
+    steps.extend(super::shade_near_depth(
+        &all,
+        0,
+        PREV,
+        Some(stencil::test_equal(locked, label_mask)),
+    ));
     Ok(Plan {
         algo: "blister".into(),
         depth_stencils: 1,

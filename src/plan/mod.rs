@@ -19,6 +19,48 @@ pub use step::*;
 use crate::csg::{Expr, Node, PositiveExpr};
 use crate::scene::{Aabb, Scene};
 
+/// Depth tolerance of depth-equal shading (normalized depth, 2⁻²⁰ ≈ 9.5e-7,
+/// about 16 quanta of a 24-bit buffer): faces of several primitives closer than
+/// this to the visible point count as coincident, and the lowest index wins
+/// (CONTRACT.md §4, `prim.png`).
+pub const SHADE_EPS: f32 = 1.0 / (1u32 << 20) as f32;
+
+/// The final depth-equal shading of locked pixels: every mesh with a face within
+/// [`SHADE_EPS`] of the visible depth (held in `tex`) writes colour and id, the
+/// lowest index last so that it wins.
+pub fn shade_near_depth(
+    meshes: &[MeshId],
+    ds: Ds,
+    tex: Tex,
+    stencil: Option<StencilState>,
+) -> Vec<Step> {
+    let mut steps = vec![
+        Step::Pass("shade".into()),
+        Step::CopyDepthToTexture { ds, dst: tex },
+    ];
+    let mut order = meshes.to_vec();
+    order.sort_unstable_by(|a, b| b.cmp(a));
+    steps.extend(order.into_iter().map(|m| {
+        Step::Draw(Draw {
+            geometry: Geometry::Mesh(m),
+            scissor: Scissor::BoundsOf(vec![m]),
+            cull: Cull::None,
+            ds,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: false,
+            },
+            stencil,
+            fragment: Fragment::ShadeNearDepth {
+                tex,
+                eps: SHADE_EPS,
+            },
+            count_samples: false,
+        })
+    }));
+    steps
+}
+
 /// The algorithms of the command line (`--algo`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Algo {

@@ -111,6 +111,16 @@ pub enum Fragment {
     Peel { prev: Tex, out: Tex, shade: bool },
     /// Write the fragment's depth into texture `out` (and nothing else).
     WriteDepth { out: Tex },
+    /// Keep only fragments at or in front of texture `tex` plus `eps` (normalized
+    /// depth); no colour output. Parity counting that treats faces coincident with
+    /// the candidate (within `eps`) as in front of it, so the point classified is
+    /// the one just behind all of them — regularized, whatever the rounding.
+    NearerThan { tex: Tex, eps: f32 },
+    /// Shade and write the primitive id only where the fragment's depth is within
+    /// `eps` (normalized depth) of texture `tex` at this pixel: depth-equal shading
+    /// with a documented tolerance, so coincident faces of several primitives all
+    /// qualify and the draw order decides which id stays (the last drawn wins).
+    ShadeNearDepth { tex: Tex, eps: f32 },
     /// Full-screen copy of texture `src` into the fragment depth (`gl_FragDepth`),
     /// discarding pixels where `src` holds the far value 1.0 (nothing there).
     DepthFromTexture { src: Tex },
@@ -121,15 +131,6 @@ pub enum Fragment {
     /// Full-screen copy of texture `src` into texture `out` at the pixels the draw's
     /// stencil (and depth) tests pass; the fragment depth is the rectangle's.
     CopyTexel { src: Tex, out: Tex },
-    /// [`Fragment::Shade`] restricted to fragments whose depth is within `eps`
-    /// (normalized depth) of texture `depth` at this pixel (not far there): shades
-    /// a visible surface given as depths, coincident faces included, whatever
-    /// their rasterized rounding. Later draws overwrite earlier ones.
-    ShadeNear { depth: Tex, eps: f32 },
-    /// Depth and stencil only, with the fragment's depth moved `eps` (normalized
-    /// depth) nearer: depth tests then count faces up to `eps` behind what the
-    /// image holds (a tolerant `LessOrEqual`).
-    Nearer { eps: f32 },
 }
 
 /// One rasterization.

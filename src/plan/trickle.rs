@@ -26,7 +26,7 @@
 //! circulation. A one-primitive product still takes two rounds, as with k = −1.
 //! The merge into buffer 1 is a depth-less test (line 33's eps only kept colours
 //! apart; shading here is a separate pass that paints faces within
-//! [`super::goldfeather::SHADE_EPS`] of the final depth, lowest primitive index
+//! [`super::SHADE_EPS`] of the final depth, lowest primitive index
 //! winning on coincident faces, as in [`super::goldfeather`]).
 //!
 //! ## eps (§3.2–3.3)

@@ -242,7 +242,7 @@ fn value_errors_name_the_key_and_fix() {
             "[[primitive]]\nname = \"B\"\nshape = \"box\"\nsize = [1, 1, 1]\ntrim = \"A\"\n[csg]\nexpr = \"A\"\n",
             "`trim` applies only to a [[surface]]",
         ),
-        ("[csg]\nexpr = \"A + Q\"\n", "csg: expr: unknown primitive `Q`"),
+        ("[csg]\nexpr = \"A + Q\"\n", "csg: expr: unknown primitive 'Q'"),
         ("[csg]\nexpr = \"!A\"\n", "is unbounded"),
         ("[csg]\nexpr = \"A\"\n[[solid]]\nname = \"s\"\nexpr = \"A\"\n", "cannot be used together"),
         ("", "nothing to draw"),
@@ -267,7 +267,8 @@ fn value_errors_name_the_key_and_fix() {
     }
     // the expression error shows the caret under the column
     let e = err(&with("[csg]\nexpr = \"A + Q\"\n"));
-    assert!(e.contains("A + Q\n") && e.ends_with("    ^"), "{e}");
+    assert!(e.contains("    A + Q\n        ^\n"), "{e}");
+    assert!(e.contains("hint: define it with [[primitive]]"), "{e}");
 }
 
 #[test]

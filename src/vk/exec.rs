@@ -675,7 +675,6 @@ impl Executor {
                         }
                         Fragment::WriteDepth { out } => check_tex(out)?,
                         Fragment::DepthFromTexture { src } => check_tex(src)?,
-                        Fragment::ShadeNear { depth, .. } => check_tex(depth)?,
                         Fragment::PeelTolerant {
                             prev: a, out: b, ..
                         }
@@ -687,6 +686,9 @@ impl Executor {
                                     "a fragment reads and writes the same texture".into(),
                                 ));
                             }
+                        }
+                        Fragment::ShadeNearDepth { tex, .. } | Fragment::NearerThan { tex, .. } => {
+                            check_tex(tex)?
                         }
                         _ => {}
                     }
@@ -1283,17 +1285,21 @@ impl Executor {
                     vec![Target::Tex(out)],
                     Some(res.tex_sets[prev as usize]),
                 ),
-                Fragment::Nearer { .. } => (FragmentKind::Nearer, vec![], None),
-                Fragment::ShadeNear { depth, .. } => (
-                    FragmentKind::ShadeNear,
-                    vec![Target::Color, Target::Prim],
-                    Some(res.tex_sets[depth as usize]),
-                ),
                 // The texel copy is the depth-copy shader reading a depth texture.
                 Fragment::CopyTexel { src, out } => (
                     FragmentKind::CopyDepth,
                     vec![Target::Tex(out)],
                     Some(res.tex_sets[src as usize]),
+                ),
+                Fragment::NearerThan { tex, .. } => (
+                    FragmentKind::NearerThan,
+                    vec![],
+                    Some(res.tex_sets[tex as usize]),
+                ),
+                Fragment::ShadeNearDepth { tex, .. } => (
+                    FragmentKind::ShadeNearDepth,
+                    vec![Target::Color, Target::Prim],
+                    Some(res.tex_sets[tex as usize]),
                 ),
             }
         };
@@ -1347,7 +1353,6 @@ impl Executor {
             Geometry::FullScreen { depth } => {
                 let color = match draw.fragment {
                     Fragment::Paint { rgb: c } => rgb(c),
-                    Fragment::Nearer { eps } => [0.0, 0.0, 0.0, eps],
                     _ => rgb(scene.background),
                 };
                 let pc = PushConstants {
@@ -1376,8 +1381,8 @@ impl Executor {
                         Fragment::Paint { rgb: c } => rgb(c),
                         Fragment::Background => rgb(scene.background),
                         Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
-                        Fragment::Nearer { eps } => [0.0, 0.0, 0.0, eps],
-                        Fragment::ShadeNear { eps, .. } => {
+                        // The tolerance travels in the colour's alpha.
+                        Fragment::ShadeNearDepth { eps, .. } | Fragment::NearerThan { eps, .. } => {
                             let [r, g, b, _] = rgb(scene.colors[m as usize]);
                             [r, g, b, eps]
                         }

@@ -23,12 +23,10 @@ pub enum FragmentKind {
     PeelShade,
     /// Peel with a tolerance: behind the previous layer by more than eps (`color.x`).
     PeelTolerant,
-    /// Shade within eps (`color.w`) of a depth texture.
-    ShadeNear,
-    /// Depth only, moved eps (`color.w`) nearer.
-    Nearer,
     WriteDepth,
     DepthFromTexture,
+    ShadeNearDepth,
+    NearerThan,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
     CopyDepth,
 }
@@ -48,10 +46,10 @@ impl FragmentKind {
             FragmentKind::Peel => spv!("peel.frag"),
             FragmentKind::PeelShade => spv!("peel_shade.frag"),
             FragmentKind::PeelTolerant => spv!("peel_tolerant.frag"),
-            FragmentKind::ShadeNear => spv!("shade_near.frag"),
-            FragmentKind::Nearer => spv!("nearer.frag"),
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
+            FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
+            FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
         }
     }

@@ -10,9 +10,9 @@
 //! `LessOrEqual`), so it classifies the point just behind the surface — where the
 //! ray enters the product. Exactly so, on coincident faces the answer would depend
 //! on which of the two triangles rasterizes nearer (Goldfeather's classic
-//! speckles); so by default the parity faces are moved [`ProductOptions::eps`]
-//! nearer ([`Fragment::Nearer`]), which classifies the point `eps` behind the
-//! surface, as Trickle does (seed 003 §3.2): coincident faces classify alike, and
+//! speckles); so the parity draws keep the faces at most [`ProductOptions::eps`]
+//! behind the surface depth (a float texture, [`Fragment::NearerThan`]), which
+//! classifies the point `eps` behind the surface, as Trickle does (seed 003 §3.2): coincident faces classify alike, and
 //! parts of the solid thinner than `eps` along the ray vanish. `eps = 0` gives the
 //! exact test.
 //!
@@ -27,7 +27,7 @@
 //! Depth tolerances: `eps` in the classification (above); survivors keep their
 //! `f32` fragment depth in a texture, so the merge loses nothing to a depth-buffer
 //! round trip. The shading pass then
-//! paints every face within [`SHADE_EPS`] (2⁻¹⁹ normalized depth) of the final
+//! paints every face within [`super::SHADE_EPS`] (2⁻²⁰ normalized depth) of the final
 //! depth, primitives in *descending* index order, so where faces of several
 //! primitives coincide the lowest index is written last and wins (CONTRACT.md §4,
 //! `prim.png`) — depth-equal would fail on coincident faces of different triangles,
@@ -302,7 +302,7 @@ pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId], eps: f32) -> Vec<S
             cull: Cull::None,
             ds: SURFACE,
             depth: DepthState {
-                compare: CompareOp::LessOrEqual,
+                compare: CompareOp::Always,
                 write: false,
             },
             stencil: Some(super::stencil::both(
@@ -312,11 +312,7 @@ pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId], eps: f32) -> Vec<S
                 PARITY,
                 0,
             )),
-            fragment: if eps > 0.0 {
-                Fragment::Nearer { eps }
-            } else {
-                Fragment::None
-            },
+            fragment: Fragment::NearerThan { tex: SURF, eps },
             count_samples: false,
         }));
         // Outside a positive primitive is everywhere its faces are not (the whole
@@ -384,43 +380,14 @@ pub(crate) fn merge_steps(surface: &[MeshId]) -> Vec<Step> {
     ]
 }
 
-/// Depth tolerance (normalized depth) of the shading pass: 32 quanta of a 24-bit
-/// depth buffer, 2⁻¹⁹. Faces within it of the visible depth count as coincident.
-pub const SHADE_EPS: f32 = 1.0 / (1 << 19) as f32;
-
 /// Shading of the output depth (copied into texture `tex`): every solid
 /// primitive's faces (both orientations: complemented primitives show their back
-/// faces) within [`SHADE_EPS`] of it, in descending index order, so that on
+/// faces) within [`super::SHADE_EPS`] of it, in descending index order, so that on
 /// coincident faces the lowest index is written last and wins. A tolerance rather
 /// than depth-equal, because coincident faces of different triangles rasterize to
 /// depths an ulp or two apart.
 pub(crate) fn shade_steps(prep: &Prepared, tex: Tex) -> Vec<Step> {
-    let mut steps = vec![
-        Step::Pass("shade".into()),
-        Step::CopyDepthToTexture {
-            ds: OUTPUT,
-            dst: tex,
-        },
-    ];
-    for &m in prep.solid_meshes.iter().rev() {
-        steps.push(Step::Draw(Draw {
-            geometry: Geometry::Mesh(m),
-            scissor: Scissor::BoundsOf(vec![m]),
-            cull: Cull::None,
-            ds: OUTPUT,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: false,
-            },
-            stencil: None,
-            fragment: Fragment::ShadeNear {
-                depth: tex,
-                eps: SHADE_EPS,
-            },
-            count_samples: false,
-        }));
-    }
-    steps
+    super::shade_near_depth(&prep.solid_meshes, OUTPUT, tex, None)
 }
 
 #[cfg(test)]

@@ -1,12 +1,11 @@
 #version 450
-// Shading of the fragments within eps (color.w) of a depth texture: the visible
-// surface's faces, coincident ones included, whatever their rasterized rounding.
-// Flat headlight shading, two-sided, as shade.frag.
+// Depth-equal shading with a tolerance: colour and primitive id where the
+// fragment depth is within color.a (normalized depth) of the texture.
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
     vec4 view;
-    // rgb: mesh colour in 0..1; w: eps (normalized depth)
+    // rgb: mesh, paint or background colour in 0..1
     vec4 color;
     // primitive id written to the id target (mesh index + 1)
     uint prim;
@@ -20,6 +19,12 @@ layout(location = 1) flat in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
 
+
+bool near_depth() {
+    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    return abs(gl_FragCoord.z - d) <= pc.color.a;
+}
+
 float shade_factor() {
     vec3 n = normalize(v_normal);
     vec3 v = pc.view.w > 0.5 ? normalize(v_world - pc.view.xyz) : pc.view.xyz;
@@ -27,9 +32,7 @@ float shade_factor() {
 }
 
 void main() {
-    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
-    bool empty = (pc.flags & 1u) != 0u ? d <= 0.0 : d >= 1.0;
-    if (empty || abs(gl_FragCoord.z - d) > pc.color.w) {
+    if (!near_depth()) {
         discard;
     }
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);

@@ -1,0 +1,23 @@
+#version 450
+// Keeps fragments at or in front of the texture's depth plus a tolerance
+// (color.a, normalized depth); writes nothing but depth/stencil side effects.
+// Used for parity counting that is robust to coincident faces.
+layout(push_constant) uniform Push {
+    mat4 mvp;
+    vec4 view;
+    // a: the tolerance
+    vec4 color;
+    uint prim;
+    // bit 0: reversed Z (near = 1, far = 0)
+    uint flags;
+} pc;
+layout(set = 0, binding = 0) uniform texture2D u_tex;
+layout(set = 0, binding = 1) uniform sampler u_samp;
+
+void main() {
+    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    bool nearer = (pc.flags & 1u) != 0u ? gl_FragCoord.z >= d - pc.color.a : gl_FragCoord.z <= d + pc.color.a;
+    if (!nearer) {
+        discard;
+    }
+}
