@@ -45,8 +45,7 @@ fn check_with(name: &str, algos: &[Algo], max_interior_mismatch: f64, depth: Dep
     let scene = load(name);
     let reference = reference::render(&scene, scene.render.width, scene.render.height);
     let prep = Prepared::new(&scene).expect("prepared");
-    let mut gpu =
-        GpuRenderer::new(&scene, DeviceChoice::Cpu, DepthSetup::D24S8, true).expect("lavapipe");
+    let mut gpu = GpuRenderer::new(&scene, DeviceChoice::Cpu, depth, true).expect("lavapipe");
     let mut failures = Vec::new();
     for &algo in algos {
         let plan = plan::build(algo, &prep).expect("plan");
@@ -54,7 +53,8 @@ fn check_with(name: &str, algos: &[Algo], max_interior_mismatch: f64, depth: Dep
         let r = reference::compare::compare(&reference, &frame.images).expect("compare");
         let s = &frame.stats;
         println!(
-            "{name:16} {:20} cov_int {:6} ({:.4}%) prim_int {:5} depth_p99_int {:.2e} max_int {:.2e} | cov {} prim {} | draws {} tris {} fs {} loops {}",
+            "{name:16} {:?} {:20} cov_int {:6} ({:.4}%) prim_int {:5} depth_p99_int {:.2e} max_int {:.2e} | cov {} prim {} | draws {} tris {} fs {} loops {}",
+            depth,
             algo.name(),
             r.coverage_mismatch_interior,
             100.0 * r.coverage_mismatch_interior_frac,
