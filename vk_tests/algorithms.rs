@@ -21,7 +21,11 @@ pub fn shipped_scenes() -> Vec<PathBuf> {
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
     v.sort();
-    assert!(v.len() >= 8, "expected the shipped scenes in {}", dir.display());
+    assert!(
+        v.len() >= 8,
+        "expected the shipped scenes in {}",
+        dir.display()
+    );
     v
 }
 
@@ -42,18 +46,31 @@ pub fn depth_tolerance(scene: &Scene) -> f64 {
 }
 
 /// Renders `scene` with `algo` (validation on) and compares it with `reference`.
-pub fn run_gpu(scene: &Scene, algo: Algo, depth: DepthSetup, reference: &Images) -> Option<(CompareReport, serde_json::Value)> {
+pub fn run_gpu(
+    scene: &Scene,
+    algo: Algo,
+    depth: DepthSetup,
+    reference: &Images,
+) -> Option<(CompareReport, serde_json::Value)> {
     let prep = match Prepared::new(scene) {
         Ok(p) => p,
         Err(plan::PlanError::NoSolid) => return None,
         Err(e) => panic!("{e}"),
     };
     let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
-    let mut gpu = GpuRenderer::new(scene, DeviceChoice::Cpu, depth, true).expect("a Vulkan device (lavapipe)");
+    let mut gpu = GpuRenderer::new(scene, DeviceChoice::Cpu, depth, true)
+        .expect("a Vulkan device (lavapipe)");
     let frame = gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"));
     let msgs = gpu.validation_messages();
-    assert!(msgs.is_empty(), "{algo} {}: validation messages: {msgs:#?}", depth.name());
-    Some((compare(reference, &frame.images).expect("same size"), frame.stats))
+    assert!(
+        msgs.is_empty(),
+        "{algo} {}: validation messages: {msgs:#?}",
+        depth.name()
+    );
+    Some((
+        compare(reference, &frame.images).expect("same size"),
+        frame.stats,
+    ))
 }
 
 /// The bars: interior coverage mismatches ≤ `cov`, interior primitive
@@ -88,7 +105,11 @@ pub fn check_algo(algo: Algo, depths: &[DepthSetup], cov: f64, prim: f64) {
             }
         }
     }
-    assert!(failures.is_empty(), "{algo} misses the bars on:\n{}", failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{algo} misses the bars on:\n{}",
+        failures.join("\n")
+    );
 }
 
 #[test]
@@ -105,7 +126,15 @@ fn blister_counts_are_deterministic() {
     let mut gpu = GpuRenderer::new(&scene, DeviceChoice::Cpu, DepthSetup::D32S8, true).unwrap();
     let a = gpu.frame(&plan).unwrap();
     let b = gpu.frame(&plan).unwrap();
-    for k in ["draws", "mesh_draws", "fullscreen_passes", "triangles", "fullscreen_pixels", "loop_iterations", "samples_counted"] {
+    for k in [
+        "draws",
+        "mesh_draws",
+        "fullscreen_passes",
+        "triangles",
+        "fullscreen_pixels",
+        "loop_iterations",
+        "samples_counted",
+    ] {
         assert_eq!(a.stats[k], b.stats[k], "{k}");
     }
     assert_eq!(a.images, b.images);
