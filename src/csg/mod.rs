@@ -6,5 +6,16 @@
 //! iterative, so 10⁵-deep nesting and 10⁶ leaves cannot overflow the stack.
 #![deny(unsafe_code)]
 
+pub mod active_zone;
+pub mod blist;
 pub mod expr;
+pub mod parse;
+pub mod positive;
+
+pub use blist::{Blist, BlistEntry, Target};
 pub use expr::{Expr, LeafId, Node, NodeId};
+pub use parse::{parse, ParseError, ParseErrorKind};
+pub use positive::{Literal, PNode, PNodeId, PositiveExpr};
+
+#[cfg(test)]
+mod tests;
