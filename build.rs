@@ -1,1 +1,63 @@
-fn main() {}
+//! Compiles every `shaders/*.vert` and `shaders/*.frag` (GLSL 450) to SPIR-V with
+//! naga into `OUT_DIR/<name>.<stage>.spv`. A shader that fails to compile is a bug
+//! of this crate, so the build panics with the file name and naga's message.
+
+use std::path::Path;
+
+fn main() {
+    let out_dir = std::env::var("OUT_DIR").expect("OUT_DIR is set by cargo");
+    let shader_dir = Path::new("shaders");
+    println!("cargo:rerun-if-changed=shaders");
+    let mut entries: Vec<_> = std::fs::read_dir(shader_dir)
+        .expect("shaders/ exists")
+        .map(|e| e.expect("readable shaders/ entry").path())
+        .collect();
+    entries.sort();
+    for path in entries {
+        let stage = match path.extension().and_then(|e| e.to_str()) {
+            Some("vert") => naga::ShaderStage::Vertex,
+            Some("frag") => naga::ShaderStage::Fragment,
+            _ => continue,
+        };
+        println!("cargo:rerun-if-changed={}", path.display());
+        let source = std::fs::read_to_string(&path)
+            .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+        let module = naga::front::glsl::Frontend::default()
+            .parse(&naga::front::glsl::Options::from(stage), &source)
+            .unwrap_or_else(|e| {
+                panic!(
+                    "{}: GLSL parse error:\n{}",
+                    path.display(),
+                    e.emit_to_string(&source)
+                )
+            });
+        let info = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| {
+            panic!(
+                "{}: naga validation error:\n{}",
+                path.display(),
+                e.emit_to_string(&source)
+            )
+        });
+        let options = naga::back::spv::Options {
+            lang_version: (1, 3),
+            // The projection already maps clip y downwards (Vulkan); no flips,
+            // no clamps: depth-equal passes rely on exact, untouched values.
+            flags: naga::back::spv::WriterFlags::LABEL_VARYINGS,
+            // Use the GLSL set and binding decorations as written.
+            fake_missing_bindings: true,
+            ..Default::default()
+        };
+        let words = naga::back::spv::write_vec(&module, &info, &options, None)
+            .unwrap_or_else(|e| panic!("{}: SPIR-V generation error: {e}", path.display()));
+        let name = path.file_name().expect("file name").to_string_lossy();
+        let out = Path::new(&out_dir).join(format!("{name}.spv"));
+        let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        std::fs::write(&out, bytes)
+            .unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
+    }
+}

@@ -1,0 +1,25 @@
+#version 450
+// Full-screen: the depth texture becomes the fragment depth; far (empty) pixels are
+// discarded.
+layout(push_constant) uniform Push {
+    mat4 mvp;
+    // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
+    vec4 view;
+    // rgb: mesh, paint or background colour in 0..1
+    vec4 color;
+    // primitive id written to the id target (mesh index + 1)
+    uint prim;
+    // bit 0: reversed Z (near = 1, far = 0)
+    uint flags;
+} pc;
+layout(set = 0, binding = 0) uniform texture2D u_tex;
+layout(set = 0, binding = 1) uniform sampler u_samp;
+
+void main() {
+    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    bool empty = (pc.flags & 1u) != 0u ? d <= 0.0 : d >= 1.0;
+    if (empty) {
+        discard;
+    }
+    gl_FragDepth = d;
+}

@@ -1,0 +1,28 @@
+#version 450
+// The one vertex shader of every pass. gl_Position is invariant so that depth-equal
+// tests between passes compare bit-identical depths.
+layout(push_constant) uniform Push {
+    mat4 mvp;
+    // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
+    vec4 view;
+    // rgb: mesh, paint or background colour in 0..1
+    vec4 color;
+    // primitive id written to the id target (mesh index + 1)
+    uint prim;
+    // bit 0: reversed Z (near = 1, far = 0)
+    uint flags;
+} pc;
+
+layout(location = 0) in vec3 a_pos;
+layout(location = 1) in vec3 a_normal;
+
+layout(location = 0) out vec3 v_world;
+layout(location = 1) flat out vec3 v_normal;
+
+invariant gl_Position;
+
+void main() {
+    v_world = a_pos;
+    v_normal = a_normal;
+    gl_Position = pc.mvp * vec4(a_pos, 1.0);
+}

@@ -1,0 +1,20 @@
+#version 450
+// CST painting: a constant colour and the mesh's primitive id.
+layout(push_constant) uniform Push {
+    mat4 mvp;
+    // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
+    vec4 view;
+    // rgb: mesh, paint or background colour in 0..1
+    vec4 color;
+    // primitive id written to the id target (mesh index + 1)
+    uint prim;
+    // bit 0: reversed Z (near = 1, far = 0)
+    uint flags;
+} pc;
+layout(location = 0) out vec4 o_color;
+layout(location = 1) out uint o_prim;
+
+void main() {
+    o_color = vec4(pc.color.rgb, 1.0);
+    o_prim = pc.prim;
+}

@@ -1,0 +1,28 @@
+#version 450
+// Flat headlight shading, two-sided: rgb * (0.25 + 0.75 |n . v|) (output::shade).
+layout(push_constant) uniform Push {
+    mat4 mvp;
+    // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
+    vec4 view;
+    // rgb: mesh, paint or background colour in 0..1
+    vec4 color;
+    // primitive id written to the id target (mesh index + 1)
+    uint prim;
+    // bit 0: reversed Z (near = 1, far = 0)
+    uint flags;
+} pc;
+layout(location = 0) in vec3 v_world;
+layout(location = 1) flat in vec3 v_normal;
+layout(location = 0) out vec4 o_color;
+layout(location = 1) out uint o_prim;
+
+float shade_factor() {
+    vec3 n = normalize(v_normal);
+    vec3 v = pc.view.w > 0.5 ? normalize(v_world - pc.view.xyz) : pc.view.xyz;
+    return 0.25 + 0.75 * abs(dot(n, v));
+}
+
+void main() {
+    o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
+    o_prim = pc.prim;
+}

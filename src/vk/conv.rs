@@ -1,0 +1,174 @@
+//! Pure mapping of the plan's depth/stencil vocabulary to `ash` types, including the
+//! reversed-Z mirroring of compare ops and depth values. No GPU, no unsafe.
+
+use ash::vk;
+
+use crate::plan::{CompareOp, Cull, StencilFace, StencilOp};
+
+/// `op` in the standard convention (smaller is nearer) as the op to use with
+/// `reversed` Z, where nearer depths are larger.
+pub fn mirror_compare(op: CompareOp, reversed: bool) -> CompareOp {
+    if !reversed {
+        return op;
+    }
+    match op {
+        CompareOp::Less => CompareOp::Greater,
+        CompareOp::Greater => CompareOp::Less,
+        CompareOp::LessOrEqual => CompareOp::GreaterOrEqual,
+        CompareOp::GreaterOrEqual => CompareOp::LessOrEqual,
+        other => other,
+    }
+}
+
+pub fn compare_op(op: CompareOp, reversed: bool) -> vk::CompareOp {
+    match mirror_compare(op, reversed) {
+        CompareOp::Never => vk::CompareOp::NEVER,
+        CompareOp::Less => vk::CompareOp::LESS,
+        CompareOp::Equal => vk::CompareOp::EQUAL,
+        CompareOp::LessOrEqual => vk::CompareOp::LESS_OR_EQUAL,
+        CompareOp::Greater => vk::CompareOp::GREATER,
+        CompareOp::NotEqual => vk::CompareOp::NOT_EQUAL,
+        CompareOp::GreaterOrEqual => vk::CompareOp::GREATER_OR_EQUAL,
+        CompareOp::Always => vk::CompareOp::ALWAYS,
+    }
+}
+
+/// Stencil compare ops compare stencil values, never depths: not mirrored.
+pub fn stencil_compare_op(op: CompareOp) -> vk::CompareOp {
+    compare_op(op, false)
+}
+
+pub fn stencil_op(op: StencilOp) -> vk::StencilOp {
+    match op {
+        StencilOp::Keep => vk::StencilOp::KEEP,
+        StencilOp::Zero => vk::StencilOp::ZERO,
+        StencilOp::Replace => vk::StencilOp::REPLACE,
+        StencilOp::IncrementAndClamp => vk::StencilOp::INCREMENT_AND_CLAMP,
+        StencilOp::DecrementAndClamp => vk::StencilOp::DECREMENT_AND_CLAMP,
+        StencilOp::Invert => vk::StencilOp::INVERT,
+        StencilOp::IncrementAndWrap => vk::StencilOp::INCREMENT_AND_WRAP,
+        StencilOp::DecrementAndWrap => vk::StencilOp::DECREMENT_AND_WRAP,
+    }
+}
+
+/// The ops of one face, in the order of `vkCmdSetStencilOp`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StencilFaceOps {
+    pub fail: vk::StencilOp,
+    pub pass: vk::StencilOp,
+    pub depth_fail: vk::StencilOp,
+    pub compare: vk::CompareOp,
+}
+
+pub fn stencil_face(face: &StencilFace) -> StencilFaceOps {
+    StencilFaceOps {
+        fail: stencil_op(face.fail),
+        pass: stencil_op(face.pass),
+        depth_fail: stencil_op(face.depth_fail),
+        compare: stencil_compare_op(face.compare),
+    }
+}
+
+pub fn cull_mode(cull: Cull) -> vk::CullModeFlags {
+    match cull {
+        Cull::None => vk::CullModeFlags::NONE,
+        Cull::Back => vk::CullModeFlags::BACK,
+        Cull::Front => vk::CullModeFlags::FRONT,
+    }
+}
+
+/// Front faces are counter-clockwise seen from the eye (outward faces of the CCW
+/// meshes). `Camera::proj` flips clip y so that image row 0 is the top: the
+/// picture is upright, not mirrored, and Vulkan computes winding in framebuffer
+/// coordinates (y down) such that a triangle that looks counter-clockwise on the
+/// displayed image has positive area. So outward faces are `COUNTER_CLOCKWISE`;
+/// the vk test `front_face_convention` pins this.
+pub const FRONT_FACE: vk::FrontFace = vk::FrontFace::COUNTER_CLOCKWISE;
+
+/// A normalized depth of the plan (standard convention) in the buffer's convention.
+pub fn depth_value(d: f32, reversed: bool) -> f32 {
+    if reversed {
+        1.0 - d
+    } else {
+        d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ALL: [CompareOp; 8] = [
+        CompareOp::Never,
+        CompareOp::Less,
+        CompareOp::Equal,
+        CompareOp::LessOrEqual,
+        CompareOp::Greater,
+        CompareOp::NotEqual,
+        CompareOp::GreaterOrEqual,
+        CompareOp::Always,
+    ];
+
+    fn eval(op: vk::CompareOp, a: f32, b: f32) -> bool {
+        match op {
+            vk::CompareOp::NEVER => false,
+            vk::CompareOp::LESS => a < b,
+            vk::CompareOp::EQUAL => a == b,
+            vk::CompareOp::LESS_OR_EQUAL => a <= b,
+            vk::CompareOp::GREATER => a > b,
+            vk::CompareOp::NOT_EQUAL => a != b,
+            vk::CompareOp::GREATER_OR_EQUAL => a >= b,
+            vk::CompareOp::ALWAYS => true,
+            _ => unreachable!(),
+        }
+    }
+
+    /// Testing mirrored depths with the mirrored op gives the standard answer.
+    #[test]
+    fn reversed_compare_agrees_with_standard() {
+        let vals = [0.0f32, 0.25, 0.5, 1.0];
+        for op in ALL {
+            for &a in &vals {
+                for &b in &vals {
+                    let std = eval(compare_op(op, false), a, b);
+                    let rev = eval(
+                        compare_op(op, true),
+                        depth_value(a, true),
+                        depth_value(b, true),
+                    );
+                    assert_eq!(std, rev, "{op:?} {a} {b}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn mirror_is_an_involution_and_stencil_is_unmirrored() {
+        for op in ALL {
+            assert_eq!(mirror_compare(mirror_compare(op, true), true), op);
+            assert_eq!(stencil_compare_op(op), compare_op(op, false));
+        }
+        assert_eq!(stencil_compare_op(CompareOp::Less), vk::CompareOp::LESS);
+    }
+
+    #[test]
+    fn ops_and_cull() {
+        assert_eq!(stencil_op(StencilOp::Invert), vk::StencilOp::INVERT);
+        assert_eq!(
+            stencil_op(StencilOp::DecrementAndWrap),
+            vk::StencilOp::DECREMENT_AND_WRAP
+        );
+        assert_eq!(cull_mode(Cull::Back), vk::CullModeFlags::BACK);
+        assert_eq!(cull_mode(Cull::None), vk::CullModeFlags::NONE);
+        let f = stencil_face(&StencilFace {
+            compare: CompareOp::Equal,
+            fail: StencilOp::Keep,
+            pass: StencilOp::Replace,
+            depth_fail: StencilOp::Zero,
+        });
+        assert_eq!(f.compare, vk::CompareOp::EQUAL);
+        assert_eq!(f.pass, vk::StencilOp::REPLACE);
+        assert_eq!(f.depth_fail, vk::StencilOp::ZERO);
+        assert_eq!(depth_value(0.25, true), 0.75);
+    }
+}

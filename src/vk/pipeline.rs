@@ -1,0 +1,314 @@
+//! Graphics pipelines: one per fragment program and attachment formats. Everything
+//! a Blist step changes between draws (cull, depth, stencil, scissor) is dynamic
+//! state, so a plan needs only a handful of pipelines.
+
+use std::collections::HashMap;
+use std::io::Cursor;
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::error::{Check, VkError};
+use super::instance::Shared;
+
+/// The fragment program of a pipeline (the plan's `Fragment` without its operands,
+/// plus the executor's internal depth copy).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FragmentKind {
+    None,
+    Shade,
+    Paint,
+    Background,
+    Peel,
+    PeelShade,
+    WriteDepth,
+    DepthFromTexture,
+    /// Samples the depth aspect of a depth-stencil image into a depth texture.
+    CopyDepth,
+}
+
+impl FragmentKind {
+    fn spirv(self) -> &'static [u8] {
+        macro_rules! spv {
+            ($f:literal) => {
+                include_bytes!(concat!(env!("OUT_DIR"), "/", $f, ".spv"))
+            };
+        }
+        match self {
+            FragmentKind::None => spv!("none.frag"),
+            FragmentKind::Shade => spv!("shade.frag"),
+            FragmentKind::Paint => spv!("paint.frag"),
+            FragmentKind::Background => spv!("background.frag"),
+            FragmentKind::Peel => spv!("peel.frag"),
+            FragmentKind::PeelShade => spv!("peel_shade.frag"),
+            FragmentKind::WriteDepth => spv!("write_depth.frag"),
+            FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
+            FragmentKind::CopyDepth => spv!("copy_depth.frag"),
+        }
+    }
+}
+
+const VERTEX_SPIRV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.vert.spv"));
+
+/// Everything that selects a pipeline; plain data, hashable.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct PipelineDesc {
+    pub fragment: FragmentKind,
+    pub color_formats: Vec<vk::Format>,
+    /// The depth-stencil attachment's format; `None` when none is bound.
+    pub depth_stencil_format: Option<vk::Format>,
+}
+
+/// Push constants shared by every shader (`shaders/*`: `Push`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PushConstants {
+    pub mvp: [f32; 16],
+    pub view: [f32; 4],
+    pub color: [f32; 4],
+    pub prim: u32,
+    pub flags: u32,
+}
+
+pub const PUSH_SIZE: u32 = std::mem::size_of::<PushConstants>() as u32;
+/// `PushConstants::flags` bit: depths are reversed (near 1, far 0).
+pub const FLAG_REVERSED_Z: u32 = 1;
+
+impl PushConstants {
+    pub fn bytes(&self) -> [u8; PUSH_SIZE as usize] {
+        let mut out = [0u8; PUSH_SIZE as usize];
+        let words = self
+            .mvp
+            .iter()
+            .chain(&self.view)
+            .chain(&self.color)
+            .map(|f| f.to_bits())
+            .chain([self.prim, self.flags]);
+        for (i, w) in words.enumerate() {
+            out[i * 4..i * 4 + 4].copy_from_slice(&w.to_ne_bytes());
+        }
+        out
+    }
+}
+
+/// Vertex layout: position then flat face normal, both `vec3` (non-indexed).
+pub const VERTEX_STRIDE: u32 = 24;
+
+/// Shader modules, the shared layouts, a sampler and the pipeline cache.
+pub struct Pipelines {
+    shared: Arc<Shared>,
+    vertex: vk::ShaderModule,
+    fragments: HashMap<FragmentKind, vk::ShaderModule>,
+    pub(crate) sampler: vk::Sampler,
+    pub(crate) set_layout: vk::DescriptorSetLayout,
+    pub(crate) layout: vk::PipelineLayout,
+    cache: HashMap<PipelineDesc, vk::Pipeline>,
+}
+
+fn shader_module(shared: &Shared, bytes: &[u8]) -> Result<vk::ShaderModule, VkError> {
+    let words = ash::util::read_spv(&mut Cursor::new(bytes))
+        .map_err(|e| VkError::Plan(format!("embedded SPIR-V unreadable: {e}")))?;
+    let ci = vk::ShaderModuleCreateInfo::default().code(&words);
+    // SAFETY: the words are SPIR-V produced and validated by naga in build.rs.
+    unsafe { shared.device.create_shader_module(&ci, None) }.check("vkCreateShaderModule")
+}
+
+impl Pipelines {
+    pub(crate) fn new(shared: &Arc<Shared>) -> Result<Pipelines, VkError> {
+        let mut p = Pipelines {
+            shared: shared.clone(),
+            vertex: vk::ShaderModule::null(),
+            fragments: HashMap::new(),
+            sampler: vk::Sampler::null(),
+            set_layout: vk::DescriptorSetLayout::null(),
+            layout: vk::PipelineLayout::null(),
+            cache: HashMap::new(),
+        };
+        p.vertex = shader_module(shared, VERTEX_SPIRV)?;
+        let sci = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::NEAREST)
+            .min_filter(vk::Filter::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE);
+        // SAFETY: valid create info on a live device.
+        p.sampler = unsafe { shared.device.create_sampler(&sci, None) }.check("vkCreateSampler")?;
+        let bindings = [
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(0)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT),
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(1)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT),
+        ];
+        let dci = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid create info on a live device.
+        p.set_layout = unsafe { shared.device.create_descriptor_set_layout(&dci, None) }
+            .check("vkCreateDescriptorSetLayout")?;
+        let ranges = [vk::PushConstantRange {
+            stage_flags: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            offset: 0,
+            size: PUSH_SIZE,
+        }];
+        let set_layouts = [p.set_layout];
+        let lci = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&ranges);
+        // SAFETY: valid create info; the set layout is live.
+        p.layout = unsafe { shared.device.create_pipeline_layout(&lci, None) }
+            .check("vkCreatePipelineLayout")?;
+        Ok(p)
+    }
+
+    /// The pipeline for `desc`, created on first use.
+    pub(crate) fn get(&mut self, desc: &PipelineDesc) -> Result<vk::Pipeline, VkError> {
+        if let Some(&p) = self.cache.get(desc) {
+            return Ok(p);
+        }
+        let fragment = match self.fragments.get(&desc.fragment) {
+            Some(&m) => m,
+            None => {
+                let m = shader_module(&self.shared, desc.fragment.spirv())?;
+                self.fragments.insert(desc.fragment, m);
+                m
+            }
+        };
+        let pipeline = self.create(desc, fragment)?;
+        self.cache.insert(desc.clone(), pipeline);
+        Ok(pipeline)
+    }
+
+    fn create(
+        &self,
+        desc: &PipelineDesc,
+        fragment: vk::ShaderModule,
+    ) -> Result<vk::Pipeline, VkError> {
+        let stages = [
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::VERTEX)
+                .module(self.vertex)
+                .name(c"main"),
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(fragment)
+                .name(c"main"),
+        ];
+        let vb = [vk::VertexInputBindingDescription {
+            binding: 0,
+            stride: VERTEX_STRIDE,
+            input_rate: vk::VertexInputRate::VERTEX,
+        }];
+        let va = [
+            vk::VertexInputAttributeDescription {
+                location: 0,
+                binding: 0,
+                format: vk::Format::R32G32B32_SFLOAT,
+                offset: 0,
+            },
+            vk::VertexInputAttributeDescription {
+                location: 1,
+                binding: 0,
+                format: vk::Format::R32G32B32_SFLOAT,
+                offset: 12,
+            },
+        ];
+        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
+            .vertex_binding_descriptions(&vb)
+            .vertex_attribute_descriptions(&va);
+        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let viewport = vk::PipelineViewportStateCreateInfo::default()
+            .viewport_count(1)
+            .scissor_count(1);
+        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .line_width(1.0);
+        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_bounds_test_enable(false)
+            .min_depth_bounds(0.0)
+            .max_depth_bounds(1.0);
+        let blend_attachments: Vec<_> = desc
+            .color_formats
+            .iter()
+            .map(|_| {
+                vk::PipelineColorBlendAttachmentState::default()
+                    .blend_enable(false)
+                    .color_write_mask(vk::ColorComponentFlags::RGBA)
+            })
+            .collect();
+        let blend =
+            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let dynamic_states = [
+            vk::DynamicState::VIEWPORT,
+            vk::DynamicState::SCISSOR,
+            vk::DynamicState::CULL_MODE,
+            vk::DynamicState::FRONT_FACE,
+            vk::DynamicState::DEPTH_TEST_ENABLE,
+            vk::DynamicState::DEPTH_WRITE_ENABLE,
+            vk::DynamicState::DEPTH_COMPARE_OP,
+            vk::DynamicState::STENCIL_TEST_ENABLE,
+            vk::DynamicState::STENCIL_OP,
+            vk::DynamicState::STENCIL_COMPARE_MASK,
+            vk::DynamicState::STENCIL_WRITE_MASK,
+            vk::DynamicState::STENCIL_REFERENCE,
+        ];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        let ds_format = desc.depth_stencil_format.unwrap_or(vk::Format::UNDEFINED);
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(&desc.color_formats)
+            .depth_attachment_format(ds_format)
+            .stencil_attachment_format(ds_format);
+        let ci = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stages)
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&assembly)
+            .viewport_state(&viewport)
+            .rasterization_state(&raster)
+            .multisample_state(&multisample)
+            .depth_stencil_state(&depth_stencil)
+            .color_blend_state(&blend)
+            .dynamic_state(&dynamic)
+            .layout(self.layout)
+            .push_next(&mut rendering);
+        // SAFETY: all state structs above live across the call; modules and layout
+        // are live.
+        let pipelines = unsafe {
+            self.shared
+                .device
+                .create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None)
+        }
+        .map_err(|(_, e)| VkError::Call {
+            call: "vkCreateGraphicsPipelines",
+            result: e,
+        })?;
+        Ok(pipelines[0])
+    }
+}
+
+impl Drop for Pipelines {
+    fn drop(&mut self) {
+        let d = &self.shared.device;
+        for (_, p) in self.cache.drain() {
+            // SAFETY: the executor waited for the GPU before dropping its pipelines.
+            unsafe { d.destroy_pipeline(p, None) };
+        }
+        // SAFETY: no pipeline uses the layouts any more; null handles are ignored.
+        unsafe { d.destroy_pipeline_layout(self.layout, None) };
+        // SAFETY: as above.
+        unsafe { d.destroy_descriptor_set_layout(self.set_layout, None) };
+        // SAFETY: as above.
+        unsafe { d.destroy_sampler(self.sampler, None) };
+        for (_, m) in self.fragments.drain() {
+            // SAFETY: modules are only needed while creating pipelines.
+            unsafe { d.destroy_shader_module(m, None) };
+        }
+        // SAFETY: as above.
+        unsafe { d.destroy_shader_module(self.vertex, None) };
+    }
+}

@@ -1,0 +1,202 @@
+//! Screen rectangles of projected mesh bounding boxes: full-screen sweeps and
+//! scissored draws only touch the pixels their meshes can cover. Pure.
+
+use glam::{DMat4, DVec3};
+
+use crate::scene::Aabb;
+
+/// A pixel rectangle `[x0, x1) × [y0, y1)`, y downward.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Rect {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl Rect {
+    pub fn full(width: u32, height: u32) -> Rect {
+        Rect {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
+    }
+
+    pub const EMPTY: Rect = Rect {
+        x0: 0,
+        y0: 0,
+        x1: 0,
+        y1: 0,
+    };
+
+    pub fn width(&self) -> u32 {
+        self.x1.saturating_sub(self.x0)
+    }
+
+    pub fn height(&self) -> u32 {
+        self.y1.saturating_sub(self.y0)
+    }
+
+    pub fn area(&self) -> u64 {
+        self.width() as u64 * self.height() as u64
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.area() == 0
+    }
+
+    pub fn union(&self, o: &Rect) -> Rect {
+        if self.is_empty() {
+            return *o;
+        }
+        if o.is_empty() {
+            return *self;
+        }
+        Rect {
+            x0: self.x0.min(o.x0),
+            y0: self.y0.min(o.y0),
+            x1: self.x1.max(o.x1),
+            y1: self.y1.max(o.y1),
+        }
+    }
+}
+
+/// The screen rectangle covering the projections of `boxes` (world space) through
+/// `view` then `proj` (Vulkan clip space, y down) on a `width × height` image. A box
+/// with a corner nearer than `near` (view depth) makes it the full screen. One pixel
+/// of margin absorbs `f32` rounding on the GPU.
+pub fn bounds_rect(
+    view: DMat4,
+    proj: DMat4,
+    near: f64,
+    boxes: &[Aabb],
+    width: u32,
+    height: u32,
+) -> Rect {
+    let mut rect = Rect::EMPTY;
+    for b in boxes {
+        let (mut lo_x, mut lo_y) = (f64::INFINITY, f64::INFINITY);
+        let (mut hi_x, mut hi_y) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for i in 0..8 {
+            let c = DVec3::new(
+                if i & 1 == 0 { b.min.x } else { b.max.x },
+                if i & 2 == 0 { b.min.y } else { b.max.y },
+                if i & 4 == 0 { b.min.z } else { b.max.z },
+            );
+            let v = view.transform_point3(c);
+            if -v.z < near {
+                return Rect::full(width, height);
+            }
+            let clip = proj * v.extend(1.0);
+            let (sx, sy) = (
+                (clip.x / clip.w + 1.0) * 0.5 * width as f64,
+                (clip.y / clip.w + 1.0) * 0.5 * height as f64,
+            );
+            lo_x = lo_x.min(sx);
+            lo_y = lo_y.min(sy);
+            hi_x = hi_x.max(sx);
+            hi_y = hi_y.max(sy);
+        }
+        let clamp_x = |v: f64| v.clamp(0.0, width as f64) as u32;
+        let clamp_y = |v: f64| v.clamp(0.0, height as f64) as u32;
+        let r = Rect {
+            x0: clamp_x(lo_x.floor() - 1.0),
+            y0: clamp_y(lo_y.floor() - 1.0),
+            x1: clamp_x(hi_x.ceil() + 1.0),
+            y1: clamp_y(hi_y.ceil() + 1.0),
+        };
+        if !r.is_empty() {
+            rect = rect.union(&r);
+        }
+    }
+    rect
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::camera::DepthConvention;
+    use crate::scene::{Camera, Projection};
+
+    fn cam() -> Camera {
+        Camera {
+            eye: DVec3::new(0.0, 0.0, 5.0),
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            projection: Projection::Orthographic { height: 4.0 },
+            near: 0.5,
+            far: 20.0,
+        }
+    }
+
+    fn unit_box(c: DVec3, h: f64) -> Aabb {
+        Aabb {
+            min: c - DVec3::splat(h),
+            max: c + DVec3::splat(h),
+        }
+    }
+
+    #[test]
+    fn ortho_box_maps_to_expected_pixels() {
+        let c = cam();
+        let (w, h) = (100, 100);
+        // Box [-1,1]^2 of a view 4 units high: pixels 25..75, plus the margin.
+        let r = bounds_rect(
+            c.view(),
+            c.proj(1.0, DepthConvention::Standard),
+            c.near,
+            &[unit_box(DVec3::ZERO, 1.0)],
+            w,
+            h,
+        );
+        assert_eq!(
+            r,
+            Rect {
+                x0: 24,
+                y0: 24,
+                x1: 76,
+                y1: 76
+            }
+        );
+        // y is downward: a box above the centre lands in the top half.
+        let up = bounds_rect(
+            c.view(),
+            c.proj(1.0, DepthConvention::Standard),
+            c.near,
+            &[unit_box(DVec3::new(0.0, 1.5, 0.0), 0.25)],
+            w,
+            h,
+        );
+        assert!(up.y1 <= 50, "{up:?}");
+    }
+
+    #[test]
+    fn near_plane_crossing_is_full_screen_and_union_and_clamp() {
+        let c = Camera {
+            projection: Projection::Perspective { fov_y_deg: 40.0 },
+            ..cam()
+        };
+        let p = c.proj(2.0, DepthConvention::Reversed);
+        let r = bounds_rect(
+            c.view(),
+            p,
+            c.near,
+            &[unit_box(DVec3::new(0.0, 0.0, 4.8), 0.5)],
+            200,
+            100,
+        );
+        assert_eq!(r, Rect::full(200, 100));
+        let a = unit_box(DVec3::new(-0.5, 0.0, 0.0), 0.1);
+        let b = unit_box(DVec3::new(0.5, 0.0, 0.0), 0.1);
+        let ra = bounds_rect(c.view(), p, c.near, &[a], 200, 100);
+        let rb = bounds_rect(c.view(), p, c.near, &[b], 200, 100);
+        let rab = bounds_rect(c.view(), p, c.near, &[a, b], 200, 100);
+        assert_eq!(rab, ra.union(&rb));
+        assert!(ra.x1 < rb.x0);
+        let far_off = unit_box(DVec3::new(100.0, 0.0, 0.0), 0.1);
+        assert!(bounds_rect(c.view(), p, c.near, &[far_off], 200, 100).is_empty());
+        assert!(bounds_rect(c.view(), p, c.near, &[], 200, 100).is_empty());
+    }
+}
