@@ -13,6 +13,7 @@
 //! - [`output`]: the contract's output files.
 #![warn(unsafe_op_in_unsafe_fn)]
 
+pub mod bench;
 pub mod csg;
 pub mod output;
 pub mod plan;

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context as _, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 
+use peeltrim::bench::{self, families, BenchConfig, BenchScene};
 use peeltrim::plan::Algo;
 use peeltrim::render::{self, DepthSetup, RenderOptions};
 use peeltrim::scene::{self, LoadOptions};
@@ -69,6 +70,43 @@ enum Cmd {
     },
     /// Compare two render output directories (depth.npy and prim.png)
     Compare { a: PathBuf, b: PathBuf },
+    /// Time algorithms on scenes (speed against error); writes results.json,
+    /// results.csv, summary.md, plots/ and images/ into --out
+    Bench {
+        /// Scene files (default: every scenes/*.toml)
+        scenes: Vec<PathBuf>,
+        /// Comma-separated algorithms, or "all"
+        #[arg(long, default_value = "all")]
+        algos: String,
+        /// Image size WxH (overrides each scene's [render] size; default 400x400)
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// Timed frames per run (after warm-up)
+        #[arg(long, default_value_t = 10)]
+        frames: u32,
+        /// Untimed warm-up frames per run
+        #[arg(long, default_value_t = 1)]
+        warmup: u32,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Run every depth set-up (d24s8, d32s8, d32s8 reversed) instead of the one the flags pick
+        #[arg(long)]
+        all_depths: bool,
+        /// Scaling families to generate, e.g. "block-spheres:4,16,64" (repeatable);
+        /// families: block-spheres, union-boxes, deep-tree, nonconvex-k
+        #[arg(long = "family")]
+        families: Vec<String>,
+        /// Add the numerical-stability hard cases (coincident faces, thin walls, grazing views, 1e7 near/far)
+        #[arg(long)]
+        hard: bool,
+        /// Do not write each run's images
+        #[arg(long)]
+        no_images: bool,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+    /// Open a window showing the scene (interactive viewer)
+    View { scene: PathBuf },
     /// Print an algorithm's plan (the steps it records) for a scene
     Plan {
         scene: PathBuf,
@@ -82,6 +120,38 @@ fn parse_algo(s: &str) -> Result<Algo, String> {
         let names: Vec<&str> = Algo::ALL.iter().map(|a| a.name()).collect();
         format!("unknown algorithm '{s}'; choose one of {}", names.join(", "))
     })
+}
+
+fn parse_algos(s: &str) -> Result<Vec<Algo>> {
+    if s.trim() == "all" {
+        return Ok(Algo::ALL.to_vec());
+    }
+    s.split(',').map(|a| parse_algo(a.trim()).map_err(anyhow::Error::msg)).collect()
+}
+
+/// "block-spheres:4,16,64" -> ("block-spheres", [4, 16, 64])
+fn parse_family(s: &str) -> Result<(String, Vec<u32>)> {
+    let (name, ns) = s.split_once(':').unwrap_or((s, "4,16,64"));
+    let ns = ns
+        .split(',')
+        .map(|n| n.trim().parse::<u32>().ok().filter(|&n| n >= 1 && n <= 65536))
+        .collect::<Option<Vec<u32>>>()
+        .with_context(|| format!("--family '{s}': sizes must be positive integers, e.g. block-spheres:4,16,64"))?;
+    Ok((name.to_string(), ns))
+}
+
+/// The shipped scenes next to the binary's source tree, or under ./scenes.
+fn shipped_scenes() -> Result<Vec<PathBuf>> {
+    let dir = [PathBuf::from("scenes"), Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")]
+        .into_iter()
+        .find(|d| d.is_dir())
+        .context("no scene given and no scenes/ directory here: pass scene files")?;
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    v.sort();
+    Ok(v)
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -155,6 +225,41 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let ib = peeltrim::output::read_images(&b)?;
             let report = peeltrim::reference::compare::compare(&ia, &ib)?;
             println!("{}", serde_json::to_string_pretty(&report)?);
+        }
+        Cmd::Bench { scenes, algos, size, frames, warmup, out, all_depths, families, hard, no_images, gpu } => {
+            let algos = parse_algos(&algos)?;
+            let opts = render_options(Algo::Reference, &gpu)?;
+            let mut list: Vec<BenchScene> = Vec::new();
+            let scene_files = if scenes.is_empty() && families.is_empty() && !hard { shipped_scenes()? } else { scenes };
+            list.extend(scene_files.into_iter().map(|path| BenchScene { path, family: None, n: None }));
+            let gen_dir = out.join("scenes");
+            for f in &families {
+                let (name, ns) = parse_family(f)?;
+                list.extend(families::generate(&name, &ns, &gen_dir)?);
+            }
+            if hard {
+                list.extend(families::generate_hard(&gen_dir)?);
+            }
+            let cfg = BenchConfig {
+                algos,
+                sizes: vec![size.unwrap_or((400, 400))],
+                depth_setups: if all_depths { DepthSetup::ALL.to_vec() } else { vec![opts.depth] },
+                frames,
+                warmup,
+                device: opts.device,
+                validation: opts.validation,
+                out: out.clone(),
+                save_images: !no_images,
+                progress: true,
+            };
+            let records = bench::run_and_report(&cfg, &list)?;
+            print!("{}", bench::report::summary(&records));
+            eprintln!("results in {}/ (results.json, results.csv, summary.md, plots/, images/)", out.display());
+        }
+        Cmd::View { scene } => {
+            load(&scene, None)?;
+            eprintln!("peeltrim: the interactive viewer is not implemented yet; use `peeltrim render` and open color.png");
+            return Ok(ExitCode::from(2));
         }
         Cmd::Plan { scene, algo } => {
             let scene = load(&scene, None)?;

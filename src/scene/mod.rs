@@ -7,7 +7,15 @@
 #![deny(unsafe_code)]
 
 pub mod camera;
+pub mod fit;
+pub mod load;
+pub mod obj;
+pub mod shapes;
+// TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
+mod tmp_parse;
+pub mod validate;
 pub use camera::{Camera, Projection};
+pub use load::{is_bounded, load, load_str, LoadOptions, SceneError};
 
 use glam::DVec3;
 use std::path::PathBuf;
@@ -129,4 +137,6 @@ pub struct Scene {
     pub solids: Vec<Solid>,
     /// Surfaces continue the primitive index count after the primitives.
     pub surfaces: Vec<Surface>,
+    /// Non-fatal remarks from loading (unused primitives, ignored keys), one line each.
+    pub warnings: Vec<String>,
 }

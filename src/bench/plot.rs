@@ -1,0 +1,263 @@
+//! PNG plots of benchmark results (plotters, bitmap backend): time against error
+//! per scene, time against the number of primitives for the scaling families,
+//! and per-pass time breakdowns. Text uses DejaVu Sans (Debian's
+//! fonts-dejavu-core, installed by tools/setup.sh).
+#![deny(unsafe_code)]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::prelude::*;
+
+use super::report::error_figures;
+use super::{BenchError, Record};
+
+const FONT_PATHS: [&str; 2] =
+    ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"];
+
+/// Registers the plot font once; plots are skipped with a message without it.
+fn font() -> Result<(), BenchError> {
+    static FONT: OnceLock<Result<(), String>> = OnceLock::new();
+    FONT.get_or_init(|| {
+        for p in FONT_PATHS {
+            if let Ok(bytes) = std::fs::read(p) {
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                return plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
+                    .map_err(|_| format!("{p} is not a usable font"));
+            }
+        }
+        Err("no DejaVuSans.ttf found: install fonts-dejavu-core (tools/setup.sh) for the plots".into())
+    })
+    .clone()
+    .map_err(BenchError::Other)
+}
+
+fn err(path: &Path, e: impl std::fmt::Display) -> BenchError {
+    BenchError::Other(format!("plotting {}: {e}", path.display()))
+}
+
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+];
+
+fn algo_color(algo: &str) -> RGBColor {
+    let order = ["blister", "cst-z", "cst-i", "cst-g", "goldfeather", "goldfeather-layered", "trickle", "reference"];
+    PALETTE[order.iter().position(|a| *a == algo).unwrap_or(7)]
+}
+
+/// Writes all plots; returns the files written.
+pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchError> {
+    font()?;
+    let dir = out.join("plots");
+    std::fs::create_dir_all(&dir).map_err(|source| BenchError::Io { path: dir.clone(), source })?;
+    let mut files = Vec::new();
+    let mut scenes: Vec<(String, u32, u32)> = records
+        .iter()
+        .filter(|r| r.family.is_none())
+        .map(|r| (r.scene.clone(), r.width, r.height))
+        .collect();
+    scenes.dedup();
+    for (scene, w, h) in scenes {
+        let rows: Vec<&Record> = records
+            .iter()
+            .filter(|r| r.scene == scene && r.width == w && r.height == h && r.failure.is_none() && r.algo != "reference")
+            .collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let p = dir.join(format!("time_vs_error_{scene}_{w}x{h}.png"));
+        time_vs_error(&p, &format!("{scene} {w}x{h}: GPU time vs error"), &rows)?;
+        files.push(p);
+        let p = dir.join(format!("passes_{scene}_{w}x{h}.png"));
+        pass_breakdown(&p, &format!("{scene} {w}x{h}: GPU time per pass"), &rows)?;
+        files.push(p);
+    }
+    let mut families: Vec<String> = records.iter().filter_map(|r| r.family.clone()).collect();
+    families.sort();
+    families.dedup();
+    for fam in families {
+        let rows: Vec<&Record> =
+            records.iter().filter(|r| r.family.as_deref() == Some(&fam) && r.failure.is_none() && r.algo != "reference").collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let p = dir.join(format!("scaling_{fam}.png"));
+        scaling(&p, &format!("{fam}: GPU time vs number of primitives"), &rows)?;
+        files.push(p);
+    }
+    Ok(files)
+}
+
+/// x: median GPU ms; y: interior coverage + primitive mismatches (% of pixels).
+fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError> {
+    let pts: Vec<(f64, f64, String, &str)> = rows
+        .iter()
+        .map(|r| {
+            let (c, p, _) = error_figures(r);
+            let e = (c.max(0.0) + p.max(0.0)) * 100.0;
+            (r.gpu_ms_median, if e.is_finite() { e } else { 0.0 }, format!("{} {}", r.algo, r.depth_setup), r.algo.as_str())
+        })
+        .collect();
+    let xmax = pts.iter().map(|p| p.0).fold(0.0, f64::max) * 1.25 + 1e-3;
+    let ymax = pts.iter().map(|p| p.1).fold(0.0, f64::max) * 1.25 + 0.01;
+    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..xmax, 0.0..ymax)
+        .map_err(|e| err(path, e))?;
+    chart
+        .configure_mesh()
+        .x_desc("median GPU time per frame (ms)")
+        .y_desc("interior coverage + primitive mismatches (% of pixels)")
+        .draw()
+        .map_err(|e| err(path, e))?;
+    for (x, y, label, algo) in &pts {
+        let c = algo_color(algo);
+        chart
+            .draw_series(std::iter::once(Circle::new((*x, *y), 5, c.filled())))
+            .map_err(|e| err(path, e))?;
+        chart
+            .draw_series(std::iter::once(Text::new(label.clone(), (*x, *y), ("sans-serif", 13).into_font())))
+            .map_err(|e| err(path, e))?;
+    }
+    root.present().map_err(|e| err(path, e))?;
+    Ok(())
+}
+
+/// Stacked bars: for each algorithm (first depth set-up), its passes' GPU ms.
+fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError> {
+    let depth = rows[0].depth_setup.clone();
+    let rows: Vec<&&Record> = rows.iter().filter(|r| r.depth_setup == depth).collect();
+    let mut pass_names: Vec<String> = Vec::new();
+    let mut bars: Vec<(String, BTreeMap<String, f64>)> = Vec::new();
+    for r in &rows {
+        let mut m = BTreeMap::new();
+        if let Some(arr) = r.per_pass.as_array() {
+            for p in arr {
+                let name = p.get("name").and_then(|v| v.as_str()).unwrap_or("?").to_string();
+                let ms = p.get("gpu_ms").and_then(|v| v.as_f64()).unwrap_or(0.0);
+                if !pass_names.contains(&name) {
+                    pass_names.push(name.clone());
+                }
+                *m.entry(name).or_insert(0.0) += ms;
+            }
+        }
+        bars.push((r.algo.clone(), m));
+    }
+    let ymax = bars.iter().map(|(_, m)| m.values().sum::<f64>()).fold(0.0, f64::max) * 1.2 + 1e-3;
+    let n = bars.len().max(1);
+    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("{title} ({depth})"), ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..n as f64, 0.0..ymax)
+        .map_err(|e| err(path, e))?;
+    let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(n + 1)
+        .x_label_formatter(&|x| {
+            let i = x.floor() as usize;
+            if (x - i as f64 - 0.0).abs() < 1e-9 {
+                String::new()
+            } else {
+                names.get(i).cloned().unwrap_or_default()
+            }
+        })
+        .y_desc("GPU ms (median frame)")
+        .draw()
+        .map_err(|e| err(path, e))?;
+    for (pi, pass) in pass_names.iter().enumerate() {
+        let color = PALETTE[pi % PALETTE.len()];
+        let rects: Vec<Rectangle<(f64, f64)>> = bars
+            .iter()
+            .enumerate()
+            .map(|(i, (_, m))| {
+                let below: f64 = pass_names[..pi].iter().map(|p| m.get(p).copied().unwrap_or(0.0)).sum();
+                let h = m.get(pass).copied().unwrap_or(0.0);
+                Rectangle::new([(i as f64 + 0.15, below), (i as f64 + 0.85, below + h)], color.filled())
+            })
+            .collect();
+        chart
+            .draw_series(rects)
+            .map_err(|e| err(path, e))?
+            .label(pass.clone())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(path, e))?;
+    root.present().map_err(|e| err(path, e))?;
+    Ok(())
+}
+
+/// Log-log lines: median GPU ms against n, one line per algorithm (first depth set-up).
+fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError> {
+    let depth = rows[0].depth_setup.clone();
+    let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.depth_setup == depth) {
+        let n = r.n.unwrap_or(r.prims as u32) as f64;
+        lines.entry(r.algo.clone()).or_default().push((n.max(1.0), r.gpu_ms_median.max(1e-3)));
+    }
+    for v in lines.values_mut() {
+        v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    let xs = lines.values().flatten().map(|p| p.0);
+    let (xmin, xmax) = xs.clone().fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
+    let ys = lines.values().flatten().map(|p| p.1);
+    let (ymin, ymax) = ys.fold((f64::INFINITY, 0.0f64), |(a, b), y| (a.min(y), b.max(y)));
+    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("{title} ({depth})"), ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d((xmin * 0.8..xmax * 1.25).log_scale(), (ymin * 0.8..ymax * 1.25).log_scale())
+        .map_err(|e| err(path, e))?;
+    chart
+        .configure_mesh()
+        .x_desc("n (primitives)")
+        .y_desc("median GPU ms per frame")
+        .draw()
+        .map_err(|e| err(path, e))?;
+    for (algo, pts) in &lines {
+        let c = algo_color(algo);
+        chart
+            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+            .map_err(|e| err(path, e))?
+            .label(algo.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+        chart
+            .draw_series(pts.iter().map(|&(x, y)| Circle::new((x, y), 3, c.filled())))
+            .map_err(|e| err(path, e))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(path, e))?;
+    root.present().map_err(|e| err(path, e))?;
+    Ok(())
+}

@@ -1,0 +1,195 @@
+//! Benchmark outputs: `results.json` (every figure of every run), `results.csv`,
+//! and `summary.md` (a table per scene, plus the CST paper's timing table side by
+//! side with ours as ratios to Blister, since absolute times on another machine
+//! mean little).
+#![deny(unsafe_code)]
+
+use std::fmt::Write;
+use std::path::Path;
+
+use serde_json::Value;
+
+use super::{BenchError, Record};
+
+/// The CST paper's §8 table (GeForce 6800 GT, 800×800): Prims, Blister, Z, I, G in ms.
+pub const PAPER_TABLE: [(&str, u32, [f64; 4]); 2] =
+    [("complex", 20, [121.0, 96.0, 92.0, 100.0]), ("gear", 48, [481.0, 382.0, 312.0, 179.0])];
+
+fn num(v: &Value, key: &str) -> f64 {
+    v.get(key).and_then(Value::as_f64).unwrap_or(f64::NAN)
+}
+
+/// Interior coverage and primitive mismatches (fractions) and depth p99 of a run.
+pub fn error_figures(r: &Record) -> (f64, f64, f64) {
+    (
+        num(&r.error, "coverage_mismatch_interior_frac"),
+        num(&r.error, "prim_mismatch_interior_frac"),
+        num(&r.error, "depth_abs_err_p99"),
+    )
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> BenchError + '_ {
+    move |source| BenchError::Io { path: path.to_path_buf(), source }
+}
+
+pub fn write_all(out: &Path, records: &[Record]) -> Result<(), BenchError> {
+    let p = out.join("results.json");
+    let json = serde_json::to_string_pretty(records).map_err(|e| BenchError::Other(e.to_string()))?;
+    std::fs::write(&p, json).map_err(io(&p))?;
+    let p = out.join("results.csv");
+    std::fs::write(&p, csv(records)).map_err(io(&p))?;
+    let p = out.join("summary.md");
+    std::fs::write(&p, summary(records)).map_err(io(&p))?;
+    Ok(())
+}
+
+const CSV_COUNTS: [&str; 6] = ["draws", "mesh_draws", "fullscreen_passes", "triangles", "fullscreen_pixels", "samples_counted"];
+
+pub fn csv(records: &[Record]) -> String {
+    let mut s = String::from(
+        "scene,family,n,prims,width,height,algo,depth_setup,device,frames,gpu_ms_median,gpu_ms_min,gpu_ms_max,gpu_ms_iqr,cpu_ms_median,cpu_ms_iqr",
+    );
+    for c in CSV_COUNTS {
+        let _ = write!(s, ",{c}");
+    }
+    s.push_str(",coverage_mismatch_frac,prim_mismatch_frac,coverage_mismatch_interior_frac,prim_mismatch_interior_frac,depth_abs_err_max,depth_abs_err_p99,depth_abs_err_mean,failure\n");
+    for r in records {
+        let _ = write!(
+            s,
+            "{},{},{},{},{},{},{},{},\"{}\",{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            r.scene,
+            r.family.as_deref().unwrap_or(""),
+            r.n.map(|n| n.to_string()).unwrap_or_default(),
+            r.prims,
+            r.width,
+            r.height,
+            r.algo,
+            r.depth_setup,
+            r.device.replace('"', "'"),
+            r.frames,
+            r.gpu_ms_median,
+            r.gpu_ms_min,
+            r.gpu_ms_max,
+            r.gpu_ms_iqr,
+            r.cpu_ms_median,
+            r.cpu_ms_iqr
+        );
+        for c in CSV_COUNTS {
+            let v = r.counts.get(c).map(|v| v.to_string()).unwrap_or_default();
+            let _ = write!(s, ",{v}");
+        }
+        for k in [
+            "coverage_mismatch_frac",
+            "prim_mismatch_frac",
+            "coverage_mismatch_interior_frac",
+            "prim_mismatch_interior_frac",
+            "depth_abs_err_max",
+            "depth_abs_err_p99",
+            "depth_abs_err_mean",
+        ] {
+            let _ = write!(s, ",{}", r.error.get(k).map(|v| v.to_string()).unwrap_or_default());
+        }
+        let _ = writeln!(s, ",\"{}\"", r.failure.as_deref().unwrap_or("").replace('"', "'"));
+    }
+    s
+}
+
+/// Markdown: one table per scene and size, then the paper's table.
+pub fn summary(records: &[Record]) -> String {
+    let mut s = String::from("# peeltrim benchmark\n\n");
+    if let Some(r) = records.iter().find(|r| !r.device.is_empty() && r.algo != "reference") {
+        let _ = writeln!(s, "Device: {}. GPU times are medians over {} frames (timestamp queries); spread is the interquartile range. Errors are against the exact reference: interior coverage / primitive mismatches as % of pixels, depth p99 in scene units.\n", r.device, r.frames);
+    }
+    let mut keys: Vec<(String, u32, u32)> = Vec::new();
+    for r in records {
+        let k = (r.scene.clone(), r.width, r.height);
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    for (scene, w, h) in &keys {
+        let rows: Vec<&Record> = records.iter().filter(|r| &r.scene == scene && r.width == *w && r.height == *h).collect();
+        let prims = rows.first().map(|r| r.prims).unwrap_or(0);
+        let _ = writeln!(s, "## {scene} ({prims} primitives, {w}×{h})\n");
+        s.push_str("| algo | depth | GPU ms (median ± IQR) | CPU ms | draws | triangles | full-screen passes | cov. mism. % | prim mism. % | depth p99 |\n");
+        s.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+        for r in rows {
+            if let Some(f) = &r.failure {
+                let _ = writeln!(s, "| {} | {} | failed: {} | | | | | | | |", r.algo, r.depth_setup, f.replace('|', "/"));
+                continue;
+            }
+            let (cov, prim, d99) = error_figures(r);
+            let c = |k: &str| r.counts.get(k).map(|v| v.to_string()).unwrap_or_else(|| "-".into());
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.2} ± {:.2} | {:.1} | {} | {} | {} | {:.3} | {:.3} | {:.2e} |",
+                r.algo,
+                r.depth_setup,
+                r.gpu_ms_median,
+                r.gpu_ms_iqr,
+                r.cpu_ms_median,
+                c("draws"),
+                c("triangles"),
+                c("fullscreen_passes"),
+                cov * 100.0,
+                prim * 100.0,
+                d99
+            );
+        }
+        s.push('\n');
+    }
+    s.push_str(&paper_table(records));
+    s
+}
+
+/// The CST paper's table next to ours (same depth set-up, largest size run).
+pub fn paper_table(records: &[Record]) -> String {
+    let mut s = String::from("## The CST paper's table, side by side\n\n");
+    s.push_str("Paper: GeForce 6800 GT, 800×800, ms. Ours: median GPU ms on this device; ratios are to Blister in the same row.\n\n");
+    s.push_str("| model | prims | source | Blister | Z | I | G | Z/B | I/B | G/B |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    let mut any = false;
+    for (name, prims, t) in PAPER_TABLE {
+        let _ = writeln!(
+            s,
+            "| {name} | {prims} | paper | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} |",
+            t[0], t[1], t[2], t[3], t[1] / t[0], t[2] / t[0], t[3] / t[0]
+        );
+        let ours: Vec<&Record> = records.iter().filter(|r| r.scene == name && r.failure.is_none()).collect();
+        let mut setups: Vec<(&str, u32, u32)> = ours.iter().map(|r| (r.depth_setup.as_str(), r.width, r.height)).collect();
+        setups.sort();
+        setups.dedup();
+        for (depth, w, h) in setups {
+            let get = |a: &str| {
+                ours.iter()
+                    .find(|r| r.algo == a && r.depth_setup == depth && r.width == w && r.height == h)
+                    .map(|r| r.gpu_ms_median)
+            };
+            let (b, z, i, g) = (get("blister"), get("cst-z"), get("cst-i"), get("cst-g"));
+            let f = |x: Option<f64>| x.map(|v| format!("{v:.1}")).unwrap_or_else(|| "-".into());
+            let ratio = |x: Option<f64>| match (x, b) {
+                (Some(x), Some(b)) if b > 0.0 => format!("{:.2}", x / b),
+                _ => "-".into(),
+            };
+            if b.is_none() && z.is_none() && i.is_none() && g.is_none() {
+                continue;
+            }
+            any = true;
+            let prims_ours = ours.first().map(|r| r.prims).unwrap_or(0);
+            let _ = writeln!(
+                s,
+                "| {name} | {prims_ours} | ours {w}×{h} {depth} | {} | {} | {} | {} | {} | {} | {} |",
+                f(b),
+                f(z),
+                f(i),
+                f(g),
+                ratio(z),
+                ratio(i),
+                ratio(g)
+            );
+        }
+    }
+    if !any {
+        s.push_str("\n(no run of the shipped complex/gear scenes with blister or cst-* in this benchmark)\n");
+    }
+    s
+}
