@@ -635,6 +635,7 @@ impl Executor {
                         }
                         Fragment::WriteDepth { out } => check_tex(out)?,
                         Fragment::DepthFromTexture { src } => check_tex(src)?,
+                        Fragment::ShadeAtDepth { tex } => check_tex(tex)?,
                         _ => {}
                     }
                 }
@@ -1219,6 +1220,11 @@ impl Executor {
                 Fragment::WriteDepth { out } => {
                     (FragmentKind::WriteDepth, vec![Target::Tex(out)], None)
                 }
+                Fragment::ShadeAtDepth { tex } => (
+                    FragmentKind::ShadeAtDepth,
+                    vec![Target::Color, Target::Prim],
+                    Some(res.tex_sets[tex as usize]),
+                ),
                 Fragment::DepthFromTexture { src } => (
                     FragmentKind::DepthFromTexture,
                     vec![],

@@ -23,6 +23,7 @@ pub enum FragmentKind {
     PeelShade,
     WriteDepth,
     DepthFromTexture,
+    ShadeAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
     CopyDepth,
 }
@@ -44,6 +45,7 @@ impl FragmentKind {
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
+            FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
         }
     }
 }
