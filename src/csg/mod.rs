@@ -9,13 +9,18 @@
 pub mod active_zone;
 pub mod blist;
 pub mod expr;
+pub mod groups;
 pub mod parse;
 pub mod positive;
+pub mod products;
 
-pub use blist::{Blist, BlistEntry, Target};
+pub use active_zone::ActiveZones;
+pub use blist::{label_bound, Blist, BlistEntry, Target};
 pub use expr::{Expr, LeafId, Node, NodeId};
+pub use groups::{Group, GroupKind, GroupedBlist, GroupedEntry, Item};
 pub use parse::{parse, ParseError, ParseErrorKind};
 pub use positive::{Literal, PNode, PNodeId, PositiveExpr};
+pub use products::{sum_of_products, Product, ProductError};
 
 #[cfg(test)]
 mod tests;

@@ -381,3 +381,144 @@ fn active_zone_property() {
         }
     }
 }
+
+#[test]
+fn products_equal_tree() {
+    use products::sum_of_products;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let all_overlap = |_p: u32| ([0.0; 3], [1.0; 3]);
+    let mut checked = 0;
+    for case in 0..400 {
+        let leaves = rng.gen_range(1..=16);
+        let prims = rng.gen_range(1..=8);
+        let e = random_expr(&mut rng, leaves, prims);
+        let pos = PositiveExpr::from_expr(&e);
+        let Ok(sop) = sum_of_products(&pos, &all_overlap, 20_000) else {
+            continue;
+        };
+        checked += 1;
+        for _ in 0..32 {
+            // Per primitive: repeated names must agree for P and !P pruning.
+            let bits: Vec<bool> = (0..prims).map(|_| rng.gen_bool(0.5)).collect();
+            let tree = e.eval(|_, p| bits[p as usize]);
+            let sum = sop.iter().any(|p| p.eval(|l| bits[l.prim as usize]));
+            assert_eq!(sum, tree, "case {case}");
+        }
+    }
+    assert!(checked > 300);
+}
+
+#[test]
+fn products_prune_by_boxes() {
+    use products::sum_of_products;
+    let names = ["A", "B", "C", "D"];
+    let mut resolve = |n: &str| names.iter().position(|&x| x == n).map(|i| i as u32);
+    // A, B overlap; C is far away; D overlaps A only.
+    let boxes = |p: u32| match p {
+        0 => ([0.0; 3], [2.0; 3]),
+        1 => ([1.0; 3], [3.0; 3]),
+        2 => ([10.0; 3], [11.0; 3]),
+        _ => ([-1.0; 3], [0.5; 3]),
+    };
+    let e = parse("(A + C)(B + C) - D - C", &mut resolve).unwrap();
+    let sop = sum_of_products(&PositiveExpr::from_expr(&e), &boxes, 100).unwrap();
+    // AB!D!C: !D is outside A∩B, !C too -> AB. A C.., C B, C C: C alone, then !C kills it.
+    assert_eq!(sop.len(), 1, "{sop:?}");
+    let prims: Vec<(u32, bool)> = sop[0]
+        .literals
+        .iter()
+        .map(|l| (l.prim, l.negated))
+        .collect();
+    assert_eq!(prims, vec![(0, false), (1, false)]);
+}
+
+#[test]
+fn products_limit_fails_fast() {
+    use products::{sum_of_products, ProductError};
+    // A product of 40 unions of 2: 2^40 products.
+    let mut src = String::new();
+    for i in 0..40 {
+        src.push_str(&format!("(P{} + Q{}) ", i, i));
+    }
+    let mut resolve = |n: &str| {
+        let (k, i) = n.split_at(1);
+        let i: u32 = i.parse().ok()?;
+        Some(i * 2 + (k == "Q") as u32)
+    };
+    let e = parse(&src, &mut resolve).unwrap();
+    let pos = PositiveExpr::from_expr(&e);
+    let t = std::time::Instant::now();
+    let err = sum_of_products(&pos, &|_| ([0.0; 3], [1.0; 3]), 100_000).unwrap_err();
+    assert!(t.elapsed().as_secs_f64() < 1.0);
+    let ProductError::TooLarge { at_least, limit } = err.clone();
+    assert!(at_least > limit as u64);
+    assert!(err.to_string().contains("--algo cst-i"), "{err}");
+}
+
+#[test]
+fn grouped_blist_equals_tree() {
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    for case in 0..600 {
+        let leaves = rng.gen_range(1..=60);
+        let prims = rng.gen_range(1..=8);
+        let e = random_expr(&mut rng, leaves, prims);
+        let pos = PositiveExpr::from_expr(&e);
+        let g = GroupedBlist::new(&pos);
+        let n: usize = g
+            .entries
+            .iter()
+            .map(|e| match &e.item {
+                Item::Literal(_) => 1,
+                Item::Group(g) => g.literals.len(),
+            })
+            .sum();
+        assert_eq!(n, leaves);
+        for _ in 0..24 {
+            let bits: Vec<bool> = (0..leaves).map(|_| rng.gen_bool(0.5)).collect();
+            let tree = e.eval(|l, _| bits[l as usize]);
+            assert_eq!(g.eval(|l| bits[l.leaf as usize]), tree, "case {case}");
+        }
+    }
+}
+
+#[test]
+fn groups_counter_data() {
+    let names = ["A", "B", "C", "D", "E"];
+    let mut resolve = |n: &str| names.iter().position(|&x| x == n).map(|i| i as u32);
+    let e = parse("(A + B + C + !D) - E", &mut resolve).unwrap();
+    let g = GroupedBlist::new(&PositiveExpr::from_expr(&e));
+    assert_eq!(g.entries.len(), 2, "{g:?}");
+    let union = g
+        .entries
+        .iter()
+        .find_map(|e| match &e.item {
+            Item::Group(g) => Some(g.clone()),
+            _ => None,
+        })
+        .unwrap();
+    assert_eq!(union.kind, GroupKind::Union);
+    // De Morgan: !A !B !C D -> counter-positive D, counter-negative A, B, C.
+    assert_eq!((union.c_p(), union.c_n()), (1, 3));
+    assert_eq!(union.c0(2), 5);
+    assert_eq!(union.counter_bits(2), 3); // ceil(log2(1 + 3 + 4)) = 3
+    assert_eq!(g.stencil_bits(2), g.label_bits() + 3);
+    // A left-deep chain of unions is one group.
+    let e = parse("A + B + C + D", &mut resolve).unwrap();
+    let g = GroupedBlist::new(&PositiveExpr::from_expr(&e));
+    assert_eq!((g.entries.len(), g.num_groups()), (1, 1));
+}
+
+#[test]
+fn boundedness() {
+    let names = ["A", "B", "C"];
+    let mut resolve = |n: &str| names.iter().position(|&x| x == n).map(|i| i as u32);
+    let bounded = |s: &str| PositiveExpr::from_expr(&parse(s, &mut resolve).unwrap()).is_bounded();
+    assert!(bounded("A"));
+    assert!(!bounded("!A"));
+    assert!(!bounded("!A + B"));
+    assert!(bounded("A - B"));
+    assert!(bounded("!A B"));
+    assert!(!bounded("!(A B)"));
+    assert!(bounded("!(!A + !B)"));
+    assert!(!bounded("A - (B - C) + !C"));
+}
