@@ -13,17 +13,32 @@ use peeltrim::vk::DeviceChoice;
 fn main() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let out = root.join("target/peeltrim-bench");
-    let frames = std::env::var("PEELTRIM_BENCH_FRAMES").ok().and_then(|v| v.parse().ok()).unwrap_or(10);
+    let frames = std::env::var("PEELTRIM_BENCH_FRAMES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(10);
     let mut scenes: Vec<BenchScene> = ["complex", "gear"]
         .iter()
-        .map(|s| BenchScene { path: root.join(format!("scenes/{s}.toml")), family: None, n: None })
+        .map(|s| BenchScene {
+            path: root.join(format!("scenes/{s}.toml")),
+            family: None,
+            n: None,
+        })
         .collect();
     match families::generate("block-spheres", &[4, 16, 64], &out.join("scenes")) {
         Ok(v) => scenes.extend(v),
         Err(e) => eprintln!("skipping the scaling family: {e}"),
     }
     let cfg = BenchConfig {
-        algos: vec![Algo::Blister, Algo::CstZ, Algo::CstI, Algo::CstG, Algo::Goldfeather, Algo::GoldfeatherLayered, Algo::Trickle],
+        algos: vec![
+            Algo::Blister,
+            Algo::CstZ,
+            Algo::CstI,
+            Algo::CstG,
+            Algo::Goldfeather,
+            Algo::GoldfeatherLayered,
+            Algo::Trickle,
+        ],
         sizes: vec![(400, 400)],
         depth_setups: vec![DepthSetup::D32S8],
         frames,

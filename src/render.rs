@@ -23,7 +23,11 @@ pub enum DepthSetup {
 }
 
 impl DepthSetup {
-    pub const ALL: [DepthSetup; 3] = [DepthSetup::D24S8, DepthSetup::D32S8, DepthSetup::D32S8Reversed];
+    pub const ALL: [DepthSetup; 3] = [
+        DepthSetup::D24S8,
+        DepthSetup::D32S8,
+        DepthSetup::D32S8Reversed,
+    ];
     pub fn name(self) -> &'static str {
         match self {
             DepthSetup::D24S8 => "d24s8",
@@ -92,17 +96,27 @@ pub struct GpuRenderer {
 }
 
 impl GpuRenderer {
-    pub fn new(scene: &Scene, device: vk::DeviceChoice, depth: DepthSetup, validation: bool) -> Result<Self, RenderError> {
+    pub fn new(
+        scene: &Scene,
+        device: vk::DeviceChoice,
+        depth: DepthSetup,
+        validation: bool,
+    ) -> Result<Self, RenderError> {
         let ctx = vk::Context::new(&vk::ContextDesc { device, validation })?;
         let (depth_format, reversed_z) = depth.exec_format();
-        let desc = vk::ExecDesc { width: scene.render.width, height: scene.render.height, depth_format, reversed_z };
+        let desc = vk::ExecDesc {
+            width: scene.render.width,
+            height: scene.render.height,
+            depth_format,
+            reversed_z,
+        };
         let mut exec = vk::Executor::new(&ctx, &desc)?;
         exec.upload(scene)?;
         Ok(GpuRenderer { exec, ctx, depth })
     }
 
     pub fn device_name(&self) -> String {
-        self.ctx.device_name()
+        self.ctx.device_name().to_string()
     }
 
     /// Validation messages collected so far (empty when validation is off).
@@ -114,14 +128,19 @@ impl GpuRenderer {
     pub fn frame(&mut self, plan: &plan::Plan) -> Result<Frame, RenderError> {
         let f = self.exec.execute(plan)?;
         let mut stats = serde_json::to_value(&f.stats).unwrap_or_else(|_| json!({}));
-        let obj = stats.as_object_mut().expect("ExecStats serializes to an object");
+        let obj = stats
+            .as_object_mut()
+            .expect("ExecStats serializes to an object");
         obj.insert("algo".into(), json!(plan.algo));
         obj.insert("width".into(), json!(f.images.width));
         obj.insert("height".into(), json!(f.images.height));
         obj.insert("device".into(), json!(self.ctx.device_name()));
         obj.insert("depth_setup".into(), json!(self.depth.name()));
         obj.insert("stencil_bits".into(), json!(plan.stencil_bits));
-        Ok(Frame { images: f.images, stats })
+        Ok(Frame {
+            images: f.images,
+            stats,
+        })
     }
 }
 

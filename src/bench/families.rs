@@ -13,7 +13,12 @@ use super::{BenchError, BenchScene};
 /// The scaling families and their default sizes.
 pub const FAMILIES: [&str; 4] = ["block-spheres", "union-boxes", "deep-tree", "nonconvex-k"];
 /// The hard cases.
-pub const HARD: [&str; 4] = ["hard-coincident", "hard-thin-wall", "hard-grazing", "hard-near-far"];
+pub const HARD: [&str; 4] = [
+    "hard-coincident",
+    "hard-thin-wall",
+    "hard-grazing",
+    "hard-near-far",
+];
 
 fn header(name: &str, eye: [f64; 3]) -> String {
     format!(
@@ -35,7 +40,11 @@ fn grid(n: u32) -> u32 {
 /// complexity, many primitives.
 pub fn block_spheres(n: u32) -> String {
     let mut s = header(&format!("block-spheres-{n}"), [0.0, 0.4, 6.0]);
-    prim(&mut s, "Block", "shape = \"box\"\nsize = [4.0, 4.0, 1.0]\ncolor = \"#c0a060\"");
+    prim(
+        &mut s,
+        "Block",
+        "shape = \"box\"\nsize = [4.0, 4.0, 1.0]\ncolor = \"#c0a060\"",
+    );
     let g = grid(n);
     let pitch = 4.0 / g as f64;
     let mut expr = String::from("Block");
@@ -164,7 +173,9 @@ pub fn comb_obj(k: u32) -> String {
 fn ear_clip(poly: &[(f64, f64)]) -> Vec<[usize; 3]> {
     let mut idx: Vec<usize> = (0..poly.len()).collect();
     let mut out = Vec::new();
-    let cross = |a: (f64, f64), b: (f64, f64), c: (f64, f64)| (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+    let cross = |a: (f64, f64), b: (f64, f64), c: (f64, f64)| {
+        (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)
+    };
     let mut guard = 0;
     while idx.len() > 3 && guard < 100_000 {
         guard += 1;
@@ -204,8 +215,16 @@ fn ear_clip(poly: &[(f64, f64)]) -> Vec<[usize; 3]> {
 pub fn nonconvex_k(k: u32, obj: &str) -> String {
     let mut s = header(&format!("nonconvex-k{k}"), [6.0, 0.8, 0.6]);
     prim(&mut s, "Comb", &format!("shape = \"mesh\"\npath = \"{obj}\"\nscale = 3.0\ntranslate = [-1.5, -1.5, 0.0]\ncolor = \"#a0c060\""));
-    prim(&mut s, "Ball", "shape = \"sphere\"\nradius = 1.6\nsegments = 32\ncolor = \"#6080c0\"");
-    prim(&mut s, "Cut", "shape = \"box\"\nsize = [4.0, 0.6, 0.2]\ntranslate = [0.0, 0.5, 0.0]\ncolor = \"#c06060\"");
+    prim(
+        &mut s,
+        "Ball",
+        "shape = \"sphere\"\nradius = 1.6\nsegments = 32\ncolor = \"#6080c0\"",
+    );
+    prim(
+        &mut s,
+        "Cut",
+        "shape = \"box\"\nsize = [4.0, 0.6, 0.2]\ntranslate = [0.0, 0.5, 0.0]\ncolor = \"#c06060\"",
+    );
     let _ = writeln!(s, "[csg]\nexpr = \"Comb Ball - Cut\"");
     s
 }
@@ -225,8 +244,16 @@ pub fn hard(name: &str) -> Option<String> {
         // A shell whose wall is 1e-3 of its size.
         "hard-thin-wall" => {
             let mut s = header(name, [2.0, 1.5, 3.0]);
-            prim(&mut s, "Outer", "shape = \"box\"\nsize = [2.0, 1.0, 1.0]\ncolor = \"#c0c040\"");
-            prim(&mut s, "Inner", "shape = \"box\"\nsize = [1.998, 0.998, 0.998]\ncolor = \"#40c0c0\"");
+            prim(
+                &mut s,
+                "Outer",
+                "shape = \"box\"\nsize = [2.0, 1.0, 1.0]\ncolor = \"#c0c040\"",
+            );
+            prim(
+                &mut s,
+                "Inner",
+                "shape = \"box\"\nsize = [1.998, 0.998, 0.998]\ncolor = \"#40c0c0\"",
+            );
             prim(&mut s, "Window", "shape = \"cylinder\"\nradius = 0.3\nheight = 3.0\nrotate_deg = [90.0, 0.0, 0.0]\ncolor = \"#c04040\"");
             s.push_str("[csg]\nexpr = \"Outer - Inner - Window\"\n");
             s
@@ -234,17 +261,30 @@ pub fn hard(name: &str) -> Option<String> {
         // Faces seen almost edge-on.
         "hard-grazing" => {
             let mut s = header(name, [6.0, 0.05, 0.3]);
-            prim(&mut s, "Plate", "shape = \"box\"\nsize = [3.0, 0.5, 3.0]\ncolor = \"#a0a0d0\"");
+            prim(
+                &mut s,
+                "Plate",
+                "shape = \"box\"\nsize = [3.0, 0.5, 3.0]\ncolor = \"#a0a0d0\"",
+            );
             prim(&mut s, "Holes", "shape = \"cylinder\"\nradius = 0.4\nheight = 1.0\ntranslate = [0.5, 0.0, 0.3]\ncolor = \"#d0a0a0\"");
             s.push_str("[csg]\nexpr = \"Plate - Holes\"\n");
             s
         }
         // near/far = 1e-3 / 1e4: a 10^7 ratio stresses fixed-point depth.
         "hard-near-far" => {
-            let s = header(name, [3.0, 2.0, 4.0]).replace("fit = true\n", "near = 0.001\nfar = 10000.0\n");
+            let s = header(name, [3.0, 2.0, 4.0])
+                .replace("fit = true\n", "near = 0.001\nfar = 10000.0\n");
             let mut s = s;
-            prim(&mut s, "A", "shape = \"box\"\nsize = [2.0, 1.0, 1.0]\ncolor = \"#d0a040\"");
-            prim(&mut s, "B", "shape = \"sphere\"\nradius = 0.7\nsegments = 32\ncolor = \"#40a0d0\"");
+            prim(
+                &mut s,
+                "A",
+                "shape = \"box\"\nsize = [2.0, 1.0, 1.0]\ncolor = \"#d0a040\"",
+            );
+            prim(
+                &mut s,
+                "B",
+                "shape = \"sphere\"\nradius = 0.7\nsegments = 32\ncolor = \"#40a0d0\"",
+            );
             prim(&mut s, "C", "shape = \"cylinder\"\nradius = 0.3\nheight = 2.0\nrotate_deg = [90.0, 0.0, 0.0]\ncolor = \"#a040d0\"");
             s.push_str("[csg]\nexpr = \"(A + B) - C\"\n");
             s
@@ -255,13 +295,19 @@ pub fn hard(name: &str) -> Option<String> {
 
 fn write(dir: &Path, file: &str, text: &str) -> Result<PathBuf, BenchError> {
     let p = dir.join(file);
-    std::fs::write(&p, text).map_err(|source| BenchError::Io { path: p.clone(), source })?;
+    std::fs::write(&p, text).map_err(|source| BenchError::Io {
+        path: p.clone(),
+        source,
+    })?;
     Ok(p)
 }
 
 /// Writes the family's scenes for each n into `dir`.
 pub fn generate(family: &str, ns: &[u32], dir: &Path) -> Result<Vec<BenchScene>, BenchError> {
-    std::fs::create_dir_all(dir).map_err(|source| BenchError::Io { path: dir.to_path_buf(), source })?;
+    std::fs::create_dir_all(dir).map_err(|source| BenchError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let mut out = Vec::new();
     for &n in ns {
         let text = match family {
@@ -281,18 +327,29 @@ pub fn generate(family: &str, ns: &[u32], dir: &Path) -> Result<Vec<BenchScene>,
             }
         };
         let path = write(dir, &format!("{family}-{n}.toml"), &text)?;
-        out.push(BenchScene { path, family: Some(family.to_string()), n: Some(n) });
+        out.push(BenchScene {
+            path,
+            family: Some(family.to_string()),
+            n: Some(n),
+        });
     }
     Ok(out)
 }
 
 /// Writes the hard cases into `dir`.
 pub fn generate_hard(dir: &Path) -> Result<Vec<BenchScene>, BenchError> {
-    std::fs::create_dir_all(dir).map_err(|source| BenchError::Io { path: dir.to_path_buf(), source })?;
+    std::fs::create_dir_all(dir).map_err(|source| BenchError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     HARD.iter()
         .map(|h| {
             let path = write(dir, &format!("{h}.toml"), &hard(h).expect("listed in HARD"))?;
-            Ok(BenchScene { path, family: None, n: None })
+            Ok(BenchScene {
+                path,
+                family: None,
+                n: None,
+            })
         })
         .collect()
 }

@@ -76,9 +76,15 @@ pub struct Record {
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
     #[error("{path}: {source}")]
-    Scene { path: PathBuf, source: scene::SceneError },
+    Scene {
+        path: PathBuf,
+        source: scene::SceneError,
+    },
     #[error("writing {path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{0}")]
     Other(String),
 }
@@ -109,14 +115,26 @@ fn median_iqr(v: &mut [f64]) -> (f64, f64, f64, f64) {
 }
 
 fn scene_label(path: &Path) -> String {
-    path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| path.display().to_string())
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
 }
 
 /// Runs the whole matrix and returns one record per run.
 pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, BenchError> {
-    let gpu_algos: Vec<Algo> = cfg.algos.iter().copied().filter(|&a| a != Algo::Reference).collect();
-    let total = (scenes.len() * cfg.sizes.len() * (1 + gpu_algos.len() * cfg.depth_setups.len())) as u64;
-    let bar = if cfg.progress { ProgressBar::new(total) } else { ProgressBar::hidden() };
+    let gpu_algos: Vec<Algo> = cfg
+        .algos
+        .iter()
+        .copied()
+        .filter(|&a| a != Algo::Reference)
+        .collect();
+    let total =
+        (scenes.len() * cfg.sizes.len() * (1 + gpu_algos.len() * cfg.depth_setups.len())) as u64;
+    let bar = if cfg.progress {
+        ProgressBar::new(total)
+    } else {
+        ProgressBar::hidden()
+    };
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
@@ -125,8 +143,13 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
     let mut records = Vec::new();
     for bs in scenes {
         for &(w, h) in &cfg.sizes {
-            let scene = scene::load(&bs.path, &LoadOptions { size: Some((w, h)) })
-                .map_err(|source| BenchError::Scene { path: bs.path.clone(), source })?;
+            let scene =
+                scene::load(&bs.path, &LoadOptions { size: Some((w, h)) }).map_err(|source| {
+                    BenchError::Scene {
+                        path: bs.path.clone(),
+                        source,
+                    }
+                })?;
             let label = scene_label(&bs.path);
             bar.set_message(format!("{label} {w}x{h}: reference"));
             let t = Instant::now();
@@ -160,8 +183,11 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 r.device = format!("cpu ({} threads)", rayon::current_num_threads());
                 r.frames = 1;
                 r.cpu_ms_median = ref_ms;
-                r.error = serde_json::to_value(compare(&reference, &reference).map_err(|e| BenchError::Other(e.to_string()))?)
-                    .unwrap_or(Value::Null);
+                r.error = serde_json::to_value(
+                    compare(&reference, &reference)
+                        .map_err(|e| BenchError::Other(e.to_string()))?,
+                )
+                .unwrap_or(Value::Null);
                 if cfg.save_images {
                     save(cfg, &label, w, h, "reference", "f64", &reference)?;
                 }
@@ -175,7 +201,13 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                     let mut rec = base(algo.name(), depth.name());
                     match run_one(cfg, &scene, &prep, algo, depth, &mut gpu, &reference) {
                         Ok((r, images)) => {
-                            rec = Record { scene: rec.scene, family: rec.family, n: rec.n, prims: rec.prims, ..r };
+                            rec = Record {
+                                scene: rec.scene,
+                                family: rec.family,
+                                n: rec.n,
+                                prims: rec.prims,
+                                ..r
+                            };
                             if cfg.save_images {
                                 save(cfg, &label, w, h, algo.name(), depth.name(), &images)?;
                             }
@@ -192,9 +224,22 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
     Ok(records)
 }
 
-fn save(cfg: &BenchConfig, label: &str, w: u32, h: u32, algo: &str, depth: &str, images: &Images) -> Result<(), BenchError> {
-    let dir = cfg.out.join("images").join(format!("{label}-{w}x{h}")).join(format!("{algo}-{depth}"));
-    crate::output::write_images(&dir, images).map_err(|e| BenchError::Other(format!("{}: {e}", dir.display())))
+fn save(
+    cfg: &BenchConfig,
+    label: &str,
+    w: u32,
+    h: u32,
+    algo: &str,
+    depth: &str,
+    images: &Images,
+) -> Result<(), BenchError> {
+    let dir = cfg
+        .out
+        .join("images")
+        .join(format!("{label}-{w}x{h}"))
+        .join(format!("{algo}-{depth}"));
+    crate::output::write_images(&dir, images)
+        .map_err(|e| BenchError::Other(format!("{}: {e}", dir.display())))
 }
 
 /// Warm-up and timed frames of one algorithm; the error of the last image.
@@ -210,7 +255,10 @@ fn run_one(
     let prep = prep.as_ref().map_err(|e| e.to_string())?;
     let plan = plan::build(algo, prep).map_err(|e| e.to_string())?;
     if gpu.is_none() {
-        *gpu = Some(GpuRenderer::new(scene, cfg.device, depth, cfg.validation).map_err(|e| e.to_string())?);
+        *gpu = Some(
+            GpuRenderer::new(scene, cfg.device, depth, cfg.validation)
+                .map_err(|e| e.to_string())?,
+        );
     }
     let gpu = gpu.as_mut().expect("created above");
     for _ in 0..cfg.warmup {
@@ -236,11 +284,21 @@ fn run_one(
     let (cm, _, _, ciqr) = median_iqr(&mut cpu_ms.clone());
     let mut counts = last.stats.clone();
     if let Some(o) = counts.as_object_mut() {
-        for k in ["gpu_ms", "cpu_ms", "per_pass", "algo", "width", "height", "device", "depth_setup"] {
+        for k in [
+            "gpu_ms",
+            "cpu_ms",
+            "per_pass",
+            "algo",
+            "width",
+            "height",
+            "device",
+            "depth_setup",
+        ] {
             o.remove(k);
         }
     }
-    let error = serde_json::to_value(compare(reference, &last.images).map_err(|e| e.to_string())?).unwrap_or(Value::Null);
+    let error = serde_json::to_value(compare(reference, &last.images).map_err(|e| e.to_string())?)
+        .unwrap_or(Value::Null);
     let rec = Record {
         scene: String::new(),
         family: None,
@@ -268,7 +326,10 @@ fn run_one(
 
 /// Runs the matrix and writes every output into `cfg.out`.
 pub fn run_and_report(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, BenchError> {
-    std::fs::create_dir_all(&cfg.out).map_err(|source| BenchError::Io { path: cfg.out.clone(), source })?;
+    std::fs::create_dir_all(&cfg.out).map_err(|source| BenchError::Io {
+        path: cfg.out.clone(),
+        source,
+    })?;
     let records = run(cfg, scenes)?;
     report::write_all(&cfg.out, &records)?;
     plot::write_all(&cfg.out, &records)?;

@@ -13,8 +13,10 @@ use plotters::prelude::*;
 use super::report::error_figures;
 use super::{BenchError, Record};
 
-const FONT_PATHS: [&str; 2] =
-    ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"];
+const FONT_PATHS: [&str; 2] = [
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+];
 
 /// Registers the plot font once; plots are skipped with a message without it.
 fn font() -> Result<(), BenchError> {
@@ -27,7 +29,10 @@ fn font() -> Result<(), BenchError> {
                     .map_err(|_| format!("{p} is not a usable font"));
             }
         }
-        Err("no DejaVuSans.ttf found: install fonts-dejavu-core (tools/setup.sh) for the plots".into())
+        Err(
+            "no DejaVuSans.ttf found: install fonts-dejavu-core (tools/setup.sh) for the plots"
+                .into(),
+        )
     })
     .clone()
     .map_err(BenchError::Other)
@@ -49,7 +54,16 @@ const PALETTE: [RGBColor; 8] = [
 ];
 
 fn algo_color(algo: &str) -> RGBColor {
-    let order = ["blister", "cst-z", "cst-i", "cst-g", "goldfeather", "goldfeather-layered", "trickle", "reference"];
+    let order = [
+        "blister",
+        "cst-z",
+        "cst-i",
+        "cst-g",
+        "goldfeather",
+        "goldfeather-layered",
+        "trickle",
+        "reference",
+    ];
     PALETTE[order.iter().position(|a| *a == algo).unwrap_or(7)]
 }
 
@@ -57,7 +71,10 @@ fn algo_color(algo: &str) -> RGBColor {
 pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchError> {
     font()?;
     let dir = out.join("plots");
-    std::fs::create_dir_all(&dir).map_err(|source| BenchError::Io { path: dir.clone(), source })?;
+    std::fs::create_dir_all(&dir).map_err(|source| BenchError::Io {
+        path: dir.clone(),
+        source,
+    })?;
     let mut files = Vec::new();
     let mut scenes: Vec<(String, u32, u32)> = records
         .iter()
@@ -68,7 +85,13 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
     for (scene, w, h) in scenes {
         let rows: Vec<&Record> = records
             .iter()
-            .filter(|r| r.scene == scene && r.width == w && r.height == h && r.failure.is_none() && r.algo != "reference")
+            .filter(|r| {
+                r.scene == scene
+                    && r.width == w
+                    && r.height == h
+                    && r.failure.is_none()
+                    && r.algo != "reference"
+            })
             .collect();
         if rows.is_empty() {
             continue;
@@ -84,13 +107,21 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
     families.sort();
     families.dedup();
     for fam in families {
-        let rows: Vec<&Record> =
-            records.iter().filter(|r| r.family.as_deref() == Some(&fam) && r.failure.is_none() && r.algo != "reference").collect();
+        let rows: Vec<&Record> = records
+            .iter()
+            .filter(|r| {
+                r.family.as_deref() == Some(&fam) && r.failure.is_none() && r.algo != "reference"
+            })
+            .collect();
         if rows.is_empty() {
             continue;
         }
         let p = dir.join(format!("scaling_{fam}.png"));
-        scaling(&p, &format!("{fam}: GPU time vs number of primitives"), &rows)?;
+        scaling(
+            &p,
+            &format!("{fam}: GPU time vs number of primitives"),
+            &rows,
+        )?;
         files.push(p);
     }
     Ok(files)
@@ -103,7 +134,12 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
         .map(|r| {
             let (c, p, _) = error_figures(r);
             let e = (c.max(0.0) + p.max(0.0)) * 100.0;
-            (r.gpu_ms_median, if e.is_finite() { e } else { 0.0 }, format!("{} {}", r.algo, r.depth_setup), r.algo.as_str())
+            (
+                r.gpu_ms_median,
+                if e.is_finite() { e } else { 0.0 },
+                format!("{} {}", r.algo, r.depth_setup),
+                r.algo.as_str(),
+            )
         })
         .collect();
     let xmax = pts.iter().map(|p| p.0).fold(0.0, f64::max) * 1.25 + 1e-3;
@@ -129,7 +165,11 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
             .draw_series(std::iter::once(Circle::new((*x, *y), 5, c.filled())))
             .map_err(|e| err(path, e))?;
         chart
-            .draw_series(std::iter::once(Text::new(label.clone(), (*x, *y), ("sans-serif", 13).into_font())))
+            .draw_series(std::iter::once(Text::new(
+                label.clone(),
+                (*x, *y),
+                ("sans-serif", 13).into_font(),
+            )))
             .map_err(|e| err(path, e))?;
     }
     root.present().map_err(|e| err(path, e))?;
@@ -146,7 +186,11 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
         let mut m = BTreeMap::new();
         if let Some(arr) = r.per_pass.as_array() {
             for p in arr {
-                let name = p.get("name").and_then(|v| v.as_str()).unwrap_or("?").to_string();
+                let name = p
+                    .get("name")
+                    .and_then(|v| v.as_str())
+                    .unwrap_or("?")
+                    .to_string();
                 let ms = p.get("gpu_ms").and_then(|v| v.as_f64()).unwrap_or(0.0);
                 if !pass_names.contains(&name) {
                     pass_names.push(name.clone());
@@ -156,7 +200,12 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
         }
         bars.push((r.algo.clone(), m));
     }
-    let ymax = bars.iter().map(|(_, m)| m.values().sum::<f64>()).fold(0.0, f64::max) * 1.2 + 1e-3;
+    let ymax = bars
+        .iter()
+        .map(|(_, m)| m.values().sum::<f64>())
+        .fold(0.0, f64::max)
+        * 1.2
+        + 1e-3;
     let n = bars.len().max(1);
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(path, e))?;
@@ -189,9 +238,15 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
             .iter()
             .enumerate()
             .map(|(i, (_, m))| {
-                let below: f64 = pass_names[..pi].iter().map(|p| m.get(p).copied().unwrap_or(0.0)).sum();
+                let below: f64 = pass_names[..pi]
+                    .iter()
+                    .map(|p| m.get(p).copied().unwrap_or(0.0))
+                    .sum();
                 let h = m.get(pass).copied().unwrap_or(0.0);
-                Rectangle::new([(i as f64 + 0.15, below), (i as f64 + 0.85, below + h)], color.filled())
+                Rectangle::new(
+                    [(i as f64 + 0.15, below), (i as f64 + 0.85, below + h)],
+                    color.filled(),
+                )
             })
             .collect();
         chart
@@ -216,13 +271,18 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
     let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.depth_setup == depth) {
         let n = r.n.unwrap_or(r.prims as u32) as f64;
-        lines.entry(r.algo.clone()).or_default().push((n.max(1.0), r.gpu_ms_median.max(1e-3)));
+        lines
+            .entry(r.algo.clone())
+            .or_default()
+            .push((n.max(1.0), r.gpu_ms_median.max(1e-3)));
     }
     for v in lines.values_mut() {
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
     let xs = lines.values().flatten().map(|p| p.0);
-    let (xmin, xmax) = xs.clone().fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
+    let (xmin, xmax) = xs
+        .clone()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
     let ys = lines.values().flatten().map(|p| p.1);
     let (ymin, ymax) = ys.fold((f64::INFINITY, 0.0f64), |(a, b), y| (a.min(y), b.max(y)));
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
@@ -232,7 +292,10 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
         .margin(15)
         .x_label_area_size(45)
         .y_label_area_size(70)
-        .build_cartesian_2d((xmin * 0.8..xmax * 1.25).log_scale(), (ymin * 0.8..ymax * 1.25).log_scale())
+        .build_cartesian_2d(
+            (xmin * 0.8..xmax * 1.25).log_scale(),
+            (ymin * 0.8..ymax * 1.25).log_scale(),
+        )
         .map_err(|e| err(path, e))?;
     chart
         .configure_mesh()

@@ -12,8 +12,10 @@ use serde_json::Value;
 use super::{BenchError, Record};
 
 /// The CST paper's §8 table (GeForce 6800 GT, 800×800): Prims, Blister, Z, I, G in ms.
-pub const PAPER_TABLE: [(&str, u32, [f64; 4]); 2] =
-    [("complex", 20, [121.0, 96.0, 92.0, 100.0]), ("gear", 48, [481.0, 382.0, 312.0, 179.0])];
+pub const PAPER_TABLE: [(&str, u32, [f64; 4]); 2] = [
+    ("complex", 20, [121.0, 96.0, 92.0, 100.0]),
+    ("gear", 48, [481.0, 382.0, 312.0, 179.0]),
+];
 
 fn num(v: &Value, key: &str) -> f64 {
     v.get(key).and_then(Value::as_f64).unwrap_or(f64::NAN)
@@ -29,12 +31,16 @@ pub fn error_figures(r: &Record) -> (f64, f64, f64) {
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> BenchError + '_ {
-    move |source| BenchError::Io { path: path.to_path_buf(), source }
+    move |source| BenchError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 pub fn write_all(out: &Path, records: &[Record]) -> Result<(), BenchError> {
     let p = out.join("results.json");
-    let json = serde_json::to_string_pretty(records).map_err(|e| BenchError::Other(e.to_string()))?;
+    let json =
+        serde_json::to_string_pretty(records).map_err(|e| BenchError::Other(e.to_string()))?;
     std::fs::write(&p, json).map_err(io(&p))?;
     let p = out.join("results.csv");
     std::fs::write(&p, csv(records)).map_err(io(&p))?;
@@ -43,7 +49,14 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<(), BenchError> {
     Ok(())
 }
 
-const CSV_COUNTS: [&str; 6] = ["draws", "mesh_draws", "fullscreen_passes", "triangles", "fullscreen_pixels", "samples_counted"];
+const CSV_COUNTS: [&str; 6] = [
+    "draws",
+    "mesh_draws",
+    "fullscreen_passes",
+    "triangles",
+    "fullscreen_pixels",
+    "samples_counted",
+];
 
 pub fn csv(records: &[Record]) -> String {
     let mut s = String::from(
@@ -87,9 +100,17 @@ pub fn csv(records: &[Record]) -> String {
             "depth_abs_err_p99",
             "depth_abs_err_mean",
         ] {
-            let _ = write!(s, ",{}", r.error.get(k).map(|v| v.to_string()).unwrap_or_default());
+            let _ = write!(
+                s,
+                ",{}",
+                r.error.get(k).map(|v| v.to_string()).unwrap_or_default()
+            );
         }
-        let _ = writeln!(s, ",\"{}\"", r.failure.as_deref().unwrap_or("").replace('"', "'"));
+        let _ = writeln!(
+            s,
+            ",\"{}\"",
+            r.failure.as_deref().unwrap_or("").replace('"', "'")
+        );
     }
     s
 }
@@ -97,7 +118,10 @@ pub fn csv(records: &[Record]) -> String {
 /// Markdown: one table per scene and size, then the paper's table.
 pub fn summary(records: &[Record]) -> String {
     let mut s = String::from("# peeltrim benchmark\n\n");
-    if let Some(r) = records.iter().find(|r| !r.device.is_empty() && r.algo != "reference") {
+    if let Some(r) = records
+        .iter()
+        .find(|r| !r.device.is_empty() && r.algo != "reference")
+    {
         let _ = writeln!(s, "Device: {}. GPU times are medians over {} frames (timestamp queries); spread is the interquartile range. Errors are against the exact reference: interior coverage / primitive mismatches as % of pixels, depth p99 in scene units.\n", r.device, r.frames);
     }
     let mut keys: Vec<(String, u32, u32)> = Vec::new();
@@ -108,18 +132,32 @@ pub fn summary(records: &[Record]) -> String {
         }
     }
     for (scene, w, h) in &keys {
-        let rows: Vec<&Record> = records.iter().filter(|r| &r.scene == scene && r.width == *w && r.height == *h).collect();
+        let rows: Vec<&Record> = records
+            .iter()
+            .filter(|r| &r.scene == scene && r.width == *w && r.height == *h)
+            .collect();
         let prims = rows.first().map(|r| r.prims).unwrap_or(0);
         let _ = writeln!(s, "## {scene} ({prims} primitives, {w}×{h})\n");
         s.push_str("| algo | depth | GPU ms (median ± IQR) | CPU ms | draws | triangles | full-screen passes | cov. mism. % | prim mism. % | depth p99 |\n");
         s.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
         for r in rows {
             if let Some(f) = &r.failure {
-                let _ = writeln!(s, "| {} | {} | failed: {} | | | | | | | |", r.algo, r.depth_setup, f.replace('|', "/"));
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | failed: {} | | | | | | | |",
+                    r.algo,
+                    r.depth_setup,
+                    f.replace('|', "/")
+                );
                 continue;
             }
             let (cov, prim, d99) = error_figures(r);
-            let c = |k: &str| r.counts.get(k).map(|v| v.to_string()).unwrap_or_else(|| "-".into());
+            let c = |k: &str| {
+                r.counts
+                    .get(k)
+                    .map(|v| v.to_string())
+                    .unwrap_or_else(|| "-".into())
+            };
             let _ = writeln!(
                 s,
                 "| {} | {} | {:.2} ± {:.2} | {:.1} | {} | {} | {} | {:.3} | {:.3} | {:.2e} |",
@@ -152,16 +190,30 @@ pub fn paper_table(records: &[Record]) -> String {
         let _ = writeln!(
             s,
             "| {name} | {prims} | paper | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} |",
-            t[0], t[1], t[2], t[3], t[1] / t[0], t[2] / t[0], t[3] / t[0]
+            t[0],
+            t[1],
+            t[2],
+            t[3],
+            t[1] / t[0],
+            t[2] / t[0],
+            t[3] / t[0]
         );
-        let ours: Vec<&Record> = records.iter().filter(|r| r.scene == name && r.failure.is_none()).collect();
-        let mut setups: Vec<(&str, u32, u32)> = ours.iter().map(|r| (r.depth_setup.as_str(), r.width, r.height)).collect();
+        let ours: Vec<&Record> = records
+            .iter()
+            .filter(|r| r.scene == name && r.failure.is_none())
+            .collect();
+        let mut setups: Vec<(&str, u32, u32)> = ours
+            .iter()
+            .map(|r| (r.depth_setup.as_str(), r.width, r.height))
+            .collect();
         setups.sort();
         setups.dedup();
         for (depth, w, h) in setups {
             let get = |a: &str| {
                 ours.iter()
-                    .find(|r| r.algo == a && r.depth_setup == depth && r.width == w && r.height == h)
+                    .find(|r| {
+                        r.algo == a && r.depth_setup == depth && r.width == w && r.height == h
+                    })
                     .map(|r| r.gpu_ms_median)
             };
             let (b, z, i, g) = (get("blister"), get("cst-z"), get("cst-i"), get("cst-g"));

@@ -13,7 +13,11 @@ use peeltrim::render::{self, DepthSetup, RenderOptions};
 use peeltrim::scene::{self, LoadOptions};
 
 #[derive(Parser)]
-#[command(name = "peeltrim", version, about = "CSG rendering by depth peeling and trimming on Vulkan, with an exact CPU reference")]
+#[command(
+    name = "peeltrim",
+    version,
+    about = "CSG rendering by depth peeling and trimming on Vulkan, with an exact CPU reference"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -118,7 +122,10 @@ enum Cmd {
 fn parse_algo(s: &str) -> Result<Algo, String> {
     Algo::parse(s).ok_or_else(|| {
         let names: Vec<&str> = Algo::ALL.iter().map(|a| a.name()).collect();
-        format!("unknown algorithm '{s}'; choose one of {}", names.join(", "))
+        format!(
+            "unknown algorithm '{s}'; choose one of {}",
+            names.join(", ")
+        )
     })
 }
 
@@ -126,7 +133,9 @@ fn parse_algos(s: &str) -> Result<Vec<Algo>> {
     if s.trim() == "all" {
         return Ok(Algo::ALL.to_vec());
     }
-    s.split(',').map(|a| parse_algo(a.trim()).map_err(anyhow::Error::msg)).collect()
+    s.split(',')
+        .map(|a| parse_algo(a.trim()).map_err(anyhow::Error::msg))
+        .collect()
 }
 
 /// "block-spheres:4,16,64" -> ("block-spheres", [4, 16, 64])
@@ -134,18 +143,28 @@ fn parse_family(s: &str) -> Result<(String, Vec<u32>)> {
     let (name, ns) = s.split_once(':').unwrap_or((s, "4,16,64"));
     let ns = ns
         .split(',')
-        .map(|n| n.trim().parse::<u32>().ok().filter(|&n| n >= 1 && n <= 65536))
+        .map(|n| {
+            n.trim()
+                .parse::<u32>()
+                .ok()
+                .filter(|&n| n >= 1 && n <= 65536)
+        })
         .collect::<Option<Vec<u32>>>()
-        .with_context(|| format!("--family '{s}': sizes must be positive integers, e.g. block-spheres:4,16,64"))?;
+        .with_context(|| {
+            format!("--family '{s}': sizes must be positive integers, e.g. block-spheres:4,16,64")
+        })?;
     Ok((name.to_string(), ns))
 }
 
 /// The shipped scenes next to the binary's source tree, or under ./scenes.
 fn shipped_scenes() -> Result<Vec<PathBuf>> {
-    let dir = [PathBuf::from("scenes"), Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")]
-        .into_iter()
-        .find(|d| d.is_dir())
-        .context("no scene given and no scenes/ directory here: pass scene files")?;
+    let dir = [
+        PathBuf::from("scenes"),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes"),
+    ]
+    .into_iter()
+    .find(|d| d.is_dir())
+    .context("no scene given and no scenes/ directory here: pass scene files")?;
     let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
@@ -157,7 +176,10 @@ fn shipped_scenes() -> Result<Vec<PathBuf>> {
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let err = || format!("size '{s}' is not WxH with positive integers, e.g. 800x600");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
-    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| err())?, h.trim().parse().map_err(|_| err())?);
+    let (w, h): (u32, u32) = (
+        w.trim().parse().map_err(|_| err())?,
+        h.trim().parse().map_err(|_| err())?,
+    );
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
         return Err(format!("size '{s}' must be between 1x1 and 16384x16384"));
     }
@@ -178,7 +200,12 @@ fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
         DeviceArg::Cpu => peeltrim::vk::DeviceChoice::Cpu,
         DeviceArg::Gpu => peeltrim::vk::DeviceChoice::Gpu,
     };
-    Ok(RenderOptions { algo, device, depth, validation: g.validation || cfg!(debug_assertions) })
+    Ok(RenderOptions {
+        algo,
+        device,
+        depth,
+        validation: g.validation || cfg!(debug_assertions),
+    })
 }
 
 fn load(path: &Path, size: Option<(u32, u32)>) -> Result<scene::Scene> {
@@ -191,11 +218,19 @@ fn load(path: &Path, size: Option<(u32, u32)>) -> Result<scene::Scene> {
 
 fn run(cli: Cli) -> Result<ExitCode> {
     match cli.cmd {
-        Cmd::Render { scene, algo, size, out, gpu } => {
+        Cmd::Render {
+            scene,
+            algo,
+            size,
+            out,
+            gpu,
+        } => {
             let opts = render_options(algo, &gpu)?;
             let scene = load(&scene, size)?;
             let frame = match render::render(&scene, &opts) {
-                Err(render::RenderError::Plan(e @ peeltrim::plan::PlanError::NotImplemented(_))) => {
+                Err(render::RenderError::Plan(
+                    e @ peeltrim::plan::PlanError::NotImplemented(_),
+                )) => {
                     eprintln!("peeltrim: {e}");
                     return Ok(ExitCode::from(2));
                 }
@@ -226,12 +261,32 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let report = peeltrim::reference::compare::compare(&ia, &ib)?;
             println!("{}", serde_json::to_string_pretty(&report)?);
         }
-        Cmd::Bench { scenes, algos, size, frames, warmup, out, all_depths, families, hard, no_images, gpu } => {
+        Cmd::Bench {
+            scenes,
+            algos,
+            size,
+            frames,
+            warmup,
+            out,
+            all_depths,
+            families,
+            hard,
+            no_images,
+            gpu,
+        } => {
             let algos = parse_algos(&algos)?;
             let opts = render_options(Algo::Reference, &gpu)?;
             let mut list: Vec<BenchScene> = Vec::new();
-            let scene_files = if scenes.is_empty() && families.is_empty() && !hard { shipped_scenes()? } else { scenes };
-            list.extend(scene_files.into_iter().map(|path| BenchScene { path, family: None, n: None }));
+            let scene_files = if scenes.is_empty() && families.is_empty() && !hard {
+                shipped_scenes()?
+            } else {
+                scenes
+            };
+            list.extend(scene_files.into_iter().map(|path| BenchScene {
+                path,
+                family: None,
+                n: None,
+            }));
             let gen_dir = out.join("scenes");
             for f in &families {
                 let (name, ns) = parse_family(f)?;
@@ -243,7 +298,11 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let cfg = BenchConfig {
                 algos,
                 sizes: vec![size.unwrap_or((400, 400))],
-                depth_setups: if all_depths { DepthSetup::ALL.to_vec() } else { vec![opts.depth] },
+                depth_setups: if all_depths {
+                    DepthSetup::ALL.to_vec()
+                } else {
+                    vec![opts.depth]
+                },
                 frames,
                 warmup,
                 device: opts.device,
@@ -254,7 +313,10 @@ fn run(cli: Cli) -> Result<ExitCode> {
             };
             let records = bench::run_and_report(&cfg, &list)?;
             print!("{}", bench::report::summary(&records));
-            eprintln!("results in {}/ (results.json, results.csv, summary.md, plots/, images/)", out.display());
+            eprintln!(
+                "results in {}/ (results.json, results.csv, summary.md, plots/, images/)",
+                out.display()
+            );
         }
         Cmd::View { scene } => {
             load(&scene, None)?;
@@ -274,7 +336,19 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 }
                 r => r?,
             };
-            print!("{}", peeltrim::plan::print::print(&plan, &prep, &scene.mesh_names()));
+            print!(
+                "{}",
+                peeltrim::plan::print::print(
+                    &plan,
+                    &prep,
+                    &scene
+                        .primitives
+                        .iter()
+                        .map(|p| p.name.clone())
+                        .chain(scene.surfaces.iter().map(|s| s.name.clone()))
+                        .collect::<Vec<_>>()
+                )
+            );
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -288,7 +362,14 @@ fn blist_json(input: &str) -> Result<serde_json::Value> {
         let scene = load(path, None)?;
         let expr = peeltrim::plan::union_of_solids(&scene)
             .with_context(|| format!("{}: the scene has no [csg] or [[solid]]", path.display()))?;
-        (expr, scene.primitives.iter().map(|p| p.name.clone()).collect::<Vec<_>>())
+        (
+            expr,
+            scene
+                .primitives
+                .iter()
+                .map(|p| p.name.clone())
+                .collect::<Vec<_>>(),
+        )
     } else {
         let mut names: Vec<String> = Vec::new();
         let expr = peeltrim::csg::parse(input, &mut |n: &str| {

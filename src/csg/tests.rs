@@ -512,7 +512,8 @@ fn groups_counter_data() {
 fn boundedness() {
     let names = ["A", "B", "C"];
     let mut resolve = |n: &str| names.iter().position(|&x| x == n).map(|i| i as u32);
-    let bounded = |s: &str| PositiveExpr::from_expr(&parse(s, &mut resolve).unwrap()).is_bounded();
+    let mut bounded =
+        |s: &str| PositiveExpr::from_expr(&parse(s, &mut resolve).unwrap()).is_bounded();
     assert!(bounded("A"));
     assert!(!bounded("!A"));
     assert!(!bounded("!A + B"));

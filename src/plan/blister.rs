@@ -37,8 +37,9 @@ fn next(t: Target) -> Next {
 /// Builds the Blister plan of the prepared scene's solid(s).
 pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
     let blist = Blist::new(&prep.positive);
-    let layout = LabelLayout::new(blist.num_labels)
-        .ok_or(PlanError::TooManyLabels { labels: blist.num_labels })?;
+    let layout = LabelLayout::new(blist.num_labels).ok_or(PlanError::TooManyLabels {
+        labels: blist.num_labels,
+    })?;
     let start = match blist.entries.first() {
         Some(e) => Next::Label(e.label),
         None => return Err(PlanError::NoSolid),
@@ -51,10 +52,20 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
 
     let mut steps = vec![
         Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil { ds: 0, depth: far, stencil: layout.value(start) }),
+        Step::Clear(Clear::DepthStencil {
+            ds: 0,
+            depth: far,
+            stencil: layout.value(start),
+        }),
         Step::Clear(Clear::Color),
-        Step::Clear(Clear::Texture { tex: PREV, depth: 0.0 }),
-        Step::Clear(Clear::Texture { tex: CUR, depth: 0.0 }),
+        Step::Clear(Clear::Texture {
+            tex: PREV,
+            depth: 0.0,
+        }),
+        Step::Clear(Clear::Texture {
+            tex: CUR,
+            depth: 0.0,
+        }),
     ];
 
     // Peel: the nearest face strictly behind the previous layer, at unlocked pixels.
@@ -65,9 +76,16 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
             scissor: Scissor::Full,
             cull: Cull::None,
             ds: 0,
-            depth: DepthState { compare: CompareOp::Less, write: true },
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
             stencil: Some(stencil::test_not_equal(locked, label_mask)),
-            fragment: Fragment::Peel { prev: PREV, out: CUR, shade: true },
+            fragment: Fragment::Peel {
+                prev: PREV,
+                out: CUR,
+                shade: true,
+            },
             count_samples: true,
         }),
     ];
@@ -75,22 +93,36 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
     let mut tail = vec![Step::Pass("trim".into())];
     for e in &blist.entries {
         let here = layout.value(Next::Label(e.label));
-        let (on_inside, on_outside) =
-            if e.negated { (next(e.if_false), next(e.if_true)) } else { (next(e.if_true), next(e.if_false)) };
+        let (on_inside, on_outside) = if e.negated {
+            (next(e.if_false), next(e.if_true))
+        } else {
+            (next(e.if_true), next(e.if_false))
+        };
         tail.push(Step::Draw(Draw {
             geometry: Geometry::Mesh(e.prim),
             scissor: Scissor::BoundsOf(vec![e.prim]),
             cull: Cull::None,
             ds: 0,
-            depth: DepthState { compare: CompareOp::LessOrEqual, write: false },
-            stencil: Some(stencil::toggle_parity(here, label_mask, LabelLayout::PARITY)),
+            depth: DepthState {
+                compare: CompareOp::LessOrEqual,
+                write: false,
+            },
+            stencil: Some(stencil::toggle_parity(
+                here,
+                label_mask,
+                LabelLayout::PARITY,
+            )),
             fragment: Fragment::None,
             count_samples: false,
         }));
         // Parity can only be set inside the primitive's screen bounds.
         tail.push(sweep(
             Scissor::BoundsOf(vec![e.prim]),
-            stencil::change_stencil_state(here | LabelLayout::PARITY, layout.value(on_inside), all_mask),
+            stencil::change_stencil_state(
+                here | LabelLayout::PARITY,
+                layout.value(on_inside),
+                all_mask,
+            ),
         ));
         tail.push(sweep(
             Scissor::BoundsOf(all.clone()),
@@ -105,16 +137,30 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
         scissor: Scissor::BoundsOf(all.clone()),
         cull: Cull::None,
         ds: 0,
-        depth: DepthState { compare: CompareOp::Always, write: true },
-        stencil: Some(stencil::change_stencil_state(layout.value(Next::False), layout.value(start), all_mask)),
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: true,
+        },
+        stencil: Some(stencil::change_stencil_state(
+            layout.value(Next::False),
+            layout.value(start),
+            all_mask,
+        )),
         fragment: Fragment::Background,
         count_samples: false,
     }));
-    tail.push(Step::CopyTexture { src: CUR, dst: PREV });
+    tail.push(Step::CopyTexture {
+        src: CUR,
+        dst: PREV,
+    });
 
     // Each layer of the union of faces is peeled once; the face count bounds them.
     let max_layers = prep.triangles_in(&all).max(1) as u32 + 1;
-    steps.push(Step::Loop(Loop { head, tail, max_iterations: max_layers }));
+    steps.push(Step::Loop(Loop {
+        head,
+        tail,
+        max_iterations: max_layers,
+    }));
     Ok(Plan {
         algo: "blister".into(),
         depth_stencils: 1,
@@ -132,7 +178,10 @@ fn sweep(scissor: Scissor, stencil: StencilState) -> Step {
         scissor,
         cull: Cull::None,
         ds: 0,
-        depth: DepthState { compare: CompareOp::Always, write: false },
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        },
         stencil: Some(stencil),
         fragment: Fragment::None,
         count_samples: false,

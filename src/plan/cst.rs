@@ -117,7 +117,13 @@ pub enum Relation {
 
 /// The parity draws (depth compare, culling) that classify candidates of `peeled`
 /// against the mesh of literal `(prim, leaf, negated)`; see the module comment.
-pub fn tie_draws(peeled: &Peeled, prim: u32, leaf: LeafId, negated: bool, rel: Relation) -> Vec<(CompareOp, Cull)> {
+pub fn tie_draws(
+    peeled: &Peeled,
+    prim: u32,
+    leaf: LeafId,
+    negated: bool,
+    rel: Relation,
+) -> Vec<(CompareOp, Cull)> {
     let earlier = peeled.earlier(prim, leaf);
     match (rel, earlier) {
         (Relation::Union, true) => vec![(CompareOp::LessOrEqual, Cull::None)],
@@ -125,8 +131,15 @@ pub fn tie_draws(peeled: &Peeled, prim: u32, leaf: LeafId, negated: bool, rel: R
         (Relation::Inter, false) => vec![(CompareOp::LessOrEqual, Cull::None)],
         (Relation::Inter, true) => {
             // Literal front faces are mesh front faces unless the literal is negated.
-            let (keep_lit_front, keep_lit_back) = if negated { (Cull::Front, Cull::Back) } else { (Cull::Back, Cull::Front) };
-            vec![(CompareOp::Less, keep_lit_front), (CompareOp::LessOrEqual, keep_lit_back)]
+            let (keep_lit_front, keep_lit_back) = if negated {
+                (Cull::Front, Cull::Back)
+            } else {
+                (Cull::Back, Cull::Front)
+            };
+            vec![
+                (CompareOp::Less, keep_lit_front),
+                (CompareOp::LessOrEqual, keep_lit_back),
+            ]
         }
     }
 }
@@ -174,7 +187,11 @@ pub fn leaf_csts(pos: &PositiveExpr, variant: Variant) -> Vec<LeafCst> {
     lits.sort_by_key(|l| (l.prim, l.leaf));
     let mut out = Vec::with_capacity(lits.len());
     for lit in lits {
-        let peeled = Peeled { prim: lit.prim, leaf: lit.leaf, negated: lit.negated };
+        let peeled = Peeled {
+            prim: lit.prim,
+            leaf: lit.leaf,
+            negated: lit.negated,
+        };
         let (zone, u_leaves) = match variant {
             Variant::Z => {
                 let mut u = HashSet::new();
@@ -202,11 +219,22 @@ pub fn leaf_csts(pos: &PositiveExpr, variant: Variant) -> Vec<LeafCst> {
             let relation = blist
                 .entries
                 .iter()
-                .map(|e| if u_leaves.contains(&e.leaf) { Relation::Union } else { Relation::Inter })
+                .map(|e| {
+                    if u_leaves.contains(&e.leaf) {
+                        Relation::Union
+                    } else {
+                        Relation::Inter
+                    }
+                })
                 .collect();
             TrimVolume { blist, relation }
         });
-        out.push(LeafCst { peeled, peel_cull, volume, zone: (!universe).then_some(zone) });
+        out.push(LeafCst {
+            peeled,
+            peel_cull,
+            volume,
+            zone: (!universe).then_some(zone),
+        });
     }
     out
 }
@@ -218,7 +246,10 @@ pub(crate) fn sweep(scissor: Scissor, stencil: StencilState) -> Step {
         scissor,
         cull: Cull::None,
         ds: WORK,
-        depth: DepthState { compare: CompareOp::Always, write: false },
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        },
         stencil: Some(stencil),
         fragment: Fragment::None,
         count_samples: false,
@@ -226,13 +257,21 @@ pub(crate) fn sweep(scissor: Scissor, stencil: StencilState) -> Step {
 }
 
 /// A parity draw of `mesh` over the candidates at label `here`.
-pub(crate) fn parity_draw(mesh: MeshId, compare: CompareOp, cull: Cull, stencil: StencilState) -> Step {
+pub(crate) fn parity_draw(
+    mesh: MeshId,
+    compare: CompareOp,
+    cull: Cull,
+    stencil: StencilState,
+) -> Step {
     Step::Draw(Draw {
         geometry: Geometry::Mesh(mesh),
         scissor: Scissor::BoundsOf(vec![mesh]),
         cull,
         ds: WORK,
-        depth: DepthState { compare, write: false },
+        depth: DepthState {
+            compare,
+            write: false,
+        },
         stencil: Some(stencil),
         fragment: Fragment::None,
         count_samples: false,
@@ -256,14 +295,27 @@ fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &m
                 stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
             ));
         }
-        steps.push(sweep(
+        let inside = sweep(
             Scissor::BoundsOf(vec![e.prim]),
-            stencil::change_stencil_state(here | LabelLayout::PARITY, layout.value(on_inside), all_mask),
-        ));
-        steps.push(sweep(
+            stencil::change_stencil_state(
+                here | LabelLayout::PARITY,
+                layout.value(on_inside),
+                all_mask,
+            ),
+        );
+        let outside = sweep(
             Scissor::BoundsOf(me.clone()),
             stencil::change_stencil_state(here, layout.value(on_outside), all_mask),
-        ));
+        );
+        // A freed label may be reused by the entry's own target (seed 000 Fig. 11):
+        // then the pixels moved there must not be swept again by the other rule.
+        if layout.value(on_inside) == here {
+            steps.extend([outside, inside]);
+        } else if layout.value(on_outside) == here {
+            steps.push(inside);
+        } else {
+            steps.extend([inside, outside]);
+        }
     }
 }
 
@@ -321,7 +373,13 @@ impl Trimmer for BlistTrimmer<'_> {
 /// CST(S, V) merged into [`FINAL`] (seed 000 §4): `Initialize; Repeat {Peel(S);
 /// Trim(V); Push()} until Done; Render(S)`. `trimmer: None` means V is the universe:
 /// the first layer of S is drawn directly.
-pub fn cst(surface: MeshId, peel_cull: Cull, trimmer: Option<&dyn Trimmer>, max_layers: u32, steps: &mut Vec<Step>) {
+pub fn cst(
+    surface: MeshId,
+    peel_cull: Cull,
+    trimmer: Option<&dyn Trimmer>,
+    max_layers: u32,
+    steps: &mut Vec<Step>,
+) {
     let me = vec![surface];
     let Some(t) = trimmer else {
         steps.push(Step::Pass("merge".into()));
@@ -330,7 +388,10 @@ pub fn cst(surface: MeshId, peel_cull: Cull, trimmer: Option<&dyn Trimmer>, max_
             scissor: Scissor::BoundsOf(me),
             cull: peel_cull,
             ds: FINAL,
-            depth: DepthState { compare: CompareOp::Less, write: true },
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
             stencil: None,
             fragment: Fragment::Shade,
             count_samples: false,
@@ -338,9 +399,19 @@ pub fn cst(surface: MeshId, peel_cull: Cull, trimmer: Option<&dyn Trimmer>, max_
         return;
     };
     steps.push(Step::Pass("init".into()));
-    steps.push(Step::Clear(Clear::DepthStencil { ds: WORK, depth: FAR, stencil: t.start() }));
-    steps.push(Step::Clear(Clear::Texture { tex: PREV, depth: 0.0 }));
-    steps.push(Step::Clear(Clear::Texture { tex: CUR, depth: FAR }));
+    steps.push(Step::Clear(Clear::DepthStencil {
+        ds: WORK,
+        depth: FAR,
+        stencil: t.start(),
+    }));
+    steps.push(Step::Clear(Clear::Texture {
+        tex: PREV,
+        depth: 0.0,
+    }));
+    steps.push(Step::Clear(Clear::Texture {
+        tex: CUR,
+        depth: FAR,
+    }));
 
     // Peel(S): the nearest face strictly behind Front, at unlocked pixels only.
     let head = vec![
@@ -350,9 +421,16 @@ pub fn cst(surface: MeshId, peel_cull: Cull, trimmer: Option<&dyn Trimmer>, max_
             scissor: Scissor::BoundsOf(me.clone()),
             cull: peel_cull,
             ds: WORK,
-            depth: DepthState { compare: CompareOp::Less, write: true },
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
             stencil: Some(stencil::test_equal(t.start(), t.mask())),
-            fragment: Fragment::Peel { prev: PREV, out: CUR, shade: false },
+            fragment: Fragment::Peel {
+                prev: PREV,
+                out: CUR,
+                shade: false,
+            },
             count_samples: true,
         }),
     ];
@@ -366,13 +444,27 @@ pub fn cst(surface: MeshId, peel_cull: Cull, trimmer: Option<&dyn Trimmer>, max_
         scissor: Scissor::BoundsOf(me.clone()),
         cull: Cull::None,
         ds: WORK,
-        depth: DepthState { compare: CompareOp::Always, write: true },
-        stencil: Some(stencil::change_stencil_state(t.rejected(), t.start(), t.mask())),
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: true,
+        },
+        stencil: Some(stencil::change_stencil_state(
+            t.rejected(),
+            t.start(),
+            t.mask(),
+        )),
         fragment: Fragment::None,
         count_samples: false,
     }));
-    tail.push(Step::CopyTexture { src: CUR, dst: PREV });
-    steps.push(Step::Loop(Loop { head, tail, max_iterations: max_layers }));
+    tail.push(Step::CopyTexture {
+        src: CUR,
+        dst: PREV,
+    });
+    steps.push(Step::Loop(Loop {
+        head,
+        tail,
+        max_iterations: max_layers,
+    }));
 
     // Render(S). After the loop every pixel without a kept point has a far depth in
     // WORK (never peeled, pushed, or locked only because nothing was left to peel):
@@ -383,7 +475,10 @@ pub fn cst(surface: MeshId, peel_cull: Cull, trimmer: Option<&dyn Trimmer>, max_
         scissor: Scissor::BoundsOf(me.clone()),
         cull: Cull::None,
         ds: WORK,
-        depth: DepthState { compare: CompareOp::Equal, write: false },
+        depth: DepthState {
+            compare: CompareOp::Equal,
+            write: false,
+        },
         stencil: None,
         fragment: Fragment::WriteDepth { out: CUR },
         count_samples: false,
@@ -393,7 +488,10 @@ pub fn cst(surface: MeshId, peel_cull: Cull, trimmer: Option<&dyn Trimmer>, max_
         scissor: Scissor::BoundsOf(me),
         cull: peel_cull,
         ds: FINAL,
-        depth: DepthState { compare: CompareOp::Less, write: true },
+        depth: DepthState {
+            compare: CompareOp::Less,
+            write: true,
+        },
         stencil: None,
         fragment: Fragment::ShadeAtDepth { tex: CUR },
         count_samples: false,
@@ -408,7 +506,11 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     let csts = leaf_csts(&prep.positive, variant);
     let mut steps = vec![
         Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil { ds: FINAL, depth: FAR, stencil: 0 }),
+        Step::Clear(Clear::DepthStencil {
+            ds: FINAL,
+            depth: FAR,
+            stencil: 0,
+        }),
         Step::Clear(Clear::Color),
     ];
     let mut bits = 0u8;
@@ -423,10 +525,18 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
             Some(vol) => {
                 let trimmer: Box<dyn Trimmer + '_> = match variant {
                     Variant::Z | Variant::I => {
-                        let layout = LabelLayout::new(vol.blist.num_labels)
-                            .ok_or(PlanError::TooManyLabels { labels: vol.blist.num_labels })?;
+                        let layout = LabelLayout::new(vol.blist.num_labels).ok_or(
+                            PlanError::TooManyLabels {
+                                labels: vol.blist.num_labels,
+                            },
+                        )?;
                         let start = layout.value(Next::Label(vol.blist.entries[0].label));
-                        Box::new(BlistTrimmer { peeled: c.peeled, vol, layout, start })
+                        Box::new(BlistTrimmer {
+                            peeled: c.peeled,
+                            vol,
+                            layout,
+                            start,
+                        })
                     }
                     Variant::G => {
                         grouped.push(group::GroupTrimmer::new(prep, c)?);
@@ -434,7 +544,13 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                     }
                 };
                 bits = bits.max(trimmer.bits());
-                cst(p, c.peel_cull, Some(trimmer.as_ref()), max_layers, &mut steps);
+                cst(
+                    p,
+                    c.peel_cull,
+                    Some(trimmer.as_ref()),
+                    max_layers,
+                    &mut steps,
+                );
             }
         }
     }

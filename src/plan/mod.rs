@@ -79,7 +79,11 @@ pub enum PlanError {
          more than the 8 a depth-stencil format has; use --algo cst-i",
         *label_bits as u32 + *counter_bits as u32
     )]
-    StencilBits { algo: &'static str, label_bits: u8, counter_bits: u8 },
+    StencilBits {
+        algo: &'static str,
+        label_bits: u8,
+        counter_bits: u8,
+    },
     #[error("algorithm '{0}' is not implemented yet")]
     NotImplemented(Algo),
     #[error("{0}")]
@@ -107,22 +111,38 @@ impl Prepared {
         let mut solid_meshes: Vec<MeshId> = expr.leaves();
         solid_meshes.sort_unstable();
         solid_meshes.dedup();
-        let meshes = scene.primitives.iter().map(|p| &p.mesh).chain(scene.surfaces.iter().map(|s| &s.mesh));
+        let meshes = scene
+            .primitives
+            .iter()
+            .map(|p| &p.mesh)
+            .chain(scene.surfaces.iter().map(|s| &s.mesh));
         let (mut mesh_triangles, mut mesh_bounds) = (Vec::new(), Vec::new());
         for m in meshes {
             mesh_triangles.push(m.triangles.len());
             mesh_bounds.push(bounds(&m.positions));
         }
-        Ok(Prepared { expr, positive, solid_meshes, mesh_triangles, mesh_bounds })
+        Ok(Prepared {
+            expr,
+            positive,
+            solid_meshes,
+            mesh_triangles,
+            mesh_bounds,
+        })
     }
 
     pub fn triangles_in(&self, meshes: &[MeshId]) -> usize {
-        meshes.iter().map(|&m| self.mesh_triangles[m as usize]).sum()
+        meshes
+            .iter()
+            .map(|&m| self.mesh_triangles[m as usize])
+            .sum()
     }
 }
 
 fn bounds(points: &[glam::DVec3]) -> Aabb {
-    let mut b = Aabb { min: glam::DVec3::splat(f64::INFINITY), max: glam::DVec3::splat(f64::NEG_INFINITY) };
+    let mut b = Aabb {
+        min: glam::DVec3::splat(f64::INFINITY),
+        max: glam::DVec3::splat(f64::NEG_INFINITY),
+    };
     for &p in points {
         b.min = b.min.min(p);
         b.max = b.max.max(p);

@@ -31,7 +31,10 @@ impl LabelLayout {
     pub fn new(labels: u32) -> Option<Self> {
         let values = labels + 2;
         let label_bits = (32 - (values - 1).leading_zeros()) as u8;
-        (label_bits <= 7).then_some(Self { labels, label_bits: label_bits.max(1) })
+        (label_bits <= 7).then_some(Self {
+            labels,
+            label_bits: label_bits.max(1),
+        })
     }
     pub const PARITY: u8 = 1;
     /// Bits used in all: labels and parity.
@@ -56,9 +59,26 @@ impl LabelLayout {
 }
 
 /// The same rule on both faces.
-pub fn both(compare: CompareOp, pass: StencilOp, compare_mask: u8, write_mask: u8, reference: u8) -> StencilState {
-    let face = StencilFace { compare, fail: StencilOp::Keep, pass, depth_fail: StencilOp::Keep };
-    StencilState { front: face, back: face, compare_mask, write_mask, reference }
+pub fn both(
+    compare: CompareOp,
+    pass: StencilOp,
+    compare_mask: u8,
+    write_mask: u8,
+    reference: u8,
+) -> StencilState {
+    let face = StencilFace {
+        compare,
+        fail: StencilOp::Keep,
+        pass,
+        depth_fail: StencilOp::Keep,
+    };
+    StencilState {
+        front: face,
+        back: face,
+        compare_mask,
+        write_mask,
+        reference,
+    }
 }
 
 /// Test only: pass where `(stencil & mask) == reference`, write nothing.
@@ -75,20 +95,36 @@ pub fn test_not_equal(reference: u8, mask: u8) -> StencilState {
 /// `compare_mask` equal `src`, invert the bits in which `src` and `dst` differ.
 /// Drawn as a full-screen rectangle with depth test off.
 pub fn change_stencil_state(src: u8, dst: u8, compare_mask: u8) -> StencilState {
-    both(CompareOp::Equal, StencilOp::Invert, compare_mask, src ^ dst, src)
+    both(
+        CompareOp::Equal,
+        StencilOp::Invert,
+        compare_mask,
+        src ^ dst,
+        src,
+    )
 }
 
 /// Parity toggling: where the bits under `compare_mask` equal `reference`,
 /// invert `bit` for every fragment that passes the depth test.
 pub fn toggle_parity(reference: u8, compare_mask: u8, bit: u8) -> StencilState {
-    both(CompareOp::Equal, StencilOp::Invert, compare_mask, bit, reference)
+    both(
+        CompareOp::Equal,
+        StencilOp::Invert,
+        compare_mask,
+        bit,
+        reference,
+    )
 }
 
 /// A software stencil unit, for tests: what one fragment that passed (or failed)
 /// the depth test does to a stencil value under `state` on a front face.
 pub fn simulate(state: &StencilState, value: u8, depth_pass: bool) -> u8 {
     let f = &state.front;
-    let passes = compare(f.compare, state.reference & state.compare_mask, value & state.compare_mask);
+    let passes = compare(
+        f.compare,
+        state.reference & state.compare_mask,
+        value & state.compare_mask,
+    );
     let op = match (passes, depth_pass) {
         (false, _) => f.fail,
         (true, false) => f.depth_fail,

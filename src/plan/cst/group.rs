@@ -24,9 +24,8 @@
 use super::super::stencil::{self, Next};
 use super::super::step::*;
 use super::super::{PlanError, Prepared};
-use super::{entry_targets, next, parity_draw, sweep, tie_draws, LeafCst, Peeled, Relation, Trimmer};
+use super::{next, parity_draw, sweep, tie_draws, LeafCst, Peeled, Relation, Trimmer};
 use crate::csg::groups::{Group, GroupedBlist, Item};
-use crate::csg::BlistEntry;
 
 /// Bits to hold `values` distinct values (at least 1).
 fn bits_for(values: u32) -> u8 {
@@ -58,7 +57,9 @@ impl GroupLayout {
             .max()
             .unwrap_or(1)
             .max(1);
-        let label_bits = bits_for(blist.num_labels + 2);
+        // One stencil label per entry (see `GroupTrimmer::targets`).
+        let labels = blist.entries.len() as u32;
+        let label_bits = bits_for(labels + 2);
         if label_bits as u32 + counter_bits as u32 > 8 {
             return Err(PlanError::StencilBits {
                 algo: "cst-g",
@@ -66,7 +67,11 @@ impl GroupLayout {
                 counter_bits,
             });
         }
-        Ok(GroupLayout { labels: blist.num_labels, label_bits, counter_bits })
+        Ok(GroupLayout {
+            labels,
+            label_bits,
+            counter_bits,
+        })
     }
     pub fn bits(&self) -> u8 {
         self.label_bits + self.counter_bits
@@ -96,6 +101,8 @@ pub struct GroupTrimmer {
     peeled: Peeled,
     blist: GroupedBlist,
     layout: GroupLayout,
+    /// Per entry, its (if_true, if_false) with entry indices as labels.
+    targets: Vec<(Next, Next)>,
 }
 
 impl GroupTrimmer {
@@ -103,7 +110,33 @@ impl GroupTrimmer {
         let zone = c.zone.as_ref().expect("a trimmed leaf has a zone");
         let blist = GroupedBlist::new(zone);
         let layout = GroupLayout::new(&blist)?;
-        Ok(GroupTrimmer { peeled: c.peeled, blist, layout })
+        let targets = Self::targets(&blist);
+        Ok(GroupTrimmer {
+            peeled: c.peeled,
+            blist,
+            layout,
+            targets,
+        })
+    }
+
+    /// The Blist's targets with every entry given its own label (its index): a
+    /// group's "in" target may reuse the group's own freed label, and with a counter
+    /// the pixels moved there could not be told from those still to be classified.
+    /// A target `Label(l)` of entry `i` is the first later entry carrying `l`.
+    fn targets(blist: &GroupedBlist) -> Vec<(Next, Next)> {
+        let es = &blist.entries;
+        let map = |i: usize, t: crate::csg::Target| match t {
+            crate::csg::Target::Label(l) => Next::Label(
+                (i + 1..es.len())
+                    .find(|&j| es[j].label == l)
+                    .expect("a label target has a later entry") as u32,
+            ),
+            other => next(other),
+        };
+        es.iter()
+            .enumerate()
+            .map(|(i, e)| (map(i, e.if_true), map(i, e.if_false)))
+            .collect()
     }
     pub fn blist(&self) -> &GroupedBlist {
         &self.blist
@@ -115,7 +148,7 @@ impl GroupTrimmer {
 
 impl Trimmer for GroupTrimmer {
     fn start(&self) -> u8 {
-        self.layout.value(Next::Label(self.blist.entries[0].label))
+        self.layout.value(Next::Label(0))
     }
     fn locked(&self) -> u8 {
         self.layout.value(Next::True)
@@ -133,21 +166,25 @@ impl Trimmer for GroupTrimmer {
         let l = &self.layout;
         let (label_mask, all_mask, counter_mask) = (l.label_mask(), l.all_mask(), l.counter_mask());
         let me = vec![self.peeled.prim];
-        for e in &self.blist.entries {
-            let here = l.value(Next::Label(e.label));
+        for (i, e) in self.blist.entries.iter().enumerate() {
+            let here = l.value(Next::Label(i as u32));
+            let (t, f) = self.targets[i];
             match &e.item {
                 Item::Literal(lit) => {
-                    let be = BlistEntry {
-                        prim: lit.prim,
-                        leaf: lit.leaf,
-                        negated: lit.negated,
-                        label: e.label,
-                        if_true: e.if_true,
-                        if_false: e.if_false,
-                    };
-                    let (on_inside, on_outside) = entry_targets(&be);
-                    for (compare, cull) in tie_draws(&self.peeled, lit.prim, lit.leaf, lit.negated, Relation::Inter) {
-                        steps.push(parity_draw(lit.prim, compare, cull, stencil::toggle_parity(here, label_mask, 1)));
+                    let (on_inside, on_outside) = if lit.negated { (f, t) } else { (t, f) };
+                    for (compare, cull) in tie_draws(
+                        &self.peeled,
+                        lit.prim,
+                        lit.leaf,
+                        lit.negated,
+                        Relation::Inter,
+                    ) {
+                        steps.push(parity_draw(
+                            lit.prim,
+                            compare,
+                            cull,
+                            stencil::toggle_parity(here, label_mask, 1),
+                        ));
                     }
                     steps.push(sweep(
                         Scissor::BoundsOf(vec![lit.prim]),
@@ -184,14 +221,19 @@ impl Trimmer for GroupTrimmer {
                             write_mask: counter_mask,
                             reference: here,
                         };
-                        for (compare, cull) in tie_draws(&self.peeled, lit.prim, lit.leaf, lit.negated, Relation::Inter) {
+                        for (compare, cull) in tie_draws(
+                            &self.peeled,
+                            lit.prim,
+                            lit.leaf,
+                            lit.negated,
+                            Relation::Inter,
+                        ) {
                             steps.push(parity_draw(lit.prim, compare, cull, st));
                         }
                         meshes.push(lit.prim);
                     }
                     let target = (g.c_p() as u8) & counter_mask;
                     // In the intersection-group (or out of the union-group, inverted).
-                    let (t, f) = (next(e.if_true), next(e.if_false));
                     let (on_match, on_other) = if inverted { (f, t) } else { (t, f) };
                     steps.push(sweep(
                         Scissor::BoundsOf(me.clone()),
@@ -199,7 +241,13 @@ impl Trimmer for GroupTrimmer {
                     ));
                     steps.push(sweep(
                         Scissor::BoundsOf(meshes),
-                        stencil::both(CompareOp::Equal, StencilOp::Zero, label_mask, counter_mask, here),
+                        stencil::both(
+                            CompareOp::Equal,
+                            StencilOp::Zero,
+                            label_mask,
+                            counter_mask,
+                            here,
+                        ),
                     ));
                     steps.push(sweep(
                         Scissor::BoundsOf(me.clone()),
