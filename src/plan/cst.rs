@@ -554,6 +554,32 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
             }
         }
     }
+    // Coincident faces of different tessellations rasterize a few ulps apart, which
+    // the exact compares of the trim cannot see: give every visible point the lowest
+    // index among the primitives whose faces pass through it (CONTRACT §4), drawing
+    // them in descending order over a copy of the final depth.
+    steps.push(Step::Pass("resolve".into()));
+    steps.push(Step::CopyDepthToTexture {
+        ds: FINAL,
+        dst: CUR,
+    });
+    let mut meshes = prep.solid_meshes.clone();
+    meshes.sort_unstable_by(|a, b| b.cmp(a));
+    for m in meshes {
+        steps.push(Step::Draw(Draw {
+            geometry: Geometry::Mesh(m),
+            scissor: Scissor::BoundsOf(vec![m]),
+            cull: Cull::None,
+            ds: FINAL,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: false,
+            },
+            stencil: None,
+            fragment: Fragment::ShadeNearDepth { tex: CUR },
+            count_samples: false,
+        }));
+    }
     Ok(Plan {
         algo: variant.algo().name().into(),
         depth_stencils: 2,

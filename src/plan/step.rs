@@ -120,6 +120,13 @@ pub enum Fragment {
     /// redrawn with the same transform reproduces the depths a `Peel` recorded. CST
     /// merges a trimmed surface into the final image with it (seed 000 §4, Render(S)).
     ShadeAtDepth { tex: Tex },
+    /// Shaded colour and primitive id where the fragment depth lies within the
+    /// coincidence tolerance (`4e-6` of the normalized depth range, a few ulps of
+    /// D24) of texture `tex`: faces through the visible point. Drawn in descending
+    /// mesh order, it makes the lowest-index primitive whose face passes through the
+    /// visible point win (CONTRACT §4) even where coplanar faces of different
+    /// tessellations rasterize to depths a few ulps apart.
+    ShadeNearDepth { tex: Tex },
 }
 
 /// One rasterization.

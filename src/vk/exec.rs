@@ -635,7 +635,9 @@ impl Executor {
                         }
                         Fragment::WriteDepth { out } => check_tex(out)?,
                         Fragment::DepthFromTexture { src } => check_tex(src)?,
-                        Fragment::ShadeAtDepth { tex } => check_tex(tex)?,
+                        Fragment::ShadeAtDepth { tex } | Fragment::ShadeNearDepth { tex } => {
+                            check_tex(tex)?
+                        }
                         _ => {}
                     }
                 }
@@ -1220,6 +1222,11 @@ impl Executor {
                 Fragment::WriteDepth { out } => {
                     (FragmentKind::WriteDepth, vec![Target::Tex(out)], None)
                 }
+                Fragment::ShadeNearDepth { tex } => (
+                    FragmentKind::ShadeNearDepth,
+                    vec![Target::Color, Target::Prim],
+                    Some(res.tex_sets[tex as usize]),
+                ),
                 Fragment::ShadeAtDepth { tex } => (
                     FragmentKind::ShadeAtDepth,
                     vec![Target::Color, Target::Prim],

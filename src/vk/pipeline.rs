@@ -24,6 +24,7 @@ pub enum FragmentKind {
     WriteDepth,
     DepthFromTexture,
     ShadeAtDepth,
+    ShadeNearDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
     CopyDepth,
 }
@@ -46,6 +47,7 @@ impl FragmentKind {
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
+            FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
         }
     }
 }
