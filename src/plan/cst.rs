@@ -589,3 +589,98 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
         steps,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::csg::parse;
+    use crate::plan::print::count;
+    use crate::scene::Aabb;
+
+    fn prepared(expr: &str, prims: u32, tris: usize) -> Prepared {
+        let names: Vec<String> = (0..prims).map(|i| format!("P{i}")).collect();
+        let e = parse(expr, &mut |n: &str| {
+            names.iter().position(|x| x == n).map(|i| i as u32)
+        })
+        .unwrap();
+        let positive = PositiveExpr::from_expr(&e);
+        let mut solid_meshes = e.leaves();
+        solid_meshes.sort_unstable();
+        solid_meshes.dedup();
+        let b = Aabb {
+            min: glam::DVec3::splat(-1.0),
+            max: glam::DVec3::splat(1.0),
+        };
+        Prepared {
+            expr: e,
+            positive,
+            solid_meshes,
+            mesh_triangles: vec![tris; prims as usize],
+            mesh_bounds: vec![b; prims as usize],
+        }
+    }
+
+    /// A gear: a disc plus 12 teeth, minus an axle hole.
+    fn gear() -> Prepared {
+        let teeth: Vec<String> = (1..=12).map(|i| format!("P{i}")).collect();
+        prepared(&format!("(P0 + {}) - P13", teeth.join(" + ")), 14, 12)
+    }
+
+    #[test]
+    fn cst_i_draws_fewer_triangles_and_sweeps_than_cst_z() {
+        let p = gear();
+        let z = count(&plan(&p, Variant::Z).unwrap().steps, &p);
+        let i = count(&plan(&p, Variant::I).unwrap().steps, &p);
+        let g = count(&plan(&p, Variant::G).unwrap().steps, &p);
+        assert!(i.triangles < z.triangles, "{i:?} vs {z:?}");
+        assert!(i.fullscreen_passes < z.fullscreen_passes);
+        assert!(g.fullscreen_passes <= i.fullscreen_passes);
+    }
+
+    #[test]
+    fn cst_g_groups_a_big_intersection_into_few_sweeps() {
+        // The first leaf's i-zone is one intersection-group of 9 literals.
+        let p = prepared("P0 P1 P2 !P3 P4 P5 !P6 P7 P8 P9", 10, 12);
+        let i = count(&plan(&p, Variant::I).unwrap().steps, &p);
+        let g = count(&plan(&p, Variant::G).unwrap().steps, &p);
+        assert!(g.fullscreen_passes < i.fullscreen_passes, "{g:?} vs {i:?}");
+        assert_eq!(g.triangles, i.triangles);
+    }
+
+    #[test]
+    fn layouts_are_small_and_checked() {
+        let p = gear();
+        assert_eq!(plan(&p, Variant::I).unwrap().stencil_bits, 3);
+        let pl = plan(&p, Variant::G).unwrap();
+        assert!(pl.stencil_bits <= 8 && pl.depth_stencils == 2 && pl.output_ds == FINAL);
+        // 300 literals in one group need 9 counter bits: a clear error.
+        let names: Vec<String> = (1..301).map(|i| format!("P{i}")).collect();
+        let big = prepared(&format!("P0 {}", names.join(" ")), 301, 12);
+        assert!(matches!(
+            plan(&big, Variant::G),
+            Err(PlanError::StencilBits { .. })
+        ));
+    }
+
+    #[test]
+    fn tie_rules_follow_the_order() {
+        let p = Peeled {
+            prim: 2,
+            leaf: 2,
+            negated: false,
+        };
+        assert_eq!(
+            tie_draws(&p, 1, 1, false, Relation::Union),
+            vec![(CompareOp::LessOrEqual, Cull::None)]
+        );
+        assert_eq!(
+            tie_draws(&p, 3, 3, false, Relation::Union),
+            vec![(CompareOp::Less, Cull::None)]
+        );
+        assert_eq!(
+            tie_draws(&p, 3, 3, true, Relation::Inter),
+            vec![(CompareOp::LessOrEqual, Cull::None)]
+        );
+        assert_eq!(tie_draws(&p, 1, 1, false, Relation::Inter).len(), 2);
+    }
+}
