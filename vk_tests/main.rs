@@ -3,6 +3,7 @@
 //! test ends by asserting that the validation layer reported nothing.
 
 mod algorithms;
+mod cst;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

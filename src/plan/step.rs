@@ -124,6 +124,12 @@ pub enum Fragment {
     /// Full-screen copy of texture `src` into the fragment depth (`gl_FragDepth`),
     /// discarding pixels where `src` holds the far value 1.0 (nothing there).
     DepthFromTexture { src: Tex },
+    /// Shaded colour and primitive id, only where the fragment depth equals texture
+    /// `tex` at this pixel bit-exactly (other fragments are discarded before the
+    /// depth test writes anything). Exact because `gl_Position` is invariant: a mesh
+    /// redrawn with the same transform reproduces the depths a `Peel` recorded. CST
+    /// merges a trimmed surface into the final image with it (seed 000 §4, Render(S)).
+    ShadeAtDepth { tex: Tex },
 }
 
 /// One rasterization.

@@ -675,9 +675,9 @@ impl Executor {
                         }
                         Fragment::WriteDepth { out } => check_tex(out)?,
                         Fragment::DepthFromTexture { src } => check_tex(src)?,
-                        Fragment::ShadeNearDepth { tex, .. } | Fragment::NearerThan { tex, .. } => {
-                            check_tex(tex)?
-                        }
+                        Fragment::ShadeNearDepth { tex, .. }
+                        | Fragment::NearerThan { tex, .. }
+                        | Fragment::ShadeAtDepth { tex } => check_tex(tex)?,
                         _ => {}
                     }
                 }
@@ -1263,6 +1263,11 @@ impl Executor {
                 Fragment::WriteDepth { out } => {
                     (FragmentKind::WriteDepth, vec![Target::Tex(out)], None)
                 }
+                Fragment::ShadeAtDepth { tex } => (
+                    FragmentKind::ShadeAtDepth,
+                    vec![Target::Color, Target::Prim],
+                    Some(res.tex_sets[tex as usize]),
+                ),
                 Fragment::DepthFromTexture { src } => (
                     FragmentKind::DepthFromTexture,
                     vec![],
