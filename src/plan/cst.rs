@@ -558,7 +558,12 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     // the exact compares of the trim cannot see: give every visible point the lowest
     // index among the primitives whose faces pass through it (CONTRACT §4), drawing
     // them in descending order over a copy of the final depth.
-    steps.extend(super::shade_near_depth(&prep.solid_meshes, FINAL, CUR, None));
+    steps.extend(super::shade_near_depth(
+        &prep.solid_meshes,
+        FINAL,
+        CUR,
+        None,
+    ));
     Ok(Plan {
         algo: variant.algo().name().into(),
         depth_stencils: 2,
