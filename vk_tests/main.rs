@@ -4,6 +4,7 @@
 
 mod algorithms;
 mod classic;
+mod cst;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod blister;
+pub mod cst;
 pub mod goldfeather;
 pub mod print;
 pub mod stencil;
@@ -117,6 +118,16 @@ pub enum PlanError {
          rebalance the expression (or use --algo cst-i, which classifies smaller active zones)"
     )]
     TooManyLabels { labels: u32 },
+    #[error(
+        "{algo} needs {} stencil bits ({label_bits} for Blist labels, {counter_bits} for a group counter), \
+         more than the 8 a depth-stencil format has; use --algo cst-i",
+        *label_bits as u32 + *counter_bits as u32
+    )]
+    StencilBits {
+        algo: &'static str,
+        label_bits: u8,
+        counter_bits: u8,
+    },
     #[error("algorithm '{0}' is not implemented yet")]
     NotImplemented(Algo),
     #[error("{0}")]
@@ -231,6 +242,9 @@ pub fn build(algo: Algo, prep: &Prepared) -> Result<Plan, PlanError> {
         Algo::Goldfeather => goldfeather::plan(prep, &Default::default()),
         Algo::GoldfeatherLayered => goldfeather::layered::plan(prep, &Default::default()),
         Algo::Trickle => trickle::plan(prep, &Default::default()),
+        Algo::CstZ => cst::plan(prep, cst::Variant::Z),
+        Algo::CstI => cst::plan(prep, cst::Variant::I),
+        Algo::CstG => cst::plan(prep, cst::Variant::G),
         other => Err(PlanError::NotImplemented(other)),
     }
 }

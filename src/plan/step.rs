@@ -131,6 +131,12 @@ pub enum Fragment {
     /// Full-screen copy of texture `src` into texture `out` at the pixels the draw's
     /// stencil (and depth) tests pass; the fragment depth is the rectangle's.
     CopyTexel { src: Tex, out: Tex },
+    /// Shaded colour and primitive id, only where the fragment depth equals texture
+    /// `tex` at this pixel bit-exactly (other fragments are discarded before the
+    /// depth test writes anything). Exact because `gl_Position` is invariant: a mesh
+    /// redrawn with the same transform reproduces the depths a `Peel` recorded. CST
+    /// merges a trimmed surface into the final image with it (seed 000 §4, Render(S)).
+    ShadeAtDepth { tex: Tex },
 }
 
 /// One rasterization.

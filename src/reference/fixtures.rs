@@ -198,6 +198,7 @@ pub fn camera(eye: DVec3, target: DVec3, fov_y_deg: f64, near: f64, far: f64) ->
 /// A scene with one solid.
 pub fn scene(camera: Camera, primitives: Vec<Primitive>, expr: Expr) -> Scene {
     Scene {
+        warnings: Vec::new(),
         name: Some("fixture".into()),
         path: "fixture.toml".into(),
         camera,
@@ -212,6 +213,5 @@ pub fn scene(camera: Camera, primitives: Vec<Primitive>, expr: Expr) -> Scene {
             expr,
         }],
         surfaces: vec![],
-        warnings: vec![],
     }
 }

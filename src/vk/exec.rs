@@ -687,9 +687,9 @@ impl Executor {
                                 ));
                             }
                         }
-                        Fragment::ShadeNearDepth { tex, .. } | Fragment::NearerThan { tex, .. } => {
-                            check_tex(tex)?
-                        }
+                        Fragment::ShadeNearDepth { tex, .. }
+                        | Fragment::NearerThan { tex, .. }
+                        | Fragment::ShadeAtDepth { tex } => check_tex(tex)?,
                         _ => {}
                     }
                 }
@@ -1275,6 +1275,11 @@ impl Executor {
                 Fragment::WriteDepth { out } => {
                     (FragmentKind::WriteDepth, vec![Target::Tex(out)], None)
                 }
+                Fragment::ShadeAtDepth { tex } => (
+                    FragmentKind::ShadeAtDepth,
+                    vec![Target::Color, Target::Prim],
+                    Some(res.tex_sets[tex as usize]),
+                ),
                 Fragment::DepthFromTexture { src } => (
                     FragmentKind::DepthFromTexture,
                     vec![],

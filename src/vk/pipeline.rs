@@ -27,6 +27,7 @@ pub enum FragmentKind {
     DepthFromTexture,
     ShadeNearDepth,
     NearerThan,
+    ShadeAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
     CopyDepth,
 }
@@ -51,6 +52,7 @@ impl FragmentKind {
             FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
+            FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
         }
     }
 }

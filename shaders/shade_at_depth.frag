@@ -1,0 +1,36 @@
+#version 450
+// Shades only where the fragment depth equals the texture's depth bit-exactly: the
+// points a CST peel recorded and kept (seed 000 §4, Render(S)). Exact because the
+// vertex shader's gl_Position is invariant, so the same mesh reproduces its depths.
+layout(push_constant) uniform Push {
+    mat4 mvp;
+    // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
+    vec4 view;
+    // rgb: mesh, paint or background colour in 0..1
+    vec4 color;
+    // primitive id written to the id target (mesh index + 1)
+    uint prim;
+    // bit 0: reversed Z (near = 1, far = 0)
+    uint flags;
+} pc;
+layout(set = 0, binding = 0) uniform texture2D u_tex;
+layout(set = 0, binding = 1) uniform sampler u_samp;
+layout(location = 0) in vec3 v_world;
+layout(location = 1) flat in vec3 v_normal;
+layout(location = 0) out vec4 o_color;
+layout(location = 1) out uint o_prim;
+
+float shade_factor() {
+    vec3 n = normalize(v_normal);
+    vec3 v = pc.view.w > 0.5 ? normalize(v_world - pc.view.xyz) : pc.view.xyz;
+    return 0.25 + 0.75 * abs(dot(n, v));
+}
+
+void main() {
+    float kept = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    if (gl_FragCoord.z != kept) {
+        discard;
+    }
+    o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
+    o_prim = pc.prim;
+}

@@ -1,0 +1,671 @@
+//! Constructive Solid Trimming (Hable & Rossignac, seed 000 §4–5, §7): CSG rendered
+//! as the union of CST(P, Z(P)) over the leaves P, where Z(P) is P's active zone.
+//!
+//! [`cst`] is CST(S, V) for one surface: peel S layer by layer at unlocked pixels,
+//! trim each layer against the Blist of V with parity draws and ChangeStencilState
+//! sweeps, lock the pixels whose candidate is in V (label `T`), push the others back
+//! (label reset, far depth) and stop when an occlusion query says the peel reached no
+//! pixel. Render(S) then merges the kept points into the final image by the depth
+//! test, shading only where a fragment's depth equals the kept depth bit-exactly
+//! ([`Fragment::ShadeAtDepth`]).
+//!
+//! Variants (seed 000 §7, §8):
+//! - `cst-z`: trim against the Z form (i-nodes and complemented u-nodes), peel both
+//!   faces;
+//! - `cst-i`: trim against the i-nodes only, peel only the front faces of positive
+//!   and the back faces of negative leaves (optimizations 1 and 2);
+//! - `cst-g`: as `cst-i`, with same-operator leaves grouped and classified by a
+//!   stencil counter (optimization 3; see [`group`]).
+//!
+//! Resources: depth-stencil 0 is the peel's CurrDepthStencil (depth *Back*, stencil
+//! `[label | parity]`), depth-stencil 1 is *FinalColorDepth*; texture 0 is
+//! *PrevDepth* (*Front*), texture 1 the layer the peel records (exact `f32` depths).
+//!
+//! **Overlaps** (seed 000 §5). Coincident faces are decided by a symbolic
+//! perturbation chosen per parity draw through its depth compare: a face of Q at the
+//! candidate's depth counts as "in front" (`LessOrEqual`) or not (`Less`). Parity
+//! draws count the faces at or in front of the candidate, so this classifies the
+//! candidate as if Q's face were moved slightly towards or away from the eye. For a
+//! candidate X on a front face of the leaf P (the visible layer) and a literal Q of its
+//! zone, writing "earlier" for the lower (primitive, leaf) index:
+//! - Q in a u-node (their lowest common ancestor is a union): if Q is earlier, its
+//!   face counts in front (X is in Q: P loses to Q), else not (X is out of Q: P wins).
+//!   With equally oriented faces exactly one of them keeps the point, the earlier.
+//! - Q in an i-node (common ancestor an intersection): if Q is later, `LessOrEqual`
+//!   (X is in Q when their faces agree in orientation: P keeps it; out of Q when
+//!   they are opposed: a zero-thickness sheet, dropped). If Q is earlier, its literal
+//!   front faces are drawn with `Less` (X out of Q: P loses to Q) and its literal back
+//!   faces with `LessOrEqual` (X out of Q: the sheet is dropped) — two culled draws.
+//!
+//! So where two primitives' faces coincide on the visible boundary the lower index
+//! is kept and the other trimmed away (CONTRACT §4), a zero-thickness contact of an
+//! intersection or a flush cut of a difference shows nothing, and the merge compares
+//! with `Less` in leaf order so an exact depth tie keeps the earlier primitive too.
+#![deny(unsafe_code)]
+
+pub mod group;
+
+use std::collections::HashSet;
+
+use super::stencil::{self, LabelLayout, Next};
+use super::step::*;
+use super::{Algo, PlanError, Prepared};
+use crate::csg::active_zone::ActiveZones;
+use crate::csg::{Blist, BlistEntry, LeafId, PNode, PNodeId, PositiveExpr, Target};
+
+/// CurrDepthStencil: candidate depth and `[label | parity]`.
+pub const WORK: Ds = 0;
+/// FinalColorDepth: the merged result.
+pub const FINAL: Ds = 1;
+/// PrevDepth (*Front*): the previous layer, read by the peel.
+pub const PREV: Tex = 0;
+/// The layer the peel records; after the loop, the kept depth (or far).
+pub const CUR: Tex = 1;
+const FAR: f32 = 1.0;
+
+/// Which variant of seed 000 §8.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Variant {
+    Z,
+    I,
+    G,
+}
+
+impl Variant {
+    pub fn algo(self) -> Algo {
+        match self {
+            Variant::Z => Algo::CstZ,
+            Variant::I => Algo::CstI,
+            Variant::G => Algo::CstG,
+        }
+    }
+}
+
+pub(crate) fn next(t: Target) -> Next {
+    match t {
+        Target::Label(l) => Next::Label(l),
+        Target::True => Next::True,
+        Target::False => Next::False,
+    }
+}
+
+/// The leaf whose boundary is peeled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Peeled {
+    pub prim: MeshId,
+    pub leaf: LeafId,
+    pub negated: bool,
+}
+
+impl Peeled {
+    /// Total order of seed 000 §5 ("L is considered slightly in front of R"):
+    /// primitive index, then leaf occurrence.
+    pub fn earlier(&self, prim: u32, leaf: LeafId) -> bool {
+        (prim, leaf) < (self.prim, self.leaf)
+    }
+}
+
+/// How a trimming literal relates to the peeled leaf: the operator of their lowest
+/// common ancestor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Relation {
+    /// The literal lies in an i-node of the peeled leaf.
+    Inter,
+    /// The literal lies in a (complemented) u-node.
+    Union,
+}
+
+/// The parity draws (depth compare, culling) that classify candidates of `peeled`
+/// against the mesh of literal `(prim, leaf, negated)`; see the module comment.
+pub fn tie_draws(
+    peeled: &Peeled,
+    prim: u32,
+    leaf: LeafId,
+    negated: bool,
+    rel: Relation,
+) -> Vec<(CompareOp, Cull)> {
+    let earlier = peeled.earlier(prim, leaf);
+    match (rel, earlier) {
+        (Relation::Union, true) => vec![(CompareOp::LessOrEqual, Cull::None)],
+        (Relation::Union, false) => vec![(CompareOp::Less, Cull::None)],
+        (Relation::Inter, false) => vec![(CompareOp::LessOrEqual, Cull::None)],
+        (Relation::Inter, true) => {
+            // Literal front faces are mesh front faces unless the literal is negated.
+            let (keep_lit_front, keep_lit_back) = if negated {
+                (Cull::Front, Cull::Back)
+            } else {
+                (Cull::Back, Cull::Front)
+            };
+            vec![
+                (CompareOp::Less, keep_lit_front),
+                (CompareOp::LessOrEqual, keep_lit_back),
+            ]
+        }
+    }
+}
+
+/// The trimming volume of one CST: a Blist with, per entry, its relation to the
+/// peeled leaf.
+#[derive(Clone, Debug)]
+pub struct TrimVolume {
+    pub blist: Blist,
+    pub relation: Vec<Relation>,
+}
+
+/// One leaf's CST: what is peeled, how, and against what.
+#[derive(Clone, Debug)]
+pub struct LeafCst {
+    pub peeled: Peeled,
+    pub peel_cull: Cull,
+    /// `None`: the zone is the universe (no trimming).
+    pub volume: Option<TrimVolume>,
+    /// The zone's expression (`None` for the universe).
+    pub zone: Option<PositiveExpr>,
+}
+
+/// Leaves of the positive form under node `n` (iterative).
+fn leaves_under(pos: &PositiveExpr, n: PNodeId, out: &mut HashSet<LeafId>) {
+    let mut stack = vec![n];
+    while let Some(n) = stack.pop() {
+        match pos.nodes[n as usize] {
+            PNode::Leaf { leaf, .. } => {
+                out.insert(leaf);
+            }
+            PNode::Union(a, b) | PNode::Inter(a, b) => {
+                stack.push(a);
+                stack.push(b);
+            }
+            PNode::Universe => {}
+        }
+    }
+}
+
+/// The per-leaf CSTs of a variant, in merge order (primitive, then leaf).
+pub fn leaf_csts(pos: &PositiveExpr, variant: Variant) -> Vec<LeafCst> {
+    let zones = ActiveZones::new(pos);
+    let mut lits = pos.literals();
+    lits.sort_by_key(|l| (l.prim, l.leaf));
+    let mut out = Vec::with_capacity(lits.len());
+    for lit in lits {
+        let peeled = Peeled {
+            prim: lit.prim,
+            leaf: lit.leaf,
+            negated: lit.negated,
+        };
+        let (zone, u_leaves) = match variant {
+            Variant::Z => {
+                let mut u = HashSet::new();
+                for n in zones.u_nodes(lit.leaf) {
+                    leaves_under(pos, n, &mut u);
+                }
+                (zones.z_form(lit.leaf), u)
+            }
+            Variant::I | Variant::G => (zones.i_form(lit.leaf), HashSet::new()),
+        };
+        let peel_cull = match variant {
+            Variant::Z => Cull::None,
+            // Opaque rendering: front faces of positive, back faces of negative leaves.
+            Variant::I | Variant::G => {
+                if lit.negated {
+                    Cull::Front
+                } else {
+                    Cull::Back
+                }
+            }
+        };
+        let universe = zone.is_universe();
+        let volume = (!universe).then(|| {
+            let blist = Blist::new(&zone);
+            let relation = blist
+                .entries
+                .iter()
+                .map(|e| {
+                    if u_leaves.contains(&e.leaf) {
+                        Relation::Union
+                    } else {
+                        Relation::Inter
+                    }
+                })
+                .collect();
+            TrimVolume { blist, relation }
+        });
+        out.push(LeafCst {
+            peeled,
+            peel_cull,
+            volume,
+            zone: (!universe).then_some(zone),
+        });
+    }
+    out
+}
+
+/// A full-screen stencil-only sweep on the work image (depth test off).
+pub(crate) fn sweep(scissor: Scissor, stencil: StencilState) -> Step {
+    Step::Draw(Draw {
+        geometry: Geometry::FullScreen { depth: 0.0 },
+        scissor,
+        cull: Cull::None,
+        ds: WORK,
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        },
+        stencil: Some(stencil),
+        fragment: Fragment::None,
+        count_samples: false,
+    })
+}
+
+/// A parity draw of `mesh` over the candidates at label `here`.
+pub(crate) fn parity_draw(
+    mesh: MeshId,
+    compare: CompareOp,
+    cull: Cull,
+    stencil: StencilState,
+) -> Step {
+    Step::Draw(Draw {
+        geometry: Geometry::Mesh(mesh),
+        scissor: Scissor::BoundsOf(vec![mesh]),
+        cull,
+        ds: WORK,
+        depth: DepthState {
+            compare,
+            write: false,
+        },
+        stencil: Some(stencil),
+        fragment: Fragment::None,
+        count_samples: false,
+    })
+}
+
+/// Trim(V) against a plain Blist (seed 000 §4): per entry, its parity draw(s) and two
+/// ChangeStencilState sweeps (parity set → the literal's "in" target, clear → "out").
+fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &mut Vec<Step>) {
+    let label_mask = layout.label_mask();
+    let all_mask = layout.all_mask();
+    let me = vec![peeled.prim];
+    for (e, &rel) in vol.blist.entries.iter().zip(&vol.relation) {
+        let here = layout.value(Next::Label(e.label));
+        let (on_inside, on_outside) = entry_targets(e);
+        for (compare, cull) in tie_draws(peeled, e.prim, e.leaf, e.negated, rel) {
+            steps.push(parity_draw(
+                e.prim,
+                compare,
+                cull,
+                stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
+            ));
+        }
+        let inside = sweep(
+            Scissor::BoundsOf(vec![e.prim]),
+            stencil::change_stencil_state(
+                here | LabelLayout::PARITY,
+                layout.value(on_inside),
+                all_mask,
+            ),
+        );
+        let outside = sweep(
+            Scissor::BoundsOf(me.clone()),
+            stencil::change_stencil_state(here, layout.value(on_outside), all_mask),
+        );
+        // A freed label may be reused by the entry's own target (seed 000 Fig. 11):
+        // then the pixels moved there must not be swept again by the other rule.
+        if layout.value(on_inside) == here {
+            steps.extend([outside, inside]);
+        } else if layout.value(on_outside) == here {
+            steps.push(inside);
+        } else {
+            steps.extend([inside, outside]);
+        }
+    }
+}
+
+/// Targets of an entry for a point inside / outside its mesh.
+pub(crate) fn entry_targets(e: &BlistEntry) -> (Next, Next) {
+    if e.negated {
+        (next(e.if_false), next(e.if_true))
+    } else {
+        (next(e.if_true), next(e.if_false))
+    }
+}
+
+/// How Trim(V) is done for one CST, with the stencil values it needs.
+pub trait Trimmer {
+    /// Stencil value of an unlocked pixel about to be classified (parity clear).
+    fn start(&self) -> u8;
+    /// Stencil value of a locked pixel (candidate in V).
+    fn locked(&self) -> u8;
+    /// Stencil value of a rejected pixel after the trim.
+    fn rejected(&self) -> u8;
+    /// All stencil bits in use.
+    fn mask(&self) -> u8;
+    fn bits(&self) -> u8;
+    fn trim(&self, steps: &mut Vec<Step>);
+}
+
+struct BlistTrimmer<'a> {
+    peeled: Peeled,
+    vol: &'a TrimVolume,
+    layout: LabelLayout,
+    start: u8,
+}
+
+impl Trimmer for BlistTrimmer<'_> {
+    fn start(&self) -> u8 {
+        self.start
+    }
+    fn locked(&self) -> u8 {
+        self.layout.value(Next::True)
+    }
+    fn rejected(&self) -> u8 {
+        self.layout.value(Next::False)
+    }
+    fn mask(&self) -> u8 {
+        self.layout.all_mask()
+    }
+    fn bits(&self) -> u8 {
+        self.layout.stencil_bits()
+    }
+    fn trim(&self, steps: &mut Vec<Step>) {
+        trim_blist(&self.peeled, self.vol, &self.layout, steps)
+    }
+}
+
+/// CST(S, V) merged into [`FINAL`] (seed 000 §4): `Initialize; Repeat {Peel(S);
+/// Trim(V); Push()} until Done; Render(S)`. `trimmer: None` means V is the universe:
+/// the first layer of S is drawn directly.
+pub fn cst(
+    surface: MeshId,
+    peel_cull: Cull,
+    trimmer: Option<&dyn Trimmer>,
+    max_layers: u32,
+    steps: &mut Vec<Step>,
+) {
+    let me = vec![surface];
+    let Some(t) = trimmer else {
+        steps.push(Step::Pass("merge".into()));
+        steps.push(Step::Draw(Draw {
+            geometry: Geometry::Mesh(surface),
+            scissor: Scissor::BoundsOf(me),
+            cull: peel_cull,
+            ds: FINAL,
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: None,
+            fragment: Fragment::Shade,
+            count_samples: false,
+        }));
+        return;
+    };
+    steps.push(Step::Pass("init".into()));
+    steps.push(Step::Clear(Clear::DepthStencil {
+        ds: WORK,
+        depth: FAR,
+        stencil: t.start(),
+    }));
+    steps.push(Step::Clear(Clear::Texture {
+        tex: PREV,
+        depth: 0.0,
+    }));
+    steps.push(Step::Clear(Clear::Texture {
+        tex: CUR,
+        depth: FAR,
+    }));
+
+    // Peel(S): the nearest face strictly behind Front, at unlocked pixels only.
+    let head = vec![
+        Step::Pass("peel".into()),
+        Step::Draw(Draw {
+            geometry: Geometry::Mesh(surface),
+            scissor: Scissor::BoundsOf(me.clone()),
+            cull: peel_cull,
+            ds: WORK,
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: Some(stencil::test_equal(t.start(), t.mask())),
+            fragment: Fragment::Peel {
+                prev: PREV,
+                out: CUR,
+                shade: false,
+            },
+            count_samples: true,
+        }),
+    ];
+    let mut tail = vec![Step::Pass("trim".into())];
+    t.trim(&mut tail);
+    // Push(): rejected candidates go back to the start label with a far depth, so the
+    // next peel advances them; locked ones (label T) keep their depth.
+    tail.push(Step::Pass("push".into()));
+    tail.push(Step::Draw(Draw {
+        geometry: Geometry::FullScreen { depth: FAR },
+        scissor: Scissor::BoundsOf(me.clone()),
+        cull: Cull::None,
+        ds: WORK,
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: true,
+        },
+        stencil: Some(stencil::change_stencil_state(
+            t.rejected(),
+            t.start(),
+            t.mask(),
+        )),
+        fragment: Fragment::None,
+        count_samples: false,
+    }));
+    tail.push(Step::CopyTexture {
+        src: CUR,
+        dst: PREV,
+    });
+    steps.push(Step::Loop(Loop {
+        head,
+        tail,
+        max_iterations: max_layers,
+    }));
+
+    // Render(S). After the loop every pixel without a kept point has a far depth in
+    // WORK (never peeled, pushed, or locked only because nothing was left to peel):
+    // make the recorded layer far there too, then shade S where its depth equals it.
+    steps.push(Step::Pass("merge".into()));
+    steps.push(Step::Draw(Draw {
+        geometry: Geometry::FullScreen { depth: FAR },
+        scissor: Scissor::BoundsOf(me.clone()),
+        cull: Cull::None,
+        ds: WORK,
+        depth: DepthState {
+            compare: CompareOp::Equal,
+            write: false,
+        },
+        stencil: None,
+        fragment: Fragment::WriteDepth { out: CUR },
+        count_samples: false,
+    }));
+    steps.push(Step::Draw(Draw {
+        geometry: Geometry::Mesh(surface),
+        scissor: Scissor::BoundsOf(me),
+        cull: peel_cull,
+        ds: FINAL,
+        depth: DepthState {
+            compare: CompareOp::Less,
+            write: true,
+        },
+        stencil: None,
+        fragment: Fragment::ShadeAtDepth { tex: CUR },
+        count_samples: false,
+    }));
+}
+
+/// Builds the CST plan of the prepared scene's solid(s).
+pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
+    if prep.positive.literals().is_empty() {
+        return Err(PlanError::NoSolid);
+    }
+    let csts = leaf_csts(&prep.positive, variant);
+    let mut steps = vec![
+        Step::Pass("init".into()),
+        Step::Clear(Clear::DepthStencil {
+            ds: FINAL,
+            depth: FAR,
+            stencil: 0,
+        }),
+        Step::Clear(Clear::Color),
+    ];
+    let mut bits = 0u8;
+    let mut grouped = Vec::new();
+    for c in &csts {
+        let p = c.peeled.prim;
+        // A front-face (or back-face) peel of a closed mesh has at most half its faces
+        // per pixel; both faces at most all of them.
+        let max_layers = prep.mesh_triangles[p as usize] as u32 + 1;
+        match &c.volume {
+            None => cst(p, c.peel_cull, None, max_layers, &mut steps),
+            Some(vol) => {
+                let trimmer: Box<dyn Trimmer + '_> = match variant {
+                    Variant::Z | Variant::I => {
+                        let layout = LabelLayout::new(vol.blist.num_labels).ok_or(
+                            PlanError::TooManyLabels {
+                                labels: vol.blist.num_labels,
+                            },
+                        )?;
+                        let start = layout.value(Next::Label(vol.blist.entries[0].label));
+                        Box::new(BlistTrimmer {
+                            peeled: c.peeled,
+                            vol,
+                            layout,
+                            start,
+                        })
+                    }
+                    Variant::G => {
+                        grouped.push(group::GroupTrimmer::new(prep, c)?);
+                        Box::new(grouped.last().unwrap().clone())
+                    }
+                };
+                bits = bits.max(trimmer.bits());
+                cst(
+                    p,
+                    c.peel_cull,
+                    Some(trimmer.as_ref()),
+                    max_layers,
+                    &mut steps,
+                );
+            }
+        }
+    }
+    // Coincident faces of different tessellations rasterize a few ulps apart, which
+    // the exact compares of the trim cannot see: give every visible point the lowest
+    // index among the primitives whose faces pass through it (CONTRACT §4), drawing
+    // them in descending order over a copy of the final depth.
+    steps.extend(super::shade_near_depth(
+        &prep.solid_meshes,
+        FINAL,
+        CUR,
+        None,
+    ));
+    Ok(Plan {
+        algo: variant.algo().name().into(),
+        depth_stencils: 2,
+        textures: 2,
+        stencil_bits: bits,
+        output_ds: FINAL,
+        steps,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::csg::parse;
+    use crate::plan::print::count;
+    use crate::scene::Aabb;
+
+    fn prepared(expr: &str, prims: u32, tris: usize) -> Prepared {
+        let names: Vec<String> = (0..prims).map(|i| format!("P{i}")).collect();
+        let e = parse(expr, &mut |n: &str| {
+            names.iter().position(|x| x == n).map(|i| i as u32)
+        })
+        .unwrap();
+        let positive = PositiveExpr::from_expr(&e);
+        let mut solid_meshes = e.leaves();
+        solid_meshes.sort_unstable();
+        solid_meshes.dedup();
+        let b = Aabb {
+            min: glam::DVec3::splat(-1.0),
+            max: glam::DVec3::splat(1.0),
+        };
+        Prepared {
+            expr: e,
+            positive,
+            solid_meshes,
+            mesh_triangles: vec![tris; prims as usize],
+            mesh_bounds: vec![b; prims as usize],
+            mesh_convex: vec![false; prims as usize],
+        }
+    }
+
+    /// A gear: a disc plus 12 teeth, minus an axle hole.
+    fn gear() -> Prepared {
+        let teeth: Vec<String> = (1..=12).map(|i| format!("P{i}")).collect();
+        prepared(&format!("(P0 + {}) - P13", teeth.join(" + ")), 14, 12)
+    }
+
+    #[test]
+    fn cst_i_draws_fewer_triangles_and_sweeps_than_cst_z() {
+        let p = gear();
+        let z = count(&plan(&p, Variant::Z).unwrap().steps, &p);
+        let i = count(&plan(&p, Variant::I).unwrap().steps, &p);
+        let g = count(&plan(&p, Variant::G).unwrap().steps, &p);
+        assert!(i.triangles < z.triangles, "{i:?} vs {z:?}");
+        assert!(i.fullscreen_passes < z.fullscreen_passes);
+        assert!(g.fullscreen_passes <= i.fullscreen_passes);
+    }
+
+    #[test]
+    fn cst_g_groups_a_big_intersection_into_few_sweeps() {
+        // The first leaf's i-zone is one intersection-group of 9 literals.
+        let p = prepared("P0 P1 P2 !P3 P4 P5 !P6 P7 P8 P9", 10, 12);
+        let i = count(&plan(&p, Variant::I).unwrap().steps, &p);
+        let g = count(&plan(&p, Variant::G).unwrap().steps, &p);
+        assert!(g.fullscreen_passes < i.fullscreen_passes, "{g:?} vs {i:?}");
+        assert_eq!(g.triangles, i.triangles);
+    }
+
+    #[test]
+    fn layouts_are_small_and_checked() {
+        let p = gear();
+        assert_eq!(plan(&p, Variant::I).unwrap().stencil_bits, 3);
+        let pl = plan(&p, Variant::G).unwrap();
+        assert!(pl.stencil_bits <= 8 && pl.depth_stencils == 2 && pl.output_ds == FINAL);
+        // 300 literals in one group need 9 counter bits: a clear error.
+        let names: Vec<String> = (1..301).map(|i| format!("P{i}")).collect();
+        let big = prepared(&format!("P0 {}", names.join(" ")), 301, 12);
+        assert!(matches!(
+            plan(&big, Variant::G),
+            Err(PlanError::StencilBits { .. })
+        ));
+    }
+
+    #[test]
+    fn tie_rules_follow_the_order() {
+        let p = Peeled {
+            prim: 2,
+            leaf: 2,
+            negated: false,
+        };
+        assert_eq!(
+            tie_draws(&p, 1, 1, false, Relation::Union),
+            vec![(CompareOp::LessOrEqual, Cull::None)]
+        );
+        assert_eq!(
+            tie_draws(&p, 3, 3, false, Relation::Union),
+            vec![(CompareOp::Less, Cull::None)]
+        );
+        assert_eq!(
+            tie_draws(&p, 3, 3, true, Relation::Inter),
+            vec![(CompareOp::LessOrEqual, Cull::None)]
+        );
+        assert_eq!(tie_draws(&p, 1, 1, false, Relation::Inter).len(), 2);
+    }
+}

@@ -1,0 +1,260 @@
+//! CST-G (seed 000 §7, optimization 3): trim against the grouped Blist of the
+//! i-zone, classifying a whole same-operator group with a stencil counter instead of
+//! one parity draw and two sweeps per literal.
+//!
+//! Stencil layout `[label | counter]`: the counter occupies the low `counter_bits`,
+//! the label the bits above. A single-literal entry uses the counter's bit 0 as its
+//! parity bit. For a group (an intersection-group, or a union-group by de Morgan,
+//! which [`Group`] describes with `c_p`/`c_n`), each literal's mesh is drawn once
+//! with the counter incremented on faces in front of the candidate that enter the
+//! primitive and decremented on those that leave it (front/back faces swap for the
+//! literals the counter treats as negative), so the counter ends at
+//! `#(counter-positive primitives containing X) − #(counter-negative ones)`.
+//!
+//! The paper starts the counter at `c0 = c_n + k` so it stays positive with depth
+//! complexity `k`. We count with wrapping increments under a write mask instead:
+//! arithmetic is modulo `2^counter_bits`, intermediate values may wrap, and only the
+//! final value matters; it lies in `[−c_n, c_p]`, so `counter_bits =
+//! ⌈log₂(c_n + c_p + 1)⌉` distinguishes "in the group" (`≡ c_p`) from every other
+//! outcome for any `k`, and `c0 = 0` needs no initialization sweep. Per group: the
+//! draws, then three sweeps: matching counter → the group's "in" target; zero the
+//! counter of the pixels still at this label; → the "out" target.
+#![deny(unsafe_code)]
+
+use super::super::stencil::{self, Next};
+use super::super::step::*;
+use super::super::{PlanError, Prepared};
+use super::{next, parity_draw, sweep, tie_draws, LeafCst, Peeled, Relation, Trimmer};
+use crate::csg::groups::{Group, GroupedBlist, Item};
+
+/// Bits to hold `values` distinct values (at least 1).
+fn bits_for(values: u32) -> u8 {
+    (32 - values.saturating_sub(1).leading_zeros()).max(1) as u8
+}
+
+/// Counter bits a group needs (wrapping arithmetic, see the module comment).
+pub fn group_counter_bits(g: &Group) -> u8 {
+    bits_for(g.c_p() + g.c_n() + 1)
+}
+
+/// `[label | counter]` layout of one CST-G trim.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GroupLayout {
+    pub labels: u32,
+    pub label_bits: u8,
+    pub counter_bits: u8,
+}
+
+impl GroupLayout {
+    pub fn new(blist: &GroupedBlist) -> Result<Self, PlanError> {
+        let counter_bits = blist
+            .entries
+            .iter()
+            .filter_map(|e| match &e.item {
+                Item::Group(g) => Some(group_counter_bits(g)),
+                Item::Literal(_) => None,
+            })
+            .max()
+            .unwrap_or(1)
+            .max(1);
+        // One stencil label per entry (see `GroupTrimmer::targets`).
+        let labels = blist.entries.len() as u32;
+        let label_bits = bits_for(labels + 2);
+        if label_bits as u32 + counter_bits as u32 > 8 {
+            return Err(PlanError::StencilBits {
+                algo: "cst-g",
+                label_bits,
+                counter_bits,
+            });
+        }
+        Ok(GroupLayout {
+            labels,
+            label_bits,
+            counter_bits,
+        })
+    }
+    pub fn bits(&self) -> u8 {
+        self.label_bits + self.counter_bits
+    }
+    pub fn counter_mask(&self) -> u8 {
+        ((1u32 << self.counter_bits) - 1) as u8
+    }
+    pub fn label_mask(&self) -> u8 {
+        ((((1u32 << self.label_bits) - 1) << self.counter_bits) & 0xff) as u8
+    }
+    pub fn all_mask(&self) -> u8 {
+        self.label_mask() | self.counter_mask()
+    }
+    pub fn value(&self, n: Next) -> u8 {
+        let l = match n {
+            Next::Label(l) => l,
+            Next::True => self.labels,
+            Next::False => self.labels + 1,
+        };
+        (l << self.counter_bits) as u8
+    }
+}
+
+/// Trim(V) of one leaf against its grouped i-zone.
+#[derive(Clone, Debug)]
+pub struct GroupTrimmer {
+    peeled: Peeled,
+    blist: GroupedBlist,
+    layout: GroupLayout,
+    /// Per entry, its (if_true, if_false) with entry indices as labels.
+    targets: Vec<(Next, Next)>,
+}
+
+impl GroupTrimmer {
+    pub fn new(_prep: &Prepared, c: &LeafCst) -> Result<Self, PlanError> {
+        let zone = c.zone.as_ref().expect("a trimmed leaf has a zone");
+        let blist = GroupedBlist::new(zone);
+        let layout = GroupLayout::new(&blist)?;
+        let targets = Self::targets(&blist);
+        Ok(GroupTrimmer {
+            peeled: c.peeled,
+            blist,
+            layout,
+            targets,
+        })
+    }
+
+    /// The Blist's targets with every entry given its own label (its index): a
+    /// group's "in" target may reuse the group's own freed label, and with a counter
+    /// the pixels moved there could not be told from those still to be classified.
+    /// A target `Label(l)` of entry `i` is the first later entry carrying `l`.
+    fn targets(blist: &GroupedBlist) -> Vec<(Next, Next)> {
+        let es = &blist.entries;
+        let map = |i: usize, t: crate::csg::Target| match t {
+            crate::csg::Target::Label(l) => Next::Label(
+                (i + 1..es.len())
+                    .find(|&j| es[j].label == l)
+                    .expect("a label target has a later entry") as u32,
+            ),
+            other => next(other),
+        };
+        es.iter()
+            .enumerate()
+            .map(|(i, e)| (map(i, e.if_true), map(i, e.if_false)))
+            .collect()
+    }
+    pub fn blist(&self) -> &GroupedBlist {
+        &self.blist
+    }
+    pub fn layout(&self) -> GroupLayout {
+        self.layout
+    }
+}
+
+impl Trimmer for GroupTrimmer {
+    fn start(&self) -> u8 {
+        self.layout.value(Next::Label(0))
+    }
+    fn locked(&self) -> u8 {
+        self.layout.value(Next::True)
+    }
+    fn rejected(&self) -> u8 {
+        self.layout.value(Next::False)
+    }
+    fn mask(&self) -> u8 {
+        self.layout.all_mask()
+    }
+    fn bits(&self) -> u8 {
+        self.layout.bits()
+    }
+    fn trim(&self, steps: &mut Vec<Step>) {
+        let l = &self.layout;
+        let (label_mask, all_mask, counter_mask) = (l.label_mask(), l.all_mask(), l.counter_mask());
+        let me = vec![self.peeled.prim];
+        for (i, e) in self.blist.entries.iter().enumerate() {
+            let here = l.value(Next::Label(i as u32));
+            let (t, f) = self.targets[i];
+            match &e.item {
+                Item::Literal(lit) => {
+                    let (on_inside, on_outside) = if lit.negated { (f, t) } else { (t, f) };
+                    for (compare, cull) in tie_draws(
+                        &self.peeled,
+                        lit.prim,
+                        lit.leaf,
+                        lit.negated,
+                        Relation::Inter,
+                    ) {
+                        steps.push(parity_draw(
+                            lit.prim,
+                            compare,
+                            cull,
+                            stencil::toggle_parity(here, label_mask, 1),
+                        ));
+                    }
+                    steps.push(sweep(
+                        Scissor::BoundsOf(vec![lit.prim]),
+                        stencil::change_stencil_state(here | 1, l.value(on_inside), all_mask),
+                    ));
+                    steps.push(sweep(
+                        Scissor::BoundsOf(me.clone()),
+                        stencil::change_stencil_state(here, l.value(on_outside), all_mask),
+                    ));
+                }
+                Item::Group(g) => {
+                    let inverted = g.inverted();
+                    let mut meshes = Vec::new();
+                    for lit in &g.literals {
+                        // Counter-positive: the literal (or, inverted, its complement)
+                        // holds inside the primitive.
+                        let counter_positive = lit.negated == inverted;
+                        let (enter, leave) = if counter_positive {
+                            (StencilOp::IncrementAndWrap, StencilOp::DecrementAndWrap)
+                        } else {
+                            (StencilOp::DecrementAndWrap, StencilOp::IncrementAndWrap)
+                        };
+                        let face = |pass| StencilFace {
+                            compare: CompareOp::Equal,
+                            fail: StencilOp::Keep,
+                            pass,
+                            depth_fail: StencilOp::Keep,
+                        };
+                        // Front faces in front of X enter the mesh, back faces leave it.
+                        let st = StencilState {
+                            front: face(enter),
+                            back: face(leave),
+                            compare_mask: label_mask,
+                            write_mask: counter_mask,
+                            reference: here,
+                        };
+                        for (compare, cull) in tie_draws(
+                            &self.peeled,
+                            lit.prim,
+                            lit.leaf,
+                            lit.negated,
+                            Relation::Inter,
+                        ) {
+                            steps.push(parity_draw(lit.prim, compare, cull, st));
+                        }
+                        meshes.push(lit.prim);
+                    }
+                    let target = (g.c_p() as u8) & counter_mask;
+                    // In the intersection-group (or out of the union-group, inverted).
+                    let (on_match, on_other) = if inverted { (f, t) } else { (t, f) };
+                    steps.push(sweep(
+                        Scissor::BoundsOf(me.clone()),
+                        stencil::change_stencil_state(here | target, l.value(on_match), all_mask),
+                    ));
+                    steps.push(sweep(
+                        Scissor::BoundsOf(meshes),
+                        stencil::both(
+                            CompareOp::Equal,
+                            StencilOp::Zero,
+                            label_mask,
+                            counter_mask,
+                            here,
+                        ),
+                    ));
+                    steps.push(sweep(
+                        Scissor::BoundsOf(me.clone()),
+                        stencil::change_stencil_state(here, l.value(on_other), all_mask),
+                    ));
+                }
+            }
+        }
+    }
+}
