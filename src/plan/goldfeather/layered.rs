@@ -83,7 +83,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         algo: "goldfeather-layered".into(),
         depth_stencils: 2,
         textures: 3,
-        stencil_bits: 1,
+        stencil_bits: CLIP_BITS,
         output_ds: OUTPUT,
         steps,
     })

@@ -3,8 +3,9 @@
 //! literal, the literal's *potentially visible* faces — front faces of a positive,
 //! back faces of a complemented primitive (§3.4) — are drawn into a *surface*
 //! depth-stencil image, clipped there by parity against every other primitive of the
-//! product (§3.1, §3.3), and the survivors are merged into the *output* depth with a
-//! less-than test (§3.5). A final pass shades by depth-equal.
+//! product (§3.1, §3.3; one stencil bit per primitive, eight primitives per reject
+//! sweep), and the survivors are merged into the *output* depth with a less-than
+//! test (§3.5). A final pass shades by depth-equal (within a tolerance).
 //!
 //! Parity counts a primitive's faces at *or in front of* the surface point (depth
 //! `LessOrEqual`), so it classifies the point just behind the surface — where the
@@ -159,8 +160,6 @@ pub(crate) const SURF: Tex = 0;
 /// Textures of the layer peel: the previous and the current layer.
 pub(crate) const PREV: Tex = 1;
 pub(crate) const CUR: Tex = 2;
-/// Stencil bit of the surface image that holds a primitive's parity.
-pub(crate) const PARITY: u8 = 1;
 pub(crate) const FAR: f32 = 1.0;
 
 /// Builds the Goldfeather plan (O(n²) rasterizations per product of n literals).
@@ -229,7 +228,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         algo: "goldfeather".into(),
         depth_stencils: 2,
         textures: if loops { 3 } else { 1 },
-        stencil_bits: 1,
+        stencil_bits: CLIP_BITS,
         output_ds: OUTPUT,
         steps,
     })
@@ -288,53 +287,62 @@ pub(crate) fn surface_draw(a: Lit, fragment: Fragment, count_samples: bool) -> S
 }
 
 /// Parity clipping of the surface image against each literal in `against`
-/// (seed 004 §3.3): toggle the parity bit for every face of the primitive at or in
-/// front of the surface point, then one sweep that resets the depth to far where
-/// the parity says the point is outside the literal (even for a positive, odd for a
-/// complemented primitive) and clears the parity bit everywhere. `surface` names
-/// the meshes whose faces may be in the surface image (its scissor).
+/// (seed 004 §3.3), eight primitives at a time, one stencil bit each: a parity
+/// draw inverts a primitive's bit for each of its faces at most `eps` behind the
+/// surface point; then one sweep resets the depth to far wherever any bit says
+/// "outside" (clear for a positive, set for a complemented literal: the masked
+/// stencil differs from the expected pattern) and clears the bits everywhere.
+/// `surface` names the meshes whose faces may be in the surface image.
 pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId], eps: f32) -> Vec<Step> {
     let mut steps = vec![Step::Pass("clip".into())];
-    for &b in against {
-        steps.push(Step::Draw(Draw {
-            geometry: Geometry::Mesh(b.prim),
-            scissor: Scissor::BoundsOf(vec![b.prim]),
-            cull: Cull::None,
-            ds: SURFACE,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: false,
-            },
-            stencil: Some(super::stencil::both(
-                CompareOp::Always,
-                StencilOp::Invert,
-                0,
-                PARITY,
-                0,
-            )),
-            fragment: Fragment::NearerThan { tex: SURF, eps },
-            count_samples: false,
-        }));
-        // Outside a positive primitive is everywhere its faces are not (the whole
-        // surface); outside a complemented one only within its bounds.
-        let (outside, scissor) = if b.negated {
-            (PARITY, vec![b.prim])
-        } else {
-            let mut s = surface.to_vec();
-            s.push(b.prim);
-            (0, s)
-        };
-        steps.push(reject_sweep(outside, Scissor::BoundsOf(scissor)));
+    for chunk in against.chunks(CLIP_BITS as usize) {
+        let (mut mask, mut inside) = (0u8, 0u8);
+        // A positive literal is violated everywhere its faces are not (the whole
+        // surface); all bits can only be set within their primitives' bounds.
+        let mut scissor = surface.to_vec();
+        for (k, &b) in chunk.iter().enumerate() {
+            let bit = 1u8 << k;
+            mask |= bit;
+            if !b.negated {
+                inside |= bit;
+            }
+            scissor.push(b.prim);
+            steps.push(Step::Draw(Draw {
+                geometry: Geometry::Mesh(b.prim),
+                scissor: Scissor::BoundsOf(vec![b.prim]),
+                cull: Cull::None,
+                ds: SURFACE,
+                depth: DepthState {
+                    compare: CompareOp::Always,
+                    write: false,
+                },
+                stencil: Some(super::stencil::both(
+                    CompareOp::Always,
+                    StencilOp::Invert,
+                    0,
+                    bit,
+                    0,
+                )),
+                fragment: Fragment::NearerThan { tex: SURF, eps },
+                count_samples: false,
+            }));
+        }
+        scissor.sort_unstable();
+        scissor.dedup();
+        steps.push(reject_sweep(mask, inside, Scissor::BoundsOf(scissor)));
     }
     steps
 }
 
-/// Where `(stencil & PARITY) == outside`, depth := far in the image and in the
-/// surface texture `SURF` (the pixel leaves the surface); the parity bit is cleared
-/// on every swept pixel, pass or fail.
-fn reject_sweep(outside: u8, scissor: Scissor) -> Step {
+/// Stencil bits of the surface image used for parity (one per clipping primitive).
+pub(crate) const CLIP_BITS: u8 = 8;
+
+/// Where `(stencil & mask) != inside`, depth := far in the image and in the
+/// surface texture `SURF` (the pixel leaves the surface); the bits under `mask`
+/// are cleared on every swept pixel, pass or fail.
+fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
     let face = StencilFace {
-        compare: CompareOp::Equal,
+        compare: CompareOp::NotEqual,
         fail: StencilOp::Zero,
         pass: StencilOp::Zero,
         depth_fail: StencilOp::Zero,
@@ -351,9 +359,9 @@ fn reject_sweep(outside: u8, scissor: Scissor) -> Step {
         stencil: Some(StencilState {
             front: face,
             back: face,
-            compare_mask: PARITY,
-            write_mask: PARITY,
-            reference: outside,
+            compare_mask: mask,
+            write_mask: mask,
+            reference: inside,
         }),
         fragment: Fragment::WriteDepth { out: SURF },
         count_samples: false,
