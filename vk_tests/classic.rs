@@ -157,6 +157,26 @@ fn classic_speckle() {
 }
 
 #[test]
+fn classic_gear() {
+    check("gear.toml", &ALGOS, 0.001);
+}
+
+#[test]
+fn classic_assembly() {
+    check("assembly.toml", &ALGOS, 0.001);
+}
+
+#[test]
+fn classic_blister_fig9() {
+    check("blister_fig9.toml", &ALGOS, 0.001);
+}
+
+#[test]
+fn classic_many_50() {
+    check("many_50.toml", &ALGOS, 0.001);
+}
+
+#[test]
 fn classic_reversed_z_and_d32() {
     check_with("coincident.toml", &ALGOS, 0.001, DepthSetup::D32S8Reversed);
     check_with("drilled_block.toml", &ALGOS, 0.001, DepthSetup::D32S8);
