@@ -383,12 +383,28 @@ fn blist_json(input: &str) -> Result<serde_json::Value> {
     Ok(blist.to_json(&names))
 }
 
+/// The error and its causes, skipping a cause whose text the message already
+/// carries (the library's errors name their source in their own message).
+fn chain(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !out.contains(&text) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&text);
+        }
+    }
+    out
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("peeltrim: error: {e:#}");
+            eprintln!("peeltrim: error: {}", chain(&e));
             ExitCode::from(1)
         }
     }
