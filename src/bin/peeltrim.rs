@@ -91,6 +91,10 @@ enum Cmd {
         /// Untimed warm-up frames per run
         #[arg(long, default_value_t = 1)]
         warmup: u32,
+        /// A run whose warm-up frame takes longer than this many seconds is timed
+        /// on one frame only
+        #[arg(long, default_value_t = 20.0)]
+        budget_s: f64,
         #[arg(long, default_value = "out")]
         out: PathBuf,
         /// Run every depth set-up (d24s8, d32s8, d32s8 reversed) instead of the one the flags pick
