@@ -43,6 +43,7 @@ fn main() {
         depth_setups: vec![DepthSetup::D32S8],
         frames,
         warmup: 1,
+        budget_ms: 60_000.0,
         device: DeviceChoice::Auto,
         validation: false,
         out: out.clone(),

@@ -34,6 +34,9 @@ pub struct BenchConfig {
     pub depth_setups: Vec<DepthSetup>,
     pub frames: u32,
     pub warmup: u32,
+    /// A run whose warm-up frame takes longer than this (ms, wall clock) is
+    /// timed on that one frame only, so scaling families reach large n.
+    pub budget_ms: f64,
     pub device: DeviceChoice,
     pub validation: bool,
     pub out: PathBuf,
@@ -261,11 +264,14 @@ fn run_one(
         );
     }
     let gpu = gpu.as_mut().expect("created above");
+    let mut slow = false;
     for _ in 0..cfg.warmup {
+        let t = Instant::now();
         gpu.frame(&plan).map_err(|e| e.to_string())?;
+        slow |= t.elapsed().as_secs_f64() * 1e3 > cfg.budget_ms;
     }
     let (mut gpu_ms, mut cpu_ms, mut frames) = (Vec::new(), Vec::new(), Vec::new());
-    for _ in 0..cfg.frames.max(1) {
+    for _ in 0..if slow { 1 } else { cfg.frames.max(1) } {
         let f = gpu.frame(&plan).map_err(|e| e.to_string())?;
         gpu_ms.push(f.stats["gpu_ms"].as_f64().unwrap_or(0.0));
         cpu_ms.push(f.stats["cpu_ms"].as_f64().unwrap_or(0.0));

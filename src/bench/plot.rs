@@ -216,22 +216,24 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
         .y_label_area_size(70)
         .build_cartesian_2d(0.0..n as f64, 0.0..ymax)
         .map_err(|e| err(path, e))?;
-    let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
     chart
         .configure_mesh()
         .disable_x_mesh()
-        .x_labels(n + 1)
-        .x_label_formatter(&|x| {
-            let i = x.floor() as usize;
-            if (x - i as f64 - 0.0).abs() < 1e-9 {
-                String::new()
-            } else {
-                names.get(i).cloned().unwrap_or_default()
-            }
-        })
+        .disable_x_axis()
         .y_desc("GPU ms (median frame)")
         .draw()
         .map_err(|e| err(path, e))?;
+    // Each bar is labelled with its algorithm and total above it.
+    for (i, (algo, m)) in bars.iter().enumerate() {
+        let total: f64 = m.values().sum();
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!("{algo} ({total:.1})"),
+                (i as f64 + 0.15, total + ymax * 0.03),
+                ("sans-serif", 15).into_font(),
+            )))
+            .map_err(|e| err(path, e))?;
+    }
     for (pi, pass) in pass_names.iter().enumerate() {
         let color = PALETTE[pi % PALETTE.len()];
         let rects: Vec<Rectangle<(f64, f64)>> = bars

@@ -91,6 +91,10 @@ enum Cmd {
         /// Untimed warm-up frames per run
         #[arg(long, default_value_t = 1)]
         warmup: u32,
+        /// A run whose warm-up frame takes longer than this many seconds is timed
+        /// on one frame only
+        #[arg(long, default_value_t = 20.0)]
+        budget_s: f64,
         #[arg(long, default_value = "out")]
         out: PathBuf,
         /// Run every depth set-up (d24s8, d32s8, d32s8 reversed) instead of the one the flags pick
@@ -267,6 +271,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             size,
             frames,
             warmup,
+            budget_s,
             out,
             all_depths,
             families,
@@ -305,6 +310,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 },
                 frames,
                 warmup,
+                budget_ms: budget_s * 1e3,
                 device: opts.device,
                 validation: opts.validation,
                 out: out.clone(),
@@ -383,12 +389,28 @@ fn blist_json(input: &str) -> Result<serde_json::Value> {
     Ok(blist.to_json(&names))
 }
 
+/// The error and its causes, skipping a cause whose text the message already
+/// carries (the library's errors name their source in their own message).
+fn chain(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !out.contains(&text) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&text);
+        }
+    }
+    out
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("peeltrim: error: {e:#}");
+            eprintln!("peeltrim: error: {}", chain(&e));
             ExitCode::from(1)
         }
     }
