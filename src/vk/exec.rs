@@ -560,6 +560,30 @@ impl Executor {
     }
 
     /// Executes `plan` on the uploaded scene and reads the images back.
+    /// Ends `cmd`, submits it and waits for it: every submission of the executor
+    /// is synchronous, so the next one may read what this one wrote.
+    fn submit_and_wait(&self, cmd: vk::CommandBuffer) -> Result<(), VkError> {
+        let device = &self.shared.device;
+        // SAFETY: recording state, no open rendering block or query.
+        unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
+        let cmds = [cmd];
+        let si = [vk::SubmitInfo::default().command_buffers(&cmds)];
+        {
+            let _queue = self.shared.queue_lock.lock();
+            // SAFETY: the command buffer is executable; the fence is unsignaled; the
+            // lock serializes our submissions (an embedding host synchronizes its own,
+            // see Context::from_raw).
+            unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
+                .check("vkQueueSubmit")?;
+        }
+        // SAFETY: the fence was just submitted.
+        unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
+            .check("vkWaitForFences")?;
+        // SAFETY: the fence is signaled and not in use.
+        unsafe { device.reset_fences(&[self.fence]) }.check("vkResetFences")?;
+        Ok(())
+    }
+
     pub fn execute(&mut self, plan: &Plan) -> Result<Frame, VkError> {
         let start = Instant::now();
         if self.scene.is_none() {
@@ -745,23 +769,7 @@ impl Executor {
         }
         self.end_block(&mut rec);
         self.timestamp(&mut rec, String::new());
-        // SAFETY: recording state, no open rendering block or query.
-        unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
-        let cmds = [cmd];
-        let si = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        {
-            let _queue = self.shared.queue_lock.lock();
-            // SAFETY: the command buffer is executable; the fence is unsignaled; the
-            // lock serializes our submissions (an embedding host synchronizes its own,
-            // see Context::from_raw).
-            unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
-                .check("vkQueueSubmit")?;
-        }
-        // SAFETY: the fence was just submitted.
-        unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
-            .check("vkWaitForFences")?;
-        // SAFETY: the fence is signaled and not in use.
-        unsafe { device.reset_fences(&[self.fence]) }.check("vkResetFences")?;
+        self.submit_and_wait(cmd)?;
 
         let mut samples = 0u64;
         if rec.occlusion_used > 0 {
@@ -1494,21 +1502,7 @@ impl Executor {
                 &[],
             )
         };
-        // SAFETY: recording state.
-        unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
-        let cmds = [cmd];
-        let si = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        {
-            let _queue = self.shared.queue_lock.lock();
-            // SAFETY: executable buffer, unsignaled fence, submissions serialized.
-            unsafe { device.queue_submit(self.shared.queue, &si, self.fence) }
-                .check("vkQueueSubmit")?;
-        }
-        // SAFETY: the fence was just submitted.
-        unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
-            .check("vkWaitForFences")?;
-        // SAFETY: signaled, not in use.
-        unsafe { device.reset_fences(&[self.fence]) }.check("vkResetFences")?;
+        self.submit_and_wait(cmd)?;
 
         let bytes = self
             .readback
