@@ -321,35 +321,20 @@ impl Executor {
 
     fn ensure_queries(&mut self, occlusion: u32, timestamps: u32) -> Result<(), VkError> {
         let device = &self.shared.device;
-        if occlusion > self.occlusion_cap {
-            let cap = occlusion.next_power_of_two();
-            // SAFETY: the pool is idle (we wait after every submission); null is ignored.
-            unsafe { device.destroy_query_pool(self.occlusion, None) };
-            self.occlusion = vk::QueryPool::null();
-            self.occlusion_cap = 0;
-            let ci = vk::QueryPoolCreateInfo::default()
-                .query_type(vk::QueryType::OCCLUSION)
-                .query_count(cap);
-            // SAFETY: valid create info.
-            self.occlusion =
-                unsafe { device.create_query_pool(&ci, None) }.check("vkCreateQueryPool")?;
-            self.occlusion_cap = cap;
-        }
-        if timestamps > self.timestamps_cap {
-            let cap = timestamps.next_power_of_two();
-            // SAFETY: as above.
-            unsafe { device.destroy_query_pool(self.timestamps, None) };
-            self.timestamps = vk::QueryPool::null();
-            self.timestamps_cap = 0;
-            let ci = vk::QueryPoolCreateInfo::default()
-                .query_type(vk::QueryType::TIMESTAMP)
-                .query_count(cap);
-            // SAFETY: valid create info.
-            self.timestamps =
-                unsafe { device.create_query_pool(&ci, None) }.check("vkCreateQueryPool")?;
-            self.timestamps_cap = cap;
-        }
-        Ok(())
+        grow_pool(
+            device,
+            &mut self.occlusion,
+            &mut self.occlusion_cap,
+            vk::QueryType::OCCLUSION,
+            occlusion,
+        )?;
+        grow_pool(
+            device,
+            &mut self.timestamps,
+            &mut self.timestamps_cap,
+            vk::QueryType::TIMESTAMP,
+            timestamps,
+        )
     }
 
     /// Uploads all meshes of `scene` (primitives in file order, then surfaces) and
@@ -1565,4 +1550,30 @@ impl Drop for Executor {
         unsafe { d.destroy_command_pool(self.command_pool, None) };
         // `pipelines` drops after this body, then the Arc<Shared>.
     }
+}
+
+/// Replaces `pool` by one of at least `need` queries of type `ty` when it is
+/// smaller (capacities grow in powers of two, so plans of one size reuse it).
+fn grow_pool(
+    device: &ash::Device,
+    pool: &mut vk::QueryPool,
+    cap: &mut u32,
+    ty: vk::QueryType,
+    need: u32,
+) -> Result<(), VkError> {
+    if need <= *cap {
+        return Ok(());
+    }
+    let new_cap = need.next_power_of_two();
+    // SAFETY: the pool is idle (the executor waits after every submission); null is ignored.
+    unsafe { device.destroy_query_pool(*pool, None) };
+    *pool = vk::QueryPool::null();
+    *cap = 0;
+    let ci = vk::QueryPoolCreateInfo::default()
+        .query_type(ty)
+        .query_count(new_cap);
+    // SAFETY: valid create info.
+    *pool = unsafe { device.create_query_pool(&ci, None) }.check("vkCreateQueryPool")?;
+    *cap = new_cap;
+    Ok(())
 }
