@@ -49,7 +49,7 @@ use std::collections::HashSet;
 
 use super::stencil::{self, LabelLayout, Next};
 use super::step::*;
-use super::{Algo, PlanError, Prepared};
+use super::{Algo, PlanError, Prepared, SHADE_EPS};
 use crate::csg::active_zone::ActiveZones;
 use crate::csg::{Blist, BlistEntry, LeafId, PNode, PNodeId, PositiveExpr, Target};
 
@@ -256,7 +256,23 @@ pub(crate) fn sweep(scissor: Scissor, stencil: StencilState) -> Step {
     })
 }
 
-/// A parity draw of `mesh` over the candidates at label `here`.
+/// The signed tolerance of a parity draw's compare against the candidate's exact
+/// depth (texture [`CUR`]): `LessOrEqual` keeps faces up to [`SHADE_EPS`] behind the
+/// candidate (a coincident face counts as in front whatever the rounding), `Less`
+/// keeps only faces more than [`SHADE_EPS`] in front of it (a coincident face
+/// never counts). So the symbolic perturbation of seed 000 §5 survives different
+/// tessellations and rounding of the same plane.
+pub fn tie_eps(compare: CompareOp) -> f32 {
+    match compare {
+        CompareOp::LessOrEqual => SHADE_EPS,
+        CompareOp::Less => -SHADE_EPS,
+        other => panic!("parity draws compare with Less or LessOrEqual, not {other:?}"),
+    }
+}
+
+/// A parity draw of `mesh` over the candidates at label `here`: depth test off, the
+/// fragment keeps the faces in front of the candidate's exact depth within the
+/// tolerance of [`tie_eps`].
 pub(crate) fn parity_draw(
     mesh: MeshId,
     compare: CompareOp,
@@ -269,11 +285,14 @@ pub(crate) fn parity_draw(
         cull,
         ds: WORK,
         depth: DepthState {
-            compare,
+            compare: CompareOp::Always,
             write: false,
         },
         stencil: Some(stencil),
-        fragment: Fragment::None,
+        fragment: Fragment::NearerThan {
+            tex: CUR,
+            eps: tie_eps(compare),
+        },
         count_samples: false,
     })
 }
@@ -370,6 +389,31 @@ impl Trimmer for BlistTrimmer<'_> {
     }
 }
 
+/// How many layers of a surface the peel may need.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layers {
+    /// Unknown: loop until an occlusion query says the peel reached no pixel (at
+    /// most this many times).
+    AtMost(u32),
+    /// Exactly this many peels suffice (seed 000 §4: a convex surface needs one
+    /// pass when only front faces are trimmed, two otherwise): the loop is
+    /// unrolled, with no occlusion query, no empty last peel and no extra submits.
+    Known(u32),
+}
+
+impl Layers {
+    /// The bound for the mesh `m` peeled with `cull`.
+    pub fn of(prep: &Prepared, m: MeshId, cull: Cull) -> Layers {
+        if prep.mesh_convex.get(m as usize).copied().unwrap_or(false) {
+            Layers::Known(if cull == Cull::None { 2 } else { 1 })
+        } else {
+            // A front-face (or back-face) peel of a closed mesh has at most half its
+            // faces per pixel; both faces at most all of them.
+            Layers::AtMost(prep.mesh_triangles[m as usize] as u32 + 1)
+        }
+    }
+}
+
 /// CST(S, V) merged into [`FINAL`] (seed 000 §4): `Initialize; Repeat {Peel(S);
 /// Trim(V); Push()} until Done; Render(S)`. `trimmer: None` means V is the universe:
 /// the first layer of S is drawn directly.
@@ -377,7 +421,7 @@ pub fn cst(
     surface: MeshId,
     peel_cull: Cull,
     trimmer: Option<&dyn Trimmer>,
-    max_layers: u32,
+    layers: Layers,
     steps: &mut Vec<Step>,
 ) {
     let me = vec![surface];
@@ -460,11 +504,30 @@ pub fn cst(
         src: CUR,
         dst: PREV,
     });
-    steps.push(Step::Loop(Loop {
-        head,
-        tail,
-        max_iterations: max_layers,
-    }));
+    match layers {
+        Layers::AtMost(max_iterations) => steps.push(Step::Loop(Loop {
+            head,
+            tail,
+            max_iterations,
+        })),
+        Layers::Known(n) => {
+            for i in 0..n {
+                steps.extend(head.iter().cloned().map(|mut s| {
+                    if let Step::Draw(d) = &mut s {
+                        d.count_samples = false;
+                    }
+                    s
+                }));
+                // The last layer's copy to PrevDepth would feed no peel.
+                let last = i + 1 == n;
+                steps.extend(
+                    tail.iter()
+                        .filter(|s| !(last && matches!(s, Step::CopyTexture { .. })))
+                        .cloned(),
+                );
+            }
+        }
+    }
 
     // Render(S). After the loop every pixel without a kept point has a far depth in
     // WORK (never peeled, pushed, or locked only because nothing was left to peel):
@@ -517,9 +580,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     let mut grouped = Vec::new();
     for c in &csts {
         let p = c.peeled.prim;
-        // A front-face (or back-face) peel of a closed mesh has at most half its faces
-        // per pixel; both faces at most all of them.
-        let max_layers = prep.mesh_triangles[p as usize] as u32 + 1;
+        let max_layers = Layers::of(prep, p, c.peel_cull);
         match &c.volume {
             None => cst(p, c.peel_cull, None, max_layers, &mut steps),
             Some(vol) => {
@@ -601,6 +662,7 @@ mod tests {
             solid_meshes,
             mesh_triangles: vec![tris; prims as usize],
             mesh_bounds: vec![b; prims as usize],
+            mesh_convex: vec![false; prims as usize],
         }
     }
 
@@ -637,7 +699,7 @@ mod tests {
         assert_eq!(plan(&p, Variant::I).unwrap().stencil_bits, 3);
         let pl = plan(&p, Variant::G).unwrap();
         assert!(pl.stencil_bits <= 8 && pl.depth_stencils == 2 && pl.output_ds == FINAL);
-        // 300 literals in one group need 9 counter bits: a clear error.
+        // 300 literals in one group: no chunking fits labels and counter in 8 bits.
         let names: Vec<String> = (1..301).map(|i| format!("P{i}")).collect();
         let big = prepared(&format!("P0 {}", names.join(" ")), 301, 12);
         assert!(matches!(
