@@ -299,20 +299,54 @@ pub(crate) fn parity_draw(
 
 /// Trim(V) against a plain Blist (seed 000 §4): per entry, its parity draw(s) and two
 /// ChangeStencilState sweeps (parity set → the literal's "in" target, clear → "out").
-fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &mut Vec<Step>) {
+///
+/// `facing`: a stencil bit (outside the layout) in which the peel recorded whether
+/// the candidate lies on a back face of the mesh (cst-z peels both faces). The tie
+/// rules of [`tie_draws`] are written for candidates on a front face of the peeled
+/// literal; for one on a back face of the literal they mirror (counting the faces
+/// at or behind a candidate is counting those strictly in front of it, modulo the
+/// even number of faces along the ray): `Less` ↔ `LessOrEqual`, except for an
+/// earlier literal of an i-node (shrunk either way). Without it the point kept at
+/// a back face coincident with a subtracted primitive's face would be a sliver.
+fn trim_blist(
+    peeled: &Peeled,
+    vol: &TrimVolume,
+    layout: &LabelLayout,
+    facing: u8,
+    steps: &mut Vec<Step>,
+) {
     let label_mask = layout.label_mask();
     let all_mask = layout.all_mask();
     let me = vec![peeled.prim];
     for (e, &rel) in vol.blist.entries.iter().zip(&vol.relation) {
         let here = layout.value(Next::Label(e.label));
         let (on_inside, on_outside) = entry_targets(e);
+        let shrunk = rel == Relation::Inter && peeled.earlier(e.prim, e.leaf);
         for (compare, cull) in tie_draws(peeled, e.prim, e.leaf, e.negated, rel) {
-            steps.push(parity_draw(
-                e.prim,
-                compare,
-                cull,
-                stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
-            ));
+            if facing == 0 || shrunk {
+                steps.push(parity_draw(
+                    e.prim,
+                    compare,
+                    cull,
+                    stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
+                ));
+                continue;
+            }
+            // Candidates on a front face of the literal: mesh front faces (bit
+            // clear) of a positive leaf, mesh back faces (bit set) of a negated one.
+            let lit_front = if peeled.negated { facing } else { 0 };
+            let mirrored = match compare {
+                CompareOp::Less => CompareOp::LessOrEqual,
+                _ => CompareOp::Less,
+            };
+            for (value, compare) in [(lit_front, compare), (lit_front ^ facing, mirrored)] {
+                steps.push(parity_draw(
+                    e.prim,
+                    compare,
+                    cull,
+                    stencil::toggle_parity(here | value, label_mask | facing, LabelLayout::PARITY),
+                ));
+            }
         }
         let inside = sweep(
             Scissor::BoundsOf(vec![e.prim]),
@@ -359,6 +393,11 @@ pub trait Trimmer {
     fn mask(&self) -> u8;
     fn bits(&self) -> u8;
     fn trim(&self, steps: &mut Vec<Step>);
+    /// A stencil bit, outside [`Trimmer::mask`], in which the peel records that the
+    /// candidate lies on a back face (set) or front face (clear); 0: not recorded.
+    fn facing_bit(&self) -> u8 {
+        0
+    }
 }
 
 struct BlistTrimmer<'a> {
@@ -366,6 +405,8 @@ struct BlistTrimmer<'a> {
     vol: &'a TrimVolume,
     layout: LabelLayout,
     start: u8,
+    /// See [`trim_blist`]; 0: none.
+    facing: u8,
 }
 
 impl Trimmer for BlistTrimmer<'_> {
@@ -385,7 +426,10 @@ impl Trimmer for BlistTrimmer<'_> {
         self.layout.stencil_bits()
     }
     fn trim(&self, steps: &mut Vec<Step>) {
-        trim_blist(&self.peeled, self.vol, &self.layout, steps)
+        trim_blist(&self.peeled, self.vol, &self.layout, self.facing, steps)
+    }
+    fn facing_bit(&self) -> u8 {
+        self.facing
     }
 }
 
@@ -469,7 +513,26 @@ pub fn cst(
                 compare: CompareOp::Less,
                 write: true,
             },
-            stencil: Some(stencil::test_equal(t.start(), t.mask())),
+            stencil: Some(match t.facing_bit() {
+                0 => stencil::test_equal(t.start(), t.mask()),
+                fb => {
+                    // The nearest fragment passes the depth test last, so its
+                    // orientation is what stays in the bit.
+                    let face = |pass| StencilFace {
+                        compare: CompareOp::Equal,
+                        fail: StencilOp::Keep,
+                        pass,
+                        depth_fail: StencilOp::Keep,
+                    };
+                    StencilState {
+                        front: face(StencilOp::Zero),
+                        back: face(StencilOp::Replace),
+                        compare_mask: t.mask(),
+                        write_mask: fb,
+                        reference: t.start() | fb,
+                    }
+                }
+            }),
             fragment: Fragment::Peel {
                 prev: PREV,
                 out: CUR,
@@ -592,11 +655,19 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                             },
                         )?;
                         let start = layout.value(Next::Label(vol.blist.entries[0].label));
+                        // cst-z peels both faces: record which one (bit 7) when
+                        // the layout leaves it free.
+                        let facing = if c.peel_cull == Cull::None && layout.stencil_bits() < 8 {
+                            0x80
+                        } else {
+                            0
+                        };
                         Box::new(BlistTrimmer {
                             peeled: c.peeled,
                             vol,
                             layout,
                             start,
+                            facing,
                         })
                     }
                     Variant::G => {
@@ -604,7 +675,11 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                         Box::new(grouped.last().unwrap().clone())
                     }
                 };
-                bits = bits.max(trimmer.bits());
+                bits = bits.max(if trimmer.facing_bit() != 0 {
+                    8
+                } else {
+                    trimmer.bits()
+                });
                 cst(
                     p,
                     c.peel_cull,
