@@ -784,6 +784,92 @@ mod tests {
     }
 
     #[test]
+    fn cst_g_chunks_a_36_tooth_union_into_8_bits() {
+        // Body + 36 teeth, recessed: the recess's i-zone holds the 37-literal union.
+        let teeth: Vec<String> = (1..=36).map(|i| format!("P{i}")).collect();
+        // As in scenes/gear.toml, enough other entries that 3 label bits + a 6-bit
+        // counter would not fit.
+        let p = prepared(
+            &format!("(P0 + {}) - P37 - P38 - P39 - P40 - P41", teeth.join(" + ")),
+            42,
+            12,
+        );
+        let pl = plan(&p, Variant::G).unwrap();
+        assert!(pl.stencil_bits <= 8, "{}", pl.stencil_bits);
+        let c = leaf_csts(&p.positive, Variant::G);
+        let recess = c.iter().find(|c| c.peeled.prim == 37).unwrap();
+        let t = group::GroupTrimmer::new(&p, recess).unwrap();
+        assert!(
+            t.layout().bits() <= 8 && t.blist().num_groups() >= 2,
+            "{t:?}"
+        );
+    }
+
+    fn has_loop(steps: &[Step]) -> bool {
+        steps.iter().any(|s| matches!(s, Step::Loop(_)))
+    }
+
+    #[test]
+    fn convex_leaves_are_unrolled() {
+        let mut p = gear();
+        for v in [Variant::Z, Variant::I, Variant::G] {
+            assert!(has_loop(&plan(&p, v).unwrap().steps));
+        }
+        p.mesh_convex = vec![true; 14];
+        for (v, layers) in [(Variant::Z, 2), (Variant::I, 1), (Variant::G, 1)] {
+            let pl = plan(&p, v).unwrap();
+            assert!(!has_loop(&pl.steps));
+            let peels = pl
+                .steps
+                .iter()
+                .filter(|s| {
+                    matches!(
+                        s,
+                        Step::Draw(Draw {
+                            fragment: Fragment::Peel { .. },
+                            ..
+                        })
+                    )
+                })
+                .count();
+            // Leaf 0's zone is not the universe for any leaf here: one peel per layer.
+            assert_eq!(peels, 14 * layers, "{v:?}");
+        }
+    }
+
+    #[test]
+    fn parity_draws_are_eps_tolerant() {
+        let p = gear();
+        for v in [Variant::Z, Variant::I, Variant::G] {
+            let pl = plan(&p, v).unwrap();
+            let mut stack = vec![&pl.steps];
+            let mut n = 0;
+            while let Some(steps) = stack.pop() {
+                for s in steps {
+                    match s {
+                        Step::Loop(l) => {
+                            stack.push(&l.head);
+                            stack.push(&l.tail);
+                        }
+                        Step::Draw(d)
+                            if d.ds == WORK && matches!(d.geometry, Geometry::Mesh(_)) =>
+                        {
+                            if let Fragment::NearerThan { tex, eps } = d.fragment {
+                                assert_eq!(tex, CUR);
+                                assert_eq!(eps.abs(), SHADE_EPS);
+                                assert_eq!(d.depth.compare, CompareOp::Always);
+                                n += 1;
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            assert!(n > 0, "{v:?}");
+        }
+    }
+
+    #[test]
     fn tie_rules_follow_the_order() {
         let p = Peeled {
             prim: 2,
