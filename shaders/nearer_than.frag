@@ -5,7 +5,7 @@
 layout(push_constant) uniform Push {
     mat4 mvp;
     vec4 view;
-    // a: the tolerance
+    // a: the tolerance (signed: negative keeps only fragments more than -a in front)
     vec4 color;
     uint prim;
     // bit 0: reversed Z (near = 1, far = 0)

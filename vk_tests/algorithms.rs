@@ -140,3 +140,18 @@ fn blister_counts_are_deterministic() {
     assert_eq!(a.images, b.images);
     assert!(gpu.validation_messages().is_empty());
 }
+
+#[test]
+fn cst_z_matches_reference_on_shipped_scenes() {
+    check_algo(Algo::CstZ, &DepthSetup::ALL, 0.0005, 0.0001);
+}
+
+#[test]
+fn cst_i_matches_reference_on_shipped_scenes() {
+    check_algo(Algo::CstI, &DepthSetup::ALL, 0.0005, 0.0001);
+}
+
+#[test]
+fn cst_g_matches_reference_on_shipped_scenes() {
+    check_algo(Algo::CstG, &DepthSetup::ALL, 0.0005, 0.0001);
+}

@@ -104,13 +104,22 @@ pub struct GroupedBlist {
 impl GroupedBlist {
     /// Groups the leaves of `pos` and linearises the grouped tree (with pivoting).
     pub fn new(pos: &PositiveExpr) -> Self {
+        Self::with_max_group(pos, usize::MAX)
+    }
+
+    /// As [`GroupedBlist::new`], with every group holding at most `max_group`
+    /// literals (at least 2): a larger same-operator cluster is split into chunks,
+    /// consecutive operands of the same operator (so consecutive entries), which
+    /// keeps the counter small at the cost of more labels. Semantics unchanged.
+    pub fn with_max_group(pos: &PositiveExpr, max_group: usize) -> Self {
+        let max_group = max_group.max(2);
         if pos.is_universe() {
             return GroupedBlist {
                 entries: Vec::new(),
                 num_labels: 0,
             };
         }
-        let (tree, root, items) = grouped_tree(pos);
+        let (tree, root, items) = grouped_tree(pos, max_group);
         let lay = layout(&tree, root, true);
         let entries = lay
             .entries
@@ -172,7 +181,7 @@ impl GroupedBlist {
 }
 
 /// Builds the grouped tree: one atom per group or lone literal. Iterative.
-fn grouped_tree(pos: &PositiveExpr) -> (Vec<BNode>, u32, Vec<Item>) {
+fn grouped_tree(pos: &PositiveExpr, max_group: usize) -> (Vec<BNode>, u32, Vec<Item>) {
     let parent = pos.parents();
     let op_of = |n: PNodeId| match pos.nodes[n as usize] {
         PNode::Union(..) => Some(GroupKind::Union),
@@ -211,14 +220,24 @@ fn grouped_tree(pos: &PositiveExpr) -> (Vec<BNode>, u32, Vec<Item>) {
             }
         }
         let mut parts = Vec::new();
-        match literals.len() {
-            0 => {}
-            1 => parts.push(atom(&mut tree, &mut items, Item::Literal(literals[0]))),
-            _ => parts.push(atom(
-                &mut tree,
-                &mut items,
-                Item::Group(Group { kind, literals }),
-            )),
+        // Balanced chunks of at most `max_group` literals.
+        let chunks = literals.len().div_ceil(max_group);
+        let mut rest = &literals[..];
+        for k in 0..chunks {
+            let take = rest.len().div_ceil(chunks - k);
+            let (chunk, tail) = rest.split_at(take);
+            rest = tail;
+            parts.push(match chunk.len() {
+                1 => atom(&mut tree, &mut items, Item::Literal(chunk[0])),
+                _ => atom(
+                    &mut tree,
+                    &mut items,
+                    Item::Group(Group {
+                        kind,
+                        literals: chunk.to_vec(),
+                    }),
+                ),
+            });
         }
         parts.extend(subs);
         let mut acc = parts[0];

@@ -482,6 +482,41 @@ fn grouped_blist_equals_tree() {
 }
 
 #[test]
+fn chunked_grouped_blist_equals_tree() {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    for case in 0..400 {
+        let leaves = rng.gen_range(1..=60);
+        let prims = rng.gen_range(1..=8);
+        let max = rng.gen_range(2..=7);
+        let e = random_expr(&mut rng, leaves, prims);
+        let pos = PositiveExpr::from_expr(&e);
+        let g = GroupedBlist::with_max_group(&pos, max);
+        let mut n = 0;
+        for en in &g.entries {
+            match &en.item {
+                Item::Literal(_) => n += 1,
+                Item::Group(gr) => {
+                    assert!(gr.literals.len() <= max, "case {case}");
+                    n += gr.literals.len();
+                }
+            }
+        }
+        assert_eq!(n, leaves);
+        for _ in 0..24 {
+            let bits: Vec<bool> = (0..leaves).map(|_| rng.gen_bool(0.5)).collect();
+            let tree = e.eval(|l, _| bits[l as usize]);
+            assert_eq!(g.eval(|l| bits[l.leaf as usize]), tree, "case {case}");
+        }
+    }
+    // A 37-literal union in chunks of at most 7: six groups, one entry each.
+    let names: Vec<String> = (0..37).map(|i| format!("P{i}")).collect();
+    let mut resolve = |n: &str| names.iter().position(|x| x == n).map(|i| i as u32);
+    let e = parse(&names.join(" + "), &mut resolve).unwrap();
+    let g = GroupedBlist::with_max_group(&PositiveExpr::from_expr(&e), 7);
+    assert_eq!((g.entries.len(), g.num_groups()), (6, 6), "{g:?}");
+}
+
+#[test]
 fn groups_counter_data() {
     let names = ["A", "B", "C", "D", "E"];
     let mut resolve = |n: &str| names.iter().position(|&x| x == n).map(|i| i as u32);

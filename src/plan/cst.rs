@@ -49,7 +49,7 @@ use std::collections::HashSet;
 
 use super::stencil::{self, LabelLayout, Next};
 use super::step::*;
-use super::{Algo, PlanError, Prepared};
+use super::{Algo, PlanError, Prepared, SHADE_EPS};
 use crate::csg::active_zone::ActiveZones;
 use crate::csg::{Blist, BlistEntry, LeafId, PNode, PNodeId, PositiveExpr, Target};
 
@@ -256,7 +256,23 @@ pub(crate) fn sweep(scissor: Scissor, stencil: StencilState) -> Step {
     })
 }
 
-/// A parity draw of `mesh` over the candidates at label `here`.
+/// The signed tolerance of a parity draw's compare against the candidate's exact
+/// depth (texture [`CUR`]): `LessOrEqual` keeps faces up to [`SHADE_EPS`] behind the
+/// candidate (a coincident face counts as in front whatever the rounding), `Less`
+/// keeps only faces more than [`SHADE_EPS`] in front of it (a coincident face
+/// never counts). So the symbolic perturbation of seed 000 §5 survives different
+/// tessellations and rounding of the same plane.
+pub fn tie_eps(compare: CompareOp) -> f32 {
+    match compare {
+        CompareOp::LessOrEqual => SHADE_EPS,
+        CompareOp::Less => -SHADE_EPS,
+        other => panic!("parity draws compare with Less or LessOrEqual, not {other:?}"),
+    }
+}
+
+/// A parity draw of `mesh` over the candidates at label `here`: depth test off, the
+/// fragment keeps the faces in front of the candidate's exact depth within the
+/// tolerance of [`tie_eps`].
 pub(crate) fn parity_draw(
     mesh: MeshId,
     compare: CompareOp,
@@ -269,31 +285,68 @@ pub(crate) fn parity_draw(
         cull,
         ds: WORK,
         depth: DepthState {
-            compare,
+            compare: CompareOp::Always,
             write: false,
         },
         stencil: Some(stencil),
-        fragment: Fragment::None,
+        fragment: Fragment::NearerThan {
+            tex: CUR,
+            eps: tie_eps(compare),
+        },
         count_samples: false,
     })
 }
 
 /// Trim(V) against a plain Blist (seed 000 §4): per entry, its parity draw(s) and two
 /// ChangeStencilState sweeps (parity set → the literal's "in" target, clear → "out").
-fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &mut Vec<Step>) {
+///
+/// `facing`: a stencil bit (outside the layout) in which the peel recorded whether
+/// the candidate lies on a back face of the mesh (cst-z peels both faces). The tie
+/// rules of [`tie_draws`] are written for candidates on a front face of the peeled
+/// literal; for one on a back face of the literal they mirror (counting the faces
+/// at or behind a candidate is counting those strictly in front of it, modulo the
+/// even number of faces along the ray): `Less` ↔ `LessOrEqual`, except for an
+/// earlier literal of an i-node (shrunk either way). Without it the point kept at
+/// a back face coincident with a subtracted primitive's face would be a sliver.
+fn trim_blist(
+    peeled: &Peeled,
+    vol: &TrimVolume,
+    layout: &LabelLayout,
+    facing: u8,
+    steps: &mut Vec<Step>,
+) {
     let label_mask = layout.label_mask();
     let all_mask = layout.all_mask();
     let me = vec![peeled.prim];
     for (e, &rel) in vol.blist.entries.iter().zip(&vol.relation) {
         let here = layout.value(Next::Label(e.label));
         let (on_inside, on_outside) = entry_targets(e);
+        let shrunk = rel == Relation::Inter && peeled.earlier(e.prim, e.leaf);
         for (compare, cull) in tie_draws(peeled, e.prim, e.leaf, e.negated, rel) {
-            steps.push(parity_draw(
-                e.prim,
-                compare,
-                cull,
-                stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
-            ));
+            if facing == 0 || shrunk {
+                steps.push(parity_draw(
+                    e.prim,
+                    compare,
+                    cull,
+                    stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
+                ));
+                continue;
+            }
+            // Candidates on a front face of the literal: mesh front faces (bit
+            // clear) of a positive leaf, mesh back faces (bit set) of a negated one.
+            let lit_front = if peeled.negated { facing } else { 0 };
+            let mirrored = match compare {
+                CompareOp::Less => CompareOp::LessOrEqual,
+                _ => CompareOp::Less,
+            };
+            for (value, compare) in [(lit_front, compare), (lit_front ^ facing, mirrored)] {
+                steps.push(parity_draw(
+                    e.prim,
+                    compare,
+                    cull,
+                    stencil::toggle_parity(here | value, label_mask | facing, LabelLayout::PARITY),
+                ));
+            }
         }
         let inside = sweep(
             Scissor::BoundsOf(vec![e.prim]),
@@ -340,6 +393,11 @@ pub trait Trimmer {
     fn mask(&self) -> u8;
     fn bits(&self) -> u8;
     fn trim(&self, steps: &mut Vec<Step>);
+    /// A stencil bit, outside [`Trimmer::mask`], in which the peel records that the
+    /// candidate lies on a back face (set) or front face (clear); 0: not recorded.
+    fn facing_bit(&self) -> u8 {
+        0
+    }
 }
 
 struct BlistTrimmer<'a> {
@@ -347,6 +405,8 @@ struct BlistTrimmer<'a> {
     vol: &'a TrimVolume,
     layout: LabelLayout,
     start: u8,
+    /// See [`trim_blist`]; 0: none.
+    facing: u8,
 }
 
 impl Trimmer for BlistTrimmer<'_> {
@@ -366,7 +426,35 @@ impl Trimmer for BlistTrimmer<'_> {
         self.layout.stencil_bits()
     }
     fn trim(&self, steps: &mut Vec<Step>) {
-        trim_blist(&self.peeled, self.vol, &self.layout, steps)
+        trim_blist(&self.peeled, self.vol, &self.layout, self.facing, steps)
+    }
+    fn facing_bit(&self) -> u8 {
+        self.facing
+    }
+}
+
+/// How many layers of a surface the peel may need.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layers {
+    /// Unknown: loop until an occlusion query says the peel reached no pixel (at
+    /// most this many times).
+    AtMost(u32),
+    /// Exactly this many peels suffice (seed 000 §4: a convex surface needs one
+    /// pass when only front faces are trimmed, two otherwise): the loop is
+    /// unrolled, with no occlusion query, no empty last peel and no extra submits.
+    Known(u32),
+}
+
+impl Layers {
+    /// The bound for the mesh `m` peeled with `cull`.
+    pub fn of(prep: &Prepared, m: MeshId, cull: Cull) -> Layers {
+        if prep.mesh_convex.get(m as usize).copied().unwrap_or(false) {
+            Layers::Known(if cull == Cull::None { 2 } else { 1 })
+        } else {
+            // A front-face (or back-face) peel of a closed mesh has at most half its
+            // faces per pixel; both faces at most all of them.
+            Layers::AtMost(prep.mesh_triangles[m as usize] as u32 + 1)
+        }
     }
 }
 
@@ -377,7 +465,7 @@ pub fn cst(
     surface: MeshId,
     peel_cull: Cull,
     trimmer: Option<&dyn Trimmer>,
-    max_layers: u32,
+    layers: Layers,
     steps: &mut Vec<Step>,
 ) {
     let me = vec![surface];
@@ -425,7 +513,26 @@ pub fn cst(
                 compare: CompareOp::Less,
                 write: true,
             },
-            stencil: Some(stencil::test_equal(t.start(), t.mask())),
+            stencil: Some(match t.facing_bit() {
+                0 => stencil::test_equal(t.start(), t.mask()),
+                fb => {
+                    // The nearest fragment passes the depth test last, so its
+                    // orientation is what stays in the bit.
+                    let face = |pass| StencilFace {
+                        compare: CompareOp::Equal,
+                        fail: StencilOp::Keep,
+                        pass,
+                        depth_fail: StencilOp::Keep,
+                    };
+                    StencilState {
+                        front: face(StencilOp::Zero),
+                        back: face(StencilOp::Replace),
+                        compare_mask: t.mask(),
+                        write_mask: fb,
+                        reference: t.start() | fb,
+                    }
+                }
+            }),
             fragment: Fragment::Peel {
                 prev: PREV,
                 out: CUR,
@@ -460,11 +567,30 @@ pub fn cst(
         src: CUR,
         dst: PREV,
     });
-    steps.push(Step::Loop(Loop {
-        head,
-        tail,
-        max_iterations: max_layers,
-    }));
+    match layers {
+        Layers::AtMost(max_iterations) => steps.push(Step::Loop(Loop {
+            head,
+            tail,
+            max_iterations,
+        })),
+        Layers::Known(n) => {
+            for i in 0..n {
+                steps.extend(head.iter().cloned().map(|mut s| {
+                    if let Step::Draw(d) = &mut s {
+                        d.count_samples = false;
+                    }
+                    s
+                }));
+                // The last layer's copy to PrevDepth would feed no peel.
+                let last = i + 1 == n;
+                steps.extend(
+                    tail.iter()
+                        .filter(|s| !(last && matches!(s, Step::CopyTexture { .. })))
+                        .cloned(),
+                );
+            }
+        }
+    }
 
     // Render(S). After the loop every pixel without a kept point has a far depth in
     // WORK (never peeled, pushed, or locked only because nothing was left to peel):
@@ -517,9 +643,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     let mut grouped = Vec::new();
     for c in &csts {
         let p = c.peeled.prim;
-        // A front-face (or back-face) peel of a closed mesh has at most half its faces
-        // per pixel; both faces at most all of them.
-        let max_layers = prep.mesh_triangles[p as usize] as u32 + 1;
+        let max_layers = Layers::of(prep, p, c.peel_cull);
         match &c.volume {
             None => cst(p, c.peel_cull, None, max_layers, &mut steps),
             Some(vol) => {
@@ -531,11 +655,19 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                             },
                         )?;
                         let start = layout.value(Next::Label(vol.blist.entries[0].label));
+                        // cst-z peels both faces: record which one (bit 7) when
+                        // the layout leaves it free.
+                        let facing = if c.peel_cull == Cull::None && layout.stencil_bits() < 8 {
+                            0x80
+                        } else {
+                            0
+                        };
                         Box::new(BlistTrimmer {
                             peeled: c.peeled,
                             vol,
                             layout,
                             start,
+                            facing,
                         })
                     }
                     Variant::G => {
@@ -543,7 +675,11 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                         Box::new(grouped.last().unwrap().clone())
                     }
                 };
-                bits = bits.max(trimmer.bits());
+                bits = bits.max(if trimmer.facing_bit() != 0 {
+                    8
+                } else {
+                    trimmer.bits()
+                });
                 cst(
                     p,
                     c.peel_cull,
@@ -638,13 +774,99 @@ mod tests {
         assert_eq!(plan(&p, Variant::I).unwrap().stencil_bits, 3);
         let pl = plan(&p, Variant::G).unwrap();
         assert!(pl.stencil_bits <= 8 && pl.depth_stencils == 2 && pl.output_ds == FINAL);
-        // 300 literals in one group need 9 counter bits: a clear error.
+        // 300 literals in one group: no chunking fits labels and counter in 8 bits.
         let names: Vec<String> = (1..301).map(|i| format!("P{i}")).collect();
         let big = prepared(&format!("P0 {}", names.join(" ")), 301, 12);
         assert!(matches!(
             plan(&big, Variant::G),
             Err(PlanError::StencilBits { .. })
         ));
+    }
+
+    #[test]
+    fn cst_g_chunks_a_36_tooth_union_into_8_bits() {
+        // Body + 36 teeth, recessed: the recess's i-zone holds the 37-literal union.
+        let teeth: Vec<String> = (1..=36).map(|i| format!("P{i}")).collect();
+        // As in scenes/gear.toml, enough other entries that 3 label bits + a 6-bit
+        // counter would not fit.
+        let p = prepared(
+            &format!("(P0 + {}) - P37 - P38 - P39 - P40 - P41", teeth.join(" + ")),
+            42,
+            12,
+        );
+        let pl = plan(&p, Variant::G).unwrap();
+        assert!(pl.stencil_bits <= 8, "{}", pl.stencil_bits);
+        let c = leaf_csts(&p.positive, Variant::G);
+        let recess = c.iter().find(|c| c.peeled.prim == 37).unwrap();
+        let t = group::GroupTrimmer::new(&p, recess).unwrap();
+        assert!(
+            t.layout().bits() <= 8 && t.blist().num_groups() >= 2,
+            "{t:?}"
+        );
+    }
+
+    fn has_loop(steps: &[Step]) -> bool {
+        steps.iter().any(|s| matches!(s, Step::Loop(_)))
+    }
+
+    #[test]
+    fn convex_leaves_are_unrolled() {
+        let mut p = gear();
+        for v in [Variant::Z, Variant::I, Variant::G] {
+            assert!(has_loop(&plan(&p, v).unwrap().steps));
+        }
+        p.mesh_convex = vec![true; 14];
+        for (v, layers) in [(Variant::Z, 2), (Variant::I, 1), (Variant::G, 1)] {
+            let pl = plan(&p, v).unwrap();
+            assert!(!has_loop(&pl.steps));
+            let peels = pl
+                .steps
+                .iter()
+                .filter(|s| {
+                    matches!(
+                        s,
+                        Step::Draw(Draw {
+                            fragment: Fragment::Peel { .. },
+                            ..
+                        })
+                    )
+                })
+                .count();
+            // Leaf 0's zone is not the universe for any leaf here: one peel per layer.
+            assert_eq!(peels, 14 * layers, "{v:?}");
+        }
+    }
+
+    #[test]
+    fn parity_draws_are_eps_tolerant() {
+        let p = gear();
+        for v in [Variant::Z, Variant::I, Variant::G] {
+            let pl = plan(&p, v).unwrap();
+            let mut stack = vec![&pl.steps];
+            let mut n = 0;
+            while let Some(steps) = stack.pop() {
+                for s in steps {
+                    match s {
+                        Step::Loop(l) => {
+                            stack.push(&l.head);
+                            stack.push(&l.tail);
+                        }
+                        Step::Draw(d)
+                            if d.ds == WORK && matches!(d.geometry, Geometry::Mesh(_)) =>
+                        {
+                            if let Fragment::NearerThan { tex, eps } = d.fragment {
+                                assert_eq!(tex, CUR);
+                                assert_eq!(eps.abs(), SHADE_EPS);
+                                assert_eq!(d.depth.compare, CompareOp::Always);
+                                n += 1;
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            assert!(n > 0, "{v:?}");
+        }
     }
 
     #[test]

@@ -146,7 +146,9 @@ pub struct Prepared {
     pub mesh_triangles: Vec<usize>,
     /// World bounds per mesh.
     pub mesh_bounds: Vec<Aabb>,
-    /// Per mesh: convex (Goldfeather's one-layer fast path), see [`goldfeather::is_convex`].
+    /// Per mesh: known to bound a convex set (every vertex on or behind every face
+    /// plane, see [`is_convex`]); `false` when unknown. CST stops peeling such a
+    /// leaf after one layer (one face orientation) or two (both).
     pub mesh_convex: Vec<bool>,
 }
 
@@ -158,16 +160,16 @@ impl Prepared {
             .iter()
             .map(|p| &p.mesh)
             .chain(scene.surfaces.iter().map(|s| &s.mesh));
-        let (mut mesh_triangles, mut mesh_bounds, mut mesh_convex) =
-            (Vec::new(), Vec::new(), Vec::new());
+        let (mut mesh_triangles, mut mesh_bounds) = (Vec::new(), Vec::new());
+        let mut mesh_convex = Vec::new();
         for m in meshes {
             mesh_triangles.push(m.triangles.len());
             mesh_bounds.push(bounds(&m.positions));
-            mesh_convex.push(goldfeather::is_convex(m));
+            mesh_convex.push(is_convex(m));
         }
-        let mut prep = Self::from_parts(expr, mesh_triangles, mesh_bounds);
-        prep.mesh_convex = mesh_convex;
-        Ok(prep)
+        let mut p = Self::from_parts(expr, mesh_triangles, mesh_bounds);
+        p.mesh_convex = mesh_convex;
+        Ok(p)
     }
 
     /// From an expression and per-mesh triangle counts and bounds (tests and
@@ -177,7 +179,6 @@ impl Prepared {
         let mut solid_meshes: Vec<MeshId> = expr.leaves();
         solid_meshes.sort_unstable();
         solid_meshes.dedup();
-        // Without geometry no mesh is known convex (Goldfeather then peels: always correct).
         let mesh_convex = vec![false; mesh_triangles.len()];
         Prepared {
             expr,
@@ -195,6 +196,42 @@ impl Prepared {
             .map(|&m| self.mesh_triangles[m as usize])
             .sum()
     }
+}
+
+/// Whether a closed, outward-oriented mesh bounds a convex set: every vertex lies
+/// on or behind the plane of every (non-degenerate) face, up to a tolerance of
+/// 1e-9 of the mesh's size. Meshes with more than 4·10⁶ vertex-face pairs are
+/// reported as not convex rather than tested (the test is quadratic).
+pub fn is_convex(mesh: &crate::scene::Mesh) -> bool {
+    let (p, t) = (&mesh.positions, &mesh.triangles);
+    if t.len() < 4 || p.len().saturating_mul(t.len()) > 4_000_000 {
+        return false;
+    }
+    let b = bounds(p);
+    let size = (b.max - b.min).length();
+    let tol = 1e-9 * size;
+    let mut planes: Vec<(glam::DVec3, f64)> = Vec::with_capacity(t.len());
+    for &[a, bb, c] in t {
+        let (a, bb, c) = (p[a as usize], p[bb as usize], p[c as usize]);
+        let n = (bb - a).cross(c - a);
+        let len = n.length();
+        if len <= 1e-12 * size * size {
+            continue;
+        }
+        let n = n / len;
+        let d = n.dot(a);
+        if planes
+            .iter()
+            .any(|&(m, e)| m.dot(n) > 1.0 - 1e-12 && (e - d).abs() <= tol)
+        {
+            continue;
+        }
+        planes.push((n, d));
+    }
+    !planes.is_empty()
+        && planes
+            .iter()
+            .all(|&(n, d)| p.iter().all(|&v| n.dot(v) - d <= tol))
 }
 
 fn bounds(points: &[glam::DVec3]) -> Aabb {

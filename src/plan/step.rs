@@ -115,6 +115,8 @@ pub enum Fragment {
     /// depth); no colour output. Parity counting that treats faces coincident with
     /// the candidate (within `eps`) as in front of it, so the point classified is
     /// the one just behind all of them — regularized, whatever the rounding.
+    /// `eps` is signed: a negative one keeps only fragments more than `-eps` in
+    /// front of `tex` (CST's `Less` tie rule, seed 000 §5).
     NearerThan { tex: Tex, eps: f32 },
     /// Shade and write the primitive id only where the fragment's depth is within
     /// `eps` (normalized depth) of texture `tex` at this pixel: depth-equal shading

@@ -108,8 +108,7 @@ pub struct GroupTrimmer {
 impl GroupTrimmer {
     pub fn new(_prep: &Prepared, c: &LeafCst) -> Result<Self, PlanError> {
         let zone = c.zone.as_ref().expect("a trimmed leaf has a zone");
-        let blist = GroupedBlist::new(zone);
-        let layout = GroupLayout::new(&blist)?;
+        let (blist, layout) = Self::chunked(zone)?;
         let targets = Self::targets(&blist);
         Ok(GroupTrimmer {
             peeled: c.peeled,
@@ -117,6 +116,44 @@ impl GroupTrimmer {
             layout,
             targets,
         })
+    }
+
+    /// The grouped Blist of `zone` with groups small enough that the labels and the
+    /// counter fit in 8 stencil bits: a group of `n` literals needs
+    /// `⌈log₂(n + 1)⌉` counter bits, so with `b` label bits groups are split into
+    /// chunks of at most `2^(8 − b) − 1` literals; splitting adds entries (labels),
+    /// so this repeats with the new label count until it fits (the cap only falls).
+    pub fn chunked(
+        zone: &crate::csg::PositiveExpr,
+    ) -> Result<(GroupedBlist, GroupLayout), PlanError> {
+        let mut max = usize::MAX;
+        loop {
+            let blist = GroupedBlist::with_max_group(zone, max);
+            let err = match GroupLayout::new(&blist) {
+                Ok(layout) => return Ok((blist, layout)),
+                Err(e) => e,
+            };
+            let label_bits = bits_for(blist.entries.len() as u32 + 2) as u32;
+            let largest = blist
+                .entries
+                .iter()
+                .map(|e| match &e.item {
+                    Item::Group(g) => g.literals.len(),
+                    Item::Literal(_) => 1,
+                })
+                .max()
+                .unwrap_or(1);
+            let cap = if label_bits >= 8 {
+                0
+            } else {
+                (1usize << (8 - label_bits)) - 1
+            };
+            let next = cap.min(largest - 1);
+            if next < 2 {
+                return Err(err);
+            }
+            max = next;
+        }
     }
 
     /// The Blist's targets with every entry given its own label (its index): a

@@ -22,7 +22,7 @@
 //! while a deeper one survives, so each such literal's faces are *peeled* layer by
 //! layer (strictly behind the previous layer, a texture) in a loop that an occlusion
 //! query stops when a layer is empty. Convexity is decided per mesh on the CPU
-//! (every vertex on the inner side of every face plane, [`is_convex`]); a convex
+//! (every vertex on the inner side of every face plane, [`super::is_convex`]); a convex
 //! mesh has one such face per pixel and takes the single-draw fast path.
 //!
 //! Depth tolerances: `eps` in the classification (above); survivors keep their
@@ -70,9 +70,6 @@ impl Default for ProductOptions {
 /// Default parity tolerance: 32 quanta of a 24-bit depth buffer, 2⁻¹⁹.
 pub const CLIP_EPS: f32 = 1.0 / (1 << 19) as f32;
 
-/// Vertex-plane tests [`is_convex`] may spend on one mesh.
-pub const CONVEXITY_WORK: usize = 20_000_000;
-
 /// One literal of a product, as the plan builders need it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Lit {
@@ -116,39 +113,6 @@ pub fn products(prep: &Prepared, limit: usize) -> Result<Vec<Vec<Lit>>, PlanErro
         }
     }
     Ok(out)
-}
-
-/// True when the closed mesh is convex: every vertex lies on the inner side of
-/// every triangle's plane (relative tolerance 1e-9 of the mesh size). O(T·V), run
-/// once per mesh at preparation; meshes past [`CONVEXITY_WORK`] are reported
-/// non-convex unchecked (always correct, only slower: their faces are peeled).
-pub fn is_convex(mesh: &crate::scene::Mesh) -> bool {
-    let p = &mesh.positions;
-    if p.is_empty() {
-        return true;
-    }
-    if p.len().saturating_mul(mesh.triangles.len()) > CONVEXITY_WORK {
-        return false;
-    }
-    let (mut lo, mut hi) = (p[0], p[0]);
-    for &q in p {
-        lo = lo.min(q);
-        hi = hi.max(q);
-    }
-    let tol = 1e-9 * (hi - lo).length().max(f64::MIN_POSITIVE);
-    for t in &mesh.triangles {
-        let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
-        let n = (b - a).cross(c - a);
-        let len = n.length();
-        if len == 0.0 {
-            continue;
-        }
-        let n = n / len;
-        if p.iter().any(|&q| n.dot(q - a) > tol) {
-            return false;
-        }
-    }
-    true
 }
 
 /// The depth-stencil image holding the final visible surface.
@@ -433,6 +397,8 @@ pub(crate) mod tests {
     fn static_counts(plan: &Plan, prep: &Prepared) -> crate::plan::print::StaticCounts {
         count(&plan.steps, prep)
     }
+
+    use crate::plan::is_convex;
 
     #[test]
     fn convexity() {
