@@ -19,7 +19,7 @@ pub use blist::{label_bound, Blist, BlistEntry, Target};
 pub use expr::{Expr, LeafId, Node, NodeId};
 pub use groups::{Group, GroupKind, GroupedBlist, GroupedEntry, Item};
 pub use parse::{parse, ParseError, ParseErrorKind};
-pub use positive::{Literal, PNode, PNodeId, PositiveExpr};
+pub use positive::{Literal, PNode, PNodeId, PositiveExpr, Restricted};
 pub use products::{sum_of_products, Product, ProductError};
 
 #[cfg(test)]

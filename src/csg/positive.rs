@@ -266,3 +266,144 @@ impl PositiveExpr {
         values.pop().unwrap()
     }
 }
+
+/// What [`PositiveExpr::restrict`] leaves of an expression.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Restricted {
+    /// Every remaining point has this value.
+    Constant(bool),
+    Expr(PositiveExpr),
+}
+
+impl PositiveExpr {
+    /// The expression with every literal whose value `known` decides replaced by
+    /// that value and the constants propagated (`x + true = true`, `x * false =
+    /// false`, ...). CST uses it to drop from a leaf's active zone the primitives
+    /// whose bounding boxes cannot meet the leaf: on the leaf's boundary they are
+    /// outside, so `!P` is true and `P` false there. Leaf ids are kept, unreachable
+    /// nodes are dropped and the index invariant holds.
+    pub fn restrict(&self, known: impl Fn(&Literal) -> Option<bool>) -> Restricted {
+        #[derive(Clone, Copy)]
+        enum V {
+            C(bool),
+            N(PNodeId),
+        }
+        let mut nodes: Vec<PNode> = Vec::new();
+        let mut val: Vec<V> = Vec::with_capacity(self.nodes.len());
+        let push = |nodes: &mut Vec<PNode>, n: PNode| {
+            nodes.push(n);
+            V::N(nodes.len() as PNodeId - 1)
+        };
+        for n in &self.nodes {
+            let v = match *n {
+                PNode::Universe => V::C(true),
+                PNode::Leaf { .. } => match known(&n.literal().expect("a leaf")) {
+                    Some(b) => V::C(b),
+                    None => push(&mut nodes, *n),
+                },
+                PNode::Union(a, b) => match (val[a as usize], val[b as usize]) {
+                    (V::C(true), _) | (_, V::C(true)) => V::C(true),
+                    (V::C(false), x) | (x, V::C(false)) => x,
+                    (V::N(x), V::N(y)) => push(&mut nodes, PNode::Union(x, y)),
+                },
+                PNode::Inter(a, b) => match (val[a as usize], val[b as usize]) {
+                    (V::C(false), _) | (_, V::C(false)) => V::C(false),
+                    (V::C(true), x) | (x, V::C(true)) => x,
+                    (V::N(x), V::N(y)) => push(&mut nodes, PNode::Inter(x, y)),
+                },
+            };
+            val.push(v);
+        }
+        let root = match val[self.root as usize] {
+            V::C(b) => return Restricted::Constant(b),
+            V::N(r) => r,
+        };
+        // Absorbed subtrees left nodes behind; keep what the root reaches.
+        let mut reach = vec![false; nodes.len()];
+        reach[root as usize] = true;
+        for i in (0..=root as usize).rev() {
+            if reach[i] {
+                if let PNode::Union(a, b) | PNode::Inter(a, b) = nodes[i] {
+                    reach[a as usize] = true;
+                    reach[b as usize] = true;
+                }
+            }
+        }
+        let mut map = vec![0 as PNodeId; nodes.len()];
+        let mut kept = Vec::new();
+        for (i, n) in nodes.iter().enumerate().take(root as usize + 1) {
+            if !reach[i] {
+                continue;
+            }
+            map[i] = kept.len() as PNodeId;
+            kept.push(match *n {
+                PNode::Union(a, b) => PNode::Union(map[a as usize], map[b as usize]),
+                PNode::Inter(a, b) => PNode::Inter(map[a as usize], map[b as usize]),
+                other => other,
+            });
+        }
+        Restricted::Expr(PositiveExpr {
+            root: kept.len() as PNodeId - 1,
+            nodes: kept,
+        })
+    }
+}
+
+#[cfg(test)]
+mod restrict_tests {
+    use super::*;
+    use crate::csg::parse;
+    use rand::{Rng, SeedableRng};
+
+    /// Restricting equals evaluating with the known literals fixed, on random
+    /// expressions and points.
+    #[test]
+    fn restrict_agrees_with_eval() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let names = ["A", "B", "C", "D", "E", "F", "G"];
+        for _ in 0..300 {
+            let mut src = String::new();
+            for i in 0..rng.gen_range(1..12) {
+                if i > 0 {
+                    src.push_str(["+", "-", " ", "*"][rng.gen_range(0..4)]);
+                }
+                if rng.gen_bool(0.2) {
+                    src.push('!');
+                }
+                src.push_str(names[rng.gen_range(0..names.len())]);
+            }
+            let e = parse(&src, &mut |n: &str| {
+                names.iter().position(|x| *x == n).map(|i| i as u32)
+            })
+            .unwrap();
+            let pos = PositiveExpr::from_expr(&e);
+            // Fix a random subset of primitives to a random value.
+            let fixed: Vec<Option<bool>> = (0..7)
+                .map(|_| rng.gen_bool(0.4).then(|| rng.gen()))
+                .collect();
+            let r = pos.restrict(|l| fixed[l.prim as usize].map(|inside| l.holds(inside)));
+            for _ in 0..20 {
+                let pt: Vec<bool> = (0..7)
+                    .map(|p| fixed[p].unwrap_or_else(|| rng.gen()))
+                    .collect();
+                let want = pos.eval(|l| pt[l.prim as usize]);
+                let got = match &r {
+                    Restricted::Constant(b) => *b,
+                    Restricted::Expr(x) => x.eval(|l| pt[l.prim as usize]),
+                };
+                assert_eq!(got, want, "{src} fixed {fixed:?}");
+            }
+            if let Restricted::Expr(x) = &r {
+                for (i, n) in x.nodes.iter().enumerate() {
+                    if let PNode::Union(a, b) | PNode::Inter(a, b) = n {
+                        assert!((*a as usize) < i && (*b as usize) < i, "index invariant");
+                    }
+                }
+                assert!(x
+                    .literals()
+                    .iter()
+                    .all(|l| fixed[l.prim as usize].is_none()));
+            }
+        }
+    }
+}

@@ -51,7 +51,8 @@ use super::stencil::{self, LabelLayout, Next};
 use super::step::*;
 use super::{Algo, PlanError, Prepared, SHADE_EPS};
 use crate::csg::active_zone::ActiveZones;
-use crate::csg::{Blist, BlistEntry, LeafId, PNode, PNodeId, PositiveExpr, Target};
+use crate::csg::{Blist, BlistEntry, LeafId, PNode, PNodeId, PositiveExpr, Restricted, Target};
+use crate::scene::Aabb;
 
 /// CurrDepthStencil: candidate depth and `[label | parity]`.
 pub const WORK: Ds = 0;
@@ -180,8 +181,19 @@ fn leaves_under(pos: &PositiveExpr, n: PNodeId, out: &mut HashSet<LeafId>) {
     }
 }
 
+/// Boxes that share no point (a gap on some axis); touching boxes overlap.
+fn disjoint(a: &Aabb, b: &Aabb) -> bool {
+    a.max.cmplt(b.min).any() || b.max.cmplt(a.min).any()
+}
+
 /// The per-leaf CSTs of a variant, in merge order (primitive, then leaf).
-pub fn leaf_csts(pos: &PositiveExpr, variant: Variant) -> Vec<LeafCst> {
+///
+/// With `boxes` (world bounds per mesh; empty for none), each zone is restricted
+/// to the primitives whose boxes meet the leaf's: elsewhere on the leaf's
+/// boundary a primitive is outside, so `!P` is true and `P` false there. A block
+/// minus n disjoint spheres then trims each sphere against the block only — O(n)
+/// trim draws instead of O(n²) — and a leaf whose zone becomes empty is skipped.
+pub fn leaf_csts(pos: &PositiveExpr, variant: Variant, boxes: &[Aabb]) -> Vec<LeafCst> {
     let zones = ActiveZones::new(pos);
     let mut lits = pos.literals();
     lits.sort_by_key(|l| (l.prim, l.leaf));
@@ -201,6 +213,17 @@ pub fn leaf_csts(pos: &PositiveExpr, variant: Variant) -> Vec<LeafCst> {
                 (zones.z_form(lit.leaf), u)
             }
             Variant::I | Variant::G => (zones.i_form(lit.leaf), HashSet::new()),
+        };
+        let zone = match boxes.get(lit.prim as usize) {
+            Some(own) if !zone.is_universe() => {
+                match zone.restrict(|l| disjoint(own, &boxes[l.prim as usize]).then_some(l.negated))
+                {
+                    Restricted::Constant(false) => continue,
+                    Restricted::Constant(true) => PositiveExpr::universe(),
+                    Restricted::Expr(z) => z,
+                }
+            }
+            _ => zone,
         };
         let peel_cull = match variant {
             Variant::Z => Cull::None,
@@ -629,7 +652,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     if prep.positive.literals().is_empty() {
         return Err(PlanError::NoSolid);
     }
-    let csts = leaf_csts(&prep.positive, variant);
+    let csts = leaf_csts(&prep.positive, variant, &prep.mesh_bounds);
     let mut steps = vec![
         Step::Pass("init".into()),
         Step::Clear(Clear::DepthStencil {
@@ -796,7 +819,7 @@ mod tests {
         );
         let pl = plan(&p, Variant::G).unwrap();
         assert!(pl.stencil_bits <= 8, "{}", pl.stencil_bits);
-        let c = leaf_csts(&p.positive, Variant::G);
+        let c = leaf_csts(&p.positive, Variant::G, &[]);
         let recess = c.iter().find(|c| c.peeled.prim == 37).unwrap();
         let t = group::GroupTrimmer::new(&p, recess).unwrap();
         assert!(
