@@ -46,7 +46,8 @@ pub struct GroupLayout {
 }
 
 impl GroupLayout {
-    pub fn new(blist: &GroupedBlist) -> Result<Self, PlanError> {
+    /// The layout of `blist` with `labels` distinct entry labels.
+    pub fn new(blist: &GroupedBlist, labels: u32) -> Result<Self, PlanError> {
         let counter_bits = blist
             .entries
             .iter()
@@ -57,8 +58,6 @@ impl GroupLayout {
             .max()
             .unwrap_or(1)
             .max(1);
-        // One stencil label per entry (see `GroupTrimmer::targets`).
-        let labels = blist.entries.len() as u32;
         let label_bits = bits_for(labels + 2);
         if label_bits as u32 + counter_bits as u32 > 8 {
             return Err(PlanError::StencilBits {
@@ -101,19 +100,69 @@ pub struct GroupTrimmer {
     peeled: Peeled,
     blist: GroupedBlist,
     layout: GroupLayout,
-    /// Per entry, its (if_true, if_false) with entry indices as labels.
+    /// Per entry, its stencil label (see [`assign_labels`]).
+    labels: Vec<u32>,
+    /// Per entry, its (if_true, if_false) in stencil labels.
     targets: Vec<(Next, Next)>,
+}
+
+/// Stencil labels for the entries of a grouped Blist whose targets name entry
+/// indices: the smallest free label when an entry is first referenced, freed when
+/// it is reached (label reuse, seed 002 §5.3.3) — but only after the entry's own
+/// targets have theirs, so a target never shares its source's label. A counter
+/// sweep could not tell pixels moved to such a target from pixels still to be
+/// classified; the rule costs at most one label over plain reuse.
+pub fn assign_labels(targets: &[(Next, Next)]) -> Vec<u32> {
+    let mut label = vec![u32::MAX; targets.len()];
+    let mut used: Vec<bool> = Vec::new();
+    let alloc = |used: &mut Vec<bool>| match used.iter().position(|u| !u) {
+        Some(i) => {
+            used[i] = true;
+            i as u32
+        }
+        None => {
+            used.push(true);
+            used.len() as u32 - 1
+        }
+    };
+    if targets.is_empty() {
+        return label;
+    }
+    label[0] = alloc(&mut used);
+    for (i, &(t, f)) in targets.iter().enumerate() {
+        for n in [t, f] {
+            if let Next::Label(j) = n {
+                if label[j as usize] == u32::MAX {
+                    label[j as usize] = alloc(&mut used);
+                }
+            }
+        }
+        used[label[i] as usize] = false;
+    }
+    label
+}
+
+/// Entry-index targets mapped to stencil labels.
+fn relabel(targets: &[(Next, Next)], labels: &[u32]) -> Vec<(Next, Next)> {
+    let m = |n: Next| match n {
+        Next::Label(j) => Next::Label(labels[j as usize]),
+        other => other,
+    };
+    targets.iter().map(|&(t, f)| (m(t), m(f))).collect()
 }
 
 impl GroupTrimmer {
     pub fn new(_prep: &Prepared, c: &LeafCst) -> Result<Self, PlanError> {
         let zone = c.zone.as_ref().expect("a trimmed leaf has a zone");
         let (blist, layout) = Self::chunked(zone)?;
-        let targets = Self::targets(&blist);
+        let by_entry = Self::targets(&blist);
+        let labels = assign_labels(&by_entry);
+        let targets = relabel(&by_entry, &labels);
         Ok(GroupTrimmer {
             peeled: c.peeled,
             blist,
             layout,
+            labels,
             targets,
         })
     }
@@ -129,11 +178,15 @@ impl GroupTrimmer {
         let mut max = usize::MAX;
         loop {
             let blist = GroupedBlist::with_max_group(zone, max);
-            let err = match GroupLayout::new(&blist) {
+            let labels = assign_labels(&Self::targets(&blist))
+                .into_iter()
+                .max()
+                .map_or(1, |m| m + 1);
+            let err = match GroupLayout::new(&blist, labels) {
                 Ok(layout) => return Ok((blist, layout)),
                 Err(e) => e,
             };
-            let label_bits = bits_for(blist.entries.len() as u32 + 2) as u32;
+            let label_bits = bits_for(labels + 2) as u32;
             let largest = blist
                 .entries
                 .iter()
@@ -156,10 +209,8 @@ impl GroupTrimmer {
         }
     }
 
-    /// The Blist's targets with every entry given its own label (its index): a
-    /// group's "in" target may reuse the group's own freed label, and with a counter
-    /// the pixels moved there could not be told from those still to be classified.
-    /// A target `Label(l)` of entry `i` is the first later entry carrying `l`.
+    /// The Blist's targets as entry indices: a target `Label(l)` of entry `i` is
+    /// the first later entry carrying `l` (relabelled by [`assign_labels`]).
     fn targets(blist: &GroupedBlist) -> Vec<(Next, Next)> {
         let es = &blist.entries;
         let map = |i: usize, t: crate::csg::Target| match t {
@@ -185,7 +236,8 @@ impl GroupTrimmer {
 
 impl Trimmer for GroupTrimmer {
     fn start(&self) -> u8 {
-        self.layout.value(Next::Label(0))
+        self.layout
+            .value(Next::Label(self.labels.first().copied().unwrap_or(0)))
     }
     fn locked(&self) -> u8 {
         self.layout.value(Next::True)
@@ -204,7 +256,7 @@ impl Trimmer for GroupTrimmer {
         let (label_mask, all_mask, counter_mask) = (l.label_mask(), l.all_mask(), l.counter_mask());
         let me = vec![self.peeled.prim];
         for (i, e) in self.blist.entries.iter().enumerate() {
-            let here = l.value(Next::Label(i as u32));
+            let here = l.value(Next::Label(self.labels[i]));
             let (t, f) = self.targets[i];
             match &e.item {
                 Item::Literal(lit) => {
@@ -292,6 +344,53 @@ impl Trimmer for GroupTrimmer {
                     ));
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::csg::{parse, PositiveExpr};
+    use rand::{Rng, SeedableRng};
+
+    /// Labels are reused, a target never shares its source's label, and two
+    /// entries pending at the same time never share one.
+    #[test]
+    fn assigned_labels_are_safe_and_reused() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let names = ["A", "B", "C", "D", "E", "F", "G", "H"];
+        for _ in 0..200 {
+            let mut src = String::new();
+            for i in 0..rng.gen_range(2..30) {
+                if i > 0 {
+                    src.push_str(["+", "-", " "][rng.gen_range(0..3)]);
+                }
+                src.push_str(names[rng.gen_range(0..names.len())]);
+            }
+            let e = parse(&src, &mut |n: &str| {
+                names.iter().position(|x| *x == n).map(|i| i as u32)
+            })
+            .unwrap();
+            let blist = GroupedBlist::with_max_group(&PositiveExpr::from_expr(&e), 3);
+            let by_entry = GroupTrimmer::targets(&blist);
+            let labels = assign_labels(&by_entry);
+            for (i, &(t, f)) in by_entry.iter().enumerate() {
+                for n in [t, f] {
+                    if let Next::Label(j) = n {
+                        assert_ne!(
+                            labels[j as usize], labels[i],
+                            "{src}: entry {i} targets its own label"
+                        );
+                        // No entry between i and j holds j's label while j is pending.
+                        for k in i + 1..j as usize {
+                            assert!(labels[k] != labels[j as usize] || k == j as usize, "{src}");
+                        }
+                    }
+                }
+            }
+            let distinct = labels.iter().copied().max().unwrap_or(0) + 1;
+            assert!(distinct as usize <= blist.entries.len());
         }
     }
 }
