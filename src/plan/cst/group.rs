@@ -103,6 +103,9 @@ pub struct GroupTrimmer {
     layout: GroupLayout,
     /// Per entry, its (if_true, if_false) with entry indices as labels.
     targets: Vec<(Next, Next)>,
+    /// How the literals relate to the peeled mesh: `Inter` for a leaf's i-zone,
+    /// `Surface` for a `[[surface]]`'s trimming volume.
+    relation: Relation,
 }
 
 impl GroupTrimmer {
@@ -115,7 +118,14 @@ impl GroupTrimmer {
             blist,
             layout,
             targets,
+            relation: Relation::Inter,
         })
+    }
+
+    /// The same trim with another tie rule (see [`Relation`]).
+    pub fn with_relation(mut self, relation: Relation) -> Self {
+        self.relation = relation;
+        self
     }
 
     /// The grouped Blist of `zone` with groups small enough that the labels and the
@@ -209,13 +219,9 @@ impl Trimmer for GroupTrimmer {
             match &e.item {
                 Item::Literal(lit) => {
                     let (on_inside, on_outside) = if lit.negated { (f, t) } else { (t, f) };
-                    for (compare, cull) in tie_draws(
-                        &self.peeled,
-                        lit.prim,
-                        lit.leaf,
-                        lit.negated,
-                        Relation::Inter,
-                    ) {
+                    for (compare, cull) in
+                        tie_draws(&self.peeled, lit.prim, lit.leaf, lit.negated, self.relation)
+                    {
                         steps.push(parity_draw(
                             lit.prim,
                             compare,
@@ -258,13 +264,9 @@ impl Trimmer for GroupTrimmer {
                             write_mask: counter_mask,
                             reference: here,
                         };
-                        for (compare, cull) in tie_draws(
-                            &self.peeled,
-                            lit.prim,
-                            lit.leaf,
-                            lit.negated,
-                            Relation::Inter,
-                        ) {
+                        for (compare, cull) in
+                            tie_draws(&self.peeled, lit.prim, lit.leaf, lit.negated, self.relation)
+                        {
                             steps.push(parity_draw(lit.prim, compare, cull, st));
                         }
                         meshes.push(lit.prim);
