@@ -236,7 +236,11 @@ impl Prepared {
     /// What `algo` leaves out of this scene, for the command line to print.
     pub fn warnings(&self, algo: Algo) -> Vec<String> {
         let mut w = Vec::new();
-        if !self.surfaces.is_empty() && !matches!(algo, Algo::CstZ | Algo::CstI | Algo::CstG) {
+        // Without a solid, `build` refuses with `PlanError::SurfacesNeedCst` instead.
+        if self.has_solid()
+            && !self.surfaces.is_empty()
+            && !matches!(algo, Algo::CstZ | Algo::CstI | Algo::CstG)
+        {
             if algo == Algo::Reference {
                 return w;
             }
