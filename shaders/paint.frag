@@ -1,5 +1,5 @@
 #version 450
-// CST painting: a constant colour and the mesh's primitive id.
+// Paint: shaded like shade.frag, in the paint colour (CST painting, seed 000 §6).
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -11,10 +11,18 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+layout(location = 0) in vec3 v_world;
+layout(location = 1) flat in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
 
+float shade_factor() {
+    vec3 n = normalize(v_normal);
+    vec3 v = pc.view.w > 0.5 ? normalize(v_world - pc.view.xyz) : pc.view.xyz;
+    return 0.25 + 0.75 * abs(dot(n, v));
+}
+
 void main() {
-    o_color = vec4(pc.color.rgb, 1.0);
+    o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
 }

@@ -57,7 +57,12 @@ pub fn run_gpu(
         Err(plan::PlanError::NoSolid) => return None,
         Err(e) => panic!("{e}"),
     };
-    let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
+    let plan = match plan::build(algo, &prep) {
+        Ok(p) => p,
+        // A scene of surfaces only: the algorithm draws no surface.
+        Err(plan::PlanError::SurfacesNeedCst(_)) => return None,
+        Err(e) => panic!("{algo}: {e}"),
+    };
     let mut gpu = GpuRenderer::new(scene, DeviceChoice::Cpu, depth, true)
         .expect("a Vulkan device (lavapipe)");
     let frame = gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"));

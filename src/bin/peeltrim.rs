@@ -231,6 +231,11 @@ fn run(cli: Cli) -> Result<ExitCode> {
         } => {
             let opts = render_options(algo, &gpu)?;
             let scene = load(&scene, size)?;
+            if let Ok(prep) = peeltrim::plan::Prepared::new(&scene) {
+                for w in prep.warnings(opts.algo) {
+                    eprintln!("peeltrim: warning: {w}");
+                }
+            }
             let frame = match render::render(&scene, &opts) {
                 Err(render::RenderError::Plan(
                     e @ peeltrim::plan::PlanError::NotImplemented(_),
@@ -332,6 +337,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Cmd::Plan { scene, algo } => {
             let scene = load(&scene, None)?;
             let prep = peeltrim::plan::Prepared::new(&scene)?;
+            for w in prep.warnings(algo) {
+                eprintln!("peeltrim: warning: {w}");
+            }
             if algo == Algo::Reference {
                 bail!("the reference ray caster has no GPU plan; choose a GPU algorithm");
             }

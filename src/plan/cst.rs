@@ -52,7 +52,7 @@ use super::step::*;
 use super::{Algo, PlanError, Prepared, SHADE_EPS};
 use crate::csg::active_zone::ActiveZones;
 use crate::csg::{Blist, BlistEntry, LeafId, PNode, PNodeId, PositiveExpr, Restricted, Target};
-use crate::scene::Aabb;
+use crate::scene::{Aabb, Keep};
 
 /// CurrDepthStencil: candidate depth and `[label | parity]`.
 pub const WORK: Ds = 0;
@@ -114,6 +114,10 @@ pub enum Relation {
     Inter,
     /// The literal lies in a (complemented) u-node.
     Union,
+    /// The peeled mesh is a `[[surface]]` trimmed by a volume it is no part of: a
+    /// candidate is classified with the primitive states just before it (faces
+    /// coincident with it are not yet crossed), as the reference does.
+    Surface,
 }
 
 /// The parity draws (depth compare, culling) that classify candidates of `peeled`
@@ -127,6 +131,7 @@ pub fn tie_draws(
 ) -> Vec<(CompareOp, Cull)> {
     let earlier = peeled.earlier(prim, leaf);
     match (rel, earlier) {
+        (Relation::Surface, _) => vec![(CompareOp::Less, Cull::None)],
         (Relation::Union, true) => vec![(CompareOp::LessOrEqual, Cull::None)],
         (Relation::Union, false) => vec![(CompareOp::Less, Cull::None)],
         (Relation::Inter, false) => vec![(CompareOp::LessOrEqual, Cull::None)],
@@ -489,6 +494,7 @@ pub fn cst(
     peel_cull: Cull,
     trimmer: Option<&dyn Trimmer>,
     layers: Layers,
+    merge: Merge,
     steps: &mut Vec<Step>,
 ) {
     let me = vec![surface];
@@ -503,10 +509,11 @@ pub fn cst(
                 compare: CompareOp::Less,
                 write: true,
             },
-            stencil: None,
+            stencil: merge.stencil(),
             fragment: Fragment::Shade,
             count_samples: false,
         }));
+        merge.paint(surface, peel_cull, steps);
         return;
     };
     steps.push(Step::Pass("init".into()));
@@ -641,18 +648,153 @@ pub fn cst(
             compare: CompareOp::Less,
             write: true,
         },
-        stencil: None,
+        stencil: merge.stencil(),
         fragment: Fragment::ShadeAtDepth { tex: CUR },
         count_samples: false,
     }));
+    merge.paint(surface, peel_cull, steps);
 }
 
-/// Builds the CST plan of the prepared scene's solid(s).
+/// Stencil bit of [`FINAL`] set where a `[[surface]]` won the merge: the final
+/// depth-equal shading of the solids' meshes skips those pixels (a surface point
+/// keeps its own colour, or its paint colour, even where a solid face passes
+/// within [`SHADE_EPS`] of it).
+pub const SURFACE_MARK: u8 = 0x01;
+/// Stencil bit of [`FINAL`] set by a painted surface's merge and cleared by its
+/// paint draw.
+pub const PAINT_PENDING: u8 = 0x02;
+
+/// How Render(S) writes into [`FINAL`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Merge {
+    /// Mark the pixels won with [`SURFACE_MARK`] (surfaces; solids merge first).
+    pub mark: bool,
+    /// Repaint the pixels won in this colour (CST painting, seed 000 §6).
+    pub paint: Option<[u8; 3]>,
+}
+
+impl Merge {
+    /// A solid's leaf: shaded, unmarked.
+    pub const SOLID: Merge = Merge {
+        mark: false,
+        paint: None,
+    };
+
+    fn stencil(&self) -> Option<StencilState> {
+        let bits = match (self.mark, self.paint.is_some()) {
+            (false, false) => return None,
+            (true, false) => SURFACE_MARK,
+            (false, true) => PAINT_PENDING,
+            (true, true) => SURFACE_MARK | PAINT_PENDING,
+        };
+        Some(stencil::both(
+            CompareOp::Always,
+            StencilOp::Replace,
+            0,
+            bits,
+            bits,
+        ))
+    }
+
+    /// After the shaded merge: S again at exactly the depth it left in [`FINAL`]
+    /// (the same rasterization reproduces it bit-exactly), in the paint colour, at
+    /// the pixels this merge won; clears their pending bit.
+    fn paint(&self, surface: MeshId, cull: Cull, steps: &mut Vec<Step>) {
+        let Some(rgb) = self.paint else { return };
+        steps.push(Step::Draw(Draw {
+            geometry: Geometry::Mesh(surface),
+            scissor: Scissor::BoundsOf(vec![surface]),
+            cull,
+            ds: FINAL,
+            depth: DepthState {
+                compare: CompareOp::Equal,
+                write: false,
+            },
+            stencil: Some(stencil::both(
+                CompareOp::Equal,
+                StencilOp::Zero,
+                PAINT_PENDING,
+                PAINT_PENDING,
+                PAINT_PENDING,
+            )),
+            fragment: Fragment::Paint { rgb },
+            count_samples: false,
+        }));
+    }
+}
+
+/// One CST of the plan: a leaf of the solid with its zone, or a surface with its
+/// trimming volume.
+struct Job {
+    c: LeafCst,
+    merge: Merge,
+    surface: bool,
+}
+
+/// The CSTs that draw the scene's surfaces (seed 000 §4, §6): CST(S, V) for
+/// `keep = "in"`, CST(S, !V) for `"out"`, both for `"paint"` (V in the paint
+/// colour). An open S has no inside: both faces are peeled, and the loop stops on
+/// the occlusion query (no convexity is assumed).
+fn surface_jobs(prep: &Prepared) -> Vec<Job> {
+    let mut jobs = Vec::new();
+    for s in &prep.surfaces {
+        let peeled = Peeled {
+            prim: s.mesh,
+            leaf: 0,
+            negated: false,
+        };
+        let job = |zone: &PositiveExpr, paint: Option<[u8; 3]>| {
+            let universe = zone.is_universe();
+            let volume = (!universe).then(|| {
+                let blist = Blist::new(zone);
+                let relation = vec![Relation::Surface; blist.entries.len()];
+                TrimVolume { blist, relation }
+            });
+            Job {
+                c: LeafCst {
+                    peeled,
+                    peel_cull: Cull::None,
+                    volume,
+                    zone: (!universe).then(|| zone.clone()),
+                },
+                merge: Merge { mark: true, paint },
+                surface: true,
+            }
+        };
+        match s.keep {
+            Keep::In => jobs.push(job(&s.trim, None)),
+            Keep::Out => jobs.push(job(&s.trim_out, None)),
+            Keep::Paint => {
+                jobs.push(job(&s.trim, Some(s.paint_color)));
+                jobs.push(job(&s.trim_out, None));
+            }
+        }
+    }
+    jobs
+}
+
+/// Builds the CST plan of the prepared scene's solid(s) and surfaces.
 pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
-    if prep.positive.literals().is_empty() {
+    let solid = prep.has_solid() && !prep.positive.literals().is_empty();
+    if !solid && prep.surfaces.is_empty() {
         return Err(PlanError::NoSolid);
     }
-    let csts = leaf_csts(&prep.positive, variant, &prep.mesh_bounds);
+    let mut jobs: Vec<Job> = if solid {
+        leaf_csts(&prep.positive, variant, &prep.mesh_bounds)
+            .into_iter()
+            .map(|c| Job {
+                c,
+                merge: Merge::SOLID,
+                surface: false,
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    // Surfaces merge after the solids with `Less`: a solid point wins an exact tie
+    // (the reference keeps the solid unless a surface is nearer by more than its
+    // tolerance), and between surfaces the earlier one wins.
+    jobs.extend(surface_jobs(prep));
     let mut steps = vec![
         Step::Pass("init".into()),
         Step::Clear(Clear::DepthStencil {
@@ -664,11 +806,15 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     ];
     let mut bits = 0u8;
     let mut grouped = Vec::new();
-    for c in &csts {
+    for Job { c, merge, surface } in &jobs {
         let p = c.peeled.prim;
-        let max_layers = Layers::of(prep, p, c.peel_cull);
+        let max_layers = if *surface {
+            Layers::AtMost(prep.mesh_triangles[p as usize] as u32 + 1)
+        } else {
+            Layers::of(prep, p, c.peel_cull)
+        };
         match &c.volume {
-            None => cst(p, c.peel_cull, None, max_layers, &mut steps),
+            None => cst(p, c.peel_cull, None, max_layers, *merge, &mut steps),
             Some(vol) => {
                 let trimmer: Box<dyn Trimmer + '_> = match variant {
                     Variant::Z | Variant::I => {
@@ -679,8 +825,12 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                         )?;
                         let start = layout.value(Next::Label(vol.blist.entries[0].label));
                         // cst-z peels both faces: record which one (bit 7) when
-                        // the layout leaves it free.
-                        let facing = if c.peel_cull == Cull::None && layout.stencil_bits() < 8 {
+                        // the layout leaves it free. A surface's tie rule does not
+                        // depend on the facing.
+                        let facing = if !*surface
+                            && c.peel_cull == Cull::None
+                            && layout.stencil_bits() < 8
+                        {
                             0x80
                         } else {
                             0
@@ -694,7 +844,11 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                         })
                     }
                     Variant::G => {
-                        grouped.push(group::GroupTrimmer::new(prep, c)?);
+                        let mut g = group::GroupTrimmer::new(prep, c)?;
+                        if *surface {
+                            g = g.with_relation(Relation::Surface);
+                        }
+                        grouped.push(g);
                         Box::new(grouped.last().unwrap().clone())
                     }
                 };
@@ -708,6 +862,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                     c.peel_cull,
                     Some(trimmer.as_ref()),
                     max_layers,
+                    *merge,
                     &mut steps,
                 );
             }
@@ -716,13 +871,17 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     // Coincident faces of different tessellations rasterize a few ulps apart, which
     // the exact compares of the trim cannot see: give every visible point the lowest
     // index among the primitives whose faces pass through it (CONTRACT §4), drawing
-    // them in descending order over a copy of the final depth.
-    steps.extend(super::shade_near_depth(
-        &prep.solid_meshes,
-        FINAL,
-        CUR,
-        None,
-    ));
+    // them in descending order over a copy of the final depth. Pixels a surface won
+    // are left alone: they keep the surface's colour (or paint colour) and id.
+    if solid {
+        let stencil = (!prep.surfaces.is_empty()).then(|| stencil::test_equal(0, SURFACE_MARK));
+        steps.extend(super::shade_near_depth(
+            &prep.solid_meshes,
+            FINAL,
+            CUR,
+            stencil,
+        ));
+    }
     Ok(Plan {
         algo: variant.algo().name().into(),
         depth_stencils: 2,
@@ -755,12 +914,13 @@ mod tests {
             max: glam::DVec3::splat(1.0),
         };
         Prepared {
-            expr: e,
+            expr: Some(e),
             positive,
             solid_meshes,
             mesh_triangles: vec![tris; prims as usize],
             mesh_bounds: vec![b; prims as usize],
             mesh_convex: vec![false; prims as usize],
+            surfaces: Vec::new(),
         }
     }
 

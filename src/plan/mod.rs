@@ -18,7 +18,7 @@ pub mod trickle;
 pub use step::*;
 
 use crate::csg::{Expr, Node, PositiveExpr};
-use crate::scene::{Aabb, Scene};
+use crate::scene::{Aabb, Keep, Scene};
 
 /// Depth tolerance of depth-equal shading (normalized depth, 2⁻²⁰ ≈ 9.5e-7,
 /// about 16 quanta of a 24-bit buffer): faces of several primitives closer than
@@ -114,6 +114,11 @@ pub enum PlanError {
     #[error("the scene has no solid to draw: add a [csg] expr or a [[solid]]")]
     NoSolid,
     #[error(
+        "surfaces are drawn by cst-z, cst-i and cst-g; {0} draws solids only and this \
+         scene has none (use --algo cst-i, or --algo reference)"
+    )]
+    SurfacesNeedCst(Algo),
+    #[error(
         "the Blist needs {labels} labels, more than 7 stencil bits hold with the parity bit; \
          rebalance the expression (or use --algo cst-i, which classifies smaller active zones)"
     )]
@@ -134,11 +139,26 @@ pub enum PlanError {
     Products(String),
 }
 
+/// A `[[surface]]` as the CST plans need it.
+#[derive(Clone, Debug)]
+pub struct PreparedSurface {
+    /// Mesh id: number of primitives + surface index.
+    pub mesh: MeshId,
+    /// The trimming volume V in positive form.
+    pub trim: PositiveExpr,
+    /// Its complement !V in positive form (possibly unbounded: fine for trimming).
+    pub trim_out: PositiveExpr,
+    pub keep: Keep,
+    pub paint_color: [u8; 3],
+}
+
 /// What every plan builder needs of a scene, computed once.
 #[derive(Clone, Debug)]
 pub struct Prepared {
-    /// The union of all solids' expressions.
-    pub expr: Expr,
+    /// The union of all solids' expressions; `None` for a scene of surfaces only.
+    pub expr: Option<Expr>,
+    /// The positive form of `expr`; the universe (and no literal) without a solid:
+    /// check [`Prepared::has_solid`].
     pub positive: PositiveExpr,
     /// Primitives named by a solid, in file order.
     pub solid_meshes: Vec<MeshId>,
@@ -150,11 +170,18 @@ pub struct Prepared {
     /// plane, see [`is_convex`]); `false` when unknown. CST stops peeling such a
     /// leaf after one layer (one face orientation) or two (both).
     pub mesh_convex: Vec<bool>,
+    /// The scene's surfaces, in file order (drawn by the CST plans only).
+    pub surfaces: Vec<PreparedSurface>,
 }
 
 impl Prepared {
+    /// Errors with [`PlanError::NoSolid`] only when the scene has neither a solid
+    /// nor a surface.
     pub fn new(scene: &Scene) -> Result<Self, PlanError> {
-        let expr = union_of_solids(scene).ok_or(PlanError::NoSolid)?;
+        let expr = union_of_solids(scene);
+        if expr.is_none() && scene.surfaces.is_empty() {
+            return Err(PlanError::NoSolid);
+        }
         let meshes = scene
             .primitives
             .iter()
@@ -167,9 +194,63 @@ impl Prepared {
             mesh_bounds.push(bounds(&m.positions));
             mesh_convex.push(is_convex(m));
         }
-        let mut p = Self::from_parts(expr, mesh_triangles, mesh_bounds);
+        let mut p = match expr {
+            Some(expr) => Self::from_parts(expr, mesh_triangles, mesh_bounds),
+            None => Prepared {
+                expr: None,
+                positive: PositiveExpr::universe(),
+                solid_meshes: Vec::new(),
+                mesh_triangles,
+                mesh_bounds,
+                mesh_convex: Vec::new(),
+                surfaces: Vec::new(),
+            },
+        };
         p.mesh_convex = mesh_convex;
+        let first = scene.primitives.len() as MeshId;
+        p.surfaces = scene
+            .surfaces
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let mut out = s.trim.clone();
+                out.nodes.push(Node::Not(out.root));
+                out.root = out.nodes.len() as u32 - 1;
+                PreparedSurface {
+                    mesh: first + i as MeshId,
+                    trim: PositiveExpr::from_expr(&s.trim),
+                    trim_out: PositiveExpr::from_expr(&out),
+                    keep: s.keep,
+                    paint_color: s.paint_color,
+                }
+            })
+            .collect();
         Ok(p)
+    }
+
+    /// Whether the scene has a solid (else only surfaces).
+    pub fn has_solid(&self) -> bool {
+        self.expr.is_some()
+    }
+
+    /// What `algo` leaves out of this scene, for the command line to print.
+    pub fn warnings(&self, algo: Algo) -> Vec<String> {
+        let mut w = Vec::new();
+        // Without a solid, `build` refuses with `PlanError::SurfacesNeedCst` instead.
+        if self.has_solid()
+            && !self.surfaces.is_empty()
+            && !matches!(algo, Algo::CstZ | Algo::CstI | Algo::CstG)
+        {
+            if algo == Algo::Reference {
+                return w;
+            }
+            w.push(format!(
+                "surfaces are drawn by cst-z, cst-i and cst-g; {algo} draws the solids only \
+                 ({} surface(s) left out)",
+                self.surfaces.len()
+            ));
+        }
+        w
     }
 
     /// From an expression and per-mesh triangle counts and bounds (tests and
@@ -181,12 +262,13 @@ impl Prepared {
         solid_meshes.dedup();
         let mesh_convex = vec![false; mesh_triangles.len()];
         Prepared {
-            expr,
+            expr: Some(expr),
             positive,
             solid_meshes,
             mesh_triangles,
             mesh_bounds,
             mesh_convex,
+            surfaces: Vec::new(),
         }
     }
 
@@ -274,6 +356,14 @@ pub fn union_of_solids(scene: &Scene) -> Option<Expr> {
 
 /// Builds the plan of a GPU algorithm.
 pub fn build(algo: Algo, prep: &Prepared) -> Result<Plan, PlanError> {
+    let cst = matches!(algo, Algo::CstZ | Algo::CstI | Algo::CstG);
+    if !cst && !prep.has_solid() {
+        return Err(if prep.surfaces.is_empty() || algo == Algo::Reference {
+            PlanError::NoSolid
+        } else {
+            PlanError::SurfacesNeedCst(algo)
+        });
+    }
     match algo {
         Algo::Blister => blister::plan(prep),
         Algo::Goldfeather => goldfeather::plan(prep, &Default::default()),

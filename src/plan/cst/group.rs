@@ -104,6 +104,9 @@ pub struct GroupTrimmer {
     labels: Vec<u32>,
     /// Per entry, its (if_true, if_false) in stencil labels.
     targets: Vec<(Next, Next)>,
+    /// How the literals relate to the peeled mesh: `Inter` for a leaf's i-zone,
+    /// `Surface` for a `[[surface]]`'s trimming volume.
+    relation: Relation,
 }
 
 /// Stencil labels for the entries of a grouped Blist whose targets name entry
@@ -164,7 +167,14 @@ impl GroupTrimmer {
             layout,
             labels,
             targets,
+            relation: Relation::Inter,
         })
+    }
+
+    /// The same trim with another tie rule (see [`Relation`]).
+    pub fn with_relation(mut self, relation: Relation) -> Self {
+        self.relation = relation;
+        self
     }
 
     /// The grouped Blist of `zone` with groups small enough that the labels and the
@@ -261,13 +271,9 @@ impl Trimmer for GroupTrimmer {
             match &e.item {
                 Item::Literal(lit) => {
                     let (on_inside, on_outside) = if lit.negated { (f, t) } else { (t, f) };
-                    for (compare, cull) in tie_draws(
-                        &self.peeled,
-                        lit.prim,
-                        lit.leaf,
-                        lit.negated,
-                        Relation::Inter,
-                    ) {
+                    for (compare, cull) in
+                        tie_draws(&self.peeled, lit.prim, lit.leaf, lit.negated, self.relation)
+                    {
                         steps.push(parity_draw(
                             lit.prim,
                             compare,
@@ -310,13 +316,9 @@ impl Trimmer for GroupTrimmer {
                             write_mask: counter_mask,
                             reference: here,
                         };
-                        for (compare, cull) in tie_draws(
-                            &self.peeled,
-                            lit.prim,
-                            lit.leaf,
-                            lit.negated,
-                            Relation::Inter,
-                        ) {
+                        for (compare, cull) in
+                            tie_draws(&self.peeled, lit.prim, lit.leaf, lit.negated, self.relation)
+                        {
                             steps.push(parity_draw(lit.prim, compare, cull, st));
                         }
                         meshes.push(lit.prim);
