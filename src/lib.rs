@@ -11,6 +11,7 @@
 //! - [`vk`]: executes plans on a Vulkan device. Knows stencil ops and images, not CSG.
 //! - [`reference`]: the exact CPU ray caster (the oracle) and image comparison.
 //! - [`output`]: the contract's output files.
+//! - `viewer` (feature `viewer`, on by default): the `peeltrim view` window.
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod bench;
@@ -20,4 +21,6 @@ pub mod plan;
 pub mod reference;
 pub mod render;
 pub mod scene;
+#[cfg(feature = "viewer")]
+pub mod viewer;
 pub mod vk;

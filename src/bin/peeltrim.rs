@@ -113,8 +113,20 @@ enum Cmd {
         #[command(flatten)]
         gpu: GpuArgs,
     },
-    /// Open a window showing the scene (interactive viewer)
-    View { scene: PathBuf },
+    /// Open a window showing the scene: drag orbits, wheel zooms, 1-8 switch
+    /// algorithm (reference, goldfeather, goldfeather-layered, trickle, blister,
+    /// cst-z, cst-i, cst-g), R resets the camera, S saves view.png, Esc/Q quit.
+    /// PEELTRIM_VIEW_FRAMES=N renders N frames and exits.
+    View {
+        scene: PathBuf,
+        #[arg(long, default_value = "cst-i", value_parser = parse_algo)]
+        algo: Algo,
+        /// Initial window size WxH (overrides [render] width/height)
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
     /// Print an algorithm's plan (the steps it records) for a scene
     Plan {
         scene: PathBuf,
@@ -329,11 +341,12 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 out.display()
             );
         }
-        Cmd::View { scene } => {
-            load(&scene, None)?;
-            eprintln!("peeltrim: the interactive viewer is not implemented yet; use `peeltrim render` and open color.png");
-            return Ok(ExitCode::from(2));
-        }
+        Cmd::View {
+            scene,
+            algo,
+            size,
+            gpu,
+        } => return view(&scene, algo, size, &gpu),
         Cmd::Plan { scene, algo } => {
             let scene = load(&scene, None)?;
             let prep = peeltrim::plan::Prepared::new(&scene)?;
@@ -357,6 +370,44 @@ fn run(cli: Cli) -> Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(feature = "viewer")]
+fn view(path: &Path, algo: Algo, size: Option<(u32, u32)>, gpu: &GpuArgs) -> Result<ExitCode> {
+    let opts = render_options(algo, gpu)?;
+    let scene = load(path, size)?;
+    let frames = match std::env::var("PEELTRIM_VIEW_FRAMES") {
+        Ok(v) => Some(
+            v.trim()
+                .parse::<u32>()
+                .ok()
+                .filter(|&n| n > 0)
+                .context("PEELTRIM_VIEW_FRAMES must be a positive integer")?,
+        ),
+        Err(_) => None,
+    };
+    peeltrim::viewer::run(
+        scene,
+        peeltrim::viewer::ViewOptions {
+            algo,
+            device: opts.device,
+            depth: opts.depth,
+            validation: opts.validation,
+            frames,
+        },
+    )?;
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(not(feature = "viewer"))]
+fn view(path: &Path, _algo: Algo, size: Option<(u32, u32)>, _gpu: &GpuArgs) -> Result<ExitCode> {
+    load(path, size)?;
+    eprintln!(
+        "peeltrim: this build has no viewer (built without the `viewer` feature); \
+         rebuild with `cargo build --features viewer` (on by default), or use \
+         `peeltrim render` and open color.png"
+    );
+    Ok(ExitCode::from(2))
 }
 
 /// `blist EXPR` names its own primitives; `blist SCENE.toml` uses the scene's.

@@ -1,7 +1,7 @@
 //! Instance, debug messenger, physical-device choice, logical device: the
 //! [`Context`] every executor of a process shares.
 
-use std::ffi::{c_void, CStr};
+use std::ffi::{c_char, c_void, CStr};
 use std::sync::{Arc, Mutex};
 
 use ash::vk;
@@ -48,6 +48,15 @@ impl Default for ContextDesc {
             validation: ContextDesc::validation_default(),
         }
     }
+}
+
+/// What presenting to a window needs of a new context (see `vk::present`): the
+/// surface's instance extensions and a way to create the surface once the instance
+/// exists. The device then gets `VK_KHR_swapchain` and a queue family that can
+/// present to the surface.
+pub(crate) struct PresentHooks<'a> {
+    pub instance_extensions: &'a [*const c_char],
+    pub create_surface: &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR, VkError>,
 }
 
 type Messages = Mutex<Vec<String>>;
@@ -156,6 +165,15 @@ fn device_type_rank(t: vk::PhysicalDeviceType) -> Option<u32> {
 impl Context {
     /// Creates a Vulkan 1.3 instance and device.
     pub fn new(desc: &ContextDesc) -> Result<Context, VkError> {
+        Self::new_inner(desc, None).map(|(c, _)| c)
+    }
+
+    /// Like [`Context::new`], and with a surface made by `present` (returned; the
+    /// caller destroys it before dropping the context) that the queue can present to.
+    pub(crate) fn new_inner(
+        desc: &ContextDesc,
+        present: Option<&PresentHooks<'_>>,
+    ) -> Result<(Context, vk::SurfaceKHR), VkError> {
         // SAFETY: loading the system Vulkan loader; its initialisation has no
         // preconditions beyond being a genuine loader library.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| VkError::Loader(e.to_string()))?;
@@ -175,6 +193,9 @@ impl Context {
             }
             layers.push(VALIDATION_LAYER.as_ptr());
             extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        if let Some(p) = present {
+            extensions.extend_from_slice(p.instance_extensions);
         }
         let app = vk::ApplicationInfo::default()
             .application_name(c"peeltrim")
@@ -219,8 +240,26 @@ impl Context {
         } else {
             None
         };
+        let surface = match present {
+            Some(p) => match (p.create_surface)(&entry, &instance) {
+                Ok(s) => s,
+                Err(e) => {
+                    if let Some((du, m)) = &debug {
+                        // SAFETY: created above from this instance, destroyed once here.
+                        unsafe { du.destroy_debug_utils_messenger(*m, None) };
+                    }
+                    return Err(e);
+                }
+            },
+            None => vk::SurfaceKHR::null(),
+        };
+        let surface_fn = ash::khr::surface::Instance::new(&entry, &instance);
         let destroy_debug =
             |debug: &Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>| {
+                if surface != vk::SurfaceKHR::null() {
+                    // SAFETY: created above from this instance; no swapchain uses it yet.
+                    unsafe { surface_fn.destroy_surface(surface, None) };
+                }
                 if let Some((du, m)) = debug {
                     // SAFETY: created above from this instance, destroyed once on this path.
                     unsafe { du.destroy_debug_utils_messenger(*m, None) };
@@ -237,13 +276,28 @@ impl Context {
         };
         // SAFETY: `physical` was enumerated from `instance`.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        let can_present = |i: usize| {
+            present.is_none()
+                // SAFETY: `physical` belongs to `instance`, `surface` is live, `i` is a
+                // valid family index.
+                || unsafe {
+                    surface_fn.get_physical_device_surface_support(physical, i as u32, surface)
+                }
+                .unwrap_or(false)
+        };
         let Some(queue_family) = families
             .iter()
-            .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS))
+            .enumerate()
+            .position(|(i, f)| f.queue_flags.contains(vk::QueueFlags::GRAPHICS) && can_present(i))
             .map(|i| i as u32)
         else {
             destroy_debug(&debug);
-            return Err(VkError::NoDevice("no graphics queue family".into()));
+            let what = if present.is_some() {
+                "no graphics queue family that can present to the window"
+            } else {
+                "no graphics queue family"
+            };
+            return Err(VkError::NoDevice(what.into()));
         };
         let priorities = [1.0f32];
         let queue_ci = [vk::DeviceQueueCreateInfo::default()
@@ -253,8 +307,14 @@ impl Context {
             .dynamic_rendering(true)
             // Lets depth-only fragment shaders ignore the shared vertex outputs.
             .maintenance4(true);
+        let device_extensions: Vec<*const c_char> = if present.is_some() {
+            vec![ash::khr::swapchain::NAME.as_ptr()]
+        } else {
+            Vec::new()
+        };
         let dci = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_ci)
+            .enabled_extension_names(&device_extensions)
             .push_next(&mut f13);
         // SAFETY: valid create info; dynamicRendering is mandatory in Vulkan 1.3.
         let device = match unsafe { instance.create_device(physical, &dci, None) } {
@@ -270,6 +330,7 @@ impl Context {
         // SAFETY: queue 0 of a family requested in the device create info.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         guard.0 = None;
+        // From here on `Shared` owns the instance; the surface must go before it.
         let shared = Self::finish(
             entry,
             instance,
@@ -280,8 +341,10 @@ impl Context {
             queue_family,
             queue,
             true,
-        )?;
-        Ok(shared)
+        );
+        // If `finish` fails, `Shared`'s Drop has already destroyed the device and
+        // instance; a surface made here is then leaked with them (never used again).
+        shared.map(|c| (c, surface))
     }
 
     fn pick_physical(

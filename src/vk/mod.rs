@@ -5,7 +5,8 @@
 //! `memory` and `image` (buffers and images that own their memory); `pipeline`
 //! (one per fragment program, all depth/stencil state dynamic); `conv` and
 //! `scissor` (pure mappings, tested without a GPU); `exec` (the plan executor and its
-//! statistics); `readback` (GPU bytes to output images).
+//! statistics); `readback` (GPU bytes to output images); `present` (feature `viewer`: a window's
+//! surface and swapchain).
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod conv;
@@ -15,6 +16,8 @@ pub mod image;
 pub mod instance;
 pub mod memory;
 pub mod pipeline;
+#[cfg(feature = "viewer")]
+pub mod present;
 pub mod readback;
 pub mod scissor;
 

@@ -1,0 +1,599 @@
+//! `peeltrim view`: a window showing one algorithm's render of a scene (feature
+//! `viewer`). Drag orbits the camera around its target, the wheel zooms, keys
+//! `1`..`8` switch algorithm (the command line's order), `R` resets the camera,
+//! `S` saves `view.png`, `Esc`/`Q` quit. A frame is rendered only when something
+//! changed; the window title shows scene, algorithm, median GPU time and draws.
+//!
+//! Frames are presented through a Vulkan swapchain on the executor's own device
+//! ([`crate::vk::present`]). `PEELTRIM_VIEW_FRAMES=N` renders N frames (orbiting a
+//! little between them) and exits: a smoke test for machines with a display.
+#![deny(unsafe_code)]
+
+use std::collections::{HashMap, VecDeque};
+use std::path::PathBuf;
+
+use glam::{DQuat, DVec3};
+use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
+use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Window, WindowId};
+
+use crate::output::Images;
+use crate::plan::{self, Algo, Plan, Prepared};
+use crate::render::{self, DepthSetup, RenderError};
+use crate::scene::{fit, Camera, Projection, Scene};
+use crate::vk::{self, present::Presented, present::Presenter};
+
+/// Radians of orbit per pixel dragged.
+pub const ORBIT_RAD_PER_PX: f64 = 0.01;
+/// Elevation limit of the orbit (radians from the plane normal to `up`), so the
+/// view direction never becomes parallel to `up`.
+pub const MAX_ELEVATION: f64 = 89.0 * std::f64::consts::PI / 180.0;
+/// Distance factor per wheel notch.
+pub const ZOOM_PER_STEP: f64 = 0.85;
+/// GPU times kept for the title's median.
+const TIMES_KEPT: usize = 9;
+
+/// Keys `1`..`8`: the algorithms in the command line's order.
+pub const KEY_ALGOS: [&str; 8] = [
+    "reference",
+    "goldfeather",
+    "goldfeather-layered",
+    "trickle",
+    "blister",
+    "cst-z",
+    "cst-i",
+    "cst-g",
+];
+
+/// The algorithm of digit key `c` (`'1'` = reference … `'8'` = cst-g).
+pub fn algo_for_key(c: char) -> Option<Algo> {
+    let i = c.to_digit(10)? as usize;
+    KEY_ALGOS
+        .get(i.checked_sub(1)?)
+        .and_then(|n| Algo::parse(n))
+}
+
+/// The eye after dragging `(dx, dy)` pixels: yaw about `up` and elevation change
+/// around `target`, distance kept, elevation clamped to ±[`MAX_ELEVATION`].
+/// Dragging right turns the scene right; dragging down shows it from higher up.
+pub fn orbit(cam: &Camera, dx: f64, dy: f64) -> DVec3 {
+    let up = cam.up.normalize();
+    let off = cam.eye - cam.target;
+    let r = off.length();
+    if r == 0.0 || !r.is_finite() {
+        return cam.eye;
+    }
+    let off = DQuat::from_axis_angle(up, -dx * ORBIT_RAD_PER_PX) * off;
+    let along = off.dot(up) / r;
+    let elevation = (along.clamp(-1.0, 1.0).asin() + dy * ORBIT_RAD_PER_PX)
+        .clamp(-MAX_ELEVATION, MAX_ELEVATION);
+    let horizontal = off - up * off.dot(up);
+    let h = if horizontal.length() > 1e-12 * r {
+        horizontal.normalize()
+    } else {
+        // Looking along `up`: any horizontal direction will do.
+        up.any_orthonormal_vector()
+    };
+    cam.target + r * (h * elevation.cos() + up * elevation.sin())
+}
+
+/// Zooms by `steps` wheel notches (positive: closer): the eye moves along the view
+/// direction (an orthographic view also narrows). Returns the new camera without
+/// near/far (see [`refit`]).
+pub fn zoom(cam: &Camera, steps: f64) -> Camera {
+    let mut c = *cam;
+    let factor = ZOOM_PER_STEP.powf(steps);
+    let off = cam.eye - cam.target;
+    let r = off.length();
+    let new_r = (r * factor).max(1e-9);
+    if r > 0.0 && new_r.is_finite() {
+        c.eye = cam.target + off * (new_r / r);
+    }
+    if let Projection::Orthographic { height } = &mut c.projection {
+        let h = *height * factor;
+        if h.is_finite() && h > 0.0 {
+            *height = h;
+        }
+    }
+    c
+}
+
+/// Near and far planes for the scene's current camera (always automatic).
+pub fn refit(scene: &mut Scene) {
+    let drawn = scene
+        .primitives
+        .iter()
+        .filter(|p| p.used)
+        .map(|p| &p.mesh)
+        .chain(scene.surfaces.iter().map(|s| &s.mesh));
+    let (n, f) = fit::near_far(&scene.camera, drawn, None, None);
+    if n.is_finite() && f.is_finite() && n < f {
+        scene.camera.near = n;
+        scene.camera.far = f;
+    }
+}
+
+/// Median of the values (0 for none).
+pub fn median(values: impl IntoIterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.into_iter().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        (v[m - 1] + v[m]) * 0.5
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct ViewOptions {
+    pub algo: Algo,
+    pub device: vk::DeviceChoice,
+    pub depth: DepthSetup,
+    pub validation: bool,
+    /// Render this many frames and exit (`PEELTRIM_VIEW_FRAMES`); `None`: interactive.
+    pub frames: Option<u32>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ViewerError {
+    #[error("cannot open a window: {0} (is DISPLAY or WAYLAND_DISPLAY set?)")]
+    Window(String),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    Vk(#[from] vk::VkError),
+    #[error("saving {path}: {message}")]
+    Save { path: PathBuf, message: String },
+}
+
+/// The device, window surface and executor. Field order is drop order.
+struct Gpu {
+    exec: Option<vk::Executor>,
+    presenter: Presenter,
+    ctx: vk::Context,
+}
+
+struct App {
+    // Dropped before the window whose surface it presents to.
+    gpu: Option<Gpu>,
+    window: Option<Window>,
+    scene: Scene,
+    home: Camera,
+    opts: ViewOptions,
+    algo: Algo,
+    prepared: Option<Prepared>,
+    plans: HashMap<Algo, Plan>,
+    last: Option<Images>,
+    gpu_ms: VecDeque<f64>,
+    cpu_ms: f64,
+    draws: u64,
+    dirty: bool,
+    dragging: bool,
+    cursor: Option<(f64, f64)>,
+    frames_left: Option<u32>,
+    error: Option<ViewerError>,
+}
+
+/// Opens the window and runs until it is closed.
+pub fn run(scene: Scene, opts: ViewOptions) -> Result<(), ViewerError> {
+    let event_loop = EventLoop::new().map_err(|e| ViewerError::Window(e.to_string()))?;
+    event_loop.set_control_flow(ControlFlow::Wait);
+    let prepared = Prepared::new(&scene).ok();
+    let mut app = App {
+        gpu: None,
+        window: None,
+        home: scene.camera,
+        scene,
+        algo: opts.algo,
+        frames_left: opts.frames,
+        opts,
+        prepared,
+        plans: HashMap::new(),
+        last: None,
+        gpu_ms: VecDeque::new(),
+        cpu_ms: 0.0,
+        draws: 0,
+        dirty: true,
+        dragging: false,
+        cursor: None,
+        error: None,
+    };
+    event_loop
+        .run_app(&mut app)
+        .map_err(|e| ViewerError::Window(e.to_string()))?;
+    // Release the swapchain before the window goes.
+    app.gpu = None;
+    app.window = None;
+    match app.error.take() {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+impl App {
+    fn open(&mut self, el: &ActiveEventLoop) -> Result<(), ViewerError> {
+        let size = PhysicalSize::new(self.scene.render.width, self.scene.render.height);
+        let attrs = Window::default_attributes()
+            .with_title(self.title())
+            .with_inner_size(size);
+        let window = el
+            .create_window(attrs)
+            .map_err(|e| ViewerError::Window(e.to_string()))?;
+        let display = window
+            .display_handle()
+            .map_err(|e| ViewerError::Window(e.to_string()))?
+            .as_raw();
+        let handle = window
+            .window_handle()
+            .map_err(|e| ViewerError::Window(e.to_string()))?
+            .as_raw();
+        let inner = window.inner_size();
+        let desc = vk::ContextDesc {
+            device: self.opts.device,
+            validation: self.opts.validation,
+        };
+        let (ctx, presenter) = Presenter::new(&desc, display, handle, [inner.width, inner.height])?;
+        eprintln!(
+            "peeltrim view: {} on {}",
+            self.scene.path.display(),
+            ctx.device_name()
+        );
+        self.gpu = Some(Gpu {
+            exec: None,
+            presenter,
+            ctx,
+        });
+        self.set_size(inner.width, inner.height);
+        window.request_redraw();
+        self.window = Some(window);
+        Ok(())
+    }
+
+    fn set_size(&mut self, w: u32, h: u32) {
+        if w > 0 && h > 0 && [w, h] != [self.scene.render.width, self.scene.render.height] {
+            self.scene.render.width = w;
+            self.scene.render.height = h;
+            self.dirty = true;
+        }
+    }
+
+    fn title(&self) -> String {
+        let name = self.scene.name.as_deref().unwrap_or("scene");
+        let time = if self.algo == Algo::Reference {
+            format!("{:.0} ms CPU", self.cpu_ms)
+        } else {
+            format!(
+                "{:.2} ms GPU, {} draws",
+                median(self.gpu_ms.iter().copied()),
+                self.draws
+            )
+        };
+        format!(
+            "peeltrim: {name} | {} | {time} | {}x{}",
+            self.algo, self.scene.render.width, self.scene.render.height
+        )
+    }
+
+    fn plan(&mut self, algo: Algo) -> Result<&Plan, RenderError> {
+        if !self.plans.contains_key(&algo) {
+            let prep = match &self.prepared {
+                Some(p) => p,
+                None => Err(Prepared::new(&self.scene)
+                    .err()
+                    .unwrap_or(plan::PlanError::NoSolid))?,
+            };
+            let p = plan::build(algo, prep)?;
+            self.plans.insert(algo, p);
+        }
+        self.plans
+            .get(&algo)
+            .ok_or_else(|| RenderError::Vk(vk::VkError::Plan("plan cache".into())))
+    }
+
+    /// Renders the current state into `self.last`.
+    fn render(&mut self) -> Result<(), ViewerError> {
+        let (w, h) = (self.scene.render.width, self.scene.render.height);
+        if self.algo == Algo::Reference {
+            let f = render::render_reference(&self.scene);
+            self.cpu_ms = f.stats["cpu_ms"].as_f64().unwrap_or(0.0);
+            self.last = Some(f.images);
+            return Ok(());
+        }
+        let algo = self.algo;
+        let plan = self.plan(algo)?.clone();
+        let (depth_format, reversed_z) = self.opts.depth.exec_format();
+        let Some(gpu) = self.gpu.as_mut() else {
+            return Ok(());
+        };
+        let fits = gpu
+            .exec
+            .as_ref()
+            .is_some_and(|e| [e.desc().width, e.desc().height] == [w, h]);
+        if !fits {
+            gpu.exec = None;
+            let desc = vk::ExecDesc {
+                width: w,
+                height: h,
+                depth_format,
+                reversed_z,
+            };
+            gpu.exec = Some(vk::Executor::new(&gpu.ctx, &desc)?);
+        }
+        let exec = gpu
+            .exec
+            .as_mut()
+            .ok_or_else(|| vk::VkError::Plan("no executor".into()))?;
+        // The camera may have moved: upload it (with the meshes) again.
+        exec.upload(&self.scene)?;
+        let f = exec.execute(&plan)?;
+        self.gpu_ms.push_back(f.stats.gpu_ms);
+        while self.gpu_ms.len() > TIMES_KEPT {
+            self.gpu_ms.pop_front();
+        }
+        self.draws = f.stats.draws;
+        self.last = Some(f.images);
+        Ok(())
+    }
+
+    fn redraw(&mut self, el: &ActiveEventLoop) -> Result<(), ViewerError> {
+        let rendered = self.dirty;
+        if self.dirty {
+            self.dirty = false;
+            match self.render() {
+                Ok(()) => {}
+                Err(ViewerError::Render(e @ RenderError::Plan(_))) => {
+                    eprintln!("peeltrim view: {}: {e}", self.algo);
+                }
+                Err(e) => return Err(e),
+            }
+            if let Some(w) = &self.window {
+                w.set_title(&self.title());
+            }
+        }
+        let size = self
+            .window
+            .as_ref()
+            .map(|w| w.inner_size())
+            .unwrap_or_default();
+        let bg = self.scene.render.background;
+        if let (Some(gpu), Some(img)) = (self.gpu.as_mut(), self.last.as_ref()) {
+            if gpu.presenter.present(img, bg, [size.width, size.height])? == Presented::Skipped {
+                if let Some(w) = &self.window {
+                    w.request_redraw();
+                }
+            }
+        }
+        if rendered {
+            if let Some(n) = self.frames_left {
+                eprintln!("peeltrim view: frame: {}", self.title());
+                let n = n.saturating_sub(1);
+                self.frames_left = Some(n);
+                if n == 0 {
+                    el.exit();
+                } else {
+                    // Smoke mode: orbit a little and render again.
+                    self.scene.camera.eye = orbit(&self.scene.camera, 20.0, 0.0);
+                    refit(&mut self.scene);
+                    self.changed();
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn changed(&mut self) {
+        self.dirty = true;
+        if let Some(w) = &self.window {
+            w.request_redraw();
+        }
+    }
+
+    fn save(&self) -> Result<(), ViewerError> {
+        let path = PathBuf::from("view.png");
+        let Some(img) = &self.last else {
+            return Ok(());
+        };
+        let bytes: Vec<u8> = img.color.iter().flatten().copied().collect();
+        image::save_buffer(
+            &path,
+            &bytes,
+            img.width,
+            img.height,
+            image::ExtendedColorType::Rgba8,
+        )
+        .map_err(|e| ViewerError::Save {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        eprintln!("peeltrim view: saved {}", path.display());
+        Ok(())
+    }
+
+    fn key(&mut self, el: &ActiveEventLoop, key: &Key) -> Result<(), ViewerError> {
+        match key {
+            Key::Named(NamedKey::Escape) => el.exit(),
+            Key::Character(s) => {
+                let Some(c) = s.chars().next() else {
+                    return Ok(());
+                };
+                match c.to_ascii_lowercase() {
+                    'q' => el.exit(),
+                    'r' => {
+                        self.scene.camera = self.home;
+                        self.changed();
+                    }
+                    's' => self.save()?,
+                    c => {
+                        if let Some(a) = algo_for_key(c) {
+                            if a != self.algo {
+                                self.algo = a;
+                                self.gpu_ms.clear();
+                                self.changed();
+                            }
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn event(&mut self, el: &ActiveEventLoop, event: WindowEvent) -> Result<(), ViewerError> {
+        match event {
+            WindowEvent::CloseRequested => el.exit(),
+            WindowEvent::Resized(size) => {
+                if let Some(gpu) = self.gpu.as_mut() {
+                    gpu.presenter.resized();
+                }
+                self.set_size(size.width, size.height);
+                if let Some(w) = &self.window {
+                    w.request_redraw();
+                }
+            }
+            WindowEvent::RedrawRequested => self.redraw(el)?,
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                self.key(el, &event.logical_key)?
+            }
+            WindowEvent::MouseInput {
+                state,
+                button: MouseButton::Left,
+                ..
+            } => self.dragging = state == ElementState::Pressed,
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                if let (true, Some(c)) = (self.dragging, self.cursor) {
+                    let (dx, dy) = (p.0 - c.0, p.1 - c.1);
+                    if dx != 0.0 || dy != 0.0 {
+                        self.scene.camera.eye = orbit(&self.scene.camera, dx, dy);
+                        refit(&mut self.scene);
+                        self.changed();
+                    }
+                }
+                self.cursor = Some(p);
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let steps = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y as f64,
+                    MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
+                };
+                if steps != 0.0 {
+                    self.scene.camera = zoom(&self.scene.camera, steps);
+                    refit(&mut self.scene);
+                    self.changed();
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, el: &ActiveEventLoop) {
+        if self.window.is_some() {
+            return;
+        }
+        if let Err(e) = self.open(el) {
+            self.error = Some(e);
+            el.exit();
+        }
+    }
+
+    fn window_event(&mut self, el: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        if let Err(e) = self.event(el, event) {
+            self.error = Some(e);
+            el.exit();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> Camera {
+        Camera {
+            eye: DVec3::new(2.5, 4.0, 5.0),
+            target: DVec3::new(0.5, -1.0, 0.0),
+            up: DVec3::Y,
+            projection: Projection::Perspective { fov_y_deg: 40.0 },
+            near: 1.0,
+            far: 10.0,
+        }
+    }
+
+    #[test]
+    fn keys_follow_the_command_line_order() {
+        let got: Vec<Algo> = ('1'..='8').filter_map(algo_for_key).collect();
+        assert_eq!(got, Algo::ALL.to_vec());
+        assert_eq!(algo_for_key('7'), Algo::parse("cst-i"));
+        assert_eq!(algo_for_key('0'), None);
+        assert_eq!(algo_for_key('9'), None);
+        assert_eq!(algo_for_key('x'), None);
+    }
+
+    #[test]
+    fn orbit_keeps_distance_and_target() {
+        let c = cam();
+        let r = (c.eye - c.target).length();
+        for (dx, dy) in [(10.0, 0.0), (0.0, 25.0), (-300.0, 80.0), (5000.0, -5000.0)] {
+            let e = orbit(&c, dx, dy);
+            assert!(((e - c.target).length() - r).abs() < 1e-9 * r, "{dx} {dy}");
+        }
+        // No motion, no change.
+        assert!((orbit(&c, 0.0, 0.0) - c.eye).length() < 1e-9);
+    }
+
+    #[test]
+    fn horizontal_drag_keeps_height_and_vertical_drag_clamps() {
+        let c = cam();
+        let e = orbit(&c, 100.0, 0.0);
+        assert!((e.y - c.eye.y).abs() < 1e-9);
+        assert!((e - c.eye).length() > 0.1);
+        // Dragging down a lot: just short of straight above, never over the pole.
+        let e = orbit(&c, 0.0, 1e4);
+        let el = ((e - c.target).normalize().dot(DVec3::Y)).asin();
+        assert!((el - MAX_ELEVATION).abs() < 1e-9);
+        let e = orbit(&c, 0.0, -1e4);
+        let el = ((e - c.target).normalize().dot(DVec3::Y)).asin();
+        assert!((el + MAX_ELEVATION).abs() < 1e-9);
+        // Dragging down raises the eye.
+        assert!(orbit(&c, 0.0, 10.0).y > c.eye.y);
+    }
+
+    #[test]
+    fn zoom_moves_along_the_view_direction() {
+        let c = cam();
+        let z = zoom(&c, 1.0);
+        let r0 = (c.eye - c.target).length();
+        let r1 = (z.eye - z.target).length();
+        assert!((r1 - r0 * ZOOM_PER_STEP).abs() < 1e-9);
+        assert!((z.forward() - c.forward()).length() < 1e-12);
+        let back = zoom(&z, -1.0);
+        assert!((back.eye - c.eye).length() < 1e-9);
+        let mut o = c;
+        o.projection = Projection::Orthographic { height: 4.0 };
+        match zoom(&o, 2.0).projection {
+            Projection::Orthographic { height } => {
+                assert!((height - 4.0 * ZOOM_PER_STEP * ZOOM_PER_STEP).abs() < 1e-12)
+            }
+            p => panic!("{p:?}"),
+        }
+    }
+
+    #[test]
+    fn median_of_odd_even_and_empty() {
+        assert_eq!(median([3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median([4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert_eq!(median([]), 0.0);
+    }
+}
