@@ -38,8 +38,26 @@ fn next(t: Target) -> Next {
     }
 }
 
+/// How a parity draw decides whether a face is in front of the candidate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Parity {
+    /// Faces within [`SHADE_EPS`] behind the candidate count as in front
+    /// (regularized on coincident faces), then depth-equal shading within the same
+    /// tolerance gives the lowest index: `--algo blister`.
+    Tolerant,
+    /// The paper as written: the depth test `LessOrEqual` against the candidate's
+    /// quantized depth, colour and id from the peel — coincident faces are decided
+    /// by rounding, which shows as speckles (seed 000 Fig. 2): `--algo blister-paper`.
+    DepthTest,
+}
+
 /// Builds the Blister plan of the prepared scene's solid(s).
 pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
+    plan_with(prep, Parity::Tolerant)
+}
+
+/// Builds the Blister plan with the given parity test.
+pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
     let blist = Blist::new(&prep.positive);
     let layout = LabelLayout::new(blist.num_labels).ok_or(PlanError::TooManyLabels {
         labels: blist.num_labels,
@@ -108,7 +126,10 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
             cull: Cull::None,
             ds: 0,
             depth: DepthState {
-                compare: CompareOp::Always,
+                compare: match parity {
+                    Parity::Tolerant => CompareOp::Always,
+                    Parity::DepthTest => CompareOp::LessOrEqual,
+                },
                 write: false,
             },
             stencil: Some(stencil::toggle_parity(
@@ -116,9 +137,12 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
                 label_mask,
                 LabelLayout::PARITY,
             )),
-            fragment: Fragment::NearerThan {
-                tex: CUR,
-                eps: SHADE_EPS,
+            fragment: match parity {
+                Parity::Tolerant => Fragment::NearerThan {
+                    tex: CUR,
+                    eps: SHADE_EPS,
+                },
+                Parity::DepthTest => Fragment::None,
             },
             count_samples: false,
         }));
@@ -174,14 +198,20 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
     }));
     // Coincident faces: the peel kept whichever was nearest by a rounding error;
     // re-shade the locked pixels so the lowest index within tolerance wins.
-    steps.extend(super::shade_near_depth(
-        &all,
-        0,
-        PREV,
-        Some(stencil::test_equal(locked, label_mask)),
-    ));
+    if parity == Parity::Tolerant {
+        steps.extend(super::shade_near_depth(
+            &all,
+            0,
+            PREV,
+            Some(stencil::test_equal(locked, label_mask)),
+        ));
+    }
     Ok(Plan {
-        algo: "blister".into(),
+        algo: match parity {
+            Parity::Tolerant => "blister",
+            Parity::DepthTest => "blister-paper",
+        }
+        .into(),
         depth_stencils: 1,
         textures: 2,
         stencil_bits: layout.stencil_bits(),
@@ -287,7 +317,12 @@ mod tests {
                 vec![12; prims as usize],
                 vec![unit; prims as usize],
             );
-            let plan = match plan(&prep) {
+            let parity = if case % 2 == 0 {
+                Parity::Tolerant
+            } else {
+                Parity::DepthTest
+            };
+            let plan = match plan_with(&prep, parity) {
                 Ok(p) => p,
                 Err(PlanError::TooManyLabels { .. }) => continue,
                 Err(e) => panic!("{e}"),

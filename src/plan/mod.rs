@@ -73,10 +73,13 @@ pub enum Algo {
     CstZ,
     CstI,
     CstG,
+    /// Blister with the paper's depth-test parity (an extension of the contract's
+    /// list, for measuring speckles against the tolerant `blister`).
+    BlisterPaper,
 }
 
 impl Algo {
-    pub const ALL: [Algo; 8] = [
+    pub const ALL: [Algo; 9] = [
         Algo::Reference,
         Algo::Goldfeather,
         Algo::GoldfeatherLayered,
@@ -85,6 +88,7 @@ impl Algo {
         Algo::CstZ,
         Algo::CstI,
         Algo::CstG,
+        Algo::BlisterPaper,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -96,6 +100,7 @@ impl Algo {
             Algo::CstZ => "cst-z",
             Algo::CstI => "cst-i",
             Algo::CstG => "cst-g",
+            Algo::BlisterPaper => "blister-paper",
         }
     }
     pub fn parse(s: &str) -> Option<Algo> {
@@ -366,6 +371,7 @@ pub fn build(algo: Algo, prep: &Prepared) -> Result<Plan, PlanError> {
     }
     match algo {
         Algo::Blister => blister::plan(prep),
+        Algo::BlisterPaper => blister::plan_with(prep, blister::Parity::DepthTest),
         Algo::Goldfeather => goldfeather::plan(prep, &Default::default()),
         Algo::GoldfeatherLayered => goldfeather::layered::plan(prep, &Default::default()),
         Algo::Trickle => trickle::plan(prep, &Default::default()),
