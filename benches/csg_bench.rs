@@ -46,6 +46,7 @@ fn main() {
         budget_ms: 60_000.0,
         device: DeviceChoice::Auto,
         validation: false,
+        build: Default::default(),
         out: out.clone(),
         save_images: false,
         progress: true,

@@ -50,6 +50,7 @@ pub struct RenderOptions {
     pub device: vk::DeviceChoice,
     pub depth: DepthSetup,
     pub validation: bool,
+    pub build: plan::BuildOptions,
 }
 
 /// Images and the `stats.json` of one frame.
@@ -150,7 +151,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError>
         return Ok(render_reference(scene));
     }
     let prep = Prepared::new(scene)?;
-    let plan = plan::build(opts.algo, &prep)?;
+    let plan = plan::build_with(opts.algo, &prep, &opts.build)?;
     let mut gpu = GpuRenderer::new(scene, opts.device, opts.depth, opts.validation)?;
     let frame = gpu.frame(&plan)?;
     let msgs = gpu.validation_messages();

@@ -39,6 +39,8 @@ pub struct BenchConfig {
     pub budget_ms: f64,
     pub device: DeviceChoice,
     pub validation: bool,
+    /// Algorithm options (`--trickle-eps`, `--max-products`).
+    pub build: plan::BuildOptions,
     pub out: PathBuf,
     /// Write each run's images under `out/images/<scene>/<algo>-<depth>/`.
     pub save_images: bool,
@@ -256,7 +258,7 @@ fn run_one(
     reference: &Images,
 ) -> Result<(Record, Images), String> {
     let prep = prep.as_ref().map_err(|e| e.to_string())?;
-    let plan = plan::build(algo, prep).map_err(|e| e.to_string())?;
+    let plan = plan::build_with(algo, prep, &cfg.build).map_err(|e| e.to_string())?;
     if gpu.is_none() {
         *gpu = Some(
             GpuRenderer::new(scene, cfg.device, depth, cfg.validation)

@@ -50,6 +50,22 @@ struct GpuArgs {
     /// Run with the Vulkan validation layers (always on in debug builds)
     #[arg(long)]
     validation: bool,
+    /// Trickle's depth tolerance in normalized depth (default 2^-19): larger
+    /// loses shallower features, smaller lets coincident faces z-fight
+    #[arg(long, value_parser = parse_eps)]
+    trickle_eps: Option<f32>,
+    /// Goldfeather's and Trickle's limit on the sum-of-products size
+    #[arg(long, default_value_t = peeltrim::plan::goldfeather::DEFAULT_PRODUCT_LIMIT)]
+    max_products: usize,
+}
+
+fn parse_eps(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(e) if e.is_finite() && (0.0..0.1).contains(&e) => Ok(e),
+        _ => Err(format!(
+            "'{s}' is not a depth tolerance: give a number in [0, 0.1), e.g. 2e-6"
+        )),
+    }
 }
 
 #[derive(Subcommand)]
@@ -216,11 +232,20 @@ fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
         DeviceArg::Cpu => peeltrim::vk::DeviceChoice::Cpu,
         DeviceArg::Gpu => peeltrim::vk::DeviceChoice::Gpu,
     };
+    if g.max_products == 0 {
+        bail!("--max-products must be at least 1");
+    }
+    let mut build = peeltrim::plan::BuildOptions {
+        trickle_eps: g.trickle_eps,
+        ..Default::default()
+    };
+    build.products.limit = g.max_products;
     Ok(RenderOptions {
         algo,
         device,
         depth,
         validation: g.validation || cfg!(debug_assertions),
+        build,
     })
 }
 
@@ -330,6 +355,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 budget_ms: budget_s * 1e3,
                 device: opts.device,
                 validation: opts.validation,
+                build: opts.build.clone(),
                 out: out.clone(),
                 save_images: !no_images,
                 progress: true,

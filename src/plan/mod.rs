@@ -359,8 +359,23 @@ pub fn union_of_solids(scene: &Scene) -> Option<Expr> {
     root.map(|root| Expr { nodes, root })
 }
 
-/// Builds the plan of a GPU algorithm.
+/// Options of the algorithms that have them (the command line's `--trickle-eps`
+/// and `--max-products`).
+#[derive(Clone, Debug, Default)]
+pub struct BuildOptions {
+    /// Goldfeather*'s and Trickle's product limit and parity tolerance.
+    pub products: goldfeather::ProductOptions,
+    /// Trickle's depth tolerance (normalized depth); `None`: `trickle::DEFAULT_EPS`.
+    pub trickle_eps: Option<f32>,
+}
+
+/// Builds the plan of a GPU algorithm with default options.
 pub fn build(algo: Algo, prep: &Prepared) -> Result<Plan, PlanError> {
+    build_with(algo, prep, &BuildOptions::default())
+}
+
+/// Builds the plan of a GPU algorithm.
+pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Plan, PlanError> {
     let cst = matches!(algo, Algo::CstZ | Algo::CstI | Algo::CstG);
     if !cst && !prep.has_solid() {
         return Err(if prep.surfaces.is_empty() || algo == Algo::Reference {
@@ -372,9 +387,15 @@ pub fn build(algo: Algo, prep: &Prepared) -> Result<Plan, PlanError> {
     match algo {
         Algo::Blister => blister::plan(prep),
         Algo::BlisterPaper => blister::plan_with(prep, blister::Parity::DepthTest),
-        Algo::Goldfeather => goldfeather::plan(prep, &Default::default()),
-        Algo::GoldfeatherLayered => goldfeather::layered::plan(prep, &Default::default()),
-        Algo::Trickle => trickle::plan(prep, &Default::default()),
+        Algo::Goldfeather => goldfeather::plan(prep, &opts.products),
+        Algo::GoldfeatherLayered => goldfeather::layered::plan(prep, &opts.products),
+        Algo::Trickle => trickle::plan(
+            prep,
+            &trickle::TrickleOptions {
+                products: opts.products,
+                eps: opts.trickle_eps,
+            },
+        ),
         Algo::CstZ => cst::plan(prep, cst::Variant::Z),
         Algo::CstI => cst::plan(prep, cst::Variant::I),
         Algo::CstG => cst::plan(prep, cst::Variant::G),
