@@ -16,7 +16,11 @@ layout(set = 0, binding = 1) uniform sampler u_samp;
 
 void main() {
     float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
-    bool nearer = (pc.flags & 1u) != 0u ? gl_FragCoord.z >= d - pc.color.a : gl_FragCoord.z <= d + pc.color.a;
+    bool reversed = (pc.flags & 1u) != 0u;
+    // Reversed Z: a float buffer with relative precision, so the tolerance scales
+    // with the depth (eps at the near plane, 1.0).
+    float eps = reversed ? pc.color.a * d : pc.color.a;
+    bool nearer = reversed ? gl_FragCoord.z >= d - eps : gl_FragCoord.z <= d + eps;
     if (!nearer) {
         discard;
     }

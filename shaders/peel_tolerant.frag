@@ -18,7 +18,9 @@ layout(location = 0) out float o_depth;
 
 void main() {
     float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
-    float eps = pc.color.x;
+    // Reversed Z: a float buffer with relative precision, so the tolerance scales
+    // with the depth (eps at the near plane, 1.0).
+    float eps = (pc.flags & 1u) != 0u ? pc.color.x * prev : pc.color.x;
     bool behind = (pc.flags & 1u) != 0u ? gl_FragCoord.z + eps < prev : gl_FragCoord.z - eps > prev;
     if (!behind) {
         discard;

@@ -22,7 +22,10 @@ layout(location = 1) out uint o_prim;
 
 bool near_depth() {
     float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
-    return abs(gl_FragCoord.z - d) <= pc.color.a;
+    // Reversed Z: a float buffer with relative precision, so the tolerance scales
+    // with the depth (eps at the near plane, 1.0).
+    float eps = (pc.flags & 1u) != 0u ? pc.color.a * d : pc.color.a;
+    return abs(gl_FragCoord.z - d) <= eps;
 }
 
 float shade_factor() {

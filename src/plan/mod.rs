@@ -20,10 +20,12 @@ pub use step::*;
 use crate::csg::{Expr, Node, PositiveExpr};
 use crate::scene::{Aabb, Keep, Scene};
 
-/// Depth tolerance of depth-equal shading (normalized depth, 2⁻²⁰ ≈ 9.5e-7,
-/// about 16 quanta of a 24-bit buffer): faces of several primitives closer than
-/// this to the visible point count as coincident, and the lowest index wins
-/// (CONTRACT.md §4, `prim.png`).
+/// Depth tolerance of depth-equal shading and tolerant parity (normalized depth,
+/// 2⁻²⁰ ≈ 9.5e-7, about 16 quanta of a 24-bit buffer): faces of several
+/// primitives closer than this to the visible point count as coincident, and the
+/// lowest index wins (CONTRACT.md §4, `prim.png`). With reversed Z (a float
+/// buffer, relative precision) the shaders scale it by the depth value, so it is
+/// this at the near plane and shrinks towards the far plane.
 pub const SHADE_EPS: f32 = 1.0 / (1u32 << 20) as f32;
 
 /// The final depth-equal shading of locked pixels: every mesh with a face within
