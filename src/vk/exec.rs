@@ -178,15 +178,32 @@ struct Run {
 }
 
 fn full_memory_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
+    memory_barrier(
+        device,
+        cmd,
+        vk::AccessFlags::MEMORY_WRITE,
+        vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
+        vk::PipelineStageFlags::ALL_COMMANDS,
+    );
+}
+
+/// A global memory barrier from every earlier command to `dst_stage`.
+fn memory_barrier(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    src: vk::AccessFlags,
+    dst: vk::AccessFlags,
+    dst_stage: vk::PipelineStageFlags,
+) {
     let barrier = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
-        .dst_access_mask(vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE)];
+        .src_access_mask(src)
+        .dst_access_mask(dst)];
     // SAFETY: recording state; outside a rendering block (callers end it first).
     unsafe {
         device.cmd_pipeline_barrier(
             cmd,
             vk::PipelineStageFlags::ALL_COMMANDS,
-            vk::PipelineStageFlags::ALL_COMMANDS,
+            dst_stage,
             vk::DependencyFlags::empty(),
             &barrier,
             &[],
@@ -1472,21 +1489,13 @@ impl Executor {
         }
         let back: Vec<_> = copies.iter().map(|c| (c.0, SRC, GENERAL)).collect();
         transition(&device, cmd, &back);
-        let to_host = [vk::MemoryBarrier::default()
-            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-            .dst_access_mask(vk::AccessFlags::HOST_READ)];
-        // SAFETY: recording, outside rendering.
-        unsafe {
-            device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::ALL_COMMANDS,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &to_host,
-                &[],
-                &[],
-            )
-        };
+        memory_barrier(
+            &device,
+            cmd,
+            vk::AccessFlags::TRANSFER_WRITE,
+            vk::AccessFlags::HOST_READ,
+            vk::PipelineStageFlags::HOST,
+        );
         self.submit_and_wait(cmd)?;
 
         let bytes = self
