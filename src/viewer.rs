@@ -37,24 +37,11 @@ pub const ZOOM_PER_STEP: f64 = 0.85;
 /// GPU times kept for the title's median.
 const TIMES_KEPT: usize = 9;
 
-/// Keys `1`..`8`: the algorithms in the command line's order.
-pub const KEY_ALGOS: [&str; 8] = [
-    "reference",
-    "goldfeather",
-    "goldfeather-layered",
-    "trickle",
-    "blister",
-    "cst-z",
-    "cst-i",
-    "cst-g",
-];
-
-/// The algorithm of digit key `c` (`'1'` = reference … `'8'` = cst-g).
+/// The algorithm of digit key `c`, in the command line's order (`'1'` =
+/// reference … `'8'` = cst-g, `'9'` = blister-paper).
 pub fn algo_for_key(c: char) -> Option<Algo> {
     let i = c.to_digit(10)? as usize;
-    KEY_ALGOS
-        .get(i.checked_sub(1)?)
-        .and_then(|n| Algo::parse(n))
+    Algo::ALL.get(i.checked_sub(1)?).copied()
 }
 
 /// The eye after dragging `(dx, dy)` pixels: yaw about `up` and elevation change
@@ -533,11 +520,11 @@ mod tests {
 
     #[test]
     fn keys_follow_the_command_line_order() {
-        let got: Vec<Algo> = ('1'..='8').filter_map(algo_for_key).collect();
+        let got: Vec<Algo> = ('1'..='9').filter_map(algo_for_key).collect();
         assert_eq!(got, Algo::ALL.to_vec());
         assert_eq!(algo_for_key('7'), Algo::parse("cst-i"));
+        assert_eq!(algo_for_key('9'), Algo::parse("blister-paper"));
         assert_eq!(algo_for_key('0'), None);
-        assert_eq!(algo_for_key('9'), None);
         assert_eq!(algo_for_key('x'), None);
     }
 

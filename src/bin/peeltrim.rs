@@ -129,9 +129,9 @@ enum Cmd {
         #[command(flatten)]
         gpu: GpuArgs,
     },
-    /// Open a window showing the scene: drag orbits, wheel zooms, 1-8 switch
+    /// Open a window showing the scene: drag orbits, wheel zooms, 1-9 switch
     /// algorithm (reference, goldfeather, goldfeather-layered, trickle, blister,
-    /// cst-z, cst-i, cst-g), R resets the camera, S saves view.png, Esc/Q quit.
+    /// cst-z, cst-i, cst-g, blister-paper), R resets the camera, S saves view.png, Esc/Q quit.
     /// PEELTRIM_VIEW_FRAMES=N renders N frames and exits.
     View {
         scene: PathBuf,
