@@ -314,12 +314,17 @@ impl App {
             };
             gpu.exec = Some(vk::Executor::new(&gpu.ctx, &desc)?);
         }
+        let fresh = !fits;
         let exec = gpu
             .exec
             .as_mut()
             .ok_or_else(|| vk::VkError::Plan("no executor".into()))?;
-        // The camera may have moved: upload it (with the meshes) again.
-        exec.upload(&self.scene)?;
+        // A new executor gets the meshes; afterwards only the camera moves.
+        if fresh {
+            exec.upload(&self.scene)?;
+        } else {
+            exec.set_camera(&self.scene.camera)?;
+        }
         let f = exec.execute(&plan)?;
         self.gpu_ms.push_back(f.stats.gpu_ms);
         while self.gpu_ms.len() > TIMES_KEPT {

@@ -657,3 +657,22 @@ fn from_raw_borrows_the_hosts_device() {
     assert_eq!(f.images, g.images);
     assert_clean(&host);
 }
+
+/// Moving the camera of an uploaded scene renders exactly what a fresh upload
+/// with that camera renders (the viewer's orbit path).
+#[test]
+fn set_camera_equals_a_fresh_upload() {
+    let ctx = context();
+    let mut sc = scene(vec![unit_box()]);
+    let p = one_box_plan(Cull::Back);
+    let mut exec = Executor::new(&ctx, &std_desc()).expect("executor");
+    exec.upload(&sc).expect("upload");
+    let before = exec.execute(&p).expect("frame");
+    sc.camera.eye = DVec3::new(1.5, 2.0, 4.5);
+    exec.set_camera(&sc.camera).expect("set_camera");
+    let moved = exec.execute(&p).expect("frame");
+    let fresh = run(&ctx, std_desc(), &sc, &p);
+    assert_eq!(moved.images, fresh.images);
+    assert_ne!(moved.images, before.images, "the camera did move");
+    assert_clean(&ctx);
+}

@@ -409,23 +409,12 @@ impl Executor {
         vertices.mapped_mut()?.copy_from_slice(&bytes);
 
         let camera = scene.camera;
-        let aspect = self.desc.width as f64 / self.desc.height as f64;
-        let view = camera.view();
-        let proj = camera.proj(aspect, self.convention());
-        let m = proj * view;
-        let mvp = m.to_cols_array().map(|v| v as f32);
-        let view_vec = match camera.projection {
-            Projection::Perspective { .. } => [
-                camera.eye.x as f32,
-                camera.eye.y as f32,
-                camera.eye.z as f32,
-                1.0,
-            ],
-            Projection::Orthographic { .. } => {
-                let f = camera.forward();
-                [f.x as f32, f.y as f32, f.z as f32, 0.0]
-            }
-        };
+        let CameraState {
+            view,
+            proj,
+            mvp,
+            view_vec,
+        } = self.camera_state(&camera);
         self.scene = Some(SceneData {
             vertices,
             ranges,
@@ -440,6 +429,49 @@ impl Executor {
             quad_first,
         });
         Ok(())
+    }
+
+    /// Moves the camera of the uploaded scene without uploading its meshes again
+    /// (an interactive viewer orbiting).
+    pub fn set_camera(&mut self, camera: &crate::scene::Camera) -> Result<(), VkError> {
+        let st = self.camera_state(camera);
+        let scene = self
+            .scene
+            .as_mut()
+            .ok_or_else(|| VkError::Plan("set_camera before upload".into()))?;
+        scene.camera = *camera;
+        scene.view = st.view;
+        scene.proj = st.proj;
+        scene.mvp = st.mvp;
+        scene.view_vec = st.view_vec;
+        Ok(())
+    }
+
+    /// What the shaders and scissors derive from the camera. The matrix product
+    /// is formed in f64 and rounded once.
+    fn camera_state(&self, camera: &crate::scene::Camera) -> CameraState {
+        let aspect = self.desc.width as f64 / self.desc.height as f64;
+        let view = camera.view();
+        let proj = camera.proj(aspect, self.convention());
+        let mvp = (proj * view).to_cols_array().map(|v| v as f32);
+        let view_vec = match camera.projection {
+            Projection::Perspective { .. } => [
+                camera.eye.x as f32,
+                camera.eye.y as f32,
+                camera.eye.z as f32,
+                1.0,
+            ],
+            Projection::Orthographic { .. } => {
+                let f = camera.forward();
+                [f.x as f32, f.y as f32, f.z as f32, 0.0]
+            }
+        };
+        CameraState {
+            view,
+            proj,
+            mvp,
+            view_vec,
+        }
     }
 
     fn ensure_resources(&mut self, plan: &Plan) -> Result<(), VkError> {
@@ -1585,4 +1617,12 @@ fn grow_pool(
     *pool = unsafe { device.create_query_pool(&ci, None) }.check("vkCreateQueryPool")?;
     *cap = new_cap;
     Ok(())
+}
+
+/// The camera-derived part of [`SceneData`].
+struct CameraState {
+    view: glam::DMat4,
+    proj: glam::DMat4,
+    mvp: [f32; 16],
+    view_vec: [f32; 4],
 }
