@@ -204,7 +204,7 @@ mod tests {
                     let d = cam.view_depth_from_ndc(ndc.z, conv);
                     assert!((d - cam.view_depth(p)).abs() < 1e-9);
                 }
-                let near_ndc = (m * (cam.eye + cam.forward() * cam.near).extend(1.0));
+                let near_ndc = m * (cam.eye + cam.forward() * cam.near).extend(1.0);
                 let z = near_ndc.z / near_ndc.w;
                 let expect = if conv == DepthConvention::Standard {
                     0.0
