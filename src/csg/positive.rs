@@ -349,6 +349,33 @@ impl PositiveExpr {
     }
 }
 
+impl PositiveExpr {
+    /// The same tree with the literals of the primitives `flip` selects
+    /// complemented (leaf ids kept).
+    pub fn flip_literals(&self, flip: impl Fn(u32) -> bool) -> PositiveExpr {
+        let nodes = self
+            .nodes
+            .iter()
+            .map(|n| match *n {
+                PNode::Leaf {
+                    prim,
+                    leaf,
+                    negated,
+                } => PNode::Leaf {
+                    prim,
+                    leaf,
+                    negated: negated != flip(prim),
+                },
+                other => other,
+            })
+            .collect();
+        PositiveExpr {
+            nodes,
+            root: self.root,
+        }
+    }
+}
+
 #[cfg(test)]
 mod restrict_tests {
     use super::*;

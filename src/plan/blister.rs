@@ -58,7 +58,7 @@ pub fn plan(prep: &Prepared) -> Result<Plan, PlanError> {
 
 /// Builds the Blister plan with the given parity test.
 pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
-    let blist = Blist::new(&prep.positive);
+    let blist = Blist::new(&prep.classified(&prep.positive));
     let layout = LabelLayout::new(blist.num_labels).ok_or(PlanError::TooManyLabels {
         labels: blist.num_labels,
     })?;

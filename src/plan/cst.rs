@@ -198,7 +198,16 @@ fn disjoint(a: &Aabb, b: &Aabb) -> bool {
 /// boundary a primitive is outside, so `!P` is true and `P` false there. A block
 /// minus n disjoint spheres then trims each sphere against the block only — O(n)
 /// trim draws instead of O(n²) — and a leaf whose zone becomes empty is skipped.
-pub fn leaf_csts(pos: &PositiveExpr, variant: Variant, boxes: &[Aabb]) -> Vec<LeafCst> {
+///
+/// `eye_inside` (per mesh; empty for none) flips the zone literals of primitives
+/// that contain the eye: their parity counted from the near plane is inverted.
+/// The leaf's own peel (which faces) is unchanged.
+pub fn leaf_csts(
+    pos: &PositiveExpr,
+    variant: Variant,
+    boxes: &[Aabb],
+    eye_inside: &[bool],
+) -> Vec<LeafCst> {
     let zones = ActiveZones::new(pos);
     let mut lits = pos.literals();
     lits.sort_by_key(|l| (l.prim, l.leaf));
@@ -230,10 +239,14 @@ pub fn leaf_csts(pos: &PositiveExpr, variant: Variant, boxes: &[Aabb]) -> Vec<Le
             }
             _ => zone,
         };
+        let zone = zone.flip_literals(|p| eye_inside.get(p as usize).copied().unwrap_or(false));
+        // With the eye inside a primitive the solid's exit points are no longer
+        // hidden behind its entry points, so Z too peels entry faces only.
+        let eye_in_any = eye_inside.iter().any(|&b| b);
         let peel_cull = match variant {
-            Variant::Z => Cull::None,
+            Variant::Z if !eye_in_any => Cull::None,
             // Opaque rendering: front faces of positive, back faces of negative leaves.
-            Variant::I | Variant::G => {
+            Variant::Z | Variant::I | Variant::G => {
                 if lit.negated {
                     Cull::Front
                 } else {
@@ -780,7 +793,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
         return Err(PlanError::NoSolid);
     }
     let mut jobs: Vec<Job> = if solid {
-        leaf_csts(&prep.positive, variant, &prep.mesh_bounds)
+        leaf_csts(&prep.positive, variant, &prep.mesh_bounds, &prep.eye_inside)
             .into_iter()
             .map(|c| Job {
                 c,
@@ -920,6 +933,7 @@ mod tests {
             mesh_triangles: vec![tris; prims as usize],
             mesh_bounds: vec![b; prims as usize],
             mesh_convex: vec![false; prims as usize],
+            eye_inside: Vec::new(),
             surfaces: Vec::new(),
         }
     }
@@ -976,7 +990,7 @@ mod tests {
         );
         let pl = plan(&p, Variant::G).unwrap();
         assert!(pl.stencil_bits <= 8, "{}", pl.stencil_bits);
-        let c = leaf_csts(&p.positive, Variant::G, &[]);
+        let c = leaf_csts(&p.positive, Variant::G, &[], &[]);
         let recess = c.iter().find(|c| c.peeled.prim == 37).unwrap();
         let t = group::GroupTrimmer::new(&p, recess).unwrap();
         assert!(

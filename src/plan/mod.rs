@@ -177,6 +177,10 @@ pub struct Prepared {
     /// plane, see [`is_convex`]); `false` when unknown. CST stops peeling such a
     /// leaf after one layer (one face orientation) or two (both).
     pub mesh_convex: Vec<bool>,
+    /// Per mesh: the eye (perspective) lies inside this closed mesh. Parity counted
+    /// from the near plane is then inverted for it, so the Blister and CST
+    /// classifications flip its literals ([`Prepared::classified`]).
+    pub eye_inside: Vec<bool>,
     /// The scene's surfaces, in file order (drawn by the CST plans only).
     pub surfaces: Vec<PreparedSurface>,
 }
@@ -210,10 +214,12 @@ impl Prepared {
                 mesh_triangles,
                 mesh_bounds,
                 mesh_convex: Vec::new(),
+                eye_inside: Vec::new(),
                 surfaces: Vec::new(),
             },
         };
         p.mesh_convex = mesh_convex;
+        p.eye_inside = eye_inside(scene);
         let first = scene.primitives.len() as MeshId;
         p.surfaces = scene
             .surfaces
@@ -233,6 +239,13 @@ impl Prepared {
             })
             .collect();
         Ok(p)
+    }
+
+    /// `expr` as the parity passes must classify it: literals of primitives that
+    /// contain the eye flipped, since their parity counted from the near plane is
+    /// the complement of membership.
+    pub fn classified(&self, expr: &PositiveExpr) -> PositiveExpr {
+        expr.flip_literals(|prim| self.eye_inside.get(prim as usize).copied().unwrap_or(false))
     }
 
     /// Whether the scene has a solid (else only surfaces).
@@ -275,6 +288,7 @@ impl Prepared {
             mesh_triangles,
             mesh_bounds,
             mesh_convex,
+            eye_inside: Vec::new(),
             surfaces: Vec::new(),
         }
     }
@@ -403,4 +417,35 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
         Algo::CstG => cst::plan(prep, cst::Variant::G),
         other => Err(PlanError::NotImplemented(other)),
     }
+}
+
+/// Per primitive (then `false` for surfaces): whether a perspective eye lies
+/// inside its closed mesh, by the parity of a watertight ray cast from the eye.
+/// Orthographic rays start on the eye plane, one per pixel, so no single answer
+/// exists there; they get `false` (see the README's limits).
+fn eye_inside(scene: &Scene) -> Vec<bool> {
+    use crate::reference::bvh::{Line, MeshBvh};
+    use crate::scene::Projection;
+    let n = scene.primitives.len() + scene.surfaces.len();
+    if !matches!(scene.camera.projection, Projection::Perspective { .. }) {
+        return vec![false; n];
+    }
+    let eye = scene.camera.eye;
+    // A direction unlikely to graze an edge of a tessellated shape.
+    let line = Line::new(eye, glam::DVec3::new(0.5773, 0.5967, 0.5571).normalize());
+    let mut out: Vec<bool> = scene
+        .primitives
+        .iter()
+        .map(|p| {
+            let b = bounds(&p.mesh.positions);
+            if !p.used || eye.cmplt(b.min).any() || eye.cmpgt(b.max).any() {
+                return false;
+            }
+            let mut hits = Vec::new();
+            MeshBvh::new(&p.mesh).cast_local(&line, &mut hits);
+            hits.iter().filter(|c| c.t > 0.0).count() % 2 == 1
+        })
+        .collect();
+    out.resize(n, false);
+    out
 }
