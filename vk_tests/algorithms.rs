@@ -241,12 +241,25 @@ expr = "Room - Pillar"
     assert_eq!(prep.eye_inside[..2], [true, false]);
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
     assert!(reference.prim.iter().any(|&p| p == 2), "the pillar shows");
-    for algo in [Algo::Blister, Algo::CstZ, Algo::CstI, Algo::CstG] {
+    let algos = [
+        Algo::Blister,
+        Algo::CstZ,
+        Algo::CstI,
+        Algo::CstG,
+        Algo::Goldfeather,
+        Algo::GoldfeatherLayered,
+    ];
+    for algo in algos {
+        // The issues' bars: Blister and CST 0.05%, Goldfeather 0.1%.
+        let cov = match algo {
+            Algo::Goldfeather | Algo::GoldfeatherLayered => 0.001,
+            _ => 0.0005,
+        };
         for depth in [DepthSetup::D32S8, DepthSetup::D32S8Reversed] {
             let (r, _) = run_gpu(&scene, algo, depth, &reference).expect("a solid");
             eprintln!("eye inside, {algo} {}: {r:?}", depth.name());
             assert!(
-                r.coverage_mismatch_interior_frac <= 0.0005,
+                r.coverage_mismatch_interior_frac <= cov,
                 "{algo} {}: {r:?}",
                 depth.name()
             );

@@ -64,7 +64,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             src: CUR,
             dst: SURF,
         }];
-        tail.extend(clip_steps(p, &all, opts.eps));
+        tail.extend(clip_steps(p, &all, opts.eps, &prep.eye_inside));
         tail.extend(merge_steps(&all));
         tail.push(Step::CopyTexture {
             src: CUR,

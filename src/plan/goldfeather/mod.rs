@@ -139,7 +139,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                 .filter(|&(j, _)| j != i)
                 .map(|(_, &l)| l)
                 .collect();
-            let mut clip_merge = clip_steps(&others, &[a.prim], opts.eps);
+            let mut clip_merge = clip_steps(&others, &[a.prim], opts.eps, &prep.eye_inside);
             clip_merge.extend(merge_steps(&[a.prim]));
             if prep
                 .mesh_convex
@@ -257,7 +257,15 @@ pub(crate) fn surface_draw(a: Lit, fragment: Fragment, count_samples: bool) -> S
 /// "outside" (clear for a positive, set for a complemented literal: the masked
 /// stencil differs from the expected pattern) and clears the bits everywhere.
 /// `surface` names the meshes whose faces may be in the surface image.
-pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId], eps: f32) -> Vec<Step> {
+///
+/// `eye_inside` (per mesh) marks primitives containing the eye: their parity
+/// counted from the near plane is inverted, so the expected bit flips.
+pub(crate) fn clip_steps(
+    against: &[Lit],
+    surface: &[MeshId],
+    eps: f32,
+    eye_inside: &[bool],
+) -> Vec<Step> {
     let mut steps = vec![Step::Pass("clip".into())];
     for chunk in against.chunks(CLIP_BITS as usize) {
         let (mut mask, mut inside) = (0u8, 0u8);
@@ -267,7 +275,7 @@ pub(crate) fn clip_steps(against: &[Lit], surface: &[MeshId], eps: f32) -> Vec<S
         for (k, &b) in chunk.iter().enumerate() {
             let bit = 1u8 << k;
             mask |= bit;
-            if !b.negated {
+            if !b.negated != eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
                 inside |= bit;
             }
             scissor.push(b.prim);
