@@ -144,7 +144,7 @@ pub fn summary(records: &[Record]) -> String {
             if let Some(f) = &r.failure {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | failed: {} | | | | | | | |",
+                    "| {} | {} | not run: {} | | | | | | | |",
                     r.algo,
                     r.depth_setup,
                     f.replace('|', "/")
