@@ -367,20 +367,15 @@ impl Presenter {
                 height: img.height.min(self.extent.height),
                 depth: 1,
             });
-        // SAFETY: the command buffer is not in use (the previous present waited on the
-        // fence); every handle recorded is live; the staging buffer holds
-        // `width * height` texels and the region stays inside both buffer and image.
+        // SAFETY: not in use: the previous present waited on the fence.
+        unsafe { device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()) }
+            .check("vkResetCommandBuffer")?;
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: the buffer was just reset.
+        unsafe { device.begin_command_buffer(cmd, &begin) }.check("vkBeginCommandBuffer")?;
+        // SAFETY: recording; `image` is a live swapchain image acquired for this frame.
         unsafe {
-            device
-                .reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())
-                .check("vkResetCommandBuffer")?;
-            device
-                .begin_command_buffer(
-                    cmd,
-                    &vk::CommandBufferBeginInfo::default()
-                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-                )
-                .check("vkBeginCommandBuffer")?;
             device.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TRANSFER,
@@ -389,14 +384,20 @@ impl Presenter {
                 &[],
                 &[],
                 &[to_dst],
-            );
+            )
+        };
+        // SAFETY: recording; the image is in TRANSFER_DST_OPTIMAL after the barrier.
+        unsafe {
             device.cmd_clear_color_image(
                 cmd,
                 image,
                 vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                 &clear,
                 &[range],
-            );
+            )
+        };
+        // SAFETY: recording; orders the clear before the copy.
+        unsafe {
             device.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TRANSFER,
@@ -405,16 +406,23 @@ impl Presenter {
                 &[],
                 &[],
                 &[between],
-            );
-            if region.image_extent.width > 0 && region.image_extent.height > 0 {
+            )
+        };
+        if region.image_extent.width > 0 && region.image_extent.height > 0 {
+            // SAFETY: recording; the staging buffer holds `width * height` texels and
+            // the region stays inside both buffer and image.
+            unsafe {
                 device.cmd_copy_buffer_to_image(
                     cmd,
                     staging_raw,
                     image,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                     &[region],
-                );
-            }
+                )
+            };
+        }
+        // SAFETY: recording; hands the image to the presentation engine.
+        unsafe {
             device.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TRANSFER,
@@ -423,9 +431,10 @@ impl Presenter {
                 &[],
                 &[],
                 &[to_present],
-            );
-            device.end_command_buffer(cmd).check("vkEndCommandBuffer")?;
-        }
+            )
+        };
+        // SAFETY: recording, no open render pass.
+        unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
         let cmds = [cmd];
         let waits = [self.acquired];
         let stages = [vk::PipelineStageFlags::TRANSFER];
@@ -483,20 +492,21 @@ impl Drop for Presenter {
     fn drop(&mut self) {
         let shared = self.shared.clone();
         let device = &shared.device;
-        // SAFETY: waiting for idle makes destroying everything below legal.
-        unsafe {
-            let _ = device.device_wait_idle();
-        }
+        // SAFETY: waiting for idle makes destroying everything below legal; a lost
+        // device is idle too, so the result is not needed.
+        let _ = unsafe { device.device_wait_idle() };
         self.staging = None;
         self.destroy_swapchain();
-        // SAFETY: idle device; each handle was created here (or is null, which the
-        // destroy calls accept) and is destroyed once, in reverse creation order.
-        unsafe {
-            device.destroy_semaphore(self.acquired, None);
-            device.destroy_fence(self.fence, None);
-            device.destroy_command_pool(self.command_pool, None);
-            self.surface_fn.destroy_surface(self.surface, None);
-        }
+        // Idle device; each handle was created here (or is null, which the destroy
+        // calls accept) and is destroyed once, in reverse creation order.
+        // SAFETY: as above.
+        unsafe { device.destroy_semaphore(self.acquired, None) };
+        // SAFETY: as above.
+        unsafe { device.destroy_fence(self.fence, None) };
+        // SAFETY: as above; destroying the pool frees its command buffer.
+        unsafe { device.destroy_command_pool(self.command_pool, None) };
+        // SAFETY: as above; the swapchain on this surface was destroyed first.
+        unsafe { self.surface_fn.destroy_surface(self.surface, None) };
     }
 }
 
