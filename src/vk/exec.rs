@@ -807,32 +807,13 @@ impl Executor {
 
         let mut samples = 0u64;
         if rec.occlusion_used > 0 {
-            let mut results = vec![0u64; rec.occlusion_used as usize];
-            // SAFETY: the queries were written by the completed submission.
-            unsafe {
-                device.get_query_pool_results(
-                    self.occlusion,
-                    0,
-                    &mut results,
-                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-                )
-            }
-            .check("vkGetQueryPoolResults")?;
-            samples = results.iter().sum();
+            samples = query_results(&device, self.occlusion, rec.occlusion_used as usize)?
+                .iter()
+                .sum();
         }
         run.stats.samples_counted += samples;
         if self.shared.timestamp_valid_bits > 0 && rec.marks.len() >= 2 {
-            let mut ts = vec![0u64; rec.marks.len()];
-            // SAFETY: as above.
-            unsafe {
-                device.get_query_pool_results(
-                    self.timestamps,
-                    0,
-                    &mut ts,
-                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-                )
-            }
-            .check("vkGetQueryPoolResults")?;
+            let ts = query_results(&device, self.timestamps, rec.marks.len())?;
             let period = self.shared.limits.timestamp_period as f64;
             for i in 0..rec.marks.len() - 1 {
                 let ms = ts[i + 1].saturating_sub(ts[i]) as f64 * period * 1e-6;
@@ -1625,4 +1606,20 @@ struct CameraState {
     proj: glam::DMat4,
     mvp: [f32; 16],
     view_vec: [f32; 4],
+}
+
+/// The first `n` results of `pool`, written by a submission that has completed.
+fn query_results(device: &ash::Device, pool: vk::QueryPool, n: usize) -> Result<Vec<u64>, VkError> {
+    let mut out = vec![0u64; n];
+    // SAFETY: the first `n` queries were written by the completed submission.
+    unsafe {
+        device.get_query_pool_results(
+            pool,
+            0,
+            &mut out,
+            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+        )
+    }
+    .check("vkGetQueryPoolResults")?;
+    Ok(out)
 }
