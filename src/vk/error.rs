@@ -28,6 +28,8 @@ pub enum VkError {
     Unsupported(String),
     #[error("invalid plan: {0}")]
     Plan(String),
+    #[error("invalid plan: {0}")]
+    InvalidPlan(#[from] crate::plan::validate::InvalidPlan),
 }
 
 /// Attaches the name of the Vulkan entry point to a raw result.
