@@ -124,22 +124,10 @@ impl Step {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::{CompareOp, Cull, DepthState, Geometry, Scissor};
+    use crate::plan::Geometry;
 
     fn draw(fragment: Fragment) -> Step {
-        Step::Draw(Draw {
-            geometry: Geometry::Mesh(0),
-            scissor: Scissor::Full,
-            cull: Cull::None,
-            ds: 1,
-            depth: DepthState {
-                compare: CompareOp::Less,
-                write: true,
-            },
-            stencil: None,
-            fragment,
-            count_samples: false,
-        })
+        Draw::for_test(Geometry::Mesh(0), fragment)
     }
 
     #[test]
@@ -154,7 +142,7 @@ mod tests {
             u,
             vec![
                 (Resource::Texture(1), Usage::ColorTarget),
-                (Resource::DepthStencil(1), Usage::DepthStencilTarget),
+                (Resource::DepthStencil(0), Usage::DepthStencilTarget),
                 (Resource::Texture(0), Usage::Sampled),
             ]
         );

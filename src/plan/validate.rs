@@ -113,22 +113,10 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::{CompareOp, Cull, DepthState, Draw, Loop};
+    use crate::plan::{Draw, Loop};
 
     fn draw(geometry: Geometry, fragment: Fragment) -> Step {
-        Step::Draw(Draw {
-            geometry,
-            scissor: Scissor::Full,
-            cull: Cull::None,
-            ds: 0,
-            depth: DepthState {
-                compare: CompareOp::Less,
-                write: true,
-            },
-            stencil: None,
-            fragment,
-            count_samples: false,
-        })
+        Draw::for_test(geometry, fragment)
     }
 
     fn plan(steps: Vec<Step>) -> Plan {

@@ -45,7 +45,7 @@ use crate::plan::validate::validate;
 use crate::plan::{Plan, Step};
 use crate::scene::{Camera, Scene};
 use gpu_scene::{CameraState, GpuScene};
-use record::{Group, Recorder};
+use record::{Bindings, Group, Recorder};
 use targets::Targets;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -274,15 +274,22 @@ impl Executor {
     }
 
     fn recorder(&mut self) -> Recorder<'_> {
-        Recorder::new(
-            &self.shared.device,
-            self.desc,
-            &mut self.pipelines,
-            self.targets.as_ref().expect("targets exist during execute"),
-            self.scene.as_ref().expect("scene uploaded before execute"),
-            self.occlusion.pool,
-            (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool),
-        )
+        let (rec, _) = self.recorder_and_submitter();
+        rec
+    }
+
+    /// A recorder on the executor's objects, and the submitter beside it.
+    fn recorder_and_submitter(&mut self) -> (Recorder<'_>, &Submitter) {
+        let b = Bindings {
+            device: &self.shared.device,
+            desc: self.desc,
+            pipelines: &mut self.pipelines,
+            targets: self.targets.as_ref().expect("targets exist during execute"),
+            scene: self.scene.as_ref().expect("scene uploaded before execute"),
+            occlusion: self.occlusion.pool,
+            timestamps: (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool),
+        };
+        (Recorder::new(b), &self.submit)
     }
 
     /// Grows the query pools to what `steps` need per command buffer.
@@ -466,24 +473,7 @@ impl Executor {
             }
             Ok(samples)
         };
-        let Executor {
-            shared: ref sh,
-            desc,
-            ref mut pipelines,
-            ref submit,
-            ref targets,
-            ref scene,
-            ..
-        } = *self;
-        let mut rec = Recorder::new(
-            &sh.device,
-            desc,
-            pipelines,
-            targets.as_ref().expect("targets exist during execute"),
-            scene.as_ref().expect("scene uploaded before execute"),
-            occ_pool,
-            (sh.timestamp_valid_bits > 0).then_some(ts_pool),
-        );
+        let (mut rec, submit) = self.recorder_and_submitter();
         let mut pending: Vec<Step> = Vec::new();
         for step in &plan.steps {
             let Step::Loop(l) = step else {

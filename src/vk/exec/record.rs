@@ -41,16 +41,22 @@ struct BlockKey {
 /// Tags the occlusion queries of one loop-head execution: `(loop, iteration)`.
 pub(super) type Group = Option<(usize, u32)>;
 
+/// What a recorder records against: the executor's device objects.
+pub(super) struct Bindings<'a> {
+    pub device: &'a ash::Device,
+    pub desc: ExecDesc,
+    pub pipelines: &'a mut Pipelines,
+    pub targets: &'a Targets,
+    pub scene: &'a GpuScene,
+    pub occlusion: vk::QueryPool,
+    /// `None` when the queue has no timestamps.
+    pub timestamps: Option<vk::QueryPool>,
+}
+
 /// Records steps into command buffers; its image states persist from one
 /// command buffer to the next of the same frame.
 pub(super) struct Recorder<'a> {
-    device: &'a ash::Device,
-    desc: ExecDesc,
-    pipelines: &'a mut Pipelines,
-    targets: &'a Targets,
-    scene: &'a GpuScene,
-    occlusion: vk::QueryPool,
-    timestamps: Option<vk::QueryPool>,
+    b: Bindings<'a>,
     cmd: vk::CommandBuffer,
     block: Option<BlockKey>,
     bound: Option<vk::Pipeline>,
@@ -67,25 +73,11 @@ pub(super) struct Recorder<'a> {
 }
 
 impl<'a> Recorder<'a> {
-    pub fn new(
-        device: &'a ash::Device,
-        desc: ExecDesc,
-        pipelines: &'a mut Pipelines,
-        targets: &'a Targets,
-        scene: &'a GpuScene,
-        occlusion: vk::QueryPool,
-        timestamps: Option<vk::QueryPool>,
-    ) -> Recorder<'a> {
+    pub fn new(b: Bindings<'a>) -> Recorder<'a> {
         // Every image rests in `REST` between frames (see `finish_frame`).
-        let state = targets.all().into_iter().map(|r| (r, REST)).collect();
+        let state = b.targets.all().into_iter().map(|r| (r, REST)).collect();
         Recorder {
-            device,
-            desc,
-            pipelines,
-            targets,
-            scene,
-            occlusion,
-            timestamps,
+            b,
             cmd: vk::CommandBuffer::null(),
             block: None,
             bound: None,
@@ -99,17 +91,16 @@ impl<'a> Recorder<'a> {
         }
     }
 
-    /// Starts recording into `cmd` (already begun): resets the queries it uses.
     pub fn begin(&mut self, cmd: vk::CommandBuffer, occlusion_cap: u32, timestamp_cap: u32) {
         self.cmd = cmd;
         self.queries.clear();
         self.marks.clear();
         self.bound = None;
         // SAFETY: recording; outside rendering; ranges within the pools.
-        unsafe { self.device.cmd_reset_query_pool(cmd, self.occlusion, 0, occlusion_cap) };
-        if let Some(ts) = self.timestamps {
+        unsafe { self.b.device.cmd_reset_query_pool(cmd, self.b.occlusion, 0, occlusion_cap) };
+        if let Some(ts) = self.b.timestamps {
             // SAFETY: as above.
-            unsafe { self.device.cmd_reset_query_pool(cmd, ts, 0, timestamp_cap) };
+            unsafe { self.b.device.cmd_reset_query_pool(cmd, ts, 0, timestamp_cap) };
         }
         self.timestamp(self.pass.clone());
     }
@@ -129,16 +120,16 @@ impl<'a> Recorder<'a> {
         }
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
-        let rest: Vec<_> = self.targets.all().into_iter().map(|r| (r, REST)).collect();
+        let rest: Vec<_> = self.b.targets.all().into_iter().map(|r| (r, REST)).collect();
         self.transitions(&rest, false);
     }
 
     fn timestamp(&mut self, pass: String) {
-        let Some(ts) = self.timestamps else { return };
+        let Some(ts) = self.b.timestamps else { return };
         let idx = self.marks.len() as u32;
         // SAFETY: recording, outside rendering; the query was reset in this buffer.
         unsafe {
-            self.device
+            self.b.device
                 .cmd_write_timestamp(self.cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, ts, idx)
         };
         self.marks.push(pass);
@@ -147,7 +138,7 @@ impl<'a> Recorder<'a> {
     fn end_block(&mut self) {
         if self.block.take().is_some() {
             // SAFETY: a rendering block is open in this command buffer.
-            unsafe { self.device.cmd_end_rendering(self.cmd) };
+            unsafe { self.b.device.cmd_end_rendering(self.cmd) };
         }
     }
 
@@ -179,7 +170,7 @@ impl<'a> Recorder<'a> {
             let (src, dst) = sync::transition(prev, u, discard);
             src_stage |= src.stage;
             dst_stage |= dst.stage;
-            let img = self.targets.image(r);
+            let img = self.b.targets.image(r);
             barriers.push(
                 vk::ImageMemoryBarrier::default()
                     .src_access_mask(src.access)
@@ -199,7 +190,7 @@ impl<'a> Recorder<'a> {
             return false;
         }
         self.end_block();
-        submit::image_barriers(self.device, self.cmd, src_stage, dst_stage, &barriers);
+        submit::image_barriers(self.b.device, self.cmd, src_stage, dst_stage, &barriers);
         self.stats.counts.barriers += 1;
         true
     }
@@ -211,13 +202,13 @@ impl<'a> Recorder<'a> {
             return;
         };
         self.transitions(&[(r, Usage::Clear)], false);
-        let img = self.targets.image(r);
+        let img = self.b.targets.image(r);
         let layout = sync::access(Usage::Clear).layout;
         if img.desc.is_depth_stencil() {
             // SAFETY: outside rendering; the image allows transfer dst and is in `layout`;
             // a depth-stencil clear value was stored for it.
             unsafe {
-                self.device.cmd_clear_depth_stencil_image(
+                self.b.device.cmd_clear_depth_stencil_image(
                     self.cmd,
                     img.raw,
                     layout,
@@ -228,7 +219,7 @@ impl<'a> Recorder<'a> {
         } else {
             // SAFETY: as above, with a colour clear value.
             unsafe {
-                self.device.cmd_clear_color_image(
+                self.b.device.cmd_clear_color_image(
                     self.cmd,
                     img.raw,
                     layout,
@@ -240,7 +231,7 @@ impl<'a> Recorder<'a> {
     }
 
     fn clear_values(&self, clear: &Clear) -> Vec<(Resource, vk::ClearValue)> {
-        let reversed = self.desc.reversed_z;
+        let reversed = self.b.desc.reversed_z;
         match *clear {
             Clear::DepthStencil { ds, depth, stencil } => vec![(
                 Resource::DepthStencil(ds),
@@ -260,7 +251,7 @@ impl<'a> Recorder<'a> {
                 },
             )],
             Clear::Color => {
-                let bg = self.scene.background.map(|c| c as f32 / 255.0);
+                let bg = self.b.scene.background.map(|c| c as f32 / 255.0);
                 vec![
                     (
                         Resource::Color,
@@ -326,8 +317,8 @@ impl<'a> Recorder<'a> {
                 self.transitions(&uses, false);
                 self.end_block();
                 let (s, d) = (
-                    self.targets.image(Resource::Texture(*src)),
-                    self.targets.image(Resource::Texture(*dst)),
+                    self.b.targets.image(Resource::Texture(*src)),
+                    self.b.targets.image(Resource::Texture(*dst)),
                 );
                 let layers = vk::ImageSubresourceLayers {
                     aspect_mask: vk::ImageAspectFlags::COLOR,
@@ -341,15 +332,15 @@ impl<'a> Recorder<'a> {
                     dst_subresource: layers,
                     dst_offset: vk::Offset3D::default(),
                     extent: vk::Extent3D {
-                        width: self.desc.width,
-                        height: self.desc.height,
+                        width: self.b.desc.width,
+                        height: self.b.desc.height,
                         depth: 1,
                     },
                 };
                 // SAFETY: outside rendering; both images allow transfer, same format,
                 // in the copy layouts after the barrier above.
                 unsafe {
-                    self.device.cmd_copy_image(
+                    self.b.device.cmd_copy_image(
                         self.cmd,
                         s.raw,
                         sync::access(Usage::CopySrc).layout,
@@ -364,7 +355,7 @@ impl<'a> Recorder<'a> {
                     colors: vec![Resource::Texture(*dst)],
                     ds: None,
                 };
-                let set = self.targets.sampling_set(Resource::DepthStencil(*ds));
+                let set = self.b.targets.sampling_set(Resource::DepthStencil(*ds));
                 self.open(&key, &step.usage());
                 self.fullscreen_internal(&key, FragmentKind::CopyDepth, set)?;
             }
@@ -392,7 +383,7 @@ impl<'a> Recorder<'a> {
     }
 
     fn attachment(&mut self, r: Resource, layout: vk::ImageLayout) -> vk::RenderingAttachmentInfo<'static> {
-        let img = self.targets.image(r);
+        let img = self.b.targets.image(r);
         let view = img.view;
         let a = vk::RenderingAttachmentInfo::default()
             .image_view(view)
@@ -419,8 +410,8 @@ impl<'a> Recorder<'a> {
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D { x: 0, y: 0 },
                 extent: vk::Extent2D {
-                    width: self.desc.width,
-                    height: self.desc.height,
+                    width: self.b.desc.width,
+                    height: self.b.desc.height,
                 },
             })
             .layer_count(1)
@@ -430,7 +421,7 @@ impl<'a> Recorder<'a> {
         }
         // SAFETY: recording outside rendering; all views are live and, after the
         // recorder's barriers, in the attachment layouts given.
-        unsafe { self.device.cmd_begin_rendering(self.cmd, &ri) };
+        unsafe { self.b.device.cmd_begin_rendering(self.cmd, &ri) };
         self.block = Some(key.clone());
         self.bound = None;
     }
@@ -441,21 +432,21 @@ impl<'a> Recorder<'a> {
             color_formats: key
                 .colors
                 .iter()
-                .map(|r| targets::format(*r, &self.desc))
+                .map(|r| targets::format(*r, &self.b.desc))
                 .collect(),
-            depth_stencil_format: key.ds.map(|_| self.desc.depth_format.vk()),
+            depth_stencil_format: key.ds.map(|_| self.b.desc.depth_format.vk()),
         };
-        self.pipelines.get(&desc)
+        self.b.pipelines.get(&desc)
     }
 
     fn bind(&mut self, pipeline: vk::Pipeline, set: Option<vk::DescriptorSet>) {
-        let device = self.device;
+        let device = self.b.device;
         if self.bound != Some(pipeline) {
             // SAFETY: recording inside a block whose formats match the pipeline.
             unsafe { device.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline) };
             self.bound = Some(pipeline);
             // SAFETY: the vertex buffer is live while the recording may be replayed.
-            unsafe { device.cmd_bind_vertex_buffers(self.cmd, 0, &[self.scene.vertices.raw], &[0]) };
+            unsafe { device.cmd_bind_vertex_buffers(self.cmd, 0, &[self.b.scene.vertices.raw], &[0]) };
         }
         if let Some(set) = set {
             // SAFETY: the set matches the pipeline layout's set 0.
@@ -463,7 +454,7 @@ impl<'a> Recorder<'a> {
                 device.cmd_bind_descriptor_sets(
                     self.cmd,
                     vk::PipelineBindPoint::GRAPHICS,
-                    self.pipelines.layout,
+                    self.b.pipelines.layout,
                     0,
                     &[set],
                     &[],
@@ -474,14 +465,14 @@ impl<'a> Recorder<'a> {
 
     /// Sets every dynamic state of the pipelines (all of it, every draw).
     fn set_state(&self, draw: Option<&Draw>, scissor: Rect) {
-        let d = self.device;
+        let d = self.b.device;
         let cmd = self.cmd;
-        let reversed = self.desc.reversed_z;
+        let reversed = self.b.desc.reversed_z;
         let vp = vk::Viewport {
             x: 0.0,
             y: 0.0,
-            width: self.desc.width as f32,
-            height: self.desc.height as f32,
+            width: self.b.desc.width as f32,
+            height: self.b.desc.height as f32,
             min_depth: 0.0,
             max_depth: 1.0,
         };
@@ -561,9 +552,9 @@ impl<'a> Recorder<'a> {
     fn push(&self, pc: &PushConstants) {
         // SAFETY: recording; the range matches the layout's single push range.
         unsafe {
-            self.device.cmd_push_constants(
+            self.b.device.cmd_push_constants(
                 self.cmd,
-                self.pipelines.layout,
+                self.b.pipelines.layout,
                 vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                 0,
                 &pc.bytes(),
@@ -572,7 +563,7 @@ impl<'a> Recorder<'a> {
     }
 
     fn flags(&self) -> u32 {
-        if self.desc.reversed_z {
+        if self.b.desc.reversed_z {
             FLAG_REVERSED_Z
         } else {
             0
@@ -595,7 +586,7 @@ impl<'a> Recorder<'a> {
     ) -> Result<(), VkError> {
         let pipeline = self.pipeline_for(key, kind)?;
         self.bind(pipeline, Some(set));
-        let full = Rect::full(self.desc.width, self.desc.height);
+        let full = Rect::full(self.b.desc.width, self.b.desc.height);
         self.set_state(None, full);
         let pc = PushConstants {
             mvp: Self::fullscreen_matrix(0.0),
@@ -604,20 +595,20 @@ impl<'a> Recorder<'a> {
         };
         self.push(&pc);
         // SAFETY: inside a block with a bound pipeline and vertex buffer.
-        unsafe { self.device.cmd_draw(self.cmd, 6, 1, self.scene.quad_first, 0) };
+        unsafe { self.b.device.cmd_draw(self.cmd, 6, 1, self.b.scene.quad_first, 0) };
         self.stats.counts.fullscreen_passes += 1;
         self.stats.counts.fullscreen_pixels += full.area();
         Ok(())
     }
 
     fn scissor(&self, s: &Scissor) -> Rect {
-        let (w, h) = (self.desc.width, self.desc.height);
+        let (w, h) = (self.b.desc.width, self.b.desc.height);
         match s {
             Scissor::Full => Rect::full(w, h),
             Scissor::BoundsOf(ms) => {
-                let boxes: Vec<Aabb> = ms.iter().map(|m| self.scene.bounds[*m as usize]).collect();
-                let cam = &self.scene.cam;
-                bounds_rect(cam.view, cam.proj, self.scene.camera.near, &boxes, w, h)
+                let boxes: Vec<Aabb> = ms.iter().map(|m| self.b.scene.bounds[*m as usize]).collect();
+                let cam = &self.b.scene.cam;
+                bounds_rect(cam.view, cam.proj, self.b.scene.camera.near, &boxes, w, h)
             }
         }
     }
@@ -631,7 +622,7 @@ impl<'a> Recorder<'a> {
         }
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
-            .map(|t| self.targets.sampling_set(Resource::Texture(t)));
+            .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));
         let key = BlockKey {
             colors: usage::color_targets(&draw.fragment),
             ds: Some(draw.ds),
@@ -641,7 +632,7 @@ impl<'a> Recorder<'a> {
         self.bind(pipeline, set);
         self.set_state(Some(draw), scissor);
         let flags = self.flags();
-        let scene = self.scene;
+        let scene = self.b.scene;
         let rgb = |c: [u8; 3]| {
             [
                 c[0] as f32 / 255.0,
@@ -650,13 +641,13 @@ impl<'a> Recorder<'a> {
                 1.0,
             ]
         };
-        let device = self.device;
+        let device = self.b.device;
         let query = if draw.count_samples {
             let q = self.queries.len() as u32;
             self.queries.push(self.group);
             // SAFETY: inside a block; the query was reset in this buffer and is not active.
             unsafe {
-                device.cmd_begin_query(self.cmd, self.occlusion, q, vk::QueryControlFlags::empty())
+                device.cmd_begin_query(self.cmd, self.b.occlusion, q, vk::QueryControlFlags::empty())
             };
             Some(q)
         } else {
@@ -674,7 +665,7 @@ impl<'a> Recorder<'a> {
                     _ => rgb(scene.background),
                 };
                 let pc = PushConstants {
-                    mvp: Self::fullscreen_matrix(conv::depth_value(*depth, self.desc.reversed_z)),
+                    mvp: Self::fullscreen_matrix(conv::depth_value(*depth, self.b.desc.reversed_z)),
                     view: scene.cam.view_vec,
                     color,
                     prim: 0,
@@ -736,7 +727,7 @@ impl<'a> Recorder<'a> {
         }
         if let Some(q) = query {
             // SAFETY: the query was begun in this block.
-            unsafe { device.cmd_end_query(self.cmd, self.occlusion, q) };
+            unsafe { device.cmd_end_query(self.cmd, self.b.occlusion, q) };
         }
         Ok(())
     }
