@@ -12,7 +12,9 @@ use peeltrim::plan::{
     StencilOp, StencilState, Step,
 };
 use peeltrim::scene::{Camera, Mesh, Primitive, Projection, RenderSettings, Scene, Shape};
-use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor, Frame};
+use peeltrim::vk::{
+    ClearMode, Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor, Frame,
+};
 
 const W: u32 = 64;
 const H: u32 = 48;
@@ -717,6 +719,28 @@ fn loops_replay_in_one_submission_and_survive_a_changed_depth_complexity() {
     assert_eq!(back.stats.counts.loop_iterations, vec![5]);
     assert_eq!(back.images, first.images);
     drop(ex);
+    assert_clean(&ctx);
+}
+
+/// Clears as load ops and as clear commands give the same images and counts.
+#[test]
+fn clear_modes_agree() {
+    let ctx = context();
+    let (sc, p) = two_box_peel();
+    let mut frames = Vec::new();
+    for mode in [ClearMode::LoadOp, ClearMode::Command] {
+        let mut ex = Executor::new(&ctx, &std_desc()).expect("executor");
+        ex.set_clear_mode(mode);
+        ex.upload(&sc).expect("upload");
+        ex.frame(&p).expect("frame");
+        frames.push(ex.frame(&p).expect("replayed frame"));
+    }
+    assert_eq!(frames[0].images, frames[1].images);
+    assert_eq!(
+        frames[0].stats.counts.samples_counted,
+        frames[1].stats.counts.samples_counted
+    );
+    assert!(frames[0].images.prim.contains(&1) && frames[0].images.prim.contains(&2));
     assert_clean(&ctx);
 }
 

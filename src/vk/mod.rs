@@ -26,5 +26,5 @@ pub(crate) mod submit;
 pub mod sync;
 
 pub use error::VkError;
-pub use exec::{Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
+pub use exec::{ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
 pub use instance::{Context, ContextDesc, DeviceChoice};

@@ -46,6 +46,7 @@ use crate::plan::{Plan, Step};
 use crate::scene::{Camera, Scene};
 use gpu_scene::{CameraState, GpuScene};
 use record::{Bindings, Group, Recorder};
+pub use record::ClearMode;
 use targets::Targets;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -107,6 +108,7 @@ pub struct Executor {
     epoch: u64,
     /// Output depth-stencil of the last executed plan (what `read_back` copies).
     last_output: Option<u8>,
+    clears: ClearMode,
 }
 
 impl Executor {
@@ -131,6 +133,17 @@ impl Executor {
                 desc.depth_format
             )));
         }
+        // SAFETY: physical device of this instance; plain query.
+        let props = unsafe {
+            shared
+                .instance
+                .get_physical_device_properties(shared.physical)
+        };
+        let clears = if props.device_type == vk::PhysicalDeviceType::CPU {
+            ClearMode::Command
+        } else {
+            ClearMode::LoadOp
+        };
         let pipelines = Pipelines::new(&shared)?;
         let submit = Submitter::new(&shared)?;
         let frame_cmd = submit.allocate()?;
@@ -153,6 +166,7 @@ impl Executor {
             layers: None,
             epoch: 0,
             last_output: None,
+            clears,
         })
     }
 
@@ -260,6 +274,13 @@ impl Executor {
         Ok(stats)
     }
 
+    /// How clears are recorded (default: clear commands on CPU devices, load ops
+    /// elsewhere). Both give the same images.
+    pub fn set_clear_mode(&mut self, clears: ClearMode) {
+        self.clears = clears;
+        self.recording = None;
+    }
+
     /// Drops the kept recording: the next frame records again (what a new plan or
     /// camera costs; the bench measures it with this).
     pub fn forget_recording(&mut self) {
@@ -288,6 +309,7 @@ impl Executor {
             scene: self.scene.as_ref().expect("scene uploaded before execute"),
             occlusion: self.occlusion.pool,
             timestamps: (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool),
+            clears: self.clears,
         };
         (Recorder::new(b), &self.submit)
     }

@@ -6,9 +6,10 @@
 //! emits one pipeline barrier, with exactly the stages, accesses and layout
 //! changes needed, only where a step's usage conflicts with the last one.
 //! Consecutive draws into the same attachments share one dynamic-rendering block
-//! (rasterization order orders them). Clears become attachment load ops of the
-//! next block that renders into the image; a clear nobody reads is dropped, one
-//! read otherwise is recorded as a clear command. Draws whose scissor is empty on
+//! (rasterization order orders them). Clears are deferred to the image's next
+//! use: a clear nobody reads is dropped; one followed by rendering into the image
+//! becomes that block's load op ([`ClearMode::LoadOp`]) or a clear command just
+//! before it ([`ClearMode::Command`]); one read otherwise is a clear command. Draws whose scissor is empty on
 //! screen are not recorded. Meshes of one draw that lie contiguously in the
 //! vertex buffer and need no per-mesh push constants are drawn with one call.
 
@@ -51,6 +52,18 @@ pub(super) struct Bindings<'a> {
     pub occlusion: vk::QueryPool,
     /// `None` when the queue has no timestamps.
     pub timestamps: Option<vk::QueryPool>,
+    pub clears: ClearMode,
+}
+
+/// How a plan's clears of attachments are recorded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClearMode {
+    /// As the load op of the next rendering block into the image (tile-based and
+    /// other hardware GPUs clear on load for free).
+    LoadOp,
+    /// As clear commands. Lavapipe clears on load far more slowly than with a
+    /// clear command (README, "Executor"), so CPU devices use this.
+    Command,
 }
 
 /// Records steps into command buffers; its image states persist from one
@@ -280,7 +293,11 @@ impl<'a> Recorder<'a> {
                 continue;
             }
             match u {
-                Usage::ColorTarget | Usage::DepthStencilTarget => {}
+                Usage::ColorTarget | Usage::DepthStencilTarget => {
+                    if self.b.clears == ClearMode::Command {
+                        self.flush_clear(r);
+                    }
+                }
                 Usage::CopyDst | Usage::Clear => {
                     self.pending_clear.remove(&r);
                 }
