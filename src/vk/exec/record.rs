@@ -23,7 +23,6 @@ use super::targets::{self, Targets};
 use super::ExecDesc;
 use crate::plan::usage::{self, Resource, Usage};
 use crate::plan::{Clear, Draw, Fragment, Geometry, Scissor, Step};
-use crate::scene::Aabb;
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::image::range;
@@ -83,14 +82,26 @@ pub(super) struct Recorder<'a> {
     pub marks: Vec<String>,
     pass: String,
     pub stats: ExecStats,
+    /// Screen rectangle of each mesh's bounds (a `BoundsOf` scissor is their
+    /// union, exactly as `bounds_rect` of all the boxes).
+    mesh_rects: Vec<Rect>,
 }
 
 impl<'a> Recorder<'a> {
     pub fn new(b: Bindings<'a>) -> Recorder<'a> {
         // Every image rests in `REST` between frames (see `finish_frame`).
         let state = b.targets.all().into_iter().map(|r| (r, REST)).collect();
+        let (w, h) = (b.desc.width, b.desc.height);
+        let (cam, near) = (&b.scene.cam, b.scene.camera.near);
+        let mesh_rects = b
+            .scene
+            .bounds
+            .iter()
+            .map(|bx| bounds_rect(cam.view, cam.proj, near, std::slice::from_ref(bx), w, h))
+            .collect();
         Recorder {
             b,
+            mesh_rects,
             cmd: vk::CommandBuffer::null(),
             block: None,
             bound: None,
@@ -622,11 +633,9 @@ impl<'a> Recorder<'a> {
         let (w, h) = (self.b.desc.width, self.b.desc.height);
         match s {
             Scissor::Full => Rect::full(w, h),
-            Scissor::BoundsOf(ms) => {
-                let boxes: Vec<Aabb> = ms.iter().map(|m| self.b.scene.bounds[*m as usize]).collect();
-                let cam = &self.b.scene.cam;
-                bounds_rect(cam.view, cam.proj, self.b.scene.camera.near, &boxes, w, h)
-            }
+            Scissor::BoundsOf(ms) => ms
+                .iter()
+                .fold(Rect::EMPTY, |r, m| r.union(&self.mesh_rects[*m as usize])),
         }
     }
 
