@@ -16,11 +16,22 @@ layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) out float o_depth;
 
+// plan::tie: the slope part of a tolerance is TIE_SLOPES steps of the device's
+// vertex snapping (2^-bits pixel, bits in flags 8..16) times fwidth(z); with
+// reversed Z the eps part is REVERSED_SCALE * eps * z (2 to 4 float ulps).
+const float TIE_SLOPES = 2.0;
+const float REVERSED_SCALE = 0.25;
+float tie_slope() {
+    return TIE_SLOPES * exp2(-float((pc.flags >> 8) & 0xffu));
+}
+
 void main() {
+    float slope = fwidth(gl_FragCoord.z);
     float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
-    // with the depth (eps at the near plane, 1.0).
-    float eps = (pc.flags & 1u) != 0u ? pc.color.x * prev : pc.color.x;
+    // with the depth.
+    float eps = ((pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.x * prev : pc.color.x)
+        + sign(pc.color.x) * tie_slope() * slope;
     bool behind = (pc.flags & 1u) != 0u ? gl_FragCoord.z + eps < prev : gl_FragCoord.z - eps > prev;
     if (!behind) {
         discard;

@@ -1,6 +1,9 @@
 #version 450
 // Depth-equal shading with a tolerance: colour and primitive id where the
-// fragment depth is within color.a (normalized depth) of the texture.
+// fragment depth is within color.a (normalized depth) plus TIE_SLOPE pixels' worth
+// of this face's depth slope of the texture; writes the face's depth at the pixel
+// centre, independent of how the device snapped the vertices (plan::tie, README
+// "Precision").
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -20,12 +23,32 @@ layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
 
 
-bool near_depth() {
-    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+// plan::tie: the slope part of a tolerance is TIE_SLOPES steps of the device's
+// vertex snapping (2^-bits pixel, bits in flags 8..16) times fwidth(z); with
+// reversed Z the eps part is REVERSED_SCALE * eps * z (2 to 4 float ulps).
+const float TIE_SLOPES = 2.0;
+const float REVERSED_SCALE = 0.25;
+float tie_slope() {
+    return TIE_SLOPES * exp2(-float((pc.flags >> 8) & 0xffu));
+}
+
+bool near_depth(float d, float slope) {
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
-    // with the depth (eps at the near plane, 1.0).
-    float eps = (pc.flags & 1u) != 0u ? pc.color.a * d : pc.color.a;
-    return abs(gl_FragCoord.z - d) <= eps;
+    // with the depth.
+    float eps = (pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.a * d : pc.color.a;
+    return abs(gl_FragCoord.z - d) <= eps + tie_slope() * slope;
+}
+
+// The depth of this face's plane at the pixel centre. v_world is a point of the
+// (unsnapped) face plane, found with the device's barycentrics; it projects to
+// `at`, off the pixel centre by the device's vertex snapping. Window depth is
+// affine in window x, y on a plane, so one step along the slope moves it back.
+float plane_depth(vec2 dz) {
+    vec2 size = vec2(textureSize(sampler2D(u_tex, u_samp), 0));
+    vec4 clip = pc.mvp * vec4(v_world, 1.0);
+    vec3 ndc = clip.xyz / clip.w;
+    vec2 at = (ndc.xy * 0.5 + 0.5) * size;
+    return clamp(ndc.z + dot(dz, gl_FragCoord.xy - at), 0.0, 1.0);
 }
 
 float shade_factor() {
@@ -35,9 +58,13 @@ float shade_factor() {
 }
 
 void main() {
-    if (!near_depth()) {
+    // Derivatives before any discard (they need the whole quad).
+    vec2 dz = vec2(dFdx(gl_FragCoord.z), dFdy(gl_FragCoord.z));
+    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    if (!near_depth(d, abs(dz.x) + abs(dz.y))) {
         discard;
     }
+    gl_FragDepth = plane_depth(dz);
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
 }

@@ -1,10 +1,16 @@
 //! Tests that need a Vulkan device (lavapipe in CI), run with validation layers.
-//! They create a CPU (lavapipe) context and fail, not skip, when none exists; every
-//! test ends by asserting that the validation layer reported nothing.
+//! They create a CPU (lavapipe) context — or the device `PEELTRIM_TEST_DEVICE`
+//! names (`setup`) — and fail, not skip, when none exists; every test ends by
+//! asserting that the validation layer reported nothing. `rounding` re-runs the
+//! algorithms with a coarser device's vertex snapping emulated; `stability` is the
+//! numerical-stability suite.
 
 mod algorithms;
 mod classic;
 mod cst;
+mod rounding;
+mod setup;
+mod stability;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{
@@ -12,7 +18,7 @@ use peeltrim::plan::{
     StencilOp, StencilState, Step,
 };
 use peeltrim::scene::{Camera, Mesh, Primitive, Projection, RenderSettings, Scene, Shape};
-use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor, Frame};
+use peeltrim::vk::{Context, ContextDesc, DepthFormat, ExecDesc, Executor, Frame};
 
 const W: u32 = 64;
 const H: u32 = 48;
@@ -21,10 +27,10 @@ const FOV: f64 = 40.0;
 
 fn context() -> Context {
     let ctx = Context::new(&ContextDesc {
-        device: DeviceChoice::Cpu,
+        device: crate::setup::device(),
         validation: true,
     })
-    .expect("a CPU Vulkan device (lavapipe) with the validation layer is required");
+    .expect("a Vulkan device (lavapipe unless PEELTRIM_TEST_DEVICE says) with the validation layer is required");
     assert!(ctx.validation_enabled());
     ctx
 }
