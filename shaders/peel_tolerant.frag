@@ -19,8 +19,8 @@ layout(location = 0) out float o_depth;
 // plan::tie: the slope part of a tolerance is TIE_SLOPES steps of the device's
 // vertex snapping (2^-bits pixel, bits in flags 8..16) times fwidth(z); with
 // reversed Z the eps part is REVERSED_SCALE * eps * z (2 to 4 float ulps).
-const float TIE_SLOPES = 2.0;
-const float REVERSED_SCALE = 0.25;
+const float TIE_SLOPES = 1.0;
+const float REVERSED_SCALE = 0.125;
 float tie_slope() {
     return TIE_SLOPES * exp2(-float((pc.flags >> 8) & 0xffu));
 }

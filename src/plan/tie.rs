@@ -54,13 +54,13 @@ pub const SHADE_EPS: f32 = 1.0 / (1u32 << 20) as f32;
 /// The slope part of every non-zero depth tolerance, in snapping steps: the
 /// shaders add `TIE_SLOPES · 2^-bits · fwidth(gl_FragCoord.z)` (module doc). The
 /// shaders hold the same literal (`const float TIE_SLOPES`), checked by a test.
-pub const TIE_SLOPES: f32 = 2.0;
+pub const TIE_SLOPES: f32 = 1.0;
 
 /// With reversed Z the shaders scale eps by `REVERSED_SCALE · z`: 2⁻²² z, between
 /// 2 and 4 ulps of the stored float (`const float REVERSED_SCALE`, checked by a
 /// test). Thinner than 2⁻²⁰ z so that a 1e-4 wall 300 units away (3e-7 of its
 /// depth) stays resolvable.
-pub const REVERSED_SCALE: f32 = 0.25;
+pub const REVERSED_SCALE: f32 = 0.125;
 
 /// The final depth-equal shading of locked pixels: every mesh with a face within
 /// [`SHADE_EPS`] (+ slope term) of the visible depth (held in `tex`) writes colour,

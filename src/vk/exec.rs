@@ -100,9 +100,9 @@ struct SceneData {
     bounds: Vec<Aabb>,
     background: [u8; 3],
     camera: Camera,
-    /// World point subtracted from every vertex before rounding to f32 (the
-    /// centre of the meshes' bounds), folded back into `mvp` in f64: scenes far
-    /// from the world origin keep f32 precision relative to their size.
+    /// World point subtracted from every vertex before rounding to f32 (the eye
+    /// at upload), folded back into `mvp` in f64: vertex rounding is relative to
+    /// the distance from the eye wherever the scene lies in the world.
     origin: DVec3,
     view: DMat4,
     proj: DMat4,
@@ -375,15 +375,11 @@ impl Executor {
             .map(|p| (&p.mesh, p.color))
             .chain(scene.surfaces.iter().map(|s| (&s.mesh, s.color)))
             .collect();
-        let (lo, hi) = meshes
-            .iter()
-            .flat_map(|(m, _)| m.positions.iter())
-            .fold(
-                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-            );
-        let origin = if lo.is_finite() && hi.is_finite() {
-            (lo + hi) * 0.5
+        // Camera-relative vertices: f32 rounding then scales with the distance
+        // from the eye, i.e. with the view depth (uniform relative precision),
+        // wherever the scene lies in the world.
+        let origin = if scene.camera.eye.is_finite() {
+            scene.camera.eye
         } else {
             DVec3::ZERO
         };
