@@ -39,16 +39,19 @@ bool near_depth(float d, float slope) {
     return abs(gl_FragCoord.z - d) <= eps + tie_slope() * slope;
 }
 
-// The depth of this face's plane at the pixel centre. v_world is a point of the
-// (unsnapped) face plane, found with the device's barycentrics; it projects to
-// `at`, off the pixel centre by the device's vertex snapping. Window depth is
-// affine in window x, y on a plane, so one step along the slope moves it back.
+// The depth of this face's plane at the pixel centre. The device interpolates
+// with the barycentrics of the pixel centre in its snapped triangle; v_world,
+// interpolated with the same (perspective-corrected) weights, is a point of the
+// exact face plane that projects to `at`, where the exact plane's depth is the
+// same weighted sum of vertex depths: gl_FragCoord.z. Window depth is affine in
+// window x, y on a plane, so one step along the slope moves it from `at` to the
+// pixel centre. On a device that interpolates unsnapped positions `at` is the
+// pixel centre and this is gl_FragCoord.z.
 float plane_depth(vec2 dz) {
     vec2 size = vec2(textureSize(sampler2D(u_tex, u_samp), 0));
     vec4 clip = pc.mvp * vec4(v_world, 1.0);
-    vec3 ndc = clip.xyz / clip.w;
-    vec2 at = (ndc.xy * 0.5 + 0.5) * size;
-    return clamp(ndc.z + dot(dz, gl_FragCoord.xy - at), 0.0, 1.0);
+    vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * size;
+    return clamp(gl_FragCoord.z + dot(dz, gl_FragCoord.xy - at), 0.0, 1.0);
 }
 
 float shade_factor() {
