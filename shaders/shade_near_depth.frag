@@ -28,15 +28,43 @@ layout(location = 1) out uint o_prim;
 // reversed Z the eps part is REVERSED_SCALE * eps * z (2 to 4 float ulps).
 const float TIE_SLOPES = 1.0;
 const float REVERSED_SCALE = 0.125;
+// A tie's depth gradient agrees with the visible one within this fraction.
+const float SLOPE_AGREEMENT = 0.25;
 float tie_slope() {
     return TIE_SLOPES * exp2(-float((pc.flags >> 8) & 0xffu));
 }
 
-bool near_depth(float d, float slope) {
+// Coplanar faces (true ties) share the depth gradient; a face crossing the
+// visible one at a shallow angle, inside the slope band near the crossing, does
+// not. The visible face's gradient comes from one-sided differences of the depth
+// texture: a tie needs one side per axis to agree (the other may cross an edge).
+bool same_slope(vec2 dz, float d, float eps) {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    ivec2 hi = textureSize(sampler2D(u_tex, u_samp), 0) - 1;
+    float l = texelFetch(sampler2D(u_tex, u_samp), clamp(p - ivec2(1, 0), ivec2(0), hi), 0).r;
+    float r = texelFetch(sampler2D(u_tex, u_samp), clamp(p + ivec2(1, 0), ivec2(0), hi), 0).r;
+    float u = texelFetch(sampler2D(u_tex, u_samp), clamp(p - ivec2(0, 1), ivec2(0), hi), 0).r;
+    float w = texelFetch(sampler2D(u_tex, u_samp), clamp(p + ivec2(0, 1), ivec2(0), hi), 0).r;
+    float tol = SLOPE_AGREEMENT * (abs(dz.x) + abs(dz.y)) + 2.0 * eps;
+    bool x = abs(d - l - dz.x) <= tol || abs(r - d - dz.x) <= tol;
+    bool y = abs(d - u - dz.y) <= tol || abs(w - d - dz.y) <= tol;
+    return x && y;
+}
+
+// Whether this fragment's face passes through the visible point: its own raster
+// depth within eps of the visible depth (the visible face itself, and coplanar
+// faces rasterized alike), or its plane depth `z` (unsnapped) within eps plus
+// the visible depth's snapping (half the two-sided slope term) with the visible
+// face's gradient (a coplanar face snapped differently).
+bool near_depth(float z, float d, vec2 dz) {
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
     // with the depth.
     float eps = (pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.a * d : pc.color.a;
-    return abs(gl_FragCoord.z - d) <= eps + tie_slope() * slope;
+    if (abs(gl_FragCoord.z - d) <= eps) {
+        return true;
+    }
+    float slope = abs(dz.x) + abs(dz.y);
+    return abs(z - d) <= eps + 0.5 * tie_slope() * slope && same_slope(dz, d, eps);
 }
 
 // The depth of this face's plane at the pixel centre. The device interpolates
@@ -64,10 +92,11 @@ void main() {
     // Derivatives before any discard (they need the whole quad).
     vec2 dz = vec2(dFdx(gl_FragCoord.z), dFdy(gl_FragCoord.z));
     float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
-    if (!near_depth(d, abs(dz.x) + abs(dz.y))) {
+    float z = plane_depth(dz);
+    if (!near_depth(z, d, dz)) {
         discard;
     }
-    gl_FragDepth = plane_depth(dz);
+    gl_FragDepth = z;
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
 }
