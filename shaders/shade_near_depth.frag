@@ -29,15 +29,16 @@ layout(location = 1) out uint o_prim;
 const float TIE_SLOPES = 1.0;
 const float REVERSED_SCALE = 0.125;
 // A tie's depth gradient agrees with the visible one within this fraction.
-const float SLOPE_AGREEMENT = 0.25;
+const float SLOPE_AGREEMENT = 0.03125;
 float tie_slope() {
     return TIE_SLOPES * exp2(-float((pc.flags >> 8) & 0xffu));
 }
 
 // Coplanar faces (true ties) share the depth gradient; a face crossing the
-// visible one at a shallow angle, inside the slope band near the crossing, does
-// not. The visible face's gradient comes from one-sided differences of the depth
-// texture: a tie needs one side per axis to agree (the other may cross an edge).
+// texture's at a shallow angle, inside the slope band near the crossing, does
+// not. The texture face's gradient comes from one-sided texel differences: a tie
+// needs one side per axis to agree (the other may cross an edge). The same
+// function is in shade_near_depth.frag, nearer_than.frag, peel_tolerant.frag.
 bool same_slope(vec2 dz, float d, float eps) {
     ivec2 p = ivec2(gl_FragCoord.xy);
     ivec2 hi = textureSize(sampler2D(u_tex, u_samp), 0) - 1;
@@ -45,7 +46,7 @@ bool same_slope(vec2 dz, float d, float eps) {
     float r = texelFetch(sampler2D(u_tex, u_samp), clamp(p + ivec2(1, 0), ivec2(0), hi), 0).r;
     float u = texelFetch(sampler2D(u_tex, u_samp), clamp(p - ivec2(0, 1), ivec2(0), hi), 0).r;
     float w = texelFetch(sampler2D(u_tex, u_samp), clamp(p + ivec2(0, 1), ivec2(0), hi), 0).r;
-    float tol = SLOPE_AGREEMENT * (abs(dz.x) + abs(dz.y)) + 2.0 * eps;
+    float tol = SLOPE_AGREEMENT * (abs(dz.x) + abs(dz.y)) + 2.0 * abs(eps);
     bool x = abs(d - l - dz.x) <= tol || abs(r - d - dz.x) <= tol;
     bool y = abs(d - u - dz.y) <= tol || abs(w - d - dz.y) <= tol;
     return x && y;

@@ -664,8 +664,10 @@ fn from_raw_borrows_the_hosts_device() {
     assert_clean(&host);
 }
 
-/// Moving the camera of an uploaded scene renders exactly what a fresh upload
-/// with that camera renders (the viewer's orbit path).
+/// Moving the camera of an uploaded scene renders what a fresh upload with that
+/// camera renders (the viewer's orbit path). Not bit-exactly: vertices stay
+/// relative to the eye at upload (camera-relative f32 rounding), a fresh upload
+/// rounds them relative to the new eye; rasterization may differ on edges only.
 #[test]
 fn set_camera_equals_a_fresh_upload() {
     let ctx = context();
@@ -678,7 +680,14 @@ fn set_camera_equals_a_fresh_upload() {
     exec.set_camera(&sc.camera).expect("set_camera");
     let moved = exec.execute(&p).expect("frame");
     let fresh = run(&ctx, std_desc(), &sc, &p);
-    assert_eq!(moved.images, fresh.images);
+    let r = peeltrim::reference::compare::compare(&fresh.images, &moved.images).expect("same size");
+    assert_eq!(
+        (r.coverage_mismatch_interior, r.prim_mismatch_interior),
+        (0, 0),
+        "{r:?}"
+    );
+    assert!(r.coverage_mismatch <= 8, "{r:?}");
+    assert!(r.depth_abs_err_max_interior <= 1e-5, "{r:?}");
     assert_ne!(moved.images, before.images, "the camera did move");
     assert_clean(&ctx);
 }

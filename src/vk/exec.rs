@@ -453,7 +453,8 @@ impl Executor {
     }
 
     /// Moves the camera of the uploaded scene without uploading its meshes again
-    /// (an interactive viewer orbiting).
+    /// (an interactive viewer orbiting). Vertices stay relative to the eye at
+    /// upload, so the images equal a fresh upload's up to f32 rounding.
     pub fn set_camera(&mut self, camera: &crate::scene::Camera) -> Result<(), VkError> {
         let origin = self
             .scene
