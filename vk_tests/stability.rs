@@ -172,3 +172,38 @@ fn stability_suite() {
 fn stability_suite_with_eight_bit_snapping() {
     suite(Some(RoundingEmulation::EIGHT_BITS));
 }
+
+/// The 311-primitive deep tree (`bench --family deep-tree:311`) at 128×128:
+/// interior wrong-primitive pixels ≤ 0.01% for Blister and the CST variants
+/// (the sum-of-products algorithms refuse it: 19 M products).
+#[test]
+fn deep_tree_311() {
+    let text = peeltrim::bench::families::deep_tree(311);
+    let scene = load_str(
+        &text,
+        Path::new("deep-tree-311.toml"),
+        &LoadOptions {
+            size: Some((128, 128)),
+        },
+    )
+    .expect("deep tree loads");
+    let reference = peeltrim::reference::render(&scene, 128, 128);
+    let mut failures = Vec::new();
+    for algo in [Algo::Blister, Algo::CstZ, Algo::CstI, Algo::CstG] {
+        let (r, d) = run(&scene, algo, DepthSetup::DEFAULT, None, &reference).expect("drawn");
+        eprintln!(
+            "deep-tree-311 {algo}: coverage {:.4}% prim {} ({:.4}%) depth p99 {:.1e} relative",
+            r.coverage_mismatch_interior_frac * 100.0,
+            r.prim_mismatch_interior,
+            r.prim_mismatch_interior_frac * 100.0,
+            d.relative_p99
+        );
+        if r.coverage_mismatch_interior_frac > 0.0001
+            || r.prim_mismatch_interior_frac > 0.0001
+            || d.relative_p99 > DEPTH_REL
+        {
+            failures.push(format!("{algo}: {r:?}"));
+        }
+    }
+    assert!(failures.is_empty(), "deep tree: {failures:#?}");
+}
