@@ -8,6 +8,9 @@ use std::process::{Command, Output};
 
 use rand::{Rng, SeedableRng};
 
+/// OpenSCAD `.csg` models through the command line.
+mod openscad_cli;
+
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_peeltrim"));
     c.env("PEELTRIM_VALIDATION", "1");

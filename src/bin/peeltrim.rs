@@ -106,7 +106,7 @@ enum Cmd {
     /// Time algorithms on scenes (speed against error); writes results.json,
     /// results.csv, summary.md, plots/ and images/ into --out
     Bench {
-        /// Scene files (default: every scenes/*.toml)
+        /// Scene files (default: every scenes/*.toml and scenes/openscad/*.csg)
         scenes: Vec<PathBuf>,
         /// Comma-separated algorithms, or "all"
         #[arg(long, default_value = "all")]
@@ -205,7 +205,8 @@ fn parse_family(s: &str) -> Result<(String, Vec<u32>)> {
     Ok((name.to_string(), ns))
 }
 
-/// The shipped scenes next to the binary's source tree, or under ./scenes.
+/// The shipped scenes (`scenes/*.toml`, then `scenes/openscad/*.csg`) next to the
+/// binary's source tree, or under ./scenes.
 fn shipped_scenes() -> Result<Vec<PathBuf>> {
     let dir = [
         PathBuf::from("scenes"),
@@ -219,6 +220,15 @@ fn shipped_scenes() -> Result<Vec<PathBuf>> {
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
     v.sort();
+    // The OpenSCAD models, loaded as they are.
+    if let Ok(models) = std::fs::read_dir(dir.join("openscad")) {
+        let mut m: Vec<PathBuf> = models
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "csg"))
+            .collect();
+        m.sort();
+        v.extend(m);
+    }
     Ok(v)
 }
 
