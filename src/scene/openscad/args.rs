@@ -42,7 +42,7 @@ impl<'a> Args<'a> {
                         )
                     })?;
                     k += 1;
-                    n
+                    *n
                 }
             };
             if named.insert(name, &a.value).is_some() {
@@ -51,8 +51,7 @@ impl<'a> Args<'a> {
                     format!("`{name}` is given twice to `{}`: keep one", node.name),
                 ));
             }
-            if !(positional.contains(&name)
-                || known.contains(&name)
+            if !(positional.iter().chain(known).any(|p| *p == name)
                 || name.starts_with('$')
                 || name == "convexity")
             {

@@ -18,7 +18,7 @@
 //! (ascending index), primitives in order of appearance, bottom-up operators
 //! (descending index).
 
-use glam::{DMat4, DVec3, DVec4};
+use glam::{DMat4, DVec3};
 
 use super::args::{self, Args};
 use super::parse::{Node, Tree, ValueKind};
@@ -165,15 +165,53 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         term[i] = combine(&mut nodes, k, kids);
     }
     let top: Vec<Term> = roots.iter().filter_map(|&r| term[r as usize]).collect();
-    let expr = match combine(&mut nodes, Kind::Union, top) {
-        Some(Term::Node(root)) => Some(Expr { nodes, root }),
-        _ => None,
+    let (primitives, expr) = match combine(&mut nodes, Kind::Union, top) {
+        Some(Term::Node(root)) => {
+            let (p, e) = compact(out, &Expr { nodes, root });
+            (p, Some(e))
+        }
+        _ => (Vec::new(), None),
     };
     Ok(Converted {
-        primitives: out,
+        primitives,
         expr,
         warnings: c.warnings,
     })
+}
+
+/// Keeps only what the solid reaches: primitives its leaves name (still in
+/// order of appearance, renumbered) and its reachable nodes. A primitive can be
+/// unreachable when an operator above it was pruned (`cube ∩ ∅`).
+fn compact(prims: Vec<ScadPrimitive>, e: &Expr) -> (Vec<ScadPrimitive>, Expr) {
+    let mut used = vec![false; prims.len()];
+    for p in e.leaves() {
+        used[p as usize] = true;
+    }
+    let mut new_prim = vec![u32::MAX; prims.len()];
+    let mut kept = Vec::new();
+    for (i, p) in prims.into_iter().enumerate() {
+        if used[i] {
+            new_prim[i] = kept.len() as u32;
+            kept.push(p);
+        }
+    }
+    let mut id = vec![NodeId::MAX; e.nodes.len()];
+    let mut nodes = Vec::new();
+    for n in e.postorder() {
+        let m = |a: NodeId| id[a as usize];
+        nodes.push(match e.nodes[n as usize] {
+            E::Leaf { prim } => E::Leaf {
+                prim: new_prim[prim as usize],
+            },
+            E::Not(a) => E::Not(m(a)),
+            E::Union(a, b) => E::Union(m(a), m(b)),
+            E::Inter(a, b) => E::Inter(m(a), m(b)),
+            E::Diff(a, b) => E::Diff(m(a), m(b)),
+        });
+        id[n as usize] = nodes.len() as NodeId - 1;
+    }
+    let root = id[e.root as usize];
+    (kept, Expr { nodes, root })
 }
 
 /// Combines the children's terms under operator `k`; `None` when no child gave
@@ -271,7 +309,8 @@ impl Converter<'_> {
     /// The context of node `i` given its parent's, or `None` when the node is
     /// not part of the solid (disabled, background, skipped).
     fn enter(&mut self, i: u32, parent: Ctx) -> Result<Option<Ctx>, ScadError> {
-        let node = &self.tree.nodes[i as usize];
+        let tree = self.tree;
+        let node = &tree.nodes[i as usize];
         let at = format!("{}:{}", node.pos.line, node.pos.col);
         if node.modifiers.disabled {
             return Ok(None);
@@ -388,7 +427,8 @@ impl Converter<'_> {
 
     /// Tessellates primitive `i` and places it; `None` for a degenerate one.
     fn primitive(&mut self, i: usize, k: Kind, ctx: &Ctx) -> Result<Option<ScadPrimitive>, ScadError> {
-        let node = &self.tree.nodes[i];
+        let tree = self.tree;
+        let node = &tree.nodes[i];
         let local = match k {
             Kind::Cube => {
                 let a = Args::new(node, &["size", "center"], &[], &mut self.warnings)?;
@@ -454,6 +494,7 @@ impl Converter<'_> {
             node: node.name.clone(),
             line: node.pos.line,
             mesh: crate::scene::shapes::apply_transform(&local, &ctx.matrix),
+            matrix: ctx.matrix,
             rgba,
         }))
     }
@@ -479,7 +520,7 @@ impl Converter<'_> {
         }
         let n = tessellate::fragments(r, res);
         let rings = n.div_ceil(rings_div);
-        if n > MAX_DIVISIONS as u64 || n.saturating_mul(rings) > MAX_GRID && rings_div == 2 {
+        if n > MAX_DIVISIONS as u64 || (rings_div == 2 && n.saturating_mul(rings) > MAX_GRID) {
             return Err(ScadError::new(
                 node.pos,
                 format!(
@@ -565,5 +606,5 @@ fn hex_color(s: &str) -> Option<[f64; 4]> {
     }
     let b = |i: usize| u8::from_str_radix(&h[i..i + 2], 16).ok().map(|v| v as f64 / 255.0);
     let a = if h.len() == 8 { b(6)? } else { 1.0 };
-    Some(DVec4::new(b(0)?, b(2)?, b(4)?, a).to_array())
+    Some([b(0)?, b(2)?, b(4)?, a])
 }

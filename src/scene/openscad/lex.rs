@@ -100,7 +100,8 @@ impl Cursor<'_> {
                 }
                 Some('/') => {
                     let pos = self.pos();
-                    let rest = &self.text[self.offset()..];
+                    let (text, off) = (self.text, self.offset());
+                    let rest = &text[off..];
                     if rest.starts_with("//") {
                         while self.peek().is_some_and(|c| c != '\n') {
                             self.bump();
@@ -109,8 +110,8 @@ impl Cursor<'_> {
                         self.bump();
                         self.bump();
                         loop {
-                            let rest = &self.text[self.offset()..];
-                            if rest.starts_with("*/") {
+                            let off = self.offset();
+                            if text[off..].starts_with("*/") {
                                 self.bump();
                                 self.bump();
                                 break;
