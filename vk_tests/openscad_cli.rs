@@ -73,7 +73,7 @@ fn bad_models_are_located_errors() {
         ("text(text = \"a\");", &["x.csg:2:3:", "`text`"]),
         ("projection() { cube(size = 1); }", &["x.csg:2:3:", "`projection`"]),
         ("circle(r = 1);", &["x.csg:2:3:", "`circle`", "2D"]),
-        ("cube(size = [1, 2 3]);", &["x.csg:2:20:", "expected `,` or `]`"]),
+        ("cube(size = [1, 2 3]);", &["x.csg:2:21:", "expected `,` or `]`"]),
         ("sphere(r = inf);", &["x.csg:2:14:", "infinite or NaN"]),
         ("cube(size = [1, nan, 1]);", &["x.csg:2:19:", "infinite or NaN"]),
         (
@@ -94,22 +94,30 @@ fn bad_models_are_located_errors() {
     assert!(stderr(&o).contains("skip.csg:2:3: `hull` is not supported and was dropped"), "{}", stderr(&o));
 }
 
-/// 2,000 holes: the sum-of-products algorithms refuse or render it, never hang;
-/// `plan --algo cst-i` succeeds.
+/// 2,000 cylinders. A plate minus 2,000 holes is one product of 2,001
+/// literals: every algorithm plans it. Two crossing unions of 1,000 cylinders
+/// intersected have 10^6 products: cst-i plans it, the sum-of-products
+/// algorithms refuse with their clear error.
 #[test]
-fn two_thousand_holes_plan_with_cst_i() {
+fn two_thousand_cylinders_plan_with_cst_i() {
     let d = tmp("scad-holes");
-    let f = write(&d, "holes.csg", &super_holes());
-    let o = run(&["plan", &f, "--algo", "cst-i"]);
+    let holes = write(&d, "holes.csg", &plate_with_holes());
+    for algo in ["cst-i", "goldfeather", "trickle"] {
+        let o = run(&["plan", &holes, "--algo", algo]);
+        assert!(o.status.success(), "{algo}: {}", stderr(&o));
+    }
+    let crossing = write(&d, "crossing.csg", &crossing_unions());
+    let o = run(&["plan", &crossing, "--algo", "cst-i"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    for algo in ["goldfeather", "trickle"] {
-        let o = run(&["plan", &f, "--algo", algo]);
-        eprintln!("{algo}: exit {:?}: {}", o.status.code(), stderr(&o).lines().last().unwrap_or(""));
-        assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    for algo in ["goldfeather", "goldfeather-layered", "trickle"] {
+        assert_error(
+            &run(&["plan", &crossing, "--algo", algo]),
+            &["sum-of-products form grows to at least"],
+        );
     }
 }
 
-fn super_holes() -> String {
+fn plate_with_holes() -> String {
     let mut s = String::from("difference() {\n\tcube(size = [102, 42, 2], center = false);\n");
     for i in 0..2000 {
         s.push_str(&format!(
@@ -119,5 +127,22 @@ fn super_holes() -> String {
         ));
     }
     s.push_str("}\n");
+    s
+}
+
+/// Rods along x intersected with rods along y (1,000 each).
+fn crossing_unions() -> String {
+    let rod = |axis: &str, k: usize| {
+        let (dx, dy) = ((k % 40) as f64, (k / 40) as f64);
+        match axis {
+            "x" => format!("\t\tmultmatrix([[0, 0, 1, 0], [0, 1, 0, {dx}], [-1, 0, 0, {dy}], [0, 0, 0, 1]]) cylinder($fn = 8, h = 40, r1 = 0.3, r2 = 0.3);\n"),
+            _ => format!("\t\tmultmatrix([[1, 0, 0, {dx}], [0, 0, 1, 0], [0, -1, 0, {dy}], [0, 0, 0, 1]]) cylinder($fn = 8, h = 40, r1 = 0.3, r2 = 0.3);\n"),
+        }
+    };
+    let mut s = String::from("intersection() {\n\tunion() {\n");
+    s.extend((0..1000).map(|k| rod("x", k)));
+    s.push_str("\t}\n\tunion() {\n");
+    s.extend((0..1000).map(|k| rod("y", k)));
+    s.push_str("\t}\n}\n");
     s
 }
