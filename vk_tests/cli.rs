@@ -10,6 +10,7 @@ use rand::{Rng, SeedableRng};
 
 /// OpenSCAD `.csg` models through the command line.
 mod openscad_cli;
+mod scad_models;
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_peeltrim"));

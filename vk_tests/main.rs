@@ -6,6 +6,7 @@ mod algorithms;
 mod classic;
 mod cst;
 mod openscad;
+mod scad_models;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

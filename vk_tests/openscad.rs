@@ -10,6 +10,7 @@ use peeltrim::render::DepthSetup;
 use peeltrim::scene::{self, LoadOptions, Scene};
 
 use super::algorithms::{depth_tolerance, run_gpu};
+use super::scad_models::plate_with_holes;
 
 const SIZE: (u32, u32) = (96, 96);
 
@@ -63,26 +64,12 @@ fn openscad_models_blister_match_reference() {
     check_models(Algo::Blister);
 }
 
-/// A plate with 2,000 cylindrical holes, as OpenSCAD exports a `for` loop.
-pub fn two_thousand_holes() -> String {
-    let mut s = String::from("difference() {\n\tcube(size = [102, 42, 2], center = false);\n\tgroup() {\n");
-    for i in 0..2000 {
-        s.push_str(&format!(
-            "\t\tmultmatrix([[1, 0, 0, {}], [0, 1, 0, {}], [0, 0, 1, -1], [0, 0, 0, 1]]) {{\n\t\t\tcylinder($fn = 12, $fa = 12, $fs = 2, h = 4, r1 = 0.4, r2 = 0.4, center = false);\n\t\t}}\n",
-            1 + i % 100,
-            1 + i / 100 * 2
-        ));
-    }
-    s.push_str("\t}\n}\n");
-    s
-}
-
 #[test]
 fn two_thousand_cylinders_render_with_cst_i() {
     let dir = std::env::temp_dir().join(format!("peeltrim-scad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("holes.csg");
-    std::fs::write(&path, two_thousand_holes()).unwrap();
+    std::fs::write(&path, plate_with_holes()).unwrap();
     let t = std::time::Instant::now();
     let scene = scene::load(&path, &LoadOptions { size: Some(SIZE) }).unwrap_or_else(|e| panic!("{e}"));
     eprintln!("2000 holes: loaded in {:?} (test profile)", t.elapsed());

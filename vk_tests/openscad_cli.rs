@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use super::scad_models::plate_with_holes;
 use super::{assert_error, run, stderr, tmp};
 
 fn model(name: &str) -> String {
@@ -115,19 +116,6 @@ fn two_thousand_cylinders_plan_with_cst_i() {
             &["sum-of-products form grows to at least"],
         );
     }
-}
-
-fn plate_with_holes() -> String {
-    let mut s = String::from("difference() {\n\tcube(size = [102, 42, 2], center = false);\n");
-    for i in 0..2000 {
-        s.push_str(&format!(
-            "\tmultmatrix([[1, 0, 0, {}], [0, 1, 0, {}], [0, 0, 1, -1], [0, 0, 0, 1]]) cylinder($fn = 12, h = 4, r1 = 0.4, r2 = 0.4);\n",
-            1 + i % 100,
-            1 + i / 100 * 2
-        ));
-    }
-    s.push_str("}\n");
-    s
 }
 
 /// Rods along x intersected with rods along y (1,000 each).
