@@ -59,6 +59,16 @@ fn toml_scene_names_a_csg() {
     assert_error(&run(&["render", &bad]), &["bad.toml:1", "csg: openscad", "remove `expr`"]);
     let missing = write(&d, "missing.toml", "[csg]\nopenscad = \"nope.csg\"\n");
     assert_error(&run(&["render", &missing]), &["nope.csg", "relative to the scene file"]);
+    // `skip_unsupported = true` in the table, as --skip-unsupported.
+    write(&d, "hull.csg", "group() {\n  hull() { cube(size = 1); }\n  sphere(r = 1);\n}\n");
+    let strict = write(&d, "strict.toml", "[csg]\nopenscad = \"hull.csg\"\n");
+    assert_error(&run(&["blist", &strict]), &["hull.csg:2:3:", "`hull` is not supported"]);
+    let skip = write(&d, "skip.toml", "[csg]\nopenscad = \"hull.csg\"\nskip_unsupported = true\n");
+    let o = run(&["blist", &skip]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("hull.csg:2:3: `hull` is not supported and was dropped"), "{}", stderr(&o));
+    let misplaced = write(&d, "misplaced.toml", "[[primitive]]\nname = \"A\"\nshape = \"box\"\nsize = [1.0, 1.0, 1.0]\n[csg]\nexpr = \"A\"\nskip_unsupported = true\n");
+    assert_error(&run(&["blist", &misplaced]), &["csg: skip_unsupported", "only with `openscad"]);
 }
 
 #[test]
