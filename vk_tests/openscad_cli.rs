@@ -24,7 +24,7 @@ fn write(dir: &std::path::Path, name: &str, text: &str) -> String {
 #[test]
 fn render_plan_blist_accept_a_csg() {
     let out = tmp("scad-render");
-    let o = run(&["render", &model("gear.csg"), "--size", "48x48", "--out", out.to_str().unwrap()]);
+    let o = run(&["render", &model("spur_gear.csg"), "--size", "48x48", "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     for f in ["color.png", "depth.npy", "prim.png", "stats.json"] {
         assert!(out.join(f).is_file(), "{f}");
@@ -46,16 +46,16 @@ fn render_plan_blist_accept_a_csg() {
 #[test]
 fn toml_scene_names_a_csg() {
     let d = tmp("scad-toml");
-    std::fs::copy(model("gear.csg"), d.join("gear.csg")).unwrap();
+    std::fs::copy(model("spur_gear.csg"), d.join("spur_gear.csg")).unwrap();
     let scene = write(
         &d,
         "s.toml",
-        "[camera]\neye = [0.0, -80.0, 60.0]\nup = [0.0, 0.0, 1.0]\nfit = true\n[render]\nwidth = 32\nheight = 32\n[csg]\nopenscad = \"gear.csg\"\n",
+        "[camera]\neye = [0.0, -80.0, 60.0]\nup = [0.0, 0.0, 1.0]\nfit = true\n[render]\nwidth = 32\nheight = 32\n[csg]\nopenscad = \"spur_gear.csg\"\n",
     );
     let out = d.join("out");
     let o = run(&["render", &scene, "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let bad = write(&d, "bad.toml", "[csg]\nopenscad = \"gear.csg\"\nexpr = \"A\"\n");
+    let bad = write(&d, "bad.toml", "[csg]\nopenscad = \"spur_gear.csg\"\nexpr = \"A\"\n");
     assert_error(&run(&["render", &bad]), &["bad.toml:1", "csg: openscad", "remove `expr`"]);
     let missing = write(&d, "missing.toml", "[csg]\nopenscad = \"nope.csg\"\n");
     assert_error(&run(&["render", &missing]), &["nope.csg", "relative to the scene file"]);
