@@ -22,7 +22,11 @@ fn models() -> Vec<PathBuf> {
         .filter(|p| p.extension().is_some_and(|x| x == "csg"))
         .collect();
     v.sort();
-    assert!(v.len() >= 5, "expected the shipped models in {}", dir.display());
+    assert!(
+        v.len() >= 5,
+        "expected the shipped models in {}",
+        dir.display()
+    );
     v
 }
 
@@ -51,7 +55,11 @@ fn check_models(algo: Algo) {
             check(&scene, &path.file_stem().unwrap().to_string_lossy(), algo)
         })
         .collect();
-    assert!(failures.is_empty(), "{algo} misses the bars on:\n{}", failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{algo} misses the bars on:\n{}",
+        failures.join("\n")
+    );
 }
 
 #[test]
@@ -71,7 +79,8 @@ fn two_thousand_cylinders_render_with_cst_i() {
     let path = dir.join("holes.csg");
     std::fs::write(&path, plate_with_holes()).unwrap();
     let t = std::time::Instant::now();
-    let scene = scene::load(&path, &LoadOptions { size: Some(SIZE) }).unwrap_or_else(|e| panic!("{e}"));
+    let scene =
+        scene::load(&path, &LoadOptions { size: Some(SIZE) }).unwrap_or_else(|e| panic!("{e}"));
     eprintln!("2000 holes: loaded in {:?} (test profile)", t.elapsed());
     assert_eq!(scene.primitives.len(), 2001);
     let fail = check(&scene, "holes", Algo::CstI);

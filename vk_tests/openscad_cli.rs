@@ -24,7 +24,14 @@ fn write(dir: &std::path::Path, name: &str, text: &str) -> String {
 #[test]
 fn render_plan_blist_accept_a_csg() {
     let out = tmp("scad-render");
-    let o = run(&["render", &model("spur_gear.csg"), "--size", "48x48", "--out", out.to_str().unwrap()]);
+    let o = run(&[
+        "render",
+        &model("spur_gear.csg"),
+        "--size",
+        "48x48",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     for f in ["color.png", "depth.npy", "prim.png", "stats.json"] {
         assert!(out.join(f).is_file(), "{f}");
@@ -55,20 +62,48 @@ fn toml_scene_names_a_csg() {
     let out = d.join("out");
     let o = run(&["render", &scene, "--out", out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let bad = write(&d, "bad.toml", "[csg]\nopenscad = \"spur_gear.csg\"\nexpr = \"A\"\n");
-    assert_error(&run(&["render", &bad]), &["bad.toml:1", "csg: openscad", "remove `expr`"]);
+    let bad = write(
+        &d,
+        "bad.toml",
+        "[csg]\nopenscad = \"spur_gear.csg\"\nexpr = \"A\"\n",
+    );
+    assert_error(
+        &run(&["render", &bad]),
+        &["bad.toml:1", "csg: openscad", "remove `expr`"],
+    );
     let missing = write(&d, "missing.toml", "[csg]\nopenscad = \"nope.csg\"\n");
-    assert_error(&run(&["render", &missing]), &["nope.csg", "relative to the scene file"]);
+    assert_error(
+        &run(&["render", &missing]),
+        &["nope.csg", "relative to the scene file"],
+    );
     // `skip_unsupported = true` in the table, as --skip-unsupported.
-    write(&d, "hull.csg", "group() {\n  hull() { cube(size = 1); }\n  sphere(r = 1);\n}\n");
+    write(
+        &d,
+        "hull.csg",
+        "group() {\n  hull() { cube(size = 1); }\n  sphere(r = 1);\n}\n",
+    );
     let strict = write(&d, "strict.toml", "[csg]\nopenscad = \"hull.csg\"\n");
-    assert_error(&run(&["blist", &strict]), &["hull.csg:2:3:", "`hull` is not supported"]);
-    let skip = write(&d, "skip.toml", "[csg]\nopenscad = \"hull.csg\"\nskip_unsupported = true\n");
+    assert_error(
+        &run(&["blist", &strict]),
+        &["hull.csg:2:3:", "`hull` is not supported"],
+    );
+    let skip = write(
+        &d,
+        "skip.toml",
+        "[csg]\nopenscad = \"hull.csg\"\nskip_unsupported = true\n",
+    );
     let o = run(&["blist", &skip]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("hull.csg:2:3: `hull` is not supported and was dropped"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("hull.csg:2:3: `hull` is not supported and was dropped"),
+        "{}",
+        stderr(&o)
+    );
     let misplaced = write(&d, "misplaced.toml", "[[primitive]]\nname = \"A\"\nshape = \"box\"\nsize = [1.0, 1.0, 1.0]\n[csg]\nexpr = \"A\"\nskip_unsupported = true\n");
-    assert_error(&run(&["blist", &misplaced]), &["csg: skip_unsupported", "only with `openscad"]);
+    assert_error(
+        &run(&["blist", &misplaced]),
+        &["csg: skip_unsupported", "only with `openscad"],
+    );
 }
 
 #[test]
@@ -95,14 +130,44 @@ fn bad_models_are_located_errors() {
     for (i, (node, want)) in cases.iter().enumerate() {
         let sub = d.join(i.to_string());
         std::fs::create_dir_all(&sub).unwrap();
-        let f = write(&sub, "x.csg", &format!("group() {{\n  {node}\n  cube(size = 1);\n}}\n"));
-        assert_error(&run(&["render", &f, "--size", "8x8", "--out", d.join("o").to_str().unwrap()]), want);
+        let f = write(
+            &sub,
+            "x.csg",
+            &format!("group() {{\n  {node}\n  cube(size = 1);\n}}\n"),
+        );
+        assert_error(
+            &run(&[
+                "render",
+                &f,
+                "--size",
+                "8x8",
+                "--out",
+                d.join("o").to_str().unwrap(),
+            ]),
+            want,
+        );
     }
     // --skip-unsupported drops the node with a warning naming it.
-    let f = write(&d, "skip.csg", "group() {\n  hull() { cube(size = 1); }\n  cube(size = 1);\n}\n");
-    let o = run(&["render", &f, "--skip-unsupported", "--size", "8x8", "--out", d.join("o").to_str().unwrap()]);
+    let f = write(
+        &d,
+        "skip.csg",
+        "group() {\n  hull() { cube(size = 1); }\n  cube(size = 1);\n}\n",
+    );
+    let o = run(&[
+        "render",
+        &f,
+        "--skip-unsupported",
+        "--size",
+        "8x8",
+        "--out",
+        d.join("o").to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("skip.csg:2:3: `hull` is not supported and was dropped"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("skip.csg:2:3: `hull` is not supported and was dropped"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// 2,000 cylinders. A plate minus 2,000 holes is one product of 2,001

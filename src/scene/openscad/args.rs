@@ -77,7 +77,9 @@ impl<'a> Args<'a> {
     }
 
     pub fn number(&self, name: &str) -> Result<Option<f64>, ScadError> {
-        self.get(name).map(|v| number(v, &self.what(name))).transpose()
+        self.get(name)
+            .map(|v| number(v, &self.what(name)))
+            .transpose()
     }
 
     pub fn boolean(&self, name: &str) -> Result<Option<bool>, ScadError> {
@@ -107,7 +109,9 @@ pub fn number(v: &Value, what: &str) -> Result<f64, ScadError> {
         ValueKind::Number(n) if n.is_finite() => Ok(n),
         ValueKind::Number(n) => Err(ScadError::new(
             v.pos,
-            format!("{what} is {n}: infinite or NaN numbers cannot make geometry; give a finite number"),
+            format!(
+                "{what} is {n}: infinite or NaN numbers cannot make geometry; give a finite number"
+            ),
         )),
         _ => Err(ScadError::new(v.pos, format!("{what} must be a number"))),
     }
@@ -145,9 +149,11 @@ pub fn index(v: &Value, what: &str, len: usize) -> Result<u32, ScadError> {
     if n < 0.0 || n.fract() != 0.0 || n >= len as f64 {
         return Err(ScadError::new(
             v.pos,
-            format!("{what}: {n} is not a point index (an integer from 0 to {})", len as i64 - 1),
+            format!(
+                "{what}: {n} is not a point index (an integer from 0 to {})",
+                len as i64 - 1
+            ),
         ));
     }
     Ok(n as u32)
 }
-

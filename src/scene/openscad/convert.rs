@@ -32,8 +32,18 @@ use crate::scene::Mesh;
 
 /// OpenSCAD's (Cornfield) colours: faces of the solid, faces of subtracted
 /// parts, and `#` highlighted subtrees (with its alpha).
-pub const FRONT_COLOR: [f32; 4] = [0xf9 as f32 / 255.0, 0xd7 as f32 / 255.0, 0x2c as f32 / 255.0, 1.0];
-pub const BACK_COLOR: [f32; 4] = [0x9d as f32 / 255.0, 0xcb as f32 / 255.0, 0x51 as f32 / 255.0, 1.0];
+pub const FRONT_COLOR: [f32; 4] = [
+    0xf9 as f32 / 255.0,
+    0xd7 as f32 / 255.0,
+    0x2c as f32 / 255.0,
+    1.0,
+];
+pub const BACK_COLOR: [f32; 4] = [
+    0x9d as f32 / 255.0,
+    0xcb as f32 / 255.0,
+    0x51 as f32 / 255.0,
+    1.0,
+];
 pub const HIGHLIGHT_COLOR: [f32; 4] = [1.0, 0x51 as f32 / 255.0, 0x51 as f32 / 255.0, 0.5];
 
 /// The node kinds the reader evaluates.
@@ -66,10 +76,22 @@ fn kind(name: &str) -> Option<Kind> {
 }
 
 const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, union, difference, intersection, group, color, render";
-const TWO_D: &[&str] = &["square", "circle", "polygon", "text", "offset", "projection", "import", "surface"];
+const TWO_D: &[&str] = &[
+    "square",
+    "circle",
+    "polygon",
+    "text",
+    "offset",
+    "projection",
+    "import",
+    "surface",
+];
 
 fn is_primitive(k: Kind) -> bool {
-    matches!(k, Kind::Cube | Kind::Sphere | Kind::Cylinder | Kind::Polyhedron)
+    matches!(
+        k,
+        Kind::Cube | Kind::Sphere | Kind::Cylinder | Kind::Polyhedron
+    )
 }
 
 /// What a node's subtree inherits.
@@ -131,14 +153,14 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
     let mut out = Vec::new();
     let mut nodes: Vec<E> = Vec::new();
     let mut term: Vec<Option<Term>> = vec![None; tree.nodes.len()];
-    for i in 0..tree.nodes.len() {
+    for (i, slot) in term.iter_mut().enumerate() {
         let (Some(ctx), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
             continue;
         };
         if !is_primitive(k) {
             continue;
         }
-        term[i] = Some(match c.primitive(i, k, &ctx)? {
+        *slot = Some(match c.primitive(i, k, &ctx)? {
             Some(p) => {
                 nodes.push(E::Leaf {
                     prim: out.len() as u32,
@@ -372,7 +394,10 @@ impl Converter<'_> {
         if !(3..=4).contains(&rows.len()) {
             return Err(ScadError::new(
                 v.pos,
-                format!("{what} must be a 4×4 matrix (rows of 4 numbers), not {} rows", rows.len()),
+                format!(
+                    "{what} must be a 4×4 matrix (rows of 4 numbers), not {} rows",
+                    rows.len()
+                ),
             ));
         }
         for (r, row) in rows.iter().enumerate() {
@@ -380,7 +405,11 @@ impl Converter<'_> {
             if nums.len() != 4 {
                 return Err(ScadError::new(
                     row.pos,
-                    format!("{what}: row {} has {} numbers; each row needs 4", r + 1, nums.len()),
+                    format!(
+                        "{what}: row {} has {} numbers; each row needs 4",
+                        r + 1,
+                        nums.len()
+                    ),
                 ));
             }
             m[r].copy_from_slice(&nums);
@@ -399,7 +428,12 @@ impl Converter<'_> {
         let a = Args::new(node, &["c", "alpha"], &[], &mut self.warnings)?;
         let alpha = a.number("alpha")?;
         let Some(v) = a.get("c") else {
-            return Ok([FRONT_COLOR[0], FRONT_COLOR[1], FRONT_COLOR[2], alpha.unwrap_or(1.0) as f32]);
+            return Ok([
+                FRONT_COLOR[0],
+                FRONT_COLOR[1],
+                FRONT_COLOR[2],
+                alpha.unwrap_or(1.0) as f32,
+            ]);
         };
         let what = "`c` of `color`";
         let rgba: [f64; 4] = match &v.kind {
@@ -426,7 +460,12 @@ impl Converter<'_> {
     }
 
     /// Tessellates primitive `i` and places it; `None` for a degenerate one.
-    fn primitive(&mut self, i: usize, k: Kind, ctx: &Ctx) -> Result<Option<ScadPrimitive>, ScadError> {
+    fn primitive(
+        &mut self,
+        i: usize,
+        k: Kind,
+        ctx: &Ctx,
+    ) -> Result<Option<ScadPrimitive>, ScadError> {
         let tree = self.tree;
         let node = &tree.nodes[i];
         let local = match k {
@@ -501,7 +540,13 @@ impl Converter<'_> {
 
     /// `get_fragments_from_r` with `$fa`/`$fs` clamped as OpenSCAD does, and a cap
     /// on the vertex count (`rings_div`: 2 for a sphere's rings, 1 otherwise).
-    fn fragments(&mut self, node: &Node, a: &Args, r: f64, rings_div: u64) -> Result<u64, ScadError> {
+    fn fragments(
+        &mut self,
+        node: &Node,
+        a: &Args,
+        r: f64,
+        rings_div: u64,
+    ) -> Result<u64, ScadError> {
         let mut res = Resolution::default();
         if let Some(v) = a.get("$fn") {
             res.fn_ = args::number(v, "`$fn`")?;
@@ -533,20 +578,34 @@ impl Converter<'_> {
     }
 
     fn polyhedron(&mut self, node: &Node) -> Result<Option<Mesh>, ScadError> {
-        let a = Args::new(node, &["points", "faces", "convexity"], &["triangles"], &mut self.warnings)?;
+        let a = Args::new(
+            node,
+            &["points", "faces", "convexity"],
+            &["triangles"],
+            &mut self.warnings,
+        )?;
         let Some(pv) = a.get("points") else {
-            return Err(ScadError::new(node.pos, "`polyhedron` needs `points = [[x, y, z], ...]`"));
+            return Err(ScadError::new(
+                node.pos,
+                "`polyhedron` needs `points = [[x, y, z], ...]`",
+            ));
         };
         let points = args::vector(pv, "`points` of `polyhedron`")?
             .iter()
             .map(|p| args::vec3(p, "a point of `polyhedron`"))
             .collect::<Result<Vec<DVec3>, _>>()?;
         let Some(fv) = a.get("faces").or_else(|| a.get("triangles")) else {
-            return Err(ScadError::new(node.pos, "`polyhedron` needs `faces = [[0, 1, 2], ...]`"));
+            return Err(ScadError::new(
+                node.pos,
+                "`polyhedron` needs `faces = [[0, 1, 2], ...]`",
+            ));
         };
         let mut faces = Vec::new();
         let mut tri_face = Vec::new();
-        for (fi, f) in args::vector(fv, "`faces` of `polyhedron`")?.iter().enumerate() {
+        for (fi, f) in args::vector(fv, "`faces` of `polyhedron`")?
+            .iter()
+            .enumerate()
+        {
             let idx = args::vector(f, "a face of `polyhedron`")?
                 .iter()
                 .map(|x| args::index(x, &format!("face {fi} of `polyhedron`"), points.len()))
@@ -554,7 +613,10 @@ impl Converter<'_> {
             if idx.len() < 3 {
                 return Err(ScadError::new(
                     f.pos,
-                    format!("face {fi} of `polyhedron` has {} point(s); a face needs at least 3", idx.len()),
+                    format!(
+                        "face {fi} of `polyhedron` has {} point(s); a face needs at least 3",
+                        idx.len()
+                    ),
                 ));
             }
             tri_face.extend(std::iter::repeat(fi).take(idx.len() - 2));
@@ -563,7 +625,12 @@ impl Converter<'_> {
         let Some(mesh) = tessellate::polyhedron(points, &faces) else {
             return Ok(None);
         };
-        let bad = |msg: String| ScadError::new(node.pos, format!("`polyhedron` is not a closed solid: {msg}"));
+        let bad = |msg: String| {
+            ScadError::new(
+                node.pos,
+                format!("`polyhedron` is not a closed solid: {msg}"),
+            )
+        };
         if let Err(problem) = check_closed(&mesh) {
             let p = |i: u32| {
                 let v = mesh.positions[i as usize];
@@ -604,7 +671,11 @@ fn hex_color(s: &str) -> Option<[f64; 4]> {
     if !(h.len() == 6 || h.len() == 8) || !h.chars().all(|c| c.is_ascii_hexdigit()) {
         return None;
     }
-    let b = |i: usize| u8::from_str_radix(&h[i..i + 2], 16).ok().map(|v| v as f64 / 255.0);
+    let b = |i: usize| {
+        u8::from_str_radix(&h[i..i + 2], 16)
+            .ok()
+            .map(|v| v as f64 / 255.0)
+    };
     let a = if h.len() == 8 { b(6)? } else { 1.0 };
     Some([b(0)?, b(2)?, b(4)?, a])
 }

@@ -100,7 +100,11 @@ pub fn read_model(path: &Path, skip_unsupported: bool) -> Result<Model, SceneErr
 }
 
 /// Converts `.csg` text; `path` names it in errors and warnings.
-pub fn model_from_str(text: &str, path: &Path, skip_unsupported: bool) -> Result<Model, SceneError> {
+pub fn model_from_str(
+    text: &str,
+    path: &Path,
+    skip_unsupported: bool,
+) -> Result<Model, SceneError> {
     let located = |e: ScadError| located_error(text, path, e);
     let tree = parse::parse(text).map_err(located)?;
     let c = convert::convert(&tree, skip_unsupported).map_err(located)?;

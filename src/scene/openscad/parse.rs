@@ -78,11 +78,7 @@ enum Frame {
 
 pub fn parse(text: &str) -> Result<Tree, ScadError> {
     let (toks, eof) = lex(text)?;
-    let mut p = Parser {
-        toks,
-        i: 0,
-        eof,
-    };
+    let mut p = Parser { toks, i: 0, eof };
     let mut tree = Tree::default();
     let mut frames: Vec<Frame> = Vec::new();
     loop {
@@ -143,15 +139,13 @@ pub fn parse(text: &str) -> Result<Tree, ScadError> {
                     }
                 }
             }
-            _ => {
-                return Err(ScadError::new(
-                    pos,
-                    format!(
-                        "expected a node such as `cube(...)`, `group() {{ ... }}` or `}}`, found {}",
-                        describe(&tok)
-                    ),
-                ))
-            }
+            _ => return Err(ScadError::new(
+                pos,
+                format!(
+                    "expected a node such as `cube(...)`, `group() {{ ... }}` or `}}`, found {}",
+                    describe(&tok)
+                ),
+            )),
         };
         // A finished statement completes every enclosing single-child node.
         if finished {
@@ -217,7 +211,10 @@ impl Parser {
                 Some((t, pos)) => {
                     return Err(ScadError::new(
                         pos,
-                        format!("expected a node name after the modifier, found {}", describe(&t)),
+                        format!(
+                            "expected a node name after the modifier, found {}",
+                            describe(&t)
+                        ),
                     ))
                 }
                 None => {
@@ -228,7 +225,10 @@ impl Parser {
                 }
             }
         };
-        self.expect('(', &format!("after `{name}` (a node call is `{name}(...)`)"))?;
+        self.expect(
+            '(',
+            &format!("after `{name}` (a node call is `{name}(...)`)"),
+        )?;
         let mut args = Vec::new();
         if self.peek() == Some(&Tok::Punct(')')) {
             self.i += 1;
@@ -265,12 +265,12 @@ impl Parser {
                             ),
                         ))
                     }
-                    None => {
-                        return Err(ScadError::new(
-                            self.eof,
-                            format!("the file ends inside the arguments of `{name}`: close them with `)`"),
-                        ))
-                    }
+                    None => return Err(ScadError::new(
+                        self.eof,
+                        format!(
+                            "the file ends inside the arguments of `{name}`: close them with `)`"
+                        ),
+                    )),
                 }
             }
         }

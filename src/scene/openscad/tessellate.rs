@@ -164,7 +164,11 @@ pub fn cylinder(h: f64, r1: f64, r2: f64, center: bool, n: u64) -> Option<Mesh> 
     if h <= 0.0 || r1 < 0.0 || r2 < 0.0 || (r1 <= 0.0 && r2 <= 0.0) {
         return None;
     }
-    let (z1, z2) = if center { (-h / 2.0, h / 2.0) } else { (0.0, h) };
+    let (z1, z2) = if center {
+        (-h / 2.0, h / 2.0)
+    } else {
+        (0.0, h)
+    };
     let n32 = n as u32;
     let mut positions = Vec::with_capacity(2 * n as usize);
     // Ring (or apex) at each end: `first` is its first vertex; an apex is one vertex.

@@ -152,14 +152,14 @@ fn syntax_errors_are_located() {
 fn fragments_follow_get_fragments_from_r() {
     let r = |fn_, fa, fs| Resolution { fn_, fa, fs };
     for (radius, res, want) in [
-        (10.0, r(0.0, 12.0, 2.0), 30),  // min(360/12, 31.4) = 30
-        (5.0, r(0.0, 12.0, 2.0), 16),   // ceil(15.7)
-        (1.0, r(0.0, 12.0, 2.0), 5),    // at least 5
-        (5.0, r(0.0, 6.0, 1.0), 32),    // ceil(31.4)
+        (10.0, r(0.0, 12.0, 2.0), 30),   // min(360/12, 31.4) = 30
+        (5.0, r(0.0, 12.0, 2.0), 16),    // ceil(15.7)
+        (1.0, r(0.0, 12.0, 2.0), 5),     // at least 5
+        (5.0, r(0.0, 6.0, 1.0), 32),     // ceil(31.4)
         (100.0, r(0.0, 1.0, 0.01), 360), // 360 / fa
-        (5.0, r(7.9, 12.0, 2.0), 7),    // $fn truncated
-        (5.0, r(2.0, 12.0, 2.0), 3),    // $fn at least 3
-        (0.0, r(64.0, 12.0, 2.0), 3),   // r below GRID_FINE
+        (5.0, r(7.9, 12.0, 2.0), 7),     // $fn truncated
+        (5.0, r(2.0, 12.0, 2.0), 3),     // $fn at least 3
+        (0.0, r(64.0, 12.0, 2.0), 3),    // r below GRID_FINE
         (5.0, r(64.0, 12.0, 2.0), 64),
     ] {
         assert_eq!(fragments(radius, res), want, "r={radius} {res:?}");
@@ -191,7 +191,10 @@ fn sphere_rings_and_caps() {
                     r * phi.cos(),
                 );
                 let got = m.positions[(i * n + j) as usize];
-                assert!(got.distance(want) < 1e-12, "n={n} ring {i} point {j}: {got} vs {want}");
+                assert!(
+                    got.distance(want) < 1e-12,
+                    "n={n} ring {i} point {j}: {got} vs {want}"
+                );
             }
         }
         closed_outward(&m);
@@ -231,7 +234,10 @@ fn cylinders_cones_and_centre() {
 fn cube_size_and_centre() {
     let m = tessellate::cube(DVec3::new(1.0, 2.0, 3.0), false).unwrap();
     let lo = m.positions.iter().fold(DVec3::INFINITY, |a, &p| a.min(p));
-    let hi = m.positions.iter().fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+    let hi = m
+        .positions
+        .iter()
+        .fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
     assert_eq!((lo, hi), (DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0)));
     closed_outward(&m);
     let m = tessellate::cube(DVec3::splat(2.0), true).unwrap();
@@ -264,7 +270,16 @@ fn polyhedron_clockwise_faces_become_ccw() {
     assert_eq!(m.primitives[0].mesh.triangles.len(), 6);
     // A face removed: open, the line and an edge named.
     let e = err("group() {\n polyhedron(points = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 1]], faces = [[0, 4, 1], [1, 4, 2], [3, 4, 0], [0, 1, 2, 3]]);\n}");
-    assert!(e.starts_with("t.csg:2:2:") && e.contains("edge") && e.contains("points["), "{e}");
+    assert!(
+        e.starts_with("t.csg:2:2:") && e.contains("edge") && e.contains("points["),
+        "{e}"
+    );
+    // One face flipped: two faces traverse an edge the same way.
+    let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 3, 2]]);");
+    assert!(
+        e.starts_with("t.csg:1:1:") && e.contains("same direction") && e.contains("points[0]"),
+        "{e}"
+    );
     // Counter-clockwise faces: inside out.
     let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]);");
     assert!(e.contains("inside out"), "{e}");
@@ -280,13 +295,16 @@ fn difference_union_intersection_as_sets() {
         "difference() {\n  cube(size = [4, 4, 4], center = true);\n  cube(size = [2, 2, 10], center = true);\n  multmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 1, center = true);\n}\nintersection() {\n  multmatrix([[1, 0, 0, 10], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  multmatrix([[1, 0, 0, 11], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  group();\n}\n",
     );
     let names: Vec<&str> = m.primitives.iter().map(|p| p.name.as_str()).collect();
-    assert_eq!(names, ["cube_L2", "cube_L3", "cube_L4", "cube_L7", "cube_L8"]);
+    assert_eq!(
+        names,
+        ["cube_L2", "cube_L3", "cube_L4", "cube_L7", "cube_L8"]
+    );
     for (p, want) in [
         (DVec3::new(1.2, 0.0, 0.0), true),
-        (DVec3::new(0.0, 0.0, 0.0), false),  // the hole
-        (DVec3::new(1.8, 0.0, 0.0), false),  // the notch at x = 2
+        (DVec3::new(0.0, 0.0, 0.0), false), // the hole
+        (DVec3::new(1.8, 0.0, 0.0), false), // the notch at x = 2
         (DVec3::new(3.0, 0.0, 0.0), false),
-        (DVec3::new(10.5, 0.0, 0.0), true),  // intersection; the empty group vanished
+        (DVec3::new(10.5, 0.0, 0.0), true), // intersection; the empty group vanished
         (DVec3::new(9.5, 0.0, 0.0), false),
     ] {
         assert_eq!(inside(&m, p), want, "{p}");
@@ -315,7 +333,11 @@ fn multmatrix_composes_row_major_and_colour_keeps_alpha() {
         "multmatrix([[1, 0, 0, 1], [0, 1, 0, 2], [0, 0, 1, 3], [0, 0, 0, 1]]) {\n multmatrix([[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) {\n  color([0, 0, 1, 0.25]) color([1, 0, 0, 1]) cube(size = 1);\n }\n}",
     );
     let p = &m.primitives[0];
-    let hi = p.mesh.positions.iter().fold(DVec3::NEG_INFINITY, |a, &q| a.max(q));
+    let hi = p
+        .mesh
+        .positions
+        .iter()
+        .fold(DVec3::NEG_INFINITY, |a, &q| a.max(q));
     assert_eq!(hi, DVec3::new(3.0, 3.0, 4.0));
     // The outermost colour wins (OpenSCAD 2021.01), alpha kept.
     assert_eq!(p.color, [0, 0, 255]);
@@ -333,12 +355,19 @@ fn modifiers() {
     let m = model("%sphere(r = 1);\n#cube(size = 1);\n*cube(size = 5);");
     assert_eq!(m.primitives.len(), 1);
     assert_eq!(m.primitives[0].color, [255, 81, 81]);
-    assert!(m.warnings.iter().any(|w| w.contains("t.csg:1:2:") && w.contains("background")));
+    assert!(m
+        .warnings
+        .iter()
+        .any(|w| w.contains("t.csg:1:2:") && w.contains("background")));
     // `!`: only that subtree, without its ancestors' transforms.
     let m = model("cube(size = 9);\nmultmatrix([[1, 0, 0, 5], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) { !sphere(r = 1, $fn = 6); }");
     assert_eq!(m.primitives.len(), 1);
     assert_eq!(m.primitives[0].name, "sphere_L2");
-    assert!(m.primitives[0].mesh.positions.iter().all(|p| p.length() < 1.0 + 1e-9));
+    assert!(m.primitives[0]
+        .mesh
+        .positions
+        .iter()
+        .all(|p| p.length() < 1.0 + 1e-9));
 }
 
 #[test]
@@ -360,22 +389,44 @@ fn unsupported_nodes_and_geometry_errors() {
         let name = &node[..node.find('(').unwrap()];
         let e = err(&format!("group() {{\n  cube();\n  {node}\n}}"));
         assert!(
-            e.starts_with("t.csg:3:3:") && e.contains(&format!("`{name}`")) && e.contains("not supported"),
+            e.starts_with("t.csg:3:3:")
+                && e.contains(&format!("`{name}`"))
+                && e.contains("not supported"),
             "{e}"
         );
-        let m = model_from_str(&format!("group() {{\n  cube();\n  {node}\n}}"), Path::new("t.csg"), true).unwrap();
+        let m = model_from_str(
+            &format!("group() {{\n  cube();\n  {node}\n}}"),
+            Path::new("t.csg"),
+            true,
+        )
+        .unwrap();
         assert_eq!(m.primitives.len(), 1);
-        assert!(m.warnings.iter().any(|w| w.contains(":3:3:") && w.contains(name)), "{:?}", m.warnings);
+        assert!(
+            m.warnings
+                .iter()
+                .any(|w| w.contains(":3:3:") && w.contains(name)),
+            "{:?}",
+            m.warnings
+        );
     }
     for (src, want) in [
         ("cube(size = [1, inf, 1]);", "t.csg:1:17:"),
         ("sphere(r = nan);", "t.csg:1:12:"),
         ("cylinder(h = -inf, r1 = 1, r2 = 1);", "t.csg:1:14:"),
-        ("multmatrix([[1, 0, 0, nan], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube();", "t.csg:1:23:"),
-        ("polyhedron(points = [[0, 0, inf]], faces = []);", "t.csg:1:29:"),
+        (
+            "multmatrix([[1, 0, 0, nan], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube();",
+            "t.csg:1:23:",
+        ),
+        (
+            "polyhedron(points = [[0, 0, inf]], faces = []);",
+            "t.csg:1:29:",
+        ),
     ] {
         let e = err(src);
-        assert!(e.starts_with(want) && e.contains("infinite or NaN"), "{src}: {e}");
+        assert!(
+            e.starts_with(want) && e.contains("infinite or NaN"),
+            "{src}: {e}"
+        );
     }
     let e = err("cube(size = 1) { sphere(); }");
     assert!(e.contains("takes no children"), "{e}");
@@ -419,10 +470,50 @@ fn depth(e: &Expr) -> usize {
 const VALID: &str = "difference() {\n\tcube(size = [10, 10, 2], center = true);\n#\tmultmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) {\n\t\tcylinder($fn = 12, $fa = 12, $fs = 2, h = 5, r1 = 1.5, r2 = 1.5, center = true);\n\t}\n}\n%sphere(r = 3);\ncolor([1, 0, 0, 0.5]) polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 2, 3]]);\n";
 
 const PIECES: &[&str] = &[
-    "group()", "cube(", "sphere(", "cylinder(", "polyhedron(", "multmatrix(", "color(",
-    "difference()", "intersection()", "hull()", "(", ")", "{", "}", "[", "]", ",", ";", "=",
-    "%", "#", "!", "*", "-", "1", "0", "-2.5", "1e-06", "inf", "nan", "undef", "true",
-    "\"s\\n\"", "r", "size", "$fn", " ", "\n", "/*", "*/", "//", "\"", "\\", "é",
+    "group()",
+    "cube(",
+    "sphere(",
+    "cylinder(",
+    "polyhedron(",
+    "multmatrix(",
+    "color(",
+    "difference()",
+    "intersection()",
+    "hull()",
+    "(",
+    ")",
+    "{",
+    "}",
+    "[",
+    "]",
+    ",",
+    ";",
+    "=",
+    "%",
+    "#",
+    "!",
+    "*",
+    "-",
+    "1",
+    "0",
+    "-2.5",
+    "1e-06",
+    "inf",
+    "nan",
+    "undef",
+    "true",
+    "\"s\\n\"",
+    "r",
+    "size",
+    "$fn",
+    " ",
+    "\n",
+    "/*",
+    "*/",
+    "//",
+    "\"",
+    "\\",
+    "é",
 ];
 
 fn check_outcome(text: &str) {
