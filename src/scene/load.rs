@@ -22,6 +22,9 @@
 //!   unique among solids.
 //! - `LoadOptions::size` overrides `[render]` width/height before `fit`, and the
 //!   final size is stored in `Scene::render`.
+//! - Extension: `[csg] openscad = "model.csg"` makes an OpenSCAD model the whole
+//!   scene (`super::openscad`), with OpenSCAD's camera and background defaults;
+//!   a path ending in `.csg` is loaded as that scene with every default.
 
 use glam::DVec3;
 use serde::de::{self, Deserializer, Visitor};
