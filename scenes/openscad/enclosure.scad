@@ -5,7 +5,7 @@ difference() {
     union() {
         difference() {
             cube([w, d, h]);
-            translate([wall, wall, wall]) cube([w - 2 * wall, d - 2 * wall, h]);
+            translate([wall, wall, wall]) cube([w - 2 * wall, d - 2 * wall, h - wall / 2]);  // ends inside the lid: no coincident faces
         }
         for (x = [6, w - 6], y = [6, d - 6])
             translate([x, y, 0]) cylinder(r = 3, h = h - 5, $fn = 20);   // bosses
