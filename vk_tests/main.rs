@@ -8,7 +8,9 @@
 mod algorithms;
 mod classic;
 mod cst;
+mod openscad;
 mod rounding;
+mod scad_models;
 mod setup;
 mod stability;
 
