@@ -20,22 +20,29 @@
 //!    more than an ulp of D32 near 1.0 (standard Z: ulp 2^-24); with reversed Z
 //!    it becomes a few ulps of the value (below), matching float's relative ulp.
 //!
-//! A tolerance test therefore compares |z_fragment − z_visible| with
+//! A tolerance test therefore compares |z_fragment − z_texture| with
 //! `eps' + TIE_SLOPES · 2^-bits · fwidth(z)`, `bits` the device's own
 //! `subPixelPrecisionBits` (the executor passes it in the push constants' flags;
-//! the rounding emulation passes the emulated device's), [`TIE_SLOPES`] = 2: the
-//! bound above with a factor two for the second-order terms of thin triangles and
-//! for interpolation rounding. `eps'` is [`SHADE_EPS`] with standard Z, and
-//! [`REVERSED_SCALE`] · eps · z with reversed Z (2–4 ulps of the stored float).
-//! Every tolerant shader (`shade_near_depth`, `nearer_than`, `peel_tolerant`)
-//! adds the slope term in the direction of its signed eps; an eps of 0 stays an
-//! exact compare. With the bound holding on every conformant device, the set of
-//! primitives "coincident" at a pixel is the same on every device, and drawing
-//! them in descending index order with the last writer winning picks the lowest
-//! index deterministically: the result no longer depends on which face the
-//! device happened to rasterize nearest. The device's own precision (not the
-//! 4-bit minimum) keeps walls thinner than 1/16 pixel's worth of depth slope
-//! resolvable where the device resolves them (an 8-bit device: 1/128 pixel).
+//! the rounding emulation passes the emulated device's), [`TIE_SLOPES`] = 1: the
+//! two-sided bound above. `eps'` is [`SHADE_EPS`] with standard Z, and
+//! [`REVERSED_SCALE`] · eps · z with reversed Z (1–2 ulps of the stored float).
+//! The slope term is for coplanar faces snapped differently, so it applies only
+//! where the fragment's depth gradient agrees (within 1/32) with the texture
+//! face's, read from one-sided texel differences: a face crossing the other at a
+//! shallow angle is not a tie (near-tangent sphere crossings in a deep tree were
+//! taken as ties over bands wider than a pixel). The final shading accepts the
+//! visible face by its own raster depth (within eps'), any other face by its
+//! plane depth (unsnapped, below) within eps' plus the visible depth's one-sided
+//! snapping and with an agreeing gradient. Every tolerant shader
+//! (`shade_near_depth`, `nearer_than`, `peel_tolerant`) includes the same code,
+//! `shaders/tie.glsl`, and adds the slope term in the direction of its signed eps;
+//! an eps of 0 stays an exact compare. With the bound holding on every
+//! conformant device, the set of primitives "coincident" at a pixel is the same
+//! on every device, and drawing them in descending index order with the last
+//! writer winning picks the lowest index deterministically: the result no longer
+//! depends on which face the device happened to rasterize nearest. The device's
+//! own precision (not the 4-bit minimum) keeps walls thinner than 1/16 pixel's
+//! worth of depth slope resolvable where the device resolves them.
 //!
 //! The final pass also writes the depth output itself: the winning face's plane
 //! evaluated at the pixel centre (`shaders/shade_near_depth.frag`), which removes
@@ -53,11 +60,11 @@ pub const SHADE_EPS: f32 = 1.0 / (1u32 << 20) as f32;
 
 /// The slope part of every non-zero depth tolerance, in snapping steps: the
 /// shaders add `TIE_SLOPES · 2^-bits · fwidth(gl_FragCoord.z)` (module doc). The
-/// shaders hold the same literal (`const float TIE_SLOPES`), checked by a test.
+/// shaders hold the same literal (`shaders/tie.glsl`), checked by a test.
 pub const TIE_SLOPES: f32 = 1.0;
 
-/// With reversed Z the shaders scale eps by `REVERSED_SCALE · z`: 2⁻²² z, between
-/// 2 and 4 ulps of the stored float (`const float REVERSED_SCALE`, checked by a
+/// With reversed Z the shaders scale eps by `REVERSED_SCALE · z`: 2⁻²³ z, between
+/// 1 and 2 ulps of the stored float (`shaders/tie.glsl`, checked by a
 /// test). Thinner than 2⁻²⁰ z so that a 1e-4 wall 300 units away (3e-7 of its
 /// depth) stays resolvable.
 pub const REVERSED_SCALE: f32 = 0.125;
@@ -105,18 +112,23 @@ pub fn shade_near_depth(
 mod tests {
     use super::*;
 
-    /// The shaders carry the constants as literals; they must agree with the plan's.
+    /// The shaders carry the constants as literals (in `tie.glsl`, included by
+    /// every tolerant shader); they must agree with the plan's.
     #[test]
     fn shaders_use_the_plans_tie_constants() {
-        let want = format!(
-            "const float TIE_SLOPES = {TIE_SLOPES:?};\nconst float REVERSED_SCALE = {REVERSED_SCALE:?};"
-        );
+        let tie = include_str!("../../shaders/tie.glsl");
+        for want in [
+            format!("const float TIE_SLOPES = {TIE_SLOPES:?};"),
+            format!("const float REVERSED_SCALE = {REVERSED_SCALE:?};"),
+        ] {
+            assert!(tie.contains(&want), "tie.glsl lacks `{want}`");
+        }
         for (name, src) in [
             ("shade_near_depth", include_str!("../../shaders/shade_near_depth.frag")),
             ("nearer_than", include_str!("../../shaders/nearer_than.frag")),
             ("peel_tolerant", include_str!("../../shaders/peel_tolerant.frag")),
         ] {
-            assert!(src.contains(&want), "{name}.frag lacks `{want}`");
+            assert!(src.contains("#include \"tie.glsl\""), "{name}.frag does not include tie.glsl");
         }
     }
 
