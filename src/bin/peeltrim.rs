@@ -41,12 +41,17 @@ struct GpuArgs {
     /// auto: a hardware GPU when present, else lavapipe; cpu: lavapipe; gpu: hardware only
     #[arg(long, value_enum, default_value = "auto")]
     device: DeviceArg,
-    /// Depth-stencil format of the GPU algorithms
-    #[arg(long, value_enum, default_value = "d32s8")]
-    depth_format: DepthFormatArg,
-    /// Reversed depth (near = 1) in a floating-point depth buffer (needs d32s8)
-    #[arg(long)]
+    /// Depth-stencil format of the GPU algorithms [default: d32s8 with reversed Z,
+    /// or d24s8 where the device cannot use d32s8]
+    #[arg(long, value_enum)]
+    depth_format: Option<DepthFormatArg>,
+    /// Reversed depth (near = 1) in a floating-point depth buffer: the default
+    /// with d32s8 (kept for scripts)
+    #[arg(long, conflicts_with = "standard_z")]
     reversed_z: bool,
+    /// Standard depth (near = 0) instead of reversed in a d32s8 buffer
+    #[arg(long)]
+    standard_z: bool,
     /// Run with the Vulkan validation layers (always on in debug builds)
     #[arg(long)]
     validation: bool,
@@ -57,6 +62,15 @@ struct GpuArgs {
     /// Goldfeather's and Trickle's limit on the sum-of-products size
     #[arg(long, default_value_t = peeltrim::plan::goldfeather::DEFAULT_PRODUCT_LIMIT)]
     max_products: usize,
+}
+
+/// Options for OpenSCAD `.csg` models.
+#[derive(clap::Args, Clone, Copy)]
+struct ScadArgs {
+    /// OpenSCAD models: drop nodes peeltrim cannot draw (hull, minkowski,
+    /// extrusions, 2D shapes, ...) with a warning listing each, instead of failing
+    #[arg(long)]
+    skip_unsupported: bool,
 }
 
 fn parse_eps(s: &str) -> Result<f32, String> {
@@ -82,18 +96,22 @@ enum Cmd {
         out: PathBuf,
         #[command(flatten)]
         gpu: GpuArgs,
+        #[command(flatten)]
+        scad: ScadArgs,
     },
     /// Print the Blist of an expression or of a scene's solid(s) as JSON
     Blist {
         /// An expression such as "(A+B)(C-(D-E))", or a scene file
         input: String,
+        #[command(flatten)]
+        scad: ScadArgs,
     },
     /// Compare two render output directories (depth.npy and prim.png)
     Compare { a: PathBuf, b: PathBuf },
     /// Time algorithms on scenes (speed against error); writes results.json,
     /// results.csv, summary.md, plots/ and images/ into --out
     Bench {
-        /// Scene files (default: every scenes/*.toml)
+        /// Scene files (default: every scenes/*.toml and scenes/openscad/*.csg)
         scenes: Vec<PathBuf>,
         /// Comma-separated algorithms, or "all"
         #[arg(long, default_value = "all")]
@@ -142,12 +160,16 @@ enum Cmd {
         size: Option<(u32, u32)>,
         #[command(flatten)]
         gpu: GpuArgs,
+        #[command(flatten)]
+        scad: ScadArgs,
     },
     /// Print an algorithm's plan (the steps it records) for a scene
     Plan {
         scene: PathBuf,
         #[arg(long, default_value = "blister", value_parser = parse_algo)]
         algo: Algo,
+        #[command(flatten)]
+        scad: ScadArgs,
     },
 }
 
@@ -188,7 +210,8 @@ fn parse_family(s: &str) -> Result<(String, Vec<u32>)> {
     Ok((name.to_string(), ns))
 }
 
-/// The shipped scenes next to the binary's source tree, or under ./scenes.
+/// The shipped scenes (`scenes/*.toml`, then `scenes/openscad/*.csg`) next to the
+/// binary's source tree, or under ./scenes.
 fn shipped_scenes() -> Result<Vec<PathBuf>> {
     let dir = [
         PathBuf::from("scenes"),
@@ -202,6 +225,15 @@ fn shipped_scenes() -> Result<Vec<PathBuf>> {
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
     v.sort();
+    // The OpenSCAD models, loaded as they are.
+    if let Ok(models) = std::fs::read_dir(dir.join("openscad")) {
+        let mut m: Vec<PathBuf> = models
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "csg"))
+            .collect();
+        m.sort();
+        v.extend(m);
+    }
     Ok(v)
 }
 
@@ -219,13 +251,14 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
+    // Reversed Z unless asked otherwise; only the default falls back to d24s8.
     let depth = match (g.depth_format, g.reversed_z) {
-        (DepthFormatArg::D24s8, true) => {
+        (Some(DepthFormatArg::D24s8), true) => {
             bail!("--reversed-z needs a floating-point depth buffer: use --depth-format d32s8")
         }
-        (DepthFormatArg::D24s8, false) => DepthSetup::D24S8,
-        (DepthFormatArg::D32s8, false) => DepthSetup::D32S8,
-        (DepthFormatArg::D32s8, true) => DepthSetup::D32S8Reversed,
+        (Some(DepthFormatArg::D24s8), false) => DepthSetup::D24S8,
+        (_, _) if g.standard_z => DepthSetup::D32S8,
+        (_, _) => DepthSetup::D32S8Reversed,
     };
     let device = match g.device {
         DeviceArg::Auto => peeltrim::vk::DeviceChoice::Auto,
@@ -244,13 +277,14 @@ fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
         algo,
         device,
         depth,
+        depth_fallback: g.depth_format.is_none(),
         validation: g.validation || cfg!(debug_assertions),
         build,
     })
 }
 
-fn load(path: &Path, size: Option<(u32, u32)>) -> Result<scene::Scene> {
-    let scene = scene::load(path, &LoadOptions { size })?;
+fn load(path: &Path, size: Option<(u32, u32)>, scad: ScadArgs) -> Result<scene::Scene> {
+    let scene = scene::load_with(path, &LoadOptions { size }, scad.skip_unsupported)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -265,9 +299,10 @@ fn run(cli: Cli) -> Result<ExitCode> {
             size,
             out,
             gpu,
+            scad,
         } => {
             let opts = render_options(algo, &gpu)?;
-            let scene = load(&scene, size)?;
+            let scene = load(&scene, size, scad)?;
             if let Ok(prep) = peeltrim::plan::Prepared::new(&scene) {
                 for w in prep.warnings(opts.algo) {
                     eprintln!("peeltrim: warning: {w}");
@@ -297,8 +332,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 out.display()
             );
         }
-        Cmd::Blist { input } => {
-            let json = blist_json(&input)?;
+        Cmd::Blist { input, scad } => {
+            let json = blist_json(&input, scad)?;
             println!("{}", serde_json::to_string_pretty(&json)?);
         }
         Cmd::Compare { a, b } => {
@@ -372,9 +407,10 @@ fn run(cli: Cli) -> Result<ExitCode> {
             algo,
             size,
             gpu,
-        } => return view(&scene, algo, size, &gpu),
-        Cmd::Plan { scene, algo } => {
-            let scene = load(&scene, None)?;
+            scad,
+        } => return view(&scene, algo, size, &gpu, scad),
+        Cmd::Plan { scene, algo, scad } => {
+            let scene = load(&scene, None, scad)?;
             let prep = peeltrim::plan::Prepared::new(&scene)?;
             for w in prep.warnings(algo) {
                 eprintln!("peeltrim: warning: {w}");
@@ -399,9 +435,15 @@ fn run(cli: Cli) -> Result<ExitCode> {
 }
 
 #[cfg(feature = "viewer")]
-fn view(path: &Path, algo: Algo, size: Option<(u32, u32)>, gpu: &GpuArgs) -> Result<ExitCode> {
+fn view(
+    path: &Path,
+    algo: Algo,
+    size: Option<(u32, u32)>,
+    gpu: &GpuArgs,
+    scad: ScadArgs,
+) -> Result<ExitCode> {
     let opts = render_options(algo, gpu)?;
-    let scene = load(path, size)?;
+    let scene = load(path, size, scad)?;
     let frames = match std::env::var("PEELTRIM_VIEW_FRAMES") {
         Ok(v) => Some(
             v.trim()
@@ -426,8 +468,14 @@ fn view(path: &Path, algo: Algo, size: Option<(u32, u32)>, gpu: &GpuArgs) -> Res
 }
 
 #[cfg(not(feature = "viewer"))]
-fn view(path: &Path, _algo: Algo, size: Option<(u32, u32)>, _gpu: &GpuArgs) -> Result<ExitCode> {
-    load(path, size)?;
+fn view(
+    path: &Path,
+    _algo: Algo,
+    size: Option<(u32, u32)>,
+    _gpu: &GpuArgs,
+    scad: ScadArgs,
+) -> Result<ExitCode> {
+    load(path, size, scad)?;
     eprintln!(
         "peeltrim: this build has no viewer (built without the `viewer` feature); \
          rebuild with `cargo build --features viewer` (on by default), or use \
@@ -437,11 +485,11 @@ fn view(path: &Path, _algo: Algo, size: Option<(u32, u32)>, _gpu: &GpuArgs) -> R
 }
 
 /// `blist EXPR` names its own primitives; `blist SCENE.toml` uses the scene's.
-fn blist_json(input: &str) -> Result<serde_json::Value> {
+fn blist_json(input: &str, scad: ScadArgs) -> Result<serde_json::Value> {
     use peeltrim::csg::{Blist, PositiveExpr};
     let path = Path::new(input);
-    let (expr, names) = if input.ends_with(".toml") || path.is_file() {
-        let scene = load(path, None)?;
+    let (expr, names) = if input.ends_with(".toml") || input.ends_with(".csg") || path.is_file() {
+        let scene = load(path, None, scad)?;
         let expr = peeltrim::plan::union_of_solids(&scene)
             .with_context(|| format!("{}: the scene has no [csg] or [[solid]]", path.display()))?;
         (

@@ -26,7 +26,7 @@ use crate::plan::{Clear, Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::image::range;
-use crate::vk::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_REVERSED_Z};
+use crate::vk::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants};
 use crate::vk::scissor::{bounds_rect, Rect};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
@@ -52,6 +52,10 @@ pub(super) struct Bindings<'a> {
     /// `None` when the queue has no timestamps.
     pub timestamps: Option<vk::QueryPool>,
     pub clears: ClearMode,
+    /// Push-constant flags (reversed Z, subpixel precision).
+    pub flags: u32,
+    /// Emulated vertex snapping step of mesh draws (zero: off).
+    pub snap: [f32; 2],
 }
 
 /// How a plan's clears of attachments are recorded.
@@ -591,11 +595,7 @@ impl<'a> Recorder<'a> {
     }
 
     fn flags(&self) -> u32 {
-        if self.b.desc.reversed_z {
-            FLAG_REVERSED_Z
-        } else {
-            0
-        }
+        self.b.flags
     }
 
     fn fullscreen_matrix(depth: f32) -> [f32; 16] {
@@ -696,6 +696,8 @@ impl<'a> Recorder<'a> {
                     color,
                     prim: 0,
                     flags,
+                    // Full-screen rectangles stay unsnapped.
+                    snap: [0.0; 2],
                 };
                 self.push(&pc);
                 // SAFETY: inside a block with a bound pipeline and vertex buffer.
@@ -739,6 +741,7 @@ impl<'a> Recorder<'a> {
                         color,
                         prim: m + 1,
                         flags,
+                        snap: self.b.snap,
                     };
                     self.push(&pc);
                     if count > 0 {
