@@ -132,6 +132,10 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let mut steps = init_steps();
     let mut loops = false;
     for p in &prods {
+        if let Some(direct) = direct_steps(p, prep) {
+            steps.extend(direct);
+            continue;
+        }
         for (i, &a) in p.iter().enumerate() {
             let others: Vec<Lit> = p
                 .iter()
@@ -196,6 +200,33 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         output_ds: OUTPUT,
         steps,
     })
+}
+
+/// A product of one positive primitive is that primitive: its nearest front
+/// face is drawn straight into the output depth with one draw (as OpenCSG's
+/// users do), with no surface image, clip or merge. Not when the eye is inside
+/// it: then the product's visible point is not on a front face.
+pub(crate) fn direct_steps(p: &[Lit], prep: &Prepared) -> Option<Vec<Step>> {
+    let [a] = p else { return None };
+    if a.negated || prep.eye_inside.get(a.prim as usize).copied().unwrap_or(false) {
+        return None;
+    }
+    Some(vec![
+        Step::Pass("direct".into()),
+        Step::Draw(Draw {
+            geometry: Geometry::Mesh(a.prim),
+            scissor: Scissor::BoundsOf(vec![a.prim]),
+            cull: a.visible_cull(),
+            ds: OUTPUT,
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: None,
+            fragment: Fragment::None,
+            count_samples: false,
+        }),
+    ])
 }
 
 pub(crate) fn init_steps() -> Vec<Step> {
