@@ -137,7 +137,8 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
         .copied()
         .filter(|&a| a != Algo::Reference)
         .collect();
-    let per_size = 1 + gpu_algos.len() * cfg.depth_setups.len() + usize::from(cfg.baseline.is_some());
+    let per_size =
+        1 + gpu_algos.len() * cfg.depth_setups.len() + usize::from(cfg.baseline.is_some());
     let total = (scenes.len() * cfg.sizes.len() * per_size) as u64;
     let bar = if cfg.progress {
         ProgressBar::new(total)

@@ -104,7 +104,7 @@ pub fn gl_projection(scene: &Scene, aspect: f64) -> DMat4 {
 /// The NDC box of a mesh's vertices; the whole cube when a vertex is at or
 /// behind the eye plane (its projection would wrap).
 fn ndc_box(clip: &DMat4, positions: &[glam::DVec3]) -> [f64; 6] {
-    let mut b = [1.0, 1.0, 1.0, -1.0, -1.0, -1.0];
+    let mut b: [f64; 6] = [1.0, 1.0, 1.0, -1.0, -1.0, -1.0];
     for p in positions {
         let c: DVec4 = *clip * p.extend(1.0);
         if c.w <= 1e-12 {
@@ -130,7 +130,11 @@ pub fn export(scene: &Scene, w: u32, h: u32, products: &[ScadProduct], convex: &
     let _ = writeln!(s, "view {}\nproj {}", mat_gl(&view), mat_gl(&proj));
     let _ = writeln!(s, "prims {}", scene.primitives.len());
     for (i, p) in scene.primitives.iter().enumerate() {
-        let convexity = if convex.get(i).copied().unwrap_or(false) { 1 } else { 0 };
+        let convexity = if convex.get(i).copied().unwrap_or(false) {
+            1
+        } else {
+            0
+        };
         let [r, g, b] = p.color;
         let bx = ndc_box(&clip, &p.mesh.positions);
         let _ = write!(s, "prim {convexity} {r} {g} {b}");
@@ -183,7 +187,10 @@ fn parse_results(text: &str) -> Result<(Vec<u32>, Vec<VariantResult>), String> {
                 let (head, renderer) = line.split_once(" renderer ").unwrap_or((line, ""));
                 let f: Vec<&str> = head.split_whitespace().collect();
                 let num = |k: &str| -> Result<f64, String> {
-                    let i = f.iter().position(|w| *w == k).ok_or(format!("no {k} in '{line}'"))?;
+                    let i = f
+                        .iter()
+                        .position(|w| *w == k)
+                        .ok_or(format!("no {k} in '{line}'"))?;
                     f.get(i + 1)
                         .and_then(|v| v.parse().ok())
                         .ok_or(format!("bad {k} in '{line}'"))
@@ -210,7 +217,11 @@ fn read_images(dir: &Path, variant: &str, scene: &Scene, w: u32, h: u32) -> Resu
         let p = dir.join(format!("{variant}.{ext}"));
         let v = std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?;
         if v.len() != bytes {
-            return Err(format!("{}: {} bytes, expected {bytes}", p.display(), v.len()));
+            return Err(format!(
+                "{}: {} bytes, expected {bytes}",
+                p.display(),
+                v.len()
+            ));
         }
         Ok(v)
     };
@@ -228,7 +239,9 @@ fn read_images(dir: &Path, variant: &str, scene: &Scene, w: u32, h: u32) -> Resu
             if id == 0 || d >= 1.0 {
                 f32::INFINITY
             } else {
-                scene.camera.view_depth_from_ndc(d, DepthConvention::Standard) as f32
+                scene
+                    .camera
+                    .view_depth_from_ndc(d, DepthConvention::Standard) as f32
             }
         })
         .collect();
@@ -325,7 +338,12 @@ pub fn run_scene(
         .and_then(|t| parse_results(&t));
     let (convexity, variants) = match results {
         Ok(r) => r,
-        Err(e) => return fail(format!("reading {}: {e}", work.join("results.txt").display())),
+        Err(e) => {
+            return fail(format!(
+                "reading {}: {e}",
+                work.join("results.txt").display()
+            ))
+        }
     };
     let single = products
         .iter()
@@ -356,9 +374,11 @@ pub fn run_scene(
             "product_literals": literals,
             "max_convexity": convexity.iter().copied().max().unwrap_or(0),
         });
-        match read_images(work, &v.name, scene, w, h)
-            .and_then(|img| compare(reference, &img).map(|c| (c, img)).map_err(|e| e.to_string()))
-        {
+        match read_images(work, &v.name, scene, w, h).and_then(|img| {
+            compare(reference, &img)
+                .map(|c| (c, img))
+                .map_err(|e| e.to_string())
+        }) {
             Ok((c, img)) => {
                 r.error = serde_json::to_value(c).unwrap_or_default();
                 rows.push((r, Some(img)));
@@ -459,7 +479,8 @@ mod tests {
     use super::*;
 
     fn scene(toml: &str) -> Scene {
-        crate::scene::load_str(toml, Path::new("t.toml"), &Default::default()).expect("test scene loads")
+        crate::scene::load_str(toml, Path::new("t.toml"), &Default::default())
+            .expect("test scene loads")
     }
 
     #[test]
@@ -484,7 +505,9 @@ mod tests {
         for d in [1.0, 2.5, 9.0] {
             let c = proj * DVec4::new(0.0, 0.0, -d, 1.0);
             let window = 0.5 * (c.z / c.w) + 0.5;
-            let back = sc.camera.view_depth_from_ndc(window, DepthConvention::Standard);
+            let back = sc
+                .camera
+                .view_depth_from_ndc(window, DepthConvention::Standard);
             assert!((back - d).abs() < 1e-9, "{d} -> {window} -> {back}");
         }
     }

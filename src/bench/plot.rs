@@ -163,7 +163,11 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
         // OpenCSG's rows (a baseline, timed by wall clock) are black triangles.
         if algo.starts_with(super::opencsg::PREFIX) {
             chart
-                .draw_series(std::iter::once(TriangleMarker::new((*x, *y), 7, BLACK.filled())))
+                .draw_series(std::iter::once(TriangleMarker::new(
+                    (*x, *y),
+                    7,
+                    BLACK.filled(),
+                )))
                 .map_err(|e| err(path, e))?;
         } else {
             let c = algo_color(algo);

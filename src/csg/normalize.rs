@@ -139,31 +139,55 @@ fn make(op: Op, l: T, r: T) -> T {
 
 /// One of the nine rules at `n`, if any applies: the rewritten node.
 fn rewrite(n: &Rc<N>) -> Option<T> {
-    let Kind::Op { op, l: x, r } = &n.kind else {
+    let Kind::Op { op, l: left, r } = &n.kind else {
         return None;
     };
-    let (op, x) = (*op, || Some(x.clone()));
+    let (op, x) = (*op, || Some(left.clone()));
     if op == Op::Union {
         return None;
     }
-    if let Kind::Op { op: rop, l: y, r: z } = &r.kind {
+    if let Kind::Op {
+        op: rop,
+        l: y,
+        r: z,
+    } = &r.kind
+    {
         let (y, z) = (Some(y.clone()), Some(z.clone()));
         return Some(match (op, rop) {
             (Op::Diff, Op::Union) => make(Op::Diff, make(Op::Diff, x(), y), z),
-            (Op::Inter, Op::Union) => make(Op::Union, make(Op::Inter, x(), y), make(Op::Inter, x(), z)),
-            (Op::Diff, Op::Inter) => make(Op::Union, make(Op::Diff, x(), y), make(Op::Diff, x(), z)),
+            (Op::Inter, Op::Union) => {
+                make(Op::Union, make(Op::Inter, x(), y), make(Op::Inter, x(), z))
+            }
+            (Op::Diff, Op::Inter) => {
+                make(Op::Union, make(Op::Diff, x(), y), make(Op::Diff, x(), z))
+            }
             (Op::Inter, Op::Inter) => make(Op::Inter, make(Op::Inter, x(), y), z),
-            (Op::Diff, Op::Diff) => make(Op::Union, make(Op::Diff, x(), y), make(Op::Inter, x(), z)),
+            (Op::Diff, Op::Diff) => {
+                make(Op::Union, make(Op::Diff, x(), y), make(Op::Inter, x(), z))
+            }
             (Op::Inter, Op::Diff) => make(Op::Diff, make(Op::Inter, x(), y), z),
             (Op::Union, _) => unreachable!("returned above"),
         });
     }
     let z = || Some(r.clone());
-    if let Kind::Op { op: lop, l: lx, r: ly } = &x.kind {
+    if let Kind::Op {
+        op: lop,
+        l: lx,
+        r: ly,
+    } = &left.kind
+    {
         let (lx, ly) = (|| Some(lx.clone()), || Some(ly.clone()));
         return match (op, lop) {
-            (Op::Diff, Op::Union) => Some(make(Op::Union, make(Op::Diff, lx(), z()), make(Op::Diff, ly(), z()))),
-            (Op::Inter, Op::Union) => Some(make(Op::Union, make(Op::Inter, lx(), z()), make(Op::Inter, ly(), z()))),
+            (Op::Diff, Op::Union) => Some(make(
+                Op::Union,
+                make(Op::Diff, lx(), z()),
+                make(Op::Diff, ly(), z()),
+            )),
+            (Op::Inter, Op::Union) => Some(make(
+                Op::Union,
+                make(Op::Inter, lx(), z()),
+                make(Op::Inter, ly(), z()),
+            )),
             (Op::Inter, Op::Diff) => Some(make(Op::Diff, make(Op::Inter, lx(), z()), ly())),
             _ => None,
         };
@@ -273,7 +297,11 @@ fn products(root: &T) -> Vec<ScadProduct> {
                     push(&cur, false);
                     break;
                 }
-                Kind::Op { op: Op::Inter, l, r } => {
+                Kind::Op {
+                    op: Op::Inter,
+                    l,
+                    r,
+                } => {
                     push(r, false);
                     l.clone()
                 }
@@ -347,8 +375,10 @@ mod tests {
 
     fn parse_k(s: &str, k: u32) -> Expr {
         let n = names(k);
-        parse(s, &mut |name: &str| n.iter().position(|x| x == name).map(|i| i as u32))
-            .expect("test expression parses")
+        parse(s, &mut |name: &str| {
+            n.iter().position(|x| x == name).map(|i| i as u32)
+        })
+        .expect("test expression parses")
     }
 
     const BIG: Aabb = ([-1.0; 3], [1.0; 3]);
@@ -365,7 +395,10 @@ mod tests {
             }]
         );
         let e = parse_k("(P0 + P1) * (P2 + P3)", 4);
-        assert_eq!(normalize(&e, &[BIG; 4], OPENSCAD_NODE_LIMIT).unwrap().len(), 4);
+        assert_eq!(
+            normalize(&e, &[BIG; 4], OPENSCAD_NODE_LIMIT).unwrap().len(),
+            4
+        );
         // x − (y − z) → (x − y) + (x * z)
         let e = parse_k("P0 - (P1 - P2)", 3);
         let p = normalize(&e, &[BIG; 3], OPENSCAD_NODE_LIMIT).unwrap();
@@ -410,7 +443,11 @@ mod tests {
     fn random_expr(rng: &mut impl Rng, k: u32, size: u32) -> String {
         if size <= 1 {
             let p = format!("P{}", rng.gen_range(0..k));
-            return if rng.gen_bool(0.15) { format!("!{p}") } else { p };
+            return if rng.gen_bool(0.15) {
+                format!("!{p}")
+            } else {
+                p
+            };
         }
         let left = rng.gen_range(1..size);
         let op = ["+", "*", "-"][rng.gen_range(0..3)];
@@ -448,7 +485,10 @@ mod tests {
             // Intersected with a primitive, so the solid is bounded (a product
             // without an intersected primitive is dropped, as OpenSCAD must).
             let bound = rng.gen_range(0..k);
-            let e = parse_k(&format!("({}) * P{bound}", random_expr(&mut rng, k, size)), k);
+            let e = parse_k(
+                &format!("({}) * P{bound}", random_expr(&mut rng, k, size)),
+                k,
+            );
             let Ok(prods) = normalize(&e, &boxes, OPENSCAD_NODE_LIMIT) else {
                 continue;
             };

@@ -47,11 +47,12 @@ pub mod group;
 
 use std::collections::HashSet;
 
+use super::common::{next, sweep};
 use super::stencil::{self, LabelLayout, Next};
 use super::step::*;
 use super::{Algo, PlanError, Prepared, SHADE_EPS};
 use crate::csg::active_zone::ActiveZones;
-use crate::csg::{Blist, BlistEntry, LeafId, PNode, PNodeId, PositiveExpr, Restricted, Target};
+use crate::csg::{Blist, BlistEntry, LeafId, PNode, PNodeId, PositiveExpr, Restricted};
 use crate::scene::{Aabb, Keep};
 
 /// CurrDepthStencil: candidate depth and `[label | parity]`.
@@ -79,14 +80,6 @@ impl Variant {
             Variant::I => Algo::CstI,
             Variant::G => Algo::CstG,
         }
-    }
-}
-
-pub(crate) fn next(t: Target) -> Next {
-    match t {
-        Target::Label(l) => Next::Label(l),
-        Target::True => Next::True,
-        Target::False => Next::False,
     }
 }
 
@@ -280,23 +273,6 @@ pub fn leaf_csts(
     out
 }
 
-/// A full-screen stencil-only sweep on the work image (depth test off).
-pub(crate) fn sweep(scissor: Scissor, stencil: StencilState) -> Step {
-    Step::Draw(Draw {
-        geometry: Geometry::FullScreen { depth: 0.0 },
-        scissor,
-        cull: Cull::None,
-        ds: WORK,
-        depth: DepthState {
-            compare: CompareOp::Always,
-            write: false,
-        },
-        stencil: Some(stencil),
-        fragment: Fragment::None,
-        count_samples: false,
-    })
-}
-
 /// The signed tolerance of a parity draw's compare against the candidate's exact
 /// depth (texture [`CUR`]): `LessOrEqual` keeps faces up to [`SHADE_EPS`] behind the
 /// candidate (a coincident face counts as in front whatever the rounding), `Less`
@@ -390,6 +366,7 @@ fn trim_blist(
             }
         }
         let inside = sweep(
+            WORK,
             Scissor::BoundsOf(vec![e.prim]),
             stencil::change_stencil_state(
                 here | LabelLayout::PARITY,
@@ -398,6 +375,7 @@ fn trim_blist(
             ),
         );
         let outside = sweep(
+            WORK,
             Scissor::BoundsOf(me.clone()),
             stencil::change_stencil_state(here, layout.value(on_outside), all_mask),
         );

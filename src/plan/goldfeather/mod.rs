@@ -208,7 +208,13 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
 /// it: then the product's visible point is not on a front face.
 pub(crate) fn direct_steps(p: &[Lit], prep: &Prepared) -> Option<Vec<Step>> {
     let [a] = p else { return None };
-    if a.negated || prep.eye_inside.get(a.prim as usize).copied().unwrap_or(false) {
+    if a.negated
+        || prep
+            .eye_inside
+            .get(a.prim as usize)
+            .copied()
+            .unwrap_or(false)
+    {
         return None;
     }
     Some(vec![
