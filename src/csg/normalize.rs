@@ -426,18 +426,20 @@ mod tests {
     }
 
     #[test]
-    fn node_limit_refuses_a_deep_alternating_tree() {
-        // Left-deep, alternating + * −, as the 311-primitive deep tree.
-        let k = 60;
-        let mut s = "P0".to_string();
-        for i in 1..k {
-            let op = ["+", "*", "-"][i as usize % 3];
-            s = format!("({s}) {op} P{i}");
-        }
-        let e = parse_k(&s, k);
+    fn node_limit_refuses_an_exponential_expansion() {
+        // (P0 + P1)(P2 + P3)…(P38 + P39): 2^20 products.
+        let k = 40;
+        let pairs: Vec<String> = (0..k / 2)
+            .map(|i| format!("(P{} + P{})", 2 * i, 2 * i + 1))
+            .collect();
+        let e = parse_k(&pairs.join(" "), k);
         let err = normalize(&e, &vec![BIG; k as usize], OPENSCAD_NODE_LIMIT).unwrap_err();
         assert_eq!(err, NormalizeError::TooLarge { limit: 100_000 });
         assert!(err.to_string().contains("OpenSCAD cannot preview"));
+        // Eight pairs (256 products) are within the limit.
+        let e = parse_k(&pairs[..8].join(" "), k);
+        let p = normalize(&e, &vec![BIG; k as usize], OPENSCAD_NODE_LIMIT).unwrap();
+        assert_eq!(p.len(), 256);
     }
 
     fn random_expr(rng: &mut impl Rng, k: u32, size: u32) -> String {

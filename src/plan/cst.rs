@@ -10,12 +10,15 @@
 //! ([`Fragment::ShadeAtDepth`]).
 //!
 //! Variants (seed 000 §7, §8):
-//! - `cst-z`: trim against the Z form (i-nodes and complemented u-nodes), peel both
-//!   faces;
-//! - `cst-i`: trim against the i-nodes only, peel only the front faces of positive
-//!   and the back faces of negative leaves (optimizations 1 and 2);
+//! - `cst-z`: trim against the Z form (i-nodes and complemented u-nodes);
+//! - `cst-i`: trim against the i-nodes only (optimization 2);
 //! - `cst-g`: as `cst-i`, with same-operator leaves grouped and classified by a
 //!   stencil counter (optimization 3; see [`group`]).
+//!
+//! Every variant peels only the front faces of positive and the back faces of
+//! negative leaves (optimization 1: opaque rendering shows only where rays enter
+//! the solid), so the variants differ in their zones alone; `[[surface]]`s, which
+//! may be open, peel both faces.
 //!
 //! Resources: depth-stencil 0 is the peel's CurrDepthStencil (depth *Back*, stencil
 //! `[label | parity]`), depth-stencil 1 is *FinalColorDepth*; texture 0 is
@@ -233,20 +236,12 @@ pub fn leaf_csts(
             _ => zone,
         };
         let zone = zone.flip_literals(|p| eye_inside.get(p as usize).copied().unwrap_or(false));
-        // With the eye inside a primitive the solid's exit points are no longer
-        // hidden behind its entry points, so Z too peels entry faces only.
-        let eye_in_any = eye_inside.iter().any(|&b| b);
-        let peel_cull = match variant {
-            Variant::Z if !eye_in_any => Cull::None,
-            // Opaque rendering: front faces of positive, back faces of negative leaves.
-            Variant::Z | Variant::I | Variant::G => {
-                if lit.negated {
-                    Cull::Front
-                } else {
-                    Cull::Back
-                }
-            }
-        };
+        // Opaque rendering (seed 000 §7): a visible point of the solid is where a
+        // ray enters it, so on a front face of a positive or a back face of a
+        // negative leaf. Every variant peels those faces only; Z differs from I
+        // in its zones, not in its peel. (Peeling both faces for Z doubled its
+        // layers and its parity draws on the gear: see the README.)
+        let peel_cull = if lit.negated { Cull::Front } else { Cull::Back };
         let universe = zone.is_universe();
         let volume = (!universe).then(|| {
             let blist = Blist::new(&zone);
@@ -316,54 +311,22 @@ pub(crate) fn parity_draw(
 
 /// Trim(V) against a plain Blist (seed 000 §4): per entry, its parity draw(s) and two
 /// ChangeStencilState sweeps (parity set → the literal's "in" target, clear → "out").
-///
-/// `facing`: a stencil bit (outside the layout) in which the peel recorded whether
-/// the candidate lies on a back face of the mesh (cst-z peels both faces). The tie
-/// rules of [`tie_draws`] are written for candidates on a front face of the peeled
-/// literal; for one on a back face of the literal they mirror (counting the faces
-/// at or behind a candidate is counting those strictly in front of it, modulo the
-/// even number of faces along the ray): `Less` ↔ `LessOrEqual`, except for an
-/// earlier literal of an i-node (shrunk either way). Without it the point kept at
-/// a back face coincident with a subtracted primitive's face would be a sliver.
-fn trim_blist(
-    peeled: &Peeled,
-    vol: &TrimVolume,
-    layout: &LabelLayout,
-    facing: u8,
-    steps: &mut Vec<Step>,
-) {
+/// The tie rules of [`tie_draws`] are written for candidates on a front face of
+/// the peeled literal, which is all a solid's leaf peels.
+fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &mut Vec<Step>) {
     let label_mask = layout.label_mask();
     let all_mask = layout.all_mask();
     let me = vec![peeled.prim];
     for (e, &rel) in vol.blist.entries.iter().zip(&vol.relation) {
         let here = layout.value(Next::Label(e.label));
         let (on_inside, on_outside) = entry_targets(e);
-        let shrunk = rel == Relation::Inter && peeled.earlier(e.prim, e.leaf);
         for (compare, cull) in tie_draws(peeled, e.prim, e.leaf, e.negated, rel) {
-            if facing == 0 || shrunk {
-                steps.push(parity_draw(
-                    e.prim,
-                    compare,
-                    cull,
-                    stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
-                ));
-                continue;
-            }
-            // Candidates on a front face of the literal: mesh front faces (bit
-            // clear) of a positive leaf, mesh back faces (bit set) of a negated one.
-            let lit_front = if peeled.negated { facing } else { 0 };
-            let mirrored = match compare {
-                CompareOp::Less => CompareOp::LessOrEqual,
-                _ => CompareOp::Less,
-            };
-            for (value, compare) in [(lit_front, compare), (lit_front ^ facing, mirrored)] {
-                steps.push(parity_draw(
-                    e.prim,
-                    compare,
-                    cull,
-                    stencil::toggle_parity(here | value, label_mask | facing, LabelLayout::PARITY),
-                ));
-            }
+            steps.push(parity_draw(
+                e.prim,
+                compare,
+                cull,
+                stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
+            ));
         }
         let inside = sweep(
             WORK,
@@ -412,11 +375,6 @@ pub trait Trimmer {
     fn mask(&self) -> u8;
     fn bits(&self) -> u8;
     fn trim(&self, steps: &mut Vec<Step>);
-    /// A stencil bit, outside [`Trimmer::mask`], in which the peel records that the
-    /// candidate lies on a back face (set) or front face (clear); 0: not recorded.
-    fn facing_bit(&self) -> u8 {
-        0
-    }
 }
 
 struct BlistTrimmer<'a> {
@@ -424,8 +382,6 @@ struct BlistTrimmer<'a> {
     vol: &'a TrimVolume,
     layout: LabelLayout,
     start: u8,
-    /// See [`trim_blist`]; 0: none.
-    facing: u8,
 }
 
 impl Trimmer for BlistTrimmer<'_> {
@@ -445,10 +401,7 @@ impl Trimmer for BlistTrimmer<'_> {
         self.layout.stencil_bits()
     }
     fn trim(&self, steps: &mut Vec<Step>) {
-        trim_blist(&self.peeled, self.vol, &self.layout, self.facing, steps)
-    }
-    fn facing_bit(&self) -> u8 {
-        self.facing
+        trim_blist(&self.peeled, self.vol, &self.layout, steps)
     }
 }
 
@@ -534,26 +487,7 @@ pub fn cst(
                 compare: CompareOp::Less,
                 write: true,
             },
-            stencil: Some(match t.facing_bit() {
-                0 => stencil::test_equal(t.start(), t.mask()),
-                fb => {
-                    // The nearest fragment passes the depth test last, so its
-                    // orientation is what stays in the bit.
-                    let face = |pass| StencilFace {
-                        compare: CompareOp::Equal,
-                        fail: StencilOp::Keep,
-                        pass,
-                        depth_fail: StencilOp::Keep,
-                    };
-                    StencilState {
-                        front: face(StencilOp::Zero),
-                        back: face(StencilOp::Replace),
-                        compare_mask: t.mask(),
-                        write_mask: fb,
-                        reference: t.start() | fb,
-                    }
-                }
-            }),
+            stencil: Some(stencil::test_equal(t.start(), t.mask())),
             fragment: Fragment::Peel {
                 prev: PREV,
                 out: CUR,
@@ -815,23 +749,11 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                             },
                         )?;
                         let start = layout.value(Next::Label(vol.blist.entries[0].label));
-                        // cst-z peels both faces: record which one (bit 7) when
-                        // the layout leaves it free. A surface's tie rule does not
-                        // depend on the facing.
-                        let facing = if !*surface
-                            && c.peel_cull == Cull::None
-                            && layout.stencil_bits() < 8
-                        {
-                            0x80
-                        } else {
-                            0
-                        };
                         Box::new(BlistTrimmer {
                             peeled: c.peeled,
                             vol,
                             layout,
                             start,
-                            facing,
                         })
                     }
                     Variant::G => {
@@ -843,11 +765,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
                         Box::new(grouped.last().unwrap().clone())
                     }
                 };
-                bits = bits.max(if trimmer.facing_bit() != 0 {
-                    8
-                } else {
-                    trimmer.bits()
-                });
+                bits = bits.max(trimmer.bits());
                 cst(
                     p,
                     c.peel_cull,
@@ -988,7 +906,7 @@ mod tests {
             assert!(has_loop(&plan(&p, v).unwrap().steps));
         }
         p.mesh_convex = vec![true; 14];
-        for (v, layers) in [(Variant::Z, 2), (Variant::I, 1), (Variant::G, 1)] {
+        for (v, layers) in [(Variant::Z, 1), (Variant::I, 1), (Variant::G, 1)] {
             let pl = plan(&p, v).unwrap();
             assert!(!has_loop(&pl.steps));
             let peels = pl
