@@ -26,6 +26,7 @@
 use std::rc::Rc;
 
 use super::expr::{Expr, Node};
+use super::products::meet;
 
 /// World-space box `(min, max)`.
 pub type Aabb = ([f64; 3], [f64; 3]);
@@ -86,19 +87,6 @@ struct N {
 
 /// `None` is the empty set (a pruned node).
 type T = Option<Rc<N>>;
-
-fn meet(a: &Aabb, b: &Aabb) -> Option<Aabb> {
-    let mut out = *a;
-    for k in 0..3 {
-        out.0[k] = a.0[k].max(b.0[k]);
-        out.1[k] = a.1[k].min(b.1[k]);
-        // Touching boxes are kept: only a strict gap proves emptiness.
-        if out.0[k] > out.1[k] {
-            return None;
-        }
-    }
-    Some(out)
-}
 
 fn hull(a: &Aabb, b: &Aabb) -> Aabb {
     let mut out = *a;

@@ -47,19 +47,7 @@ pub fn cst(
     let me = vec![surface];
     let Some(t) = trimmer else {
         steps.push(Step::Pass("merge".into()));
-        steps.push(Step::Draw(Draw {
-            geometry: Geometry::Mesh(surface),
-            scissor: Scissor::BoundsOf(me),
-            cull: peel_cull,
-            ds: FINAL,
-            depth: DepthState {
-                compare: CompareOp::Less,
-                write: true,
-            },
-            stencil: merge.stencil(),
-            fragment: Fragment::Shade,
-            count_samples: false,
-        }));
+        steps.push(render_draw(surface, peel_cull, merge, Fragment::Shade));
         merge.paint(surface, peel_cull, steps);
         return;
     };
@@ -167,9 +155,21 @@ pub fn cst(
         fragment: Fragment::WriteDepth { out: CUR },
         count_samples: false,
     }));
-    steps.push(Step::Draw(Draw {
+    steps.push(render_draw(
+        surface,
+        peel_cull,
+        merge,
+        Fragment::ShadeAtDepth { tex: CUR },
+    ));
+    merge.paint(surface, peel_cull, steps);
+}
+
+/// Render(S)'s draw into [`FINAL`]: S's peeled faces, nearest wins, shaded by
+/// `fragment` (all of them, or only at the kept depth).
+fn render_draw(surface: MeshId, peel_cull: Cull, merge: Merge, fragment: Fragment) -> Step {
+    Step::Draw(Draw {
         geometry: Geometry::Mesh(surface),
-        scissor: Scissor::BoundsOf(me),
+        scissor: Scissor::BoundsOf(vec![surface]),
         cull: peel_cull,
         ds: FINAL,
         depth: DepthState {
@@ -177,10 +177,9 @@ pub fn cst(
             write: true,
         },
         stencil: merge.stencil(),
-        fragment: Fragment::ShadeAtDepth { tex: CUR },
+        fragment,
         count_samples: false,
-    }));
-    merge.paint(surface, peel_cull, steps);
+    })
 }
 
 /// Stencil bit of [`FINAL`] set where a `[[surface]]` won the merge: the final
