@@ -465,6 +465,38 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn a_product_of_one_primitive_is_one_draw() {
+        // block + (s0 * block2): the product {block} is drawn directly.
+        let mut scene = block_minus_spheres(1);
+        let mut b = ExprBuilder::default();
+        let (x, y, z) = (b.leaf(0), b.leaf(1), b.leaf(0));
+        let yz = b.inter(y, z);
+        let root = b.union(x, yz);
+        scene.solids[0].expr = b.build(root);
+        let prep = Prepared::new(&scene).unwrap();
+        for build in [plan, layered::plan] {
+            let steps = build(&prep, &ProductOptions::default()).unwrap().steps;
+            let at = steps
+                .iter()
+                .position(|s| matches!(s, Step::Pass(p) if p == "direct"))
+                .expect("a direct pass");
+            let Step::Draw(d) = &steps[at + 1] else {
+                panic!("the direct pass draws: {:?}", steps[at + 1]);
+            };
+            assert_eq!(
+                (&d.geometry, d.ds, d.cull, d.depth.compare),
+                (&Geometry::Mesh(0), OUTPUT, Cull::Back, CompareOp::Less)
+            );
+            assert!(matches!(steps.get(at + 2), Some(Step::Pass(_)) | None));
+        }
+        // With the eye inside the primitive the general path is kept.
+        let mut inside = prep.clone();
+        inside.eye_inside = vec![true, false];
+        let steps = plan(&inside, &ProductOptions::default()).unwrap().steps;
+        assert!(!steps.iter().any(|s| matches!(s, Step::Pass(p) if p == "direct")));
+    }
+
+    #[test]
     fn one_product_for_block_minus_spheres() {
         let scene = block_minus_spheres(8);
         let prep = Prepared::new(&scene).unwrap();
