@@ -348,3 +348,89 @@ fn bad_input_is_a_clear_error() {
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n"
     );
 }
+
+/// `bench --baseline opencsg` without the program: the bench succeeds and its
+/// summary says how to build it.
+#[test]
+fn bench_baseline_opencsg_missing_says_how_to_build() {
+    let out = tmp("opencsg-missing");
+    let o = run(&[
+        "bench",
+        &scene("paper_example.toml"),
+        "--algos",
+        "reference",
+        "--size",
+        "32x32",
+        "--frames",
+        "1",
+        "--baseline",
+        "opencsg",
+        "--opencsg-bench",
+        "/nonexistent/opencsg-bench",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(
+        summary.contains("not run") && summary.contains("tools/opencsg-bench/build.sh"),
+        "{summary}"
+    );
+    let o = run(&[
+        "bench",
+        &scene("paper_example.toml"),
+        "--baseline",
+        "povray",
+    ]);
+    assert_error(&o, &["povray"]);
+}
+
+/// With the program built (tools/opencsg-bench/build.sh), OpenCSG's images of a
+/// scene of convex primitives match the reference: the exchange file's matrices,
+/// the depth conversion and the row order are right. Skipped (with a note) when
+/// the program is not built.
+#[test]
+fn bench_baseline_opencsg_matches_reference_when_built() {
+    let program = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/opencsg-bench/opencsg-bench");
+    if !program.is_file() {
+        eprintln!("skipped: {} is not built", program.display());
+        return;
+    }
+    let out = tmp("opencsg");
+    let o = run(&[
+        "bench",
+        &scene("complex.toml"),
+        "--algos",
+        "reference",
+        "--size",
+        "96x80",
+        "--frames",
+        "1",
+        "--baseline",
+        "opencsg",
+        "--opencsg-bench",
+        program.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let rows: Vec<&serde_json::Value> = json
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["algo"].as_str().unwrap().starts_with("opencsg-"))
+        .collect();
+    assert_eq!(rows.len(), 3, "{json:#}");
+    for r in rows {
+        assert!(r["failure"].is_null(), "{r:#}");
+        assert!(r["gpu_ms_median"].as_f64().unwrap() > 0.0);
+        let e = &r["error"];
+        assert_eq!(e["coverage_mismatch_interior"].as_u64(), Some(0), "{r:#}");
+        assert!(
+            e["depth_abs_err_p99_interior"].as_f64().unwrap() < 1e-3,
+            "{r:#}"
+        );
+    }
+}

@@ -58,19 +58,24 @@ pub struct OpenCsgBaseline {
 }
 
 impl OpenCsgBaseline {
-    /// Finds the program: `explicit`, else `$PEELTRIM_OPENCSG_BENCH`, else
-    /// `tools/opencsg-bench/opencsg-bench` under the current directory, next to
-    /// the executable's tree (`target/<profile>/../../`), or this source tree.
+    /// Finds the program: `explicit` (`--opencsg-bench`), else
+    /// `$PEELTRIM_OPENCSG_BENCH`, else `tools/opencsg-bench/opencsg-bench` under the
+    /// current directory, next to the executable's tree (`target/<profile>/../../`)
+    /// or in this source tree. A path the user names is the only one tried.
     pub fn locate(explicit: Option<PathBuf>, bounding_boxes: bool) -> Self {
         let rel = Path::new("tools/opencsg-bench/opencsg-bench");
-        let mut candidates: Vec<PathBuf> = Vec::new();
-        candidates.extend(explicit);
-        candidates.extend(std::env::var_os(ENV_PROGRAM).map(PathBuf::from));
-        candidates.push(rel.to_path_buf());
-        if let Ok(exe) = std::env::current_exe() {
-            candidates.extend(exe.ancestors().skip(1).take(4).map(|d| d.join(rel)));
-        }
-        candidates.push(Path::new(env!("CARGO_MANIFEST_DIR")).join(rel));
+        let named = explicit.or_else(|| std::env::var_os(ENV_PROGRAM).map(PathBuf::from));
+        let candidates: Vec<PathBuf> = match named {
+            Some(p) => vec![p],
+            None => {
+                let mut c = vec![rel.to_path_buf()];
+                if let Ok(exe) = std::env::current_exe() {
+                    c.extend(exe.ancestors().skip(1).take(4).map(|d| d.join(rel)));
+                }
+                c.push(Path::new(env!("CARGO_MANIFEST_DIR")).join(rel));
+                c
+            }
+        };
         OpenCsgBaseline {
             program: candidates.into_iter().find(|p| p.is_file()),
             bounding_boxes,

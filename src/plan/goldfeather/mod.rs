@@ -493,7 +493,9 @@ pub(crate) mod tests {
         let mut inside = prep.clone();
         inside.eye_inside = vec![true, false];
         let steps = plan(&inside, &ProductOptions::default()).unwrap().steps;
-        assert!(!steps.iter().any(|s| matches!(s, Step::Pass(p) if p == "direct")));
+        assert!(!steps
+            .iter()
+            .any(|s| matches!(s, Step::Pass(p) if p == "direct")));
     }
 
     #[test]
