@@ -353,27 +353,37 @@ fn bad_input_is_a_clear_error() {
     );
 }
 
-/// `bench --baseline opencsg` without the program: the bench succeeds and its
-/// summary says how to build it.
-#[test]
-fn bench_baseline_opencsg_missing_says_how_to_build() {
-    let out = tmp("opencsg-missing");
-    let o = run(&[
+/// `bench SCENE --algos reference --baseline opencsg --opencsg-bench PROGRAM`.
+fn bench_opencsg(scene_file: &str, size: &str, program: &str, out: &Path) -> Output {
+    run(&[
         "bench",
-        &scene("paper_example.toml"),
+        &scene(scene_file),
         "--algos",
         "reference",
         "--size",
-        "32x32",
+        size,
         "--frames",
         "1",
         "--baseline",
         "opencsg",
         "--opencsg-bench",
-        "/nonexistent/opencsg-bench",
+        program,
         "--out",
         out.to_str().unwrap(),
-    ]);
+    ])
+}
+
+/// `bench --baseline opencsg` without the program: the bench succeeds and its
+/// summary says how to build it.
+#[test]
+fn bench_baseline_opencsg_missing_says_how_to_build() {
+    let out = tmp("opencsg-missing");
+    let o = bench_opencsg(
+        "paper_example.toml",
+        "32x32",
+        "/nonexistent/opencsg-bench",
+        &out,
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(
@@ -401,22 +411,7 @@ fn bench_baseline_opencsg_matches_reference_when_built() {
         return;
     }
     let out = tmp("opencsg");
-    let o = run(&[
-        "bench",
-        &scene("complex.toml"),
-        "--algos",
-        "reference",
-        "--size",
-        "96x80",
-        "--frames",
-        "1",
-        "--baseline",
-        "opencsg",
-        "--opencsg-bench",
-        program.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = bench_opencsg("complex.toml", "96x80", program.to_str().unwrap(), &out);
     assert!(o.status.success(), "{}", stderr(&o));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
