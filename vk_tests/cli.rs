@@ -433,3 +433,63 @@ fn bench_baseline_opencsg_matches_reference_when_built() {
         );
     }
 }
+
+/// The default depth set-up is D32 float with reversed Z; the flags select the
+/// others, and an impossible combination is a clear error.
+#[test]
+fn depth_setup_defaults_to_reversed_d32() {
+    let s = scene("speckle.toml");
+    let cases: [(&[&str], &str); 3] = [
+        (&[], "d32s8-reversed"),
+        (&["--standard-z"], "d32s8"),
+        (&["--depth-format", "d24s8"], "d24s8"),
+    ];
+    for (i, (flags, want)) in cases.iter().enumerate() {
+        let dir = tmp(&format!("depth-setup-{i}"));
+        let mut args = vec![
+            "render",
+            &s,
+            "--algo",
+            "cst-i",
+            "--size",
+            "32x32",
+            "--device",
+            "cpu",
+            "--out",
+            dir.to_str().unwrap(),
+        ];
+        args.extend_from_slice(flags);
+        let o = run(&args);
+        assert!(o.status.success(), "{flags:?}: {}", stderr(&o));
+        let stats: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("stats.json")).unwrap()).unwrap();
+        assert_eq!(stats["depth_setup"], *want, "{flags:?}");
+        assert!(
+            stats.get("depth_setup_fallback").is_none(),
+            "lavapipe has d32s8"
+        );
+    }
+    let o = run(&[
+        "render",
+        &s,
+        "--depth-format",
+        "d24s8",
+        "--reversed-z",
+        "--device",
+        "cpu",
+    ]);
+    assert_error(&o, &["--reversed-z", "d32s8"]);
+    let o = run(&[
+        "render",
+        &s,
+        "--standard-z",
+        "--reversed-z",
+        "--device",
+        "cpu",
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("--standard-z"),
+        "{}",
+        stderr(&o)
+    );
+}

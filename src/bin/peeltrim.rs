@@ -41,12 +41,17 @@ struct GpuArgs {
     /// auto: a hardware GPU when present, else lavapipe; cpu: lavapipe; gpu: hardware only
     #[arg(long, value_enum, default_value = "auto")]
     device: DeviceArg,
-    /// Depth-stencil format of the GPU algorithms
-    #[arg(long, value_enum, default_value = "d32s8")]
-    depth_format: DepthFormatArg,
-    /// Reversed depth (near = 1) in a floating-point depth buffer (needs d32s8)
-    #[arg(long)]
+    /// Depth-stencil format of the GPU algorithms [default: d32s8 with reversed Z,
+    /// or d24s8 where the device cannot use d32s8]
+    #[arg(long, value_enum)]
+    depth_format: Option<DepthFormatArg>,
+    /// Reversed depth (near = 1) in a floating-point depth buffer: the default
+    /// with d32s8 (kept for scripts)
+    #[arg(long, conflicts_with = "standard_z")]
     reversed_z: bool,
+    /// Standard depth (near = 0) instead of reversed in a d32s8 buffer
+    #[arg(long)]
+    standard_z: bool,
     /// Run with the Vulkan validation layers (always on in debug builds)
     #[arg(long)]
     validation: bool,
@@ -257,13 +262,14 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
+    // Reversed Z unless asked otherwise; only the default falls back to d24s8.
     let depth = match (g.depth_format, g.reversed_z) {
-        (DepthFormatArg::D24s8, true) => {
+        (Some(DepthFormatArg::D24s8), true) => {
             bail!("--reversed-z needs a floating-point depth buffer: use --depth-format d32s8")
         }
-        (DepthFormatArg::D24s8, false) => DepthSetup::D24S8,
-        (DepthFormatArg::D32s8, false) => DepthSetup::D32S8,
-        (DepthFormatArg::D32s8, true) => DepthSetup::D32S8Reversed,
+        (Some(DepthFormatArg::D24s8), false) => DepthSetup::D24S8,
+        (_, _) if g.standard_z => DepthSetup::D32S8,
+        (_, _) => DepthSetup::D32S8Reversed,
     };
     let device = match g.device {
         DeviceArg::Auto => peeltrim::vk::DeviceChoice::Auto,
@@ -282,6 +288,7 @@ fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
         algo,
         device,
         depth,
+        depth_fallback: g.depth_format.is_none(),
         validation: g.validation || cfg!(debug_assertions),
         build,
     })
