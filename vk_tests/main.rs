@@ -104,6 +104,7 @@ fn scene(meshes: Vec<Mesh>) -> Scene {
         solids: vec![],
         surfaces: vec![],
         warnings: vec![],
+        appearance: Default::default(),
     }
 }
 

@@ -125,12 +125,14 @@ struct RenderT {
     width: Option<u32>,
     height: Option<u32>,
     background: Option<Color>,
+    alpha: Option<f64>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CsgT {
     expr: String,
+    alpha: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -138,6 +140,7 @@ struct CsgT {
 struct SolidT {
     name: String,
     expr: String,
+    alpha: Option<f64>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq, Debug)]
@@ -180,6 +183,7 @@ struct ShapeT {
     trim: Option<String>,
     keep: Option<KeepT>,
     paint_color: Option<Color>,
+    alpha: Option<f64>,
 }
 
 /// `scale`: a number or a 3-vector.
@@ -292,6 +296,18 @@ impl Loader<'_> {
         Some(line_col(self.text, span.start).0)
     }
 
+    /// An optional `alpha` key, checked to lie in (0, 1].
+    fn alpha(
+        &self,
+        a: Option<f64>,
+        line: Option<usize>,
+        key: &str,
+    ) -> Result<Option<f64>, SceneError> {
+        a.map(super::appearance::check_alpha)
+            .transpose()
+            .map_err(|m| self.invalid(line, format!("{key}: alpha"), m))
+    }
+
     fn invalid(
         &self,
         line: Option<usize>,
@@ -387,6 +403,7 @@ impl Loader<'_> {
 
         // Primitives (local meshes kept for validation in file coordinates).
         let mut primitives = Vec::with_capacity(file.primitive.len());
+        let mut primitive_alpha = Vec::with_capacity(file.primitive.len());
         let mut local_meshes = Vec::with_capacity(file.primitive.len());
         for (i, t) in file.primitive.iter().enumerate() {
             let p = t.get_ref();
@@ -405,6 +422,7 @@ impl Loader<'_> {
                     ));
                 }
             }
+            primitive_alpha.push(self.alpha(p.alpha, line, &key)?);
             let (shape, local, transform) = self.build_shape(p, &key, line)?;
             let mesh = shapes::apply_transform(&local, &transform);
             primitives.push(Primitive {
@@ -420,6 +438,7 @@ impl Loader<'_> {
 
         // Expressions.
         let mut solids = Vec::new();
+        let mut solid_alpha = Vec::new();
         if let Some(csg) = &file.csg {
             if let Some(s) = file.solid.first() {
                 return Err(self.invalid(
@@ -431,6 +450,7 @@ impl Loader<'_> {
             let line = self.line(csg.span());
             let expr = self.parse_expr(&csg.get_ref().expr, &prim_index, line, "csg: expr")?;
             self.check_bounded(&expr, line, "csg: expr", &csg.get_ref().expr)?;
+            solid_alpha.push(self.alpha(csg.get_ref().alpha, line, "csg")?);
             solids.push(Solid {
                 name: file.name.clone().unwrap_or_else(|| "csg".to_string()),
                 expr,
@@ -455,6 +475,7 @@ impl Loader<'_> {
             let k = format!("{key}: expr");
             let expr = self.parse_expr(&s.expr, &prim_index, line, &k)?;
             self.check_bounded(&expr, line, &k, &s.expr)?;
+            solid_alpha.push(self.alpha(s.alpha, line, &key)?);
             solids.push(Solid {
                 name: s.name.clone(),
                 expr,
@@ -467,6 +488,13 @@ impl Loader<'_> {
             let s = t.get_ref();
             let line = self.line(t.span());
             let key = format!("surface[{}] \"{}\"", i + 1, s.name);
+            if s.alpha.is_some() {
+                return Err(self.invalid(
+                    line,
+                    format!("{key}: alpha"),
+                    "`alpha` applies to a [[primitive]], a [[solid]], [csg] or [render]; surfaces are drawn opaque: remove it",
+                ));
+            }
             let trim_src = s.trim.as_deref().ok_or_else(|| {
                 self.invalid(
                     line,
@@ -583,6 +611,12 @@ impl Loader<'_> {
             render.height = h;
         }
 
+        let appearance = super::Appearance {
+            alpha: self.alpha(r.and_then(|r| r.0.alpha), r.and_then(|r| r.1), "render")?,
+            solid_alpha,
+            primitive_alpha,
+        };
+
         let drawn: Vec<&Mesh> = primitives
             .iter()
             .filter(|p| p.used)
@@ -600,6 +634,7 @@ impl Loader<'_> {
             solids,
             surfaces,
             warnings: self.warnings,
+            appearance,
         })
     }
 

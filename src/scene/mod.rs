@@ -6,6 +6,7 @@
 //! camera with definite near/far planes.
 #![deny(unsafe_code)]
 
+pub mod appearance;
 pub mod camera;
 pub mod fit;
 pub mod load;
@@ -13,6 +14,7 @@ pub mod obj;
 pub mod shapes;
 // TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
 pub mod validate;
+pub use appearance::Appearance;
 pub use camera::{Camera, Projection};
 pub use load::{is_bounded, load, load_str, LoadOptions, SceneError};
 
@@ -138,6 +140,8 @@ pub struct Scene {
     pub surfaces: Vec<Surface>,
     /// Non-fatal remarks from loading (unused primitives, ignored keys), one line each.
     pub warnings: Vec<String>,
+    /// Opacities (extension: `alpha` keys); default opaque.
+    pub appearance: Appearance,
 }
 
 #[cfg(test)]
