@@ -101,7 +101,10 @@ mod tests {
         let s = load(&format!("{HEAD}[csg]\nexpr = \"A\"\nalpha = 0.3\n")).unwrap();
         assert_eq!(s.appearance.solid_alpha, vec![Some(0.3)]);
         let e = load(&format!("{HEAD}alpha = 1.5\n[csg]\nexpr = \"A\"\n")).unwrap_err();
-        assert!(e.contains("primitive[1] \"A\": alpha") && e.contains("(0, 1]"), "{e}");
+        assert!(
+            e.contains("primitive[1] \"A\": alpha") && e.contains("(0, 1]"),
+            "{e}"
+        );
         let e = load(&format!("{HEAD}[csg]\nexpr = \"A\"\n[render]\nalpha = 0\n")).unwrap_err();
         assert!(e.contains("render: alpha"), "{e}");
         let e = load(&format!(
