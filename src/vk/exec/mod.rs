@@ -456,9 +456,10 @@ impl Executor {
             sub.submit(cmd, &[], &[])?;
             sub.wait()?;
             rec.stats.counts.submits += 1;
-            let samples: u64 = submit::query_results(&shared.device, occ_pool, rec.queries.len())?
-                .iter()
-                .sum();
+            let samples: u64 =
+                submit::query_results(&shared.device, occ_pool, rec.queries.len())?
+                    .iter()
+                    .sum();
             if shared.timestamp_valid_bits > 0 && rec.marks.len() >= 2 {
                 let ts = submit::query_results(&shared.device, ts_pool, rec.marks.len())?;
                 let period = shared.limits.timestamp_period as f64;
@@ -514,10 +515,7 @@ impl Executor {
     #[cfg(feature = "viewer")]
     pub(crate) fn color_target(&self) -> Option<(vk::Image, [u32; 2])> {
         self.last_output?;
-        debug_assert_eq!(
-            sync::access(REST).layout,
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL
-        );
+        debug_assert_eq!(sync::access(REST).layout, vk::ImageLayout::TRANSFER_SRC_OPTIMAL);
         let t = self.targets.as_ref()?;
         Some((t.color.raw, [self.desc.width, self.desc.height]))
     }
@@ -547,11 +545,7 @@ impl Executor {
         let copies = [
             (&t.color, vk::ImageAspectFlags::COLOR, 0),
             (&t.prim, vk::ImageAspectFlags::COLOR, plane),
-            (
-                &t.ds[output as usize],
-                vk::ImageAspectFlags::DEPTH,
-                plane * 2,
-            ),
+            (&t.ds[output as usize], vk::ImageAspectFlags::DEPTH, plane * 2),
         ];
         // Frames leave every image in `REST`, a copy source.
         let layout = sync::access(REST).layout;
@@ -580,10 +574,7 @@ impl Executor {
         submit::memory_barrier(
             device,
             cmd,
-            (
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            ),
+            (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
             (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
         );
         self.submit.finish(cmd)?;
