@@ -59,6 +59,31 @@ struct GpuArgs {
     max_products: usize,
 }
 
+/// Layers of the solid and transparency (extensions of the contract, see README).
+#[derive(clap::Args, Clone)]
+struct LayerArgs {
+    /// Peel at most N layers of the solid (N >= 1; default: all)
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    layers: Option<u32>,
+    /// Stop peeling at the first layer covering fewer than N pixels
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    layer_threshold: u64,
+    /// Also write each layer into OUT/layers/01/, 02/, ... (color.png, depth.npy, prim.png)
+    #[arg(long)]
+    layers_out: bool,
+    /// Opacity in (0, 1] of everything without its own alpha (overrides [render] alpha);
+    /// color.png becomes the front-to-back composite of the layers
+    #[arg(long, value_parser = parse_alpha)]
+    alpha: Option<f64>,
+}
+
+fn parse_alpha(s: &str) -> Result<f64, String> {
+    let a: f64 = s
+        .parse()
+        .map_err(|_| format!("'{s}' is not an opacity: give a number in (0, 1], e.g. 0.4"))?;
+    peeltrim::scene::appearance::check_alpha(a)
+}
+
 fn parse_eps(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(e) if e.is_finite() && (0.0..0.1).contains(&e) => Ok(e),
@@ -82,6 +107,8 @@ enum Cmd {
         out: PathBuf,
         #[command(flatten)]
         gpu: GpuArgs,
+        #[command(flatten)]
+        layers: LayerArgs,
     },
     /// Print the Blist of an expression or of a scene's solid(s) as JSON
     Blist {
@@ -265,23 +292,44 @@ fn run(cli: Cli) -> Result<ExitCode> {
             size,
             out,
             gpu,
+            layers,
         } => {
             let opts = render_options(algo, &gpu)?;
-            let scene = load(&scene, size)?;
+            let mut scene = load(&scene, size)?;
+            if layers.alpha.is_some() {
+                scene.appearance.alpha = layers.alpha;
+            }
+            let lopts = render::layers::LayerOptions {
+                max_layers: layers.layers,
+                threshold: layers.layer_threshold,
+                write_layers: layers.layers_out,
+            };
             if let Ok(prep) = peeltrim::plan::Prepared::new(&scene) {
                 for w in prep.warnings(opts.algo) {
                     eprintln!("peeltrim: warning: {w}");
                 }
             }
-            let frame = match render::render(&scene, &opts) {
-                Err(render::RenderError::Plan(
-                    e @ peeltrim::plan::PlanError::NotImplemented(_),
-                )) => {
+            let (frame, layer_images) = match if lopts.wanted(&scene) {
+                render::layers::render_layered(&scene, &opts, &lopts)
+                    .map(|l| (l.frame, Some(l.layers)))
+            } else {
+                render::render(&scene, &opts).map(|f| (f, None))
+            } {
+                Err(
+                    e @ (render::RenderError::Plan(
+                        peeltrim::plan::PlanError::NotImplemented(_),
+                    )
+                    | render::RenderError::Unsupported { .. }),
+                ) => {
                     eprintln!("peeltrim: {e}");
                     return Ok(ExitCode::from(2));
                 }
                 r => r?,
             };
+            if let (true, Some(l)) = (lopts.write_layers, &layer_images) {
+                render::layers::write_layers(&out, l)
+                    .with_context(|| format!("writing layers into {}", out.display()))?;
+            }
             peeltrim::output::write_images(&out, &frame.images)
                 .with_context(|| format!("writing images into {}", out.display()))?;
             peeltrim::output::write_stats(&out, &frame.stats)

@@ -21,7 +21,6 @@
 //! over the background.
 #![deny(unsafe_code)]
 
-use glam::DVec3;
 use rayon::prelude::*;
 
 use super::bvh::{Crossing, Line, WorldCrossing};
@@ -216,34 +215,42 @@ pub fn composite(scene: &Scene, hits: &[LayerHit], background: [u8; 3]) -> [u8; 
     [px(0), px(1), px(2), 255]
 }
 
-/// Casts every pixel of a `width × height` image for its first `max` layers (all
-/// when `None`).
-pub fn render_layers(scene: &Scene, width: u32, height: u32, max: Option<usize>) -> LayerStack {
+/// Where peeling stops: after `max` layers, or at the first layer covering fewer
+/// than `threshold` pixels (the GPU's occlusion-query test; 0 keeps every layer).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LayerLimit {
+    pub max: Option<usize>,
+    pub threshold: u64,
+}
+
+/// Casts every pixel of a `width × height` image for its layers up to `limit`.
+pub fn render_layers(scene: &Scene, width: u32, height: u32, limit: LayerLimit) -> LayerStack {
     let layers = Layers::new(scene);
-    let max = max.unwrap_or(usize::MAX);
-    let hits: Vec<Vec<LayerHit>> = (0..height)
+    let max = limit.max.unwrap_or(usize::MAX);
+    let mut hits: Vec<Vec<LayerHit>> = (0..height)
         .into_par_iter()
         .map_init(Scratch::default, |s, y| {
             (0..width)
                 .map(|x| {
                     let mut out = Vec::new();
-                    layers.cast_with(
-                        s,
-                        x as f64 + 0.5,
-                        y as f64 + 0.5,
-                        width,
-                        height,
-                        max,
-                        &mut out,
-                    );
+                    let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                    layers.cast_with(s, px, py, width, height, max, &mut out);
                     out
                 })
                 .collect::<Vec<_>>()
         })
         .flatten()
         .collect();
+    // Layer k exists only where layer k − 1 does, so pixel counts never grow with k.
+    let covering = |k: usize| hits.iter().filter(|v| v.len() > k).count() as u64;
+    let n = (0..)
+        .find(|&k| {
+            let c = covering(k);
+            c == 0 || c < limit.threshold
+        })
+        .expect("layer counts are finite");
+    hits.iter_mut().for_each(|v| v.truncate(n));
     let bg = scene.render.background;
-    let n = hits.iter().map(Vec::len).max().unwrap_or(0);
     let layers = (0..n)
         .map(|k| Images {
             width,

@@ -3,6 +3,7 @@
 //! point classification (every layer is a boundary point, entering/leaving alternate).
 
 use super::*;
+use glam::DVec3;
 use crate::reference::fixtures::*;
 use crate::reference::raycast::tests::random_scene;
 use crate::scene::{Projection, Solid};
@@ -197,7 +198,7 @@ fn layer_one_is_the_opaque_image_and_layers_are_boundary_points() {
     for seed in [1u64, 2, 3] {
         let sc = random_scene(15, seed);
         let (w, h) = (48u32, 40u32);
-        let stack = render_layers(&sc, w, h, None);
+        let stack = render_layers(&sc, w, h, LayerLimit::default());
         let opaque = crate::reference::render(&sc, w, h);
         assert!(
             stack.layers.len() >= 4,
@@ -255,7 +256,7 @@ fn composite_blends_front_to_back() {
         expr(|e| e.leaf(0)),
     );
     sc.appearance.alpha = Some(0.5);
-    let stack = render_layers(&sc, N, N, None);
+    let stack = render_layers(&sc, N, N, LayerLimit::default());
     assert_eq!(stack.layers.len(), 2);
     let i = (20 * N + 20) as usize;
     let bg = sc.render.background;
@@ -269,18 +270,69 @@ fn composite_blends_front_to_back() {
     );
     sc.appearance.solid_alpha = vec![Some(0.25)];
     assert_eq!(
-        render_layers(&sc, N, N, None).composite[i][0],
+        render_layers(&sc, N, N, LayerLimit::default()).composite[i][0],
         blend(0.25, 0)
     );
     sc.appearance.primitive_alpha = vec![Some(0.75)];
     assert_eq!(
-        render_layers(&sc, N, N, None).composite[i][0],
+        render_layers(&sc, N, N, LayerLimit::default()).composite[i][0],
         blend(0.75, 0)
     );
     // Background pixels stay background; one layer only with max = 1.
     assert_eq!(stack.composite[0], [bg[0], bg[1], bg[2], 255]);
-    let one = render_layers(&sc, N, N, Some(1));
+    let one = render_layers(
+        &sc,
+        N,
+        N,
+        LayerLimit {
+            max: Some(1),
+            threshold: 0,
+        },
+    );
     assert_eq!(one.layers.len(), 1);
     let c1 = (0.75 * 200.0 + 0.25 * bg[0] as f64).round() as u8;
     assert_eq!(one.composite[i][0], c1);
+}
+
+/// The threshold stops at the first layer covering fewer pixels: a box behind a
+/// wider one adds layers 3 and 4 on few pixels only.
+#[test]
+fn threshold_stops_peeling() {
+    let mut sc = scene(
+        ortho(),
+        vec![
+            prim("a", b([-1.5, -1.5, 0.0], [1.5, 1.5, 1.0]), [200, 0, 0]),
+            prim("b", b([-0.2, -0.2, -2.0], [0.2, 0.2, -1.0]), [0, 200, 0]),
+        ],
+        expr(|e| e.leaf(0)),
+    );
+    sc.solids[0].expr = expr(|e| {
+        let (x, y) = (e.leaf(0), e.leaf(1));
+        e.union(x, y)
+    });
+    let all = render_layers(&sc, N, N, LayerLimit::default());
+    assert_eq!(all.layers.len(), 4);
+    let small = all.layers[2].prim.iter().filter(|&&p| p != 0).count() as u64;
+    let big = all.layers[0].prim.iter().filter(|&&p| p != 0).count() as u64;
+    assert_eq!((small, big), (16, 900));
+    let cut = render_layers(
+        &sc,
+        N,
+        N,
+        LayerLimit {
+            max: None,
+            threshold: small + 1,
+        },
+    );
+    assert_eq!(cut.layers, all.layers[..2].to_vec());
+    let keep = render_layers(
+        &sc,
+        N,
+        N,
+        LayerLimit {
+            max: None,
+            threshold: small,
+        },
+    );
+    assert_eq!(keep.layers.len(), 4);
 }

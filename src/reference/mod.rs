@@ -11,6 +11,6 @@ pub mod raycast;
 
 pub use bvh::{Crossing, Line, MeshBvh, SceneBvh, WorldCrossing};
 pub use compare::{compare, CompareError, CompareReport};
-pub use layers::{render_layers, LayerHit, LayerStack};
+pub use layers::{render_layers, LayerHit, LayerLimit, LayerStack};
 pub use raycast::{render, render_with_normals};
 pub use raycast::{Hit, Prepared, GROUP_TOL_REL};
