@@ -8,6 +8,8 @@ use std::process::{Command, Output};
 
 use rand::{Rng, SeedableRng};
 
+mod layers_cli;
+
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_peeltrim"));
     c.env("PEELTRIM_VALIDATION", "1");

@@ -1,0 +1,142 @@
+//! `render --layers-out / --layers / --layer-threshold / --alpha` as a user runs
+//! them: the layer directories, layer 1 against the opaque images, the composite,
+//! stats.json, and the errors.
+
+use super::{assert_error, run, scene, stderr, tmp};
+
+fn render(name: &str, out: &std::path::Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "render",
+        name,
+        "--size",
+        "64x48",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    run(&args)
+}
+
+fn images(dir: &std::path::Path) -> peeltrim::output::Images {
+    peeltrim::output::read_images(dir).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn stats(dir: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("stats.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn layers_out_writes_every_layer_and_layer_one_is_the_image() {
+    let out = tmp("layers");
+    let o = render(&scene("drilled_block.toml"), &out, &["--layers-out"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let st = stats(&out);
+    let n = st["layers"].as_u64().unwrap() as usize;
+    assert!(n >= 4, "{st}");
+    let pixels: Vec<u64> = st["layer_pixels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    assert_eq!(pixels.len(), n);
+    assert!(
+        pixels.windows(2).all(|w| w[0] >= w[1]) && pixels[n - 1] > 0,
+        "{pixels:?}"
+    );
+    assert_eq!(st["transparent"], false);
+    assert!(!out.join("layers").join(format!("{:02}", n + 1)).exists());
+
+    // Opaque: the contract's files are the opaque image, and layer 1 is that image.
+    let main = images(&out);
+    let first = images(&out.join("layers/01"));
+    assert_eq!(first, main);
+    let mut prev = first;
+    for k in 2..=n {
+        let layer = images(&out.join(format!("layers/{k:02}")));
+        let covered = layer.prim.iter().filter(|&&p| p != 0).count() as u64;
+        assert_eq!(covered, pixels[k - 1], "layer {k}");
+        for i in 0..layer.depth.len() {
+            if layer.prim[i] != 0 {
+                assert!(
+                    prev.prim[i] != 0,
+                    "layer {k} pixel {i} without layer {}",
+                    k - 1
+                );
+                assert!(
+                    layer.depth[i] >= prev.depth[i],
+                    "layer {k} pixel {i} in front"
+                );
+            } else {
+                assert_eq!(layer.depth[i], f32::INFINITY);
+            }
+        }
+        prev = layer;
+    }
+
+    // --layers 2 and a threshold above the last layer's pixels cut the stack.
+    let cut = tmp("layers-cut");
+    let o = render(
+        &scene("drilled_block.toml"),
+        &cut,
+        &["--layers-out", "--layers", "2"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(cut.join("layers/02/depth.npy").exists() && !cut.join("layers/03").exists());
+    let t = (pixels[n - 1] + 1).to_string();
+    let o = render(
+        &scene("drilled_block.toml"),
+        &cut,
+        &["--layers-out", "--layer-threshold", &t],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let kept = pixels.iter().take_while(|&&p| p > pixels[n - 1]).count();
+    assert!(kept < n);
+    assert_eq!(stats(&cut)["layers"].as_u64().unwrap() as usize, kept);
+}
+
+#[test]
+fn alpha_composites_and_keeps_layer_one() {
+    let opaque = tmp("alpha-opaque");
+    let o = render(&scene("paper_example.toml"), &opaque, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let see = tmp("alpha");
+    let o = render(&scene("paper_example.toml"), &see, &["--alpha", "0.4"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (a, b) = (images(&opaque), images(&see));
+    assert_eq!(
+        (a.depth.clone(), a.prim.clone()),
+        (b.depth.clone(), b.prim.clone())
+    );
+    let changed = (0..a.color.len())
+        .filter(|&i| a.prim[i] != 0 && a.color[i] != b.color[i])
+        .count();
+    let covered = a.prim.iter().filter(|&&p| p != 0).count();
+    assert!(
+        changed * 2 > covered,
+        "{changed} of {covered} covered pixels changed"
+    );
+    let bg: Vec<usize> = (0..a.color.len()).filter(|&i| a.prim[i] == 0).collect();
+    assert!(
+        bg.iter().all(|&i| a.color[i] == b.color[i]),
+        "background changed"
+    );
+    assert_eq!(stats(&see)["transparent"], true);
+}
+
+#[test]
+fn layer_flags_reject_bad_values_and_gpu_algorithms_say_they_cannot() {
+    let out = tmp("layers-bad");
+    let s = scene("paper_example.toml");
+    assert_error(
+        &render(&s, &out, &["--alpha", "1.5"]),
+        &["--alpha", "(0, 1]"],
+    );
+    assert_error(&render(&s, &out, &["--alpha", "half"]), &["opacity"]);
+    assert_error(&render(&s, &out, &["--layers", "0"]), &["--layers"]);
+    for algo in ["cst-i", "goldfeather"] {
+        let o = render(&s, &out, &["--algo", algo, "--layers-out"]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert_error(&o, &[algo, "cannot render", "--algo reference"]);
+    }
+}
