@@ -9,6 +9,9 @@ use std::process::{Command, Output};
 use rand::{Rng, SeedableRng};
 
 mod layers_cli;
+/// OpenSCAD `.csg` models through the command line.
+mod openscad_cli;
+mod scad_models;
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_peeltrim"));
