@@ -140,3 +140,54 @@ fn layer_flags_reject_bad_values_and_gpu_algorithms_say_they_cannot() {
         assert_error(&o, &[algo, "cannot render", "--algo reference"]);
     }
 }
+
+#[test]
+fn highlight_marks_trimmed_faces_visible_and_hidden() {
+    let out = tmp("highlight");
+    let s = scene("drilled_block.toml");
+    let o = render(&s, &out, &["--layers-out", "--highlight", "H00,H01"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plain = tmp("highlight-plain");
+    let o = render(&s, &plain, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (lit, base) = (images(&out), images(&plain));
+    assert_eq!((&lit.depth, &lit.prim), (&base.depth, &base.prim));
+    let st = stats(&out);
+    let n = st["layers"].as_u64().unwrap() as usize;
+    let layers: Vec<_> = (1..=n)
+        .map(|k| images(&out.join(format!("layers/{k:02}"))))
+        .collect();
+    // H00 and H01 are primitives 2 and 3 (1-based) of drilled_block.
+    let (mut shown, mut hidden) = (0u64, 0u64);
+    for i in 0..lit.prim.len() {
+        match layers.iter().position(|l| matches!(l.prim[i], 2 | 3)) {
+            Some(0) => {
+                shown += 1;
+                // The highlight colour, shaded: rgb * k with one k for all channels.
+                let [r, g, b] = peeltrim::reference::highlight::HIGHLIGHT_RGB.map(f64::from);
+                let c = lit.color[i].map(f64::from);
+                let k = c[0] / r;
+                assert!(
+                    (0.24..=1.0).contains(&k)
+                        && (c[1] - g * k).abs() <= 1.0
+                        && (c[2] - b * k).abs() <= 1.0,
+                    "pixel {i}: {:?}",
+                    lit.color[i]
+                );
+            }
+            Some(_) => {
+                hidden += 1;
+                assert_ne!(lit.color[i], base.color[i], "pixel {i}");
+            }
+            None => assert_eq!(lit.color[i], base.color[i], "pixel {i}"),
+        }
+    }
+    assert!(shown > 0 && hidden > 0, "{shown} {hidden}");
+    assert_eq!(st["highlighted_pixels"].as_u64(), Some(shown));
+    assert_eq!(st["highlighted_hidden_pixels"].as_u64(), Some(hidden));
+
+    assert_error(
+        &render(&s, &out, &["--highlight", "H00,Nope"]),
+        &["--highlight", "'Nope'", "Block, H00"],
+    );
+}

@@ -75,6 +75,33 @@ struct LayerArgs {
     /// color.png becomes the front-to-back composite of the layers
     #[arg(long, value_parser = parse_alpha)]
     alpha: Option<f64>,
+    /// Draw the trimmed faces of these primitives in a highlight colour, see-through
+    /// where hidden (comma-separated primitive names)
+    #[arg(long, value_name = "NAME[,NAME]", value_delimiter = ',')]
+    highlight: Vec<String>,
+}
+
+/// `--highlight` names as 0-based primitive indices; an unknown name is an error
+/// listing the scene's primitives.
+fn highlight_indices(scene: &scene::Scene, names: &[String]) -> Result<Vec<u32>> {
+    names
+        .iter()
+        .map(|n| {
+            let n = n.trim();
+            scene
+                .primitives
+                .iter()
+                .position(|p| p.name == n)
+                .map(|i| i as u32)
+                .with_context(|| {
+                    let all: Vec<&str> = scene.primitives.iter().map(|p| p.name.as_str()).collect();
+                    format!(
+                        "--highlight: the scene has no primitive named '{n}'; its primitives are: {}",
+                        all.join(", ")
+                    )
+                })
+        })
+        .collect()
 }
 
 fn parse_alpha(s: &str) -> Result<f64, String> {
@@ -331,6 +358,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 max_layers: layers.layers,
                 threshold: layers.layer_threshold,
                 write_layers: layers.layers_out,
+                highlight: highlight_indices(&scene, &layers.highlight)?,
             };
             if let Ok(prep) = peeltrim::plan::Prepared::new(&scene) {
                 for w in prep.warnings(opts.algo) {
@@ -344,9 +372,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 render::render(&scene, &opts).map(|f| (f, None))
             } {
                 Err(
-                    e @ (render::RenderError::Plan(
-                        peeltrim::plan::PlanError::NotImplemented(_),
-                    )
+                    e @ (render::RenderError::Plan(peeltrim::plan::PlanError::NotImplemented(_))
                     | render::RenderError::Unsupported { .. }),
                 ) => {
                     eprintln!("peeltrim: {e}");

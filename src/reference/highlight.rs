@@ -25,7 +25,11 @@ pub enum Highlighted {
 
 /// The highlighted colour of a pixel whose image colour is `base` and whose
 /// layers are `hits`; `chosen[p]` marks the highlighted primitives (0-based).
-pub fn highlight_pixel(hits: &[LayerHit], base: [u8; 4], chosen: &[bool]) -> ([u8; 4], Highlighted) {
+pub fn highlight_pixel(
+    hits: &[LayerHit],
+    base: [u8; 4],
+    chosen: &[bool],
+) -> ([u8; 4], Highlighted) {
     let Some((k, hit)) = hits
         .iter()
         .enumerate()
@@ -37,9 +41,8 @@ pub fn highlight_pixel(hits: &[LayerHit], base: [u8; 4], chosen: &[bool]) -> ([u
     if k == 0 {
         return (c, Highlighted::Visible);
     }
-    let mix = |i: usize| {
-        (GHOST_ALPHA * c[i] as f64 + (1.0 - GHOST_ALPHA) * base[i] as f64).round() as u8
-    };
+    let mix =
+        |i: usize| (GHOST_ALPHA * c[i] as f64 + (1.0 - GHOST_ALPHA) * base[i] as f64).round() as u8;
     ([mix(0), mix(1), mix(2), 255], Highlighted::Hidden)
 }
 
@@ -67,7 +70,10 @@ mod tests {
         assert_eq!(c, [133, 34, 95, 255]); // (255+10)/2, (48+20)/2, (160+30)/2, rounded
         let (c, h) = highlight_pixel(&hits[1..], base, &chosen);
         assert_eq!((c, h), ([255, 48, 160, 255], Highlighted::Visible));
-        assert_eq!(highlight_pixel(&hits[..1], base, &chosen), (base, Highlighted::No));
+        assert_eq!(
+            highlight_pixel(&hits[..1], base, &chosen),
+            (base, Highlighted::No)
+        );
         assert_eq!(highlight_pixel(&[], base, &chosen), (base, Highlighted::No));
     }
 }

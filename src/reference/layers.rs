@@ -52,6 +52,8 @@ pub struct LayerStack {
     pub layers: Vec<Images>,
     /// The layers composited front to back with the scene's opacities.
     pub composite: Vec<[u8; 4]>,
+    /// Each pixel's crossings, front to back, row-major.
+    pub hits: Vec<Vec<LayerHit>>,
 }
 
 #[derive(Default)]
@@ -276,7 +278,11 @@ pub fn render_layers(scene: &Scene, width: u32, height: u32, limit: LayerLimit) 
         })
         .collect();
     let composite = hits.iter().map(|v| composite(scene, v, bg)).collect();
-    LayerStack { layers, composite }
+    LayerStack {
+        layers,
+        composite,
+        hits,
+    }
 }
 
 #[cfg(test)]

@@ -6,6 +6,7 @@
 pub mod bvh;
 pub mod compare;
 pub mod fixtures;
+pub mod highlight;
 pub mod layers;
 pub mod raycast;
 

@@ -12,11 +12,12 @@ use serde::Serialize;
 use super::{Frame, FrameStats, RenderError, RenderOptions};
 use crate::output::{write_images, Images, OutputError};
 use crate::plan::Algo;
+use crate::reference::highlight::{highlight_pixel, Highlighted};
 use crate::reference::{render_layers, LayerLimit};
 use crate::scene::Scene;
 
 /// What the command line asks of layers and transparency.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct LayerOptions {
     /// `--layers N`: peel at most N layers.
     pub max_layers: Option<u32>,
@@ -24,12 +25,17 @@ pub struct LayerOptions {
     pub threshold: u64,
     /// `--layers-out`: write `layers/01/`, `layers/02/`, … next to the images.
     pub write_layers: bool,
+    /// `--highlight NAME,...`: 0-based indices of the primitives to highlight.
+    pub highlight: Vec<u32>,
 }
 
 impl LayerOptions {
     /// Whether the frame needs layers: asked for, or the scene is see-through.
     pub fn wanted(&self, scene: &Scene) -> bool {
-        self.write_layers || self.max_layers.is_some() || scene.appearance.is_transparent()
+        self.write_layers
+            || self.max_layers.is_some()
+            || !self.highlight.is_empty()
+            || scene.appearance.is_transparent()
     }
 
     fn limit(&self) -> LayerLimit {
@@ -49,6 +55,12 @@ pub struct LayerStats {
     pub layer_pixels: Vec<u64>,
     /// `color.png` is the alpha composite of the layers.
     pub transparent: bool,
+    /// With `--highlight`: pixels where a highlighted face is the first layer.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub highlighted_pixels: Option<u64>,
+    /// With `--highlight`: pixels where one lies hidden behind other faces.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub highlighted_hidden_pixels: Option<u64>,
 }
 
 /// A frame with its layers: `images` as the contract's files (the composite in
@@ -71,7 +83,7 @@ pub fn render_layered(
     if opts.algo != Algo::Reference {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
-            what: "layers and transparency (--layers, --layers-out, --alpha, alpha keys)",
+            what: "layers, transparency and highlight (--layers, --layers-out, --alpha, alpha keys, --highlight)",
         });
     }
     let transparent = scene.appearance.is_transparent();
@@ -95,7 +107,7 @@ pub fn render_layered(
         super::render_reference(scene)
     };
     frame.stats = super::reference_stats(&frame.images, t.elapsed().as_secs_f64() * 1e3);
-    let layer_stats = LayerStats {
+    let mut layer_stats = LayerStats {
         layers: stack.layers.len() as u32,
         layer_pixels: stack
             .layers
@@ -103,7 +115,26 @@ pub fn render_layered(
             .map(|l| l.prim.iter().filter(|&&p| p != 0).count() as u64)
             .collect(),
         transparent,
+        ..Default::default()
     };
+    if !lopts.highlight.is_empty() {
+        let mut chosen = vec![false; scene.primitives.len()];
+        for &p in &lopts.highlight {
+            chosen[p as usize] = true;
+        }
+        let (mut shown, mut hidden) = (0, 0);
+        for (c, hits) in frame.images.color.iter_mut().zip(&stack.hits) {
+            let (out, h) = highlight_pixel(hits, *c, &chosen);
+            *c = out;
+            match h {
+                Highlighted::Visible => shown += 1,
+                Highlighted::Hidden => hidden += 1,
+                Highlighted::No => {}
+            }
+        }
+        layer_stats.highlighted_pixels = Some(shown);
+        layer_stats.highlighted_hidden_pixels = Some(hidden);
+    }
     frame.stats.layers = Some(layer_stats.clone());
     Ok(LayeredFrame {
         frame,
