@@ -57,20 +57,28 @@ pub struct LayerStack {
 }
 
 #[derive(Default)]
-struct Scratch {
+pub(super) struct Scratch {
     tmp: Vec<Crossing>,
     events: Vec<WorldCrossing>,
     count: Vec<i32>,
     vals: Vec<bool>,
     inside: Vec<bool>,
     group: Vec<LayerHit>,
+    pair_inside: Vec<bool>,
+    /// After a cast: the nearest entry into the intersection of two solids
+    /// (`solid` is the pair's index in [`Layers::pairs`]), within `[near, far]`.
+    pub(super) clash: Option<LayerHit>,
+    /// After a cast: which pairs of solids the line meets in both, within `[near, far]`.
+    pub(super) pairs_hit: Vec<bool>,
 }
 
 /// The reference prepared for layers: the ray caster's scene plus, per solid,
 /// which primitives it names.
 pub struct Layers<'a> {
-    prep: Prepared<'a>,
+    pub(super) prep: Prepared<'a>,
     named: Vec<Vec<bool>>,
+    /// Every pair `(a, b)`, `a < b`, of solids (for interference).
+    pub(super) pairs: Vec<(u32, u32)>,
 }
 
 impl<'a> Layers<'a> {
@@ -87,9 +95,13 @@ impl<'a> Layers<'a> {
                 v
             })
             .collect();
+        let k = scene.solids.len() as u32;
         Layers {
             prep: Prepared::new(scene),
             named,
+            pairs: (0..k)
+                .flat_map(|a| (a + 1..k).map(move |b| (a, b)))
+                .collect(),
         }
     }
 
@@ -110,7 +122,7 @@ impl<'a> Layers<'a> {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn cast_with(
+    pub(super) fn cast_with(
         &self,
         s: &mut Scratch,
         px: f64,
@@ -139,6 +151,11 @@ impl<'a> Layers<'a> {
             let v = sol.eval(&s.count, &mut s.vals);
             s.inside.push(v);
         }
+        s.clash = None;
+        s.pair_inside.clear();
+        s.pair_inside.resize(self.pairs.len(), false);
+        s.pairs_hit.clear();
+        s.pairs_hit.resize(self.pairs.len(), false);
 
         let mut i = 0;
         while i < s.events.len() && out.len() < max {
@@ -177,6 +194,34 @@ impl<'a> Layers<'a> {
                         .abs(),
                 });
             }
+            for (pi, &(a, b)) in self.pairs.iter().enumerate() {
+                let both = s.inside[a as usize] && s.inside[b as usize];
+                if both && !s.pair_inside[pi] {
+                    let best = group
+                        .iter()
+                        .filter(|e| {
+                            self.named[a as usize][e.shape as usize]
+                                || self.named[b as usize][e.shape as usize]
+                        })
+                        .min_by_key(|e| e.shape)
+                        .expect("entering two solids with none of their primitives crossing");
+                    let depth = depth_of(best.crossing.t);
+                    if (cam.near..=cam.far).contains(&depth) {
+                        s.pairs_hit[pi] = true;
+                        s.clash.get_or_insert(LayerHit {
+                            depth,
+                            prim: best.shape,
+                            solid: pi as u32,
+                            entering: true,
+                            cos: p.prims.shapes[best.shape as usize]
+                                .normal(best.crossing.tri)
+                                .dot(line.dir)
+                                .abs(),
+                        });
+                    }
+                }
+                s.pair_inside[pi] = both;
+            }
             s.group.sort_by_key(|hit| hit.prim);
             for hit in &s.group {
                 if hit.depth > cam.far {
@@ -199,10 +244,25 @@ pub fn layer_color(scene: &Scene, hit: &LayerHit) -> [u8; 4] {
 /// Blends `hits` (front to back) over `background` with the scene's opacities:
 /// `C = Σ_k T_k a_k c_k + T_n bg`, `T_{k+1} = T_k (1 − a_k)`.
 pub fn composite(scene: &Scene, hits: &[LayerHit], background: [u8; 3]) -> [u8; 4] {
+    blend(
+        scene,
+        hits,
+        |h| scene.appearance.alpha_of(h.prim, h.solid),
+        background,
+    )
+}
+
+/// [`composite`] with the opacity of each crossing given by `alpha`.
+pub fn blend(
+    scene: &Scene,
+    hits: &[LayerHit],
+    alpha: impl Fn(&LayerHit) -> f64,
+    background: [u8; 3],
+) -> [u8; 4] {
     let mut acc = [0.0f64; 3];
     let mut t = 1.0;
     for hit in hits {
-        let a = scene.appearance.alpha_of(hit.prim, hit.solid);
+        let a = alpha(hit);
         let c = layer_color(scene, hit);
         for (x, v) in acc.iter_mut().zip(c) {
             *x += t * a * v as f64;

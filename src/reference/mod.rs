@@ -7,6 +7,7 @@ pub mod bvh;
 pub mod compare;
 pub mod fixtures;
 pub mod highlight;
+pub mod interference;
 pub mod layers;
 pub mod raycast;
 
