@@ -191,3 +191,35 @@ fn highlight_marks_trimmed_faces_visible_and_hidden() {
         &["--highlight", "'Nope'", "Block, H00"],
     );
 }
+
+#[test]
+fn interference_lists_the_intersecting_pair() {
+    let dir = tmp("interference");
+    let path = dir.join("clash.toml");
+    std::fs::write(
+        &path,
+        "[camera]\neye = [3.0, 2.0, 4.0]\nfit = true\n[render]\ninterference = true\n\
+         [[primitive]]\nname = \"P\"\nshape = \"box\"\nsize = [2, 2, 2]\n\
+         [[primitive]]\nname = \"Q\"\nshape = \"sphere\"\nradius = 0.8\ntranslate = [1, 0, 0]\n\
+         [[primitive]]\nname = \"R\"\nshape = \"box\"\nsize = [0.5, 0.5, 0.5]\ntranslate = [-3, 0, 0]\n\
+         [[solid]]\nname = \"p\"\nexpr = \"P\"\n[[solid]]\nname = \"q\"\nexpr = \"Q\"\n\
+         [[solid]]\nname = \"r\"\nexpr = \"R\"\n",
+    )
+    .unwrap();
+    let s = path.to_str().unwrap();
+    let out = dir.join("out");
+    let o = render(s, &out, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let st = stats(&out);
+    let pairs = st["interference"].as_array().unwrap();
+    assert_eq!(pairs.len(), 1, "{st}");
+    assert_eq!(pairs[0]["solids"], serde_json::json!(["p", "q"]));
+    let n = pairs[0]["pixels"].as_u64().unwrap();
+    assert!(
+        n > 50 && st["interference_pixels"].as_u64() == Some(n),
+        "{st}"
+    );
+    let o = render(s, &out, &["--algo", "cst-i"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_error(&o, &["interference"]);
+}

@@ -79,6 +79,10 @@ struct LayerArgs {
     /// where hidden (comma-separated primitive names)
     #[arg(long, value_name = "NAME[,NAME]", value_delimiter = ',')]
     highlight: Vec<String>,
+    /// Assemblies: solids semi-transparent, where two solids intersect opaque in
+    /// red; stats.json lists the interfering pairs (same as [render] interference = true)
+    #[arg(long)]
+    interference: bool,
 }
 
 /// `--highlight` names as 0-based primitive indices; an unknown name is an error
@@ -354,6 +358,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             if layers.alpha.is_some() {
                 scene.appearance.alpha = layers.alpha;
             }
+            scene.appearance.interference |= layers.interference;
             let lopts = render::layers::LayerOptions {
                 max_layers: layers.layers,
                 threshold: layers.layer_threshold,

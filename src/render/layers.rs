@@ -13,6 +13,7 @@ use super::{Frame, FrameStats, RenderError, RenderOptions};
 use crate::output::{write_images, Images, OutputError};
 use crate::plan::Algo;
 use crate::reference::highlight::{highlight_pixel, Highlighted};
+use crate::reference::interference::{render_interference, InterferingPair};
 use crate::reference::{render_layers, LayerLimit};
 use crate::scene::Scene;
 
@@ -33,6 +34,7 @@ impl LayerOptions {
     /// Whether the frame needs layers: asked for, or the scene is see-through.
     pub fn wanted(&self, scene: &Scene) -> bool {
         self.write_layers
+            || scene.appearance.interference
             || self.max_layers.is_some()
             || !self.highlight.is_empty()
             || scene.appearance.is_transparent()
@@ -61,6 +63,13 @@ pub struct LayerStats {
     /// With `--highlight`: pixels where one lies hidden behind other faces.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub highlighted_hidden_pixels: Option<u64>,
+    /// With interference: the pairs of solids that intersect, with the pixels
+    /// whose ray meets their intersection.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interference: Option<Vec<InterferingPair>>,
+    /// With interference: pixels showing an interference.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interference_pixels: Option<u64>,
 }
 
 /// A frame with its layers: `images` as the contract's files (the composite in
@@ -83,14 +92,15 @@ pub fn render_layered(
     if opts.algo != Algo::Reference {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
-            what: "layers, transparency and highlight (--layers, --layers-out, --alpha, alpha keys, --highlight)",
+            what: "layers, transparency, highlight and interference (--layers, --layers-out, --alpha, alpha keys, --highlight, --interference)",
         });
     }
     let transparent = scene.appearance.is_transparent();
+    let interference = scene.appearance.interference;
     let t = Instant::now();
     let (w, h) = (scene.render.width, scene.render.height);
     let stack = render_layers(scene, w, h, lopts.limit());
-    let mut frame = if transparent {
+    let mut frame = if transparent || interference {
         let first = stack.layers.first();
         let n = w as usize * h as usize;
         Frame {
@@ -117,6 +127,12 @@ pub fn render_layered(
         transparent,
         ..Default::default()
     };
+    if interference {
+        let img = render_interference(scene, w, h);
+        frame.images.color = img.color;
+        layer_stats.interference_pixels = Some(img.mask.iter().filter(|&&m| m).count() as u64);
+        layer_stats.interference = Some(img.pairs);
+    }
     if !lopts.highlight.is_empty() {
         let mut chosen = vec![false; scene.primitives.len()];
         for &p in &lopts.highlight {

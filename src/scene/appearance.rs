@@ -17,6 +17,9 @@ pub struct Appearance {
     pub solid_alpha: Vec<Option<f64>>,
     /// `alpha` of each `[[primitive]]`, in file order; may be shorter.
     pub primitive_alpha: Vec<Option<f64>>,
+    /// `[render] interference = true` (or `--interference`): show where the
+    /// assembly's solids intersect.
+    pub interference: bool,
 }
 
 impl Appearance {

@@ -147,6 +147,7 @@ struct RenderT {
     height: Option<u32>,
     background: Option<Color>,
     alpha: Option<f64>,
+    interference: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -394,6 +395,11 @@ impl Loader<'_> {
             alpha: self.alpha(render_alpha, render_line, "render")?,
             solid_alpha: csg.chain(solids).collect::<Result<_, _>>()?,
             primitive_alpha,
+            interference: file
+                .render
+                .as_ref()
+                .and_then(|r| r.get_ref().interference)
+                .unwrap_or(false),
         })
     }
 
