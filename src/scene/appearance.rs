@@ -94,15 +94,22 @@ mod tests {
         let s = load(&format!(
             "{HEAD}alpha = 0.5\n[[primitive]]\nname = \"B\"\nshape = \"sphere\"\nradius = 0.3\n\
              [[solid]]\nname = \"s\"\nexpr = \"A\"\n[[solid]]\nname = \"t\"\nexpr = \"B\"\nalpha = 0.25\n\
-             [render]\nalpha = 0.8\n"
+             [render]\nalpha = 0.8\ninterference = true\n"
         ))
         .unwrap();
+        assert!(s.appearance.interference);
         let a = &s.appearance;
         assert_eq!(a.primitive_alpha, vec![Some(0.5), None]);
         assert_eq!(a.solid_alpha, vec![None, Some(0.25)]);
         assert_eq!(a.alpha, Some(0.8));
         let s = load(&format!("{HEAD}[csg]\nexpr = \"A\"\nalpha = 0.3\n")).unwrap();
         assert_eq!(s.appearance.solid_alpha, vec![Some(0.3)]);
+        assert!(!s.appearance.interference);
+        let e = load(&format!(
+            "{HEAD}[csg]\nexpr = \"A\"\n[render]\ninterference = \"yes\"\n"
+        ))
+        .unwrap_err();
+        assert!(e.contains("interference") && e.contains("bool"), "{e}");
         let e = load(&format!("{HEAD}alpha = 1.5\n[csg]\nexpr = \"A\"\n")).unwrap_err();
         assert!(
             e.contains("primitive[1] \"A\": alpha") && e.contains("(0, 1]"),
