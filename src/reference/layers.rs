@@ -138,6 +138,16 @@ impl<'a> Layers<'a> {
         let line = Line::from_ray(&cam.ray(px, py, w, h));
         let fwd = cam.forward();
         let depth_of = |t: f64| (line.at(t) - cam.eye).dot(fwd);
+        let hit_of = |e: &WorldCrossing, solid: usize, entering: bool| LayerHit {
+            depth: depth_of(e.crossing.t),
+            prim: e.shape,
+            solid: solid as u32,
+            entering,
+            cos: p.prims.shapes[e.shape as usize]
+                .normal(e.crossing.tri)
+                .dot(line.dir)
+                .abs(),
+        };
 
         s.events.clear();
         p.prims
@@ -183,16 +193,7 @@ impl<'a> Layers<'a> {
                     .expect(
                         "a solid's classification changed with none of its primitives crossing",
                     );
-                s.group.push(LayerHit {
-                    depth: depth_of(best.crossing.t),
-                    prim: best.shape,
-                    solid: si as u32,
-                    entering: now,
-                    cos: p.prims.shapes[best.shape as usize]
-                        .normal(best.crossing.tri)
-                        .dot(line.dir)
-                        .abs(),
-                });
+                s.group.push(hit_of(best, si, now));
             }
             for (pi, &(a, b)) in self.pairs.iter().enumerate() {
                 let both = s.inside[a as usize] && s.inside[b as usize];
@@ -205,19 +206,10 @@ impl<'a> Layers<'a> {
                         })
                         .min_by_key(|e| e.shape)
                         .expect("entering two solids with none of their primitives crossing");
-                    let depth = depth_of(best.crossing.t);
-                    if (cam.near..=cam.far).contains(&depth) {
+                    let hit = hit_of(best, pi, true);
+                    if (cam.near..=cam.far).contains(&hit.depth) {
                         s.pairs_hit[pi] = true;
-                        s.clash.get_or_insert(LayerHit {
-                            depth,
-                            prim: best.shape,
-                            solid: pi as u32,
-                            entering: true,
-                            cos: p.prims.shapes[best.shape as usize]
-                                .normal(best.crossing.tri)
-                                .dot(line.dir)
-                                .abs(),
-                        });
+                        s.clash.get_or_insert(hit);
                     }
                 }
                 s.pair_inside[pi] = both;
