@@ -112,6 +112,7 @@ fn scene(meshes: Vec<Mesh>) -> Scene {
         solids: vec![],
         surfaces: vec![],
         warnings: vec![],
+        appearance: Default::default(),
     }
 }
 

@@ -6,6 +6,7 @@
 //! camera with definite near/far planes.
 #![deny(unsafe_code)]
 
+pub mod appearance;
 pub mod camera;
 pub mod fit;
 pub mod load;
@@ -14,6 +15,7 @@ pub mod openscad;
 pub mod shapes;
 // TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
 pub mod validate;
+pub use appearance::Appearance;
 pub use camera::{Camera, Projection};
 pub use load::{is_bounded, load, load_str, load_with, LoadOptions, SceneError};
 
@@ -147,6 +149,8 @@ pub struct Scene {
     pub surfaces: Vec<Surface>,
     /// Non-fatal remarks from loading (unused primitives, ignored keys), one line each.
     pub warnings: Vec<String>,
+    /// Opacities (extension: `alpha` keys); default opaque.
+    pub appearance: Appearance,
 }
 
 #[cfg(test)]
