@@ -16,6 +16,7 @@
 
 pub mod bench;
 pub mod csg;
+pub mod embed;
 pub mod output;
 pub mod plan;
 pub mod reference;

@@ -12,6 +12,7 @@
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod conv;
+pub mod embed;
 pub mod error;
 pub mod exec;
 pub mod image;
@@ -25,6 +26,7 @@ pub mod scissor;
 pub(crate) mod submit;
 pub mod sync;
 
+pub use embed::{Embedder, HostTargets};
 pub use error::VkError;
 pub use exec::{Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
 pub use instance::{Context, ContextDesc, DeviceChoice};

@@ -18,6 +18,7 @@
 //! descriptor sets), `record` (steps to commands, barriers from `plan::usage`
 //! through `vk::sync`), `stats` (typed statistics).
 
+mod embed;
 mod gpu_scene;
 mod record;
 mod stats;
@@ -31,6 +32,7 @@ use gpu_allocator::MemoryLocation;
 
 pub use super::conv::DepthFormat;
 pub use stats::{Counts, ExecStats, PassStats};
+pub(crate) use embed::{Output, Unrolled};
 
 use super::error::VkError;
 use super::image::range;
@@ -363,30 +365,9 @@ impl Executor {
         self.submit.wait()?;
         let device = &self.shared.device;
         let samples = submit::query_results(device, self.occlusion.pool, rec.queries.len())?;
-        let mut per_head = vec![Vec::new(); layers.len()];
-        for (l, n) in per_head.iter_mut().zip(layers) {
-            *l = vec![0u64; *n as usize];
-        }
-        for (g, s) in rec.queries.iter().zip(&samples) {
-            if let Some((l, k)) = g {
-                per_head[*l][*k as usize] += s;
-            }
-        }
-        let loops = plan.steps.iter().filter_map(|s| match s {
-            Step::Loop(l) => Some(l.max_iterations),
-            _ => None,
-        });
-        for (heads, max) in per_head.iter().zip(loops) {
-            let fits = match heads.split_last() {
-                None => max == 0,
-                Some((&last, before)) => {
-                    before.iter().all(|&s| s > 0) && (last == 0 || heads.len() as u32 >= max)
-                }
-            };
-            if !fits {
-                self.layers = None;
-                return Ok(None);
-            }
+        if !layers_fit(plan, layers, &rec.queries, &samples) {
+            self.layers = None;
+            return Ok(None);
         }
         let mut stats = rec.stats.clone();
         stats.counts.loop_iterations = layers.to_vec();
@@ -600,6 +581,28 @@ impl Executor {
             scene.background,
         ))
     }
+}
+
+/// Whether a frame unrolled to `layers` was right, by the GPU's occlusion
+/// `samples` (tagged by `groups`): every head but the last of a loop passed
+/// samples, the last none (or the loop hit its bound).
+fn layers_fit(plan: &Plan, layers: &[u32], groups: &[Group], samples: &[u64]) -> bool {
+    let mut per_head: Vec<Vec<u64>> = layers.iter().map(|&n| vec![0u64; n as usize]).collect();
+    for (g, s) in groups.iter().zip(samples) {
+        if let Some((l, k)) = g {
+            per_head[*l][*k as usize] += s;
+        }
+    }
+    let loops = plan.steps.iter().filter_map(|s| match s {
+        Step::Loop(l) => Some(l.max_iterations),
+        _ => None,
+    });
+    per_head.iter().zip(loops).all(|(heads, max)| match heads.split_last() {
+        None => max == 0,
+        Some((&last, before)) => {
+            before.iter().all(|&s| s > 0) && (last == 0 || heads.len() as u32 >= max)
+        }
+    })
 }
 
 /// `plan`'s steps with each loop `i` unrolled to `layers[i]` head executions (the
