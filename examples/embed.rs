@@ -540,8 +540,134 @@ fn compare(csg: &CsgScene, [w, h]: [u32; 2], pixels: &[[u8; 4]]) -> Report {
     r
 }
 
+/// Median `frame_ms` (submission to completion) of `frames` frames of `path`'s
+/// solids, standalone (`Executor::execute`) and embedded (recorded into a host
+/// command buffer that the host submits and waits for), plus the embedded
+/// frames' median CPU recording time.
+pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> {
+    use peeltrim::plan::{self, Algo, Prepared};
+    use std::time::Instant;
+    let scene = peeltrim::scene::load(path, &Default::default()).map_err(|e| e.to_string())?;
+    if !scene.surfaces.is_empty() {
+        return Err(format!("{}: trimmed surfaces are not part of the mesh-level API", path.display()));
+    }
+    let host = Host::new()?;
+    let d = &host.device;
+    // SAFETY: the device outlives the context (dropped before `host`'s objects).
+    let ctx = unsafe {
+        Context::from_raw(host.entry.clone(), host.instance.clone(), host.physical, d.clone(), host.family, host.queue)
+    }
+    .map_err(|e| e.to_string())?;
+    let extent = [scene.render.width, scene.render.height];
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    // Standalone: the executor's own submission.
+    let plan = plan::build(Algo::Goldfeather, &Prepared::new(&scene).map_err(|e| e.to_string())?)
+        .map_err(|e| e.to_string())?;
+    let mut exec = peeltrim::vk::Executor::new(
+        &ctx,
+        &peeltrim::vk::ExecDesc { width: extent[0], height: extent[1], depth_format: peeltrim::vk::DepthFormat::D32S8, reversed_z: false },
+    )
+    .map_err(|e| e.to_string())?;
+    exec.upload(&scene).map_err(|e| e.to_string())?;
+    let mut standalone = Vec::new();
+    // Embedded: the same plan recorded into the host's command buffer.
+    let f32s = |m: &Mesh| -> Vec<[f32; 3]> { m.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect() };
+    let pos: Vec<Vec<[f32; 3]>> = scene.primitives.iter().map(|p| f32s(&p.mesh)).collect();
+    let inputs: Vec<MeshInput<'_>> = scene
+        .primitives
+        .iter()
+        .zip(&pos)
+        .map(|(p, v)| MeshInput { positions: v, indices: &p.mesh.triangles, transform: Mat4::IDENTITY, color: p.color })
+        .collect();
+    let expr = plan::union_of_solids(&scene).ok_or("no solid")?;
+    let desc = EmbedDesc { extent, frames_in_flight: 1, ..EmbedDesc::default() };
+    let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Built(expr), &scene.camera, &desc).map_err(|e| e.to_string())?;
+    let (color_format, depth_format) = (vk::Format::R8G8B8A8_UNORM, vk::Format::D32_SFLOAT);
+    let color = host.image(color_format, vk::ImageUsageFlags::COLOR_ATTACHMENT, vk::ImageAspectFlags::COLOR, extent);
+    let depth = host.image(depth_format, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT, vk::ImageAspectFlags::DEPTH, extent);
+    let targets = HostTargets { color_view: color.2, color_format, depth_view: depth.2, depth_format, extent };
+    let pci = vk::CommandPoolCreateInfo::default().queue_family_index(host.family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+    // SAFETY: valid create info.
+    let pool = unsafe { d.create_command_pool(&pci, None) }.expect("pool");
+    // SAFETY: the pool is live.
+    let cmd = unsafe { d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1)) }.expect("cmd")[0];
+    // SAFETY: valid create info.
+    let fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.expect("fence");
+    let (mut embedded, mut record) = (Vec::new(), Vec::new());
+    // Interleaved, so that load on the machine hits both alike.
+    for _ in 0..frames {
+        standalone.push(exec.execute(&plan).map_err(|e| e.to_string())?.frame_ms);
+        let t = Instant::now();
+        // SAFETY: `cmd` is not pending (waited below); the images are live.
+        unsafe {
+            d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).expect("begin");
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[
+                    barrier(color.0, vk::ImageAspectFlags::COLOR, (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty()), (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::AccessFlags::COLOR_ATTACHMENT_WRITE)),
+                    barrier(depth.0, vk::ImageAspectFlags::DEPTH, (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty()), (vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL, vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)),
+                ],
+            );
+        }
+        // SAFETY: as above; one frame in flight.
+        unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
+        // SAFETY: as above.
+        unsafe { d.end_command_buffer(cmd) }.expect("end");
+        record.push(t.elapsed().as_secs_f64() * 1e3);
+        let t = Instant::now();
+        let cmds = [cmd];
+        // SAFETY: `cmd` is complete; the fence is unsignalled.
+        unsafe {
+            d.queue_submit(host.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence).expect("submit");
+            d.wait_for_fences(&[fence], true, u64::MAX).expect("wait");
+            d.reset_fences(&[fence]).expect("reset");
+        }
+        embedded.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    drop(exec);
+    drop(csg);
+    drop(ctx);
+    // SAFETY: idle; nothing uses these objects.
+    unsafe {
+        d.destroy_fence(fence, None);
+        d.destroy_command_pool(pool, None);
+        for (img, mem, view) in [color, depth] {
+            d.destroy_image_view(view, None);
+            d.destroy_image(img, None);
+            d.free_memory(mem, None);
+        }
+        d.destroy_device(None);
+        host.debug.0.destroy_debug_utils_messenger(host.debug.1, None);
+        host.instance.destroy_instance(None);
+    }
+    let msgs = MESSAGES.lock().expect("messages").clone();
+    if !msgs.is_empty() {
+        return Err(format!("validation: {}", msgs.join("\n")));
+    }
+    Ok([median(standalone), median(embedded), median(record)])
+}
+
 #[allow(dead_code)]
 fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--bench") {
+        println!("scene,standalone_frame_ms,embedded_frame_ms,ratio,embedded_record_ms");
+        for path in &args[1..] {
+            match bench(std::path::Path::new(path), 9) {
+                Ok([s, e, r]) => println!("{path},{s:.3},{e:.3},{:.3},{r:.3}", e / s),
+                Err(e) => println!("{path},not run: {e}"),
+            }
+        }
+        return;
+    }
     let mut failed = false;
     for reversed in [false, true] {
         match run([160, 120], reversed) {

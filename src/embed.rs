@@ -7,6 +7,7 @@
 //! The algorithms are those of the seed papers (see `plan`); the GPU side is the
 //! executor of the performance work (README "Executor", "Embedding").
 #![deny(unsafe_code)]
+#![warn(missing_docs)]
 
 use std::collections::HashMap;
 
@@ -71,14 +72,24 @@ impl Default for EmbedDesc {
 /// Errors of the embedding API; each names the input at fault.
 #[derive(Debug, thiserror::Error)]
 pub enum EmbedError {
+    /// A mesh is malformed (index past its positions, not finite, not closed).
     #[error("mesh {index}: {problem} (embedded meshes must be closed and outward-oriented)")]
-    Mesh { index: usize, problem: String },
+    Mesh {
+        /// Its index in the input slice.
+        index: usize,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// The expression does not parse or names a mesh that was not given.
     #[error("expression: {0} (name meshes m0, m1, … in input order)")]
     Expr(String),
+    /// The algorithm has no GPU plan (the CPU reference).
     #[error("algorithm {0} has no GPU plan: choose a GPU algorithm (e.g. goldfeather, blister, cst-z)")]
     Algo(Algo),
+    /// The plan could not be built.
     #[error(transparent)]
     Plan(#[from] PlanError),
+    /// The device failed.
     #[error(transparent)]
     Vk(#[from] VkError),
 }

@@ -9,6 +9,7 @@
 //! ring slot per frame in flight, and checked when that slot comes round again,
 //! i.e. after the host has waited for the frame: no CPU wait is ever added. A
 //! failed check adjusts the counts for the next frames.
+#![warn(missing_docs)]
 
 use std::sync::Arc;
 
@@ -36,11 +37,14 @@ pub struct HostTargets {
     /// A colour view whose format is a float or UNORM/SRGB colour-attachment
     /// format (peeltrim writes RGBA in 0..1).
     pub color_view: vk::ImageView,
+    /// The format of the colour image (the composite pipeline is made for it).
     pub color_format: vk::Format,
     /// A view of the depth aspect of a depth or depth-stencil image (any depth
     /// format the device supports as an attachment); stencil is not touched.
     pub depth_view: vk::ImageView,
+    /// The format of the depth image.
     pub depth_format: vk::Format,
+    /// Width and height of both images: the embedder's size.
     pub extent: [u32; 2],
 }
 
