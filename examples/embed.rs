@@ -599,7 +599,11 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
     let (mut embedded, mut record) = (Vec::new(), Vec::new());
     // Interleaved, so that load on the machine hits both alike.
     for _ in 0..frames {
-        standalone.push(exec.execute(&plan).map_err(|e| e.to_string())?.frame_ms);
+        let st = exec.execute(&plan).map_err(|e| e.to_string())?;
+        standalone.push(st.frame_ms);
+        if std::env::var_os("EMBED_BENCH_COUNTS").is_some() {
+            eprintln!("standalone {:?}", st.counts);
+        }
         let t = Instant::now();
         // SAFETY: `cmd` is not pending (waited below); the images are live.
         unsafe {
@@ -618,7 +622,10 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
             );
         }
         // SAFETY: as above; one frame in flight.
-        unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
+        let et = unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
+        if std::env::var_os("EMBED_BENCH_COUNTS").is_some() {
+            eprintln!("embedded   {:?}", et.counts);
+        }
         // SAFETY: as above.
         unsafe { d.end_command_buffer(cmd) }.expect("end");
         record.push(t.elapsed().as_secs_f64() * 1e3);
@@ -661,7 +668,7 @@ fn main() {
     if args.first().map(String::as_str) == Some("--bench") {
         println!("scene,standalone_frame_ms,embedded_frame_ms,ratio,embedded_record_ms");
         for path in &args[1..] {
-            match bench(std::path::Path::new(path), 9) {
+            match bench(std::path::Path::new(path), 15) {
                 Ok([s, e, r]) => println!("{path},{s:.3},{e:.3},{:.3},{r:.3}", e / s),
                 Err(e) => println!("{path},not run: {e}"),
             }

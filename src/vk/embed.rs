@@ -376,6 +376,18 @@ impl Embedder {
             width: t.extent[0],
             height: t.extent[1],
         };
+        // Only where the CSG can be: its meshes' projected bounds.
+        let rect = self.exec.output_rect();
+        let scissor = vk::Rect2D {
+            offset: vk::Offset2D {
+                x: rect.x0 as i32,
+                y: rect.y0 as i32,
+            },
+            extent: vk::Extent2D {
+                width: rect.width(),
+                height: rect.height(),
+            },
+        };
         let color = [vk::RenderingAttachmentInfo::default()
             .image_view(t.color_view)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
@@ -400,11 +412,12 @@ impl Embedder {
             max_depth: 1.0,
         };
         // SAFETY: outside rendering (the caller's contract); the views are the
-        // host's attachments in the layouts above; the pipeline was made for their
-        // formats; the set's images are in `SHADER_READ_ONLY_OPTIMAL` (barrier above).
+        // host's attachments in the layouts the contract names.
+        unsafe { device.cmd_begin_rendering(cmd, &ri) };
+        // SAFETY: inside the block above; the pipeline was made for its formats.
+        unsafe { device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, c.pipeline) };
+        // SAFETY: the set's images are in `SHADER_READ_ONLY_OPTIMAL` (barrier above).
         unsafe {
-            device.cmd_begin_rendering(cmd, &ri);
-            device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, c.pipeline);
             device.cmd_bind_descriptor_sets(
                 cmd,
                 vk::PipelineBindPoint::GRAPHICS,
@@ -412,13 +425,18 @@ impl Embedder {
                 0,
                 &[c.set],
                 &[],
-            );
-            device.cmd_set_viewport(cmd, 0, &[viewport]);
-            device.cmd_set_scissor(cmd, 0, &[extent.into()]);
-            device.cmd_set_depth_compare_op(cmd, depth_compare);
-            device.cmd_draw(cmd, 3, 1, 0, 0);
-            device.cmd_end_rendering(cmd);
-        }
+            )
+        };
+        // SAFETY: dynamic state of the bound pipeline.
+        unsafe { device.cmd_set_viewport(cmd, 0, &[viewport]) };
+        // SAFETY: as above; the rectangle lies within the attachments.
+        unsafe { device.cmd_set_scissor(cmd, 0, &[scissor]) };
+        // SAFETY: as above.
+        unsafe { device.cmd_set_depth_compare_op(cmd, depth_compare) };
+        // SAFETY: pipeline, set and state bound; the vertex shader needs no buffer.
+        unsafe { device.cmd_draw(cmd, 3, 1, 0, 0) };
+        // SAFETY: closes the block begun above.
+        unsafe { device.cmd_end_rendering(cmd) };
         let (s, d, b) = to_sampled(Usage::Sampled, REST);
         submit::image_barriers(device, cmd, s, d, &b);
         Ok(())
@@ -572,10 +590,9 @@ impl Composite {
             device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None)
         };
         // SAFETY: modules are only needed while creating the pipeline.
-        unsafe {
-            device.destroy_shader_module(vert, None);
-            device.destroy_shader_module(frag, None);
-        }
+        unsafe { device.destroy_shader_module(vert, None) };
+        // SAFETY: as above.
+        unsafe { device.destroy_shader_module(frag, None) };
         made.map(|p| p[0]).map_err(|(_, e)| VkError::Call {
             call: "vkCreateGraphicsPipelines",
             result: e,
@@ -622,15 +639,16 @@ impl Composite {
     }
 
     fn destroy(&self, device: &ash::Device) {
-        // SAFETY: no pending command buffer uses these objects (the embedder is
-        // dropped or remade only when the host has no frame of it pending); null
-        // handles are ignored.
-        unsafe {
-            device.destroy_pipeline(self.pipeline, None);
-            device.destroy_descriptor_pool(self.pool, None);
-            device.destroy_pipeline_layout(self.layout, None);
-            device.destroy_descriptor_set_layout(self.set_layout, None);
-        }
+        // SAFETY (each call): no pending command buffer uses these objects (the
+        // embedder is dropped or remade only when the host has no frame of it
+        // pending); null handles are ignored.
+        unsafe { device.destroy_pipeline(self.pipeline, None) };
+        // SAFETY: as above.
+        unsafe { device.destroy_descriptor_pool(self.pool, None) };
+        // SAFETY: as above.
+        unsafe { device.destroy_pipeline_layout(self.layout, None) };
+        // SAFETY: as above.
+        unsafe { device.destroy_descriptor_set_layout(self.set_layout, None) };
     }
 }
 

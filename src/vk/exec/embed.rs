@@ -12,6 +12,7 @@ use crate::plan::usage::Resource;
 use crate::plan::Plan;
 use crate::scene::Mesh;
 use crate::vk::error::VkError;
+use crate::vk::scissor::{bounds_rect, Rect};
 
 /// What an embedded recording needs to check its loop counts afterwards.
 #[derive(Clone, Debug, PartialEq)]
@@ -114,6 +115,16 @@ impl Executor {
         self.epoch += 1;
         self.recording = None;
         Ok(())
+    }
+
+    /// The screen rectangle the CSG can cover: the projected bounds of every
+    /// mesh (the composite pass is scissored to it).
+    pub(crate) fn output_rect(&self) -> Rect {
+        let d = self.desc;
+        match &self.scene {
+            Some(s) => bounds_rect(s.cam.view, s.cam.proj, s.camera.near, &s.bounds, d.width, d.height),
+            None => Rect::EMPTY,
+        }
     }
 
     fn scene_ref(&self) -> Result<&GpuScene, VkError> {
