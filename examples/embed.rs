@@ -563,16 +563,6 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    // Standalone: the executor's own submission.
-    let plan = plan::build(Algo::Goldfeather, &Prepared::new(&scene).map_err(|e| e.to_string())?)
-        .map_err(|e| e.to_string())?;
-    let mut exec = peeltrim::vk::Executor::new(
-        &ctx,
-        &peeltrim::vk::ExecDesc { width: extent[0], height: extent[1], depth_format: peeltrim::vk::DepthFormat::D32S8, reversed_z: false },
-    )
-    .map_err(|e| e.to_string())?;
-    exec.upload(&scene).map_err(|e| e.to_string())?;
-    let mut standalone = Vec::new();
     // Embedded: the same plan recorded into the host's command buffer.
     let f32s = |m: &Mesh| -> Vec<[f32; 3]> { m.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect() };
     let pos: Vec<Vec<[f32; 3]>> = scene.primitives.iter().map(|p| f32s(&p.mesh)).collect();
@@ -585,6 +575,17 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
     let expr = plan::union_of_solids(&scene).ok_or("no solid")?;
     let desc = EmbedDesc { extent, frames_in_flight: 1, ..EmbedDesc::default() };
     let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Built(expr), &scene.camera, &desc).map_err(|e| e.to_string())?;
+    // Standalone: the executor's own submission, on the very scene the mesh-level
+    // API built (the host's f32 meshes), so both paths run the same plan.
+    let plan = plan::build(Algo::Goldfeather, &Prepared::new(csg.scene()).map_err(|e| e.to_string())?)
+        .map_err(|e| e.to_string())?;
+    let mut exec = peeltrim::vk::Executor::new(
+        &ctx,
+        &peeltrim::vk::ExecDesc { width: extent[0], height: extent[1], depth_format: peeltrim::vk::DepthFormat::D32S8, reversed_z: false },
+    )
+    .map_err(|e| e.to_string())?;
+    exec.upload(csg.scene()).map_err(|e| e.to_string())?;
+    let mut standalone = Vec::new();
     let (color_format, depth_format) = (vk::Format::R8G8B8A8_UNORM, vk::Format::D32_SFLOAT);
     let color = host.image(color_format, vk::ImageUsageFlags::COLOR_ATTACHMENT, vk::ImageAspectFlags::COLOR, extent);
     let depth = host.image(depth_format, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT, vk::ImageAspectFlags::DEPTH, extent);
