@@ -270,6 +270,28 @@ fn barrier(image: vk::Image, aspect: vk::ImageAspectFlags, from: (vk::ImageLayou
         .subresource_range(range(aspect))
 }
 
+/// Begins `cmd` and brings the host's targets (contents discarded) into the
+/// attachment layouts peeltrim's contract expects.
+unsafe fn begin_frame(d: &ash::Device, cmd: vk::CommandBuffer, color: vk::Image, depth: vk::Image) {
+    let undefined = (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty());
+    // SAFETY: the caller's: `cmd` is not pending, the images are live.
+    unsafe {
+        d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).expect("begin");
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::TOP_OF_PIPE,
+            vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
+            vk::DependencyFlags::empty(),
+            &[],
+            &[],
+            &[
+                barrier(color, vk::ImageAspectFlags::COLOR, undefined, (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::AccessFlags::COLOR_ATTACHMENT_WRITE)),
+                barrier(depth, vk::ImageAspectFlags::DEPTH, undefined, (vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL, vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)),
+            ],
+        )
+    };
+}
+
 /// The host's CSG: a box with a spherical bite, as plain f32 meshes.
 fn host_meshes() -> Vec<(Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3])> {
     let f32s = |m: &Mesh| m.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect();
@@ -374,19 +396,7 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
     // SAFETY: every call below records into `cmd`, which this function owns; the
     // images, views, pipeline and buffer are live until after the fence wait.
     unsafe {
-        d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).expect("begin");
-        d.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::TOP_OF_PIPE,
-            vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
-            vk::DependencyFlags::empty(),
-            &[],
-            &[],
-            &[
-                barrier(color_img, vk::ImageAspectFlags::COLOR, (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty()), attach),
-                barrier(depth_img, vk::ImageAspectFlags::DEPTH, (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty()), depth_attach),
-            ],
-        );
+        begin_frame(d, cmd, color_img, depth_img);
         let bg = BG.map(|c| c as f32 / 255.0);
         let color_att = [vk::RenderingAttachmentInfo::default()
             .image_view(color_view)
@@ -607,21 +617,7 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
         }
         let t = Instant::now();
         // SAFETY: `cmd` is not pending (waited below); the images are live.
-        unsafe {
-            d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).expect("begin");
-            d.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::TOP_OF_PIPE,
-                vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[
-                    barrier(color.0, vk::ImageAspectFlags::COLOR, (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty()), (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::AccessFlags::COLOR_ATTACHMENT_WRITE)),
-                    barrier(depth.0, vk::ImageAspectFlags::DEPTH, (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty()), (vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL, vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)),
-                ],
-            );
-        }
+        unsafe { begin_frame(d, cmd, color.0, depth.0) };
         // SAFETY: as above; one frame in flight.
         let et = unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
         if std::env::var_os("EMBED_BENCH_COUNTS").is_some() {

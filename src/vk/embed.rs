@@ -661,3 +661,31 @@ impl Drop for Embedder {
         unsafe { self.shared.device.destroy_sampler(self.sampler, None) };
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unrolled(layers: Vec<u32>, groups: Vec<Option<(usize, u32)>>) -> Unrolled {
+        Unrolled {
+            layers,
+            groups,
+            stats: ExecStats::default(),
+        }
+    }
+
+    #[test]
+    fn counts_shrink_to_one_past_the_last_head_with_samples() {
+        // Loop 0 unrolled to 4 heads; its third head counted nothing.
+        let u = unrolled(vec![4], (0..4).map(|k| Some((0, k))).collect());
+        assert_eq!(adjust_layers(&u, &[9, 3, 0, 0]), vec![3]);
+    }
+
+    #[test]
+    fn counts_double_when_even_the_last_head_had_samples() {
+        // Two loops; the second needs more layers than it was given.
+        let groups = vec![Some((0, 0)), Some((0, 1)), None, Some((1, 0)), Some((1, 1))];
+        let u = unrolled(vec![2, 2], groups);
+        assert_eq!(adjust_layers(&u, &[5, 0, 77, 4, 2]), vec![2, 4]);
+    }
+}

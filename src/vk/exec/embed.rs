@@ -7,7 +7,7 @@ use ash::vk;
 
 use super::gpu_scene::GpuScene;
 use super::record::Group;
-use super::{layers_fit, unroll, ExecStats, Executor};
+use super::{layers_fit, ExecStats, Executor};
 use crate::plan::usage::Resource;
 use crate::plan::Plan;
 use crate::scene::Mesh;
@@ -60,18 +60,7 @@ impl Executor {
         let meshes = self.scene_ref()?.ranges.len() as u32;
         crate::plan::validate::validate(plan, meshes)?;
         self.ensure_targets(plan)?;
-        let flat = unroll(plan, layers);
-        self.ensure_queries(&flat)?;
-        let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
-        let mut rec = self.recorder();
-        rec.begin(cmd, occ_cap, ts_cap);
-        for (s, g) in &flat {
-            rec.group = *g;
-            rec.step(s)?;
-        }
-        rec.finish_frame(plan.output_ds);
-        rec.end();
-        let (mut stats, groups) = (rec.stats, rec.queries);
+        let (mut stats, groups, _marks) = self.record_frame(cmd, plan, layers)?;
         stats.counts.submits = 0;
         stats.counts.loop_iterations = layers.to_vec();
         self.last_output = Some(plan.output_ds);

@@ -329,21 +329,10 @@ impl Executor {
         });
         if !fresh {
             self.recording = None;
-            let flat = unroll(plan, layers);
-            self.ensure_queries(&flat)?;
             let t = Instant::now();
             let cmd = self.frame_cmd;
             self.submit.begin(cmd, false)?;
-            let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
-            let mut rec = self.recorder();
-            rec.begin(cmd, occ_cap, ts_cap);
-            for (s, g) in &flat {
-                rec.group = *g;
-                rec.step(s)?;
-            }
-            rec.finish_frame(plan.output_ds);
-            rec.end();
-            let (mut stats, queries, marks) = (rec.stats, rec.queries, rec.marks);
+            let (mut stats, queries, marks) = self.record_frame(cmd, plan, layers)?;
             stats.counts.submits = 1;
             self.submit.end(cmd)?;
             clock.record_ms += t.elapsed().as_secs_f64() * 1e3;
@@ -375,6 +364,29 @@ impl Executor {
         let marks = rec.marks.clone();
         self.add_gpu_times(&mut stats, &marks)?;
         Ok(Some(stats))
+    }
+
+    /// Records `plan` with its loops unrolled to `layers` into `cmd` (begun by the
+    /// caller): the stats, the loop group of each occlusion query, the pass at
+    /// each timestamp. Every image starts and ends in `REST`.
+    fn record_frame(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        plan: &Plan,
+        layers: &[u32],
+    ) -> Result<(ExecStats, Vec<Group>, Vec<String>), VkError> {
+        let flat = unroll(plan, layers);
+        self.ensure_queries(&flat)?;
+        let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
+        let mut rec = self.recorder();
+        rec.begin(cmd, occ_cap, ts_cap);
+        for (s, g) in &flat {
+            rec.group = *g;
+            rec.step(s)?;
+        }
+        rec.finish_frame(plan.output_ds);
+        rec.end();
+        Ok((rec.stats, rec.queries, rec.marks))
     }
 
     /// Adds the GPU times between the timestamps of the last command buffer.
