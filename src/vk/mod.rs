@@ -7,7 +7,8 @@
 //! `scissor` (pure mappings, tested without a GPU); `sync` (the pure table from a
 //! step's resource usages to stages, accesses and layouts); `submit` (one-shot
 //! command buffers, barriers, query pools, shared with `present`); `exec` (the plan
-//! executor and its statistics); `readback` (GPU bytes to output images); `present`
+//! executor and its statistics); `readback` (GPU bytes to output images);
+//! `rounding` (tests: emulating a coarser rasterizer's vertex snapping); `present`
 //! (feature `viewer`: a window's surface and swapchain).
 #![warn(unsafe_op_in_unsafe_fn)]
 
@@ -22,11 +23,13 @@ pub mod pipeline;
 #[cfg(feature = "viewer")]
 pub mod present;
 pub mod readback;
+pub mod rounding;
 pub mod scissor;
 pub(crate) mod submit;
 pub mod sync;
 
 pub use embed::{Embedder, HostTargets};
 pub use error::VkError;
-pub use exec::{Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
+pub use exec::{ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
 pub use instance::{Context, ContextDesc, DeviceChoice};
+pub use rounding::RoundingEmulation;

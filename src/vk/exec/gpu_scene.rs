@@ -23,6 +23,10 @@ pub(super) struct GpuScene {
     pub bounds: Vec<Aabb>,
     pub background: [u8; 3],
     pub camera: Camera,
+    /// World point subtracted from every vertex before rounding to f32 (the eye
+    /// at upload), folded back into `mvp` in f64: vertex rounding is relative to
+    /// the distance from the eye wherever the scene lies in the world.
+    pub origin: DVec3,
     pub cam: CameraState,
     /// First vertex of the full-screen quad (6 vertices).
     pub quad_first: u32,
@@ -47,18 +51,17 @@ pub(super) fn convention(desc: &ExecDesc) -> DepthConvention {
 }
 
 /// The matrix product is formed in f64 and rounded once.
-pub(super) fn camera_state(camera: &Camera, desc: &ExecDesc) -> CameraState {
+pub(super) fn camera_state(camera: &Camera, desc: &ExecDesc, origin: DVec3) -> CameraState {
     let aspect = desc.width as f64 / desc.height as f64;
     let view = camera.view();
     let proj = camera.proj(aspect, convention(desc));
-    let mvp = (proj * view).to_cols_array().map(|v| v as f32);
+    let mvp = (proj * view * DMat4::from_translation(origin))
+        .to_cols_array()
+        .map(|v| v as f32);
+    // Shading sees vertices relative to `origin`, so the eye is too.
+    let eye = camera.eye - origin;
     let view_vec = match camera.projection {
-        Projection::Perspective { .. } => [
-            camera.eye.x as f32,
-            camera.eye.y as f32,
-            camera.eye.z as f32,
-            1.0,
-        ],
+        Projection::Perspective { .. } => [eye.x as f32, eye.y as f32, eye.z as f32, 1.0],
         Projection::Orthographic { .. } => {
             let f = camera.forward();
             [f.x as f32, f.y as f32, f.z as f32, 0.0]
@@ -80,13 +83,21 @@ impl GpuScene {
             .map(|p| (&p.mesh, p.color))
             .chain(scene.surfaces.iter().map(|s| (&s.mesh, s.color)))
             .collect();
+        // Camera-relative vertices: f32 rounding then scales with the distance
+        // from the eye, i.e. with the view depth (uniform relative precision),
+        // wherever the scene lies in the world.
+        let origin = if scene.camera.eye.is_finite() {
+            scene.camera.eye
+        } else {
+            DVec3::ZERO
+        };
         let mut floats: Vec<f32> = Vec::new();
         let mut ranges = Vec::new();
         let mut colors = Vec::new();
         let mut bounds = Vec::new();
         for (mesh, color) in &meshes {
             let first = (floats.len() / 6) as u32;
-            floats.extend(mesh_vertices(mesh));
+            floats.extend(mesh_vertices(mesh, origin));
             ranges.push((first, (floats.len() / 6) as u32 - first));
             colors.push(*color);
             bounds.push(mesh_bounds(mesh));
@@ -118,19 +129,21 @@ impl GpuScene {
             bounds,
             background: scene.render.background,
             camera: scene.camera,
-            cam: camera_state(&scene.camera, desc),
+            origin,
+            cam: camera_state(&scene.camera, desc, origin),
             quad_first,
         })
     }
 }
 
-/// A mesh's non-indexed vertices: position then flat face normal per corner.
-fn mesh_vertices(mesh: &crate::scene::Mesh) -> Vec<f32> {
+/// A mesh's non-indexed vertices: position relative to `origin` then flat face
+/// normal per corner.
+fn mesh_vertices(mesh: &crate::scene::Mesh, origin: DVec3) -> Vec<f32> {
     let mut floats = Vec::with_capacity(mesh.triangles.len() * 18);
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
         let n = (b - a).cross(c - a).normalize_or_zero();
-        for p in [a, b, c] {
+        for p in [a - origin, b - origin, c - origin] {
             floats.extend([p.x as f32, p.y as f32, p.z as f32]);
             floats.extend([n.x as f32, n.y as f32, n.z as f32]);
         }
@@ -160,7 +173,7 @@ impl GpuScene {
             .ranges
             .get(i)
             .ok_or_else(|| VkError::Plan(format!("no mesh {i} to move")))?;
-        let floats = mesh_vertices(mesh);
+        let floats = mesh_vertices(mesh, scene.origin);
         if floats.len() != count as usize * 6 {
             return Err(VkError::Plan(format!(
                 "mesh {i}: {} triangles given where {} were uploaded (a moved mesh keeps its triangles)",

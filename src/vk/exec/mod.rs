@@ -38,7 +38,7 @@ use super::error::VkError;
 use super::image::range;
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
-use super::pipeline::Pipelines;
+use super::pipeline::{pipeline_flags, Pipelines};
 use super::readback::{decode, Raw};
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
@@ -48,6 +48,7 @@ use crate::plan::{Plan, Step};
 use crate::scene::{Camera, Scene};
 use gpu_scene::{CameraState, GpuScene};
 use record::{Bindings, Group, Recorder};
+pub use record::ClearMode;
 use targets::Targets;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -109,6 +110,9 @@ pub struct Executor {
     epoch: u64,
     /// Output depth-stencil of the last executed plan (what `read_back` copies).
     last_output: Option<u8>,
+    clears: ClearMode,
+    /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
+    rounding: Option<super::RoundingEmulation>,
 }
 
 impl Executor {
@@ -117,22 +121,23 @@ impl Executor {
             return Err(VkError::Plan("image size must be at least 1x1".into()));
         }
         let shared = ctx.shared.clone();
-        // SAFETY: physical device of this instance; plain query.
-        let fp = unsafe {
-            shared
-                .instance
-                .get_physical_device_format_properties(shared.physical, desc.depth_format.vk())
-        };
-        let need = vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
-            | vk::FormatFeatureFlags::SAMPLED_IMAGE
-            | vk::FormatFeatureFlags::TRANSFER_SRC
-            | vk::FormatFeatureFlags::TRANSFER_DST;
-        if !fp.optimal_tiling_features.contains(need) {
+        if !ctx.depth_format_usable(desc.depth_format.vk()) {
             return Err(VkError::Unsupported(format!(
                 "{:?} as a sampled, copyable depth-stencil attachment (try the other --depth-format)",
                 desc.depth_format
             )));
         }
+        // SAFETY: physical device of this instance; plain query.
+        let props = unsafe {
+            shared
+                .instance
+                .get_physical_device_properties(shared.physical)
+        };
+        let clears = if props.device_type == vk::PhysicalDeviceType::CPU {
+            ClearMode::Command
+        } else {
+            ClearMode::LoadOp
+        };
         let pipelines = Pipelines::new(&shared)?;
         let submit = Submitter::new(&shared)?;
         let frame_cmd = submit.allocate()?;
@@ -155,6 +160,8 @@ impl Executor {
             layers: None,
             epoch: 0,
             last_output: None,
+            clears,
+            rounding: None,
         })
     }
 
@@ -178,9 +185,27 @@ impl Executor {
             .scene
             .as_mut()
             .ok_or_else(|| VkError::Plan("set_camera before upload".into()))?;
+        // Vertices stay relative to the eye at upload, so the images equal a
+        // fresh upload's up to f32 rounding.
         scene.camera = *camera;
-        scene.cam = gpu_scene::camera_state(camera, &desc);
+        scene.cam = gpu_scene::camera_state(camera, &desc, scene.origin);
         Ok(())
+    }
+
+    /// Emulates a coarser device's vertex snapping in every later mesh draw.
+    pub fn set_rounding_emulation(&mut self, rounding: Option<super::RoundingEmulation>) {
+        self.rounding = rounding;
+        self.recording = None;
+    }
+
+    /// The push constants' flags: reversed Z, and the subpixel precision the tie
+    /// tolerance assumes (the device's, or the emulated device's).
+    fn flags(&self) -> u32 {
+        let bits = match self.rounding {
+            Some(r) => r.subpixel_bits,
+            None => self.shared.limits.sub_pixel_precision_bits,
+        };
+        pipeline_flags(self.desc.reversed_z, bits)
     }
 
     fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
@@ -262,6 +287,13 @@ impl Executor {
         Ok(stats)
     }
 
+    /// How clears are recorded (default: clear commands on CPU devices, load ops
+    /// elsewhere). Both give the same images.
+    pub fn set_clear_mode(&mut self, clears: ClearMode) {
+        self.clears = clears;
+        self.recording = None;
+    }
+
     /// Drops the kept recording: the next frame records again (what a new plan or
     /// camera costs; the bench measures it with this).
     pub fn forget_recording(&mut self) {
@@ -282,6 +314,11 @@ impl Executor {
 
     /// A recorder on the executor's objects, and the submitter beside it.
     fn recorder_and_submitter(&mut self) -> (Recorder<'_>, &Submitter) {
+        let flags = self.flags();
+        let snap = self
+            .rounding
+            .map(|r| r.ndc_step(self.desc.width, self.desc.height))
+            .unwrap_or_default();
         let b = Bindings {
             device: &self.shared.device,
             desc: self.desc,
@@ -290,6 +327,9 @@ impl Executor {
             scene: self.scene.as_ref().expect("scene uploaded before execute"),
             occlusion: self.occlusion.pool,
             timestamps: (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool),
+            clears: self.clears,
+            flags,
+            snap,
         };
         (Recorder::new(b), &self.submit)
     }

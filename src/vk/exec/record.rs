@@ -6,9 +6,10 @@
 //! emits one pipeline barrier, with exactly the stages, accesses and layout
 //! changes needed, only where a step's usage conflicts with the last one.
 //! Consecutive draws into the same attachments share one dynamic-rendering block
-//! (rasterization order orders them). Clears become attachment load ops of the
-//! next block that renders into the image; a clear nobody reads is dropped, one
-//! read otherwise is recorded as a clear command. Draws whose scissor is empty on
+//! (rasterization order orders them). Clears are deferred to the image's next
+//! use: a clear nobody reads is dropped; one followed by rendering into the image
+//! becomes that block's load op ([`ClearMode::LoadOp`]) or a clear command just
+//! before it ([`ClearMode::Command`]); one read otherwise is a clear command. Draws whose scissor is empty on
 //! screen are not recorded. Meshes of one draw that lie contiguously in the
 //! vertex buffer and need no per-mesh push constants are drawn with one call.
 
@@ -22,11 +23,10 @@ use super::targets::{self, Targets};
 use super::ExecDesc;
 use crate::plan::usage::{self, Resource, Usage};
 use crate::plan::{Clear, Draw, Fragment, Geometry, Scissor, Step};
-use crate::scene::Aabb;
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::image::range;
-use crate::vk::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_REVERSED_Z};
+use crate::vk::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants};
 use crate::vk::scissor::{bounds_rect, Rect};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
@@ -51,6 +51,22 @@ pub(super) struct Bindings<'a> {
     pub occlusion: vk::QueryPool,
     /// `None` when the queue has no timestamps.
     pub timestamps: Option<vk::QueryPool>,
+    pub clears: ClearMode,
+    /// Push-constant flags (reversed Z, subpixel precision).
+    pub flags: u32,
+    /// Emulated vertex snapping step of mesh draws (zero: off).
+    pub snap: [f32; 2],
+}
+
+/// How a plan's clears of attachments are recorded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClearMode {
+    /// As the load op of the next rendering block into the image (tile-based and
+    /// other hardware GPUs clear on load for free).
+    LoadOp,
+    /// As clear commands. Lavapipe clears on load far more slowly than with a
+    /// clear command (README, "Executor"), so CPU devices use this.
+    Command,
 }
 
 /// Records steps into command buffers; its image states persist from one
@@ -70,14 +86,26 @@ pub(super) struct Recorder<'a> {
     pub marks: Vec<String>,
     pass: String,
     pub stats: ExecStats,
+    /// Screen rectangle of each mesh's bounds (a `BoundsOf` scissor is their
+    /// union, exactly as `bounds_rect` of all the boxes).
+    mesh_rects: Vec<Rect>,
 }
 
 impl<'a> Recorder<'a> {
     pub fn new(b: Bindings<'a>) -> Recorder<'a> {
         // Every image rests in `REST` between frames (see `finish_frame`).
         let state = b.targets.all().into_iter().map(|r| (r, REST)).collect();
+        let (w, h) = (b.desc.width, b.desc.height);
+        let (cam, near) = (&b.scene.cam, b.scene.camera.near);
+        let mesh_rects = b
+            .scene
+            .bounds
+            .iter()
+            .map(|bx| bounds_rect(cam.view, cam.proj, near, std::slice::from_ref(bx), w, h))
+            .collect();
         Recorder {
             b,
+            mesh_rects,
             cmd: vk::CommandBuffer::null(),
             block: None,
             bound: None,
@@ -280,7 +308,11 @@ impl<'a> Recorder<'a> {
                 continue;
             }
             match u {
-                Usage::ColorTarget | Usage::DepthStencilTarget => {}
+                Usage::ColorTarget | Usage::DepthStencilTarget => {
+                    if self.b.clears == ClearMode::Command {
+                        self.flush_clear(r);
+                    }
+                }
                 Usage::CopyDst | Usage::Clear => {
                     self.pending_clear.remove(&r);
                 }
@@ -563,11 +595,7 @@ impl<'a> Recorder<'a> {
     }
 
     fn flags(&self) -> u32 {
-        if self.b.desc.reversed_z {
-            FLAG_REVERSED_Z
-        } else {
-            0
-        }
+        self.b.flags
     }
 
     fn fullscreen_matrix(depth: f32) -> [f32; 16] {
@@ -605,11 +633,9 @@ impl<'a> Recorder<'a> {
         let (w, h) = (self.b.desc.width, self.b.desc.height);
         match s {
             Scissor::Full => Rect::full(w, h),
-            Scissor::BoundsOf(ms) => {
-                let boxes: Vec<Aabb> = ms.iter().map(|m| self.b.scene.bounds[*m as usize]).collect();
-                let cam = &self.b.scene.cam;
-                bounds_rect(cam.view, cam.proj, self.b.scene.camera.near, &boxes, w, h)
-            }
+            Scissor::BoundsOf(ms) => ms
+                .iter()
+                .fold(Rect::EMPTY, |r, m| r.union(&self.mesh_rects[*m as usize])),
         }
     }
 
@@ -670,6 +696,8 @@ impl<'a> Recorder<'a> {
                     color,
                     prim: 0,
                     flags,
+                    // Full-screen rectangles stay unsnapped.
+                    snap: [0.0; 2],
                 };
                 self.push(&pc);
                 // SAFETY: inside a block with a bound pipeline and vertex buffer.
@@ -713,6 +741,7 @@ impl<'a> Recorder<'a> {
                         color,
                         prim: m + 1,
                         flags,
+                        snap: self.b.snap,
                     };
                     self.push(&pc);
                     if count > 0 {

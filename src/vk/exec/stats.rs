@@ -31,7 +31,9 @@ pub struct Counts {
     pub fullscreen_pixels: u64,
     /// Plan steps not recorded because their scissor is empty on screen.
     pub skipped_steps: u64,
-    /// Pipeline barriers recorded (each may carry several image barriers).
+    /// Pipeline barriers recorded (each may carry several image barriers). A
+    /// plan's first frame, run loop by loop, records more: each of its
+    /// submissions starts a new rendering block.
     pub barriers: u64,
     /// Queue submissions of the frame.
     pub submits: u64,
