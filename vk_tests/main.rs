@@ -8,6 +8,7 @@
 mod algorithms;
 mod classic;
 mod cst;
+mod embed;
 mod openscad;
 mod rounding;
 mod scad_models;
