@@ -171,6 +171,7 @@ impl CsgScene {
             }],
             surfaces: Vec::new(),
             warnings: Vec::new(),
+            appearance: Default::default(),
         };
         let prepared = Prepared::new(&scene)?;
         let plan = plan::build_with(desc.algo, &prepared, &BuildOptions::default())?;
