@@ -201,12 +201,16 @@ fn disjoint(a: &Aabb, b: &Aabb) -> bool {
 ///
 /// `eye_inside` (per mesh; empty for none) flips the zone literals of primitives
 /// that contain the eye: their parity counted from the near plane is inverted.
-/// The leaf's own peel (which faces) is unchanged.
+/// The leaf's own peel (which faces) is unchanged, except that `ray_starts_inside`
+/// (the eye inside a primitive, or an orthographic near plane cutting one) makes
+/// CST-Z peel entry faces only: exit points are then no longer hidden behind entry
+/// points.
 pub fn leaf_csts(
     pos: &PositiveExpr,
     variant: Variant,
     boxes: &[Aabb],
     eye_inside: &[bool],
+    ray_starts_inside: bool,
 ) -> Vec<LeafCst> {
     let zones = ActiveZones::new(pos);
     let mut lits = pos.literals();
@@ -240,11 +244,8 @@ pub fn leaf_csts(
             _ => zone,
         };
         let zone = zone.flip_literals(|p| eye_inside.get(p as usize).copied().unwrap_or(false));
-        // With the eye inside a primitive the solid's exit points are no longer
-        // hidden behind its entry points, so Z too peels entry faces only.
-        let eye_in_any = eye_inside.iter().any(|&b| b);
         let peel_cull = match variant {
-            Variant::Z if !eye_in_any => Cull::None,
+            Variant::Z if !ray_starts_inside => Cull::None,
             // Opaque rendering: front faces of positive, back faces of negative leaves.
             Variant::Z | Variant::I | Variant::G => {
                 if lit.negated {
@@ -793,7 +794,13 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
         return Err(PlanError::NoSolid);
     }
     let mut jobs: Vec<Job> = if solid {
-        leaf_csts(&prep.positive, variant, &prep.mesh_bounds, &prep.eye_inside)
+        leaf_csts(
+            &prep.positive,
+            variant,
+            &prep.mesh_bounds,
+            &prep.eye_inside,
+            prep.eye_inside.iter().chain(&prep.near_cut).any(|&b| b),
+        )
             .into_iter()
             .map(|c| Job {
                 c,
@@ -934,6 +941,7 @@ mod tests {
             mesh_bounds: vec![b; prims as usize],
             mesh_convex: vec![false; prims as usize],
             eye_inside: Vec::new(),
+            near_cut: Vec::new(),
             surfaces: Vec::new(),
         }
     }
@@ -990,7 +998,7 @@ mod tests {
         );
         let pl = plan(&p, Variant::G).unwrap();
         assert!(pl.stencil_bits <= 8, "{}", pl.stencil_bits);
-        let c = leaf_csts(&p.positive, Variant::G, &[], &[]);
+        let c = leaf_csts(&p.positive, Variant::G, &[], &[], false);
         let recess = c.iter().find(|c| c.peeled.prim == 37).unwrap();
         let t = group::GroupTrimmer::new(&p, recess).unwrap();
         assert!(
