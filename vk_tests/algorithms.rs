@@ -321,7 +321,7 @@ expr = "(Ball - Pin) + Block"
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
-    for p in 1..=3u32 {
+    for p in 1..=3u16 {
         assert!(reference.prim.iter().any(|&q| q == p), "primitive {p} shows");
     }
     let prep = Prepared::new(&scene).unwrap();
