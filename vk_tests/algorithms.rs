@@ -134,7 +134,8 @@ fn blister_counts_are_deterministic() {
     let scene = load(&crate::setup::scenes_dir().join("gear.toml"));
     let prep = Prepared::new(&scene).unwrap();
     let plan = plan::build(Algo::Blister, &prep).unwrap();
-    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true).unwrap();
+    let mut gpu =
+        GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true).unwrap();
     let a = gpu.frame(&plan).unwrap();
     let b = gpu.frame(&plan).unwrap();
     for k in [
@@ -177,7 +178,13 @@ fn blister_paper_speckles_are_counted() {
         let scene = load(&path);
         let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
         let (Some((paper, _, _)), Some((tolerant, _, _))) = (
-            run_gpu(&scene, Algo::BlisterPaper, DepthSetup::D24S8, &reference, 0.0),
+            run_gpu(
+                &scene,
+                Algo::BlisterPaper,
+                DepthSetup::D24S8,
+                &reference,
+                0.0,
+            ),
             run_gpu(&scene, Algo::Blister, DepthSetup::D24S8, &reference, 0.0),
         ) else {
             continue;

@@ -12,8 +12,7 @@ use peeltrim::scene::{self, Scene};
 const ALGOS: [Algo; 3] = [Algo::Goldfeather, Algo::GoldfeatherLayered, Algo::Trickle];
 
 fn load(name: &str) -> Scene {
-    let path = crate::setup::scenes_dir()
-        .join(name);
+    let path = crate::setup::scenes_dir().join(name);
     let opts = scene::load::LoadOptions {
         size: Some((128, 128)),
     };
@@ -43,7 +42,8 @@ fn check_with(name: &str, algos: &[Algo], max_interior_mismatch: f64, depth: Dep
     let scene = load(name);
     let reference = reference::render(&scene, scene.render.width, scene.render.height);
     let prep = Prepared::new(&scene).expect("prepared");
-    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), depth, true).expect("a Vulkan device");
+    let mut gpu =
+        GpuRenderer::new(&scene, crate::setup::device(), depth, true).expect("a Vulkan device");
     let mut failures = Vec::new();
     for &algo in algos {
         let plan = plan::build(algo, &prep).expect("plan");
@@ -247,8 +247,8 @@ fn classic_block_minus_spheres_layered_is_kn() {
     scene.render.height = 128;
     let reference = reference::render(&scene, 128, 128);
     let prep = Prepared::new(&scene).expect("prepared");
-    let mut gpu =
-        GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D24S8, true).expect("a Vulkan device");
+    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D24S8, true)
+        .expect("a Vulkan device");
     let mut tris = Vec::new();
     for algo in ALGOS {
         let plan = plan::build(algo, &prep).expect("plan");

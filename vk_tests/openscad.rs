@@ -43,8 +43,7 @@ fn check(scene: &Scene, name: &str, algo: Algo) -> Option<String> {
         tol,
         stats["draws"]
     );
-    (r.coverage_mismatch_interior_frac > 0.001 || !depth_ok)
-        .then(|| format!("{name}: {r:?}"))
+    (r.coverage_mismatch_interior_frac > 0.001 || !depth_ok).then(|| format!("{name}: {r:?}"))
 }
 
 fn check_models(algo: Algo) {

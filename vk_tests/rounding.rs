@@ -42,8 +42,8 @@ pub fn run(
             return None;
         }
     };
-    let mut gpu = GpuRenderer::new(scene, crate::setup::device(), depth, true)
-        .expect("a Vulkan device");
+    let mut gpu =
+        GpuRenderer::new(scene, crate::setup::device(), depth, true).expect("a Vulkan device");
     gpu.set_rounding_emulation(rounding);
     // The bound of the device emulated, or of the device itself.
     let precision = match rounding {
@@ -69,22 +69,22 @@ fn check(algo: Algo) {
     for depth in [DepthSetup::DEFAULT, DepthSetup::D24S8] {
         check_with(algo, RoundingEmulation::EIGHT_BITS, BAR, depth);
     }
-    check_with(algo, RoundingEmulation::SPEC_MINIMUM, BAR_4_BITS, DepthSetup::DEFAULT);
+    check_with(
+        algo,
+        RoundingEmulation::SPEC_MINIMUM,
+        BAR_4_BITS,
+        DepthSetup::DEFAULT,
+    );
 }
 
 fn check_with(algo: Algo, rounding: RoundingEmulation, prim_bar: f64, depth: DepthSetup) {
     let mut failures = Vec::new();
     for path in shipped_scenes() {
         let scene = load(&path);
-        let reference = peeltrim::reference::render(&scene, scene.render.width, scene.render.height);
+        let reference =
+            peeltrim::reference::render(&scene, scene.render.width, scene.render.height);
         let name = path.file_stem().unwrap().to_string_lossy().to_string();
-        let Some((r, d)) = run(
-            &scene,
-            algo,
-            depth,
-            Some(rounding),
-            &reference,
-        ) else {
+        let Some((r, d)) = run(&scene, algo, depth, Some(rounding), &reference) else {
             continue;
         };
         eprintln!(
@@ -173,7 +173,10 @@ fn emulated_snapping_moves_raw_depth_within_the_spec_bound() {
         snapped.depth_abs_err_p99_interior > 4.0 * plain.depth_abs_err_p99_interior,
         "snapping should move raw depths well beyond lavapipe's"
     );
-    assert!(spec.ratio_p99 <= 1.0, "the bound must hold for the emulated device");
+    assert!(
+        spec.ratio_p99 <= 1.0,
+        "the bound must hold for the emulated device"
+    );
     assert!(
         corrected.depth_abs_err_p99_interior < 0.5 * snapped.depth_abs_err_p99_interior,
         "the output pass should remove most of the snapping error"

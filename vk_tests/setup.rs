@@ -49,5 +49,6 @@ pub fn depth_passes(
 ) -> bool {
     strict_ok
         || (!strict(&gpu.device_name())
-            && spec_depth_check(reference, images, &scene.camera, &gpu.precision()).ratio_p99 <= 1.0)
+            && spec_depth_check(reference, images, &scene.camera, &gpu.precision()).ratio_p99
+                <= 1.0)
 }

@@ -67,7 +67,11 @@ fn part(s: f64, o: [f64; 3]) -> String {
 fn wall(t: f64) -> Scene {
     let eye = [300.0 * 0.8, 300.0 * 0.36, 300.0 * 0.48];
     let dir = [-0.8, -0.36, -0.48];
-    let near_box = [eye[0] + 2.0 * dir[0], eye[1] + 2.0 * dir[1] - 0.004, eye[2] + 2.0 * dir[2] - 0.004];
+    let near_box = [
+        eye[0] + 2.0 * dir[0],
+        eye[1] + 2.0 * dir[1] - 0.004,
+        eye[2] + 2.0 * dir[2] - 0.004,
+    ];
     let body = [
         boxed("A", [1.0, 1.0, 1.0], [0.0, 0.0, 0.0]),
         boxed("B", [1.0, 1.2, 1.2], [t, 0.0, 0.0]),

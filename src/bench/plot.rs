@@ -155,15 +155,26 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
         .map_err(|e| err(path, e))?;
     chart
         .configure_mesh()
-        .x_desc("median GPU time per frame (ms)")
+        .x_desc("median GPU time per frame (ms; OpenCSG triangles: wall time)")
         .y_desc("interior coverage + primitive mismatches (% of pixels)")
         .draw()
         .map_err(|e| err(path, e))?;
     for (x, y, label, algo) in &pts {
-        let c = algo_color(algo);
-        chart
-            .draw_series(std::iter::once(Circle::new((*x, *y), 5, c.filled())))
-            .map_err(|e| err(path, e))?;
+        // OpenCSG's rows (a baseline, timed by wall clock) are black triangles.
+        if algo.starts_with(super::opencsg::PREFIX) {
+            chart
+                .draw_series(std::iter::once(TriangleMarker::new(
+                    (*x, *y),
+                    7,
+                    BLACK.filled(),
+                )))
+                .map_err(|e| err(path, e))?;
+        } else {
+            let c = algo_color(algo);
+            chart
+                .draw_series(std::iter::once(Circle::new((*x, *y), 5, c.filled())))
+                .map_err(|e| err(path, e))?;
+        }
         chart
             .draw_series(std::iter::once(Text::new(
                 label.clone(),

@@ -144,6 +144,17 @@ enum Cmd {
         /// Do not write each run's images
         #[arg(long)]
         no_images: bool,
+        /// Also render each scene with a baseline renderer: "opencsg" (OpenCSG 1.5
+        /// through tools/opencsg-bench, a separate program built by its build.sh)
+        #[arg(long, value_parser = ["opencsg"])]
+        baseline: Option<String>,
+        /// The opencsg-bench program (default: $PEELTRIM_OPENCSG_BENCH, else
+        /// tools/opencsg-bench/opencsg-bench)
+        #[arg(long)]
+        opencsg_bench: Option<PathBuf>,
+        /// Do not give OpenCSG the primitives' screen boxes (as OpenSCAD; slower)
+        #[arg(long)]
+        opencsg_no_bbox: bool,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -354,6 +365,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
             families,
             hard,
             no_images,
+            baseline,
+            opencsg_bench,
+            opencsg_no_bbox,
             gpu,
         } => {
             let algos = parse_algos(&algos)?;
@@ -394,6 +408,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 out: out.clone(),
                 save_images: !no_images,
                 progress: true,
+                baseline: baseline.map(|_| {
+                    bench::opencsg::OpenCsgBaseline::locate(opencsg_bench, !opencsg_no_bbox)
+                }),
             };
             let records = bench::run_and_report(&cfg, &list)?;
             print!("{}", bench::report::summary(&records));

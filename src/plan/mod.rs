@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod blister;
+mod common;
 pub mod cst;
 pub mod eye;
 pub mod goldfeather;

@@ -48,7 +48,10 @@
 //! evaluated at the pixel centre (`shaders/shade_near_depth.frag`), which removes
 //! the snapping error (1.) from `depth.npy` to first order.
 
-use super::{CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Scissor, StencilState, Step, Tex};
+use super::{
+    CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Scissor, StencilState, Step,
+    Tex,
+};
 
 /// Depth tolerance of depth-equal shading and tolerant parity (normalized depth,
 /// 2⁻²⁰ ≈ 9.5e-7, about 16 quanta of a 24-bit buffer): faces of several
@@ -124,11 +127,23 @@ mod tests {
             assert!(tie.contains(&want), "tie.glsl lacks `{want}`");
         }
         for (name, src) in [
-            ("shade_near_depth", include_str!("../../shaders/shade_near_depth.frag")),
-            ("nearer_than", include_str!("../../shaders/nearer_than.frag")),
-            ("peel_tolerant", include_str!("../../shaders/peel_tolerant.frag")),
+            (
+                "shade_near_depth",
+                include_str!("../../shaders/shade_near_depth.frag"),
+            ),
+            (
+                "nearer_than",
+                include_str!("../../shaders/nearer_than.frag"),
+            ),
+            (
+                "peel_tolerant",
+                include_str!("../../shaders/peel_tolerant.frag"),
+            ),
         ] {
-            assert!(src.contains("#include \"tie.glsl\""), "{name}.frag does not include tie.glsl");
+            assert!(
+                src.contains("#include \"tie.glsl\""),
+                "{name}.frag does not include tie.glsl"
+            );
         }
     }
 

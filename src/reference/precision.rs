@@ -203,7 +203,10 @@ mod tests {
             ..rev
         };
         // Reversed: the allowance over d stays within a small factor from near to far.
-        let (a, b) = (rev.allowed(&c, 2.0, 0.0) / 2.0, rev.allowed(&c, 90.0, 0.0) / 90.0);
+        let (a, b) = (
+            rev.allowed(&c, 2.0, 0.0) / 2.0,
+            rev.allowed(&c, 90.0, 0.0) / 90.0,
+        );
         assert!(a / b < 4.0 && b / a < 4.0, "{a} {b}");
         // Standard Z in float near 1.0 is far coarser at the far end.
         assert!(std.allowed(&c, 90.0, 0.0) > 10.0 * rev.allowed(&c, 90.0, 0.0));

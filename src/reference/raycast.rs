@@ -29,8 +29,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::geom::bvh::{scene_scale, Crossing, Line, SceneBvh, WorldCrossing};
 use crate::csg::expr::{Expr, Node};
+use crate::geom::bvh::{scene_scale, Crossing, Line, SceneBvh, WorldCrossing};
 use crate::output::{shade, Images};
 use crate::scene::{Keep, Scene};
 
