@@ -276,6 +276,7 @@ mod tests {
             mesh_bounds: vec![b; prims as usize],
             mesh_convex: vec![false; prims as usize],
             eye_inside: Vec::new(),
+            near_cut: Vec::new(),
             surfaces: Vec::new(),
         }
     }

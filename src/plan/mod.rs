@@ -11,6 +11,7 @@
 pub mod blister;
 mod common;
 pub mod cst;
+pub mod eye;
 pub mod goldfeather;
 pub mod print;
 pub mod stencil;
@@ -142,6 +143,10 @@ pub struct Prepared {
     /// from the near plane is then inverted for it, so the Blister and CST
     /// classifications flip its literals ([`Prepared::classified`]).
     pub eye_inside: Vec<bool>,
+    /// Per mesh: an orthographic near plane cuts this primitive, so parity counted
+    /// from it is inverted at some pixels only; plans get the per-pixel
+    /// correction of [`eye`].
+    pub near_cut: Vec<bool>,
     /// The scene's surfaces, in file order (drawn by the CST plans only).
     pub surfaces: Vec<PreparedSurface>,
 }
@@ -176,11 +181,13 @@ impl Prepared {
                 mesh_bounds,
                 mesh_convex: Vec::new(),
                 eye_inside: Vec::new(),
+                near_cut: Vec::new(),
                 surfaces: Vec::new(),
             },
         };
         p.mesh_convex = mesh_convex;
         p.eye_inside = eye_inside(scene);
+        p.near_cut = eye::near_cut(scene);
         let first = scene.primitives.len() as MeshId;
         p.surfaces = scene
             .surfaces
@@ -256,6 +263,7 @@ impl Prepared {
             mesh_bounds,
             mesh_convex,
             eye_inside: Vec::new(),
+            near_cut: Vec::new(),
             surfaces: Vec::new(),
         }
     }
@@ -374,6 +382,15 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
         Algo::CstG => cst::plan(prep, cst::Variant::G),
         other => Err(PlanError::NotImplemented(other)),
     }?;
+    // Trickle classifies by the faces behind its candidate: no correction needed.
+    let plan = if algo == Algo::Trickle {
+        plan
+    } else {
+        Plan {
+            steps: eye::correct(plan.steps, &prep.near_cut),
+            ..plan
+        }
+    };
     // A builder that names a resource it did not declare is a bug, not bad input.
     if let Err(e) = validate::validate(&plan, prep.mesh_triangles.len() as u32) {
         panic!("the {} plan builder made an invalid plan: {e}", plan.algo);
@@ -384,7 +401,7 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
 /// Per primitive (then `false` for surfaces): whether a perspective eye lies
 /// inside its closed mesh ([`crate::geom::contains`]). Orthographic rays start on
 /// the eye plane, one per pixel, so no single answer exists there; they get
-/// `false` (see the README's limits).
+/// `false` and the per-pixel correction of [`eye`] instead.
 fn eye_inside(scene: &Scene) -> Vec<bool> {
     use crate::scene::Projection;
     let n = scene.primitives.len() + scene.surfaces.len();

@@ -3,8 +3,12 @@
 //! to back through the product's primitives until it rests on the product's
 //! visible front; buffer 1 (the output depth) keeps the nearest product.
 //!
-//! Per product, buffer 2 starts at the near plane (within the first positive
-//! primitive's screen bounds; far elsewhere, which no product can reach). Then,
+//! Per product, buffer 2 starts at the nearest face of any of the product's
+//! primitives (within the first positive primitive's screen bounds; far elsewhere,
+//! which no product can reach), not at the near plane as in the paper: the visible
+//! point is where the ray *enters* the product, never the near-plane cut, and no
+//! crossing lies in between, so this is right whether or not the ray starts inside
+//! the product (an eye inside it, or an orthographic near plane cutting it). Then,
 //! circulating through the primitives Q of the product (seed 003 lines 10–31):
 //! - buffer 3 (`Z3`): the nearest face of Q with `Z2 < Z − eps`, selected with a
 //!   depth-less test in a scratch depth-stencil image while a shader discards the
@@ -138,15 +142,32 @@ fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
             tex: Z2,
             depth: FAR,
         }),
-        // Z2 = near plane (depth 0.0 of the full-screen rectangle) where the product may be.
-        Step::Draw(full(
-            region.clone(),
-            SCAN,
-            no_depth,
-            None,
-            Fragment::WriteDepth { out: Z2 },
-        )),
     ];
+    // Z2 = the nearest face (beyond the near plane) of any of the product's
+    // primitives: no crossing lies between the near plane and it, so the visible
+    // entry is there or behind it, and the near-plane cut is never drawn (the eye,
+    // or an orthographic eye plane, may lie inside the product). `ff` counts the
+    // faces *behind* Z2, which classify the point whatever the eye's position.
+    steps.push(Step::Clear(Clear::DepthStencil {
+        ds: SCAN,
+        depth: FAR,
+        stencil: 0,
+    }));
+    for l in p {
+        steps.push(Step::Draw(Draw {
+            geometry: Geometry::Mesh(l.prim),
+            scissor: Scissor::BoundsOf(region.clone()),
+            cull: Cull::None,
+            ds: SCAN,
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: None,
+            fragment: Fragment::WriteDepth { out: Z2 },
+            count_samples: false,
+        }));
+    }
     let mut head = vec![
         Step::Pass("trickle".into()),
         Step::CopyTexture {
