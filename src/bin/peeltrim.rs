@@ -267,6 +267,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             gpu,
         } => {
             let opts = render_options(algo, &gpu)?;
+            peeltrim::output::check_out_dir(&out, "--out")?;
             let scene = load(&scene, size)?;
             if let Ok(prep) = peeltrim::plan::Prepared::new(&scene) {
                 for w in prep.warnings(opts.algo) {
@@ -323,6 +324,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         } => {
             let algos = parse_algos(&algos)?;
             let opts = render_options(Algo::Reference, &gpu)?;
+            peeltrim::output::check_out_dir(&out, "--out")?;
             let mut list: Vec<BenchScene> = Vec::new();
             let scene_files = if scenes.is_empty() && families.is_empty() && !hard {
                 shipped_scenes()?

@@ -24,17 +24,18 @@
 //!   final size is stored in `Scene::render`.
 
 use glam::DVec3;
-use serde::de::{self, Deserializer, Visitor};
+use serde::de::{self, Deserializer};
 use serde::Deserialize;
 use std::collections::HashMap;
-use std::fmt;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
 use super::fit;
+use super::kind;
 use super::obj::load_obj;
 use super::shapes::{self, default_rings, DEFAULT_SEGMENTS};
 use super::validate::{check_closed, signed_volume};
+use super::vector::{self, RawVec};
 use super::{
     Camera, Keep, Mesh, Primitive, Projection, RenderSettings, Scene, Shape, Solid, Surface,
 };
@@ -64,6 +65,9 @@ pub enum SceneError {
         message: String,
         snippet: String,
     },
+    /// A file that is not a scene (e.g. OpenSCAD source).
+    #[error("{}: {message}", path.display())]
+    Unsupported { path: PathBuf, message: String },
     /// A value that parses but is not valid, located by its key path.
     #[error("{}{}: {key}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
     Invalid {
@@ -101,9 +105,9 @@ struct FileT {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CameraT {
-    eye: Option<[f64; 3]>,
-    target: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
+    eye: Option<RawVec>,
+    target: Option<RawVec>,
+    up: Option<RawVec>,
     fov_y_deg: Option<f64>,
     projection: Option<ProjT>,
     ortho_height: Option<f64>,
@@ -166,57 +170,20 @@ enum KeepT {
 struct ShapeT {
     name: String,
     shape: ShapeKind,
-    size: Option<[f64; 3]>,
+    size: Option<RawVec>,
     radius: Option<f64>,
     minor_radius: Option<f64>,
     height: Option<f64>,
     segments: Option<u32>,
     rings: Option<u32>,
     path: Option<String>,
-    scale: Option<Scale>,
-    rotate_deg: Option<[f64; 3]>,
-    translate: Option<[f64; 3]>,
+    scale: Option<RawVec>,
+    rotate_deg: Option<RawVec>,
+    translate: Option<RawVec>,
     color: Option<Color>,
     trim: Option<String>,
     keep: Option<KeepT>,
     paint_color: Option<Color>,
-}
-
-/// `scale`: a number or a 3-vector.
-struct Scale(DVec3);
-
-impl<'de> Deserialize<'de> for Scale {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Scale;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number or an array of 3 numbers, e.g. 2.0 or [1.0, 2.0, 1.0]")
-            }
-            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Scale, E> {
-                Ok(Scale(DVec3::splat(v)))
-            }
-            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Scale, E> {
-                Ok(Scale(DVec3::splat(v as f64)))
-            }
-            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Scale, E> {
-                Ok(Scale(DVec3::splat(v as f64)))
-            }
-            fn visit_seq<A: de::SeqAccess<'de>>(self, mut s: A) -> Result<Scale, A::Error> {
-                let mut c = [0.0; 3];
-                for (i, slot) in c.iter_mut().enumerate() {
-                    *slot = s
-                        .next_element::<f64>()?
-                        .ok_or_else(|| de::Error::invalid_length(i, &self))?;
-                }
-                if s.next_element::<f64>()?.is_some() {
-                    return Err(de::Error::invalid_length(4, &self));
-                }
-                Ok(Scale(DVec3::from_array(c)))
-            }
-        }
-        d.deserialize_any(V)
-    }
 }
 
 /// `"#rrggbb"`.
@@ -247,11 +214,12 @@ fn parse_color(s: &str) -> Option<[u8; 3]> {
 
 /// Loads and validates a scene file.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+    kind::refuse_unsupported(path)?;
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
         path: path.to_path_buf(),
         source,
     })?;
-    load_str(&text, path, opts)
+    load_str(&text, path, opts).map_err(|e| kind::hint(path, e))
 }
 
 /// Loads a scene from its text; `path` names it in errors and meshes are relative
@@ -634,6 +602,25 @@ impl Loader<'_> {
         ))
     }
 
+    /// A fixed-length vector key (`what` names its components in the fix), located
+    /// at its own line.
+    fn vec3(
+        &self,
+        raw: &RawVec,
+        key: &str,
+        what: &str,
+        number_ok: bool,
+    ) -> Result<DVec3, SceneError> {
+        let line = self.line(raw.span());
+        let v = if number_ok {
+            vector::vec3_or_number(raw.get_ref(), what)
+        } else {
+            vector::vec3(raw.get_ref(), what)
+        }
+        .map_err(|m| self.invalid(line, key, m))?;
+        self.finite3(v, line, key)
+    }
+
     fn finite3(&self, v: [f64; 3], line: Option<usize>, key: &str) -> Result<DVec3, SceneError> {
         if v.iter().all(|x| x.is_finite()) {
             Ok(DVec3::from_array(v))
@@ -734,14 +721,14 @@ impl Loader<'_> {
         };
         let (shape, local) = match kind {
             K::Box => {
-                let s = p.size.ok_or_else(|| {
+                let s = p.size.as_ref().ok_or_else(|| {
                     self.invalid(
                         line,
                         k("size"),
                         "missing: a box needs `size = [x, y, z]` (full extents)",
                     )
                 })?;
-                let s = self.finite3(s, line, &k("size"))?;
+                let s = self.vec3(s, &k("size"), "full extents x, y, z", false)?;
                 if s.min_element() <= 0.0 {
                     return Err(self.invalid(
                         line,
@@ -835,7 +822,7 @@ impl Loader<'_> {
             }
         };
         let scale = match &p.scale {
-            Some(s) => self.finite3(s.0.to_array(), line, &k("scale"))?,
+            Some(s) => self.vec3(s, &k("scale"), "factors x, y, z", true)?,
             None => DVec3::ONE,
         };
         if scale.x == 0.0 || scale.y == 0.0 || scale.z == 0.0 {
@@ -845,12 +832,12 @@ impl Loader<'_> {
                 format!("{scale} has a zero component: the transform would flatten the {kname} (singular); use a non-zero scale"),
             ));
         }
-        let rot = match p.rotate_deg {
-            Some(r) => self.finite3(r, line, &k("rotate_deg"))?,
+        let rot = match &p.rotate_deg {
+            Some(r) => self.vec3(r, &k("rotate_deg"), "degrees about x, y, z", false)?,
             None => DVec3::ZERO,
         };
-        let tr = match p.translate {
-            Some(t) => self.finite3(t, line, &k("translate"))?,
+        let tr = match &p.translate {
+            Some(t) => self.vec3(t, &k("translate"), "offsets x, y, z", false)?,
             None => DVec3::ZERO,
         };
         let m = shapes::transform(scale, rot, tr);
@@ -871,7 +858,7 @@ impl Loader<'_> {
         drawn: &[&Mesh],
     ) -> Result<Camera, SceneError> {
         let default = CameraT {
-            eye: Some([3.0, 2.0, 4.0]),
+            eye: None,
             target: None,
             up: None,
             fov_y_deg: None,
@@ -885,16 +872,26 @@ impl Loader<'_> {
             Some(t) => (t.get_ref(), self.line(t.span())),
             None => (&default, None),
         };
-        let eye = c.eye.ok_or_else(|| {
-            self.invalid(
-                line,
-                "camera: eye",
-                "missing: give the eye position, e.g. eye = [3.0, 2.0, 4.0]",
-            )
-        })?;
-        let eye = self.finite3(eye, line, "camera: eye")?;
-        let target = self.finite3(c.target.unwrap_or([0.0; 3]), line, "camera: target")?;
-        let up = self.finite3(c.up.unwrap_or([0.0, 1.0, 0.0]), line, "camera: up")?;
+        let eye = match (&c.eye, t) {
+            (Some(e), _) => self.vec3(e, "camera: eye", "the eye position x, y, z", false)?,
+            // No [camera]: the default view direction (module doc).
+            (None, None) => DVec3::new(3.0, 2.0, 4.0),
+            (None, Some(_)) => {
+                return Err(self.invalid(
+                    line,
+                    "camera: eye",
+                    "missing: give the eye position, e.g. eye = [3.0, 2.0, 4.0]",
+                ))
+            }
+        };
+        let target = match &c.target {
+            Some(v) => self.vec3(v, "camera: target", "the point looked at x, y, z", false)?,
+            None => DVec3::ZERO,
+        };
+        let up = match &c.up {
+            Some(v) => self.vec3(v, "camera: up", "the up direction x, y, z", false)?,
+            None => DVec3::Y,
+        };
         let dir = target - eye;
         if dir.length() == 0.0 || !dir.normalize().is_finite() {
             return Err(self.invalid(

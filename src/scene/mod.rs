@@ -13,6 +13,8 @@ pub mod obj;
 pub mod shapes;
 // TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
 pub mod validate;
+mod vector;
+pub mod kind;
 pub use camera::{Camera, Projection};
 pub use load::{is_bounded, load, load_str, LoadOptions, SceneError};
 
