@@ -15,6 +15,7 @@
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod bench;
+pub mod budget;
 pub mod csg;
 pub mod output;
 pub mod plan;
@@ -24,3 +25,6 @@ pub mod scene;
 #[cfg(feature = "viewer")]
 pub mod viewer;
 pub mod vk;
+
+#[cfg(test)]
+mod fuzz_tests;

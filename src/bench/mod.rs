@@ -272,22 +272,28 @@ fn run_one(
         gpu.frame(&plan).map_err(|e| e.to_string())?;
         slow |= t.elapsed().as_secs_f64() * 1e3 > cfg.budget_ms;
     }
-    let (mut gpu_ms, mut cpu_ms, mut frames) = (Vec::new(), Vec::new(), Vec::new());
+    // Only the last frame's images are kept (for the error and the saved images)
+    // and, per frame, its times: memory stays flat however many frames are run.
+    let (mut gpu_ms, mut cpu_ms, mut pass_ms) = (Vec::new(), Vec::new(), Vec::new());
+    let mut last = None;
     for _ in 0..if slow { 1 } else { cfg.frames.max(1) } {
         let f = gpu.frame(&plan).map_err(|e| e.to_string())?;
         gpu_ms.push(f.stats["gpu_ms"].as_f64().unwrap_or(0.0));
         cpu_ms.push(f.stats["cpu_ms"].as_f64().unwrap_or(0.0));
-        frames.push(f);
+        pass_ms.push(pass_times(&f.stats["per_pass"]));
+        last = Some(f);
     }
+    let last = last.expect("at least one frame");
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {
         return Err(format!("validation: {}", msgs[0]));
     }
-    // The frame whose GPU time is the median, for the per-pass breakdown.
-    let mut order: Vec<usize> = (0..frames.len()).collect();
+    // The frame whose GPU time is the median, for the per-pass breakdown (every
+    // frame runs the same passes, so the last one's list carries its times).
+    let mut order: Vec<usize> = (0..gpu_ms.len()).collect();
     order.sort_by(|&a, &b| gpu_ms[a].total_cmp(&gpu_ms[b]));
-    let mid = &frames[order[order.len() / 2]];
-    let last = frames.last().expect("at least one frame");
+    let mut per_pass = last.stats["per_pass"].clone();
+    with_pass_times(&mut per_pass, &pass_ms[order[order.len() / 2]]);
     let (gm, gmin, gmax, giqr) = median_iqr(&mut gpu_ms.clone());
     let (cm, _, _, ciqr) = median_iqr(&mut cpu_ms.clone());
     let mut counts = last.stats.clone();
@@ -317,7 +323,7 @@ fn run_one(
         algo: algo.name().into(),
         depth_setup: depth.name().into(),
         device: gpu.device_name(),
-        frames: frames.len() as u32,
+        frames: gpu_ms.len() as u32,
         gpu_ms_median: gm,
         gpu_ms_min: gmin,
         gpu_ms_max: gmax,
@@ -325,11 +331,35 @@ fn run_one(
         cpu_ms_median: cm,
         cpu_ms_iqr: ciqr,
         counts,
-        per_pass: mid.stats["per_pass"].clone(),
+        per_pass,
         error,
         failure: None,
     };
-    Ok((rec, last.images.clone()))
+    Ok((rec, last.images))
+}
+
+/// The GPU ms of each pass of a frame's `per_pass` list, in order.
+fn pass_times(per_pass: &Value) -> Vec<f64> {
+    per_pass
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|p| p.get("gpu_ms").and_then(Value::as_f64).unwrap_or(0.0))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Writes `times` (from [`pass_times`] of a frame with the same passes) into a
+/// `per_pass` list.
+fn with_pass_times(per_pass: &mut Value, times: &[f64]) {
+    if let Some(a) = per_pass.as_array_mut() {
+        for (p, &t) in a.iter_mut().zip(times) {
+            if let Some(o) = p.as_object_mut() {
+                o.insert("gpu_ms".into(), Value::from(t));
+            }
+        }
+    }
 }
 
 /// Runs the matrix and writes every output into `cfg.out`.

@@ -21,6 +21,11 @@ use peeltrim::scene::{self, LoadOptions};
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
+    /// Memory the run may plan for, e.g. 2G or 512M (default: half of the smaller
+    /// of the physical memory and `ulimit -v`); work estimated above it is
+    /// refused at once with the estimate
+    #[arg(long, global = true, value_parser = peeltrim::budget::parse_size)]
+    memory_budget: Option<u64>,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -258,6 +263,9 @@ fn load(path: &Path, size: Option<(u32, u32)>) -> Result<scene::Scene> {
 }
 
 fn run(cli: Cli) -> Result<ExitCode> {
+    if let Some(bytes) = cli.memory_budget {
+        peeltrim::budget::set(bytes);
+    }
     match cli.cmd {
         Cmd::Render {
             scene,

@@ -8,6 +8,10 @@
 //! Zones are built per leaf on demand by copying the sibling subtrees, so scenes
 //! that never ask for zones pay nothing, and the whole-scene cost is the sum of
 //! zone sizes (fine for real scenes; quadratic for pathological deep chains).
+//! Finding a leaf's branching nodes costs their number, not the leaf's depth (jump
+//! pointers to the nearest intersection / union ancestor), and the size of every
+//! zone is known in O(n) before any is built ([`ActiveZones::i_size`],
+//! [`ActiveZones::z_size`]), so callers can refuse what would not fit first.
 
 use super::positive::{PNode, PNodeId, PositiveExpr};
 use super::LeafId;
@@ -15,29 +19,74 @@ use super::LeafId;
 /// The branching nodes of every leaf of a positive expression.
 pub struct ActiveZones<'a> {
     pos: &'a PositiveExpr,
-    parent: Vec<Option<PNodeId>>,
+    /// Per node: `(p, sibling)` for its nearest ancestor `p` that is an
+    /// intersection (reached through the path's child other than `sibling`).
+    up_inter: Vec<Option<(PNodeId, PNodeId)>>,
+    /// The same for the nearest union ancestor.
+    up_union: Vec<Option<(PNodeId, PNodeId)>>,
+    /// Per node: literals in the i-nodes / in all branching nodes of its path.
+    i_size: Vec<u64>,
+    z_size: Vec<u64>,
     /// Node of each leaf, indexed by [`LeafId`].
     leaf_node: Vec<PNodeId>,
 }
 
 impl<'a> ActiveZones<'a> {
-    /// Parent pointers and leaf positions, in one linear pass.
+    /// Jump pointers, zone sizes and leaf positions, in two linear passes.
     pub fn new(pos: &'a PositiveExpr) -> Self {
-        let parent = pos.parents();
+        let n = pos.nodes.len();
+        let mut leaves = vec![0u64; n];
         let mut leaf_node = Vec::new();
-        for (i, n) in pos.nodes.iter().enumerate() {
-            if let PNode::Leaf { leaf, .. } = *n {
-                if leaf_node.len() <= leaf as usize {
-                    leaf_node.resize(leaf as usize + 1, u32::MAX);
+        // Bottom-up (children have smaller indices): leaf counts.
+        for (i, node) in pos.nodes.iter().enumerate() {
+            leaves[i] = match *node {
+                PNode::Leaf { leaf, .. } => {
+                    if leaf_node.len() <= leaf as usize {
+                        leaf_node.resize(leaf as usize + 1, u32::MAX);
+                    }
+                    leaf_node[leaf as usize] = i as PNodeId;
+                    1
                 }
-                leaf_node[leaf as usize] = i as PNodeId;
+                PNode::Union(a, b) | PNode::Inter(a, b) => leaves[a as usize] + leaves[b as usize],
+                PNode::Universe => 0,
+            };
+        }
+        // Top-down (parents have larger indices): what each child inherits.
+        let (mut up_inter, mut up_union) = (vec![None; n], vec![None; n]);
+        let (mut i_size, mut z_size) = (vec![0u64; n], vec![0u64; n]);
+        for p in (0..n).rev() {
+            let (a, b, inter) = match pos.nodes[p] {
+                PNode::Inter(a, b) => (a, b, true),
+                PNode::Union(a, b) => (a, b, false),
+                _ => continue,
+            };
+            for (child, sib) in [(a, b), (b, a)] {
+                let (c, s) = (child as usize, sib as usize);
+                let link = Some((p as PNodeId, sib));
+                up_inter[c] = if inter { link } else { up_inter[p] };
+                up_union[c] = if inter { up_union[p] } else { link };
+                i_size[c] = i_size[p] + if inter { leaves[s] } else { 0 };
+                z_size[c] = z_size[p] + leaves[s];
             }
         }
         ActiveZones {
             pos,
-            parent,
+            up_inter,
+            up_union,
+            i_size,
+            z_size,
             leaf_node,
         }
+    }
+
+    /// Literals in the i-zone of a leaf (the I form's size), without building it.
+    pub fn i_size(&self, leaf: LeafId) -> u64 {
+        self.i_size[self.leaf_node(leaf) as usize]
+    }
+
+    /// Literals in the Z form of a leaf, without building it.
+    pub fn z_size(&self, leaf: LeafId) -> u64 {
+        self.z_size[self.leaf_node(leaf) as usize]
     }
 
     /// Leaf ids present in the expression, in increasing order.
@@ -52,27 +101,31 @@ impl<'a> ActiveZones<'a> {
 
     /// `(i_nodes, u_nodes)` of a leaf, nearest the leaf first.
     pub fn branching_nodes(&self, leaf: LeafId) -> (Vec<PNodeId>, Vec<PNodeId>) {
-        let (mut i_nodes, mut u_nodes) = (Vec::new(), Vec::new());
-        let mut child = self.leaf_node(leaf);
-        while let Some(p) = self.parent[child as usize] {
-            match self.pos.nodes[p as usize] {
-                PNode::Inter(a, b) => i_nodes.push(if a == child { b } else { a }),
-                PNode::Union(a, b) => u_nodes.push(if a == child { b } else { a }),
-                _ => unreachable!("only operators are parents"),
-            }
-            child = p;
+        (
+            self.chain(&self.up_inter, leaf),
+            self.chain(&self.up_union, leaf),
+        )
+    }
+
+    /// Siblings along a jump-pointer chain from the leaf up.
+    fn chain(&self, up: &[Option<(PNodeId, PNodeId)>], leaf: LeafId) -> Vec<PNodeId> {
+        let mut out = Vec::new();
+        let mut at = self.leaf_node(leaf);
+        while let Some((p, sib)) = up[at as usize] {
+            out.push(sib);
+            at = p;
         }
-        (i_nodes, u_nodes)
+        out
     }
 
     /// The i-nodes of a leaf.
     pub fn i_nodes(&self, leaf: LeafId) -> Vec<PNodeId> {
-        self.branching_nodes(leaf).0
+        self.chain(&self.up_inter, leaf)
     }
 
     /// The u-nodes of a leaf.
     pub fn u_nodes(&self, leaf: LeafId) -> Vec<PNodeId> {
-        self.branching_nodes(leaf).1
+        self.chain(&self.up_union, leaf)
     }
 
     /// The active zone Z = ∩ i-nodes ∩ ∩ !u-nodes, complements pushed to the leaves.

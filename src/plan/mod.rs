@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod blister;
+pub mod budget;
 pub mod cst;
 pub mod goldfeather;
 pub mod print;
@@ -144,6 +145,16 @@ pub enum PlanError {
     NotImplemented(Algo),
     #[error("{0}")]
     Products(String),
+    /// The plan's estimated memory exceeds the budget ([`crate::budget`]).
+    #[error("{0}")]
+    OverBudget(crate::budget::OverBudget),
+    /// The plan's estimated work exceeds what any device renders in reasonable time.
+    #[error("{what}, over the limit of {limit}; {fix}")]
+    TooMuchWork {
+        what: String,
+        limit: u64,
+        fix: String,
+    },
 }
 
 /// A `[[surface]]` as the CST plans need it.

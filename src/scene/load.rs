@@ -30,6 +30,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
+use super::cost;
 use super::fit;
 use super::kind;
 use super::obj::load_obj;
@@ -230,6 +231,7 @@ pub fn load_str(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scene, Sc
         text,
         dir: path.parent().unwrap_or(Path::new(".")).to_path_buf(),
         warnings: Vec::new(),
+        mesh_bytes: std::cell::Cell::new(0),
     }
     .run(opts)
 }
@@ -239,6 +241,8 @@ struct Loader<'a> {
     text: &'a str,
     dir: PathBuf,
     warnings: Vec<String>,
+    /// Estimated bytes of the meshes so far ([`cost`]), against the budget.
+    mesh_bytes: std::cell::Cell<u64>,
 }
 
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
@@ -602,6 +606,23 @@ impl Loader<'_> {
         ))
     }
 
+    /// Adds a mesh's estimated bytes to the scene's and refuses the scene when the
+    /// total exceeds the memory budget, before the mesh is built.
+    fn charge(
+        &self,
+        line: Option<usize>,
+        key: String,
+        what: impl FnOnce() -> String,
+        bytes: u64,
+        fix: &str,
+    ) -> Result<(), SceneError> {
+        let total = self.mesh_bytes.get().saturating_add(bytes);
+        self.mesh_bytes.set(total);
+        crate::budget::current()
+            .check(what, total, fix)
+            .map_err(|e| self.invalid(line, key, e.to_string()))
+    }
+
     /// A fixed-length vector key (`what` names its components in the fix), located
     /// at its own line.
     fn vec3(
@@ -741,6 +762,14 @@ impl Loader<'_> {
             K::Sphere => {
                 let r = self.positive(p.radius, line, &k("radius"), "sphere", "its radius")?;
                 let m = rings(2)?;
+                let (v, t) = cost::sphere(segments, m);
+                self.charge(
+                    line,
+                    k("segments"),
+                    || format!("this sphere ({segments} segments × {m} rings: {v} vertices, {t} triangles) with the scene's other meshes"),
+                    cost::mesh_bytes(v, t),
+                    "lower `segments` and `rings` (64 × 32 already renders a smooth sphere)",
+                )?;
                 (
                     Shape::Sphere {
                         radius: r,
@@ -792,6 +821,14 @@ impl Loader<'_> {
                     ));
                 }
                 let m = rings(3)?;
+                let (v, t) = cost::torus(segments, m);
+                self.charge(
+                    line,
+                    k("segments"),
+                    || format!("this torus ({segments} segments × {m} rings: {v} vertices, {t} triangles) with the scene's other meshes"),
+                    cost::mesh_bytes(v, t),
+                    "lower `segments` and `rings`",
+                )?;
                 (
                     Shape::Torus {
                         radius: big,
@@ -811,6 +848,15 @@ impl Loader<'_> {
                     )
                 })?;
                 let full = self.dir.join(rel);
+                if let Ok(meta) = std::fs::metadata(&full) {
+                    self.charge(
+                        line,
+                        k("path"),
+                        || format!("the OBJ file ({} bytes) with the scene's other meshes", meta.len()),
+                        cost::obj_bytes(meta.len()),
+                        "simplify the mesh (fewer triangles)",
+                    )?;
+                }
                 let mesh = load_obj(&full).map_err(|e| {
                     self.invalid(
                         line,

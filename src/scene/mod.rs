@@ -7,6 +7,7 @@
 #![deny(unsafe_code)]
 
 pub mod camera;
+pub mod cost;
 pub mod fit;
 pub mod load;
 pub mod obj;
