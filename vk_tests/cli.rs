@@ -348,3 +348,5 @@ fn bad_input_is_a_clear_error() {
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n"
     );
 }
+
+mod cli_hardening;

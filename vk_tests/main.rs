@@ -5,6 +5,7 @@
 mod algorithms;
 mod classic;
 mod cst;
+mod limits;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

@@ -181,3 +181,67 @@ pub fn i_forms(pos: &PositiveExpr) -> Vec<PositiveExpr> {
     let z = ActiveZones::new(pos);
     z.leaves().map(|l| z.i_form(l)).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// A random expression over `A`-`F` with `n` leaves, as text.
+    fn random_text(rng: &mut impl Rng, n: usize) -> String {
+        if n == 1 {
+            let name = (b'A' + rng.gen_range(0..6u8)) as char;
+            return if rng.gen_bool(0.2) { format!("!{name}") } else { name.to_string() };
+        }
+        let k = rng.gen_range(1..n);
+        let op = ["+", "-", "*"][rng.gen_range(0..3)];
+        format!("({} {op} {})", random_text(rng, k), random_text(rng, n - k))
+    }
+
+    /// The sizes known before building equal the built zones' literal counts, and
+    /// the jump pointers give the same branching nodes as walking the parents.
+    #[test]
+    fn zone_sizes_and_branching_nodes_match_the_built_zones() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(15);
+        for case in 0..300 {
+            let n = rng.gen_range(1..=30);
+            let text = random_text(&mut rng, n);
+            let e = crate::csg::parse(&text, &mut |s| Some((s.as_bytes()[0] - b'A') as u32)).unwrap();
+            let pos = PositiveExpr::from_expr(&e);
+            let parent = pos.parents();
+            let zones = ActiveZones::new(&pos);
+            let count = |z: &PositiveExpr| if z.is_universe() { 0 } else { z.num_leaves() as u64 };
+            for leaf in zones.leaves() {
+                assert_eq!(zones.i_size(leaf), count(&zones.i_form(leaf)), "case {case}: {text}");
+                assert_eq!(zones.z_size(leaf), count(&zones.z_form(leaf)), "case {case}: {text}");
+                let (mut i, mut u) = (Vec::new(), Vec::new());
+                let mut c = zones.leaf_node(leaf);
+                while let Some(p) = parent[c as usize] {
+                    match pos.nodes[p as usize] {
+                        PNode::Inter(a, b) => i.push(if a == c { b } else { a }),
+                        PNode::Union(a, b) => u.push(if a == c { b } else { a }),
+                        _ => unreachable!(),
+                    }
+                    c = p;
+                }
+                assert_eq!(zones.branching_nodes(leaf), (i, u), "case {case}: {text}");
+            }
+        }
+    }
+
+    /// A 10⁵-deep union chain: every i-zone is empty, found without walking.
+    #[test]
+    fn long_union_chain_has_empty_i_zones_in_linear_time() {
+        let n = 100_000;
+        let text = vec!["A"; n].join(" + ");
+        let e = crate::csg::parse(&text, &mut |_| Some(0)).unwrap();
+        let pos = PositiveExpr::from_expr(&e);
+        let t = std::time::Instant::now();
+        let zones = ActiveZones::new(&pos);
+        let total: u64 = zones.leaves().map(|l| zones.i_size(l)).sum();
+        assert_eq!(total, 0);
+        assert!(zones.leaves().all(|l| zones.i_nodes(l).is_empty()));
+        assert_eq!(zones.z_size(0), n as u64 - 1);
+        assert!(t.elapsed() < std::time::Duration::from_secs(2), "{:?}", t.elapsed());
+    }
+}
