@@ -429,7 +429,8 @@ fn fuzz_scene_files() {
             match r {
                 Ok(s) => {
                     prop_assert!(!g.bad, "accepted a malformed scene:\n{}", g.text);
-                    prop_assert!(s.camera.near > 0.0 || !matches!(s.camera.projection, crate::scene::Projection::Perspective { .. }));
+                    let persp = matches!(s.camera.projection, crate::scene::Projection::Perspective { .. });
+                    prop_assert!(s.camera.near > 0.0 || !persp, "near {}", s.camera.near);
                     prop_assert!(s.camera.near < s.camera.far && s.camera.far.is_finite());
                 }
                 Err(e) => {

@@ -188,7 +188,7 @@ fn syntax_and_type_errors_have_line_and_column() {
     ));
     assert!(e.contains("missing field `name`"), "{e}");
     let e = err(&with("scale = [1, 2]\n[csg]\nexpr = \"A\"\n"));
-    assert!(e.contains("array of 3 numbers"), "{e}");
+    assert!(e.contains("exactly 3 numbers"), "{e}");
 }
 
 #[test]
@@ -440,7 +440,7 @@ fn common_mistakes_name_the_place_and_the_fix() {
     for (extra, needles) in [
         (
             "[[primitive]]\nname = \"B\"\nshape = \"sphere\"\nradius = 0.0\n[csg]\nexpr = \"A\"\n",
-            &["test.toml:4: primitive[2] \"B\": radius", "must be a positive finite number"][..],
+            &["test.toml:8: primitive[2] \"B\": radius", "must be a positive finite number"][..],
         ),
         (
             "[csg]\nexpr = \"A + Q\"\n",
@@ -484,12 +484,13 @@ fn shape_vectors_reject_wrong_length_and_type() {
                     "{CAM}[[{table}]]\nname = \"A\"\nshape = \"box\"\n{}{key} = {value}\ntrim = \"A\"\n",
                     if key == "size" { "" } else { "size = [1.0, 1.0, 1.0]\n" }
                 );
-                let src = if table == "primitive" {
-                    src.replace("trim = \"A\"\n", "[csg]\nexpr = \"A\"\n")
+                let (src, shift) = if table == "primitive" {
+                    (src.replace("trim = \"A\"\n", "[csg]\nexpr = \"A\"\n"), 0)
                 } else {
-                    src
+                    let p = "[[primitive]]\nname = \"P\"\nshape = \"box\"\nsize = [1.0, 1.0, 1.0]\n";
+                    (src.replacen("[[surface]]", &format!("{p}[[surface]]"), 1).replace("trim = \"A\"", "trim = \"P\""), 4)
                 };
-                let line = if key == "size" { 6 } else { 7 };
+                let line = shift + if key == "size" { 7 } else { 8 };
                 let e = err(&src);
                 let want = format!("test.toml:{line}: {table}[1] \"A\": {key}: ");
                 assert!(e.starts_with("/tmp/t/") && e.contains(&want), "{key} = {value}: {e}");
