@@ -110,7 +110,7 @@ fn not_a_number() -> impl Strategy<Value = String> {
 /// an element of a wrong type, not an array, or not finite.
 fn vector(comp: BoxedStrategy<String>) -> BoxedStrategy<Gen> {
     prop_oneof![
-        4 => prop::collection::vec(comp.clone(), 3).prop_map(|v| ok(format!("[{}]", v.join(", ")))),
+        100 => prop::collection::vec(comp.clone(), 3).prop_map(|v| ok(format!("[{}]", v.join(", ")))),
         1 => prop::collection::vec(comp.clone(), 0..7)
             .prop_filter("not 3", |v| v.len() != 3)
             .prop_map(|v| bad(format!("[{}]", v.join(", ")))),
@@ -125,7 +125,7 @@ fn vector(comp: BoxedStrategy<String>) -> BoxedStrategy<Gen> {
 
 fn number(valid: BoxedStrategy<String>, invalid: &'static [&'static str]) -> BoxedStrategy<Gen> {
     prop_oneof![
-        4 => valid.prop_map(ok),
+        100 => valid.prop_map(ok),
         1 => prop::sample::select(invalid.to_vec()).prop_map(bad),
         1 => not_a_number().prop_map(bad),
     ]
@@ -134,7 +134,7 @@ fn number(valid: BoxedStrategy<String>, invalid: &'static [&'static str]) -> Box
 
 fn count() -> BoxedStrategy<Gen> {
     prop_oneof![
-        4 => (3u32..24).prop_map(|n| ok(n.to_string())),
+        100 => (3u32..24).prop_map(|n| ok(n.to_string())),
         1 => prop::sample::select(vec!["0", "1", "2", "-3", "65537", "4294967295", "99999999999", "8.5"])
             .prop_map(bad),
         // Legal but huge: the grid limit or the memory budget refuses these.
@@ -145,7 +145,7 @@ fn count() -> BoxedStrategy<Gen> {
 
 fn color() -> BoxedStrategy<Gen> {
     prop_oneof![
-        4 => "[0-9a-f]{6}".prop_map(|h| ok(format!("\"#{h}\""))),
+        100 => "[0-9a-f]{6}".prop_map(|h| ok(format!("\"#{h}\""))),
         1 => prop::sample::select(vec!["\"#12345\"", "\"d0a040\"", "\"#gg0000\"", "[1, 2, 3]", "5", "\"#ｄ0a040\""])
             .prop_map(bad),
     ]
@@ -172,7 +172,7 @@ fn expr_tree() -> impl Strategy<Value = ExprGen> {
     });
     leaf.prop_recursive(6, 48, 2, |inner| {
         prop_oneof![
-            (inner.clone(), inner.clone(), 0usize..4, any::<bool>()).prop_map(|(a, b, op, spaced)| {
+            4 => (inner.clone(), inner.clone(), 0usize..4, any::<bool>()).prop_map(|(a, b, op, spaced)| {
                 let s = if spaced { " " } else { "" };
                 let (text, truth) = match op {
                     0 => (format!("({}{s}+{s}{})", a.text, b.text), a.truth | b.truth),
@@ -182,7 +182,7 @@ fn expr_tree() -> impl Strategy<Value = ExprGen> {
                 };
                 ExprGen { text, truth }
             }),
-            inner.prop_map(|a| ExprGen {
+            1 => inner.prop_map(|a| ExprGen {
                 text: format!("!{}", a.text),
                 truth: !a.truth,
             }),
@@ -193,7 +193,7 @@ fn expr_tree() -> impl Strategy<Value = ExprGen> {
 /// An expression source: a valid one, or one made definitely malformed.
 fn expr_source() -> BoxedStrategy<(Gen, Option<u16>)> {
     prop_oneof![
-        4 => expr_tree().prop_map(|e| (ok(e.text), Some(e.truth))),
+        12 => expr_tree().prop_map(|e| (ok(e.text), Some(e.truth))),
         1 => (expr_tree(), prop::sample::select(vec![" + Q", " +", ")", " (", " * é", " & B", " - "]))
             .prop_map(|(e, junk)| (bad(format!("{}{junk}", e.text)), None)),
         1 => (expr_tree(), any::<prop::sample::Index>()).prop_map(|(e, i)| {
@@ -208,19 +208,18 @@ fn expr_source() -> BoxedStrategy<(Gen, Option<u16>)> {
     .boxed()
 }
 
-fn shape_table(table: &'static str, idx: usize) -> BoxedStrategy<Gen> {
-    let name = NAMES[idx];
+fn shape_table(table: &'static str, name: &'static str) -> BoxedStrategy<Gen> {
     let shape = prop_oneof![
-        6 => Just(("box", false)),
-        3 => Just(("sphere", false)),
-        2 => Just(("cylinder", false)),
-        1 => Just(("cone", false)),
-        2 => Just(("torus", false)),
+        24 => Just(("box", false)),
+        12 => Just(("sphere", false)),
+        8 => Just(("cylinder", false)),
+        4 => Just(("cone", false)),
+        8 => Just(("torus", false)),
         1 => Just(("blob", true)),
         1 => Just(("mesh", true)),
     ];
     let extra = prop_oneof![
-        6 => Just(ok("")),
+        150 => Just(ok("")),
         1 => prop::sample::select(vec!["colour = \"#ffffff\"", "size = [1.0, 1.0, 1.0]\nsize = [2.0, 2.0, 2.0]", "\"\u{1F600}\" = 1"])
             .prop_map(|s| bad(format!("{s}\n"))),
     ];
@@ -256,9 +255,9 @@ fn shape_table(table: &'static str, idx: usize) -> BoxedStrategy<Gen> {
                 "sphere" | "torus" => {
                     if kind == "torus" {
                         // minor < major is checked; keep that valid here.
-                        key("radius", ok("3.0"));
+                        key("radius", ok("4.5"));
                         let minor = match radius.text.parse::<f64>() {
-                            Ok(r) if !radius.bad && r >= 3.0 => bad(radius.text),
+                            Ok(r) if !radius.bad && r >= 4.5 => bad(radius.text),
                             _ => radius,
                         };
                         key("minor_radius", minor);
@@ -337,8 +336,8 @@ fn camera() -> BoxedStrategy<Gen> {
 fn scene() -> BoxedStrategy<Gen> {
     let body = (
         camera(),
-        prop::collection::vec(0usize..4, 1..4),
-        prop::option::of(shape_table("surface", 3)),
+        0usize..8,
+        prop::option::of(shape_table("surface", "S")),
         expr_source(),
         prop::option::of((
             number((1u32..64).prop_map(|n| n.to_string()).boxed(), &["0", "16385", "-1", "4294967296"]),
@@ -346,9 +345,10 @@ fn scene() -> BoxedStrategy<Gen> {
         )),
     )
         .prop_flat_map(|(cam, prims, surface, (expr, _), render)| {
-            let n = prims.len().min(3);
+            // Usually all of A-D are defined; fewer make the names past them unknown.
+            let n = if prims < 2 { prims + 2 } else { 4 };
             let tables: Vec<BoxedStrategy<Gen>> =
-                (0..n).map(|i| shape_table("primitive", i)).collect();
+                NAMES[..n].iter().map(|name| shape_table("primitive", name)).collect();
             (tables, Just((cam, surface, expr, render)))
         })
         .prop_map(|(tables, (cam, surface, expr, render))| {
@@ -371,7 +371,6 @@ fn scene() -> BoxedStrategy<Gen> {
                 }
             }
             // Names past the defined primitives are unknown: malformed.
-            // (`D` is the surface's name, not a primitive's.)
             let unknown = NAMES[n..].iter().any(|name| expr.text.contains(name));
             parts.push(Gen {
                 text: format!("[csg]\nexpr = \"{}\"\n", expr.text),
@@ -416,6 +415,7 @@ fn fuzz_scene_files() {
     // `tools/fuzz.sh` also feeds the generated scenes to the binary.
     let dump = std::env::var_os("PEELTRIM_FUZZ_DUMP").map(std::path::PathBuf::from);
     let counter = std::sync::atomic::AtomicUsize::new(0);
+    let (accepted, refused) = (std::cell::Cell::new(0u32), std::cell::Cell::new(0u32));
     runner(5000)
         .run(&scene(), |g| {
             if let Some(dir) = &dump {
@@ -428,12 +428,17 @@ fn fuzz_scene_files() {
             prop_assert!(took < limit, "took {took:?}:\n{}", g.text);
             match r {
                 Ok(s) => {
+                    accepted.set(accepted.get() + 1);
                     prop_assert!(!g.bad, "accepted a malformed scene:\n{}", g.text);
                     let persp = matches!(s.camera.projection, crate::scene::Projection::Perspective { .. });
                     prop_assert!(s.camera.near > 0.0 || !persp, "near {}", s.camera.near);
                     prop_assert!(s.camera.near < s.camera.far && s.camera.far.is_finite());
                 }
                 Err(e) => {
+                    refused.set(refused.get() + 1);
+                    if std::env::var_os("PEELTRIM_FUZZ_SHOW").is_some() && !g.bad {
+                        eprintln!("{e}");
+                    }
                     prop_assert!(located(&e), "no location: {e}\n{}", g.text);
                     let msg = e.to_string();
                     prop_assert!(msg.starts_with("/fuzz/scene.toml:"), "{msg}");
@@ -442,6 +447,10 @@ fn fuzz_scene_files() {
             Ok(())
         })
         .unwrap();
+    // The generator must reach both outcomes in earnest, or the test proves little.
+    let (a, r) = (accepted.get(), refused.get());
+    eprintln!("fuzz_scene_files: {a} accepted, {r} refused");
+    assert!(a * 10 > a + r && r * 10 > a + r, "{a} accepted, {r} refused");
 }
 
 #[test]
