@@ -149,7 +149,7 @@ pub enum PlanError {
     #[error("{0}")]
     OverBudget(crate::budget::OverBudget),
     /// The plan's estimated work exceeds what any device renders in reasonable time.
-    #[error("{what}, over the limit of {limit}; {fix}")]
+    #[error("{what}, over the limit of {limit} (a frame would take minutes); {fix}")]
     TooMuchWork {
         what: String,
         limit: u64,
