@@ -719,7 +719,9 @@ impl Loader<'_> {
                 format!("{segments} is out of range: use 3 to {MAX_DIVISIONS}"),
             ));
         }
-        let rings = |min: u32| -> Result<u32, SceneError> {
+        // The ring count, checked, and the grid's memory charged to the budget
+        // before it is tessellated.
+        let rings = |min: u32, counts: fn(u32, u32) -> (u64, u64)| -> Result<u32, SceneError> {
             let r = p.rings.unwrap_or_else(|| default_rings(segments, min));
             if !(min..=MAX_DIVISIONS).contains(&r) {
                 return Err(self.invalid(
@@ -738,6 +740,14 @@ impl Loader<'_> {
                     ),
                 ));
             }
+            let (v, t) = counts(segments, r);
+            self.charge(
+                line,
+                k("segments"),
+                || format!("this {kname} ({segments} segments × {r} rings: {v} vertices, {t} triangles) with the scene's other meshes"),
+                cost::mesh_bytes(v, t),
+                "lower `segments` and `rings` (64 × 32 already renders a smooth sphere)",
+            )?;
             Ok(r)
         };
         let (shape, local) = match kind {
@@ -761,15 +771,7 @@ impl Loader<'_> {
             }
             K::Sphere => {
                 let r = self.positive(p.radius, line, &k("radius"), "sphere", "its radius")?;
-                let m = rings(2)?;
-                let (v, t) = cost::sphere(segments, m);
-                self.charge(
-                    line,
-                    k("segments"),
-                    || format!("this sphere ({segments} segments × {m} rings: {v} vertices, {t} triangles) with the scene's other meshes"),
-                    cost::mesh_bytes(v, t),
-                    "lower `segments` and `rings` (64 × 32 already renders a smooth sphere)",
-                )?;
+                let m = rings(2, cost::sphere)?;
                 (
                     Shape::Sphere {
                         radius: r,
@@ -820,15 +822,7 @@ impl Loader<'_> {
                         format!("{small} must be less than radius = {big}, otherwise the torus intersects itself"),
                     ));
                 }
-                let m = rings(3)?;
-                let (v, t) = cost::torus(segments, m);
-                self.charge(
-                    line,
-                    k("segments"),
-                    || format!("this torus ({segments} segments × {m} rings: {v} vertices, {t} triangles) with the scene's other meshes"),
-                    cost::mesh_bytes(v, t),
-                    "lower `segments` and `rings`",
-                )?;
+                let m = rings(3, cost::torus)?;
                 (
                     Shape::Torus {
                         radius: big,
