@@ -130,10 +130,22 @@ fn depth_marker<DB: DrawingBackend, C: Clone + 'static>(
     }
 }
 
+/// A percentage for an axis label: `10%`, `0.5%`, `1e-3%`.
+fn percent(v: f64) -> String {
+    if v >= 1.0 {
+        format!("{v:.0}%")
+    } else if v >= 0.01 {
+        format!("{}%", format!("{v:.2}").trim_end_matches('0').trim_end_matches('.'))
+    } else {
+        format!("{v:.0e}%")
+    }
+}
+
 /// x: median GPU ms; y: interior coverage + primitive mismatches (% of pixels) on
-/// a log scale, with exact results (error 0, which a log axis cannot show) in a
-/// strip of their own below it. One legend entry per algorithm and depth set-up
-/// instead of a label at each point, which overlapped.
+/// a log scale (whole decades), with exact results (error 0, which a log axis
+/// cannot show) in a strip of their own below it. A legend beside the plot
+/// (colour: algorithm, marker: depth set-up) instead of a label at each point,
+/// which overlapped.
 fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError> {
     let pts: Vec<(f64, f64, &str, &str)> = rows
         .iter()
@@ -148,20 +160,25 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
             )
         })
         .collect();
-    let xmax = pts.iter().map(|p| p.0).fold(0.0, f64::max) * 1.15 + 1e-3;
+    let xmax = pts.iter().map(|p| p.0).fold(0.0, f64::max) * 1.1 + 1e-3;
     let nonzero = pts.iter().map(|p| p.1).filter(|&e| e > 0.0);
     let (ymin, ymax) = nonzero.fold((f64::INFINITY, 0.0f64), |(a, b), e| (a.min(e), b.max(e)));
     let (ylo, yhi) = if ymax > 0.0 {
-        (ymin / 3.0, (ymax * 3.0).min(300.0).max(ymin * 10.0))
+        let lo = 10f64.powf(ymin.log10().floor());
+        (lo, 10f64.powf(ymax.log10().ceil()).max(lo * 10.0))
     } else {
         (1e-3, 1.0)
     };
-    let root = BitMapBackend::new(path, (900, 650)).into_drawing_area();
+    let mut series: Vec<(&str, &str)> = pts.iter().map(|p| (p.2, p.3)).collect();
+    series.sort();
+    series.dedup();
+    let root = BitMapBackend::new(path, (1150, 650)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(path, e))?;
     let root = root
         .titled(title, ("sans-serif", 22))
         .map_err(|e| err(path, e))?;
-    let (top, bottom) = root.split_vertically(480);
+    let (plot, legend) = root.split_horizontally(900);
+    let (top, bottom) = plot.split_vertically(470);
     let mut chart = ChartBuilder::on(&top)
         .margin(15)
         .margin_bottom(0)
@@ -172,7 +189,8 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
     chart
         .configure_mesh()
         .y_desc("interior coverage + primitive mismatches (% of pixels, log)")
-        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .y_label_formatter(&|v| percent(*v))
+        .label_style(("sans-serif", 13))
         .draw()
         .map_err(|e| err(path, e))?;
     let mut zero = ChartBuilder::on(&bottom)
@@ -186,13 +204,11 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
         .disable_y_mesh()
         .y_labels(1)
         .y_label_formatter(&|_| "0 (exact)".to_string())
+        .label_style(("sans-serif", 13))
         .x_desc("median GPU time per frame (ms)")
         .draw()
         .map_err(|e| err(path, e))?;
-    let mut series: Vec<(&str, &str)> = pts.iter().map(|p| (p.2, p.3)).collect();
-    series.sort();
-    series.dedup();
-    for (algo, depth) in series {
+    for (i, &(algo, depth)) in series.iter().enumerate() {
         let c = algo_color(algo);
         let mine = || pts.iter().filter(move |p| p.2 == algo && p.3 == depth);
         zero.draw_series(
@@ -201,26 +217,25 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
                 .map(|p| depth_marker(depth, (p.0, 0.0), c)),
         )
         .map_err(|e| err(path, e))?;
-        // Drawn (possibly empty) on the log chart so its legend lists every series.
-        let depth_owned = depth.to_string();
         chart
             .draw_series(
                 mine()
                     .filter(|p| p.1 > 0.0)
                     .map(|p| depth_marker(depth, (p.0, p.1), c)),
             )
-            .map_err(|e| err(path, e))?
-            .label(format!("{algo} {depth}"))
-            .legend(move |(x, y)| depth_marker(&depth_owned, (x + 6, y), c));
+            .map_err(|e| err(path, e))?;
+        let y = 40 + 20 * i as i32;
+        legend
+            .draw(&depth_marker(depth, (12, y), c))
+            .map_err(|e| err(path, e))?;
+        legend
+            .draw(&Text::new(
+                format!("{algo} {depth}"),
+                (26, y - 7),
+                ("sans-serif", 14).into_font(),
+            ))
+            .map_err(|e| err(path, e))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font(("sans-serif", 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(path, e))?;
     root.present().map_err(|e| err(path, e))?;
     Ok(())
 }
