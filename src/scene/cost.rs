@@ -6,8 +6,10 @@
 //! Per vertex and per triangle the run holds: the local and the world mesh
 //! (`f64` positions, `u32` indices), the `f32` copies uploaded to the device, and
 //! the reference ray caster's BVH over world triangles (the largest part). The
-//! constants are measured peaks (README "Limits": a 32×32 reference render of a
-//! sphere of 2²³ vertices), rounded up.
+//! constants fit measured peaks: spheres of 1024 and 2048 segments (1.05 M and
+//! 4.2 M triangles) rendered at 32×32 peak at 285 MiB and 1.10 GiB with the
+//! reference (1.02 GiB with cst-i), about 280 B per added triangle; the estimate
+//! gives 288 MiB and 1.13 GiB.
 
 /// Bytes held per vertex over a run.
 pub const BYTES_PER_VERTEX: u64 = 64;

@@ -60,3 +60,25 @@ impl<T> Check<T> for Result<T, vk::Result> {
         self.map_err(|result| VkError::Call { call, result })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn out_of_memory_and_device_loss_say_what_to_do() {
+        for (r, want) in [
+            (vk::Result::ERROR_OUT_OF_DEVICE_MEMORY, "smaller --size"),
+            (vk::Result::ERROR_OUT_OF_HOST_MEMORY, "smaller --size"),
+            (vk::Result::ERROR_DEVICE_LOST, "the device was lost"),
+        ] {
+            let e = Err::<(), _>(r).check("vkQueueSubmit").unwrap_err().to_string();
+            assert!(e.contains("vkQueueSubmit") && e.contains(want), "{e}");
+        }
+        let e = Err::<(), _>(vk::Result::ERROR_INITIALIZATION_FAILED)
+            .check("vkCreateDevice")
+            .unwrap_err()
+            .to_string();
+        assert!(!e.contains("--size"), "{e}");
+    }
+}
