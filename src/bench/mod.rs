@@ -157,6 +157,8 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 })?;
             let label = scene_label(&bs.path);
             bar.set_message(format!("{label} {w}x{h}: reference"));
+            crate::render::check_frame_budget(w, h, false)
+                .map_err(|e| BenchError::Other(format!("{}: {e}", bs.path.display())))?;
             let t = Instant::now();
             let reference = crate::reference::render(&scene, w, h);
             let ref_ms = t.elapsed().as_secs_f64() * 1e3;
