@@ -11,6 +11,7 @@
 #
 #   tools/fuzz.sh                 # MULT=4 (about 48,000 parser cases), stage 2 on 2,000 scenes
 #   MULT=20 SCENES=10000 tools/fuzz.sh
+#   SCENE_DIR=/tmp/dump SCENES=1000 tools/fuzz.sh   # stage 2 only, on dumped scenes
 set -uo pipefail
 cd "$(dirname "$0")/.."
 MULT=${MULT:-4}
@@ -22,15 +23,19 @@ WORK=$(mktemp -d /tmp/peeltrim-fuzz.XXXXXX)
 echo "tools/fuzz.sh: working in $WORK" >&2
 
 cargo build --release --quiet || exit 1
-test_bin=$(cargo test --release --lib --no-run 2>&1 | sed -n 's/.*Executable unittests src\/lib.rs (\(.*\))/\1/p' | head -1)
-[ -x "$test_bin" ] || { echo "tools/fuzz.sh: could not find the unit-test binary" >&2; exit 1; }
 bin=target/release/peeltrim
-
 mkdir -p "$WORK/scenes"
-echo "stage 1: parser properties, MULT=$MULT, $CASE_MS ms per case, address space ${AS_LIMIT_KB} KiB" >&2
-( ulimit -v "$AS_LIMIT_KB"
-  PEELTRIM_FUZZ_CASES=$MULT PEELTRIM_FUZZ_CASE_MS=$CASE_MS PEELTRIM_FUZZ_DUMP="$WORK/scenes" \
-    "$test_bin" fuzz_ --test-threads 1 ) || { echo "stage 1 FAILED" >&2; exit 1; }
+if [ -n "${SCENE_DIR:-}" ]; then
+  # Stage 2 only, on scenes generated earlier (PEELTRIM_FUZZ_DUMP=DIR cargo test --lib fuzz_).
+  find "$SCENE_DIR" -maxdepth 1 -name '*.toml' -exec cp -t "$WORK/scenes/" {} +
+else
+  test_bin=$(cargo test --release --lib --no-run 2>&1 | sed -n 's/.*Executable unittests src\/lib.rs (\(.*\))/\1/p' | head -1)
+  [ -x "$test_bin" ] || { echo "tools/fuzz.sh: could not find the unit-test binary" >&2; exit 1; }
+  echo "stage 1: parser properties, MULT=$MULT, $CASE_MS ms per case, address space ${AS_LIMIT_KB} KiB" >&2
+  ( ulimit -v "$AS_LIMIT_KB"
+    PEELTRIM_FUZZ_CASES=$MULT PEELTRIM_FUZZ_CASE_MS=$CASE_MS PEELTRIM_FUZZ_DUMP="$WORK/scenes" \
+      "$test_bin" fuzz_ --test-threads 1 ) || { echo "stage 1 FAILED" >&2; exit 1; }
+fi
 
 fail=0; runs=0
 check() { # check SCENE EXPECT_ERROR STATUS STDERR_FILE WHAT
@@ -45,7 +50,7 @@ check() { # check SCENE EXPECT_ERROR STATUS STDERR_FILE WHAT
   esac
 }
 n=0
-for scene in $(ls "$WORK"/scenes/*.toml | shuf -n "$SCENES" --random-source=<(yes)); do
+for scene in $(find "$WORK/scenes" -maxdepth 1 -name '*.toml' | sort | shuf -n "$SCENES" --random-source=<(yes)); do
   n=$((n + 1))
   bad=0; case $scene in *-bad.toml) bad=1 ;; esac
   err="$WORK/stderr"
@@ -59,4 +64,4 @@ for scene in $(ls "$WORK"/scenes/*.toml | shuf -n "$SCENES" --random-source=<(ye
   [ $((n % 200)) -eq 0 ] && echo "  $n scenes, $runs commands, $fail failures" >&2
 done
 echo "stage 2: $n scenes, $runs commands, $fail failures"
-[ "$fail" -eq 0 ]
+[ "$n" -gt 0 ] && [ "$fail" -eq 0 ]
