@@ -9,7 +9,7 @@
 
 use super::cst::{disjoint, Variant};
 use super::{PlanError, Prepared};
-use crate::budget::{self, OverBudget};
+use crate::budget;
 use crate::csg::{ActiveZones, LeafId, PNode, PNodeId, PositiveExpr};
 
 /// Bytes a plan holds per literal of an active zone: the zone's node, its Blist
@@ -109,11 +109,4 @@ fn count_leaves(pos: &PositiveExpr, root: PNodeId, keep: impl Fn(u32) -> bool) -
         }
     }
     n
-}
-
-/// `OverBudget` converts into the plan's error.
-impl From<OverBudget> for PlanError {
-    fn from(e: OverBudget) -> Self {
-        PlanError::OverBudget(e)
-    }
 }
