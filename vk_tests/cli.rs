@@ -8,6 +8,10 @@ use std::process::{Command, Output};
 
 use rand::{Rng, SeedableRng};
 
+/// OpenSCAD `.csg` models through the command line.
+mod openscad_cli;
+mod scad_models;
+
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_peeltrim"));
     c.env("PEELTRIM_VALIDATION", "1");

@@ -6,6 +6,8 @@ mod algorithms;
 mod classic;
 mod cst;
 mod limits;
+mod openscad;
+mod scad_models;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

@@ -64,6 +64,15 @@ struct GpuArgs {
     max_products: usize,
 }
 
+/// Options for OpenSCAD `.csg` models.
+#[derive(clap::Args, Clone, Copy)]
+struct ScadArgs {
+    /// OpenSCAD models: drop nodes peeltrim cannot draw (hull, minkowski,
+    /// extrusions, 2D shapes, ...) with a warning listing each, instead of failing
+    #[arg(long)]
+    skip_unsupported: bool,
+}
+
 fn parse_eps(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(e) if e.is_finite() && (0.0..0.1).contains(&e) => Ok(e),
@@ -87,18 +96,22 @@ enum Cmd {
         out: PathBuf,
         #[command(flatten)]
         gpu: GpuArgs,
+        #[command(flatten)]
+        scad: ScadArgs,
     },
     /// Print the Blist of an expression or of a scene's solid(s) as JSON
     Blist {
         /// An expression such as "(A+B)(C-(D-E))", or a scene file
         input: String,
+        #[command(flatten)]
+        scad: ScadArgs,
     },
     /// Compare two render output directories (depth.npy and prim.png)
     Compare { a: PathBuf, b: PathBuf },
     /// Time algorithms on scenes (speed against error); writes results.json,
     /// results.csv, summary.md, plots/ and images/ into --out
     Bench {
-        /// Scene files (default: every scenes/*.toml)
+        /// Scene files (default: every scenes/*.toml and scenes/openscad/*.csg)
         scenes: Vec<PathBuf>,
         /// Comma-separated algorithms, or "all"
         #[arg(long, default_value = "all")]
@@ -147,12 +160,16 @@ enum Cmd {
         size: Option<(u32, u32)>,
         #[command(flatten)]
         gpu: GpuArgs,
+        #[command(flatten)]
+        scad: ScadArgs,
     },
     /// Print an algorithm's plan (the steps it records) for a scene
     Plan {
         scene: PathBuf,
         #[arg(long, default_value = "blister", value_parser = parse_algo)]
         algo: Algo,
+        #[command(flatten)]
+        scad: ScadArgs,
     },
 }
 
@@ -193,7 +210,8 @@ fn parse_family(s: &str) -> Result<(String, Vec<u32>)> {
     Ok((name.to_string(), ns))
 }
 
-/// The shipped scenes next to the binary's source tree, or under ./scenes.
+/// The shipped scenes (`scenes/*.toml`, then `scenes/openscad/*.csg`) next to the
+/// binary's source tree, or under ./scenes.
 fn shipped_scenes() -> Result<Vec<PathBuf>> {
     let dir = [
         PathBuf::from("scenes"),
@@ -207,6 +225,15 @@ fn shipped_scenes() -> Result<Vec<PathBuf>> {
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
     v.sort();
+    // The OpenSCAD models, loaded as they are.
+    if let Ok(models) = std::fs::read_dir(dir.join("openscad")) {
+        let mut m: Vec<PathBuf> = models
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "csg"))
+            .collect();
+        m.sort();
+        v.extend(m);
+    }
     Ok(v)
 }
 
@@ -254,8 +281,8 @@ fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
     })
 }
 
-fn load(path: &Path, size: Option<(u32, u32)>) -> Result<scene::Scene> {
-    let scene = scene::load(path, &LoadOptions { size })?;
+fn load(path: &Path, size: Option<(u32, u32)>, scad: ScadArgs) -> Result<scene::Scene> {
+    let scene = scene::load_with(path, &LoadOptions { size }, scad.skip_unsupported)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -273,10 +300,11 @@ fn run(cli: Cli) -> Result<ExitCode> {
             size,
             out,
             gpu,
+            scad,
         } => {
             let opts = render_options(algo, &gpu)?;
             peeltrim::output::check_out_dir(&out, "--out")?;
-            let scene = load(&scene, size)?;
+            let scene = load(&scene, size, scad)?;
             if let Ok(prep) = peeltrim::plan::Prepared::new(&scene) {
                 for w in prep.warnings(opts.algo) {
                     eprintln!("peeltrim: warning: {w}");
@@ -306,8 +334,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 out.display()
             );
         }
-        Cmd::Blist { input } => {
-            let json = blist_json(&input)?;
+        Cmd::Blist { input, scad } => {
+            let json = blist_json(&input, scad)?;
             println!("{}", serde_json::to_string_pretty(&json)?);
         }
         Cmd::Compare { a, b } => {
@@ -382,9 +410,10 @@ fn run(cli: Cli) -> Result<ExitCode> {
             algo,
             size,
             gpu,
-        } => return view(&scene, algo, size, &gpu),
-        Cmd::Plan { scene, algo } => {
-            let scene = load(&scene, None)?;
+            scad,
+        } => return view(&scene, algo, size, &gpu, scad),
+        Cmd::Plan { scene, algo, scad } => {
+            let scene = load(&scene, None, scad)?;
             let prep = peeltrim::plan::Prepared::new(&scene)?;
             for w in prep.warnings(algo) {
                 eprintln!("peeltrim: warning: {w}");
@@ -409,9 +438,15 @@ fn run(cli: Cli) -> Result<ExitCode> {
 }
 
 #[cfg(feature = "viewer")]
-fn view(path: &Path, algo: Algo, size: Option<(u32, u32)>, gpu: &GpuArgs) -> Result<ExitCode> {
+fn view(
+    path: &Path,
+    algo: Algo,
+    size: Option<(u32, u32)>,
+    gpu: &GpuArgs,
+    scad: ScadArgs,
+) -> Result<ExitCode> {
     let opts = render_options(algo, gpu)?;
-    let scene = load(path, size)?;
+    let scene = load(path, size, scad)?;
     let frames = match std::env::var("PEELTRIM_VIEW_FRAMES") {
         Ok(v) => Some(
             v.trim()
@@ -436,8 +471,14 @@ fn view(path: &Path, algo: Algo, size: Option<(u32, u32)>, gpu: &GpuArgs) -> Res
 }
 
 #[cfg(not(feature = "viewer"))]
-fn view(path: &Path, _algo: Algo, size: Option<(u32, u32)>, _gpu: &GpuArgs) -> Result<ExitCode> {
-    load(path, size)?;
+fn view(
+    path: &Path,
+    _algo: Algo,
+    size: Option<(u32, u32)>,
+    _gpu: &GpuArgs,
+    scad: ScadArgs,
+) -> Result<ExitCode> {
+    load(path, size, scad)?;
     eprintln!(
         "peeltrim: this build has no viewer (built without the `viewer` feature); \
          rebuild with `cargo build --features viewer` (on by default), or use \
@@ -447,11 +488,11 @@ fn view(path: &Path, _algo: Algo, size: Option<(u32, u32)>, _gpu: &GpuArgs) -> R
 }
 
 /// `blist EXPR` names its own primitives; `blist SCENE.toml` uses the scene's.
-fn blist_json(input: &str) -> Result<serde_json::Value> {
+fn blist_json(input: &str, scad: ScadArgs) -> Result<serde_json::Value> {
     use peeltrim::csg::{Blist, PositiveExpr};
     let path = Path::new(input);
-    let (expr, names) = if input.ends_with(".toml") || path.is_file() {
-        let scene = load(path, None)?;
+    let (expr, names) = if input.ends_with(".toml") || input.ends_with(".csg") || path.is_file() {
+        let scene = load(path, None, scad)?;
         let expr = peeltrim::plan::union_of_solids(&scene)
             .with_context(|| format!("{}: the scene has no [csg] or [[solid]]", path.display()))?;
         (

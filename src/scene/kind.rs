@@ -31,7 +31,8 @@ pub fn refuse_unsupported(path: &Path) -> Result<(), SceneError> {
 /// A TOML syntax error in a file not named `.toml` says what the file should be.
 pub fn hint(path: &Path, e: SceneError) -> SceneError {
     match (extension(path).as_deref(), e) {
-        (Some("toml"), e) => e,
+        // `.csg` files are parsed by the OpenSCAD reader, with its own messages.
+        (Some("toml" | "csg"), e) => e,
         (
             _,
             SceneError::Syntax {

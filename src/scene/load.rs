@@ -25,6 +25,9 @@
 //!   unique among solids.
 //! - `LoadOptions::size` overrides `[render]` width/height before `fit`, and the
 //!   final size is stored in `Scene::render`.
+//! - Extension: `[csg] openscad = "model.csg"` makes an OpenSCAD model the whole
+//!   scene (`super::openscad`), with OpenSCAD's camera and background defaults;
+//!   a path ending in `.csg` is loaded as that scene with every default.
 
 use glam::DVec3;
 use serde::de::{self, Deserializer};
@@ -120,6 +123,24 @@ struct CameraT {
     fit: Option<bool>,
 }
 
+impl CameraT {
+    /// Without `[camera]`: the eye looks from direction `[3, 2, 4]` at the origin,
+    /// `fit = true`.
+    fn fitted_default() -> Self {
+        CameraT {
+            eye: Some(vector::raw([3.0, 2.0, 4.0])),
+            target: None,
+            up: None,
+            fov_y_deg: None,
+            projection: None,
+            ortho_height: None,
+            near: None,
+            far: None,
+            fit: Some(true),
+        }
+    }
+}
+
 #[derive(Deserialize, Clone, Copy, PartialEq)]
 #[serde(rename_all = "lowercase")]
 enum ProjT {
@@ -138,7 +159,10 @@ struct RenderT {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CsgT {
-    expr: String,
+    expr: Option<String>,
+    /// An OpenSCAD `.csg` file (relative to the scene file) as the whole model.
+    openscad: Option<String>,
+    skip_unsupported: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -218,23 +242,63 @@ fn parse_color(s: &str) -> Option<[u8; 3]> {
 
 /// Loads and validates a scene file.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+    load_with(path, opts, false)
+}
+
+/// [`load`], with `skip_unsupported` (`--skip-unsupported`): unsupported nodes of
+/// an OpenSCAD model are dropped with a warning instead of being an error. A path
+/// ending in `.csg` is an OpenSCAD model (see [`super::openscad`]).
+pub fn load_with(
+    path: &Path,
+    opts: &LoadOptions,
+    skip_unsupported: bool,
+) -> Result<Scene, SceneError> {
     kind::refuse_unsupported(path)?;
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
         path: path.to_path_buf(),
         source,
     })?;
-    load_str(&text, path, opts).map_err(|e| kind::hint(path, e))
+    load_str_with(&text, path, opts, skip_unsupported).map_err(|e| kind::hint(path, e))
 }
 
 /// Loads a scene from its text; `path` names it in errors and meshes are relative
 /// to its directory.
 pub fn load_str(text: &str, path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+    load_str_with(text, path, opts, false)
+}
+
+fn is_csg_path(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csg"))
+}
+
+fn load_str_with(
+    text: &str,
+    path: &Path,
+    opts: &LoadOptions,
+    skip_unsupported: bool,
+) -> Result<Scene, SceneError> {
+    // A `.csg` file is the scene `[csg] openscad = "<it>"` with every default.
+    let file_name = path.file_name().map(|f| f.to_string_lossy().into_owned());
+    let virtual_toml = match (&file_name, is_csg_path(path)) {
+        (Some(f), true) => Some(format!(
+            "name = {}\n[csg]\nopenscad = {}\n",
+            toml::Value::String(
+                path.file_stem()
+                    .map_or_else(|| "csg".to_string(), |s| s.to_string_lossy().into_owned())
+            ),
+            toml::Value::String(f.clone())
+        )),
+        _ => None,
+    };
     Loader {
         path,
-        text,
+        text: virtual_toml.as_deref().unwrap_or(text),
         dir: path.parent().unwrap_or(Path::new(".")).to_path_buf(),
         warnings: Vec::new(),
         mesh_bytes: std::cell::Cell::new(0),
+        skip_unsupported,
+        inline_csg: virtual_toml.is_some().then_some(text),
     }
     .run(opts)
 }
@@ -246,6 +310,11 @@ struct Loader<'a> {
     warnings: Vec<String>,
     /// Estimated bytes of the meshes so far ([`cost`]), against the budget.
     mesh_bytes: std::cell::Cell<u64>,
+    /// `--skip-unsupported` (or'ed with `[csg] skip_unsupported`).
+    skip_unsupported: bool,
+    /// The text of the `.csg` file this scene was made for (a `.csg` loaded
+    /// directly), instead of reading `[csg] openscad` from disk.
+    inline_csg: Option<&'a str>,
 }
 
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
@@ -316,6 +385,13 @@ impl Loader<'_> {
 
     fn run(mut self, opts: &LoadOptions) -> Result<Scene, SceneError> {
         let file: FileT = toml::from_str(self.text).map_err(|e| self.syntax(e))?;
+        if file
+            .csg
+            .as_ref()
+            .is_some_and(|c| c.get_ref().openscad.is_some())
+        {
+            return self.run_openscad(file, opts);
+        }
 
         // Names: one namespace for primitives and surfaces.
         let mut names: HashMap<String, String> = HashMap::new();
@@ -404,8 +480,22 @@ impl Loader<'_> {
                 ));
             }
             let line = self.line(csg.span());
-            let expr = self.parse_expr(&csg.get_ref().expr, &prim_index, line, "csg: expr")?;
-            self.check_bounded(&expr, line, "csg: expr", &csg.get_ref().expr)?;
+            let src = csg.get_ref().expr.as_deref().ok_or_else(|| {
+                self.invalid(
+                    line,
+                    "csg: expr",
+                    "missing: [csg] needs `expr = \"...\"` over the primitive names, or `openscad = \"model.csg\"`",
+                )
+            })?;
+            if csg.get_ref().skip_unsupported.is_some() {
+                return Err(self.invalid(
+                    line,
+                    "csg: skip_unsupported",
+                    "`skip_unsupported` applies only with `openscad = \"model.csg\"`; remove it",
+                ));
+            }
+            let expr = self.parse_expr(src, &prim_index, line, "csg: expr")?;
+            self.check_bounded(&expr, line, "csg: expr", src)?;
             solids.push(Solid {
                 name: file.name.clone().unwrap_or_else(|| "csg".to_string()),
                 expr,
@@ -525,6 +615,72 @@ impl Loader<'_> {
             }
         }
 
+        self.finish(file, opts, primitives, solids, surfaces, false)
+    }
+
+    /// `[csg] openscad = "model.csg"`: the OpenSCAD model is the whole scene.
+    fn run_openscad(mut self, file: FileT, opts: &LoadOptions) -> Result<Scene, SceneError> {
+        let csg = file.csg.as_ref().expect("checked by the caller");
+        let line = self.line(csg.span());
+        let c = csg.get_ref();
+        let rel = c.openscad.as_deref().expect("checked by the caller");
+        if c.expr.is_some() {
+            return Err(self.invalid(
+                line,
+                "csg: openscad",
+                "`expr` and `openscad` cannot be used together: the OpenSCAD model is the whole solid; remove `expr`",
+            ));
+        }
+        for (table, span) in [
+            ("[[primitive]]", file.primitive.first().map(|t| t.span())),
+            ("[[solid]]", file.solid.first().map(|t| t.span())),
+            ("[[surface]]", file.surface.first().map(|t| t.span())),
+        ] {
+            if let Some(span) = span {
+                return Err(self.invalid(
+                    self.line(span),
+                    table.trim_matches(['[', ']']),
+                    format!("{table} cannot be used with [csg] openscad: the .csg file is the whole model; remove the table or the `openscad` key"),
+                ));
+            }
+        }
+        let skip = self.skip_unsupported || c.skip_unsupported.unwrap_or(false);
+        let model = match self.inline_csg {
+            Some(text) => super::openscad::model_from_str(text, self.path, skip)?,
+            None => {
+                let full = self.dir.join(rel);
+                super::openscad::read_model(&full, skip).map_err(|e| match e {
+                    SceneError::Read { path, source } => self.invalid(
+                        line,
+                        "csg: openscad",
+                        format!(
+                            "cannot read {}: {source} (the path is relative to the scene file's folder)",
+                            path.display()
+                        ),
+                    ),
+                    e => e,
+                })?
+            }
+        };
+        self.warnings.extend(model.warnings);
+        let solids = vec![Solid {
+            name: file.name.clone().unwrap_or_else(|| "csg".to_string()),
+            expr: model.expr,
+        }];
+        self.finish(file, opts, model.primitives, solids, Vec::new(), true)
+    }
+
+    /// Render settings and the camera, then the scene. `openscad`: OpenSCAD's
+    /// defaults (its view direction with Z up, field of view and background).
+    fn finish(
+        mut self,
+        file: FileT,
+        opts: &LoadOptions,
+        primitives: Vec<Primitive>,
+        solids: Vec<Solid>,
+        surfaces: Vec<Surface>,
+        openscad: bool,
+    ) -> Result<Scene, SceneError> {
         // Render settings.
         let r = file
             .render
@@ -533,9 +689,14 @@ impl Loader<'_> {
         let mut render = RenderSettings {
             width: r.and_then(|r| r.0.width).unwrap_or(800),
             height: r.and_then(|r| r.0.height).unwrap_or(800),
-            background: r
-                .and_then(|r| r.0.background)
-                .map_or([0x20, 0x20, 0x20], |c| c.0),
+            background: r.and_then(|r| r.0.background).map_or(
+                if openscad {
+                    super::openscad::DEFAULT_BACKGROUND
+                } else {
+                    [0x20, 0x20, 0x20]
+                },
+                |c| c.0,
+            ),
         };
         for (k, v) in [("width", render.width), ("height", render.height)] {
             if v == 0 || v > MAX_SIZE {
@@ -564,7 +725,17 @@ impl Loader<'_> {
             .map(|p| &p.mesh)
             .chain(surfaces.iter().map(|s| &s.mesh))
             .collect();
-        let camera = self.camera(file.camera.as_ref(), &render, &drawn)?;
+        let default = if openscad {
+            CameraT {
+                eye: Some(vector::raw(super::openscad::default_view_dir().to_array())),
+                up: Some(vector::raw([0.0, 0.0, 1.0])),
+                fov_y_deg: Some(super::openscad::DEFAULT_FOV_Y_DEG),
+                ..CameraT::fitted_default()
+            }
+        } else {
+            CameraT::fitted_default()
+        };
+        let camera = self.camera(file.camera.as_ref(), &default, &render, &drawn)?;
 
         Ok(Scene {
             name: file.name,
@@ -894,32 +1065,22 @@ impl Loader<'_> {
         Ok((shape, local, m))
     }
 
+    /// The camera of `[camera]`, or `default` without one (`default.up` is also
+    /// the default `up` of a `[camera]` table).
     fn camera(
         &mut self,
         t: Option<&Spanned<CameraT>>,
+        default: &CameraT,
         render: &RenderSettings,
         drawn: &[&Mesh],
     ) -> Result<Camera, SceneError> {
-        let default = CameraT {
-            eye: None,
-            target: None,
-            up: None,
-            fov_y_deg: None,
-            projection: None,
-            ortho_height: None,
-            near: None,
-            far: None,
-            fit: Some(true),
-        };
         let (c, line) = match t {
             Some(t) => (t.get_ref(), self.line(t.span())),
-            None => (&default, None),
+            None => (default, None),
         };
-        let eye = match (&c.eye, t) {
-            (Some(e), _) => self.vec3(e, "camera: eye", "the eye position x, y, z", false)?,
-            // No [camera]: the default view direction (module doc).
-            (None, None) => DVec3::new(3.0, 2.0, 4.0),
-            (None, Some(_)) => {
+        let eye = match &c.eye {
+            Some(e) => self.vec3(e, "camera: eye", "the eye position x, y, z", false)?,
+            None => {
                 return Err(self.invalid(
                     line,
                     "camera: eye",
@@ -931,7 +1092,7 @@ impl Loader<'_> {
             Some(v) => self.vec3(v, "camera: target", "the point looked at x, y, z", false)?,
             None => DVec3::ZERO,
         };
-        let up = match &c.up {
+        let up = match c.up.as_ref().or(default.up.as_ref()) {
             Some(v) => self.vec3(v, "camera: up", "the up direction x, y, z", false)?,
             None => DVec3::Y,
         };

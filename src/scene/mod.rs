@@ -11,13 +11,14 @@ pub mod cost;
 pub mod fit;
 pub mod load;
 pub mod obj;
+pub mod openscad;
 pub mod shapes;
 // TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
 pub mod validate;
 mod vector;
 pub mod kind;
 pub use camera::{Camera, Projection};
-pub use load::{is_bounded, load, load_str, LoadOptions, SceneError};
+pub use load::{is_bounded, load, load_str, load_with, LoadOptions, SceneError};
 
 use glam::DVec3;
 use std::path::PathBuf;
@@ -68,6 +69,14 @@ pub enum Shape {
     },
     Mesh {
         path: PathBuf,
+    },
+    /// A primitive node of an OpenSCAD `.csg` file ([`openscad`]): its kind
+    /// (`cube`, `sphere`, `cylinder`, `polyhedron`), line, and RGBA colour (the
+    /// alpha is kept for transparency; drawn opaque for now).
+    OpenScad {
+        node: String,
+        line: usize,
+        rgba: [f32; 4],
     },
 }
 

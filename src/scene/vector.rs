@@ -15,6 +15,11 @@ pub(super) type RawVec = Spanned<Value>;
 
 const EXAMPLE: &str = "[1.0, 2.0, 3.0]";
 
+/// A default vector as if written in the file (no place: defaults are valid).
+pub(super) fn raw(v: [f64; 3]) -> RawVec {
+    Spanned::new(0..0, Value::Array(v.map(Value::Float).to_vec()))
+}
+
 fn number(v: &Value) -> Option<f64> {
     match v {
         Value::Float(f) => Some(*f),

@@ -1,0 +1,562 @@
+//! The `.csg` reader: parsing (values, modifiers, located errors, 10^5 nesting),
+//! OpenSCAD's tessellation formulas, the tree → expression conversion (checked
+//! by evaluating the expression against the intended set), and a fuzz test.
+
+use glam::DVec3;
+use proptest::prelude::*;
+use std::path::Path;
+
+use super::parse::{parse, ValueKind};
+use super::tessellate::{self, cos_degrees, fragments, sin_degrees, Resolution};
+use super::{model_from_str, Model};
+use crate::csg::{Expr, Node};
+use crate::scene::load::SceneError;
+use crate::scene::validate::{check_closed, signed_volume};
+use crate::scene::{Mesh, Shape};
+
+fn model(text: &str) -> Model {
+    model_from_str(text, Path::new("t.csg"), false).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn err(text: &str) -> String {
+    match model_from_str(text, Path::new("t.csg"), false) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn closed_outward(m: &Mesh) {
+    check_closed(m).unwrap_or_else(|p| panic!("{}", p.describe(m)));
+    assert!(signed_volume(m) > 0.0, "inside out");
+}
+
+/// Whether `p` is in the model's solid, deciding each primitive by its mesh's
+/// signed volume test (a point-in-convex-mesh test: all shapes used below are convex).
+fn inside(m: &Model, p: DVec3) -> bool {
+    m.expr.eval(|_, prim| {
+        let mesh = &m.primitives[prim as usize].mesh;
+        mesh.triangles.iter().all(|t| {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+            (b - a).cross(c - a).dot(p - a) <= 0.0
+        })
+    })
+}
+
+// ---------------------------------------------------------------- parsing
+
+#[test]
+fn parses_openscad_export() {
+    // As printed by `openscad -o t.csg` (2021.01).
+    let t = parse(
+        "difference() {\n\tcube(size = [10, 10, 2], center = true);\n#\tmultmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) {\n\t\tcylinder($fn = 12, $fa = 12, $fs = 2, h = 5, r1 = 1.5, r2 = 1.5, center = true);\n\t}\n}\n%sphere($fn = 0, $fa = 12, $fs = 2, r = 3);\ngroup();\n",
+    )
+    .unwrap();
+    assert_eq!(t.roots.len(), 3);
+    let d = &t.nodes[t.roots[0] as usize];
+    assert_eq!(d.name, "difference");
+    assert_eq!(d.children.len(), 2);
+    let mm = &t.nodes[d.children[1] as usize];
+    assert!(mm.modifiers.highlight);
+    assert_eq!((mm.pos.line, mm.pos.col), (3, 3));
+    let cyl = &t.nodes[mm.children[0] as usize];
+    assert_eq!(cyl.args.len(), 7);
+    assert_eq!(cyl.args[0].name.as_deref(), Some("$fn"));
+    assert!(t.nodes[t.roots[1] as usize].modifiers.background);
+    // Pre-order: parents before children.
+    for (i, n) in t.nodes.iter().enumerate() {
+        assert!(n.children.iter().all(|&c| c as usize > i));
+    }
+}
+
+#[test]
+fn values_as_openscad_prints_them() {
+    let t = parse(
+        r#"color(c = [1e-06, -0.5, 1.23457, 2.5E+10], alpha = -inf, x = nan, b = [true, false, undef], s = "a\"b\\\n\t\x41\u00e9", e = [], n = [[1, [2]], 3,]);"#,
+    )
+    .unwrap();
+    let a = &t.nodes[0].args;
+    let ValueKind::Vector(v) = &a[0].value.kind else {
+        panic!()
+    };
+    let nums: Vec<f64> = v
+        .iter()
+        .map(|x| match x.kind {
+            ValueKind::Number(n) => n,
+            _ => panic!(),
+        })
+        .collect();
+    assert_eq!(nums, [1e-6, -0.5, 1.23457, 2.5e10]);
+    assert_eq!(a[1].value.kind, ValueKind::Number(f64::NEG_INFINITY));
+    assert!(matches!(a[2].value.kind, ValueKind::Number(n) if n.is_nan()));
+    let ValueKind::Vector(b) = &a[3].value.kind else {
+        panic!()
+    };
+    assert_eq!(b[0].kind, ValueKind::Bool(true));
+    assert_eq!(b[1].kind, ValueKind::Bool(false));
+    assert_eq!(b[2].kind, ValueKind::Undef);
+    assert_eq!(a[4].value.kind, ValueKind::Str("a\"b\\\n\tAé".to_string()));
+    assert_eq!(a[5].value.kind, ValueKind::Vector(vec![]));
+    let ValueKind::Vector(n) = &a[6].value.kind else {
+        panic!()
+    };
+    assert_eq!(n.len(), 2);
+}
+
+#[test]
+fn nesting_of_100k_blocks_and_single_children() {
+    let n = 100_000;
+    let mut s = "group() {\n".repeat(n);
+    s.push_str("cube(size = 1);\n");
+    s.push_str(&"}\n".repeat(n));
+    let m = model(&s);
+    assert_eq!(m.primitives.len(), 1);
+    assert_eq!(m.primitives[0].name, format!("cube_L{}", n + 1));
+    // `multmatrix(...) child` without braces, 10^5 deep: translations add up.
+    let mut s = "multmatrix([[1, 0, 0, 0.5], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) ".repeat(n);
+    s.push_str("cube(size = 1);");
+    let m = model(&s);
+    let x = m.primitives[0]
+        .mesh
+        .positions
+        .iter()
+        .map(|p| p.x)
+        .fold(f64::INFINITY, f64::min);
+    assert!((x - 0.5 * n as f64).abs() < 1e-6, "{x}");
+}
+
+#[test]
+fn syntax_errors_are_located() {
+    for (src, line, col, want) in [
+        ("cube(size = 1;", 1, 14, "expected `,` or `)`"),
+        ("group() {\n  cube();\n", 1, 9, "never closed"),
+        ("cube();\n}", 2, 1, "unmatched `}`"),
+        ("cube(size = 1 + 2);", 1, 15, "unexpected character '+'"),
+        ("cube(size = \"abc);", 1, 13, "unterminated string"),
+        ("cube(size = [1, 2);", 1, 18, "expected `,` or `]`"),
+        ("cube(size = x);", 1, 13, "`x` is not a value"),
+        ("cube()", 1, 7, "file ends after a node call"),
+        ("% ;", 1, 3, "expected a node name"),
+        ("cube(s = \"\\q\");", 1, 11, "unknown escape"),
+    ] {
+        let e = err(src);
+        let at = format!("t.csg:{line}:{col}:");
+        assert!(e.starts_with(&at), "{src:?}: want {at} in {e}");
+        assert!(e.contains(want), "{src:?}: want {want:?} in {e}");
+        assert!(e.contains('^'), "caret snippet in {e}");
+    }
+}
+
+#[test]
+fn deep_vectors_are_an_error_not_a_stack_overflow() {
+    let src = format!("cube(size = {}1{});", "[".repeat(100_000), "]".repeat(100_000));
+    let e = err(&src);
+    assert!(e.starts_with("t.csg:1:45:") && e.contains("nested deeper than 32"), "{e}");
+}
+
+// ---------------------------------------------------------------- tessellation
+
+#[test]
+fn fragments_follow_get_fragments_from_r() {
+    let r = |fn_, fa, fs| Resolution { fn_, fa, fs };
+    for (radius, res, want) in [
+        (10.0, r(0.0, 12.0, 2.0), 30),   // min(360/12, 31.4) = 30
+        (5.0, r(0.0, 12.0, 2.0), 16),    // ceil(15.7)
+        (1.0, r(0.0, 12.0, 2.0), 5),     // at least 5
+        (5.0, r(0.0, 6.0, 1.0), 32),     // ceil(31.4)
+        (100.0, r(0.0, 1.0, 0.01), 360), // 360 / fa
+        (5.0, r(7.9, 12.0, 2.0), 7),     // $fn truncated
+        (5.0, r(2.0, 12.0, 2.0), 3),     // $fn at least 3
+        (0.0, r(64.0, 12.0, 2.0), 3),    // r below GRID_FINE
+        (5.0, r(64.0, 12.0, 2.0), 64),
+    ] {
+        assert_eq!(fragments(radius, res), want, "r={radius} {res:?}");
+    }
+    assert_eq!(sin_degrees(30.0), 0.5);
+    assert_eq!(cos_degrees(90.0), 0.0);
+    assert_eq!(sin_degrees(270.0), -1.0);
+    assert!((sin_degrees(17.0) - 17f64.to_radians().sin()).abs() < 1e-15);
+}
+
+#[test]
+fn sphere_rings_and_caps() {
+    for (n, r) in [(3u64, 1.0), (5, 2.0), (8, 1.5), (12, 3.0), (31, 0.7)] {
+        let m = tessellate::sphere(r, n).unwrap();
+        let rings = n.div_ceil(2);
+        assert_eq!(m.positions.len() as u64, rings * n, "n={n}");
+        assert_eq!(
+            m.triangles.len() as u64,
+            2 * (n - 2) + 2 * n * (rings - 1),
+            "n={n}"
+        );
+        for i in 0..rings {
+            let phi = (180.0 * (i as f64 + 0.5) / rings as f64).to_radians();
+            for j in 0..n {
+                let t = (360.0 * j as f64 / n as f64).to_radians();
+                let want = DVec3::new(
+                    r * phi.sin() * t.cos(),
+                    r * phi.sin() * t.sin(),
+                    r * phi.cos(),
+                );
+                let got = m.positions[(i * n + j) as usize];
+                assert!(
+                    got.distance(want) < 1e-12,
+                    "n={n} ring {i} point {j}: {got} vs {want}"
+                );
+            }
+        }
+        closed_outward(&m);
+    }
+    assert!(tessellate::sphere(0.0, 8).is_none());
+}
+
+#[test]
+fn cylinders_cones_and_centre() {
+    for n in [3u64, 5, 16, 30] {
+        let m = tessellate::cylinder(2.0, 1.0, 1.0, false, n).unwrap();
+        assert_eq!(m.positions.len() as u64, 2 * n);
+        assert_eq!(m.triangles.len() as u64, 2 * n + 2 * (n - 2));
+        for (k, p) in m.positions.iter().enumerate() {
+            let i = k as u64 % n;
+            let phi = (360.0 * i as f64 / n as f64).to_radians();
+            let z = if (k as u64) < n { 0.0 } else { 2.0 };
+            assert!(p.distance(DVec3::new(phi.cos(), phi.sin(), z)) < 1e-12);
+        }
+        closed_outward(&m);
+        // Cones: an apex where a radius is 0; frustum r1 != r2.
+        for (r1, r2) in [(1.0, 0.0), (0.0, 1.0), (2.0, 0.5)] {
+            let m = tessellate::cylinder(3.0, r1, r2, true, n).unwrap();
+            let apex = r1 == 0.0 || r2 == 0.0;
+            assert_eq!(m.positions.len() as u64, if apex { n + 1 } else { 2 * n });
+            let zs: Vec<f64> = m.positions.iter().map(|p| p.z).collect();
+            assert_eq!(zs.iter().cloned().fold(f64::INFINITY, f64::min), -1.5);
+            assert_eq!(zs.iter().cloned().fold(f64::NEG_INFINITY, f64::max), 1.5);
+            closed_outward(&m);
+        }
+    }
+    assert!(tessellate::cylinder(0.0, 1.0, 1.0, false, 8).is_none());
+    assert!(tessellate::cylinder(1.0, 0.0, 0.0, false, 8).is_none());
+}
+
+#[test]
+fn cube_size_and_centre() {
+    let m = tessellate::cube(DVec3::new(1.0, 2.0, 3.0), false).unwrap();
+    let lo = m.positions.iter().fold(DVec3::INFINITY, |a, &p| a.min(p));
+    let hi = m
+        .positions
+        .iter()
+        .fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+    assert_eq!((lo, hi), (DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0)));
+    closed_outward(&m);
+    let m = tessellate::cube(DVec3::splat(2.0), true).unwrap();
+    assert!(m.positions.iter().all(|p| p.abs() == DVec3::ONE));
+    assert!(tessellate::cube(DVec3::new(1.0, 0.0, 1.0), true).is_none());
+}
+
+#[test]
+fn node_arguments_drive_fragments() {
+    // $fa = 12, $fs = 2: r = 10 → 30 fragments, 15 rings.
+    let m = model("sphere($fn = 0, $fa = 12, $fs = 2, r = 10);");
+    assert_eq!(m.primitives[0].mesh.positions.len(), 30 * 15);
+    let m = model("sphere(d = 4, $fn = 7);");
+    assert_eq!(m.primitives[0].mesh.positions.len(), 7 * 4);
+    assert!((m.primitives[0].mesh.positions[0].length() - 2.0).abs() < 1e-12);
+    // Cylinder: fragments from the larger radius.
+    let m = model("cylinder(h = 1, r1 = 10, r2 = 1, center = false, $fs = 2, $fa = 12);");
+    assert_eq!(m.primitives[0].mesh.positions.len(), 60);
+    let e = err("sphere(r = 1, $fn = 1e9);");
+    assert!(e.contains("t.csg:1:1:") && e.contains("fragments"), "{e}");
+}
+
+#[test]
+fn polyhedron_clockwise_faces_become_ccw() {
+    // OpenSCAD's own example: faces clockwise seen from outside.
+    let m = model(
+        "polyhedron(points = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 1]], faces = [[0, 4, 1], [1, 4, 2], [2, 4, 3], [3, 4, 0], [0, 1, 2, 3]], convexity = 1);",
+    );
+    closed_outward(&m.primitives[0].mesh);
+    assert_eq!(m.primitives[0].mesh.triangles.len(), 6);
+    // A face removed: open, the line and an edge named.
+    let e = err("group() {\n polyhedron(points = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 1]], faces = [[0, 4, 1], [1, 4, 2], [3, 4, 0], [0, 1, 2, 3]]);\n}");
+    assert!(
+        e.starts_with("t.csg:2:2:") && e.contains("edge") && e.contains("points["),
+        "{e}"
+    );
+    // One face flipped: two faces traverse an edge the same way.
+    let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 3, 2]]);");
+    assert!(
+        e.starts_with("t.csg:1:1:") && e.contains("same direction") && e.contains("points[0]"),
+        "{e}"
+    );
+    // Counter-clockwise faces: inside out.
+    let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]);");
+    assert!(e.contains("inside out"), "{e}");
+    let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0]], faces = [[0, 1, 7]]);");
+    assert!(e.contains("point index"), "{e}");
+}
+
+// ---------------------------------------------------------------- conversion
+
+#[test]
+fn difference_union_intersection_as_sets() {
+    let m = model(
+        "difference() {\n  cube(size = [4, 4, 4], center = true);\n  cube(size = [2, 2, 10], center = true);\n  multmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 1, center = true);\n}\nintersection() {\n  multmatrix([[1, 0, 0, 10], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  multmatrix([[1, 0, 0, 11], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  group();\n}\n",
+    );
+    let names: Vec<&str> = m.primitives.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["cube_L2", "cube_L3", "cube_L4", "cube_L7", "cube_L8"]
+    );
+    for (p, want) in [
+        (DVec3::new(1.2, 0.0, 0.0), true),
+        (DVec3::new(0.0, 0.0, 0.0), false), // the hole
+        (DVec3::new(1.8, 0.0, 0.0), false), // the notch at x = 2
+        (DVec3::new(3.0, 0.0, 0.0), false),
+        (DVec3::new(10.5, 0.0, 0.0), true), // intersection; the empty group vanished
+        (DVec3::new(9.5, 0.0, 0.0), false),
+    ] {
+        assert_eq!(inside(&m, p), want, "{p}");
+    }
+    // Subtracted parts get OpenSCAD's back colour, the rest its front colour.
+    assert_eq!(m.primitives[0].color, [0xf9, 0xd7, 0x2c]);
+    assert_eq!(m.primitives[1].color, [0x9d, 0xcb, 0x51]);
+}
+
+#[test]
+fn empty_primitives_follow_set_algebra() {
+    // sphere(0) is the empty set: it empties an intersection, not a difference.
+    let m = model("intersection() { cube(size = 1); sphere(r = 0); }\ncube(size = 2);");
+    assert_eq!(m.primitives.len(), 1);
+    assert_eq!(m.primitives[0].name, "cube_L2");
+    let m = model("difference() { cube(size = 1); sphere(r = 0); }");
+    assert_eq!(m.expr.nodes, vec![Node::Leaf { prim: 0 }]);
+    let e = err("difference() { group(); }\n*cube(size = 1);");
+    assert!(e.contains("no solid"), "{e}");
+}
+
+#[test]
+fn multmatrix_composes_row_major_and_colour_keeps_alpha() {
+    // Translate (1, 2, 3) then scale x by 2: x' = 2x + 1.
+    let m = model(
+        "multmatrix([[1, 0, 0, 1], [0, 1, 0, 2], [0, 0, 1, 3], [0, 0, 0, 1]]) {\n multmatrix([[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) {\n  color([0, 0, 1, 0.25]) color([1, 0, 0, 1]) cube(size = 1);\n }\n}",
+    );
+    let p = &m.primitives[0];
+    let hi = p
+        .mesh
+        .positions
+        .iter()
+        .fold(DVec3::NEG_INFINITY, |a, &q| a.max(q));
+    assert_eq!(hi, DVec3::new(3.0, 3.0, 4.0));
+    // The outermost colour wins (OpenSCAD 2021.01), alpha kept.
+    assert_eq!(p.color, [0, 0, 255]);
+    assert!(matches!(p.shape, Shape::OpenScad { rgba, .. } if rgba[3] == 0.25));
+    // A mirror keeps the mesh outward.
+    let m = model("multmatrix([[-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) sphere(r = 1, $fn = 8);");
+    closed_outward(&m.primitives[0].mesh);
+    let e = err("multmatrix([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]]) cube();");
+    assert!(e.contains("projective"), "{e}");
+}
+
+#[test]
+fn modifiers() {
+    // `%` is left out with a warning; `#` stays, highlighted; `*` vanishes.
+    let m = model("%sphere(r = 1);\n#cube(size = 1);\n*cube(size = 5);");
+    assert_eq!(m.primitives.len(), 1);
+    assert_eq!(m.primitives[0].color, [255, 81, 81]);
+    assert!(m
+        .warnings
+        .iter()
+        .any(|w| w.contains("t.csg:1:2:") && w.contains("background")));
+    // `!`: only that subtree, without its ancestors' transforms.
+    let m = model("cube(size = 9);\nmultmatrix([[1, 0, 0, 5], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) { !sphere(r = 1, $fn = 6); }");
+    assert_eq!(m.primitives.len(), 1);
+    assert_eq!(m.primitives[0].name, "sphere_L2");
+    assert!(m.primitives[0]
+        .mesh
+        .positions
+        .iter()
+        .all(|p| p.length() < 1.0 + 1e-9));
+}
+
+#[test]
+fn unsupported_nodes_and_geometry_errors() {
+    for node in [
+        "hull() { cube(); }",
+        "minkowski() { cube(); }",
+        "linear_extrude(height = 2) { square(size = [1, 1]); }",
+        "rotate_extrude(angle = 360) { square(size = [1, 1]); }",
+        "import(file = \"a.stl\");",
+        "surface(file = \"a.dat\");",
+        "text(text = \"hi\");",
+        "projection(cut = false) { cube(); }",
+        "circle(r = 1);",
+        "square(size = [1, 1]);",
+        "polygon(points = [[0, 0], [1, 0], [0, 1]]);",
+        "resize(newsize = [1, 1, 1]) { cube(); }",
+    ] {
+        let name = &node[..node.find('(').unwrap()];
+        let e = err(&format!("group() {{\n  cube();\n  {node}\n}}"));
+        assert!(
+            e.starts_with("t.csg:3:3:")
+                && e.contains(&format!("`{name}`"))
+                && e.contains("not supported"),
+            "{e}"
+        );
+        let m = model_from_str(
+            &format!("group() {{\n  cube();\n  {node}\n}}"),
+            Path::new("t.csg"),
+            true,
+        )
+        .unwrap();
+        assert_eq!(m.primitives.len(), 1);
+        assert!(
+            m.warnings
+                .iter()
+                .any(|w| w.contains(":3:3:") && w.contains(name)),
+            "{:?}",
+            m.warnings
+        );
+    }
+    for (src, want) in [
+        ("cube(size = [1, inf, 1]);", "t.csg:1:17:"),
+        ("sphere(r = nan);", "t.csg:1:12:"),
+        ("cylinder(h = -inf, r1 = 1, r2 = 1);", "t.csg:1:14:"),
+        (
+            "multmatrix([[1, 0, 0, nan], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube();",
+            "t.csg:1:23:",
+        ),
+        (
+            "polyhedron(points = [[0, 0, inf]], faces = []);",
+            "t.csg:1:29:",
+        ),
+    ] {
+        let e = err(src);
+        assert!(
+            e.starts_with(want) && e.contains("infinite or NaN"),
+            "{src}: {e}"
+        );
+    }
+    let e = err("cube(size = 1) { sphere(); }");
+    assert!(e.contains("takes no children"), "{e}");
+    let e = err("cube(1, true, 3);");
+    assert!(e.contains("positional"), "{e}");
+}
+
+#[test]
+fn two_thousand_cylinders_are_one_balanced_union() {
+    let mut s = String::from("union() {\n");
+    for i in 0..2000 {
+        s.push_str(&format!(
+            "multmatrix([[1, 0, 0, {}], [0, 1, 0, {}], [0, 0, 1, 0], [0, 0, 0, 1]]) cylinder($fn = 16, h = 2, r1 = 0.4, r2 = 0.4, center = false);\n",
+            i % 50,
+            i / 50
+        ));
+    }
+    s.push_str("}\n");
+    let t = std::time::Instant::now();
+    let m = model(&s);
+    eprintln!("2000 cylinders: {:?} (dev profile)", t.elapsed());
+    assert_eq!(m.primitives.len(), 2000);
+    assert_eq!(m.expr.leaves().len(), 2000);
+    assert_eq!(depth(&m.expr), 12); // ceil(log2 2000) + 1
+}
+
+fn depth(e: &Expr) -> usize {
+    let mut d = vec![0usize; e.nodes.len()];
+    for n in e.postorder() {
+        d[n as usize] = 1 + e.nodes[n as usize]
+            .children()
+            .map(|c| d[c as usize])
+            .max()
+            .unwrap_or(0);
+    }
+    d[e.root as usize]
+}
+
+// ---------------------------------------------------------------- fuzzing
+
+const VALID: &str = "difference() {\n\tcube(size = [10, 10, 2], center = true);\n#\tmultmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) {\n\t\tcylinder($fn = 12, $fa = 12, $fs = 2, h = 5, r1 = 1.5, r2 = 1.5, center = true);\n\t}\n}\n%sphere(r = 3);\ncolor([1, 0, 0, 0.5]) polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 2, 3]]);\n";
+
+const PIECES: &[&str] = &[
+    "group()",
+    "cube(",
+    "sphere(",
+    "cylinder(",
+    "polyhedron(",
+    "multmatrix(",
+    "color(",
+    "difference()",
+    "intersection()",
+    "hull()",
+    "(",
+    ")",
+    "{",
+    "}",
+    "[",
+    "]",
+    ",",
+    ";",
+    "=",
+    "%",
+    "#",
+    "!",
+    "*",
+    "-",
+    "1",
+    "0",
+    "-2.5",
+    "1e-06",
+    "inf",
+    "nan",
+    "undef",
+    "true",
+    "\"s\\n\"",
+    "r",
+    "size",
+    "$fn",
+    " ",
+    "\n",
+    "/*",
+    "*/",
+    "//",
+    "\"",
+    "\\",
+    "é",
+];
+
+fn check_outcome(text: &str) {
+    match model_from_str(text, Path::new("f.csg"), false) {
+        Ok(m) => {
+            assert!(!m.primitives.is_empty());
+            for p in &m.primitives {
+                assert!(p.mesh.positions.iter().all(|v| v.is_finite()));
+            }
+        }
+        Err(SceneError::Syntax { line, column, .. }) => {
+            assert!(line >= 1 && column >= 1);
+            assert!(line <= text.lines().count().max(1) + 1);
+        }
+        Err(e) => panic!("unexpected error kind: {e}"),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 10_000, failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// Token soup: no panic, a located error or a model.
+    #[test]
+    fn fuzz_token_soup(pieces in prop::collection::vec(0..PIECES.len(), 0..60)) {
+        let text: String = pieces.iter().map(|&i| PIECES[i]).collect();
+        check_outcome(&text);
+    }
+
+    /// A valid export with a random byte range replaced by random pieces.
+    #[test]
+    fn fuzz_mutated_export(a in 0..VALID.len(), len in 0usize..20, pieces in prop::collection::vec(0..PIECES.len(), 0..4)) {
+        let start = (0..=a).rev().find(|&i| VALID.is_char_boundary(i)).unwrap();
+        let mut end = (start + len).min(VALID.len());
+        while !VALID.is_char_boundary(end) { end -= 1; }
+        let ins: String = pieces.iter().map(|&i| PIECES[i]).collect();
+        let text = format!("{}{}{}", &VALID[..start], ins, &VALID[end..]);
+        check_outcome(&text);
+    }
+}
