@@ -1,6 +1,8 @@
 //! Compiles every `shaders/*.vert` and `shaders/*.frag` (GLSL 450) to SPIR-V with
 //! naga into `OUT_DIR/<name>.<stage>.spv`. A shader that fails to compile is a bug
 //! of this crate, so the build panics with the file name and naga's message.
+//! A line `#include "x.glsl"` is replaced by `shaders/x.glsl` (naga's GLSL front
+//! end has no includes), so shared shader code is written once.
 
 use std::path::Path;
 
@@ -20,8 +22,7 @@ fn main() {
             _ => continue,
         };
         println!("cargo:rerun-if-changed={}", path.display());
-        let source = std::fs::read_to_string(&path)
-            .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+        let source = with_includes(shader_dir, &path);
         let module = naga::front::glsl::Frontend::default()
             .parse(&naga::front::glsl::Options::from(stage), &source)
             .unwrap_or_else(|e| {
@@ -60,4 +61,23 @@ fn main() {
         std::fs::write(&out, bytes)
             .unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
     }
+}
+
+/// The shader's text with each `#include "name"` line replaced by `dir/name`.
+fn with_includes(dir: &Path, path: &Path) -> String {
+    let read = |p: &Path| {
+        std::fs::read_to_string(p).unwrap_or_else(|e| panic!("cannot read {}: {e}", p.display()))
+    };
+    read(path)
+        .lines()
+        .map(|line| match line.trim().strip_prefix("#include ") {
+            Some(name) => {
+                let file = dir.join(name.trim().trim_matches('"'));
+                println!("cargo:rerun-if-changed={}", file.display());
+                read(&file)
+            }
+            None => line.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
 }

@@ -50,6 +50,7 @@ fn main() {
         out: out.clone(),
         save_images: false,
         progress: true,
+        baseline: None,
     };
     match run_and_report(&cfg, &scenes) {
         Ok(records) => print!("{}", peeltrim::bench::report::summary(&records)),

@@ -11,6 +11,10 @@ layout(push_constant) uniform Push {
     uint prim;
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
+    // Rounding emulation (tests only; 0 = off): the NDC step of a coarse subpixel
+    // grid to which vertices are snapped, as a device with few subPixelPrecisionBits
+    // snaps them before interpolating depth (vk::RoundingEmulation).
+    vec2 snap;
 } pc;
 
 layout(location = 0) in vec3 a_pos;
@@ -24,5 +28,15 @@ invariant gl_Position;
 void main() {
     v_world = a_pos;
     v_normal = a_normal;
-    gl_Position = pc.mvp * vec4(a_pos, 1.0);
+    vec4 p = pc.mvp * vec4(a_pos, 1.0);
+    if (pc.snap.x > 0.0 && p.w > 0.0) {
+        // Window position in grid steps from the viewport corner, rounded, back
+        // to clip space with the same w (the point stays on its eye ray up to
+        // the snap). Far-off vertices are left alone (the clipper takes them).
+        vec2 g = (p.xy / p.w + 1.0) / pc.snap;
+        if (all(lessThan(abs(g), vec2(16777216.0)))) {
+            p.xy = (round(g) * pc.snap - 1.0) * p.w;
+        }
+    }
+    gl_Position = p;
 }

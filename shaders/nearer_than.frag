@@ -14,12 +14,21 @@ layout(push_constant) uniform Push {
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 
+#include "tie.glsl"
+
 void main() {
+    // Derivatives before any discard (they need the whole quad).
+    vec2 dz = vec2(dFdx(gl_FragCoord.z), dFdy(gl_FragCoord.z));
     float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
     bool reversed = (pc.flags & 1u) != 0u;
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
-    // with the depth (eps at the near plane, 1.0).
-    float eps = reversed ? pc.color.a * d : pc.color.a;
+    // with the depth.
+    float eps = reversed ? REVERSED_SCALE * pc.color.a * d : pc.color.a;
+    // The slope term only for a face parallel to the texture's (a coplanar face
+    // snapped differently), not for one crossing it.
+    if (same_slope(dz, d, eps)) {
+        eps += sign(pc.color.a) * tie_slope() * (abs(dz.x) + abs(dz.y));
+    }
     bool nearer = reversed ? gl_FragCoord.z >= d - eps : gl_FragCoord.z <= d + eps;
     if (!nearer) {
         discard;

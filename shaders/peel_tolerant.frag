@@ -16,11 +16,20 @@ layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) out float o_depth;
 
+#include "tie.glsl"
+
 void main() {
+    // Derivatives before any discard (they need the whole quad).
+    vec2 dz = vec2(dFdx(gl_FragCoord.z), dFdy(gl_FragCoord.z));
     float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
-    // with the depth (eps at the near plane, 1.0).
-    float eps = (pc.flags & 1u) != 0u ? pc.color.x * prev : pc.color.x;
+    // with the depth.
+    float eps = (pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.x * prev : pc.color.x;
+    // The slope term only for a face parallel to the texture's (a coplanar face
+    // snapped differently), not for one crossing it.
+    if (same_slope(dz, prev, eps)) {
+        eps += sign(pc.color.x) * tie_slope() * (abs(dz.x) + abs(dz.y));
+    }
     bool behind = (pc.flags & 1u) != 0u ? gl_FragCoord.z + eps < prev : gl_FragCoord.z - eps > prev;
     if (!behind) {
         discard;

@@ -1,6 +1,9 @@
 #version 450
 // Depth-equal shading with a tolerance: colour and primitive id where the
-// fragment depth is within color.a (normalized depth) of the texture.
+// fragment depth is within color.a (normalized depth) plus TIE_SLOPE pixels' worth
+// of this face's depth slope of the texture; writes the face's depth at the pixel
+// centre, independent of how the device snapped the vertices (plan::tie, README
+// "Precision").
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -20,12 +23,37 @@ layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
 
 
-bool near_depth() {
-    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+#include "tie.glsl"
+
+// Whether this fragment's face passes through the visible point: its own raster
+// depth within eps of the visible depth (the visible face itself, and coplanar
+// faces rasterized alike), or its plane depth `z` (unsnapped) within eps plus
+// the visible depth's snapping (half the two-sided slope term) with the visible
+// face's gradient (a coplanar face snapped differently).
+bool near_depth(float z, float d, vec2 dz) {
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
-    // with the depth (eps at the near plane, 1.0).
-    float eps = (pc.flags & 1u) != 0u ? pc.color.a * d : pc.color.a;
-    return abs(gl_FragCoord.z - d) <= eps;
+    // with the depth.
+    float eps = (pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.a * d : pc.color.a;
+    if (abs(gl_FragCoord.z - d) <= eps) {
+        return true;
+    }
+    float slope = abs(dz.x) + abs(dz.y);
+    return abs(z - d) <= eps + 0.5 * tie_slope() * slope && same_slope(dz, d, eps);
+}
+
+// The depth of this face's plane at the pixel centre. The device interpolates
+// with the barycentrics of the pixel centre in its snapped triangle; v_world,
+// interpolated with the same (perspective-corrected) weights, is a point of the
+// exact face plane that projects to `at`, where the exact plane's depth is the
+// same weighted sum of vertex depths: gl_FragCoord.z. Window depth is affine in
+// window x, y on a plane, so one step along the slope moves it from `at` to the
+// pixel centre. On a device that interpolates unsnapped positions `at` is the
+// pixel centre and this is gl_FragCoord.z.
+float plane_depth(vec2 dz) {
+    vec2 size = vec2(textureSize(sampler2D(u_tex, u_samp), 0));
+    vec4 clip = pc.mvp * vec4(v_world, 1.0);
+    vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * size;
+    return clamp(gl_FragCoord.z + dot(dz, gl_FragCoord.xy - at), 0.0, 1.0);
 }
 
 float shade_factor() {
@@ -35,9 +63,14 @@ float shade_factor() {
 }
 
 void main() {
-    if (!near_depth()) {
+    // Derivatives before any discard (they need the whole quad).
+    vec2 dz = vec2(dFdx(gl_FragCoord.z), dFdy(gl_FragCoord.z));
+    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    float z = plane_depth(dz);
+    if (!near_depth(z, d, dz)) {
         discard;
     }
+    gl_FragDepth = z;
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
 }

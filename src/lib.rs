@@ -6,6 +6,8 @@
 //! - [`csg`]: Boolean algebra only (parser, positive form, Blist, active zones,
 //!   products, groups). No pixels, no GPU.
 //! - [`scene`]: the scene file of CONTRACT.md, tessellation, OBJ, camera.
+//! - [`geom`]: bounds, the BVH and point-in-mesh parity, shared by `plan` and
+//!   `reference`.
 //! - [`plan`]: every algorithm as a list of [`plan::Step`]s (what to rasterize with
 //!   which depth and stencil state). No `ash`.
 //! - [`vk`]: executes plans on a Vulkan device. Knows stencil ops and images, not CSG.
@@ -17,6 +19,7 @@
 pub mod bench;
 pub mod budget;
 pub mod csg;
+pub mod geom;
 pub mod output;
 pub mod plan;
 pub mod reference;

@@ -9,6 +9,8 @@ use serde_json::json;
 
 use crate::output::Images;
 use crate::plan::{self, Algo, PlanError, Prepared};
+use crate::reference::precision::DepthPrecision;
+use crate::scene::camera::DepthConvention;
 use crate::scene::Scene;
 use crate::vk;
 
@@ -23,6 +25,11 @@ pub enum DepthSetup {
 }
 
 impl DepthSetup {
+    /// The default set-up: a float depth buffer with reversed Z, whose relative
+    /// precision suits perspective at every distance (README "Precision and ties").
+    pub const DEFAULT: DepthSetup = DepthSetup::D32S8Reversed;
+    /// What the default falls back to on a device without a usable D32S8.
+    pub const FALLBACK: DepthSetup = DepthSetup::D24S8;
     pub const ALL: [DepthSetup; 3] = [
         DepthSetup::D24S8,
         DepthSetup::D32S8,
@@ -33,6 +40,20 @@ impl DepthSetup {
             DepthSetup::D24S8 => "d24s8",
             DepthSetup::D32S8 => "d32s8",
             DepthSetup::D32S8Reversed => "d32s8-reversed",
+        }
+    }
+    /// The specification's depth bounds for this set-up on a device with
+    /// `subpixel_bits` of subpixel precision.
+    pub fn precision(self, subpixel_bits: u32) -> DepthPrecision {
+        let (format, reversed) = self.exec_format();
+        DepthPrecision {
+            float: format == vk::DepthFormat::D32S8,
+            convention: if reversed {
+                DepthConvention::Reversed
+            } else {
+                DepthConvention::Standard
+            },
+            subpixel_bits,
         }
     }
     pub fn exec_format(self) -> (vk::DepthFormat, bool) {
@@ -49,6 +70,9 @@ pub struct RenderOptions {
     pub algo: Algo,
     pub device: vk::DeviceChoice,
     pub depth: DepthSetup,
+    /// Fall back to [`DepthSetup::FALLBACK`] when the device cannot use `depth`'s
+    /// format (the default set-up does; an explicit `--depth-format` does not).
+    pub depth_fallback: bool,
     pub validation: bool,
     pub build: plan::BuildOptions,
 }
@@ -121,6 +145,8 @@ pub struct GpuRenderer {
     exec: vk::Executor,
     ctx: vk::Context,
     depth: DepthSetup,
+    /// Why the requested set-up was replaced, if it was.
+    fallback: Option<String>,
 }
 
 impl GpuRenderer {
@@ -130,9 +156,31 @@ impl GpuRenderer {
         depth: DepthSetup,
         validation: bool,
     ) -> Result<Self, RenderError> {
+        Self::with_fallback(scene, device, depth, false, validation)
+    }
+
+    /// As [`GpuRenderer::new`]; with `fallback`, a device that cannot use
+    /// `depth`'s format gets [`DepthSetup::FALLBACK`] instead (said in stats.json).
+    pub fn with_fallback(
+        scene: &Scene,
+        device: vk::DeviceChoice,
+        mut depth: DepthSetup,
+        fallback: bool,
+        validation: bool,
+    ) -> Result<Self, RenderError> {
         check_frame_budget(scene.render.width, scene.render.height, true)?;
         let ctx = vk::Context::new(&vk::ContextDesc { device, validation })?;
         ctx.check_frame_size(scene.render.width, scene.render.height, DEVICE_BYTES_PER_PIXEL)?;
+        let mut why = None;
+        if fallback && !ctx.depth_format_usable(depth.exec_format().0.vk()) {
+            why = Some(format!(
+                "{} cannot use {:?}: {} instead",
+                ctx.device_name(),
+                depth.exec_format().0,
+                DepthSetup::FALLBACK.name()
+            ));
+            depth = DepthSetup::FALLBACK;
+        }
         let (depth_format, reversed_z) = depth.exec_format();
         let desc = vk::ExecDesc {
             width: scene.render.width,
@@ -142,7 +190,27 @@ impl GpuRenderer {
         };
         let mut exec = vk::Executor::new(&ctx, &desc)?;
         exec.upload(scene)?;
-        Ok(GpuRenderer { exec, ctx, depth })
+        Ok(GpuRenderer {
+            exec,
+            ctx,
+            depth,
+            fallback: why,
+        })
+    }
+
+    /// The depth set-up in use (after any fallback).
+    pub fn depth_setup(&self) -> DepthSetup {
+        self.depth
+    }
+
+    /// The specification's depth bounds for this device and set-up.
+    pub fn precision(&self) -> DepthPrecision {
+        self.depth.precision(self.ctx.subpixel_bits())
+    }
+
+    /// Emulates a coarser device's vertex snapping in later frames (tests).
+    pub fn set_rounding_emulation(&mut self, rounding: Option<vk::RoundingEmulation>) {
+        self.exec.set_rounding_emulation(rounding);
     }
 
     pub fn device_name(&self) -> String {
@@ -166,6 +234,9 @@ impl GpuRenderer {
         obj.insert("height".into(), json!(f.images.height));
         obj.insert("device".into(), json!(self.ctx.device_name()));
         obj.insert("depth_setup".into(), json!(self.depth.name()));
+        if let Some(why) = &self.fallback {
+            obj.insert("depth_setup_fallback".into(), json!(why));
+        }
         obj.insert("stencil_bits".into(), json!(plan.stencil_bits));
         Ok(Frame {
             images: f.images,
@@ -182,7 +253,13 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError>
     }
     let prep = Prepared::new(scene)?;
     let plan = plan::build_with(opts.algo, &prep, &opts.build)?;
-    let mut gpu = GpuRenderer::new(scene, opts.device, opts.depth, opts.validation)?;
+    let mut gpu = GpuRenderer::with_fallback(
+        scene,
+        opts.device,
+        opts.depth,
+        opts.depth_fallback,
+        opts.validation,
+    )?;
     let frame = gpu.frame(&plan)?;
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {

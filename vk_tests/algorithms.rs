@@ -9,12 +9,11 @@ use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::reference::compare::{compare, CompareReport};
 use peeltrim::render::{DepthSetup, GpuRenderer};
 use peeltrim::scene::{self, LoadOptions, Scene};
-use peeltrim::vk::DeviceChoice;
 
 pub const SIZE: (u32, u32) = (128, 128);
 
 pub fn shipped_scenes() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let dir = crate::setup::scenes_dir();
     let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
         .expect("scenes/ exists")
         .map(|e| e.expect("readable dir entry").path())
@@ -45,13 +44,15 @@ pub fn depth_tolerance(scene: &Scene) -> f64 {
     quanta + 2f64.powi(-19) * f
 }
 
-/// Renders `scene` with `algo` (validation on) and compares it with `reference`.
+/// Renders `scene` with `algo` (validation on) and compares it with `reference`;
+/// the flag: whether the depth passes with `strict_tol` (`setup::depth_passes`).
 pub fn run_gpu(
     scene: &Scene,
     algo: Algo,
     depth: DepthSetup,
     reference: &Images,
-) -> Option<(CompareReport, serde_json::Value)> {
+    strict_tol: f64,
+) -> Option<(CompareReport, serde_json::Value, bool)> {
     let prep = match Prepared::new(scene) {
         Ok(p) => p,
         Err(plan::PlanError::NoSolid) => return None,
@@ -63,7 +64,7 @@ pub fn run_gpu(
         Err(plan::PlanError::SurfacesNeedCst(_)) => return None,
         Err(e) => panic!("{algo}: {e}"),
     };
-    let mut gpu = GpuRenderer::new(scene, DeviceChoice::Cpu, depth, true)
+    let mut gpu = GpuRenderer::new(scene, crate::setup::device(), depth, true)
         .expect("a Vulkan device (lavapipe)");
     let frame = gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"));
     let msgs = gpu.validation_messages();
@@ -72,10 +73,15 @@ pub fn run_gpu(
         "{algo} {}: validation messages: {msgs:#?}",
         depth.name()
     );
-    Some((
-        compare(reference, &frame.images).expect("same size"),
-        frame.stats,
-    ))
+    let r = compare(reference, &frame.images).expect("same size");
+    let depth_ok = crate::setup::depth_passes(
+        r.depth_abs_err_p99_interior <= strict_tol,
+        &gpu,
+        scene,
+        reference,
+        &frame.images,
+    );
+    Some((r, frame.stats, depth_ok))
 }
 
 /// The bars: interior coverage mismatches ≤ `cov`, interior primitive
@@ -87,7 +93,7 @@ pub fn check_algo(algo: Algo, depths: &[DepthSetup], cov: f64, prim: f64) {
         let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
         let tol = depth_tolerance(&scene);
         for &depth in depths {
-            let Some((r, stats)) = run_gpu(&scene, algo, depth, &reference) else {
+            let Some((r, stats, depth_ok)) = run_gpu(&scene, algo, depth, &reference, tol) else {
                 eprintln!("{algo}: {} has no solid; skipped", path.display());
                 continue;
             };
@@ -104,7 +110,7 @@ pub fn check_algo(algo: Algo, depths: &[DepthSetup], cov: f64, prim: f64) {
             );
             if r.coverage_mismatch_interior_frac > cov
                 || r.prim_mismatch_interior_frac > prim
-                || r.depth_abs_err_p99_interior > tol
+                || !depth_ok
             {
                 failures.push(format!("{name} {}: {r:?}", depth.name()));
             }
@@ -125,10 +131,11 @@ fn blister_matches_reference_on_shipped_scenes() {
 /// Plans are deterministic: two runs give identical counts and images.
 #[test]
 fn blister_counts_are_deterministic() {
-    let scene = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gear.toml"));
+    let scene = load(&crate::setup::scenes_dir().join("gear.toml"));
     let prep = Prepared::new(&scene).unwrap();
     let plan = plan::build(Algo::Blister, &prep).unwrap();
-    let mut gpu = GpuRenderer::new(&scene, DeviceChoice::Cpu, DepthSetup::D32S8, true).unwrap();
+    let mut gpu =
+        GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true).unwrap();
     let a = gpu.frame(&plan).unwrap();
     let b = gpu.frame(&plan).unwrap();
     for k in [
@@ -170,9 +177,15 @@ fn blister_paper_speckles_are_counted() {
     for path in shipped_scenes() {
         let scene = load(&path);
         let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
-        let (Some((paper, _)), Some((tolerant, _))) = (
-            run_gpu(&scene, Algo::BlisterPaper, DepthSetup::D24S8, &reference),
-            run_gpu(&scene, Algo::Blister, DepthSetup::D24S8, &reference),
+        let (Some((paper, _, _)), Some((tolerant, _, _))) = (
+            run_gpu(
+                &scene,
+                Algo::BlisterPaper,
+                DepthSetup::D24S8,
+                &reference,
+                0.0,
+            ),
+            run_gpu(&scene, Algo::Blister, DepthSetup::D24S8, &reference, 0.0),
         ) else {
             continue;
         };
@@ -256,7 +269,7 @@ expr = "Room - Pillar"
             _ => 0.0005,
         };
         for depth in [DepthSetup::D32S8, DepthSetup::D32S8Reversed] {
-            let (r, _) = run_gpu(&scene, algo, depth, &reference).expect("a solid");
+            let (r, _, _) = run_gpu(&scene, algo, depth, &reference, 0.0).expect("a solid");
             eprintln!("eye inside, {algo} {}: {r:?}", depth.name());
             assert!(
                 r.coverage_mismatch_interior_frac <= cov,

@@ -353,4 +353,145 @@ fn bad_input_is_a_clear_error() {
     );
 }
 
+/// `bench SCENE --algos reference --baseline opencsg --opencsg-bench PROGRAM`.
+fn bench_opencsg(scene_file: &str, size: &str, program: &str, out: &Path) -> Output {
+    run(&[
+        "bench",
+        &scene(scene_file),
+        "--algos",
+        "reference",
+        "--size",
+        size,
+        "--frames",
+        "1",
+        "--baseline",
+        "opencsg",
+        "--opencsg-bench",
+        program,
+        "--out",
+        out.to_str().unwrap(),
+    ])
+}
+
+/// `bench --baseline opencsg` without the program: the bench succeeds and its
+/// summary says how to build it.
+#[test]
+fn bench_baseline_opencsg_missing_says_how_to_build() {
+    let out = tmp("opencsg-missing");
+    let o = bench_opencsg(
+        "paper_example.toml",
+        "32x32",
+        "/nonexistent/opencsg-bench",
+        &out,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(
+        summary.contains("not run") && summary.contains("tools/opencsg-bench/build.sh"),
+        "{summary}"
+    );
+    let o = run(&[
+        "bench",
+        &scene("paper_example.toml"),
+        "--baseline",
+        "povray",
+    ]);
+    assert_error(&o, &["povray"]);
+}
+
+/// With the program built (tools/opencsg-bench/build.sh), OpenCSG's images of a
+/// scene of convex primitives match the reference: the exchange file's matrices,
+/// the depth conversion and the row order are right. Skipped (with a note) when
+/// the program is not built.
+#[test]
+fn bench_baseline_opencsg_matches_reference_when_built() {
+    let program = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/opencsg-bench/opencsg-bench");
+    if !program.is_file() {
+        eprintln!("skipped: {} is not built", program.display());
+        return;
+    }
+    let out = tmp("opencsg");
+    let o = bench_opencsg("complex.toml", "96x80", program.to_str().unwrap(), &out);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let rows: Vec<&serde_json::Value> = json
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["algo"].as_str().unwrap().starts_with("opencsg-"))
+        .collect();
+    assert_eq!(rows.len(), 3, "{json:#}");
+    for r in rows {
+        assert!(r["failure"].is_null(), "{r:#}");
+        assert!(r["gpu_ms_median"].as_f64().unwrap() > 0.0);
+        let e = &r["error"];
+        assert_eq!(e["coverage_mismatch_interior"].as_u64(), Some(0), "{r:#}");
+        assert!(
+            e["depth_abs_err_p99_interior"].as_f64().unwrap() < 1e-3,
+            "{r:#}"
+        );
+    }
+}
+
+/// The default depth set-up is D32 float with reversed Z; the flags select the
+/// others, and an impossible combination is a clear error.
+#[test]
+fn depth_setup_defaults_to_reversed_d32() {
+    let s = scene("speckle.toml");
+    let cases: [(&[&str], &str); 3] = [
+        (&[], "d32s8-reversed"),
+        (&["--standard-z"], "d32s8"),
+        (&["--depth-format", "d24s8"], "d24s8"),
+    ];
+    for (i, (flags, want)) in cases.iter().enumerate() {
+        let dir = tmp(&format!("depth-setup-{i}"));
+        let mut args = vec![
+            "render",
+            &s,
+            "--algo",
+            "cst-i",
+            "--size",
+            "32x32",
+            "--device",
+            "cpu",
+            "--out",
+            dir.to_str().unwrap(),
+        ];
+        args.extend_from_slice(flags);
+        let o = run(&args);
+        assert!(o.status.success(), "{flags:?}: {}", stderr(&o));
+        let stats: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("stats.json")).unwrap()).unwrap();
+        assert_eq!(stats["depth_setup"], *want, "{flags:?}");
+        assert!(
+            stats.get("depth_setup_fallback").is_none(),
+            "lavapipe has d32s8"
+        );
+    }
+    let o = run(&[
+        "render",
+        &s,
+        "--depth-format",
+        "d24s8",
+        "--reversed-z",
+        "--device",
+        "cpu",
+    ]);
+    assert_error(&o, &["--reversed-z", "d32s8"]);
+    let o = run(&[
+        "render",
+        &s,
+        "--standard-z",
+        "--reversed-z",
+        "--device",
+        "cpu",
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("--standard-z"),
+        "{}",
+        stderr(&o)
+    );
+}
+
 mod cli_hardening;

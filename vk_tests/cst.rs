@@ -8,7 +8,6 @@ use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::reference::compare::compare;
 use peeltrim::render::{DepthSetup, GpuRenderer};
 use peeltrim::scene::{load_str, LoadOptions, Scene};
-use peeltrim::vk::DeviceChoice;
 
 const SIZE: u32 = 128;
 
@@ -155,8 +154,8 @@ fn check(algo: Algo, name: &str, sc: &Scene) {
     let reference = peeltrim::reference::render(sc, SIZE, SIZE);
     let prep = Prepared::new(sc).expect("prepared");
     let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{name} {algo}: {e}"));
-    let mut gpu =
-        GpuRenderer::new(sc, DeviceChoice::Cpu, DepthSetup::D24S8, true).expect("lavapipe");
+    let mut gpu = GpuRenderer::new(sc, crate::setup::device(), DepthSetup::D24S8, true)
+        .expect("a Vulkan device");
     let frame = gpu
         .frame(&plan)
         .unwrap_or_else(|e| panic!("{name} {algo}: {e}"));
@@ -238,9 +237,9 @@ fn painted_surface_scene() -> Scene {
         ),
         "[csg]\nexpr = \"A - B\"\n".to_string(),
         format!(
-            "[[surface]]\nname = \"skin\"\nshape = \"mesh\"\npath = \"{}/scenes/meshes/sheet.obj\"\n\
+            "[[surface]]\nname = \"skin\"\nshape = \"mesh\"\npath = \"{}/meshes/sheet.obj\"\n\
              color = \"#c0c0c0\"\ntrim = \"C\"\nkeep = \"paint\"\npaint_color = \"#c02020\"\n",
-            env!("CARGO_MANIFEST_DIR")
+            crate::setup::scenes_dir().display()
         ),
         "[[surface]]\nname = \"shell\"\nshape = \"sphere\"\nradius = 0.7\nsegments = 32\n\
          translate = [-0.6, 0.2, 0.5]\ncolor = \"#60a0d0\"\ntrim = \"C + B\"\nkeep = \"paint\"\n\
@@ -252,9 +251,7 @@ fn painted_surface_scene() -> Scene {
 }
 
 fn shipped(name: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name);
+    let path = crate::setup::scenes_dir().join(name);
     peeltrim::scene::load(
         &path,
         &LoadOptions {
@@ -285,8 +282,8 @@ fn check_surfaces(algo: Algo, name: &str, sc: &Scene) {
     let reference = peeltrim::reference::render(sc, SIZE, SIZE);
     let prep = Prepared::new(sc).expect("prepared");
     let plan = plan::build(algo, &prep).expect("plan");
-    let mut gpu =
-        GpuRenderer::new(sc, DeviceChoice::Cpu, DepthSetup::D24S8, true).expect("lavapipe");
+    let mut gpu = GpuRenderer::new(sc, crate::setup::device(), DepthSetup::D24S8, true)
+        .expect("a Vulkan device");
     let frame = gpu.frame(&plan).expect("frame");
     assert!(gpu.validation_messages().is_empty());
     let (w, h) = (SIZE as usize, SIZE as usize);

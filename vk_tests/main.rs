@@ -1,13 +1,19 @@
 //! Tests that need a Vulkan device (lavapipe in CI), run with validation layers.
-//! They create a CPU (lavapipe) context and fail, not skip, when none exists; every
-//! test ends by asserting that the validation layer reported nothing.
+//! They create a CPU (lavapipe) context — or the device `PEELTRIM_TEST_DEVICE`
+//! names (`setup`) — and fail, not skip, when none exists; every test ends by
+//! asserting that the validation layer reported nothing. `rounding` re-runs the
+//! algorithms with a coarser device's vertex snapping emulated; `stability` is the
+//! numerical-stability suite.
 
 mod algorithms;
 mod classic;
 mod cst;
 mod limits;
 mod openscad;
+mod rounding;
 mod scad_models;
+mod setup;
+mod stability;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{
@@ -15,7 +21,7 @@ use peeltrim::plan::{
     StencilOp, StencilState, Step,
 };
 use peeltrim::scene::{Camera, Mesh, Primitive, Projection, RenderSettings, Scene, Shape};
-use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor, Frame};
+use peeltrim::vk::{Context, ContextDesc, DepthFormat, ExecDesc, Executor, Frame};
 
 const W: u32 = 64;
 const H: u32 = 48;
@@ -24,10 +30,10 @@ const FOV: f64 = 40.0;
 
 fn context() -> Context {
     let ctx = Context::new(&ContextDesc {
-        device: DeviceChoice::Cpu,
+        device: crate::setup::device(),
         validation: true,
     })
-    .expect("a CPU Vulkan device (lavapipe) with the validation layer is required");
+    .expect("a Vulkan device (lavapipe unless PEELTRIM_TEST_DEVICE says) with the validation layer is required");
     assert!(ctx.validation_enabled());
     ctx
 }
@@ -661,8 +667,10 @@ fn from_raw_borrows_the_hosts_device() {
     assert_clean(&host);
 }
 
-/// Moving the camera of an uploaded scene renders exactly what a fresh upload
-/// with that camera renders (the viewer's orbit path).
+/// Moving the camera of an uploaded scene renders what a fresh upload with that
+/// camera renders (the viewer's orbit path). Not bit-exactly: vertices stay
+/// relative to the eye at upload (camera-relative f32 rounding), a fresh upload
+/// rounds them relative to the new eye; rasterization may differ on edges only.
 #[test]
 fn set_camera_equals_a_fresh_upload() {
     let ctx = context();
@@ -675,7 +683,14 @@ fn set_camera_equals_a_fresh_upload() {
     exec.set_camera(&sc.camera).expect("set_camera");
     let moved = exec.execute(&p).expect("frame");
     let fresh = run(&ctx, std_desc(), &sc, &p);
-    assert_eq!(moved.images, fresh.images);
+    let r = peeltrim::reference::compare::compare(&fresh.images, &moved.images).expect("same size");
+    assert_eq!(
+        (r.coverage_mismatch_interior, r.prim_mismatch_interior),
+        (0, 0),
+        "{r:?}"
+    );
+    assert!(r.coverage_mismatch <= 8, "{r:?}");
+    assert!(r.depth_abs_err_max_interior <= 1e-5, "{r:?}");
     assert_ne!(moved.images, before.images, "the camera did move");
     assert_clean(&ctx);
 }

@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod families;
+pub mod opencsg;
 pub mod plot;
 pub mod report;
 
@@ -45,6 +46,9 @@ pub struct BenchConfig {
     /// Write each run's images under `out/images/<scene>/<algo>-<depth>/`.
     pub save_images: bool,
     pub progress: bool,
+    /// `--baseline opencsg`: also render each scene with OpenCSG (a separate
+    /// program, see [`opencsg`]).
+    pub baseline: Option<opencsg::OpenCsgBaseline>,
 }
 
 /// One benchmark run: one scene, size, algorithm and depth set-up.
@@ -133,8 +137,9 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
         .copied()
         .filter(|&a| a != Algo::Reference)
         .collect();
-    let total =
-        (scenes.len() * cfg.sizes.len() * (1 + gpu_algos.len() * cfg.depth_setups.len())) as u64;
+    let per_size =
+        1 + gpu_algos.len() * cfg.depth_setups.len() + usize::from(cfg.baseline.is_some());
+    let total = (scenes.len() * cfg.sizes.len() * per_size) as u64;
     let bar = if cfg.progress {
         ProgressBar::new(total)
     } else {
@@ -224,6 +229,20 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                     records.push(rec);
                     bar.inc(1);
                 }
+            }
+            if let Some(b) = &cfg.baseline {
+                bar.set_message(format!("{label} {w}x{h}: opencsg"));
+                let work = cfg.out.join("opencsg").join(format!("{label}-{w}x{h}"));
+                let base = base("opencsg", "gl-d24s8");
+                let rows =
+                    opencsg::run_scene(b, &scene, &reference, base, cfg.frames, cfg.warmup, &work);
+                for (rec, images) in rows {
+                    if let (true, Some(images)) = (cfg.save_images, images) {
+                        save(cfg, &label, w, h, &rec.algo, &rec.depth_setup, &images)?;
+                    }
+                    records.push(rec);
+                }
+                bar.inc(1);
             }
         }
     }

@@ -205,11 +205,16 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
         .y_labels(1)
         .y_label_formatter(&|_| "0 (exact)".to_string())
         .label_style(("sans-serif", 13))
-        .x_desc("median GPU time per frame (ms)")
+        .x_desc("median GPU time per frame (ms; OpenCSG: wall time)")
         .draw()
         .map_err(|e| err(path, e))?;
     for (i, &(algo, depth)) in series.iter().enumerate() {
-        let c = algo_color(algo);
+        // OpenCSG's rows (a baseline, timed by wall clock) are black.
+        let c = if algo.starts_with(super::opencsg::PREFIX) {
+            BLACK
+        } else {
+            algo_color(algo)
+        };
         let mine = || pts.iter().filter(move |p| p.2 == algo && p.3 == depth);
         zero.draw_series(
             mine()

@@ -46,12 +46,17 @@ struct GpuArgs {
     /// auto: a hardware GPU when present, else lavapipe; cpu: lavapipe; gpu: hardware only
     #[arg(long, value_enum, default_value = "auto")]
     device: DeviceArg,
-    /// Depth-stencil format of the GPU algorithms
-    #[arg(long, value_enum, default_value = "d32s8")]
-    depth_format: DepthFormatArg,
-    /// Reversed depth (near = 1) in a floating-point depth buffer (needs d32s8)
-    #[arg(long)]
+    /// Depth-stencil format of the GPU algorithms [default: d32s8 with reversed Z,
+    /// or d24s8 where the device cannot use d32s8]
+    #[arg(long, value_enum)]
+    depth_format: Option<DepthFormatArg>,
+    /// Reversed depth (near = 1) in a floating-point depth buffer: the default
+    /// with d32s8 (kept for scripts)
+    #[arg(long, conflicts_with = "standard_z")]
     reversed_z: bool,
+    /// Standard depth (near = 0) instead of reversed in a d32s8 buffer
+    #[arg(long)]
+    standard_z: bool,
     /// Run with the Vulkan validation layers (always on in debug builds)
     #[arg(long)]
     validation: bool,
@@ -144,6 +149,17 @@ enum Cmd {
         /// Do not write each run's images
         #[arg(long)]
         no_images: bool,
+        /// Also render each scene with a baseline renderer: "opencsg" (OpenCSG 1.5
+        /// through tools/opencsg-bench, a separate program built by its build.sh)
+        #[arg(long, value_parser = ["opencsg"])]
+        baseline: Option<String>,
+        /// The opencsg-bench program (default: $PEELTRIM_OPENCSG_BENCH, else
+        /// tools/opencsg-bench/opencsg-bench)
+        #[arg(long)]
+        opencsg_bench: Option<PathBuf>,
+        /// Do not give OpenCSG the primitives' screen boxes (as OpenSCAD; slower)
+        #[arg(long)]
+        opencsg_no_bbox: bool,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -251,13 +267,14 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
+    // Reversed Z unless asked otherwise; only the default falls back to d24s8.
     let depth = match (g.depth_format, g.reversed_z) {
-        (DepthFormatArg::D24s8, true) => {
+        (Some(DepthFormatArg::D24s8), true) => {
             bail!("--reversed-z needs a floating-point depth buffer: use --depth-format d32s8")
         }
-        (DepthFormatArg::D24s8, false) => DepthSetup::D24S8,
-        (DepthFormatArg::D32s8, false) => DepthSetup::D32S8,
-        (DepthFormatArg::D32s8, true) => DepthSetup::D32S8Reversed,
+        (Some(DepthFormatArg::D24s8), false) => DepthSetup::D24S8,
+        (_, _) if g.standard_z => DepthSetup::D32S8,
+        (_, _) => DepthSetup::D32S8Reversed,
     };
     let device = match g.device {
         DeviceArg::Auto => peeltrim::vk::DeviceChoice::Auto,
@@ -276,6 +293,7 @@ fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
         algo,
         device,
         depth,
+        depth_fallback: g.depth_format.is_none(),
         validation: g.validation || cfg!(debug_assertions),
         build,
     })
@@ -356,6 +374,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
             families,
             hard,
             no_images,
+            baseline,
+            opencsg_bench,
+            opencsg_no_bbox,
             gpu,
         } => {
             let algos = parse_algos(&algos)?;
@@ -397,6 +418,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 out: out.clone(),
                 save_images: !no_images,
                 progress: true,
+                baseline: baseline.map(|_| {
+                    bench::opencsg::OpenCsgBaseline::locate(opencsg_bench, !opencsg_no_bbox)
+                }),
             };
             let records = bench::run_and_report(&cfg, &list)?;
             print!("{}", bench::report::summary(&records));

@@ -10,6 +10,7 @@ pub mod active_zone;
 pub mod blist;
 pub mod expr;
 pub mod groups;
+pub mod normalize;
 pub mod parse;
 pub mod positive;
 pub mod products;

@@ -36,7 +36,8 @@ pub enum ProductError {
 
 type Aabb = ([f64; 3], [f64; 3]);
 
-fn meet(a: &Aabb, b: &Aabb) -> Option<Aabb> {
+/// The intersection of two boxes; `None` when a strict gap separates them.
+pub(crate) fn meet(a: &Aabb, b: &Aabb) -> Option<Aabb> {
     let mut out = *a;
     for k in 0..3 {
         out.0[k] = a.0[k].max(b.0[k]);

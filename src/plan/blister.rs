@@ -20,23 +20,16 @@
 //! regularized; features thinner than that tolerance are lost instead.
 #![deny(unsafe_code)]
 
+use super::common::{next, sweep};
 use super::stencil::{self, LabelLayout, Next};
 use super::step::*;
 use super::{PlanError, Prepared, SHADE_EPS};
-use crate::csg::{Blist, Target};
+use crate::csg::Blist;
 
 /// Depth texture holding the previous layer (read by the peel).
 const PREV: Tex = 0;
 /// Depth texture the peel writes the new layer into.
 const CUR: Tex = 1;
-
-fn next(t: Target) -> Next {
-    match t {
-        Target::Label(l) => Next::Label(l),
-        Target::True => Next::True,
-        Target::False => Next::False,
-    }
-}
 
 /// How a parity draw decides whether a face is in front of the candidate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -151,11 +144,13 @@ pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
         // taken again by a later parity-clear sweep. The parity-set sweep only
         // matches parity 1, which the parity-clear sweep never writes.
         tail.push(sweep(
+            0,
             Scissor::BoundsOf(all.clone()),
             stencil::change_stencil_state(here, layout.value(on_outside), all_mask),
         ));
         // Parity can only be set inside the primitive's screen bounds.
         tail.push(sweep(
+            0,
             Scissor::BoundsOf(vec![e.prim]),
             stencil::change_stencil_state(
                 here | LabelLayout::PARITY,
@@ -217,23 +212,6 @@ pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
         stencil_bits: layout.stencil_bits(),
         output_ds: 0,
         steps,
-    })
-}
-
-/// A full-screen stencil-only sweep (depth test off).
-fn sweep(scissor: Scissor, stencil: StencilState) -> Step {
-    Step::Draw(Draw {
-        geometry: Geometry::FullScreen { depth: 0.0 },
-        scissor,
-        cull: Cull::None,
-        ds: 0,
-        depth: DepthState {
-            compare: CompareOp::Always,
-            write: false,
-        },
-        stencil: Some(stencil),
-        fragment: Fragment::None,
-        count_samples: false,
     })
 }
 

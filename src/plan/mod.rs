@@ -10,60 +10,19 @@
 
 pub mod blister;
 pub mod budget;
+mod common;
 pub mod cst;
 pub mod goldfeather;
 pub mod print;
 pub mod stencil;
 pub mod step;
+pub mod tie;
 pub mod trickle;
 pub use step::*;
+pub use tie::{shade_near_depth, SHADE_EPS};
 
 use crate::csg::{Expr, Node, PositiveExpr};
 use crate::scene::{Aabb, Keep, Scene};
-
-/// Depth tolerance of depth-equal shading and tolerant parity (normalized depth,
-/// 2⁻²⁰ ≈ 9.5e-7, about 16 quanta of a 24-bit buffer): faces of several
-/// primitives closer than this to the visible point count as coincident, and the
-/// lowest index wins (CONTRACT.md §4, `prim.png`). With reversed Z (a float
-/// buffer, relative precision) the shaders scale it by the depth value, so it is
-/// this at the near plane and shrinks towards the far plane.
-pub const SHADE_EPS: f32 = 1.0 / (1u32 << 20) as f32;
-
-/// The final depth-equal shading of locked pixels: every mesh with a face within
-/// [`SHADE_EPS`] of the visible depth (held in `tex`) writes colour and id, the
-/// lowest index last so that it wins.
-pub fn shade_near_depth(
-    meshes: &[MeshId],
-    ds: Ds,
-    tex: Tex,
-    stencil: Option<StencilState>,
-) -> Vec<Step> {
-    let mut steps = vec![
-        Step::Pass("shade".into()),
-        Step::CopyDepthToTexture { ds, dst: tex },
-    ];
-    let mut order = meshes.to_vec();
-    order.sort_unstable_by(|a, b| b.cmp(a));
-    steps.extend(order.into_iter().map(|m| {
-        Step::Draw(Draw {
-            geometry: Geometry::Mesh(m),
-            scissor: Scissor::BoundsOf(vec![m]),
-            cull: Cull::None,
-            ds,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: false,
-            },
-            stencil,
-            fragment: Fragment::ShadeNearDepth {
-                tex,
-                eps: SHADE_EPS,
-            },
-            count_samples: false,
-        })
-    }));
-    steps
-}
 
 /// The algorithms of the command line (`--algo`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -348,17 +307,7 @@ pub fn is_convex(mesh: &crate::scene::Mesh) -> bool {
             .all(|&(n, d)| p.iter().all(|&v| n.dot(v) - d <= tol))
 }
 
-fn bounds(points: &[glam::DVec3]) -> Aabb {
-    let mut b = Aabb {
-        min: glam::DVec3::splat(f64::INFINITY),
-        max: glam::DVec3::splat(f64::NEG_INFINITY),
-    };
-    for &p in points {
-        b.min = b.min.min(p);
-        b.max = b.max.max(p);
-    }
-    b
-}
+use crate::geom::bounds;
 
 /// One expression for the whole scene: the union of its solids (an assembly is
 /// drawn as the union of its parts; each keeps its primitives' colours).
@@ -431,31 +380,19 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
 }
 
 /// Per primitive (then `false` for surfaces): whether a perspective eye lies
-/// inside its closed mesh, by the parity of a watertight ray cast from the eye.
-/// Orthographic rays start on the eye plane, one per pixel, so no single answer
-/// exists there; they get `false` (see the README's limits).
+/// inside its closed mesh ([`crate::geom::contains`]). Orthographic rays start on
+/// the eye plane, one per pixel, so no single answer exists there; they get
+/// `false` (see the README's limits).
 fn eye_inside(scene: &Scene) -> Vec<bool> {
-    use crate::reference::bvh::{Line, MeshBvh};
     use crate::scene::Projection;
     let n = scene.primitives.len() + scene.surfaces.len();
     if !matches!(scene.camera.projection, Projection::Perspective { .. }) {
         return vec![false; n];
     }
-    let eye = scene.camera.eye;
-    // A direction unlikely to graze an edge of a tessellated shape.
-    let line = Line::new(eye, glam::DVec3::new(0.5773, 0.5967, 0.5571).normalize());
     let mut out: Vec<bool> = scene
         .primitives
         .iter()
-        .map(|p| {
-            let b = bounds(&p.mesh.positions);
-            if !p.used || eye.cmplt(b.min).any() || eye.cmpgt(b.max).any() {
-                return false;
-            }
-            let mut hits = Vec::new();
-            MeshBvh::new(&p.mesh).cast_local(&line, &mut hits);
-            hits.iter().filter(|c| c.t > 0.0).count() % 2 == 1
-        })
+        .map(|p| p.used && crate::geom::contains(&p.mesh, scene.camera.eye))
         .collect();
     out.resize(n, false);
     out

@@ -3,11 +3,13 @@
 //! regularized; plus the image comparison metrics of `compare`.
 #![deny(unsafe_code)]
 
-pub mod bvh;
 pub mod compare;
 pub mod fixtures;
+pub mod precision;
 pub mod raycast;
 
+/// The BVH lives in [`crate::geom`], shared with the plan builders.
+pub use crate::geom::bvh;
 pub use bvh::{Crossing, Line, MeshBvh, SceneBvh, WorldCrossing};
 pub use compare::{compare, CompareError, CompareReport};
 pub use raycast::{render, render_with_normals};

@@ -3,7 +3,7 @@
 //! open intervals between them (seed 003 §2–4, seed 000 §1).
 //!
 //! Per pixel:
-//! 1. all crossings of the whole line with each needed primitive ([`super::bvh`]);
+//! 1. all crossings of the whole line with each needed primitive ([`crate::geom::bvh`]);
 //!    a primitive's inside state on an interval is `(#entering − #exiting) > 0` of the
 //!    crossings before it (outside before the first one);
 //! 2. crossings closer than `tol` to their predecessor along the line form one event
@@ -29,8 +29,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::bvh::{scene_scale, Crossing, Line, SceneBvh, WorldCrossing};
 use crate::csg::expr::{Expr, Node};
+use crate::geom::bvh::{scene_scale, Crossing, Line, SceneBvh, WorldCrossing};
 use crate::output::{shade, Images};
 use crate::scene::{Keep, Scene};
 

@@ -20,7 +20,7 @@ use super::error::{Check, VkError};
 use super::image::{range, Image, ImageDesc};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
-use super::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_REVERSED_Z};
+use super::pipeline::{pipeline_flags, FragmentKind, PipelineDesc, Pipelines, PushConstants};
 use super::readback::{decode, Raw};
 use super::scissor::{bounds_rect, Rect};
 use crate::output::Images;
@@ -100,6 +100,10 @@ struct SceneData {
     bounds: Vec<Aabb>,
     background: [u8; 3],
     camera: Camera,
+    /// World point subtracted from every vertex before rounding to f32 (the eye
+    /// at upload), folded back into `mvp` in f64: vertex rounding is relative to
+    /// the distance from the eye wherever the scene lies in the world.
+    origin: DVec3,
     view: DMat4,
     proj: DMat4,
     mvp: [f32; 16],
@@ -159,6 +163,8 @@ pub struct Executor {
     fresh_images: bool,
     scene: Option<SceneData>,
     readback: Option<Buffer>,
+    /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
+    rounding: Option<super::RoundingEmulation>,
 }
 
 /// State of one command buffer being recorded.
@@ -271,17 +277,7 @@ impl Executor {
         }
         let shared = ctx.shared.clone();
         let device = &shared.device;
-        // SAFETY: physical device of this instance; plain query.
-        let fp = unsafe {
-            shared
-                .instance
-                .get_physical_device_format_properties(shared.physical, desc.depth_format.vk())
-        };
-        let need = vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
-            | vk::FormatFeatureFlags::SAMPLED_IMAGE
-            | vk::FormatFeatureFlags::TRANSFER_SRC
-            | vk::FormatFeatureFlags::TRANSFER_DST;
-        if !fp.optimal_tiling_features.contains(need) {
+        if !ctx.depth_format_usable(desc.depth_format.vk()) {
             return Err(VkError::Unsupported(format!(
                 "{:?} as a sampled, copyable depth-stencil attachment (try the other --depth-format)",
                 desc.depth_format
@@ -309,6 +305,7 @@ impl Executor {
             fresh_images: false,
             scene: None,
             readback: None,
+            rounding: None,
         };
         let ai = vk::CommandBufferAllocateInfo::default()
             .command_pool(command_pool)
@@ -326,6 +323,21 @@ impl Executor {
 
     pub fn desc(&self) -> &ExecDesc {
         &self.desc
+    }
+
+    /// The push constants' flags: reversed Z, and the subpixel precision the tie
+    /// tolerance assumes (the device's, or the emulated device's).
+    fn flags(&self) -> u32 {
+        let bits = match self.rounding {
+            Some(r) => r.subpixel_bits,
+            None => self.shared.limits.sub_pixel_precision_bits,
+        };
+        pipeline_flags(self.desc.reversed_z, bits)
+    }
+
+    /// Emulates a coarser device's vertex snapping in every later mesh draw.
+    pub fn set_rounding_emulation(&mut self, rounding: Option<super::RoundingEmulation>) {
+        self.rounding = rounding;
     }
 
     fn convention(&self) -> DepthConvention {
@@ -363,6 +375,14 @@ impl Executor {
             .map(|p| (&p.mesh, p.color))
             .chain(scene.surfaces.iter().map(|s| (&s.mesh, s.color)))
             .collect();
+        // Camera-relative vertices: f32 rounding then scales with the distance
+        // from the eye, i.e. with the view depth (uniform relative precision),
+        // wherever the scene lies in the world.
+        let origin = if scene.camera.eye.is_finite() {
+            scene.camera.eye
+        } else {
+            DVec3::ZERO
+        };
         let mut floats: Vec<f32> = Vec::new();
         let mut ranges = Vec::new();
         let mut colors = Vec::new();
@@ -372,7 +392,7 @@ impl Executor {
             for t in &mesh.triangles {
                 let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
                 let n = (b - a).cross(c - a).normalize_or_zero();
-                for p in [a, b, c] {
+                for p in [a - origin, b - origin, c - origin] {
                     floats.extend([p.x as f32, p.y as f32, p.z as f32]);
                     floats.extend([n.x as f32, n.y as f32, n.z as f32]);
                 }
@@ -414,7 +434,7 @@ impl Executor {
             proj,
             mvp,
             view_vec,
-        } = self.camera_state(&camera);
+        } = self.camera_state(&camera, origin);
         self.scene = Some(SceneData {
             vertices,
             ranges,
@@ -422,6 +442,7 @@ impl Executor {
             bounds,
             background: scene.render.background,
             camera,
+            origin,
             view,
             proj,
             mvp,
@@ -432,13 +453,16 @@ impl Executor {
     }
 
     /// Moves the camera of the uploaded scene without uploading its meshes again
-    /// (an interactive viewer orbiting).
+    /// (an interactive viewer orbiting). Vertices stay relative to the eye at
+    /// upload, so the images equal a fresh upload's up to f32 rounding.
     pub fn set_camera(&mut self, camera: &crate::scene::Camera) -> Result<(), VkError> {
-        let st = self.camera_state(camera);
-        let scene = self
+        let origin = self
             .scene
-            .as_mut()
-            .ok_or_else(|| VkError::Plan("set_camera before upload".into()))?;
+            .as_ref()
+            .ok_or_else(|| VkError::Plan("set_camera before upload".into()))?
+            .origin;
+        let st = self.camera_state(camera, origin);
+        let scene = self.scene.as_mut().expect("checked above");
         scene.camera = *camera;
         scene.view = st.view;
         scene.proj = st.proj;
@@ -449,18 +473,17 @@ impl Executor {
 
     /// What the shaders and scissors derive from the camera. The matrix product
     /// is formed in f64 and rounded once.
-    fn camera_state(&self, camera: &crate::scene::Camera) -> CameraState {
+    fn camera_state(&self, camera: &crate::scene::Camera, origin: DVec3) -> CameraState {
         let aspect = self.desc.width as f64 / self.desc.height as f64;
         let view = camera.view();
         let proj = camera.proj(aspect, self.convention());
-        let mvp = (proj * view).to_cols_array().map(|v| v as f32);
+        let mvp = (proj * view * DMat4::from_translation(origin))
+            .to_cols_array()
+            .map(|v| v as f32);
+        // Shading sees vertices relative to `origin`, so the eye is too.
+        let eye = camera.eye - origin;
         let view_vec = match camera.projection {
-            Projection::Perspective { .. } => [
-                camera.eye.x as f32,
-                camera.eye.y as f32,
-                camera.eye.z as f32,
-                1.0,
-            ],
+            Projection::Perspective { .. } => [eye.x as f32, eye.y as f32, eye.z as f32, 1.0],
             Projection::Orthographic { .. } => {
                 let f = camera.forward();
                 [f.x as f32, f.y as f32, f.z as f32, 0.0]
@@ -1250,11 +1273,7 @@ impl Executor {
         let scene = self.scene.as_ref().expect("scene uploaded");
         let pc = PushConstants {
             mvp: Self::fullscreen_matrix(0.0),
-            flags: if self.desc.reversed_z {
-                FLAG_REVERSED_Z
-            } else {
-                0
-            },
+            flags: self.flags(),
             ..Default::default()
         };
         self.push(rec, &pc);
@@ -1348,11 +1367,7 @@ impl Executor {
             }
         };
         self.set_state(rec, Some(draw), scissor);
-        let flags = if self.desc.reversed_z {
-            FLAG_REVERSED_Z
-        } else {
-            0
-        };
+        let flags = self.flags();
         let rgb = |c: [u8; 3]| {
             [
                 c[0] as f32 / 255.0,
@@ -1389,6 +1404,8 @@ impl Executor {
                     color,
                     prim: 0,
                     flags,
+                    // Full-screen rectangles stay unsnapped.
+                    snap: [0.0; 2],
                 };
                 self.push(rec, &pc);
                 // SAFETY: inside a block with a bound pipeline and vertex buffer.
@@ -1422,6 +1439,10 @@ impl Executor {
                         color,
                         prim: m + 1,
                         flags,
+                        snap: self
+                            .rounding
+                            .map(|r| r.ndc_step(self.desc.width, self.desc.height))
+                            .unwrap_or_default(),
                     };
                     self.push(rec, &pc);
                     if count > 0 {

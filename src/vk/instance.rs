@@ -503,6 +503,29 @@ impl Context {
             .unwrap_or_default()
     }
 
+    /// Whether `format` works as a sampled, copyable depth-stencil attachment with
+    /// optimal tiling: what the executor needs of a `--depth-format`.
+    pub fn depth_format_usable(&self, format: vk::Format) -> bool {
+        // SAFETY: physical device of this instance; plain query.
+        let fp = unsafe {
+            self.shared
+                .instance
+                .get_physical_device_format_properties(self.shared.physical, format)
+        };
+        fp.optimal_tiling_features.contains(
+            vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
+                | vk::FormatFeatureFlags::SAMPLED_IMAGE
+                | vk::FormatFeatureFlags::TRANSFER_SRC
+                | vk::FormatFeatureFlags::TRANSFER_DST,
+        )
+    }
+
+    /// The device's `subPixelPrecisionBits`: vertices are snapped to 2^-bits pixel
+    /// before rasterization (at least 4 on a conformant device).
+    pub fn subpixel_bits(&self) -> u32 {
+        self.shared.limits.sub_pixel_precision_bits
+    }
+
     /// Whether the validation layer is active.
     pub fn validation_enabled(&self) -> bool {
         self.shared.debug.is_some()

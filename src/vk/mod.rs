@@ -5,7 +5,8 @@
 //! `memory` and `image` (buffers and images that own their memory); `pipeline`
 //! (one per fragment program, all depth/stencil state dynamic); `conv` and
 //! `scissor` (pure mappings, tested without a GPU); `exec` (the plan executor and its
-//! statistics); `readback` (GPU bytes to output images); `present` (feature `viewer`: a window's
+//! statistics); `readback` (GPU bytes to output images); `rounding` (tests: emulating a coarser
+//! rasterizer's vertex snapping); `present` (feature `viewer`: a window's
 //! surface and swapchain).
 #![warn(unsafe_op_in_unsafe_fn)]
 
@@ -20,8 +21,10 @@ pub mod pipeline;
 #[cfg(feature = "viewer")]
 pub mod present;
 pub mod readback;
+pub mod rounding;
 pub mod scissor;
 
 pub use error::VkError;
 pub use exec::{DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
 pub use instance::{Context, ContextDesc, DeviceChoice};
+pub use rounding::RoundingEmulation;

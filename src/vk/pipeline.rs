@@ -77,11 +77,24 @@ pub struct PushConstants {
     pub color: [f32; 4],
     pub prim: u32,
     pub flags: u32,
+    /// NDC step of the emulated vertex-snapping grid (x, y); zeros: off
+    /// ([`super::RoundingEmulation`]).
+    pub snap: [f32; 2],
 }
 
 pub const PUSH_SIZE: u32 = std::mem::size_of::<PushConstants>() as u32;
 /// `PushConstants::flags` bit: depths are reversed (near 1, far 0).
 pub const FLAG_REVERSED_Z: u32 = 1;
+/// `PushConstants::flags` bits 8..16: the device's subpixel precision bits, from
+/// which the shaders' tie tolerance derives its slope term (`plan::tie`).
+pub const FLAG_SUBPIXEL_SHIFT: u32 = 8;
+
+/// The flags word: reversed Z and the subpixel precision (clamped to 4..=16:
+/// 4 is the specification's minimum).
+pub fn pipeline_flags(reversed_z: bool, subpixel_bits: u32) -> u32 {
+    let reversed = if reversed_z { FLAG_REVERSED_Z } else { 0 };
+    reversed | subpixel_bits.clamp(4, 16) << FLAG_SUBPIXEL_SHIFT
+}
 
 impl PushConstants {
     pub fn bytes(&self) -> [u8; PUSH_SIZE as usize] {
@@ -92,7 +105,8 @@ impl PushConstants {
             .chain(&self.view)
             .chain(&self.color)
             .map(|f| f.to_bits())
-            .chain([self.prim, self.flags]);
+            .chain([self.prim, self.flags])
+            .chain(self.snap.iter().map(|f| f.to_bits()));
         for (i, w) in words.enumerate() {
             out[i * 4..i * 4 + 4].copy_from_slice(&w.to_ne_bytes());
         }

@@ -21,10 +21,11 @@
 //! counter of the pixels still at this label; → the "out" target.
 #![deny(unsafe_code)]
 
+use super::super::common::{next, sweep};
 use super::super::stencil::{self, Next};
 use super::super::step::*;
 use super::super::{PlanError, Prepared};
-use super::{next, parity_draw, sweep, tie_draws, LeafCst, Peeled, Relation, Trimmer};
+use super::{parity_draw, tie_draws, LeafCst, Peeled, Relation, Trimmer, WORK};
 use crate::csg::groups::{Group, GroupedBlist, Item};
 
 /// Bits to hold `values` distinct values (at least 1).
@@ -282,10 +283,12 @@ impl Trimmer for GroupTrimmer {
                         ));
                     }
                     steps.push(sweep(
+                        WORK,
                         Scissor::BoundsOf(vec![lit.prim]),
                         stencil::change_stencil_state(here | 1, l.value(on_inside), all_mask),
                     ));
                     steps.push(sweep(
+                        WORK,
                         Scissor::BoundsOf(me.clone()),
                         stencil::change_stencil_state(here, l.value(on_outside), all_mask),
                     ));
@@ -327,10 +330,12 @@ impl Trimmer for GroupTrimmer {
                     // In the intersection-group (or out of the union-group, inverted).
                     let (on_match, on_other) = if inverted { (f, t) } else { (t, f) };
                     steps.push(sweep(
+                        WORK,
                         Scissor::BoundsOf(me.clone()),
                         stencil::change_stencil_state(here | target, l.value(on_match), all_mask),
                     ));
                     steps.push(sweep(
+                        WORK,
                         Scissor::BoundsOf(meshes),
                         stencil::both(
                             CompareOp::Equal,
@@ -341,6 +346,7 @@ impl Trimmer for GroupTrimmer {
                         ),
                     ));
                     steps.push(sweep(
+                        WORK,
                         Scissor::BoundsOf(me.clone()),
                         stencil::change_stencil_state(here, l.value(on_other), all_mask),
                     ));

@@ -28,6 +28,10 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let prods = products(prep, opts.limit)?;
     let mut steps = init_steps();
     for p in &prods {
+        if let Some(direct) = direct_steps(p, prep) {
+            steps.extend(direct);
+            continue;
+        }
         let pos: Vec<MeshId> = p.iter().filter(|l| !l.negated).map(|l| l.prim).collect();
         let neg: Vec<MeshId> = p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
         let all: Vec<MeshId> = p.iter().map(|l| l.prim).collect();

@@ -132,6 +132,10 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let mut steps = init_steps();
     let mut loops = false;
     for p in &prods {
+        if let Some(direct) = direct_steps(p, prep) {
+            steps.extend(direct);
+            continue;
+        }
         for (i, &a) in p.iter().enumerate() {
             let others: Vec<Lit> = p
                 .iter()
@@ -196,6 +200,39 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         output_ds: OUTPUT,
         steps,
     })
+}
+
+/// A product of one positive primitive is that primitive: its nearest front
+/// face is drawn straight into the output depth with one draw (as OpenCSG's
+/// users do), with no surface image, clip or merge. Not when the eye is inside
+/// it: then the product's visible point is not on a front face.
+pub(crate) fn direct_steps(p: &[Lit], prep: &Prepared) -> Option<Vec<Step>> {
+    let [a] = p else { return None };
+    if a.negated
+        || prep
+            .eye_inside
+            .get(a.prim as usize)
+            .copied()
+            .unwrap_or(false)
+    {
+        return None;
+    }
+    Some(vec![
+        Step::Pass("direct".into()),
+        Step::Draw(Draw {
+            geometry: Geometry::Mesh(a.prim),
+            scissor: Scissor::BoundsOf(vec![a.prim]),
+            cull: a.visible_cull(),
+            ds: OUTPUT,
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: None,
+            fragment: Fragment::None,
+            count_samples: false,
+        }),
+    ])
 }
 
 pub(crate) fn init_steps() -> Vec<Step> {
@@ -425,6 +462,40 @@ pub(crate) mod tests {
                 .map(|t| [t[0] + off, t[1] + off, t[2] + off]),
         );
         assert!(!is_convex(&l));
+    }
+
+    #[test]
+    fn a_product_of_one_primitive_is_one_draw() {
+        // block + (s0 * block2): the product {block} is drawn directly.
+        let mut scene = block_minus_spheres(1);
+        let mut b = ExprBuilder::default();
+        let (x, y, z) = (b.leaf(0), b.leaf(1), b.leaf(0));
+        let yz = b.inter(y, z);
+        let root = b.union(x, yz);
+        scene.solids[0].expr = b.build(root);
+        let prep = Prepared::new(&scene).unwrap();
+        for build in [plan, layered::plan] {
+            let steps = build(&prep, &ProductOptions::default()).unwrap().steps;
+            let at = steps
+                .iter()
+                .position(|s| matches!(s, Step::Pass(p) if p == "direct"))
+                .expect("a direct pass");
+            let Step::Draw(d) = &steps[at + 1] else {
+                panic!("the direct pass draws: {:?}", steps[at + 1]);
+            };
+            assert_eq!(
+                (&d.geometry, d.ds, d.cull, d.depth.compare),
+                (&Geometry::Mesh(0), OUTPUT, Cull::Back, CompareOp::Less)
+            );
+            assert!(matches!(steps.get(at + 2), Some(Step::Pass(_)) | None));
+        }
+        // With the eye inside the primitive the general path is kept.
+        let mut inside = prep.clone();
+        inside.eye_inside = vec![true, false];
+        let steps = plan(&inside, &ProductOptions::default()).unwrap().steps;
+        assert!(!steps
+            .iter()
+            .any(|s| matches!(s, Step::Pass(p) if p == "direct")));
     }
 
     #[test]

@@ -139,13 +139,15 @@ pub fn parse(text: &str) -> Result<Tree, ScadError> {
                     }
                 }
             }
-            _ => return Err(ScadError::new(
-                pos,
-                format!(
+            _ => {
+                return Err(ScadError::new(
+                    pos,
+                    format!(
                     "expected a node such as `cube(...)`, `group() {{ ... }}` or `}}`, found {}",
                     describe(&tok)
                 ),
-            )),
+                ))
+            }
         };
         // A finished statement completes every enclosing single-child node.
         if finished {
@@ -265,12 +267,14 @@ impl Parser {
                             ),
                         ))
                     }
-                    None => return Err(ScadError::new(
-                        self.eof,
-                        format!(
+                    None => {
+                        return Err(ScadError::new(
+                            self.eof,
+                            format!(
                             "the file ends inside the arguments of `{name}`: close them with `)`"
                         ),
-                    )),
+                        ))
+                    }
                 }
             }
         }

@@ -148,9 +148,16 @@ fn syntax_errors_are_located() {
 
 #[test]
 fn deep_vectors_are_an_error_not_a_stack_overflow() {
-    let src = format!("cube(size = {}1{});", "[".repeat(100_000), "]".repeat(100_000));
+    let src = format!(
+        "cube(size = {}1{});",
+        "[".repeat(100_000),
+        "]".repeat(100_000)
+    );
     let e = err(&src);
-    assert!(e.starts_with("t.csg:1:45:") && e.contains("nested deeper than 32"), "{e}");
+    assert!(
+        e.starts_with("t.csg:1:45:") && e.contains("nested deeper than 32"),
+        "{e}"
+    );
 }
 
 // ---------------------------------------------------------------- tessellation

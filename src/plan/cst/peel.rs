@@ -1,0 +1,251 @@
+//! CST(S, V) for one surface S (seed 000 §4): the peel–trim–push loop (unrolled
+//! when the number of layers is known), then Render(S), merged into the final
+//! image, optionally marked or painted (§6).
+#![deny(unsafe_code)]
+
+use super::super::stencil;
+use super::super::step::*;
+use super::super::Prepared;
+use super::{Trimmer, CUR, FAR, FINAL, PREV, WORK};
+
+/// How many layers of a surface the peel may need.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layers {
+    /// Unknown: loop until an occlusion query says the peel reached no pixel (at
+    /// most this many times).
+    AtMost(u32),
+    /// Exactly this many peels suffice (seed 000 §4: a convex surface needs one
+    /// pass when only front faces are trimmed, two otherwise): the loop is
+    /// unrolled, with no occlusion query, no empty last peel and no extra submits.
+    Known(u32),
+}
+
+impl Layers {
+    /// The bound for the mesh `m` peeled with `cull`.
+    pub fn of(prep: &Prepared, m: MeshId, cull: Cull) -> Layers {
+        if prep.mesh_convex.get(m as usize).copied().unwrap_or(false) {
+            Layers::Known(if cull == Cull::None { 2 } else { 1 })
+        } else {
+            // A front-face (or back-face) peel of a closed mesh has at most half its
+            // faces per pixel; both faces at most all of them.
+            Layers::AtMost(prep.mesh_triangles[m as usize] as u32 + 1)
+        }
+    }
+}
+
+/// CST(S, V) merged into [`FINAL`] (seed 000 §4): `Initialize; Repeat {Peel(S);
+/// Trim(V); Push()} until Done; Render(S)`. `trimmer: None` means V is the universe:
+/// the first layer of S is drawn directly.
+pub fn cst(
+    surface: MeshId,
+    peel_cull: Cull,
+    trimmer: Option<&dyn Trimmer>,
+    layers: Layers,
+    merge: Merge,
+    steps: &mut Vec<Step>,
+) {
+    let me = vec![surface];
+    let Some(t) = trimmer else {
+        steps.push(Step::Pass("merge".into()));
+        steps.push(render_draw(surface, peel_cull, merge, Fragment::Shade));
+        merge.paint(surface, peel_cull, steps);
+        return;
+    };
+    steps.push(Step::Pass("init".into()));
+    steps.push(Step::Clear(Clear::DepthStencil {
+        ds: WORK,
+        depth: FAR,
+        stencil: t.start(),
+    }));
+    steps.push(Step::Clear(Clear::Texture {
+        tex: PREV,
+        depth: 0.0,
+    }));
+    steps.push(Step::Clear(Clear::Texture {
+        tex: CUR,
+        depth: FAR,
+    }));
+
+    // Peel(S): the nearest face strictly behind Front, at unlocked pixels only.
+    let head = vec![
+        Step::Pass("peel".into()),
+        Step::Draw(Draw {
+            geometry: Geometry::Mesh(surface),
+            scissor: Scissor::BoundsOf(me.clone()),
+            cull: peel_cull,
+            ds: WORK,
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: Some(stencil::test_equal(t.start(), t.mask())),
+            fragment: Fragment::Peel {
+                prev: PREV,
+                out: CUR,
+                shade: false,
+            },
+            count_samples: true,
+        }),
+    ];
+    let mut tail = vec![Step::Pass("trim".into())];
+    t.trim(&mut tail);
+    // Push(): rejected candidates go back to the start label with a far depth, so the
+    // next peel advances them; locked ones (label T) keep their depth.
+    tail.push(Step::Pass("push".into()));
+    tail.push(Step::Draw(Draw {
+        geometry: Geometry::FullScreen { depth: FAR },
+        scissor: Scissor::BoundsOf(me.clone()),
+        cull: Cull::None,
+        ds: WORK,
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: true,
+        },
+        stencil: Some(stencil::change_stencil_state(
+            t.rejected(),
+            t.start(),
+            t.mask(),
+        )),
+        fragment: Fragment::None,
+        count_samples: false,
+    }));
+    tail.push(Step::CopyTexture {
+        src: CUR,
+        dst: PREV,
+    });
+    match layers {
+        Layers::AtMost(max_iterations) => steps.push(Step::Loop(Loop {
+            head,
+            tail,
+            max_iterations,
+        })),
+        Layers::Known(n) => {
+            for i in 0..n {
+                steps.extend(head.iter().cloned().map(|mut s| {
+                    if let Step::Draw(d) = &mut s {
+                        d.count_samples = false;
+                    }
+                    s
+                }));
+                // The last layer's copy to PrevDepth would feed no peel.
+                let last = i + 1 == n;
+                steps.extend(
+                    tail.iter()
+                        .filter(|s| !(last && matches!(s, Step::CopyTexture { .. })))
+                        .cloned(),
+                );
+            }
+        }
+    }
+
+    // Render(S). After the loop every pixel without a kept point has a far depth in
+    // WORK (never peeled, pushed, or locked only because nothing was left to peel):
+    // make the recorded layer far there too, then shade S where its depth equals it.
+    steps.push(Step::Pass("merge".into()));
+    steps.push(Step::Draw(Draw {
+        geometry: Geometry::FullScreen { depth: FAR },
+        scissor: Scissor::BoundsOf(me.clone()),
+        cull: Cull::None,
+        ds: WORK,
+        depth: DepthState {
+            compare: CompareOp::Equal,
+            write: false,
+        },
+        stencil: None,
+        fragment: Fragment::WriteDepth { out: CUR },
+        count_samples: false,
+    }));
+    steps.push(render_draw(
+        surface,
+        peel_cull,
+        merge,
+        Fragment::ShadeAtDepth { tex: CUR },
+    ));
+    merge.paint(surface, peel_cull, steps);
+}
+
+/// Render(S)'s draw into [`FINAL`]: S's peeled faces, nearest wins, shaded by
+/// `fragment` (all of them, or only at the kept depth).
+fn render_draw(surface: MeshId, peel_cull: Cull, merge: Merge, fragment: Fragment) -> Step {
+    Step::Draw(Draw {
+        geometry: Geometry::Mesh(surface),
+        scissor: Scissor::BoundsOf(vec![surface]),
+        cull: peel_cull,
+        ds: FINAL,
+        depth: DepthState {
+            compare: CompareOp::Less,
+            write: true,
+        },
+        stencil: merge.stencil(),
+        fragment,
+        count_samples: false,
+    })
+}
+
+/// Stencil bit of [`FINAL`] set where a `[[surface]]` won the merge: the final
+/// depth-equal shading of the solids' meshes skips those pixels (a surface point
+/// keeps its own colour, or its paint colour, even where a solid face passes
+/// within [`SHADE_EPS`] of it).
+pub const SURFACE_MARK: u8 = 0x01;
+/// Stencil bit of [`FINAL`] set by a painted surface's merge and cleared by its
+/// paint draw.
+pub const PAINT_PENDING: u8 = 0x02;
+
+/// How Render(S) writes into [`FINAL`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Merge {
+    /// Mark the pixels won with [`SURFACE_MARK`] (surfaces; solids merge first).
+    pub mark: bool,
+    /// Repaint the pixels won in this colour (CST painting, seed 000 §6).
+    pub paint: Option<[u8; 3]>,
+}
+
+impl Merge {
+    /// A solid's leaf: shaded, unmarked.
+    pub const SOLID: Merge = Merge {
+        mark: false,
+        paint: None,
+    };
+
+    fn stencil(&self) -> Option<StencilState> {
+        let bits = match (self.mark, self.paint.is_some()) {
+            (false, false) => return None,
+            (true, false) => SURFACE_MARK,
+            (false, true) => PAINT_PENDING,
+            (true, true) => SURFACE_MARK | PAINT_PENDING,
+        };
+        Some(stencil::both(
+            CompareOp::Always,
+            StencilOp::Replace,
+            0,
+            bits,
+            bits,
+        ))
+    }
+
+    /// After the shaded merge: S again at exactly the depth it left in [`FINAL`]
+    /// (the same rasterization reproduces it bit-exactly), in the paint colour, at
+    /// the pixels this merge won; clears their pending bit.
+    fn paint(&self, surface: MeshId, cull: Cull, steps: &mut Vec<Step>) {
+        let Some(rgb) = self.paint else { return };
+        steps.push(Step::Draw(Draw {
+            geometry: Geometry::Mesh(surface),
+            scissor: Scissor::BoundsOf(vec![surface]),
+            cull,
+            ds: FINAL,
+            depth: DepthState {
+                compare: CompareOp::Equal,
+                write: false,
+            },
+            stencil: Some(stencil::both(
+                CompareOp::Equal,
+                StencilOp::Zero,
+                PAINT_PENDING,
+                PAINT_PENDING,
+                PAINT_PENDING,
+            )),
+            fragment: Fragment::Paint { rgb },
+            count_samples: false,
+        }));
+    }
+}

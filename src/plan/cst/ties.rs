@@ -1,0 +1,111 @@
+//! CST's overlap rules (seed 000 §5): which faces of a trimming literal count as
+//! in front of a candidate, per draw, so that coincident faces are decided by a
+//! symbolic perturbation (the earlier primitive is slightly in front); and the
+//! parity draw that applies them. The rules are explained in the parent module.
+#![deny(unsafe_code)]
+
+use super::super::step::*;
+use super::super::SHADE_EPS;
+use super::{CUR, WORK};
+use crate::csg::LeafId;
+
+/// The leaf whose boundary is peeled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Peeled {
+    pub prim: MeshId,
+    pub leaf: LeafId,
+    pub negated: bool,
+}
+
+impl Peeled {
+    /// Total order of seed 000 §5 ("L is considered slightly in front of R"):
+    /// primitive index, then leaf occurrence.
+    pub fn earlier(&self, prim: u32, leaf: LeafId) -> bool {
+        (prim, leaf) < (self.prim, self.leaf)
+    }
+}
+
+/// How a trimming literal relates to the peeled leaf: the operator of their lowest
+/// common ancestor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Relation {
+    /// The literal lies in an i-node of the peeled leaf.
+    Inter,
+    /// The literal lies in a (complemented) u-node.
+    Union,
+    /// The peeled mesh is a `[[surface]]` trimmed by a volume it is no part of: a
+    /// candidate is classified with the primitive states just before it (faces
+    /// coincident with it are not yet crossed), as the reference does.
+    Surface,
+}
+
+/// The parity draws (depth compare, culling) that classify candidates of `peeled`
+/// against the mesh of literal `(prim, leaf, negated)`; see the module comment.
+pub fn tie_draws(
+    peeled: &Peeled,
+    prim: u32,
+    leaf: LeafId,
+    negated: bool,
+    rel: Relation,
+) -> Vec<(CompareOp, Cull)> {
+    let earlier = peeled.earlier(prim, leaf);
+    match (rel, earlier) {
+        (Relation::Surface, _) => vec![(CompareOp::Less, Cull::None)],
+        (Relation::Union, true) => vec![(CompareOp::LessOrEqual, Cull::None)],
+        (Relation::Union, false) => vec![(CompareOp::Less, Cull::None)],
+        (Relation::Inter, false) => vec![(CompareOp::LessOrEqual, Cull::None)],
+        (Relation::Inter, true) => {
+            // Literal front faces are mesh front faces unless the literal is negated.
+            let (keep_lit_front, keep_lit_back) = if negated {
+                (Cull::Front, Cull::Back)
+            } else {
+                (Cull::Back, Cull::Front)
+            };
+            vec![
+                (CompareOp::Less, keep_lit_front),
+                (CompareOp::LessOrEqual, keep_lit_back),
+            ]
+        }
+    }
+}
+
+/// The signed tolerance of a parity draw's compare against the candidate's exact
+/// depth (texture [`CUR`]): `LessOrEqual` keeps faces up to [`SHADE_EPS`] behind the
+/// candidate (a coincident face counts as in front whatever the rounding), `Less`
+/// keeps only faces more than [`SHADE_EPS`] in front of it (a coincident face
+/// never counts). So the symbolic perturbation of seed 000 §5 survives different
+/// tessellations and rounding of the same plane.
+pub fn tie_eps(compare: CompareOp) -> f32 {
+    match compare {
+        CompareOp::LessOrEqual => SHADE_EPS,
+        CompareOp::Less => -SHADE_EPS,
+        other => panic!("parity draws compare with Less or LessOrEqual, not {other:?}"),
+    }
+}
+
+/// A parity draw of `mesh` over the candidates at label `here`: depth test off, the
+/// fragment keeps the faces in front of the candidate's exact depth within the
+/// tolerance of [`tie_eps`].
+pub(crate) fn parity_draw(
+    mesh: MeshId,
+    compare: CompareOp,
+    cull: Cull,
+    stencil: StencilState,
+) -> Step {
+    Step::Draw(Draw {
+        geometry: Geometry::Mesh(mesh),
+        scissor: Scissor::BoundsOf(vec![mesh]),
+        cull,
+        ds: WORK,
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        },
+        stencil: Some(stencil),
+        fragment: Fragment::NearerThan {
+            tex: CUR,
+            eps: tie_eps(compare),
+        },
+        count_samples: false,
+    })
+}

@@ -1,0 +1,106 @@
+//! Trim(V) against a plain Blist (seed 000 §4; cst-z and cst-i): per entry, parity
+//! draws and ChangeStencilState sweeps; and the [`Trimmer`] interface the CST loop
+//! drives (cst-g's is in [`super::group`]).
+#![deny(unsafe_code)]
+
+use super::super::common::{next, sweep};
+use super::super::stencil::{self, LabelLayout, Next};
+use super::super::step::*;
+use super::{parity_draw, tie_draws, Peeled, TrimVolume, WORK};
+use crate::csg::BlistEntry;
+
+/// Trim(V) against a plain Blist (seed 000 §4): per entry, its parity draw(s) and two
+/// ChangeStencilState sweeps (parity set → the literal's "in" target, clear → "out").
+/// The tie rules of [`tie_draws`] are written for candidates on a front face of
+/// the peeled literal, which is all a solid's leaf peels.
+fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &mut Vec<Step>) {
+    let label_mask = layout.label_mask();
+    let all_mask = layout.all_mask();
+    let me = vec![peeled.prim];
+    for (e, &rel) in vol.blist.entries.iter().zip(&vol.relation) {
+        let here = layout.value(Next::Label(e.label));
+        let (on_inside, on_outside) = entry_targets(e);
+        for (compare, cull) in tie_draws(peeled, e.prim, e.leaf, e.negated, rel) {
+            steps.push(parity_draw(
+                e.prim,
+                compare,
+                cull,
+                stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
+            ));
+        }
+        let inside = sweep(
+            WORK,
+            Scissor::BoundsOf(vec![e.prim]),
+            stencil::change_stencil_state(
+                here | LabelLayout::PARITY,
+                layout.value(on_inside),
+                all_mask,
+            ),
+        );
+        let outside = sweep(
+            WORK,
+            Scissor::BoundsOf(me.clone()),
+            stencil::change_stencil_state(here, layout.value(on_outside), all_mask),
+        );
+        // A freed label may be reused by the entry's own target (seed 000 Fig. 11):
+        // then the pixels moved there must not be swept again by the other rule.
+        if layout.value(on_inside) == here {
+            steps.extend([outside, inside]);
+        } else if layout.value(on_outside) == here {
+            steps.push(inside);
+        } else {
+            steps.extend([inside, outside]);
+        }
+    }
+}
+
+/// Targets of an entry for a point inside / outside its mesh.
+pub(crate) fn entry_targets(e: &BlistEntry) -> (Next, Next) {
+    if e.negated {
+        (next(e.if_false), next(e.if_true))
+    } else {
+        (next(e.if_true), next(e.if_false))
+    }
+}
+
+/// How Trim(V) is done for one CST, with the stencil values it needs.
+pub trait Trimmer {
+    /// Stencil value of an unlocked pixel about to be classified (parity clear).
+    fn start(&self) -> u8;
+    /// Stencil value of a locked pixel (candidate in V).
+    fn locked(&self) -> u8;
+    /// Stencil value of a rejected pixel after the trim.
+    fn rejected(&self) -> u8;
+    /// All stencil bits in use.
+    fn mask(&self) -> u8;
+    fn bits(&self) -> u8;
+    fn trim(&self, steps: &mut Vec<Step>);
+}
+
+pub(crate) struct BlistTrimmer<'a> {
+    pub(crate) peeled: Peeled,
+    pub(crate) vol: &'a TrimVolume,
+    pub(crate) layout: LabelLayout,
+    pub(crate) start: u8,
+}
+
+impl Trimmer for BlistTrimmer<'_> {
+    fn start(&self) -> u8 {
+        self.start
+    }
+    fn locked(&self) -> u8 {
+        self.layout.value(Next::True)
+    }
+    fn rejected(&self) -> u8 {
+        self.layout.value(Next::False)
+    }
+    fn mask(&self) -> u8 {
+        self.layout.all_mask()
+    }
+    fn bits(&self) -> u8 {
+        self.layout.stencil_bits()
+    }
+    fn trim(&self, steps: &mut Vec<Step>) {
+        trim_blist(&self.peeled, self.vol, &self.layout, steps)
+    }
+}
