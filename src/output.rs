@@ -242,7 +242,10 @@ pub fn write_images(dir: impl AsRef<Path>, img: &Images) -> Result<(), OutputErr
 }
 
 /// Writes `stats.json` (pretty-printed) into `dir` (created if missing).
-pub fn write_stats(dir: impl AsRef<Path>, stats: &serde_json::Value) -> Result<(), OutputError> {
+pub fn write_stats(
+    dir: impl AsRef<Path>,
+    stats: &impl serde::Serialize,
+) -> Result<(), OutputError> {
     let dir = dir.as_ref();
     create_out_dir(dir, "the output")?;
     let path = dir.join("stats.json");

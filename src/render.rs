@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use serde_json::json;
+use serde::Serialize;
 
 use crate::output::Images;
 use crate::plan::{self, Algo, PlanError, Prepared};
@@ -77,11 +77,36 @@ pub struct RenderOptions {
     pub build: plan::BuildOptions,
 }
 
+/// The `stats.json` of one frame: typed until `output.rs` writes it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct FrameStats {
+    pub algo: String,
+    pub width: u32,
+    pub height: u32,
+    pub device: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub depth_setup: Option<&'static str>,
+    /// Why the requested depth set-up was replaced, if it was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub depth_setup_fallback: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stencil_bits: Option<u8>,
+    /// The reference's rendering passes (none: it ray casts).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub passes: Option<u64>,
+    /// The reference's rays.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rays: Option<u64>,
+    /// Timings and counts of the executor (the reference: its CPU time only).
+    #[serde(flatten)]
+    pub exec: vk::ExecStats,
+}
+
 /// Images and the `stats.json` of one frame.
 #[derive(Clone, Debug)]
 pub struct Frame {
     pub images: Images,
-    pub stats: serde_json::Value,
+    pub stats: FrameStats,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -126,16 +151,22 @@ pub fn render_reference(scene: &Scene) -> Frame {
     let t = Instant::now();
     let images = crate::reference::render(scene, scene.render.width, scene.render.height);
     let cpu_ms = t.elapsed().as_secs_f64() * 1e3;
-    let stats = json!({
-        "algo": "reference",
-        "width": images.width,
-        "height": images.height,
-        "device": format!("cpu: exact f64 ray casting on {} threads", rayon::current_num_threads()),
-        "gpu_ms": 0.0,
-        "cpu_ms": cpu_ms,
-        "passes": 0,
-        "rays": images.width as u64 * images.height as u64,
-    });
+    let stats = FrameStats {
+        algo: "reference".into(),
+        width: images.width,
+        height: images.height,
+        device: format!(
+            "cpu: exact f64 ray casting on {} threads",
+            rayon::current_num_threads()
+        ),
+        passes: Some(0),
+        rays: Some(images.width as u64 * images.height as u64),
+        exec: vk::ExecStats {
+            cpu_ms,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
     Frame { images, stats }
 }
 
@@ -222,26 +253,39 @@ impl GpuRenderer {
         self.ctx.validation_messages()
     }
 
-    /// Executes a plan once.
-    pub fn frame(&mut self, plan: &plan::Plan) -> Result<Frame, RenderError> {
-        let f = self.exec.execute(plan)?;
-        let mut stats = serde_json::to_value(&f.stats).unwrap_or_else(|_| json!({}));
-        let obj = stats
-            .as_object_mut()
-            .expect("ExecStats serializes to an object");
-        obj.insert("algo".into(), json!(plan.algo));
-        obj.insert("width".into(), json!(f.images.width));
-        obj.insert("height".into(), json!(f.images.height));
-        obj.insert("device".into(), json!(self.ctx.device_name()));
-        obj.insert("depth_setup".into(), json!(self.depth.name()));
-        if let Some(why) = &self.fallback {
-            obj.insert("depth_setup_fallback".into(), json!(why));
-        }
-        obj.insert("stencil_bits".into(), json!(plan.stencil_bits));
-        Ok(Frame {
-            images: f.images,
-            stats,
+    /// Executes a plan once; the images stay on the GPU (see [`Self::read_back`]).
+    pub fn execute(&mut self, plan: &plan::Plan) -> Result<FrameStats, RenderError> {
+        let exec = self.exec.execute(plan)?;
+        let d = self.exec.desc();
+        Ok(FrameStats {
+            algo: plan.algo.clone(),
+            width: d.width,
+            height: d.height,
+            device: self.ctx.device_name().to_string(),
+            depth_setup: Some(self.depth.name()),
+            depth_setup_fallback: self.fallback.clone(),
+            stencil_bits: Some(plan.stencil_bits),
+            passes: None,
+            rays: None,
+            exec,
         })
+    }
+
+    /// The next frame records its command buffer again instead of replaying it.
+    pub fn forget_recording(&mut self) {
+        self.exec.forget_recording();
+    }
+
+    /// The images of the last executed frame.
+    pub fn read_back(&mut self) -> Result<Images, RenderError> {
+        Ok(self.exec.read_back()?)
+    }
+
+    /// Executes a plan once and reads its images back.
+    pub fn frame(&mut self, plan: &plan::Plan) -> Result<Frame, RenderError> {
+        let stats = self.execute(plan)?;
+        let images = self.read_back()?;
+        Ok(Frame { images, stats })
     }
 }
 

@@ -158,6 +158,7 @@ struct App {
     algo: Algo,
     prepared: Option<Prepared>,
     plans: HashMap<Algo, Plan>,
+    /// The reference's images; `None` while a GPU frame is shown from the GPU.
     last: Option<Images>,
     gpu_ms: VecDeque<f64>,
     cpu_ms: f64,
@@ -290,7 +291,7 @@ impl App {
         let (w, h) = (self.scene.render.width, self.scene.render.height);
         if self.algo == Algo::Reference {
             let f = render::render_reference(&self.scene);
-            self.cpu_ms = f.stats["cpu_ms"].as_f64().unwrap_or(0.0);
+            self.cpu_ms = f.stats.exec.cpu_ms;
             self.last = Some(f.images);
             return Ok(());
         }
@@ -325,13 +326,14 @@ impl App {
         } else {
             exec.set_camera(&self.scene.camera)?;
         }
-        let f = exec.execute(&plan)?;
-        self.gpu_ms.push_back(f.stats.gpu_ms);
+        // The frame stays on the GPU: `redraw` presents it from there.
+        let stats = exec.execute(&plan)?;
+        self.gpu_ms.push_back(stats.gpu_ms);
         while self.gpu_ms.len() > TIMES_KEPT {
             self.gpu_ms.pop_front();
         }
-        self.draws = f.stats.draws;
-        self.last = Some(f.images);
+        self.draws = stats.counts.draws;
+        self.last = None;
         Ok(())
     }
 
@@ -356,8 +358,14 @@ impl App {
             .map(|w| w.inner_size())
             .unwrap_or_default();
         let bg = self.scene.render.background;
-        if let (Some(gpu), Some(img)) = (self.gpu.as_mut(), self.last.as_ref()) {
-            if gpu.presenter.present(img, bg, [size.width, size.height])? == Presented::Skipped {
+        if let Some(gpu) = self.gpu.as_mut() {
+            let size = [size.width, size.height];
+            let shown = match (&self.last, &gpu.exec) {
+                (Some(img), _) => gpu.presenter.present(img, bg, size)?,
+                (None, Some(exec)) => gpu.presenter.present_frame(exec, bg, size)?,
+                (None, None) => Presented::Skipped,
+            };
+            if shown == Presented::Skipped {
                 if let Some(w) = &self.window {
                     w.request_redraw();
                 }
@@ -388,9 +396,14 @@ impl App {
         }
     }
 
-    fn save(&self) -> Result<(), ViewerError> {
+    fn save(&mut self) -> Result<(), ViewerError> {
         let path = PathBuf::from("view.png");
-        let Some(img) = &self.last else {
+        // A GPU frame is read back only now, when its pixels are wanted.
+        let gpu_img = match (&self.last, self.gpu.as_mut().and_then(|g| g.exec.as_mut())) {
+            (None, Some(exec)) => Some(exec.read_back()?),
+            _ => None,
+        };
+        let Some(img) = self.last.as_ref().or(gpu_img.as_ref()) else {
             return Ok(());
         };
         let bytes: Vec<u8> = img.color.iter().flatten().copied().collect();

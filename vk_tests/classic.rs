@@ -61,10 +61,10 @@ fn check_with(name: &str, algos: &[Algo], max_interior_mismatch: f64, depth: Dep
             r.depth_abs_err_max_interior,
             r.coverage_mismatch,
             r.prim_mismatch,
-            s["draws"],
-            s["triangles"],
-            s["fullscreen_passes"],
-            s["loop_iterations"],
+            s.exec.counts.draws,
+            s.exec.counts.triangles,
+            s.exec.counts.fullscreen_passes,
+            format!("{:?}", s.exec.counts.loop_iterations),
         );
         let extra = (0..reference.depth.len())
             .filter(|&i| reference.prim[i] == 0 && frame.images.prim[i] != 0)
@@ -260,18 +260,18 @@ fn classic_block_minus_spheres_layered_is_kn() {
             algo.name(),
             r.coverage_mismatch_interior,
             r.prim_mismatch_interior,
-            s["draws"],
-            s["triangles"],
-            s["fullscreen_passes"],
-            s["gpu_ms"].as_f64().unwrap_or(0.0),
-            s["loop_iterations"]
+            s.exec.counts.draws,
+            s.exec.counts.triangles,
+            s.exec.counts.fullscreen_passes,
+            s.exec.gpu_ms,
+            format!("{:?}", s.exec.counts.loop_iterations)
         );
         assert!(
             r.coverage_mismatch_interior_frac <= 0.001,
             "{algo}: {}",
             r.coverage_mismatch_interior_frac
         );
-        tris.push(s["triangles"].as_u64().unwrap());
+        tris.push(s.exec.counts.triangles);
     }
     // n + 1 = 33 literals: Goldfeather rasterizes each against all others (O(n²));
     // the layered form, k ≈ 3 layers of 2n meshes.

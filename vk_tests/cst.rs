@@ -172,7 +172,7 @@ fn check(algo: Algo, name: &str, sc: &Scene) {
         r.prim_mismatch,
         r.depth_abs_err_p99_interior,
         r.depth_abs_err_max_interior,
-        frame.stats
+        serde_json::to_string(&frame.stats).unwrap_or_default()
     );
     if std::env::var_os("CST_TEST_DUMP").is_some() {
         let dir = std::path::PathBuf::from(format!("target/cst_dump/{name}_{algo}"));

@@ -41,7 +41,7 @@ fn check(scene: &Scene, name: &str, algo: Algo) -> Option<String> {
         r.prim_mismatch_interior_frac * 100.0,
         r.depth_abs_err_p99_interior,
         tol,
-        stats["draws"]
+        stats.exec.counts.draws
     );
     (r.coverage_mismatch_interior_frac > 0.001 || !depth_ok).then(|| format!("{name}: {r:?}"))
 }

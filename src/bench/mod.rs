@@ -23,7 +23,7 @@ use serde_json::Value;
 use crate::output::Images;
 use crate::plan::{self, Algo, Prepared};
 use crate::reference::compare::compare;
-use crate::render::{DepthSetup, GpuRenderer};
+use crate::render::{DepthSetup, FrameStats, GpuRenderer};
 use crate::scene::{self, LoadOptions, Scene};
 use crate::vk::DeviceChoice;
 
@@ -71,6 +71,13 @@ pub struct Record {
     pub gpu_ms_iqr: f64,
     pub cpu_ms_median: f64,
     pub cpu_ms_iqr: f64,
+    /// Wall time from a frame's first submission to GPU idle (images left on the GPU).
+    pub frame_ms_median: f64,
+    pub frame_ms_iqr: f64,
+    /// CPU time recording command buffers (0 when a recording is replayed).
+    pub record_ms_median: f64,
+    /// CPU time of recording the frame anew (a new plan or camera), once per run.
+    pub rerecord_ms: f64,
     /// Deterministic counts of the last frame (identical across frames and runs).
     pub counts: Value,
     /// Per-pass GPU time of the median frame.
@@ -185,6 +192,10 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 gpu_ms_iqr: 0.0,
                 cpu_ms_median: 0.0,
                 cpu_ms_iqr: 0.0,
+                frame_ms_median: 0.0,
+                frame_ms_iqr: 0.0,
+                record_ms_median: 0.0,
+                rerecord_ms: 0.0,
                 counts: Value::Null,
                 per_pass: Value::Null,
                 error: Value::Null,
@@ -290,97 +301,80 @@ fn run_one(
     let mut slow = false;
     for _ in 0..cfg.warmup {
         let t = Instant::now();
-        gpu.frame(&plan).map_err(|e| e.to_string())?;
+        gpu.execute(&plan).map_err(|e| e.to_string())?;
         slow |= t.elapsed().as_secs_f64() * 1e3 > cfg.budget_ms;
     }
-    // Only the last frame's images are kept (for the error and the saved images)
-    // and, per frame, its times: memory stays flat however many frames are run.
-    let (mut gpu_ms, mut cpu_ms, mut pass_ms) = (Vec::new(), Vec::new(), Vec::new());
-    let mut last = None;
+    // Timed frames leave their images on the GPU; the last one is read back once,
+    // after timing, for the error against the reference.
+    let mut frames = Vec::new();
     for _ in 0..if slow { 1 } else { cfg.frames.max(1) } {
-        let f = gpu.frame(&plan).map_err(|e| e.to_string())?;
-        gpu_ms.push(f.stats["gpu_ms"].as_f64().unwrap_or(0.0));
-        cpu_ms.push(f.stats["cpu_ms"].as_f64().unwrap_or(0.0));
-        pass_ms.push(pass_times(&f.stats["per_pass"]));
-        last = Some(f);
+        frames.push(gpu.execute(&plan).map_err(|e| e.to_string())?);
     }
-    let last = last.expect("at least one frame");
+    // One more frame, recorded anew: what a new plan or camera costs the CPU
+    // (skipped for runs over the time budget).
+    let rerecord_ms = if slow {
+        0.0
+    } else {
+        gpu.forget_recording();
+        gpu.execute(&plan).map_err(|e| e.to_string())?.exec.record_ms
+    };
+    let images = gpu.read_back().map_err(|e| e.to_string())?;
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {
         return Err(format!("validation: {}", msgs[0]));
     }
-    // The frame whose GPU time is the median, for the per-pass breakdown (every
-    // frame runs the same passes, so the last one's list carries its times).
-    let mut order: Vec<usize> = (0..gpu_ms.len()).collect();
+    let series = |f: fn(&FrameStats) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
+    let gpu_ms = series(|s| s.exec.gpu_ms);
+    // The frame whose GPU time is the median, for the per-pass breakdown.
+    let mut order: Vec<usize> = (0..frames.len()).collect();
     order.sort_by(|&a, &b| gpu_ms[a].total_cmp(&gpu_ms[b]));
-    let mut per_pass = last.stats["per_pass"].clone();
-    with_pass_times(&mut per_pass, &pass_ms[order[order.len() / 2]]);
+    let mid = &frames[order[order.len() / 2]];
+    let last = frames.last().expect("at least one frame");
     let (gm, gmin, gmax, giqr) = median_iqr(&mut gpu_ms.clone());
-    let (cm, _, _, ciqr) = median_iqr(&mut cpu_ms.clone());
-    let mut counts = last.stats.clone();
-    if let Some(o) = counts.as_object_mut() {
-        for k in [
-            "gpu_ms",
-            "cpu_ms",
-            "per_pass",
-            "algo",
-            "width",
-            "height",
-            "device",
-            "depth_setup",
-        ] {
-            o.remove(k);
-        }
-    }
-    let error = serde_json::to_value(compare(reference, &last.images).map_err(|e| e.to_string())?)
+    let (cm, _, _, ciqr) = median_iqr(&mut series(|s| s.exec.cpu_ms));
+    let (fm, _, _, fiqr) = median_iqr(&mut series(|s| s.exec.frame_ms));
+    let (rm, _, _, _) = median_iqr(&mut series(|s| s.exec.record_ms));
+    let counts = RunCounts {
+        stencil_bits: last.stencil_bits.unwrap_or(0),
+        counts: &last.exec.counts,
+    };
+    let error = serde_json::to_value(compare(reference, &images).map_err(|e| e.to_string())?)
         .unwrap_or(Value::Null);
     let rec = Record {
         scene: String::new(),
         family: None,
         n: None,
         prims: 0,
-        width: last.images.width,
-        height: last.images.height,
+        width: images.width,
+        height: images.height,
         algo: algo.name().into(),
         depth_setup: depth.name().into(),
         device: gpu.device_name(),
-        frames: gpu_ms.len() as u32,
+        frames: frames.len() as u32,
         gpu_ms_median: gm,
         gpu_ms_min: gmin,
         gpu_ms_max: gmax,
         gpu_ms_iqr: giqr,
         cpu_ms_median: cm,
         cpu_ms_iqr: ciqr,
-        counts,
-        per_pass,
+        frame_ms_median: fm,
+        frame_ms_iqr: fiqr,
+        record_ms_median: rm,
+        rerecord_ms,
+        counts: serde_json::to_value(&counts).unwrap_or(Value::Null),
+        per_pass: serde_json::to_value(&mid.exec.per_pass).unwrap_or(Value::Null),
         error,
         failure: None,
     };
-    Ok((rec, last.images))
+    Ok((rec, images))
 }
 
-/// The GPU ms of each pass of a frame's `per_pass` list, in order.
-fn pass_times(per_pass: &Value) -> Vec<f64> {
-    per_pass
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .map(|p| p.get("gpu_ms").and_then(Value::as_f64).unwrap_or(0.0))
-                .collect()
-        })
-        .unwrap_or_default()
-}
-
-/// Writes `times` (from [`pass_times`] of a frame with the same passes) into a
-/// `per_pass` list.
-fn with_pass_times(per_pass: &mut Value, times: &[f64]) {
-    if let Some(a) = per_pass.as_array_mut() {
-        for (p, &t) in a.iter_mut().zip(times) {
-            if let Some(o) = p.as_object_mut() {
-                o.insert("gpu_ms".into(), Value::from(t));
-            }
-        }
-    }
+/// The deterministic counts a record keeps of its last frame.
+#[derive(Serialize)]
+struct RunCounts<'a> {
+    stencil_bits: u8,
+    #[serde(flatten)]
+    counts: &'a crate::vk::Counts,
 }
 
 /// Runs the matrix and writes every output into `cfg.out`.

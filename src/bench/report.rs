@@ -60,7 +60,7 @@ const CSV_COUNTS: [&str; 6] = [
 
 pub fn csv(records: &[Record]) -> String {
     let mut s = String::from(
-        "scene,family,n,prims,width,height,algo,depth_setup,device,frames,gpu_ms_median,gpu_ms_min,gpu_ms_max,gpu_ms_iqr,cpu_ms_median,cpu_ms_iqr",
+        "scene,family,n,prims,width,height,algo,depth_setup,device,frames,gpu_ms_median,gpu_ms_min,gpu_ms_max,gpu_ms_iqr,cpu_ms_median,cpu_ms_iqr,frame_ms_median,frame_ms_iqr,record_ms_median,rerecord_ms",
     );
     for c in CSV_COUNTS {
         let _ = write!(s, ",{c}");
@@ -69,7 +69,7 @@ pub fn csv(records: &[Record]) -> String {
     for r in records {
         let _ = write!(
             s,
-            "{},{},{},{},{},{},{},{},\"{}\",{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+            "{},{},{},{},{},{},{},{},\"{}\",{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
             r.scene,
             r.family.as_deref().unwrap_or(""),
             r.n.map(|n| n.to_string()).unwrap_or_default(),
@@ -85,7 +85,11 @@ pub fn csv(records: &[Record]) -> String {
             r.gpu_ms_max,
             r.gpu_ms_iqr,
             r.cpu_ms_median,
-            r.cpu_ms_iqr
+            r.cpu_ms_iqr,
+            r.frame_ms_median,
+            r.frame_ms_iqr,
+            r.record_ms_median,
+            r.rerecord_ms
         );
         for c in CSV_COUNTS {
             let v = r.counts.get(c).map(|v| v.to_string()).unwrap_or_default();
@@ -138,13 +142,13 @@ pub fn summary(records: &[Record]) -> String {
             .collect();
         let prims = rows.first().map(|r| r.prims).unwrap_or(0);
         let _ = writeln!(s, "## {scene} ({prims} primitives, {w}×{h})\n");
-        s.push_str("| algo | depth | GPU ms (median ± IQR) | CPU ms | draws | triangles | full-screen passes | cov. mism. % | prim mism. % | depth p99 |\n");
-        s.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+        s.push_str("| algo | depth | GPU ms (median ± IQR) | frame ms | record ms | CPU ms | draws | triangles | full-screen passes | cov. mism. % | prim mism. % | depth p99 |\n");
+        s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for r in rows {
             if let Some(f) = &r.failure {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | not run: {} | | | | | | | |",
+                    "| {} | {} | not run: {} | | | | | | | | | |",
                     r.algo,
                     r.depth_setup,
                     f.replace('|', "/")
@@ -160,11 +164,13 @@ pub fn summary(records: &[Record]) -> String {
             };
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.2} ± {:.2} | {:.1} | {} | {} | {} | {:.3} | {:.3} | {:.2e} |",
+                "| {} | {} | {:.2} ± {:.2} | {:.2} | {:.2} | {:.1} | {} | {} | {} | {:.3} | {:.3} | {:.2e} |",
                 r.algo,
                 r.depth_setup,
                 r.gpu_ms_median,
                 r.gpu_ms_iqr,
+                r.frame_ms_median,
+                r.record_ms_median,
                 r.cpu_ms_median,
                 c("draws"),
                 c("triangles"),

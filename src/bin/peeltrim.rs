@@ -347,8 +347,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 frame.images.width,
                 frame.images.height,
                 algo,
-                frame.stats["cpu_ms"].as_f64().unwrap_or(0.0),
-                frame.stats["gpu_ms"].as_f64().unwrap_or(0.0),
+                frame.stats.exec.cpu_ms,
+                frame.stats.exec.gpu_ms,
                 out.display()
             );
         }

@@ -18,6 +18,8 @@ pub mod stencil;
 pub mod step;
 pub mod tie;
 pub mod trickle;
+pub mod usage;
+pub mod validate;
 pub use step::*;
 pub use tie::{shade_near_depth, SHADE_EPS};
 
@@ -360,7 +362,7 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
             PlanError::SurfacesNeedCst(algo)
         });
     }
-    match algo {
+    let plan = match algo {
         Algo::Blister => blister::plan(prep),
         Algo::BlisterPaper => blister::plan_with(prep, blister::Parity::DepthTest),
         Algo::Goldfeather => goldfeather::plan(prep, &opts.products),
@@ -376,7 +378,12 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
         Algo::CstI => cst::plan(prep, cst::Variant::I),
         Algo::CstG => cst::plan(prep, cst::Variant::G),
         other => Err(PlanError::NotImplemented(other)),
+    }?;
+    // A builder that names a resource it did not declare is a bug, not bad input.
+    if let Err(e) = validate::validate(&plan, prep.mesh_triangles.len() as u32) {
+        panic!("the {} plan builder made an invalid plan: {e}", plan.algo);
     }
+    Ok(plan)
 }
 
 /// Per primitive (then `false` for surfaces): whether a perspective eye lies

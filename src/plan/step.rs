@@ -158,6 +158,27 @@ pub struct Draw {
     pub count_samples: bool,
 }
 
+#[cfg(test)]
+impl Draw {
+    /// A plain draw for unit tests: depth-tested into depth-stencil 0, no stencil,
+    /// no sample counting.
+    pub(crate) fn for_test(geometry: Geometry, fragment: Fragment) -> Step {
+        Step::Draw(Draw {
+            geometry,
+            scissor: Scissor::Full,
+            cull: Cull::None,
+            ds: 0,
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: None,
+            fragment,
+            count_samples: false,
+        })
+    }
+}
+
 /// Whole-image clears.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Clear {

@@ -5,6 +5,23 @@ use ash::vk;
 
 use crate::plan::{CompareOp, Cull, StencilFace, StencilOp};
 
+/// Depth-stencil format of the plan's depth-stencil images (`--depth-format`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum DepthFormat {
+    #[default]
+    D24S8,
+    D32S8,
+}
+
+impl DepthFormat {
+    pub fn vk(self) -> vk::Format {
+        match self {
+            DepthFormat::D24S8 => vk::Format::D24_UNORM_S8_UINT,
+            DepthFormat::D32S8 => vk::Format::D32_SFLOAT_S8_UINT,
+        }
+    }
+}
+
 /// `op` in the standard convention (smaller is nearer) as the op to use with
 /// `reversed` Z, where nearer depths are larger.
 pub fn mirror_compare(op: CompareOp, reversed: bool) -> CompareOp {

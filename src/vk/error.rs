@@ -34,6 +34,8 @@ pub enum VkError {
     Unsupported(String),
     #[error("invalid plan: {0}")]
     Plan(String),
+    #[error("invalid plan: {0}")]
+    InvalidPlan(#[from] crate::plan::validate::InvalidPlan),
 }
 
 /// What the user can do about a failed call, for the results that have an answer.

@@ -4,10 +4,12 @@
 //! Modules: `instance` ([`Context`]: instance, debug messenger, device, allocator);
 //! `memory` and `image` (buffers and images that own their memory); `pipeline`
 //! (one per fragment program, all depth/stencil state dynamic); `conv` and
-//! `scissor` (pure mappings, tested without a GPU); `exec` (the plan executor and its
-//! statistics); `readback` (GPU bytes to output images); `rounding` (tests: emulating a coarser
-//! rasterizer's vertex snapping); `present` (feature `viewer`: a window's
-//! surface and swapchain).
+//! `scissor` (pure mappings, tested without a GPU); `sync` (the pure table from a
+//! step's resource usages to stages, accesses and layouts); `submit` (one-shot
+//! command buffers, barriers, query pools, shared with `present`); `exec` (the plan
+//! executor and its statistics); `readback` (GPU bytes to output images);
+//! `rounding` (tests: emulating a coarser rasterizer's vertex snapping); `present`
+//! (feature `viewer`: a window's surface and swapchain).
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod conv;
@@ -23,8 +25,10 @@ pub mod present;
 pub mod readback;
 pub mod rounding;
 pub mod scissor;
+pub(crate) mod submit;
+pub mod sync;
 
 pub use error::VkError;
-pub use exec::{DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
+pub use exec::{ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
 pub use instance::{Context, ContextDesc, DeviceChoice};
 pub use rounding::RoundingEmulation;

@@ -2,8 +2,9 @@
 //! made with `ash-window`, a `VK_KHR_swapchain` on the executor's device and queue,
 //! and a host-visible staging buffer copied into the acquired swapchain image.
 //!
-//! The executor hands back CPU images ([`crate::output::Images`]), so a frame is
-//! uploaded once more to present it; the CPU reference goes the same way.
+//! A GPU frame is blitted from the executor's colour target
+//! ([`Presenter::present_image`], no read-back); the CPU reference's images go
+//! through a staging buffer ([`Presenter::present`]).
 
 use std::sync::Arc;
 
@@ -14,6 +15,7 @@ use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 use super::error::{Check, VkError};
 use super::instance::{Context, ContextDesc, PresentHooks, Shared};
 use super::memory::Buffer;
+use super::submit::{self, Submitter};
 use crate::output::Images;
 
 /// What [`Presenter::present`] did.
@@ -32,9 +34,7 @@ pub struct Presenter {
     surface_fn: ash::khr::surface::Instance,
     swapchain_fn: ash::khr::swapchain::Device,
     surface: vk::SurfaceKHR,
-    command_pool: vk::CommandPool,
-    cmd: vk::CommandBuffer,
-    fence: vk::Fence,
+    submit: Option<Submitter>,
     acquired: vk::Semaphore,
     swapchain: vk::SwapchainKHR,
     images: Vec<vk::Image>,
@@ -79,9 +79,7 @@ impl Presenter {
             surface_fn,
             swapchain_fn,
             surface,
-            command_pool: vk::CommandPool::null(),
-            cmd: vk::CommandBuffer::null(),
-            fence: vk::Fence::null(),
+            submit: None,
             acquired: vk::Semaphore::null(),
             swapchain: vk::SwapchainKHR::null(),
             images: Vec::new(),
@@ -92,26 +90,7 @@ impl Presenter {
             stale: true,
         };
         let device = &shared.device;
-        let pool_ci = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(shared.queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        // SAFETY: valid create info on a live device.
-        p.command_pool =
-            unsafe { device.create_command_pool(&pool_ci, None) }.check("vkCreateCommandPool")?;
-        let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(p.command_pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        // SAFETY: the pool was just created on this device.
-        let cmds =
-            unsafe { device.allocate_command_buffers(&alloc) }.check("vkAllocateCommandBuffers")?;
-        p.cmd = cmds
-            .first()
-            .copied()
-            .ok_or_else(|| VkError::Plan("no command buffer allocated".into()))?;
-        // SAFETY: valid create info.
-        p.fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
-            .check("vkCreateFence")?;
+        p.submit = Some(Submitter::new(&shared)?);
         // SAFETY: valid create info.
         p.acquired = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
             .check("vkCreateSemaphore")?;
@@ -244,12 +223,142 @@ impl Presenter {
         background: [u8; 3],
         size: [u32; 2],
     ) -> Result<Presented, VkError> {
-        if self.stale {
-            self.rebuild(size)?;
-            if self.stale {
-                return Ok(Presented::Skipped);
+        if !self.ready(size)? {
+            return Ok(Presented::Skipped);
+        }
+        // Staging: the frame's pixels in the swapchain's byte order.
+        let bytes = img.width as u64 * img.height as u64 * 4;
+        if self.staging.as_ref().map_or(true, |b| b.size != bytes) {
+            self.staging = None;
+            self.staging = Some(Buffer::new(
+                &self.shared,
+                "present staging",
+                bytes,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+            )?);
+        }
+        let staging = self
+            .staging
+            .as_mut()
+            .ok_or_else(|| VkError::Plan("no staging buffer".into()))?;
+        let bgra = self.format == vk::Format::B8G8R8A8_UNORM;
+        let dst = staging.mapped_mut()?;
+        for (d, s) in dst.chunks_exact_mut(4).zip(&img.color) {
+            if bgra {
+                d.copy_from_slice(&[s[2], s[1], s[0], 255]);
+            } else {
+                d.copy_from_slice(&[s[0], s[1], s[2], 255]);
             }
         }
+        let staging_raw = staging.raw;
+        let (w, h) = (img.width, img.height);
+        self.present_with(background, |device, cmd, image, extent| {
+            let region = vk::BufferImageCopy::default()
+                .buffer_offset(0)
+                .buffer_row_length(w)
+                .buffer_image_height(h)
+                .image_subresource(
+                    vk::ImageSubresourceLayers::default()
+                        .aspect_mask(vk::ImageAspectFlags::COLOR)
+                        .layer_count(1),
+                )
+                .image_extent(vk::Extent3D {
+                    width: w.min(extent.width),
+                    height: h.min(extent.height),
+                    depth: 1,
+                });
+            if region.image_extent.width > 0 && region.image_extent.height > 0 {
+                // SAFETY: recording; the staging buffer holds `w * h` texels and the
+                // region stays inside both buffer and image (in TRANSFER_DST_OPTIMAL).
+                unsafe {
+                    device.cmd_copy_buffer_to_image(
+                        cmd,
+                        staging_raw,
+                        image,
+                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                        &[region],
+                    )
+                };
+            }
+        })
+    }
+
+    /// Shows a frame that is still on the GPU: `src` is an RGBA8 image of
+    /// `src_size` in `TRANSFER_SRC_OPTIMAL` whose writes are complete (the
+    /// executor's colour target after `Executor::execute`). No read-back.
+    fn present_image(
+        &mut self,
+        src: vk::Image,
+        src_size: [u32; 2],
+        background: [u8; 3],
+        size: [u32; 2],
+    ) -> Result<Presented, VkError> {
+        if !self.ready(size)? {
+            return Ok(Presented::Skipped);
+        }
+        self.present_with(background, |device, cmd, image, extent| {
+            let (w, h) = (src_size[0].min(extent.width), src_size[1].min(extent.height));
+            if w == 0 || h == 0 {
+                return;
+            }
+            let layers = vk::ImageSubresourceLayers::default()
+                .aspect_mask(vk::ImageAspectFlags::COLOR)
+                .layer_count(1);
+            let corner = vk::Offset3D {
+                x: w as i32,
+                y: h as i32,
+                z: 1,
+            };
+            let region = vk::ImageBlit::default()
+                .src_subresource(layers)
+                .src_offsets([vk::Offset3D::default(), corner])
+                .dst_subresource(layers)
+                .dst_offsets([vk::Offset3D::default(), corner]);
+            // SAFETY: recording; a 1:1 blit (it converts RGBA to the swapchain's byte
+            // order) inside both images, in the layouts given.
+            unsafe {
+                device.cmd_blit_image(
+                    cmd,
+                    src,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[region],
+                    vk::Filter::NEAREST,
+                )
+            };
+        })
+    }
+
+    /// Shows the last frame `exec` executed, straight from its colour target.
+    pub fn present_frame(
+        &mut self,
+        exec: &super::Executor,
+        background: [u8; 3],
+        size: [u32; 2],
+    ) -> Result<Presented, VkError> {
+        let (image, extent) = exec
+            .color_target()
+            .ok_or_else(|| VkError::Plan("present_frame before execute: no frame".into()))?;
+        self.present_image(image, extent, background, size)
+    }
+
+    /// Rebuilds a stale swapchain; false when there is nothing to present to.
+    fn ready(&mut self, size: [u32; 2]) -> Result<bool, VkError> {
+        if self.stale {
+            self.rebuild(size)?;
+        }
+        Ok(!self.stale)
+    }
+
+    /// Acquires a swapchain image, clears it to `background`, lets `copy` record
+    /// the frame into it (in `TRANSFER_DST_OPTIMAL`), and presents it.
+    fn present_with(
+        &mut self,
+        background: [u8; 3],
+        copy: impl FnOnce(&ash::Device, vk::CommandBuffer, vk::Image, vk::Extent2D),
+    ) -> Result<Presented, VkError> {
         let shared = self.shared.clone();
         let device = &shared.device;
         // SAFETY: live swapchain; the semaphore is unsignaled (its last wait finished
@@ -285,165 +394,58 @@ impl Presenter {
             .get(index as usize)
             .ok_or_else(|| VkError::Plan("swapchain image index out of range".into()))?;
         let copied = self.copied[index as usize];
-
-        // Staging: the frame's pixels in the swapchain's byte order.
-        let bytes = img.width as u64 * img.height as u64 * 4;
-        if self.staging.as_ref().map_or(true, |b| b.size != bytes) {
-            self.staging = None;
-            self.staging = Some(Buffer::new(
-                &shared,
-                "present staging",
-                bytes,
-                vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::CpuToGpu,
-            )?);
-        }
-        let staging = self
-            .staging
-            .as_mut()
-            .ok_or_else(|| VkError::Plan("no staging buffer".into()))?;
-        let bgra = self.format == vk::Format::B8G8R8A8_UNORM;
-        let dst = staging.mapped_mut()?;
-        for (d, s) in dst.chunks_exact_mut(4).zip(&img.color) {
-            if bgra {
-                d.copy_from_slice(&[s[2], s[1], s[0], 255]);
-            } else {
-                d.copy_from_slice(&[s[0], s[1], s[2], 255]);
-            }
-        }
-        let staging_raw = staging.raw;
-
-        let cmd = self.cmd;
+        let submit = self
+            .submit
+            .as_ref()
+            .ok_or_else(|| VkError::Plan("presenter without a command buffer".into()))?;
+        let cmd = submit.cmd;
         let range = vk::ImageSubresourceRange::default()
             .aspect_mask(vk::ImageAspectFlags::COLOR)
             .level_count(1)
             .layer_count(1);
-        let to_dst = vk::ImageMemoryBarrier::default()
-            .src_access_mask(vk::AccessFlags::empty())
-            .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-            .old_layout(vk::ImageLayout::UNDEFINED)
-            .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(image)
-            .subresource_range(range);
-        let between = vk::ImageMemoryBarrier::default()
-            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-            .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-            .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-            .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(image)
-            .subresource_range(range);
-        let to_present = vk::ImageMemoryBarrier::default()
-            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-            .dst_access_mask(vk::AccessFlags::empty())
-            .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-            .new_layout(vk::ImageLayout::PRESENT_SRC_KHR)
-            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(image)
-            .subresource_range(range);
-        let bg = [
-            background[0] as f32 / 255.0,
-            background[1] as f32 / 255.0,
-            background[2] as f32 / 255.0,
-            1.0,
-        ];
+        let barrier = |src, dst, old, new| {
+            vk::ImageMemoryBarrier::default()
+                .src_access_mask(src)
+                .dst_access_mask(dst)
+                .old_layout(old)
+                .new_layout(new)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(image)
+                .subresource_range(range)
+        };
+        let dst = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+        let write = vk::AccessFlags::TRANSFER_WRITE;
+        let transfer = vk::PipelineStageFlags::TRANSFER;
+        let bg = background.map(|c| c as f32 / 255.0);
         // Clear values name components (R, G, B, A), whatever the byte order.
-        let clear = vk::ClearColorValue { float32: bg };
-        let region = vk::BufferImageCopy::default()
-            .buffer_offset(0)
-            .buffer_row_length(img.width)
-            .buffer_image_height(img.height)
-            .image_subresource(
-                vk::ImageSubresourceLayers::default()
-                    .aspect_mask(vk::ImageAspectFlags::COLOR)
-                    .layer_count(1),
-            )
-            .image_extent(vk::Extent3D {
-                width: img.width.min(self.extent.width),
-                height: img.height.min(self.extent.height),
-                depth: 1,
-            });
-        // SAFETY: not in use: the previous present waited on the fence.
-        unsafe { device.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty()) }
-            .check("vkResetCommandBuffer")?;
-        let begin = vk::CommandBufferBeginInfo::default()
-            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-        // SAFETY: the buffer was just reset.
-        unsafe { device.begin_command_buffer(cmd, &begin) }.check("vkBeginCommandBuffer")?;
-        // SAFETY: recording; `image` is a live swapchain image acquired for this frame.
-        unsafe {
-            device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[to_dst],
-            )
+        let clear = vk::ClearColorValue {
+            float32: [bg[0], bg[1], bg[2], 1.0],
         };
+        submit.begin(cmd, true)?;
+        let to_dst = barrier(vk::AccessFlags::empty(), write, vk::ImageLayout::UNDEFINED, dst);
+        submit::image_barriers(device, cmd, transfer, transfer, &[to_dst]);
         // SAFETY: recording; the image is in TRANSFER_DST_OPTIMAL after the barrier.
-        unsafe {
-            device.cmd_clear_color_image(
-                cmd,
-                image,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &clear,
-                &[range],
-            )
-        };
-        // SAFETY: recording; orders the clear before the copy.
-        unsafe {
-            device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[between],
-            )
-        };
-        if region.image_extent.width > 0 && region.image_extent.height > 0 {
-            // SAFETY: recording; the staging buffer holds `width * height` texels and
-            // the region stays inside both buffer and image.
-            unsafe {
-                device.cmd_copy_buffer_to_image(
-                    cmd,
-                    staging_raw,
-                    image,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
-                )
-            };
-        }
-        // SAFETY: recording; hands the image to the presentation engine.
-        unsafe {
-            device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[to_present],
-            )
-        };
-        // SAFETY: recording, no open render pass.
-        unsafe { device.end_command_buffer(cmd) }.check("vkEndCommandBuffer")?;
-        let cmds = [cmd];
-        let waits = [self.acquired];
-        let stages = [vk::PipelineStageFlags::TRANSFER];
+        unsafe { device.cmd_clear_color_image(cmd, image, dst, &clear, &[range]) };
+        // Orders the clear before the copy.
+        submit::image_barriers(device, cmd, transfer, transfer, &[barrier(write, write, dst, dst)]);
+        copy(device, cmd, image, self.extent);
+        let to_present = barrier(
+            write,
+            vk::AccessFlags::empty(),
+            dst,
+            vk::ImageLayout::PRESENT_SRC_KHR,
+        );
+        submit::image_barriers(
+            device,
+            cmd,
+            transfer,
+            vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+            &[to_present],
+        );
+        submit.end(cmd)?;
+        submit.submit(cmd, &[(self.acquired, transfer)], &[copied])?;
         let signals = [copied];
-        let si = [vk::SubmitInfo::default()
-            .wait_semaphores(&waits)
-            .wait_dst_stage_mask(&stages)
-            .command_buffers(&cmds)
-            .signal_semaphores(&signals)];
         let swapchains = [self.swapchain];
         let indices = [index];
         let pi = vk::PresentInfoKHR::default()
@@ -452,17 +454,11 @@ impl Presenter {
             .image_indices(&indices);
         let presented = {
             let _queue = shared.queue_lock.lock();
-            // SAFETY: the command buffer is executable, the fence unsignaled, the
-            // semaphores as described above; the lock serializes queue access.
-            unsafe { device.queue_submit(shared.queue, &si, self.fence) }.check("vkQueueSubmit")?;
-            // SAFETY: `index` was acquired from this swapchain; its copy signals `copied`.
+            // SAFETY: `index` was acquired from this swapchain; its copy, submitted
+            // above, signals `copied`; the lock serializes queue access.
             unsafe { self.swapchain_fn.queue_present(shared.queue, &pi) }
         };
-        // SAFETY: the fence was just submitted.
-        unsafe { device.wait_for_fences(&[self.fence], true, u64::MAX) }
-            .check("vkWaitForFences")?;
-        // SAFETY: the fence is signaled and no longer in use.
-        unsafe { device.reset_fences(&[self.fence]) }.check("vkResetFences")?;
+        submit.wait()?;
         match presented {
             Ok(false) => Ok(Presented::Shown),
             Ok(true) => {
@@ -501,10 +497,7 @@ impl Drop for Presenter {
         // calls accept) and is destroyed once, in reverse creation order.
         // SAFETY: as above.
         unsafe { device.destroy_semaphore(self.acquired, None) };
-        // SAFETY: as above.
-        unsafe { device.destroy_fence(self.fence, None) };
-        // SAFETY: as above; destroying the pool frees its command buffer.
-        unsafe { device.destroy_command_pool(self.command_pool, None) };
+        self.submit = None;
         // SAFETY: as above; the swapchain on this surface was destroyed first.
         unsafe { self.surface_fn.destroy_surface(self.surface, None) };
     }

@@ -1,8 +1,9 @@
 //! Turning the bytes copied back from the GPU into the contract's [`Images`]:
 //! colour with alpha 255, primitive ids as `u16`, depth-buffer values converted to
-//! view depth. Pure (the copies themselves are recorded by the executor).
+//! view depth. Pure (the copies themselves are recorded by the executor's
+//! `read_back`).
 
-use super::exec::DepthFormat;
+use super::conv::DepthFormat;
 use crate::output::Images;
 use crate::scene::camera::DepthConvention;
 use crate::scene::Camera;

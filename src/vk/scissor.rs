@@ -138,6 +138,29 @@ mod tests {
         }
     }
 
+    /// The executor unions per-mesh rectangles: the same as one call on all boxes.
+    #[test]
+    fn bounds_rect_is_the_union_of_single_boxes() {
+        let c = cam();
+        let (view, proj) = (c.view(), c.proj(1.0, DepthConvention::Standard));
+        let boxes = [
+            Aabb {
+                min: DVec3::new(-1.0, -0.5, -0.5),
+                max: DVec3::new(-0.2, 0.5, 0.5),
+            },
+            Aabb {
+                min: DVec3::new(0.3, 0.6, -1.0),
+                max: DVec3::new(1.2, 1.4, 0.0),
+            },
+        ];
+        let all = bounds_rect(view, proj, c.near, &boxes, 64, 64);
+        let union = boxes.iter().fold(Rect::EMPTY, |r, b| {
+            r.union(&bounds_rect(view, proj, c.near, std::slice::from_ref(b), 64, 64))
+        });
+        assert_eq!(all, union);
+        assert!(!all.is_empty() && all != Rect::full(64, 64));
+    }
+
     #[test]
     fn ortho_box_maps_to_expected_pixels() {
         let c = cam();

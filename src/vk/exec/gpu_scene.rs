@@ -1,0 +1,150 @@
+//! The uploaded scene: every mesh's triangles in one vertex buffer (primitives in
+//! file order, then surfaces, then a full-screen quad), with per-mesh colours,
+//! bounds, and the camera-derived matrices the push constants and scissors use.
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::{DMat4, DVec3};
+use gpu_allocator::MemoryLocation;
+
+use super::ExecDesc;
+use crate::scene::camera::DepthConvention;
+use crate::scene::{Aabb, Camera, Projection, Scene};
+use crate::vk::error::VkError;
+use crate::vk::instance::Shared;
+use crate::vk::memory::Buffer;
+
+pub(super) struct GpuScene {
+    pub vertices: Buffer,
+    /// `(first vertex, vertex count)` per mesh; consecutive meshes are contiguous.
+    pub ranges: Vec<(u32, u32)>,
+    pub colors: Vec<[u8; 3]>,
+    pub bounds: Vec<Aabb>,
+    pub background: [u8; 3],
+    pub camera: Camera,
+    /// World point subtracted from every vertex before rounding to f32 (the eye
+    /// at upload), folded back into `mvp` in f64: vertex rounding is relative to
+    /// the distance from the eye wherever the scene lies in the world.
+    pub origin: DVec3,
+    pub cam: CameraState,
+    /// First vertex of the full-screen quad (6 vertices).
+    pub quad_first: u32,
+}
+
+/// What the shaders and scissors derive from the camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct CameraState {
+    pub view: DMat4,
+    pub proj: DMat4,
+    pub mvp: [f32; 16],
+    /// Eye (w = 1) or view direction (w = 0) for shading.
+    pub view_vec: [f32; 4],
+}
+
+pub(super) fn convention(desc: &ExecDesc) -> DepthConvention {
+    if desc.reversed_z {
+        DepthConvention::Reversed
+    } else {
+        DepthConvention::Standard
+    }
+}
+
+/// The matrix product is formed in f64 and rounded once.
+pub(super) fn camera_state(camera: &Camera, desc: &ExecDesc, origin: DVec3) -> CameraState {
+    let aspect = desc.width as f64 / desc.height as f64;
+    let view = camera.view();
+    let proj = camera.proj(aspect, convention(desc));
+    let mvp = (proj * view * DMat4::from_translation(origin))
+        .to_cols_array()
+        .map(|v| v as f32);
+    // Shading sees vertices relative to `origin`, so the eye is too.
+    let eye = camera.eye - origin;
+    let view_vec = match camera.projection {
+        Projection::Perspective { .. } => [eye.x as f32, eye.y as f32, eye.z as f32, 1.0],
+        Projection::Orthographic { .. } => {
+            let f = camera.forward();
+            [f.x as f32, f.y as f32, f.z as f32, 0.0]
+        }
+    };
+    CameraState {
+        view,
+        proj,
+        mvp,
+        view_vec,
+    }
+}
+
+impl GpuScene {
+    pub fn new(shared: &Arc<Shared>, scene: &Scene, desc: &ExecDesc) -> Result<GpuScene, VkError> {
+        let meshes: Vec<(&crate::scene::Mesh, [u8; 3])> = scene
+            .primitives
+            .iter()
+            .map(|p| (&p.mesh, p.color))
+            .chain(scene.surfaces.iter().map(|s| (&s.mesh, s.color)))
+            .collect();
+        // Camera-relative vertices: f32 rounding then scales with the distance
+        // from the eye, i.e. with the view depth (uniform relative precision),
+        // wherever the scene lies in the world.
+        let origin = if scene.camera.eye.is_finite() {
+            scene.camera.eye
+        } else {
+            DVec3::ZERO
+        };
+        let mut floats: Vec<f32> = Vec::new();
+        let mut ranges = Vec::new();
+        let mut colors = Vec::new();
+        let mut bounds = Vec::new();
+        for (mesh, color) in &meshes {
+            let first = (floats.len() / 6) as u32;
+            for t in &mesh.triangles {
+                let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+                let n = (b - a).cross(c - a).normalize_or_zero();
+                for p in [a - origin, b - origin, c - origin] {
+                    floats.extend([p.x as f32, p.y as f32, p.z as f32]);
+                    floats.extend([n.x as f32, n.y as f32, n.z as f32]);
+                }
+            }
+            ranges.push((first, (floats.len() / 6) as u32 - first));
+            colors.push(*color);
+            let mut lo = DVec3::splat(f64::INFINITY);
+            let mut hi = DVec3::splat(f64::NEG_INFINITY);
+            for p in &mesh.positions {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+            bounds.push(Aabb { min: lo, max: hi });
+        }
+        let quad_first = (floats.len() / 6) as u32;
+        for (x, y) in [
+            (-1.0f32, -1.0f32),
+            (1.0, -1.0),
+            (1.0, 1.0),
+            (-1.0, -1.0),
+            (1.0, 1.0),
+            (-1.0, 1.0),
+        ] {
+            floats.extend([x, y, 0.0, 0.0, 0.0, 1.0]);
+        }
+        let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
+        let mut vertices = Buffer::new(
+            shared,
+            "vertices",
+            bytes.len() as u64,
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )?;
+        vertices.mapped_mut()?.copy_from_slice(&bytes);
+        Ok(GpuScene {
+            vertices,
+            ranges,
+            colors,
+            bounds,
+            background: scene.render.background,
+            camera: scene.camera,
+            origin,
+            cam: camera_state(&scene.camera, desc, origin),
+            quad_first,
+        })
+    }
+}

@@ -1,0 +1,712 @@
+//! The plan executor: runs a [`Plan`]'s steps on one device at one image size and
+//! leaves the frame's images on the GPU; [`Executor::read_back`] copies them to
+//! the CPU when someone needs the pixels.
+//!
+//! A frame is one command buffer and one submission. Its data-dependent loops
+//! (`Step::Loop`, peeling until an occlusion query counts no sample) are unrolled
+//! to the layer counts the previous frame of the same plan needed, and checked on
+//! the GPU's query results after the frame: every head but the last must have
+//! passed samples, the last none (or the loop hit its bound). A plan seen for the
+//! first time, or a check that fails (the view changed the depth complexity), runs
+//! loop by loop instead — one submission per head and tail with a CPU wait, which
+//! learns the counts — so images never depend on a guess. The unrolled recording
+//! is kept and replayed as long as the plan, the camera and the layer counts stay
+//! the same (`record_ms` is then 0); the camera is baked into push constants and
+//! scissors, so moving it re-records (see README, "Executor").
+//!
+//! Modules: `gpu_scene` (vertex buffer, camera state), `targets` (images and
+//! descriptor sets), `record` (steps to commands, barriers from `plan::usage`
+//! through `vk::sync`), `stats` (typed statistics).
+
+mod gpu_scene;
+mod record;
+mod stats;
+mod targets;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+pub use super::conv::DepthFormat;
+pub use stats::{Counts, ExecStats, PassStats};
+
+use super::error::VkError;
+use super::image::range;
+use super::instance::{Context, Shared};
+use super::memory::Buffer;
+use super::pipeline::{pipeline_flags, Pipelines};
+use super::readback::{decode, Raw};
+use super::submit::{self, Queries, Submitter};
+use super::sync::{self, REST};
+use crate::output::Images;
+use crate::plan::validate::validate;
+use crate::plan::{Plan, Step};
+use crate::scene::{Camera, Scene};
+use gpu_scene::{CameraState, GpuScene};
+use record::{Bindings, Group, Recorder};
+pub use record::ClearMode;
+use targets::Targets;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExecDesc {
+    pub width: u32,
+    pub height: u32,
+    pub depth_format: DepthFormat,
+    /// Reversed depth (near 1, far 0); meant for `D32S8`.
+    pub reversed_z: bool,
+}
+
+/// A frame's images (read back) and statistics.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    pub images: Images,
+    pub stats: ExecStats,
+}
+
+/// What a kept recording was made for.
+struct RecordingKey {
+    plan: Plan,
+    cam: CameraState,
+    layers: Vec<u32>,
+    epoch: u64,
+}
+
+/// The kept frame recording and what its replays report.
+struct Recording {
+    key: RecordingKey,
+    stats: ExecStats,
+    queries: Vec<Group>,
+    marks: Vec<String>,
+}
+
+/// Wall-clock bookkeeping of one `execute`.
+#[derive(Default)]
+struct Clock {
+    first_submit: Option<Instant>,
+    record_ms: f64,
+}
+
+/// Runs plans on one device at one image size.
+pub struct Executor {
+    shared: Arc<Shared>,
+    desc: ExecDesc,
+    pipelines: Pipelines,
+    submit: Submitter,
+    /// The replayable frame recording's command buffer.
+    frame_cmd: vk::CommandBuffer,
+    occlusion: Queries,
+    timestamps: Queries,
+    targets: Option<Targets>,
+    scene: Option<GpuScene>,
+    readback: Option<Buffer>,
+    recording: Option<Recording>,
+    /// Loop layer counts the last frame of this plan needed.
+    layers: Option<(Plan, Vec<u32>)>,
+    /// Bumped whenever an object a recording refers to is replaced.
+    epoch: u64,
+    /// Output depth-stencil of the last executed plan (what `read_back` copies).
+    last_output: Option<u8>,
+    clears: ClearMode,
+    /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
+    rounding: Option<super::RoundingEmulation>,
+}
+
+impl Executor {
+    pub fn new(ctx: &Context, desc: &ExecDesc) -> Result<Executor, VkError> {
+        if desc.width == 0 || desc.height == 0 {
+            return Err(VkError::Plan("image size must be at least 1x1".into()));
+        }
+        let shared = ctx.shared.clone();
+        if !ctx.depth_format_usable(desc.depth_format.vk()) {
+            return Err(VkError::Unsupported(format!(
+                "{:?} as a sampled, copyable depth-stencil attachment (try the other --depth-format)",
+                desc.depth_format
+            )));
+        }
+        // SAFETY: physical device of this instance; plain query.
+        let props = unsafe {
+            shared
+                .instance
+                .get_physical_device_properties(shared.physical)
+        };
+        let clears = if props.device_type == vk::PhysicalDeviceType::CPU {
+            ClearMode::Command
+        } else {
+            ClearMode::LoadOp
+        };
+        let pipelines = Pipelines::new(&shared)?;
+        let submit = Submitter::new(&shared)?;
+        let frame_cmd = submit.allocate()?;
+        let mut occlusion = Queries::new(&shared, vk::QueryType::OCCLUSION);
+        let mut timestamps = Queries::new(&shared, vk::QueryType::TIMESTAMP);
+        occlusion.ensure(64)?;
+        timestamps.ensure(64)?;
+        Ok(Executor {
+            shared,
+            desc: *desc,
+            pipelines,
+            submit,
+            frame_cmd,
+            occlusion,
+            timestamps,
+            targets: None,
+            scene: None,
+            readback: None,
+            recording: None,
+            layers: None,
+            epoch: 0,
+            last_output: None,
+            clears,
+            rounding: None,
+        })
+    }
+
+    pub fn desc(&self) -> &ExecDesc {
+        &self.desc
+    }
+
+    /// Uploads all meshes of `scene` (primitives in file order, then surfaces) and
+    /// its camera.
+    pub fn upload(&mut self, scene: &Scene) -> Result<(), VkError> {
+        self.scene = Some(GpuScene::new(&self.shared, scene, &self.desc)?);
+        self.epoch += 1;
+        Ok(())
+    }
+
+    /// Moves the camera of the uploaded scene without uploading its meshes again
+    /// (an interactive viewer orbiting).
+    pub fn set_camera(&mut self, camera: &Camera) -> Result<(), VkError> {
+        let desc = self.desc;
+        let scene = self
+            .scene
+            .as_mut()
+            .ok_or_else(|| VkError::Plan("set_camera before upload".into()))?;
+        // Vertices stay relative to the eye at upload, so the images equal a
+        // fresh upload's up to f32 rounding.
+        scene.camera = *camera;
+        scene.cam = gpu_scene::camera_state(camera, &desc, scene.origin);
+        Ok(())
+    }
+
+    /// Emulates a coarser device's vertex snapping in every later mesh draw.
+    pub fn set_rounding_emulation(&mut self, rounding: Option<super::RoundingEmulation>) {
+        self.rounding = rounding;
+        self.recording = None;
+    }
+
+    /// The push constants' flags: reversed Z, and the subpixel precision the tie
+    /// tolerance assumes (the device's, or the emulated device's).
+    fn flags(&self) -> u32 {
+        let bits = match self.rounding {
+            Some(r) => r.subpixel_bits,
+            None => self.shared.limits.sub_pixel_precision_bits,
+        };
+        pipeline_flags(self.desc.reversed_z, bits)
+    }
+
+    fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
+        let n_ds = plan.depth_stencils.max(1) as usize;
+        let n_tex = plan.textures as usize;
+        if self.targets.as_ref().is_some_and(|t| t.fits(n_ds, n_tex)) {
+            return Ok(());
+        }
+        self.targets = None;
+        let t = Targets::new(&self.shared, &self.pipelines, &self.desc, n_ds, n_tex)?;
+        // New images start in `REST`, where every recording expects them.
+        let cmd = self.submit.cmd;
+        self.submit.begin(cmd, true)?;
+        let rest = sync::access(REST);
+        let barriers: Vec<_> = t
+            .all()
+            .into_iter()
+            .map(|r| {
+                let img = t.image(r);
+                vk::ImageMemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::empty())
+                    .dst_access_mask(rest.access)
+                    .old_layout(vk::ImageLayout::UNDEFINED)
+                    .new_layout(rest.layout)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .image(img.raw)
+                    .subresource_range(range(img.desc.aspect()))
+            })
+            .collect();
+        submit::image_barriers(
+            &self.shared.device,
+            cmd,
+            vk::PipelineStageFlags::TOP_OF_PIPE,
+            rest.stage,
+            &barriers,
+        );
+        self.submit.finish(cmd)?;
+        self.targets = Some(t);
+        self.epoch += 1;
+        Ok(())
+    }
+
+    /// Executes `plan` on the uploaded scene; the images stay on the GPU.
+    pub fn execute(&mut self, plan: &Plan) -> Result<ExecStats, VkError> {
+        let start = Instant::now();
+        let meshes = self
+            .scene
+            .as_ref()
+            .ok_or_else(|| VkError::Plan("execute before upload: no scene".into()))?
+            .ranges
+            .len() as u32;
+        validate(plan, meshes)?;
+        self.ensure_targets(plan)?;
+        let mut clock = Clock::default();
+        let known = match &self.layers {
+            Some((p, n)) if p == plan => Some(n.clone()),
+            _ => None,
+        };
+        let unrolled = match known {
+            Some(layers) => self.run_unrolled(plan, &layers, &mut clock)?,
+            None => None,
+        };
+        let mut stats = match unrolled {
+            Some(s) => s,
+            None => {
+                let s = self.run_stepwise(plan, &mut clock)?;
+                self.layers = Some((plan.clone(), s.counts.loop_iterations.clone()));
+                s
+            }
+        };
+        stats.frame_ms = clock
+            .first_submit
+            .map(|t| t.elapsed().as_secs_f64() * 1e3)
+            .unwrap_or(0.0);
+        stats.record_ms = clock.record_ms;
+        stats.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+        self.last_output = Some(plan.output_ds);
+        Ok(stats)
+    }
+
+    /// How clears are recorded (default: clear commands on CPU devices, load ops
+    /// elsewhere). Both give the same images.
+    pub fn set_clear_mode(&mut self, clears: ClearMode) {
+        self.clears = clears;
+        self.recording = None;
+    }
+
+    /// Drops the kept recording: the next frame records again (what a new plan or
+    /// camera costs; the bench measures it with this).
+    pub fn forget_recording(&mut self) {
+        self.recording = None;
+    }
+
+    /// Executes `plan` and reads its images back.
+    pub fn frame(&mut self, plan: &Plan) -> Result<Frame, VkError> {
+        let stats = self.execute(plan)?;
+        let images = self.read_back()?;
+        Ok(Frame { images, stats })
+    }
+
+    fn recorder(&mut self) -> Recorder<'_> {
+        let (rec, _) = self.recorder_and_submitter();
+        rec
+    }
+
+    /// A recorder on the executor's objects, and the submitter beside it.
+    fn recorder_and_submitter(&mut self) -> (Recorder<'_>, &Submitter) {
+        let flags = self.flags();
+        let snap = self
+            .rounding
+            .map(|r| r.ndc_step(self.desc.width, self.desc.height))
+            .unwrap_or_default();
+        let b = Bindings {
+            device: &self.shared.device,
+            desc: self.desc,
+            pipelines: &mut self.pipelines,
+            targets: self.targets.as_ref().expect("targets exist during execute"),
+            scene: self.scene.as_ref().expect("scene uploaded before execute"),
+            occlusion: self.occlusion.pool,
+            timestamps: (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool),
+            clears: self.clears,
+            flags,
+            snap,
+        };
+        (Recorder::new(b), &self.submit)
+    }
+
+    /// Grows the query pools to what `steps` need per command buffer.
+    fn ensure_queries(&mut self, steps: &[(&Step, Group)]) -> Result<(), VkError> {
+        let occ = steps
+            .iter()
+            .filter(|(s, _)| matches!(s, Step::Draw(d) if d.count_samples))
+            .count() as u32;
+        let ts = steps
+            .iter()
+            .filter(|(s, _)| matches!(s, Step::Pass(_)))
+            .count() as u32
+            + 2;
+        let replaced = self.occlusion.ensure(occ)? | self.timestamps.ensure(ts)?;
+        if replaced {
+            self.epoch += 1;
+        }
+        Ok(())
+    }
+
+    /// The frame with its loops unrolled to `layers`, recorded once and replayed:
+    /// `None` when the GPU's counts show that `layers` no longer fit.
+    fn run_unrolled(
+        &mut self,
+        plan: &Plan,
+        layers: &[u32],
+        clock: &mut Clock,
+    ) -> Result<Option<ExecStats>, VkError> {
+        let cam = self.scene.as_ref().expect("scene uploaded").cam;
+        let fresh = self.recording.as_ref().is_some_and(|r| {
+            r.key.epoch == self.epoch
+                && r.key.cam == cam
+                && r.key.layers == layers
+                && r.key.plan == *plan
+        });
+        if !fresh {
+            self.recording = None;
+            let flat = unroll(plan, layers);
+            self.ensure_queries(&flat)?;
+            let t = Instant::now();
+            let cmd = self.frame_cmd;
+            self.submit.begin(cmd, false)?;
+            let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
+            let mut rec = self.recorder();
+            rec.begin(cmd, occ_cap, ts_cap);
+            for (s, g) in &flat {
+                rec.group = *g;
+                rec.step(s)?;
+            }
+            rec.finish_frame(plan.output_ds);
+            rec.end();
+            let (mut stats, queries, marks) = (rec.stats, rec.queries, rec.marks);
+            stats.counts.submits = 1;
+            self.submit.end(cmd)?;
+            clock.record_ms += t.elapsed().as_secs_f64() * 1e3;
+            self.recording = Some(Recording {
+                key: RecordingKey {
+                    plan: plan.clone(),
+                    cam,
+                    layers: layers.to_vec(),
+                    epoch: self.epoch,
+                },
+                stats,
+                queries,
+                marks,
+            });
+        }
+        let rec = self.recording.as_ref().expect("recorded above");
+        clock.first_submit.get_or_insert_with(Instant::now);
+        self.submit.submit(self.frame_cmd, &[], &[])?;
+        self.submit.wait()?;
+        let device = &self.shared.device;
+        let samples = submit::query_results(device, self.occlusion.pool, rec.queries.len())?;
+        let mut per_head = vec![Vec::new(); layers.len()];
+        for (l, n) in per_head.iter_mut().zip(layers) {
+            *l = vec![0u64; *n as usize];
+        }
+        for (g, s) in rec.queries.iter().zip(&samples) {
+            if let Some((l, k)) = g {
+                per_head[*l][*k as usize] += s;
+            }
+        }
+        let loops = plan.steps.iter().filter_map(|s| match s {
+            Step::Loop(l) => Some(l.max_iterations),
+            _ => None,
+        });
+        for (heads, max) in per_head.iter().zip(loops) {
+            let fits = match heads.split_last() {
+                None => max == 0,
+                Some((&last, before)) => {
+                    before.iter().all(|&s| s > 0) && (last == 0 || heads.len() as u32 >= max)
+                }
+            };
+            if !fits {
+                self.layers = None;
+                return Ok(None);
+            }
+        }
+        let mut stats = rec.stats.clone();
+        stats.counts.loop_iterations = layers.to_vec();
+        stats.counts.samples_counted = samples.iter().sum();
+        let marks = rec.marks.clone();
+        self.add_gpu_times(&mut stats, &marks)?;
+        Ok(Some(stats))
+    }
+
+    /// Adds the GPU times between the timestamps of the last command buffer.
+    fn add_gpu_times(&self, stats: &mut ExecStats, marks: &[String]) -> Result<(), VkError> {
+        if self.shared.timestamp_valid_bits == 0 || marks.len() < 2 {
+            return Ok(());
+        }
+        let ts = submit::query_results(&self.shared.device, self.timestamps.pool, marks.len())?;
+        let period = self.shared.limits.timestamp_period as f64;
+        for i in 0..marks.len() - 1 {
+            let ms = ts[i + 1].saturating_sub(ts[i]) as f64 * period * 1e-6;
+            stats.gpu_ms += ms;
+            if let Some(p) = stats.pass_entry(&marks[i]) {
+                p.gpu_ms += ms;
+            }
+        }
+        Ok(())
+    }
+
+    /// The frame with one submission per straight run of steps and per loop head
+    /// and tail, waiting for each head's sample count on the CPU.
+    fn run_stepwise(&mut self, plan: &Plan, clock: &mut Clock) -> Result<ExecStats, VkError> {
+        let all: Vec<(&Step, Group)> = plan
+            .steps
+            .iter()
+            .flat_map(|s| match s {
+                Step::Loop(l) => l.head.iter().chain(&l.tail).collect::<Vec<_>>(),
+                s => vec![s],
+            })
+            .map(|s| (s, None))
+            .collect();
+        self.ensure_queries(&all)?;
+        let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
+        let cmd = self.submit.cmd;
+        let mut gpu = ExecStats::default();
+        let mut loops = Vec::new();
+        let mut samples_counted = 0;
+        // The recorder borrows the executor's resources; submission and queries
+        // are read through these copies of the handles.
+        let shared = self.shared.clone();
+        let (occ_pool, ts_pool) = (self.occlusion.pool, self.timestamps.pool);
+        let mut run = |rec: &mut Recorder<'_>,
+                       steps: &[Step],
+                       finish: Option<u8>,
+                       sub: &Submitter|
+         -> Result<u64, VkError> {
+            let t = Instant::now();
+            sub.begin(cmd, true)?;
+            rec.begin(cmd, occ_cap, ts_cap);
+            for s in steps {
+                rec.step(s)?;
+            }
+            if let Some(o) = finish {
+                rec.finish_frame(o);
+            }
+            rec.end();
+            sub.end(cmd)?;
+            clock.record_ms += t.elapsed().as_secs_f64() * 1e3;
+            clock.first_submit.get_or_insert_with(Instant::now);
+            sub.submit(cmd, &[], &[])?;
+            sub.wait()?;
+            rec.stats.counts.submits += 1;
+            let samples: u64 =
+                submit::query_results(&shared.device, occ_pool, rec.queries.len())?
+                    .iter()
+                    .sum();
+            if shared.timestamp_valid_bits > 0 && rec.marks.len() >= 2 {
+                let ts = submit::query_results(&shared.device, ts_pool, rec.marks.len())?;
+                let period = shared.limits.timestamp_period as f64;
+                for i in 0..rec.marks.len() - 1 {
+                    let ms = ts[i + 1].saturating_sub(ts[i]) as f64 * period * 1e-6;
+                    gpu.gpu_ms += ms;
+                    if let Some(p) = gpu.pass_entry(&rec.marks[i]) {
+                        p.gpu_ms += ms;
+                    }
+                }
+            }
+            Ok(samples)
+        };
+        let (mut rec, submit) = self.recorder_and_submitter();
+        let mut pending: Vec<Step> = Vec::new();
+        for step in &plan.steps {
+            let Step::Loop(l) = step else {
+                pending.push(step.clone());
+                continue;
+            };
+            if !pending.is_empty() {
+                samples_counted += run(&mut rec, &pending, None, submit)?;
+                pending.clear();
+            }
+            let mut iterations = 0;
+            while iterations < l.max_iterations {
+                iterations += 1;
+                let samples = run(&mut rec, &l.head, None, submit)?;
+                samples_counted += samples;
+                if samples == 0 || iterations >= l.max_iterations {
+                    break;
+                }
+                samples_counted += run(&mut rec, &l.tail, None, submit)?;
+            }
+            loops.push(iterations);
+        }
+        samples_counted += run(&mut rec, &pending, Some(plan.output_ds), submit)?;
+        let mut stats = rec.stats;
+        // Per-pass draws come from the recorder, GPU times from the timestamps.
+        for p in &gpu.per_pass {
+            if let Some(e) = stats.pass_entry(&p.name) {
+                e.gpu_ms += p.gpu_ms;
+            }
+        }
+        stats.gpu_ms = gpu.gpu_ms;
+        stats.counts.loop_iterations = loops;
+        stats.counts.samples_counted = samples_counted;
+        Ok(stats)
+    }
+
+    /// The colour target of the last frame, in `TRANSFER_SRC_OPTIMAL` with its
+    /// writes complete (for presenting without a read-back).
+    #[cfg(feature = "viewer")]
+    pub(crate) fn color_target(&self) -> Option<(vk::Image, [u32; 2])> {
+        self.last_output?;
+        debug_assert_eq!(sync::access(REST).layout, vk::ImageLayout::TRANSFER_SRC_OPTIMAL);
+        let t = self.targets.as_ref()?;
+        Some((t.color.raw, [self.desc.width, self.desc.height]))
+    }
+
+    /// Copies the last frame's colour, primitive ids and output depth to the CPU.
+    pub fn read_back(&mut self) -> Result<Images, VkError> {
+        let output = self
+            .last_output
+            .ok_or_else(|| VkError::Plan("read_back before execute: no frame".into()))?;
+        let (w, h) = (self.desc.width, self.desc.height);
+        let plane = w as u64 * h as u64 * 4;
+        if self.readback.as_ref().map(|b| b.size) != Some(plane * 3) {
+            self.readback = None;
+            self.readback = Some(Buffer::new(
+                &self.shared,
+                "readback",
+                plane * 3,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )?);
+        }
+        let device = &self.shared.device;
+        let cmd = self.submit.cmd;
+        let buffer = self.readback.as_ref().map(|b| b.raw).unwrap_or_default();
+        self.submit.begin(cmd, true)?;
+        let t = self.targets.as_ref().expect("a frame was executed");
+        let copies = [
+            (&t.color, vk::ImageAspectFlags::COLOR, 0),
+            (&t.prim, vk::ImageAspectFlags::COLOR, plane),
+            (&t.ds[output as usize], vk::ImageAspectFlags::DEPTH, plane * 2),
+        ];
+        // Frames leave every image in `REST`, a copy source.
+        let layout = sync::access(REST).layout;
+        for (img, aspect, offset) in copies {
+            let region = vk::BufferImageCopy {
+                buffer_offset: offset,
+                buffer_row_length: 0,
+                buffer_image_height: 0,
+                image_subresource: vk::ImageSubresourceLayers {
+                    aspect_mask: aspect,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                },
+                image_offset: vk::Offset3D::default(),
+                image_extent: vk::Extent3D {
+                    width: w,
+                    height: h,
+                    depth: 1,
+                },
+            };
+            // SAFETY: outside rendering; the image allows transfer src and rests in
+            // `layout`; the region fits the buffer.
+            unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, layout, buffer, &[region]) };
+        }
+        submit::memory_barrier(
+            device,
+            cmd,
+            (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+            (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+        );
+        self.submit.finish(cmd)?;
+        let bytes = self
+            .readback
+            .as_ref()
+            .map(|b| b.mapped())
+            .transpose()?
+            .unwrap_or(&[]);
+        let scene = self.scene.as_ref().expect("scene uploaded");
+        let plane = plane as usize;
+        Ok(decode(
+            Raw {
+                width: w,
+                height: h,
+                color: &bytes[..plane],
+                prim: &bytes[plane..2 * plane],
+                depth: &bytes[2 * plane..3 * plane],
+            },
+            self.desc.depth_format,
+            &scene.camera,
+            gpu_scene::convention(&self.desc),
+            scene.background,
+        ))
+    }
+}
+
+/// `plan`'s steps with each loop `i` unrolled to `layers[i]` head executions (the
+/// last without its tail), head steps tagged with their loop and iteration.
+fn unroll<'p>(plan: &'p Plan, layers: &[u32]) -> Vec<(&'p Step, Group)> {
+    let mut out = Vec::new();
+    let mut li = 0;
+    for s in &plan.steps {
+        let Step::Loop(l) = s else {
+            out.push((s, None));
+            continue;
+        };
+        let n = layers[li];
+        for k in 0..n {
+            out.extend(l.head.iter().map(|h| (h, Some((li, k)))));
+            if k + 1 < n {
+                out.extend(l.tail.iter().map(|t| (t, None)));
+            }
+        }
+        li += 1;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::Loop;
+
+    #[test]
+    fn unroll_runs_every_head_and_all_tails_but_the_last() {
+        let plan = Plan {
+            algo: "t".into(),
+            depth_stencils: 1,
+            textures: 0,
+            stencil_bits: 0,
+            output_ds: 0,
+            steps: vec![
+                Step::Pass("a".into()),
+                Step::Loop(Loop {
+                    head: vec![Step::Pass("h".into())],
+                    tail: vec![Step::Pass("t".into())],
+                    max_iterations: 9,
+                }),
+                Step::Pass("b".into()),
+            ],
+        };
+        let names: Vec<(String, Group)> = unroll(&plan, &[3])
+            .into_iter()
+            .map(|(s, g)| match s {
+                Step::Pass(n) => (n.clone(), g),
+                _ => unreachable!(),
+            })
+            .collect();
+        let h = |k| ("h".to_string(), Some((0, k)));
+        let t = ("t".to_string(), None);
+        assert_eq!(
+            names,
+            vec![
+                ("a".to_string(), None),
+                h(0),
+                t.clone(),
+                h(1),
+                t,
+                h(2),
+                ("b".to_string(), None)
+            ]
+        );
+    }
+}

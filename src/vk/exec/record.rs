@@ -1,0 +1,802 @@
+//! Recording plan steps into a command buffer (seed papers' passes become draws
+//! with dynamic depth, stencil and cull state).
+//!
+//! Synchronization comes from the steps' declared usages (`plan::usage`) through
+//! the pure table in `vk/sync.rs`: the recorder tracks each image's last usage and
+//! emits one pipeline barrier, with exactly the stages, accesses and layout
+//! changes needed, only where a step's usage conflicts with the last one.
+//! Consecutive draws into the same attachments share one dynamic-rendering block
+//! (rasterization order orders them). Clears are deferred to the image's next
+//! use: a clear nobody reads is dropped; one followed by rendering into the image
+//! becomes that block's load op ([`ClearMode::LoadOp`]) or a clear command just
+//! before it ([`ClearMode::Command`]); one read otherwise is a clear command. Draws whose scissor is empty on
+//! screen are not recorded. Meshes of one draw that lie contiguously in the
+//! vertex buffer and need no per-mesh push constants are drawn with one call.
+
+use std::collections::BTreeMap;
+
+use ash::vk;
+
+use super::gpu_scene::GpuScene;
+use super::stats::ExecStats;
+use super::targets::{self, Targets};
+use super::ExecDesc;
+use crate::plan::usage::{self, Resource, Usage};
+use crate::plan::{Clear, Draw, Fragment, Geometry, Scissor, Step};
+use crate::vk::conv;
+use crate::vk::error::VkError;
+use crate::vk::image::range;
+use crate::vk::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants};
+use crate::vk::scissor::{bounds_rect, Rect};
+use crate::vk::submit;
+use crate::vk::sync::{self, REST};
+
+/// Attachments of a rendering block.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct BlockKey {
+    colors: Vec<Resource>,
+    ds: Option<u8>,
+}
+
+/// Tags the occlusion queries of one loop-head execution: `(loop, iteration)`.
+pub(super) type Group = Option<(usize, u32)>;
+
+/// What a recorder records against: the executor's device objects.
+pub(super) struct Bindings<'a> {
+    pub device: &'a ash::Device,
+    pub desc: ExecDesc,
+    pub pipelines: &'a mut Pipelines,
+    pub targets: &'a Targets,
+    pub scene: &'a GpuScene,
+    pub occlusion: vk::QueryPool,
+    /// `None` when the queue has no timestamps.
+    pub timestamps: Option<vk::QueryPool>,
+    pub clears: ClearMode,
+    /// Push-constant flags (reversed Z, subpixel precision).
+    pub flags: u32,
+    /// Emulated vertex snapping step of mesh draws (zero: off).
+    pub snap: [f32; 2],
+}
+
+/// How a plan's clears of attachments are recorded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClearMode {
+    /// As the load op of the next rendering block into the image (tile-based and
+    /// other hardware GPUs clear on load for free).
+    LoadOp,
+    /// As clear commands. Lavapipe clears on load far more slowly than with a
+    /// clear command (README, "Executor"), so CPU devices use this.
+    Command,
+}
+
+/// Records steps into command buffers; its image states persist from one
+/// command buffer to the next of the same frame.
+pub(super) struct Recorder<'a> {
+    b: Bindings<'a>,
+    cmd: vk::CommandBuffer,
+    block: Option<BlockKey>,
+    bound: Option<vk::Pipeline>,
+    state: BTreeMap<Resource, Usage>,
+    pending_clear: BTreeMap<Resource, vk::ClearValue>,
+    /// Group of each occlusion query of the current command buffer.
+    pub queries: Vec<Group>,
+    /// Group of the counted draws recorded next.
+    pub group: Group,
+    /// Pass name at each timestamp of the current command buffer.
+    pub marks: Vec<String>,
+    pass: String,
+    pub stats: ExecStats,
+    /// Screen rectangle of each mesh's bounds (a `BoundsOf` scissor is their
+    /// union, exactly as `bounds_rect` of all the boxes).
+    mesh_rects: Vec<Rect>,
+}
+
+impl<'a> Recorder<'a> {
+    pub fn new(b: Bindings<'a>) -> Recorder<'a> {
+        // Every image rests in `REST` between frames (see `finish_frame`).
+        let state = b.targets.all().into_iter().map(|r| (r, REST)).collect();
+        let (w, h) = (b.desc.width, b.desc.height);
+        let (cam, near) = (&b.scene.cam, b.scene.camera.near);
+        let mesh_rects = b
+            .scene
+            .bounds
+            .iter()
+            .map(|bx| bounds_rect(cam.view, cam.proj, near, std::slice::from_ref(bx), w, h))
+            .collect();
+        Recorder {
+            b,
+            mesh_rects,
+            cmd: vk::CommandBuffer::null(),
+            block: None,
+            bound: None,
+            state,
+            pending_clear: BTreeMap::new(),
+            queries: Vec::new(),
+            group: None,
+            marks: Vec::new(),
+            pass: String::new(),
+            stats: ExecStats::default(),
+        }
+    }
+
+    pub fn begin(&mut self, cmd: vk::CommandBuffer, occlusion_cap: u32, timestamp_cap: u32) {
+        self.cmd = cmd;
+        self.queries.clear();
+        self.marks.clear();
+        self.bound = None;
+        // SAFETY: recording; outside rendering; ranges within the pools.
+        unsafe { self.b.device.cmd_reset_query_pool(cmd, self.b.occlusion, 0, occlusion_cap) };
+        if let Some(ts) = self.b.timestamps {
+            // SAFETY: as above.
+            unsafe { self.b.device.cmd_reset_query_pool(cmd, ts, 0, timestamp_cap) };
+        }
+        self.timestamp(self.pass.clone());
+    }
+
+    /// Ends the current command buffer's work (it stays to be ended by the caller).
+    pub fn end(&mut self) {
+        self.end_block();
+        self.timestamp(String::new());
+    }
+
+    /// Leaves the images the way the next frame expects them: read-back targets
+    /// with their pending clears done, every image in `REST`.
+    pub fn finish_frame(&mut self, output_ds: u8) {
+        self.end_block();
+        for r in [Resource::Color, Resource::Prim, Resource::DepthStencil(output_ds)] {
+            self.flush_clear(r);
+        }
+        // Clears of other images are read by nobody.
+        self.pending_clear.clear();
+        let rest: Vec<_> = self.b.targets.all().into_iter().map(|r| (r, REST)).collect();
+        self.transitions(&rest, false);
+    }
+
+    fn timestamp(&mut self, pass: String) {
+        let Some(ts) = self.b.timestamps else { return };
+        let idx = self.marks.len() as u32;
+        // SAFETY: recording, outside rendering; the query was reset in this buffer.
+        unsafe {
+            self.b.device
+                .cmd_write_timestamp(self.cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, ts, idx)
+        };
+        self.marks.push(pass);
+    }
+
+    fn end_block(&mut self) {
+        if self.block.take().is_some() {
+            // SAFETY: a rendering block is open in this command buffer.
+            unsafe { self.b.device.cmd_end_rendering(self.cmd) };
+        }
+    }
+
+    /// Barriers that bring each `(resource, usage)` from its last usage; ends the
+    /// open block when one is needed. `same_block`: the step records into the open
+    /// block. `load_clear`: resources whose pending clear becomes a load op (their
+    /// contents are discarded). Returns whether a barrier was recorded.
+    fn transitions(&mut self, uses: &[(Resource, Usage)], same_block: bool) -> bool {
+        self.transitions_with(uses, same_block, &[])
+    }
+
+    fn transitions_with(
+        &mut self,
+        uses: &[(Resource, Usage)],
+        same_block: bool,
+        load_clear: &[Resource],
+    ) -> bool {
+        let mut barriers = Vec::new();
+        let (mut src_stage, mut dst_stage) = (
+            vk::PipelineStageFlags::empty(),
+            vk::PipelineStageFlags::empty(),
+        );
+        for &(r, u) in uses {
+            let prev = self.state[&r];
+            if !sync::needs_barrier(prev, u, same_block) {
+                continue;
+            }
+            let discard = u.discards() || load_clear.contains(&r);
+            let (src, dst) = sync::transition(prev, u, discard);
+            src_stage |= src.stage;
+            dst_stage |= dst.stage;
+            let img = self.b.targets.image(r);
+            barriers.push(
+                vk::ImageMemoryBarrier::default()
+                    .src_access_mask(src.access)
+                    .dst_access_mask(dst.access)
+                    .old_layout(src.layout)
+                    .new_layout(dst.layout)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .image(img.raw)
+                    .subresource_range(range(img.desc.aspect())),
+            );
+        }
+        for &(r, u) in uses {
+            self.state.insert(r, u);
+        }
+        if barriers.is_empty() {
+            return false;
+        }
+        self.end_block();
+        submit::image_barriers(self.b.device, self.cmd, src_stage, dst_stage, &barriers);
+        self.stats.counts.barriers += 1;
+        true
+    }
+
+    /// Records `r`'s pending clear as a clear command (its next use is not as an
+    /// attachment of a new block).
+    fn flush_clear(&mut self, r: Resource) {
+        let Some(value) = self.pending_clear.remove(&r) else {
+            return;
+        };
+        self.transitions(&[(r, Usage::Clear)], false);
+        let img = self.b.targets.image(r);
+        let layout = sync::access(Usage::Clear).layout;
+        if img.desc.is_depth_stencil() {
+            // SAFETY: outside rendering; the image allows transfer dst and is in `layout`;
+            // a depth-stencil clear value was stored for it.
+            unsafe {
+                self.b.device.cmd_clear_depth_stencil_image(
+                    self.cmd,
+                    img.raw,
+                    layout,
+                    &value.depth_stencil,
+                    &[range(img.desc.aspect())],
+                )
+            };
+        } else {
+            // SAFETY: as above, with a colour clear value.
+            unsafe {
+                self.b.device.cmd_clear_color_image(
+                    self.cmd,
+                    img.raw,
+                    layout,
+                    &value.color,
+                    &[range(vk::ImageAspectFlags::COLOR)],
+                )
+            };
+        }
+    }
+
+    fn clear_values(&self, clear: &Clear) -> Vec<(Resource, vk::ClearValue)> {
+        let reversed = self.b.desc.reversed_z;
+        match *clear {
+            Clear::DepthStencil { ds, depth, stencil } => vec![(
+                Resource::DepthStencil(ds),
+                vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue {
+                        depth: conv::depth_value(depth, reversed),
+                        stencil: stencil as u32,
+                    },
+                },
+            )],
+            Clear::Texture { tex, depth } => vec![(
+                Resource::Texture(tex),
+                vk::ClearValue {
+                    color: vk::ClearColorValue {
+                        float32: [conv::depth_value(depth, reversed), 0.0, 0.0, 0.0],
+                    },
+                },
+            )],
+            Clear::Color => {
+                let bg = self.b.scene.background.map(|c| c as f32 / 255.0);
+                vec![
+                    (
+                        Resource::Color,
+                        vk::ClearValue {
+                            color: vk::ClearColorValue {
+                                float32: [bg[0], bg[1], bg[2], 1.0],
+                            },
+                        },
+                    ),
+                    (
+                        Resource::Prim,
+                        vk::ClearValue {
+                            color: vk::ClearColorValue { uint32: [0; 4] },
+                        },
+                    ),
+                ]
+            }
+        }
+    }
+
+    /// Flushes the pending clears of resources used other than as attachments, and
+    /// drops those a whole-image write replaces.
+    fn settle_clears(&mut self, uses: &[(Resource, Usage)]) {
+        for &(r, u) in uses {
+            if !self.pending_clear.contains_key(&r) {
+                continue;
+            }
+            match u {
+                Usage::ColorTarget | Usage::DepthStencilTarget => {
+                    if self.b.clears == ClearMode::Command {
+                        self.flush_clear(r);
+                    }
+                }
+                Usage::CopyDst | Usage::Clear => {
+                    self.pending_clear.remove(&r);
+                }
+                Usage::Sampled | Usage::CopySrc => self.flush_clear(r),
+            }
+        }
+    }
+
+    pub fn step(&mut self, step: &Step) -> Result<(), VkError> {
+        match step {
+            Step::Pass(name) => {
+                self.end_block();
+                self.pass = name.clone();
+                self.stats.pass_entry(name);
+                self.timestamp(name.clone());
+            }
+            Step::Clear(clear) => {
+                for (r, v) in self.clear_values(clear) {
+                    let attached = self.block.as_ref().is_some_and(|b| {
+                        b.colors.contains(&r) || b.ds.map(Resource::DepthStencil) == Some(r)
+                    });
+                    if attached {
+                        self.end_block();
+                    }
+                    self.pending_clear.insert(r, v);
+                }
+            }
+            Step::CopyTexture { src, dst } => {
+                if src == dst {
+                    return Ok(());
+                }
+                let uses = step.usage();
+                self.settle_clears(&uses);
+                self.transitions(&uses, false);
+                self.end_block();
+                let (s, d) = (
+                    self.b.targets.image(Resource::Texture(*src)),
+                    self.b.targets.image(Resource::Texture(*dst)),
+                );
+                let layers = vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                };
+                let region = vk::ImageCopy {
+                    src_subresource: layers,
+                    src_offset: vk::Offset3D::default(),
+                    dst_subresource: layers,
+                    dst_offset: vk::Offset3D::default(),
+                    extent: vk::Extent3D {
+                        width: self.b.desc.width,
+                        height: self.b.desc.height,
+                        depth: 1,
+                    },
+                };
+                // SAFETY: outside rendering; both images allow transfer, same format,
+                // in the copy layouts after the barrier above.
+                unsafe {
+                    self.b.device.cmd_copy_image(
+                        self.cmd,
+                        s.raw,
+                        sync::access(Usage::CopySrc).layout,
+                        d.raw,
+                        sync::access(Usage::CopyDst).layout,
+                        &[region],
+                    )
+                };
+            }
+            Step::CopyDepthToTexture { ds, dst } => {
+                let key = BlockKey {
+                    colors: vec![Resource::Texture(*dst)],
+                    ds: None,
+                };
+                let set = self.b.targets.sampling_set(Resource::DepthStencil(*ds));
+                self.open(&key, &step.usage());
+                self.fullscreen_internal(&key, FragmentKind::CopyDepth, set)?;
+            }
+            Step::Draw(draw) => self.draw(draw, step)?,
+            Step::Loop(_) => panic!("loops are unrolled by the executor (plan::validate forbids nesting)"),
+        }
+        Ok(())
+    }
+
+    /// Makes `key` the open block with every usage in `uses` satisfied.
+    fn open(&mut self, key: &BlockKey, uses: &[(Resource, Usage)]) {
+        self.settle_clears(uses);
+        let load_clear: Vec<Resource> = uses
+            .iter()
+            .map(|u| u.0)
+            .filter(|r| self.pending_clear.contains_key(r))
+            .collect();
+        let same = self.block.as_ref() == Some(key) && load_clear.is_empty();
+        let barrier = self.transitions_with(uses, same, &load_clear);
+        if same && !barrier {
+            return;
+        }
+        self.end_block();
+        self.begin_block(key);
+    }
+
+    fn attachment(&mut self, r: Resource, layout: vk::ImageLayout) -> vk::RenderingAttachmentInfo<'static> {
+        let img = self.b.targets.image(r);
+        let view = img.view;
+        let a = vk::RenderingAttachmentInfo::default()
+            .image_view(view)
+            .image_layout(layout)
+            .store_op(vk::AttachmentStoreOp::STORE);
+        match self.pending_clear.remove(&r) {
+            Some(v) => a.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(v),
+            None => a.load_op(vk::AttachmentLoadOp::LOAD),
+        }
+    }
+
+    fn begin_block(&mut self, key: &BlockKey) {
+        let color_layout = sync::access(Usage::ColorTarget).layout;
+        let ds_layout = sync::access(Usage::DepthStencilTarget).layout;
+        let colors: Vec<_> = key
+            .colors
+            .iter()
+            .map(|r| self.attachment(*r, color_layout))
+            .collect();
+        let ds_att = key
+            .ds
+            .map(|d| self.attachment(Resource::DepthStencil(d), ds_layout));
+        let mut ri = vk::RenderingInfo::default()
+            .render_area(vk::Rect2D {
+                offset: vk::Offset2D { x: 0, y: 0 },
+                extent: vk::Extent2D {
+                    width: self.b.desc.width,
+                    height: self.b.desc.height,
+                },
+            })
+            .layer_count(1)
+            .color_attachments(&colors);
+        if let Some(a) = ds_att.as_ref() {
+            ri = ri.depth_attachment(a).stencil_attachment(a);
+        }
+        // SAFETY: recording outside rendering; all views are live and, after the
+        // recorder's barriers, in the attachment layouts given.
+        unsafe { self.b.device.cmd_begin_rendering(self.cmd, &ri) };
+        self.block = Some(key.clone());
+        self.bound = None;
+    }
+
+    fn pipeline_for(&mut self, key: &BlockKey, kind: FragmentKind) -> Result<vk::Pipeline, VkError> {
+        let desc = PipelineDesc {
+            fragment: kind,
+            color_formats: key
+                .colors
+                .iter()
+                .map(|r| targets::format(*r, &self.b.desc))
+                .collect(),
+            depth_stencil_format: key.ds.map(|_| self.b.desc.depth_format.vk()),
+        };
+        self.b.pipelines.get(&desc)
+    }
+
+    fn bind(&mut self, pipeline: vk::Pipeline, set: Option<vk::DescriptorSet>) {
+        let device = self.b.device;
+        if self.bound != Some(pipeline) {
+            // SAFETY: recording inside a block whose formats match the pipeline.
+            unsafe { device.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline) };
+            self.bound = Some(pipeline);
+            // SAFETY: the vertex buffer is live while the recording may be replayed.
+            unsafe { device.cmd_bind_vertex_buffers(self.cmd, 0, &[self.b.scene.vertices.raw], &[0]) };
+        }
+        if let Some(set) = set {
+            // SAFETY: the set matches the pipeline layout's set 0.
+            unsafe {
+                device.cmd_bind_descriptor_sets(
+                    self.cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.b.pipelines.layout,
+                    0,
+                    &[set],
+                    &[],
+                )
+            };
+        }
+    }
+
+    /// Sets every dynamic state of the pipelines (all of it, every draw).
+    fn set_state(&self, draw: Option<&Draw>, scissor: Rect) {
+        let d = self.b.device;
+        let cmd = self.cmd;
+        let reversed = self.b.desc.reversed_z;
+        let vp = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: self.b.desc.width as f32,
+            height: self.b.desc.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        let sc = vk::Rect2D {
+            offset: vk::Offset2D {
+                x: scissor.x0 as i32,
+                y: scissor.y0 as i32,
+            },
+            extent: vk::Extent2D {
+                width: scissor.width(),
+                height: scissor.height(),
+            },
+        };
+        let cull = draw
+            .map(|d| conv::cull_mode(d.cull))
+            .unwrap_or(vk::CullModeFlags::NONE);
+        let (depth_test, depth_write, depth_cmp) = match draw {
+            Some(dr) => (
+                true,
+                dr.depth.write,
+                conv::compare_op(dr.depth.compare, reversed),
+            ),
+            None => (false, false, vk::CompareOp::ALWAYS),
+        };
+        let stencil = draw.and_then(|d| d.stencil);
+        let keep = conv::StencilFaceOps {
+            fail: vk::StencilOp::KEEP,
+            pass: vk::StencilOp::KEEP,
+            depth_fail: vk::StencilOp::KEEP,
+            compare: vk::CompareOp::ALWAYS,
+        };
+        let (front, back, cmask, wmask, reference) = match &stencil {
+            Some(s) => (
+                conv::stencil_face(&s.front),
+                conv::stencil_face(&s.back),
+                s.compare_mask as u32,
+                s.write_mask as u32,
+                s.reference as u32,
+            ),
+            None => (keep, keep, 0, 0, 0),
+        };
+        // SAFETY (all calls below): recording inside a rendering block with a bound
+        // pipeline that declares these states dynamic; Vulkan 1.3 core commands.
+        unsafe { d.cmd_set_viewport(cmd, 0, &[vp]) };
+        // SAFETY: see above.
+        unsafe { d.cmd_set_scissor(cmd, 0, &[sc]) };
+        // SAFETY: see above.
+        unsafe { d.cmd_set_cull_mode(cmd, cull) };
+        // SAFETY: see above.
+        unsafe { d.cmd_set_front_face(cmd, conv::FRONT_FACE) };
+        // SAFETY: see above.
+        unsafe { d.cmd_set_depth_test_enable(cmd, depth_test) };
+        // SAFETY: see above.
+        unsafe { d.cmd_set_depth_write_enable(cmd, depth_write) };
+        // SAFETY: see above.
+        unsafe { d.cmd_set_depth_compare_op(cmd, depth_cmp) };
+        // SAFETY: see above.
+        unsafe { d.cmd_set_stencil_test_enable(cmd, stencil.is_some()) };
+        for (face, ops) in [
+            (vk::StencilFaceFlags::FRONT, front),
+            (vk::StencilFaceFlags::BACK, back),
+        ] {
+            // SAFETY: see above.
+            unsafe {
+                d.cmd_set_stencil_op(cmd, face, ops.fail, ops.pass, ops.depth_fail, ops.compare)
+            };
+        }
+        let both = vk::StencilFaceFlags::FRONT_AND_BACK;
+        // SAFETY: see above.
+        unsafe { d.cmd_set_stencil_compare_mask(cmd, both, cmask) };
+        // SAFETY: see above.
+        unsafe { d.cmd_set_stencil_write_mask(cmd, both, wmask) };
+        // SAFETY: see above.
+        unsafe { d.cmd_set_stencil_reference(cmd, both, reference) };
+    }
+
+    fn push(&self, pc: &PushConstants) {
+        // SAFETY: recording; the range matches the layout's single push range.
+        unsafe {
+            self.b.device.cmd_push_constants(
+                self.cmd,
+                self.b.pipelines.layout,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                0,
+                &pc.bytes(),
+            )
+        };
+    }
+
+    fn flags(&self) -> u32 {
+        self.b.flags
+    }
+
+    fn fullscreen_matrix(depth: f32) -> [f32; 16] {
+        let mut m = glam::Mat4::IDENTITY.to_cols_array();
+        m[10] = 0.0;
+        m[14] = depth;
+        m
+    }
+
+    /// A full-screen draw that is not a plan `Draw` (depth copies).
+    fn fullscreen_internal(
+        &mut self,
+        key: &BlockKey,
+        kind: FragmentKind,
+        set: vk::DescriptorSet,
+    ) -> Result<(), VkError> {
+        let pipeline = self.pipeline_for(key, kind)?;
+        self.bind(pipeline, Some(set));
+        let full = Rect::full(self.b.desc.width, self.b.desc.height);
+        self.set_state(None, full);
+        let pc = PushConstants {
+            mvp: Self::fullscreen_matrix(0.0),
+            flags: self.flags(),
+            ..Default::default()
+        };
+        self.push(&pc);
+        // SAFETY: inside a block with a bound pipeline and vertex buffer.
+        unsafe { self.b.device.cmd_draw(self.cmd, 6, 1, self.b.scene.quad_first, 0) };
+        self.stats.counts.fullscreen_passes += 1;
+        self.stats.counts.fullscreen_pixels += full.area();
+        Ok(())
+    }
+
+    fn scissor(&self, s: &Scissor) -> Rect {
+        let (w, h) = (self.b.desc.width, self.b.desc.height);
+        match s {
+            Scissor::Full => Rect::full(w, h),
+            Scissor::BoundsOf(ms) => ms
+                .iter()
+                .fold(Rect::EMPTY, |r, m| r.union(&self.mesh_rects[*m as usize])),
+        }
+    }
+
+    fn draw(&mut self, draw: &Draw, step: &Step) -> Result<(), VkError> {
+        let scissor = self.scissor(&draw.scissor);
+        if scissor.is_empty() {
+            // Nothing on screen: no pixel could change and no sample could pass.
+            self.stats.counts.skipped_steps += 1;
+            return Ok(());
+        }
+        let kind = fragment_kind(&draw.fragment);
+        let set = usage::sampled_texture(&draw.fragment)
+            .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));
+        let key = BlockKey {
+            colors: usage::color_targets(&draw.fragment),
+            ds: Some(draw.ds),
+        };
+        let pipeline = self.pipeline_for(&key, kind)?;
+        self.open(&key, &step.usage());
+        self.bind(pipeline, set);
+        self.set_state(Some(draw), scissor);
+        let flags = self.flags();
+        let scene = self.b.scene;
+        let rgb = |c: [u8; 3]| {
+            [
+                c[0] as f32 / 255.0,
+                c[1] as f32 / 255.0,
+                c[2] as f32 / 255.0,
+                1.0,
+            ]
+        };
+        let device = self.b.device;
+        let query = if draw.count_samples {
+            let q = self.queries.len() as u32;
+            self.queries.push(self.group);
+            // SAFETY: inside a block; the query was reset in this buffer and is not active.
+            unsafe {
+                device.cmd_begin_query(self.cmd, self.b.occlusion, q, vk::QueryControlFlags::empty())
+            };
+            Some(q)
+        } else {
+            None
+        };
+        self.stats.counts.draws += 1;
+        let pass = self.pass.clone();
+        if let Some(p) = self.stats.pass_entry(&pass) {
+            p.draws += 1;
+        }
+        match &draw.geometry {
+            Geometry::FullScreen { depth } => {
+                let color = match draw.fragment {
+                    Fragment::Paint { rgb: c } => rgb(c),
+                    _ => rgb(scene.background),
+                };
+                let pc = PushConstants {
+                    mvp: Self::fullscreen_matrix(conv::depth_value(*depth, self.b.desc.reversed_z)),
+                    view: scene.cam.view_vec,
+                    color,
+                    prim: 0,
+                    flags,
+                    // Full-screen rectangles stay unsnapped.
+                    snap: [0.0; 2],
+                };
+                self.push(&pc);
+                // SAFETY: inside a block with a bound pipeline and vertex buffer.
+                unsafe { device.cmd_draw(self.cmd, 6, 1, scene.quad_first, 0) };
+                self.stats.counts.fullscreen_passes += 1;
+                self.stats.counts.fullscreen_pixels += scissor.area();
+            }
+            Geometry::Mesh(_) | Geometry::Meshes(_) => {
+                let ids: &[u32] = match &draw.geometry {
+                    Geometry::Mesh(m) => std::slice::from_ref(m),
+                    Geometry::Meshes(ms) => ms,
+                    Geometry::FullScreen { .. } => &[],
+                };
+                self.stats.counts.mesh_draws += 1;
+                let per_mesh = per_mesh_constants(&draw.fragment);
+                let mut i = 0;
+                while i < ids.len() {
+                    let m = ids[i];
+                    let (first, mut count) = scene.ranges[m as usize];
+                    // Meshes that follow in the vertex buffer join this call when
+                    // nothing per mesh reaches the shaders.
+                    let mut j = i + 1;
+                    while !per_mesh && j < ids.len() && ids[j] == ids[j - 1] + 1 {
+                        count += scene.ranges[ids[j] as usize].1;
+                        j += 1;
+                    }
+                    let color = match draw.fragment {
+                        Fragment::Paint { rgb: c } => rgb(c),
+                        Fragment::Background => rgb(scene.background),
+                        Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
+                        // The tolerance travels in the colour's alpha.
+                        Fragment::ShadeNearDepth { eps, .. } | Fragment::NearerThan { eps, .. } => {
+                            let [r, g, b, _] = rgb(scene.colors[m as usize]);
+                            [r, g, b, eps]
+                        }
+                        _ => rgb(scene.colors[m as usize]),
+                    };
+                    let pc = PushConstants {
+                        mvp: scene.cam.mvp,
+                        view: scene.cam.view_vec,
+                        color,
+                        prim: m + 1,
+                        flags,
+                        snap: self.b.snap,
+                    };
+                    self.push(&pc);
+                    if count > 0 {
+                        // SAFETY: inside a block; the range lies in the vertex buffer.
+                        unsafe { device.cmd_draw(self.cmd, count, 1, first, 0) };
+                        self.stats.counts.draw_calls += 1;
+                    }
+                    self.stats.counts.triangles += count as u64 / 3;
+                    i = j;
+                }
+            }
+        }
+        if let Some(q) = query {
+            // SAFETY: the query was begun in this block.
+            unsafe { device.cmd_end_query(self.cmd, self.b.occlusion, q) };
+        }
+        Ok(())
+    }
+}
+
+/// Whether a fragment program reads a mesh's own colour or primitive id (then
+/// each mesh needs its push constants and its own draw call).
+fn per_mesh_constants(f: &Fragment) -> bool {
+    match f {
+        Fragment::None
+        | Fragment::Peel { shade: false, .. }
+        | Fragment::WriteDepth { .. }
+        | Fragment::PeelTolerant { .. }
+        | Fragment::NearerThan { .. }
+        | Fragment::DepthFromTexture { .. }
+        | Fragment::CopyTexel { .. } => false,
+        Fragment::Shade
+        | Fragment::Paint { .. }
+        | Fragment::Background
+        | Fragment::Peel { shade: true, .. }
+        | Fragment::ShadeNearDepth { .. }
+        | Fragment::ShadeAtDepth { .. } => true,
+    }
+}
+
+fn fragment_kind(f: &Fragment) -> FragmentKind {
+    match f {
+        Fragment::None => FragmentKind::None,
+        Fragment::Shade => FragmentKind::Shade,
+        Fragment::Paint { .. } => FragmentKind::Paint,
+        Fragment::Background => FragmentKind::Background,
+        Fragment::Peel { shade: true, .. } => FragmentKind::PeelShade,
+        Fragment::Peel { .. } => FragmentKind::Peel,
+        Fragment::WriteDepth { .. } => FragmentKind::WriteDepth,
+        Fragment::ShadeAtDepth { .. } => FragmentKind::ShadeAtDepth,
+        Fragment::DepthFromTexture { .. } => FragmentKind::DepthFromTexture,
+        Fragment::PeelTolerant { .. } => FragmentKind::PeelTolerant,
+        // The texel copy is the depth-copy shader reading a depth texture.
+        Fragment::CopyTexel { .. } => FragmentKind::CopyDepth,
+        Fragment::NearerThan { .. } => FragmentKind::NearerThan,
+        Fragment::ShadeNearDepth { .. } => FragmentKind::ShadeNearDepth,
+    }
+}

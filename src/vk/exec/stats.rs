@@ -1,0 +1,81 @@
+//! The executor's statistics: typed until `output.rs` writes them as JSON.
+//! Timings vary from run to run; counts are deterministic (two runs of one plan
+//! on one scene and camera give equal counts).
+
+use serde::Serialize;
+
+/// GPU time and draw count of all `Step::Pass` groups of one name.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PassStats {
+    pub name: String,
+    pub gpu_ms: f64,
+    pub draws: u64,
+}
+
+/// Deterministic counts of one executed frame.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Counts {
+    /// `Step::Draw`s executed (loop bodies once per iteration), skipped ones not
+    /// counted.
+    pub draws: u64,
+    /// Draws of mesh geometry (`Mesh` or `Meshes`).
+    pub mesh_draws: u64,
+    /// `vkCmdDraw` calls of mesh geometry after merging meshes that lie
+    /// contiguously in the vertex buffer and share all state.
+    pub draw_calls: u64,
+    /// Full-screen draws, including internal depth copies.
+    pub fullscreen_passes: u64,
+    /// Mesh triangles submitted for rasterization (full-screen quads not counted).
+    pub triangles: u64,
+    /// Sum of the scissor areas of full-screen draws.
+    pub fullscreen_pixels: u64,
+    /// Plan steps not recorded because their scissor is empty on screen.
+    pub skipped_steps: u64,
+    /// Pipeline barriers recorded (each may carry several image barriers). A
+    /// plan's first frame, run loop by loop, records more: each of its
+    /// submissions starts a new rendering block.
+    pub barriers: u64,
+    /// Queue submissions of the frame.
+    pub submits: u64,
+    /// Head executions of each loop, in execution order.
+    pub loop_iterations: Vec<u32>,
+    /// Samples passed by all `count_samples` draws.
+    pub samples_counted: u64,
+}
+
+/// Timings and counts of one `Executor::execute`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ExecStats {
+    /// GPU time from timestamps around the frame's work.
+    pub gpu_ms: f64,
+    /// Wall time of `execute`: validation, recording, submission and waiting.
+    pub cpu_ms: f64,
+    /// Wall time from the first submission of the frame until the GPU is idle,
+    /// images left on the GPU.
+    pub frame_ms: f64,
+    /// CPU time spent recording command buffers (0 when a recording is replayed).
+    pub record_ms: f64,
+    pub per_pass: Vec<PassStats>,
+    #[serde(flatten)]
+    pub counts: Counts,
+}
+
+impl ExecStats {
+    /// The per-pass entry of `name`; none for work before the first `Step::Pass`.
+    pub(super) fn pass_entry(&mut self, name: &str) -> Option<&mut PassStats> {
+        if name.is_empty() {
+            return None;
+        }
+        let i = match self.per_pass.iter().position(|p| p.name == name) {
+            Some(i) => i,
+            None => {
+                self.per_pass.push(PassStats {
+                    name: name.to_string(),
+                    ..Default::default()
+                });
+                self.per_pass.len() - 1
+            }
+        };
+        Some(&mut self.per_pass[i])
+    }
+}

@@ -1,0 +1,193 @@
+//! The plan's images (colour, primitive id, depth-stencils, depth textures) and
+//! the descriptor sets that sample them. Sampled images are read in
+//! `SHADER_READ_ONLY_OPTIMAL`, which the recorder's barriers guarantee.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::ExecDesc;
+use crate::plan::usage::Resource;
+use crate::vk::error::{Check, VkError};
+use crate::vk::image::{Image, ImageDesc};
+use crate::vk::instance::Shared;
+use crate::vk::pipeline::Pipelines;
+use crate::vk::sync;
+
+pub(super) struct Targets {
+    shared: Arc<Shared>,
+    pool: vk::DescriptorPool,
+    pub tex_sets: Vec<vk::DescriptorSet>,
+    pub ds_sets: Vec<vk::DescriptorSet>,
+    pub color: Image,
+    pub prim: Image,
+    pub ds: Vec<Image>,
+    pub tex: Vec<Image>,
+}
+
+impl Drop for Targets {
+    fn drop(&mut self) {
+        // SAFETY: the executor waited for the GPU; destroying the pool frees its sets.
+        unsafe { self.shared.device.destroy_descriptor_pool(self.pool, None) };
+    }
+}
+
+pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
+    match r {
+        Resource::Color => vk::Format::R8G8B8A8_UNORM,
+        Resource::Prim => vk::Format::R32_UINT,
+        Resource::Texture(_) => vk::Format::R32_SFLOAT,
+        Resource::DepthStencil(_) => desc.depth_format.vk(),
+    }
+}
+
+impl Targets {
+    /// Fits `n_ds` depth-stencil images and `n_tex` textures of `desc`'s size.
+    pub fn fits(&self, n_ds: usize, n_tex: usize) -> bool {
+        self.ds.len() >= n_ds && self.tex.len() >= n_tex
+    }
+
+    pub fn new(
+        shared: &Arc<Shared>,
+        pipelines: &Pipelines,
+        desc: &ExecDesc,
+        n_ds: usize,
+        n_tex: usize,
+    ) -> Result<Targets, VkError> {
+        let (w, h) = (desc.width, desc.height);
+        let sh = shared;
+        let color_usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
+            | vk::ImageUsageFlags::TRANSFER_SRC
+            | vk::ImageUsageFlags::TRANSFER_DST;
+        let color = Image::new(
+            sh,
+            "color",
+            ImageDesc::new_2d(format(Resource::Color, desc), [w, h]).usage(color_usage),
+        )?;
+        let prim = Image::new(
+            sh,
+            "prim",
+            ImageDesc::new_2d(format(Resource::Prim, desc), [w, h]).usage(color_usage),
+        )?;
+        let mut ds = Vec::new();
+        for i in 0..n_ds {
+            ds.push(Image::new(
+                sh,
+                &format!("ds{i}"),
+                ImageDesc::new_2d(desc.depth_format.vk(), [w, h]).usage(
+                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                        | vk::ImageUsageFlags::SAMPLED
+                        | vk::ImageUsageFlags::TRANSFER_SRC
+                        | vk::ImageUsageFlags::TRANSFER_DST,
+                ),
+            )?);
+        }
+        let mut tex = Vec::new();
+        for i in 0..n_tex {
+            tex.push(Image::new(
+                sh,
+                &format!("tex{i}"),
+                ImageDesc::new_2d(vk::Format::R32_SFLOAT, [w, h])
+                    .usage(color_usage | vk::ImageUsageFlags::SAMPLED),
+            )?);
+        }
+        let n_sets = (n_ds + n_tex) as u32;
+        let sizes = [
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: n_sets.max(1),
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLER,
+                descriptor_count: n_sets.max(1),
+            },
+        ];
+        let pci = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(n_sets.max(1))
+            .pool_sizes(&sizes);
+        // SAFETY: valid create info.
+        let pool = unsafe { sh.device.create_descriptor_pool(&pci, None) }
+            .check("vkCreateDescriptorPool")?;
+        let mut t = Targets {
+            shared: sh.clone(),
+            pool,
+            tex_sets: Vec::new(),
+            ds_sets: Vec::new(),
+            color,
+            prim,
+            ds,
+            tex,
+        };
+        let layouts = vec![pipelines.set_layout; n_sets as usize];
+        let ai = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(pool)
+            .set_layouts(&layouts);
+        // SAFETY: the pool has room for exactly these sets.
+        let sets =
+            unsafe { sh.device.allocate_descriptor_sets(&ai) }.check("vkAllocateDescriptorSets")?;
+        let views: Vec<vk::ImageView> = t
+            .ds
+            .iter()
+            .map(|i| i.depth_view)
+            .chain(t.tex.iter().map(|i| i.view))
+            .collect();
+        let sampled = sync::access(crate::plan::usage::Usage::Sampled).layout;
+        for (set, view) in sets.iter().zip(&views) {
+            let image_info = [vk::DescriptorImageInfo {
+                sampler: vk::Sampler::null(),
+                image_view: *view,
+                image_layout: sampled,
+            }];
+            let sampler_info = [vk::DescriptorImageInfo {
+                sampler: pipelines.sampler,
+                image_view: vk::ImageView::null(),
+                image_layout: vk::ImageLayout::UNDEFINED,
+            }];
+            let writes = [
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(0)
+                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                    .image_info(&image_info),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(1)
+                    .descriptor_type(vk::DescriptorType::SAMPLER)
+                    .image_info(&sampler_info),
+            ];
+            // SAFETY: sets, views and sampler are live; no set is in use.
+            unsafe { sh.device.update_descriptor_sets(&writes, &[]) };
+        }
+        t.ds_sets = sets[..n_ds].to_vec();
+        t.tex_sets = sets[n_ds..].to_vec();
+        Ok(t)
+    }
+
+    pub fn image(&self, r: Resource) -> &Image {
+        match r {
+            Resource::Color => &self.color,
+            Resource::Prim => &self.prim,
+            Resource::DepthStencil(d) => &self.ds[d as usize],
+            Resource::Texture(t) => &self.tex[t as usize],
+        }
+    }
+
+    /// Every image, in a fixed order.
+    pub fn all(&self) -> Vec<Resource> {
+        let mut v = vec![Resource::Color, Resource::Prim];
+        v.extend((0..self.ds.len() as u8).map(Resource::DepthStencil));
+        v.extend((0..self.tex.len() as u8).map(Resource::Texture));
+        v
+    }
+
+    /// The descriptor set that samples `r` (a texture, or a depth-stencil's depth).
+    pub fn sampling_set(&self, r: Resource) -> vk::DescriptorSet {
+        match r {
+            Resource::DepthStencil(d) => self.ds_sets[d as usize],
+            Resource::Texture(t) => self.tex_sets[t as usize],
+            Resource::Color | Resource::Prim => {
+                panic!("colour targets are never sampled (plan::usage says so)")
+            }
+        }
+    }
+}
