@@ -14,6 +14,8 @@ use crate::scene::camera::DepthConvention;
 use crate::scene::Scene;
 use crate::vk;
 
+pub mod layers;
+
 /// Depth-buffer set-ups of the speed-against-error studies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum DepthSetup {
@@ -100,6 +102,9 @@ pub struct FrameStats {
     /// Timings and counts of the executor (the reference: its CPU time only).
     #[serde(flatten)]
     pub exec: vk::ExecStats,
+    /// Layers and transparency (extension; only when asked for).
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub layers: Option<layers::LayerStats>,
 }
 
 /// Images and the `stats.json` of one frame.
@@ -115,6 +120,8 @@ pub enum RenderError {
     Plan(#[from] PlanError),
     #[error(transparent)]
     Vk(#[from] vk::VkError),
+    #[error("algorithm '{algo}' cannot render {what} yet: use --algo reference")]
+    Unsupported { algo: String, what: &'static str },
     #[error("Vulkan validation reported {} message(s); first: {}", .0.len(), .0.first().map(String::as_str).unwrap_or(""))]
     Validation(Vec<String>),    #[error(transparent)]
     OverBudget(#[from] crate::budget::OverBudget),
@@ -150,8 +157,13 @@ pub fn check_frame_budget(width: u32, height: u32, gpu: bool) -> Result<(), crat
 pub fn render_reference(scene: &Scene) -> Frame {
     let t = Instant::now();
     let images = crate::reference::render(scene, scene.render.width, scene.render.height);
-    let cpu_ms = t.elapsed().as_secs_f64() * 1e3;
-    let stats = FrameStats {
+    let stats = reference_stats(&images, t.elapsed().as_secs_f64() * 1e3);
+    Frame { images, stats }
+}
+
+/// The reference's `stats.json` for `images` cast in `cpu_ms`.
+fn reference_stats(images: &Images, cpu_ms: f64) -> FrameStats {
+    FrameStats {
         algo: "reference".into(),
         width: images.width,
         height: images.height,
@@ -166,8 +178,7 @@ pub fn render_reference(scene: &Scene) -> Frame {
             ..Default::default()
         },
         ..Default::default()
-    };
-    Frame { images, stats }
+    }
 }
 
 /// A Vulkan device with the scene uploaded, ready to run plans repeatedly.
@@ -268,6 +279,7 @@ impl GpuRenderer {
             passes: None,
             rays: None,
             exec,
+            layers: None,
         })
     }
 

@@ -8,6 +8,7 @@
 mod algorithms;
 mod classic;
 mod cst;
+mod embed;
 mod limits;
 mod openscad;
 mod rounding;
@@ -113,6 +114,7 @@ fn scene(meshes: Vec<Mesh>) -> Scene {
         solids: vec![],
         surfaces: vec![],
         warnings: vec![],
+        appearance: Default::default(),
     }
 }
 

@@ -69,6 +69,62 @@ struct GpuArgs {
     max_products: usize,
 }
 
+/// Layers of the solid and transparency (extensions of the contract, see README).
+#[derive(clap::Args, Clone)]
+struct LayerArgs {
+    /// Peel at most N layers of the solid (N >= 1; default: all)
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    layers: Option<u32>,
+    /// Stop peeling at the first layer covering fewer than N pixels
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    layer_threshold: u64,
+    /// Also write each layer into OUT/layers/01/, 02/, ... (color.png, depth.npy, prim.png)
+    #[arg(long)]
+    layers_out: bool,
+    /// Opacity in (0, 1] of everything without its own alpha (overrides [render] alpha);
+    /// color.png becomes the front-to-back composite of the layers
+    #[arg(long, value_parser = parse_alpha)]
+    alpha: Option<f64>,
+    /// Draw the trimmed faces of these primitives in a highlight colour, see-through
+    /// where hidden (comma-separated primitive names)
+    #[arg(long, value_name = "NAME[,NAME]", value_delimiter = ',')]
+    highlight: Vec<String>,
+    /// Assemblies: solids semi-transparent, where two solids intersect opaque in
+    /// red; stats.json lists the interfering pairs (same as [render] interference = true)
+    #[arg(long)]
+    interference: bool,
+}
+
+/// `--highlight` names as 0-based primitive indices; an unknown name is an error
+/// listing the scene's primitives.
+fn highlight_indices(scene: &scene::Scene, names: &[String]) -> Result<Vec<u32>> {
+    names
+        .iter()
+        .map(|n| {
+            let n = n.trim();
+            scene
+                .primitives
+                .iter()
+                .position(|p| p.name == n)
+                .map(|i| i as u32)
+                .with_context(|| {
+                    let all: Vec<&str> = scene.primitives.iter().map(|p| p.name.as_str()).collect();
+                    format!(
+                        "--highlight: the scene has no primitive named '{n}'; its primitives are: {}",
+                        all.join(", ")
+                    )
+                })
+        })
+        .collect()
+}
+
+fn parse_alpha(s: &str) -> Result<f64, String> {
+    let a: f64 = s
+        .parse()
+        .map_err(|_| format!("'{s}' is not an opacity: give a number in (0, 1], e.g. 0.4"))?;
+    peeltrim::scene::appearance::check_alpha(a)
+}
+
 /// Options for OpenSCAD `.csg` models.
 #[derive(clap::Args, Clone, Copy)]
 struct ScadArgs {
@@ -101,6 +157,8 @@ enum Cmd {
         out: PathBuf,
         #[command(flatten)]
         gpu: GpuArgs,
+        #[command(flatten)]
+        layers: LayerArgs,
         #[command(flatten)]
         scad: ScadArgs,
     },
@@ -318,25 +376,46 @@ fn run(cli: Cli) -> Result<ExitCode> {
             size,
             out,
             gpu,
+            layers,
             scad,
         } => {
             let opts = render_options(algo, &gpu)?;
             peeltrim::output::check_out_dir(&out, "--out")?;
-            let scene = load(&scene, size, scad)?;
+            let mut scene = load(&scene, size, scad)?;
+            if layers.alpha.is_some() {
+                scene.appearance.alpha = layers.alpha;
+            }
+            scene.appearance.interference |= layers.interference;
+            let lopts = render::layers::LayerOptions {
+                max_layers: layers.layers,
+                threshold: layers.layer_threshold,
+                write_layers: layers.layers_out,
+                highlight: highlight_indices(&scene, &layers.highlight)?,
+            };
             if let Ok(prep) = peeltrim::plan::Prepared::new(&scene) {
                 for w in prep.warnings(opts.algo) {
                     eprintln!("peeltrim: warning: {w}");
                 }
             }
-            let frame = match render::render(&scene, &opts) {
-                Err(render::RenderError::Plan(
-                    e @ peeltrim::plan::PlanError::NotImplemented(_),
-                )) => {
+            let (frame, layer_images) = match if lopts.wanted(&scene) {
+                render::layers::render_layered(&scene, &opts, &lopts)
+                    .map(|l| (l.frame, Some(l.layers)))
+            } else {
+                render::render(&scene, &opts).map(|f| (f, None))
+            } {
+                Err(
+                    e @ (render::RenderError::Plan(peeltrim::plan::PlanError::NotImplemented(_))
+                    | render::RenderError::Unsupported { .. }),
+                ) => {
                     eprintln!("peeltrim: {e}");
                     return Ok(ExitCode::from(2));
                 }
                 r => r?,
             };
+            if let (true, Some(l)) = (lopts.write_layers, &layer_images) {
+                render::layers::write_layers(&out, l)
+                    .with_context(|| format!("writing layers into {}", out.display()))?;
+            }
             peeltrim::output::write_images(&out, &frame.images)
                 .with_context(|| format!("writing images into {}", out.display()))?;
             peeltrim::output::write_stats(&out, &frame.stats)

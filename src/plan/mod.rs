@@ -213,6 +213,12 @@ impl Prepared {
         Ok(p)
     }
 
+    /// Re-derives what depends on the camera alone (which primitives contain the
+    /// eye) after `scene`'s camera moved; the meshes are unchanged.
+    pub fn camera_moved(&mut self, scene: &Scene) {
+        self.eye_inside = eye_inside(scene);
+    }
+
     /// `expr` as the parity passes must classify it: literals of primitives that
     /// contain the eye flipped, since their parity counted from the near plane is
     /// the complement of membership.

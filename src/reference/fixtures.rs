@@ -199,6 +199,7 @@ pub fn camera(eye: DVec3, target: DVec3, fov_y_deg: f64, near: f64, far: f64) ->
 pub fn scene(camera: Camera, primitives: Vec<Primitive>, expr: Expr) -> Scene {
     Scene {
         warnings: Vec::new(),
+        appearance: Default::default(),
         name: Some("fixture".into()),
         path: "fixture.toml".into(),
         camera,

@@ -5,6 +5,9 @@
 
 pub mod compare;
 pub mod fixtures;
+pub mod highlight;
+pub mod interference;
+pub mod layers;
 pub mod precision;
 pub mod raycast;
 
@@ -12,5 +15,6 @@ pub mod raycast;
 pub use crate::geom::bvh;
 pub use bvh::{Crossing, Line, MeshBvh, SceneBvh, WorldCrossing};
 pub use compare::{compare, CompareError, CompareReport};
+pub use layers::{render_layers, LayerHit, LayerLimit, LayerStack};
 pub use raycast::{render, render_with_normals};
 pub use raycast::{Hit, Prepared, GROUP_TOL_REL};

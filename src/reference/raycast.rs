@@ -39,7 +39,7 @@ pub const GROUP_TOL_REL: f64 = 1e-10;
 
 /// An expression flattened to post-order for allocation-free evaluation.
 #[derive(Clone, Debug)]
-struct Compiled {
+pub(super) struct Compiled {
     ops: Vec<Op>,
 }
 
@@ -71,7 +71,7 @@ impl Compiled {
         Compiled { ops }
     }
 
-    fn eval(&self, count: &[i32], vals: &mut Vec<bool>) -> bool {
+    pub(super) fn eval(&self, count: &[i32], vals: &mut Vec<bool>) -> bool {
         vals.clear();
         for op in &self.ops {
             let v = match *op {
@@ -89,13 +89,13 @@ impl Compiled {
 
 /// A scene prepared for casting: BVHs, compiled expressions, tolerance.
 pub struct Prepared<'a> {
-    scene: &'a Scene,
-    prims: SceneBvh,
-    needed: Vec<bool>,
+    pub(super) scene: &'a Scene,
+    pub(super) prims: SceneBvh,
+    pub(super) needed: Vec<bool>,
     /// Primitives some solid names: only these give the visible point its index.
     in_solids: Vec<bool>,
     surfaces: SceneBvh,
-    solids: Vec<Compiled>,
+    pub(super) solids: Vec<Compiled>,
     trims: Vec<Compiled>,
     /// Absolute grouping tolerance along the line (unit direction: scene units).
     pub tol: f64,
@@ -391,7 +391,7 @@ pub fn render_with_normals(scene: &Scene, width: u32, height: u32) -> (Images, V
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::reference::fixtures::*;
     use crate::scene::{Keep, Projection};

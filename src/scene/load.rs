@@ -154,6 +154,8 @@ struct RenderT {
     width: Option<u32>,
     height: Option<u32>,
     background: Option<Color>,
+    alpha: Option<f64>,
+    interference: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -163,6 +165,7 @@ struct CsgT {
     /// An OpenSCAD `.csg` file (relative to the scene file) as the whole model.
     openscad: Option<String>,
     skip_unsupported: Option<bool>,
+    alpha: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -170,6 +173,7 @@ struct CsgT {
 struct SolidT {
     name: String,
     expr: String,
+    alpha: Option<f64>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq, Debug)]
@@ -212,6 +216,7 @@ struct ShapeT {
     trim: Option<String>,
     keep: Option<KeepT>,
     paint_color: Option<Color>,
+    alpha: Option<f64>,
 }
 
 /// `"#rrggbb"`.
@@ -334,6 +339,55 @@ fn valid_name(s: &str) -> bool {
 impl Loader<'_> {
     fn line(&self, span: std::ops::Range<usize>) -> Option<usize> {
         Some(line_col(self.text, span.start).0)
+    }
+
+    /// The `alpha` keys of the primitives, the solids (`[csg]` first) and
+    /// `[render]` (extension, [`super::Appearance`]).
+    fn appearance(
+        &self,
+        file: &FileT,
+        render_alpha: Option<f64>,
+        render_line: Option<usize>,
+    ) -> Result<super::Appearance, SceneError> {
+        let primitive_alpha = file
+            .primitive
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let key = format!("primitive[{}] \"{}\"", i + 1, t.get_ref().name);
+                self.alpha(t.get_ref().alpha, self.line(t.span()), &key)
+            })
+            .collect::<Result<_, _>>()?;
+        let csg = file
+            .csg
+            .iter()
+            .map(|c| self.alpha(c.get_ref().alpha, self.line(c.span()), "csg"));
+        let solids = file.solid.iter().enumerate().map(|(i, t)| {
+            let key = format!("solid[{}] \"{}\"", i + 1, t.get_ref().name);
+            self.alpha(t.get_ref().alpha, self.line(t.span()), &key)
+        });
+        Ok(super::Appearance {
+            alpha: self.alpha(render_alpha, render_line, "render")?,
+            solid_alpha: csg.chain(solids).collect::<Result<_, _>>()?,
+            primitive_alpha,
+            interference: file
+                .render
+                .as_ref()
+                .and_then(|r| r.get_ref().interference)
+                .unwrap_or(false),
+        })
+    }
+
+    /// An optional `alpha` key, checked to lie in (0, 1].
+    fn alpha(
+        &self,
+        a: Option<f64>,
+        line: Option<usize>,
+        key: &str,
+    ) -> Result<Option<f64>, SceneError> {
+        a.map(super::appearance::check_alpha)
+            .transpose()
+            .map_err(|m| self.invalid(line, format!("{key}: alpha"), m))
     }
 
     fn invalid(
@@ -532,6 +586,13 @@ impl Loader<'_> {
             let s = t.get_ref();
             let line = self.line(t.span());
             let key = format!("surface[{}] \"{}\"", i + 1, s.name);
+            if s.alpha.is_some() {
+                return Err(self.invalid(
+                    line,
+                    format!("{key}: alpha"),
+                    "`alpha` applies to a [[primitive]], a [[solid]], [csg] or [render]; surfaces are drawn opaque: remove it",
+                ));
+            }
             let trim_src = s.trim.as_deref().ok_or_else(|| {
                 self.invalid(
                     line,
@@ -719,6 +780,8 @@ impl Loader<'_> {
             render.height = h;
         }
 
+        let appearance = self.appearance(&file, r.and_then(|r| r.0.alpha), r.and_then(|r| r.1))?;
+
         let drawn: Vec<&Mesh> = primitives
             .iter()
             .filter(|p| p.used)
@@ -746,6 +809,7 @@ impl Loader<'_> {
             solids,
             surfaces,
             warnings: self.warnings,
+            appearance,
         })
     }
 

@@ -6,6 +6,7 @@
 //! camera with definite near/far planes.
 #![deny(unsafe_code)]
 
+pub mod appearance;
 pub mod camera;
 pub mod cost;
 pub mod fit;
@@ -17,6 +18,7 @@ pub mod shapes;
 pub mod validate;
 mod vector;
 pub mod kind;
+pub use appearance::Appearance;
 pub use camera::{Camera, Projection};
 pub use load::{is_bounded, load, load_str, load_with, LoadOptions, SceneError};
 
@@ -150,6 +152,8 @@ pub struct Scene {
     pub surfaces: Vec<Surface>,
     /// Non-fatal remarks from loading (unused primitives, ignored keys), one line each.
     pub warnings: Vec<String>,
+    /// Opacities (extension: `alpha` keys); default opaque.
+    pub appearance: Appearance,
 }
 
 #[cfg(test)]

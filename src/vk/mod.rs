@@ -13,6 +13,7 @@
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod conv;
+pub mod embed;
 pub mod error;
 pub mod exec;
 pub mod image;
@@ -28,6 +29,7 @@ pub mod scissor;
 pub(crate) mod submit;
 pub mod sync;
 
+pub use embed::{Embedder, HostTargets};
 pub use error::VkError;
 pub use exec::{ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
 pub use instance::{Context, ContextDesc, DeviceChoice};

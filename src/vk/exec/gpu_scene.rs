@@ -97,23 +97,10 @@ impl GpuScene {
         let mut bounds = Vec::new();
         for (mesh, color) in &meshes {
             let first = (floats.len() / 6) as u32;
-            for t in &mesh.triangles {
-                let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
-                let n = (b - a).cross(c - a).normalize_or_zero();
-                for p in [a - origin, b - origin, c - origin] {
-                    floats.extend([p.x as f32, p.y as f32, p.z as f32]);
-                    floats.extend([n.x as f32, n.y as f32, n.z as f32]);
-                }
-            }
+            floats.extend(mesh_vertices(mesh, origin));
             ranges.push((first, (floats.len() / 6) as u32 - first));
             colors.push(*color);
-            let mut lo = DVec3::splat(f64::INFINITY);
-            let mut hi = DVec3::splat(f64::NEG_INFINITY);
-            for p in &mesh.positions {
-                lo = lo.min(*p);
-                hi = hi.max(*p);
-            }
-            bounds.push(Aabb { min: lo, max: hi });
+            bounds.push(mesh_bounds(mesh));
         }
         let quad_first = (floats.len() / 6) as u32;
         for (x, y) in [
@@ -146,5 +133,58 @@ impl GpuScene {
             cam: camera_state(&scene.camera, desc, origin),
             quad_first,
         })
+    }
+}
+
+/// A mesh's non-indexed vertices: position relative to `origin` then flat face
+/// normal per corner.
+fn mesh_vertices(mesh: &crate::scene::Mesh, origin: DVec3) -> Vec<f32> {
+    let mut floats = Vec::with_capacity(mesh.triangles.len() * 18);
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+        let n = (b - a).cross(c - a).normalize_or_zero();
+        for p in [a - origin, b - origin, c - origin] {
+            floats.extend([p.x as f32, p.y as f32, p.z as f32]);
+            floats.extend([n.x as f32, n.y as f32, n.z as f32]);
+        }
+    }
+    floats
+}
+
+fn mesh_bounds(mesh: &crate::scene::Mesh) -> Aabb {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in &mesh.positions {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    Aabb { min: lo, max: hi }
+}
+
+impl GpuScene {
+    /// Overwrites mesh `i`'s vertices in the mapped buffer (embedding: a moved
+    /// mesh). The caller guarantees no submitted frame still reads the buffer.
+    pub(super) fn rewrite(
+        scene: &mut GpuScene,
+        i: usize,
+        mesh: &crate::scene::Mesh,
+    ) -> Result<(), VkError> {
+        let (first, count) = *scene
+            .ranges
+            .get(i)
+            .ok_or_else(|| VkError::Plan(format!("no mesh {i} to move")))?;
+        let floats = mesh_vertices(mesh, scene.origin);
+        if floats.len() != count as usize * 6 {
+            return Err(VkError::Plan(format!(
+                "mesh {i}: {} triangles given where {} were uploaded (a moved mesh keeps its triangles)",
+                floats.len() / 18,
+                count / 3
+            )));
+        }
+        let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
+        let at = first as usize * 24;
+        scene.vertices.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
+        scene.bounds[i] = mesh_bounds(mesh);
+        Ok(())
     }
 }

@@ -18,6 +18,7 @@
 //! descriptor sets), `record` (steps to commands, barriers from `plan::usage`
 //! through `vk::sync`), `stats` (typed statistics).
 
+mod embed;
 mod gpu_scene;
 mod record;
 mod stats;
@@ -31,6 +32,7 @@ use gpu_allocator::MemoryLocation;
 
 pub use super::conv::DepthFormat;
 pub use stats::{Counts, ExecStats, PassStats};
+pub(crate) use embed::{Output, Unrolled};
 
 use super::error::VkError;
 use super::image::range;
@@ -367,21 +369,10 @@ impl Executor {
         });
         if !fresh {
             self.recording = None;
-            let flat = unroll(plan, layers);
-            self.ensure_queries(&flat)?;
             let t = Instant::now();
             let cmd = self.frame_cmd;
             self.submit.begin(cmd, false)?;
-            let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
-            let mut rec = self.recorder();
-            rec.begin(cmd, occ_cap, ts_cap);
-            for (s, g) in &flat {
-                rec.group = *g;
-                rec.step(s)?;
-            }
-            rec.finish_frame(plan.output_ds);
-            rec.end();
-            let (mut stats, queries, marks) = (rec.stats, rec.queries, rec.marks);
+            let (mut stats, queries, marks) = self.record_frame(cmd, plan, layers)?;
             stats.counts.submits = 1;
             self.submit.end(cmd)?;
             clock.record_ms += t.elapsed().as_secs_f64() * 1e3;
@@ -403,30 +394,9 @@ impl Executor {
         self.submit.wait()?;
         let device = &self.shared.device;
         let samples = submit::query_results(device, self.occlusion.pool, rec.queries.len())?;
-        let mut per_head = vec![Vec::new(); layers.len()];
-        for (l, n) in per_head.iter_mut().zip(layers) {
-            *l = vec![0u64; *n as usize];
-        }
-        for (g, s) in rec.queries.iter().zip(&samples) {
-            if let Some((l, k)) = g {
-                per_head[*l][*k as usize] += s;
-            }
-        }
-        let loops = plan.steps.iter().filter_map(|s| match s {
-            Step::Loop(l) => Some(l.max_iterations),
-            _ => None,
-        });
-        for (heads, max) in per_head.iter().zip(loops) {
-            let fits = match heads.split_last() {
-                None => max == 0,
-                Some((&last, before)) => {
-                    before.iter().all(|&s| s > 0) && (last == 0 || heads.len() as u32 >= max)
-                }
-            };
-            if !fits {
-                self.layers = None;
-                return Ok(None);
-            }
+        if !layers_fit(plan, layers, &rec.queries, &samples) {
+            self.layers = None;
+            return Ok(None);
         }
         let mut stats = rec.stats.clone();
         stats.counts.loop_iterations = layers.to_vec();
@@ -434,6 +404,29 @@ impl Executor {
         let marks = rec.marks.clone();
         self.add_gpu_times(&mut stats, &marks)?;
         Ok(Some(stats))
+    }
+
+    /// Records `plan` with its loops unrolled to `layers` into `cmd` (begun by the
+    /// caller): the stats, the loop group of each occlusion query, the pass at
+    /// each timestamp. Every image starts and ends in `REST`.
+    fn record_frame(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        plan: &Plan,
+        layers: &[u32],
+    ) -> Result<(ExecStats, Vec<Group>, Vec<String>), VkError> {
+        let flat = unroll(plan, layers);
+        self.ensure_queries(&flat)?;
+        let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
+        let mut rec = self.recorder();
+        rec.begin(cmd, occ_cap, ts_cap);
+        for (s, g) in &flat {
+            rec.group = *g;
+            rec.step(s)?;
+        }
+        rec.finish_frame(plan.output_ds);
+        rec.end();
+        Ok((rec.stats, rec.queries, rec.marks))
     }
 
     /// Adds the GPU times between the timestamps of the last command buffer.
@@ -640,6 +633,28 @@ impl Executor {
             scene.background,
         ))
     }
+}
+
+/// Whether a frame unrolled to `layers` was right, by the GPU's occlusion
+/// `samples` (tagged by `groups`): every head but the last of a loop passed
+/// samples, the last none (or the loop hit its bound).
+fn layers_fit(plan: &Plan, layers: &[u32], groups: &[Group], samples: &[u64]) -> bool {
+    let mut per_head: Vec<Vec<u64>> = layers.iter().map(|&n| vec![0u64; n as usize]).collect();
+    for (g, s) in groups.iter().zip(samples) {
+        if let Some((l, k)) = g {
+            per_head[*l][*k as usize] += s;
+        }
+    }
+    let loops = plan.steps.iter().filter_map(|s| match s {
+        Step::Loop(l) => Some(l.max_iterations),
+        _ => None,
+    });
+    per_head.iter().zip(loops).all(|(heads, max)| match heads.split_last() {
+        None => max == 0,
+        Some((&last, before)) => {
+            before.iter().all(|&s| s > 0) && (last == 0 || heads.len() as u32 >= max)
+        }
+    })
 }
 
 /// `plan`'s steps with each loop `i` unrolled to `layers[i]` head executions (the

@@ -59,15 +59,17 @@ impl Targets {
         let color_usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
             | vk::ImageUsageFlags::TRANSFER_SRC
             | vk::ImageUsageFlags::TRANSFER_DST;
+        // Sampled: the embedding's composite pass reads colour and ids (vk::embed).
+        let out_usage = color_usage | vk::ImageUsageFlags::SAMPLED;
         let color = Image::new(
             sh,
             "color",
-            ImageDesc::new_2d(format(Resource::Color, desc), [w, h]).usage(color_usage),
+            ImageDesc::new_2d(format(Resource::Color, desc), [w, h]).usage(out_usage),
         )?;
         let prim = Image::new(
             sh,
             "prim",
-            ImageDesc::new_2d(format(Resource::Prim, desc), [w, h]).usage(color_usage),
+            ImageDesc::new_2d(format(Resource::Prim, desc), [w, h]).usage(out_usage),
         )?;
         let mut ds = Vec::new();
         for i in 0..n_ds {

@@ -1,0 +1,698 @@
+//! A windowless host engine embedding peeltrim (README "Embedding").
+//!
+//! It creates its own Vulkan instance (with the validation layer) and device,
+//! draws its own floor into its own colour and depth images, records peeltrim's
+//! CSG into the same command buffer and depth buffer, submits, reads the image
+//! back, and checks occlusion both ways against the reference composite: the CPU
+//! reference image of the CSG plus the analytically ray-cast floor.
+//!
+//! `cargo run --example embed` runs it with standard and reversed depth and exits
+//! non-zero on a mismatch or a validation message; `vk_tests/embed.rs` runs the
+//! same code under `cargo test`.
+#![allow(clippy::missing_safety_doc)]
+
+use std::ffi::{c_void, CStr};
+use std::sync::Mutex;
+
+use ash::vk;
+use glam::{DVec3, Mat4};
+use peeltrim::embed::{CsgExpr, CsgScene, EmbedDesc, MeshInput};
+use peeltrim::scene::shapes::{make_box, make_sphere};
+use peeltrim::scene::{Camera, Mesh, Projection};
+use peeltrim::vk::{Context, HostTargets};
+
+const FLOOR_VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/host_floor.vert.spv"));
+const FLOOR_FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/host_floor.frag.spv"));
+const BG: [u8; 3] = [10, 20, 30];
+const FLOOR_RGB: [u8; 3] = [230, 230, 40];
+/// The floor: the square |x|, |z| <= FLOOR_HALF at height FLOOR_Y, cutting the CSG.
+const FLOOR_Y: f32 = -0.3;
+const FLOOR_HALF: f32 = 3.0;
+
+/// What one host frame showed, against the reference composite.
+#[derive(Debug, Default)]
+pub struct Report {
+    pub pixels: u64,
+    /// Pixels not within one pixel of a change of class in the reference.
+    pub interior: u64,
+    pub mismatched_interior: u64,
+    /// Reference pixels where the floor is in front of the CSG (and the host shows the floor).
+    pub floor_hides_csg: u64,
+    pub floor_hides_csg_ok: u64,
+    /// Reference pixels where the CSG is in front of the floor (and the host shows the CSG).
+    pub csg_hides_floor: u64,
+    pub csg_hides_floor_ok: u64,
+    pub validation: Vec<String>,
+}
+
+impl Report {
+    pub fn interior_match(&self) -> f64 {
+        1.0 - self.mismatched_interior as f64 / self.interior.max(1) as f64
+    }
+}
+
+static MESSAGES: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+unsafe extern "system" fn on_message(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _ty: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    _user: *mut c_void,
+) -> vk::Bool32 {
+    // SAFETY: the layer passes a valid callback data struct with a C string.
+    let text = unsafe { CStr::from_ptr((*data).p_message) }.to_string_lossy().into_owned();
+    if severity.intersects(
+        vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+    ) {
+        MESSAGES.lock().expect("messages").push(text);
+    }
+    vk::FALSE
+}
+
+/// The host's device: everything peeltrim does not own.
+struct Host {
+    entry: ash::Entry,
+    instance: ash::Instance,
+    debug: (ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT),
+    physical: vk::PhysicalDevice,
+    device: ash::Device,
+    family: u32,
+    queue: vk::Queue,
+}
+
+impl Host {
+    fn new() -> Result<Host, String> {
+        // SAFETY: loading the system Vulkan loader.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| e.to_string())?;
+        let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
+        let layers = [c"VK_LAYER_KHRONOS_validation".as_ptr()];
+        let exts = [ash::ext::debug_utils::NAME.as_ptr()];
+        let ci = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&exts);
+        // SAFETY: the create info outlives the call.
+        let instance = unsafe { entry.create_instance(&ci, None) }
+            .map_err(|e| format!("vkCreateInstance with the validation layer: {e}"))?;
+        let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
+        let dci = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+            )
+            .pfn_user_callback(Some(on_message));
+        // SAFETY: valid create info; the callback is a plain function.
+        let messenger = unsafe { du.create_debug_utils_messenger(&dci, None) }
+            .map_err(|e| e.to_string())?;
+        // SAFETY: plain enumeration.
+        let physical = *unsafe { instance.enumerate_physical_devices() }
+            .map_err(|e| e.to_string())?
+            .first()
+            .ok_or("no Vulkan device")?;
+        // SAFETY: `physical` belongs to `instance`.
+        let family = unsafe { instance.get_physical_device_queue_family_properties(physical) }
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS))
+            .ok_or("no graphics queue")? as u32;
+        let prio = [1.0f32];
+        let qci = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(family)
+            .queue_priorities(&prio)];
+        // What `Context::from_raw` requires.
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
+            .dynamic_rendering(true)
+            .maintenance4(true);
+        let dci = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&qci)
+            .push_next(&mut f13);
+        // SAFETY: valid create info for a device of this instance.
+        let device = unsafe { instance.create_device(physical, &dci, None) }
+            .map_err(|e| format!("vkCreateDevice: {e}"))?;
+        // SAFETY: queue 0 of the family requested above.
+        let queue = unsafe { device.get_device_queue(family, 0) };
+        Ok(Host {
+            entry,
+            instance,
+            debug: (du, messenger),
+            physical,
+            device,
+            family,
+            queue,
+        })
+    }
+
+    fn memory(&self, req: vk::MemoryRequirements, flags: vk::MemoryPropertyFlags) -> vk::DeviceMemory {
+        // SAFETY: `physical` belongs to `instance`.
+        let props = unsafe { self.instance.get_physical_device_memory_properties(self.physical) };
+        let ty = (0..props.memory_type_count)
+            .find(|&i| {
+                req.memory_type_bits & (1 << i) != 0
+                    && props.memory_types[i as usize].property_flags.contains(flags)
+            })
+            .expect("a memory type for the host's images and buffers");
+        let ai = vk::MemoryAllocateInfo::default()
+            .allocation_size(req.size)
+            .memory_type_index(ty);
+        // SAFETY: valid allocate info.
+        unsafe { self.device.allocate_memory(&ai, None) }.expect("host memory")
+    }
+
+    fn image(&self, format: vk::Format, usage: vk::ImageUsageFlags, aspect: vk::ImageAspectFlags, [w, h]: [u32; 2]) -> (vk::Image, vk::DeviceMemory, vk::ImageView) {
+        let ci = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(vk::Extent3D { width: w, height: h, depth: 1 })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .usage(usage);
+        let d = &self.device;
+        // SAFETY: valid create info.
+        let image = unsafe { d.create_image(&ci, None) }.expect("host image");
+        // SAFETY: `image` is live.
+        let mem = self.memory(unsafe { d.get_image_memory_requirements(image) }, vk::MemoryPropertyFlags::DEVICE_LOCAL);
+        // SAFETY: fresh memory of the required size and type.
+        unsafe { d.bind_image_memory(image, mem, 0) }.expect("bind");
+        let vci = vk::ImageViewCreateInfo::default()
+            .image(image)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(range(aspect));
+        // SAFETY: valid view of a bound image.
+        let view = unsafe { d.create_image_view(&vci, None) }.expect("view");
+        (image, mem, view)
+    }
+
+    fn pipeline(&self, color: vk::Format, depth: vk::Format) -> (vk::Pipeline, vk::PipelineLayout) {
+        let d = &self.device;
+        let module = |bytes: &[u8]| {
+            let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes)).expect("SPIR-V");
+            // SAFETY: SPIR-V compiled by build.rs.
+            unsafe { d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None) }
+                .expect("module")
+        };
+        let (vs, fs) = (module(FLOOR_VERT), module(FLOOR_FRAG));
+        let ranges = [vk::PushConstantRange {
+            stage_flags: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            offset: 0,
+            size: 96,
+        }];
+        // SAFETY: valid create info.
+        let layout = unsafe { d.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&ranges), None) }
+            .expect("layout");
+        let stages = [
+            vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::VERTEX).module(vs).name(c"main"),
+            vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::FRAGMENT).module(fs).name(c"main"),
+        ];
+        let vi = vk::PipelineVertexInputStateCreateInfo::default();
+        let ia = vk::PipelineInputAssemblyStateCreateInfo::default().topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let vp = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
+        let rs = vk::PipelineRasterizationStateCreateInfo::default().polygon_mode(vk::PolygonMode::FILL).line_width(1.0);
+        let ms = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let ds = vk::PipelineDepthStencilStateCreateInfo::default().depth_test_enable(true).depth_write_enable(true);
+        let att = [vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA)];
+        let cb = vk::PipelineColorBlendStateCreateInfo::default().attachments(&att);
+        let dy = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR, vk::DynamicState::DEPTH_COMPARE_OP];
+        let dyn_ = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dy);
+        let formats = [color];
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(&formats)
+            .depth_attachment_format(depth);
+        let ci = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stages)
+            .vertex_input_state(&vi)
+            .input_assembly_state(&ia)
+            .viewport_state(&vp)
+            .rasterization_state(&rs)
+            .multisample_state(&ms)
+            .depth_stencil_state(&ds)
+            .color_blend_state(&cb)
+            .dynamic_state(&dyn_)
+            .layout(layout)
+            .push_next(&mut rendering);
+        // SAFETY: everything the create info points to lives across the call.
+        let p = unsafe { d.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) }
+            .map_err(|(_, e)| e)
+            .expect("floor pipeline")[0];
+        // SAFETY: modules are only needed during creation.
+        unsafe {
+            d.destroy_shader_module(vs, None);
+            d.destroy_shader_module(fs, None);
+        }
+        (p, layout)
+    }
+}
+
+fn range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange {
+        aspect_mask: aspect,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: 0,
+        layer_count: 1,
+    }
+}
+
+fn barrier(image: vk::Image, aspect: vk::ImageAspectFlags, from: (vk::ImageLayout, vk::AccessFlags), to: (vk::ImageLayout, vk::AccessFlags)) -> vk::ImageMemoryBarrier<'static> {
+    vk::ImageMemoryBarrier::default()
+        .old_layout(from.0)
+        .src_access_mask(from.1)
+        .new_layout(to.0)
+        .dst_access_mask(to.1)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(range(aspect))
+}
+
+/// Begins `cmd` and brings the host's targets (contents discarded) into the
+/// attachment layouts peeltrim's contract expects.
+unsafe fn begin_frame(d: &ash::Device, cmd: vk::CommandBuffer, color: vk::Image, depth: vk::Image) {
+    let undefined = (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty());
+    // SAFETY: the caller's: `cmd` is not pending, the images are live.
+    unsafe {
+        d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).expect("begin");
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::TOP_OF_PIPE,
+            vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
+            vk::DependencyFlags::empty(),
+            &[],
+            &[],
+            &[
+                barrier(color, vk::ImageAspectFlags::COLOR, undefined, (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::AccessFlags::COLOR_ATTACHMENT_WRITE)),
+                barrier(depth, vk::ImageAspectFlags::DEPTH, undefined, (vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL, vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)),
+            ],
+        )
+    };
+}
+
+/// The host's CSG: a box with a spherical bite, as plain f32 meshes.
+fn host_meshes() -> Vec<(Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3])> {
+    let f32s = |m: &Mesh| m.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect();
+    let cube = make_box(DVec3::splat(2.0));
+    let ball = make_sphere(1.2, 32, 16);
+    vec![
+        (f32s(&cube), cube.triangles.clone(), Mat4::IDENTITY, [70, 130, 220]),
+        (f32s(&ball), ball.triangles.clone(), Mat4::from_translation([0.6, 0.7, 0.6].into()), [220, 90, 60]),
+    ]
+}
+
+pub fn camera() -> Camera {
+    Camera {
+        eye: DVec3::new(3.2, 2.4, 4.2),
+        target: DVec3::new(0.0, -0.2, 0.0),
+        up: DVec3::Y,
+        projection: Projection::Perspective { fov_y_deg: 40.0 },
+        near: 1.0,
+        far: 20.0,
+    }
+}
+
+/// One host frame at `extent`: floor, then peeltrim, then a read-back; compared
+/// with the reference composite.
+pub fn run(extent: [u32; 2], reversed_z: bool) -> Result<Report, String> {
+    MESSAGES.lock().expect("messages").clear();
+    let host = Host::new()?;
+    let report = frame(&host, extent, reversed_z);
+    // SAFETY: every object of the frame was destroyed (or the device idles).
+    unsafe {
+        host.device.device_wait_idle().ok();
+        host.device.destroy_device(None);
+        host.debug.0.destroy_debug_utils_messenger(host.debug.1, None);
+        host.instance.destroy_instance(None);
+    }
+    let mut report = report?;
+    report.validation = MESSAGES.lock().expect("messages").clone();
+    Ok(report)
+}
+
+fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, String> {
+    let d = &host.device;
+    // SAFETY: the host's device outlives the context (dropped at the end of this
+    // function, before `run` destroys the device); it enables what from_raw needs.
+    let ctx = unsafe {
+        Context::from_raw(host.entry.clone(), host.instance.clone(), host.physical, d.clone(), host.family, host.queue)
+    }
+    .map_err(|e| e.to_string())?;
+    let meshes = host_meshes();
+    let inputs: Vec<MeshInput<'_>> = meshes
+        .iter()
+        .map(|(p, i, t, c)| MeshInput { positions: p, indices: i, transform: *t, color: *c })
+        .collect();
+    let desc = EmbedDesc { extent, reversed_z, frames_in_flight: 1, ..EmbedDesc::default() };
+    let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Text("m0 - m1"), &camera(), &desc)
+        .map_err(|e| e.to_string())?;
+
+    let color_format = vk::Format::R8G8B8A8_UNORM;
+    let depth_format = vk::Format::D32_SFLOAT;
+    let (color_img, color_mem, color_view) = host.image(
+        color_format,
+        vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+        vk::ImageAspectFlags::COLOR,
+        extent,
+    );
+    let (depth_img, depth_mem, depth_view) = host.image(
+        depth_format,
+        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+        vk::ImageAspectFlags::DEPTH,
+        extent,
+    );
+    let (pipeline, layout) = host.pipeline(color_format, depth_format);
+    let bytes = extent[0] as u64 * extent[1] as u64 * 4;
+    // SAFETY: valid create info.
+    let buffer = unsafe {
+        d.create_buffer(&vk::BufferCreateInfo::default().size(bytes).usage(vk::BufferUsageFlags::TRANSFER_DST), None)
+    }
+    .expect("buffer");
+    let visible = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
+    // SAFETY: `buffer` is live.
+    let buf_mem = host.memory(unsafe { d.get_buffer_memory_requirements(buffer) }, visible);
+    // SAFETY: fresh memory of the required size.
+    unsafe { d.bind_buffer_memory(buffer, buf_mem, 0) }.expect("bind");
+    let pci = vk::CommandPoolCreateInfo::default().queue_family_index(host.family);
+    // SAFETY: valid create info.
+    let pool = unsafe { d.create_command_pool(&pci, None) }.expect("pool");
+    let ai = vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
+    // SAFETY: the pool is live.
+    let cmd = unsafe { d.allocate_command_buffers(&ai) }.expect("cmd")[0];
+
+    let ext = vk::Extent2D { width: extent[0], height: extent[1] };
+    let far = if reversed_z { 0.0 } else { 1.0 };
+    let nearer = if reversed_z { vk::CompareOp::GREATER } else { vk::CompareOp::LESS };
+    let mvp = csg.view_proj().as_mat4();
+    let mut push = Vec::with_capacity(96);
+    for f in mvp.to_cols_array().iter().chain(&[FLOOR_Y, FLOOR_HALF, 0.0, 0.0]).chain(&FLOOR_RGB.map(|c| c as f32 / 255.0)).chain(&[1.0]) {
+        push.extend(f.to_ne_bytes());
+    }
+    let targets = HostTargets { color_view, color_format, depth_view, depth_format, extent };
+    let attach = (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::AccessFlags::COLOR_ATTACHMENT_WRITE);
+    let depth_attach = (vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL, vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE);
+    // SAFETY: every call below records into `cmd`, which this function owns; the
+    // images, views, pipeline and buffer are live until after the fence wait.
+    unsafe {
+        begin_frame(d, cmd, color_img, depth_img);
+        let bg = BG.map(|c| c as f32 / 255.0);
+        let color_att = [vk::RenderingAttachmentInfo::default()
+            .image_view(color_view)
+            .image_layout(attach.0)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: [bg[0], bg[1], bg[2], 1.0] } })];
+        let depth_att = vk::RenderingAttachmentInfo::default()
+            .image_view(depth_view)
+            .image_layout(depth_attach.0)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: far, stencil: 0 } });
+        d.cmd_begin_rendering(
+            cmd,
+            &vk::RenderingInfo::default()
+                .render_area(ext.into())
+                .layer_count(1)
+                .color_attachments(&color_att)
+                .depth_attachment(&depth_att),
+        );
+        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+        d.cmd_set_viewport(cmd, 0, &[vk::Viewport { x: 0.0, y: 0.0, width: ext.width as f32, height: ext.height as f32, min_depth: 0.0, max_depth: 1.0 }]);
+        d.cmd_set_scissor(cmd, 0, &[ext.into()]);
+        d.cmd_set_depth_compare_op(cmd, nearer);
+        d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT, 0, &push);
+        d.cmd_draw(cmd, 6, 1, 0, 0);
+        d.cmd_end_rendering(cmd);
+    }
+    // SAFETY: `cmd` is recording outside rendering on the context's queue family;
+    // the targets are in the attachment layouts; one frame in flight (waited below).
+    let stats = unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
+    // SAFETY: as above.
+    unsafe {
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::DependencyFlags::empty(),
+            &[],
+            &[],
+            &[barrier(color_img, vk::ImageAspectFlags::COLOR, attach, (vk::ImageLayout::TRANSFER_SRC_OPTIMAL, vk::AccessFlags::TRANSFER_READ))],
+        );
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers { aspect_mask: vk::ImageAspectFlags::COLOR, mip_level: 0, base_array_layer: 0, layer_count: 1 })
+            .image_extent(vk::Extent3D { width: ext.width, height: ext.height, depth: 1 });
+        d.cmd_copy_image_to_buffer(cmd, color_img, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buffer, &[region]);
+        let to_host = vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::HOST_READ);
+        d.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::HOST, vk::DependencyFlags::empty(), &[to_host], &[], &[]);
+        d.end_command_buffer(cmd).expect("end");
+        let fence = d.create_fence(&vk::FenceCreateInfo::default(), None).expect("fence");
+        let cmds = [cmd];
+        d.queue_submit(host.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence).expect("submit");
+        d.wait_for_fences(&[fence], true, u64::MAX).expect("wait");
+        d.destroy_fence(fence, None);
+    }
+    // SAFETY: coherent host-visible memory written by the completed copy.
+    let pixels: Vec<[u8; 4]> = unsafe {
+        let p = d.map_memory(buf_mem, 0, bytes, vk::MemoryMapFlags::empty()).expect("map") as *const [u8; 4];
+        let v = std::slice::from_raw_parts(p, (extent[0] * extent[1]) as usize).to_vec();
+        d.unmap_memory(buf_mem);
+        v
+    };
+    let _ = stats;
+    let report = compare(&csg, extent, &pixels);
+    drop(csg);
+    drop(ctx);
+    // SAFETY: the frame completed; nothing uses these objects any more.
+    unsafe {
+        d.destroy_command_pool(pool, None);
+        d.destroy_buffer(buffer, None);
+        d.free_memory(buf_mem, None);
+        d.destroy_pipeline(pipeline, None);
+        d.destroy_pipeline_layout(layout, None);
+        for (img, mem, view) in [(color_img, color_mem, color_view), (depth_img, depth_mem, depth_view)] {
+            d.destroy_image_view(view, None);
+            d.destroy_image(img, None);
+            d.free_memory(mem, None);
+        }
+    }
+    Ok(report)
+}
+
+/// Per pixel: 0 background, 1 floor, 2 CSG.
+fn classify(c: [u8; 4]) -> u8 {
+    match [c[0], c[1], c[2]] {
+        BG => 0,
+        FLOOR_RGB => 1,
+        _ => 2,
+    }
+}
+
+/// The host image against the reference composite: the CPU reference of the CSG
+/// (exact ray casting) and the floor ray-cast analytically, nearer view depth wins.
+fn compare(csg: &CsgScene, [w, h]: [u32; 2], pixels: &[[u8; 4]]) -> Report {
+    let reference = peeltrim::reference::render(csg.scene(), w, h);
+    let cam = csg.camera();
+    let mut expected = vec![0u8; (w * h) as usize];
+    let mut r = Report { pixels: (w * h) as u64, ..Report::default() };
+    let mut kinds = vec![None; (w * h) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let ray = cam.ray(x as f64 + 0.5, y as f64 + 0.5, w, h);
+            let t = (FLOOR_Y as f64 - ray.origin.y) / ray.dir.y;
+            let p = ray.origin + ray.dir * t;
+            let floor = (t > 0.0 && p.x.abs() <= FLOOR_HALF as f64 && p.z.abs() <= FLOOR_HALF as f64)
+                .then(|| cam.view_depth(p));
+            let solid = reference.depth[i].is_finite().then_some(reference.depth[i] as f64);
+            expected[i] = match (floor, solid) {
+                (Some(f), Some(s)) => {
+                    kinds[i] = Some(f < s);
+                    if f < s { 1 } else { 2 }
+                }
+                (Some(_), None) => 1,
+                (None, Some(_)) => 2,
+                (None, None) => 0,
+            };
+        }
+    }
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let got = classify(pixels[i]);
+            let interior = (-1i32..=1).all(|dy| {
+                (-1i32..=1).all(|dx| {
+                    let (nx, ny) = (x as i32 + dx, y as i32 + dy);
+                    nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32
+                        || expected[(ny as u32 * w + nx as u32) as usize] == expected[i]
+                })
+            });
+            if interior {
+                r.interior += 1;
+                if got != expected[i] {
+                    r.mismatched_interior += 1;
+                }
+                match kinds[i] {
+                    Some(true) => {
+                        r.floor_hides_csg += 1;
+                        r.floor_hides_csg_ok += (got == 1) as u64;
+                    }
+                    Some(false) => {
+                        r.csg_hides_floor += 1;
+                        r.csg_hides_floor_ok += (got == 2) as u64;
+                    }
+                    None => {}
+                }
+            }
+        }
+    }
+    r
+}
+
+/// Median `frame_ms` (submission to completion) of `frames` frames of `path`'s
+/// solids, standalone (`Executor::execute`) and embedded (recorded into a host
+/// command buffer that the host submits and waits for), plus the embedded
+/// frames' median CPU recording time.
+pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> {
+    use peeltrim::plan::{self, Algo, Prepared};
+    use std::time::Instant;
+    let scene = peeltrim::scene::load(path, &Default::default()).map_err(|e| e.to_string())?;
+    if !scene.surfaces.is_empty() {
+        return Err(format!("{}: trimmed surfaces are not part of the mesh-level API", path.display()));
+    }
+    let host = Host::new()?;
+    let d = &host.device;
+    // SAFETY: the device outlives the context (dropped before `host`'s objects).
+    let ctx = unsafe {
+        Context::from_raw(host.entry.clone(), host.instance.clone(), host.physical, d.clone(), host.family, host.queue)
+    }
+    .map_err(|e| e.to_string())?;
+    let extent = [scene.render.width, scene.render.height];
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    // Embedded: the same plan recorded into the host's command buffer.
+    let f32s = |m: &Mesh| -> Vec<[f32; 3]> { m.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect() };
+    let pos: Vec<Vec<[f32; 3]>> = scene.primitives.iter().map(|p| f32s(&p.mesh)).collect();
+    let inputs: Vec<MeshInput<'_>> = scene
+        .primitives
+        .iter()
+        .zip(&pos)
+        .map(|(p, v)| MeshInput { positions: v, indices: &p.mesh.triangles, transform: Mat4::IDENTITY, color: p.color })
+        .collect();
+    let expr = plan::union_of_solids(&scene).ok_or("no solid")?;
+    let desc = EmbedDesc { extent, frames_in_flight: 1, ..EmbedDesc::default() };
+    let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Built(expr), &scene.camera, &desc).map_err(|e| e.to_string())?;
+    // Standalone: the executor's own submission, on the very scene the mesh-level
+    // API built (the host's f32 meshes), so both paths run the same plan.
+    let plan = plan::build(Algo::Goldfeather, &Prepared::new(csg.scene()).map_err(|e| e.to_string())?)
+        .map_err(|e| e.to_string())?;
+    let mut exec = peeltrim::vk::Executor::new(
+        &ctx,
+        &peeltrim::vk::ExecDesc { width: extent[0], height: extent[1], depth_format: peeltrim::vk::DepthFormat::D32S8, reversed_z: false },
+    )
+    .map_err(|e| e.to_string())?;
+    exec.upload(csg.scene()).map_err(|e| e.to_string())?;
+    let mut standalone = Vec::new();
+    let (color_format, depth_format) = (vk::Format::R8G8B8A8_UNORM, vk::Format::D32_SFLOAT);
+    let color = host.image(color_format, vk::ImageUsageFlags::COLOR_ATTACHMENT, vk::ImageAspectFlags::COLOR, extent);
+    let depth = host.image(depth_format, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT, vk::ImageAspectFlags::DEPTH, extent);
+    let targets = HostTargets { color_view: color.2, color_format, depth_view: depth.2, depth_format, extent };
+    let pci = vk::CommandPoolCreateInfo::default().queue_family_index(host.family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+    // SAFETY: valid create info.
+    let pool = unsafe { d.create_command_pool(&pci, None) }.expect("pool");
+    // SAFETY: the pool is live.
+    let cmd = unsafe { d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1)) }.expect("cmd")[0];
+    // SAFETY: valid create info.
+    let fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.expect("fence");
+    let (mut embedded, mut record) = (Vec::new(), Vec::new());
+    // Interleaved, so that load on the machine hits both alike.
+    for _ in 0..frames {
+        let st = exec.execute(&plan).map_err(|e| e.to_string())?;
+        standalone.push(st.frame_ms);
+        if std::env::var_os("EMBED_BENCH_COUNTS").is_some() {
+            eprintln!("standalone {:?}", st.counts);
+        }
+        let t = Instant::now();
+        // SAFETY: `cmd` is not pending (waited below); the images are live.
+        unsafe { begin_frame(d, cmd, color.0, depth.0) };
+        // SAFETY: as above; one frame in flight.
+        let et = unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
+        if std::env::var_os("EMBED_BENCH_COUNTS").is_some() {
+            eprintln!("embedded   {:?}", et.counts);
+        }
+        // SAFETY: as above.
+        unsafe { d.end_command_buffer(cmd) }.expect("end");
+        record.push(t.elapsed().as_secs_f64() * 1e3);
+        let t = Instant::now();
+        let cmds = [cmd];
+        // SAFETY: `cmd` is complete; the fence is unsignalled.
+        unsafe {
+            d.queue_submit(host.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence).expect("submit");
+            d.wait_for_fences(&[fence], true, u64::MAX).expect("wait");
+            d.reset_fences(&[fence]).expect("reset");
+        }
+        embedded.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    drop(exec);
+    drop(csg);
+    drop(ctx);
+    // SAFETY: idle; nothing uses these objects.
+    unsafe {
+        d.destroy_fence(fence, None);
+        d.destroy_command_pool(pool, None);
+        for (img, mem, view) in [color, depth] {
+            d.destroy_image_view(view, None);
+            d.destroy_image(img, None);
+            d.free_memory(mem, None);
+        }
+        d.destroy_device(None);
+        host.debug.0.destroy_debug_utils_messenger(host.debug.1, None);
+        host.instance.destroy_instance(None);
+    }
+    let msgs = MESSAGES.lock().expect("messages").clone();
+    if !msgs.is_empty() {
+        return Err(format!("validation: {}", msgs.join("\n")));
+    }
+    Ok([median(standalone), median(embedded), median(record)])
+}
+
+#[allow(dead_code)]
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--bench") {
+        println!("scene,standalone_frame_ms,embedded_frame_ms,ratio,embedded_record_ms");
+        for path in &args[1..] {
+            match bench(std::path::Path::new(path), 15) {
+                Ok([s, e, r]) => println!("{path},{s:.3},{e:.3},{:.3},{r:.3}", e / s),
+                Err(e) => println!("{path},not run: {e}"),
+            }
+        }
+        return;
+    }
+    let mut failed = false;
+    for reversed in [false, true] {
+        match run([160, 120], reversed) {
+            Ok(r) => {
+                let ok = r.validation.is_empty() && r.interior_match() >= 0.9995 && r.floor_hides_csg > 0 && r.csg_hides_floor > 0;
+                println!(
+                    "reversed_z={reversed}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; {} validation messages",
+                    r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.validation.len()
+                );
+                for m in &r.validation {
+                    println!("  validation: {m}");
+                }
+                failed |= !ok;
+            }
+            Err(e) => {
+                eprintln!("embed example: {e}");
+                failed = true;
+            }
+        }
+    }
+    if failed {
+        std::process::exit(1);
+    }
+}

@@ -1,0 +1,124 @@
+//! The executor's side of embedding (`vk::embed`): a frame recorded, unrolled to
+//! learnt loop counts, into a command buffer someone else submits, and the check
+//! of its occlusion counts read later without waiting. Same recording as the
+//! standalone replay (`run_unrolled`), minus the submission.
+
+use ash::vk;
+
+use super::gpu_scene::GpuScene;
+use super::record::Group;
+use super::{layers_fit, ExecStats, Executor};
+use crate::plan::usage::Resource;
+use crate::plan::Plan;
+use crate::scene::Mesh;
+use crate::vk::error::VkError;
+use crate::vk::scissor::{bounds_rect, Rect};
+
+/// What an embedded recording needs to check its loop counts afterwards.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Unrolled {
+    pub layers: Vec<u32>,
+    /// Loop and iteration of each occlusion query, in query order.
+    pub groups: Vec<Group>,
+    pub stats: ExecStats,
+}
+
+/// Views of the images a frame leaves its result in (all in `sync::REST`).
+pub(crate) struct Output {
+    pub color: (vk::Image, vk::ImageView),
+    pub prim: (vk::Image, vk::ImageView),
+    pub depth: (vk::Image, vk::ImageView),
+}
+
+impl Executor {
+    /// The loop counts a standalone frame of `plan` learnt, if any.
+    pub(crate) fn learnt_layers(&self, plan: &Plan) -> Option<Vec<u32>> {
+        match &self.layers {
+            Some((p, n)) if p == plan => Some(n.clone()),
+            _ => None,
+        }
+    }
+
+    /// Bumped whenever an object a recording refers to is replaced.
+    pub(crate) fn epoch(&self) -> u64 {
+        self.epoch
+    }
+
+    pub(crate) fn occlusion_pool(&self) -> vk::QueryPool {
+        self.occlusion.pool
+    }
+
+    /// Records `plan`'s frame with its loops unrolled to `layers` into `cmd`
+    /// (begun by the caller, outside any rendering); every image starts and ends
+    /// in `sync::REST`. Submits nothing.
+    pub(crate) fn record_unrolled(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        plan: &Plan,
+        layers: &[u32],
+    ) -> Result<Unrolled, VkError> {
+        let meshes = self.scene_ref()?.ranges.len() as u32;
+        crate::plan::validate::validate(plan, meshes)?;
+        self.ensure_targets(plan)?;
+        let (mut stats, groups, _marks) = self.record_frame(cmd, plan, layers)?;
+        stats.counts.submits = 0;
+        stats.counts.loop_iterations = layers.to_vec();
+        self.last_output = Some(plan.output_ds);
+        Ok(Unrolled {
+            layers: layers.to_vec(),
+            groups,
+            stats,
+        })
+    }
+
+    /// Whether an embedded frame's counts show its unrolling was right.
+    pub(crate) fn unrolled_fits(plan: &Plan, u: &Unrolled, samples: &[u64]) -> bool {
+        layers_fit(plan, &u.layers, &u.groups, samples)
+    }
+
+    /// The images the last frame left its colour, ids and depth in.
+    pub(crate) fn output(&self) -> Option<Output> {
+        let out = self.last_output?;
+        let t = self.targets.as_ref()?;
+        let pair = |r: Resource| {
+            let i = t.image(r);
+            let view = if i.desc.is_depth_stencil() { i.depth_view } else { i.view };
+            (i.raw, view)
+        };
+        Some(Output {
+            color: pair(Resource::Color),
+            prim: pair(Resource::Prim),
+            depth: pair(Resource::DepthStencil(out)),
+        })
+    }
+
+    /// Rewrites mesh `i`'s vertices in place (same triangle count; the vertex
+    /// buffer is host-visible): a moved mesh costs no new buffer and no upload of
+    /// the others. Recordings are invalidated (their scissors used the old bounds).
+    pub(crate) fn rewrite_mesh(&mut self, i: usize, mesh: &Mesh) -> Result<(), VkError> {
+        let scene = self
+            .scene
+            .as_mut()
+            .ok_or_else(|| VkError::Plan("rewrite_mesh before upload".into()))?;
+        GpuScene::rewrite(scene, i, mesh)?;
+        self.epoch += 1;
+        self.recording = None;
+        Ok(())
+    }
+
+    /// The screen rectangle the CSG can cover: the projected bounds of every
+    /// mesh (the composite pass is scissored to it).
+    pub(crate) fn output_rect(&self) -> Rect {
+        let d = self.desc;
+        match &self.scene {
+            Some(s) => bounds_rect(s.cam.view, s.cam.proj, s.camera.near, &s.bounds, d.width, d.height),
+            None => Rect::EMPTY,
+        }
+    }
+
+    fn scene_ref(&self) -> Result<&GpuScene, VkError> {
+        self.scene
+            .as_ref()
+            .ok_or_else(|| VkError::Plan("record before upload: no scene".into()))
+    }
+}
