@@ -57,6 +57,7 @@
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod bench;
+pub mod budget;
 pub mod csg;
 pub mod embed;
 pub mod geom;
@@ -73,3 +74,6 @@ pub use embed::{CsgExpr, CsgScene, EmbedDesc, EmbedError, MeshInput};
 pub use plan::Algo;
 pub use scene::{Camera, Projection};
 pub use vk::{Context, Embedder, HostTargets};
+
+#[cfg(test)]
+mod fuzz_tests;

@@ -48,6 +48,12 @@ pub enum OutputError {
         want_w: u32,
         want_h: u32,
     },
+    /// `--out` (or a folder above it) is an existing file.
+    #[error(
+        "{path} is a file, not a folder: {what} needs a folder to write into (created if missing); \
+         give a folder name that is not a file, e.g. out/"
+    )]
+    NotAFolder { path: PathBuf, what: String },
     #[error("{path}: {source}")]
     Json {
         path: PathBuf,
@@ -170,10 +176,36 @@ pub fn decode_npy(bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), String> {
     Ok((h, w, depth))
 }
 
+/// Checks before any work that `dir` can be an output folder: neither it nor a
+/// folder above it is an existing file (which `create_dir_all` would report only
+/// as "File exists"). `what` names it for the user, e.g. `--out`.
+pub fn check_out_dir(dir: impl AsRef<Path>, what: &str) -> Result<(), OutputError> {
+    for a in dir.as_ref().ancestors() {
+        match std::fs::metadata(a) {
+            Ok(m) if m.is_dir() => return Ok(()),
+            Ok(_) => {
+                return Err(OutputError::NotAFolder {
+                    path: a.to_path_buf(),
+                    what: what.to_string(),
+                })
+            }
+            Err(_) => {}
+        }
+    }
+    Ok(())
+}
+
+/// `create_dir_all`, with a file in the way reported as [`OutputError::NotAFolder`].
+pub fn create_out_dir(dir: impl AsRef<Path>, what: &str) -> Result<(), OutputError> {
+    let dir = dir.as_ref();
+    check_out_dir(dir, what)?;
+    std::fs::create_dir_all(dir).map_err(io_err(dir))
+}
+
 /// Writes `color.png`, `depth.npy` and `prim.png` into `dir` (created if missing).
 pub fn write_images(dir: impl AsRef<Path>, img: &Images) -> Result<(), OutputError> {
     let dir = dir.as_ref();
-    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    create_out_dir(dir, "the output")?;
     let n = img.width as usize * img.height as usize;
     assert!(
         img.color.len() == n && img.depth.len() == n && img.prim.len() == n,
@@ -215,7 +247,7 @@ pub fn write_stats(
     stats: &impl serde::Serialize,
 ) -> Result<(), OutputError> {
     let dir = dir.as_ref();
-    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    create_out_dir(dir, "the output")?;
     let path = dir.join("stats.json");
     let text = serde_json::to_string_pretty(stats).map_err(|source| OutputError::Json {
         path: path.clone(),

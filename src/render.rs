@@ -123,7 +123,34 @@ pub enum RenderError {
     #[error("algorithm '{algo}' cannot render {what} yet: use --algo reference")]
     Unsupported { algo: String, what: &'static str },
     #[error("Vulkan validation reported {} message(s); first: {}", .0.len(), .0.first().map(String::as_str).unwrap_or(""))]
-    Validation(Vec<String>),
+    Validation(Vec<String>),    #[error(transparent)]
+    OverBudget(#[from] crate::budget::OverBudget),
+}
+
+/// Device bytes per pixel of the executor's images: colour and primitive id (4 + 4),
+/// two depth-stencil images (8 each with D32S8), the depth textures (4 each) and
+/// the read-back copy.
+pub const DEVICE_BYTES_PER_PIXEL: u64 = 48;
+/// Host bytes per pixel of a GPU frame: the read-back buffer and the output
+/// images, plus the device images on a software device (lavapipe), whose device
+/// memory is host memory.
+pub const GPU_HOST_BYTES_PER_PIXEL: u64 = 32 + DEVICE_BYTES_PER_PIXEL;
+/// Host bytes per pixel of the reference: per-pixel results and the output images.
+pub const REFERENCE_BYTES_PER_PIXEL: u64 = 32;
+
+/// Refuses a frame whose images would exceed the memory budget, before any is
+/// allocated.
+pub fn check_frame_budget(width: u32, height: u32, gpu: bool) -> Result<(), crate::budget::OverBudget> {
+    let per_pixel = if gpu {
+        GPU_HOST_BYTES_PER_PIXEL
+    } else {
+        REFERENCE_BYTES_PER_PIXEL
+    };
+    crate::budget::current().check(
+        || format!("a {width}x{height} frame"),
+        width as u64 * height as u64 * per_pixel,
+        "use a smaller --size",
+    )
 }
 
 /// The CPU reference: exact ray casting.
@@ -183,7 +210,9 @@ impl GpuRenderer {
         fallback: bool,
         validation: bool,
     ) -> Result<Self, RenderError> {
+        check_frame_budget(scene.render.width, scene.render.height, true)?;
         let ctx = vk::Context::new(&vk::ContextDesc { device, validation })?;
+        ctx.check_frame_size(scene.render.width, scene.render.height, DEVICE_BYTES_PER_PIXEL)?;
         let mut why = None;
         if fallback && !ctx.depth_format_usable(depth.exec_format().0.vk()) {
             why = Some(format!(
@@ -275,6 +304,7 @@ impl GpuRenderer {
 /// Renders one frame with the chosen algorithm.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError> {
     if opts.algo == Algo::Reference {
+        check_frame_budget(scene.render.width, scene.render.height, false)?;
         return Ok(render_reference(scene));
     }
     let prep = Prepared::new(scene)?;

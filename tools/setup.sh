@@ -3,7 +3,7 @@
 # Mesa's lavapipe (software Vulkan 1.3) and the Khronos validation layers.
 # Idempotent: does nothing when everything is already installed.
 set -euo pipefail
-pkgs=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers fonts-dejavu-core)
+pkgs=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")

@@ -494,3 +494,5 @@ fn depth_setup_defaults_to_reversed_d32() {
         stderr(&o)
     );
 }
+
+mod cli_hardening;

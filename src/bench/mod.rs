@@ -169,6 +169,8 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 })?;
             let label = scene_label(&bs.path);
             bar.set_message(format!("{label} {w}x{h}: reference"));
+            crate::render::check_frame_budget(w, h, false)
+                .map_err(|e| BenchError::Other(format!("{}: {e}", bs.path.display())))?;
             let t = Instant::now();
             let reference = crate::reference::render(&scene, w, h);
             let ref_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -377,12 +379,13 @@ struct RunCounts<'a> {
 
 /// Runs the matrix and writes every output into `cfg.out`.
 pub fn run_and_report(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, BenchError> {
-    std::fs::create_dir_all(&cfg.out).map_err(|source| BenchError::Io {
-        path: cfg.out.clone(),
-        source,
-    })?;
+    crate::output::create_out_dir(&cfg.out, "--out")
+        .map_err(|e| BenchError::Other(e.to_string()))?;
     let records = run(cfg, scenes)?;
     report::write_all(&cfg.out, &records)?;
-    plot::write_all(&cfg.out, &records)?;
+    // Plots are an optional extra: the table and results are already written.
+    if let Err(e) = plot::write_all(&cfg.out, &records) {
+        eprintln!("peeltrim: warning: no plots: {e}");
+    }
     Ok(records)
 }

@@ -13,26 +13,16 @@ use plotters::prelude::*;
 use super::report::error_figures;
 use super::{BenchError, Record};
 
-const FONT_PATHS: [&str; 2] = [
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-];
+/// DejaVu Sans, shipped in the repository (`assets/fonts/`, Bitstream Vera
+/// licence beside it) so plots never depend on the fonts a machine has installed.
+static FONT_TTF: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
-/// Registers the plot font once; plots are skipped with a message without it.
+/// Registers the embedded plot font once.
 fn font() -> Result<(), BenchError> {
     static FONT: OnceLock<Result<(), String>> = OnceLock::new();
     FONT.get_or_init(|| {
-        for p in FONT_PATHS {
-            if let Ok(bytes) = std::fs::read(p) {
-                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                return plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
-                    .map_err(|_| format!("{p} is not a usable font"));
-            }
-        }
-        Err(
-            "no DejaVuSans.ttf found: install fonts-dejavu-core (tools/setup.sh) for the plots"
-                .into(),
-        )
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT_TTF)
+            .map_err(|_| "the embedded DejaVu Sans font could not be loaded".to_string())
     })
     .clone()
     .map_err(BenchError::Other)
@@ -127,9 +117,37 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
     Ok(files)
 }
 
-/// x: median GPU ms; y: interior coverage + primitive mismatches (% of pixels).
+/// Marker of a depth set-up in the time-vs-error plot (colour is the algorithm).
+fn depth_marker<DB: DrawingBackend, C: Clone + 'static>(
+    depth: &str,
+    at: C,
+    color: RGBColor,
+) -> DynElement<'static, DB, C> {
+    match depth {
+        "d24s8" => Circle::new(at, 5, color.filled()).into_dyn(),
+        "d32s8" => TriangleMarker::new(at, 7, color.filled()).into_dyn(),
+        _ => Cross::new(at, 6, color.stroke_width(2)).into_dyn(),
+    }
+}
+
+/// A percentage for an axis label: `10%`, `0.5%`, `1e-3%`.
+fn percent(v: f64) -> String {
+    if v >= 1.0 {
+        format!("{v:.0}%")
+    } else if v >= 0.01 {
+        format!("{}%", format!("{v:.2}").trim_end_matches('0').trim_end_matches('.'))
+    } else {
+        format!("{v:.0e}%")
+    }
+}
+
+/// x: median GPU ms; y: interior coverage + primitive mismatches (% of pixels) on
+/// a log scale (whole decades), with exact results (error 0, which a log axis
+/// cannot show) in a strip of their own below it. A legend beside the plot
+/// (colour: algorithm, marker: depth set-up) instead of a label at each point,
+/// which overlapped.
 fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError> {
-    let pts: Vec<(f64, f64, String, &str)> = rows
+    let pts: Vec<(f64, f64, &str, &str)> = rows
         .iter()
         .map(|r| {
             let (c, p, _) = error_figures(r);
@@ -137,50 +155,90 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
             (
                 r.gpu_ms_median,
                 if e.is_finite() { e } else { 0.0 },
-                format!("{} {}", r.algo, r.depth_setup),
                 r.algo.as_str(),
+                r.depth_setup.as_str(),
             )
         })
         .collect();
-    let xmax = pts.iter().map(|p| p.0).fold(0.0, f64::max) * 1.25 + 1e-3;
-    let ymax = pts.iter().map(|p| p.1).fold(0.0, f64::max) * 1.25 + 0.01;
-    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
+    let xmax = pts.iter().map(|p| p.0).fold(0.0, f64::max) * 1.1 + 1e-3;
+    let nonzero = pts.iter().map(|p| p.1).filter(|&e| e > 0.0);
+    let (ymin, ymax) = nonzero.fold((f64::INFINITY, 0.0f64), |(a, b), e| (a.min(e), b.max(e)));
+    let (ylo, yhi) = if ymax > 0.0 {
+        let lo = 10f64.powf(ymin.log10().floor());
+        (lo, 10f64.powf(ymax.log10().ceil()).max(lo * 10.0))
+    } else {
+        (1e-3, 1.0)
+    };
+    let mut series: Vec<(&str, &str)> = pts.iter().map(|p| (p.2, p.3)).collect();
+    series.sort();
+    series.dedup();
+    let root = BitMapBackend::new(path, (1150, 650)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 22))
+    let root = root
+        .titled(title, ("sans-serif", 22))
+        .map_err(|e| err(path, e))?;
+    let (plot, legend) = root.split_horizontally(900);
+    let (top, bottom) = plot.split_vertically(470);
+    let mut chart = ChartBuilder::on(&top)
         .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..xmax, 0.0..ymax)
+        .margin_bottom(0)
+        .x_label_area_size(0)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..xmax, (ylo..yhi).log_scale())
         .map_err(|e| err(path, e))?;
     chart
         .configure_mesh()
-        .x_desc("median GPU time per frame (ms; OpenCSG triangles: wall time)")
-        .y_desc("interior coverage + primitive mismatches (% of pixels)")
+        .y_desc("interior coverage + primitive mismatches (% of pixels, log)")
+        .y_label_formatter(&|v| percent(*v))
+        .label_style(("sans-serif", 13))
         .draw()
         .map_err(|e| err(path, e))?;
-    for (x, y, label, algo) in &pts {
-        // OpenCSG's rows (a baseline, timed by wall clock) are black triangles.
-        if algo.starts_with(super::opencsg::PREFIX) {
-            chart
-                .draw_series(std::iter::once(TriangleMarker::new(
-                    (*x, *y),
-                    7,
-                    BLACK.filled(),
-                )))
-                .map_err(|e| err(path, e))?;
+    let mut zero = ChartBuilder::on(&bottom)
+        .margin(15)
+        .margin_top(5)
+        .x_label_area_size(45)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..xmax, -1.0..1.0)
+        .map_err(|e| err(path, e))?;
+    zero.configure_mesh()
+        .disable_y_mesh()
+        .y_labels(1)
+        .y_label_formatter(&|_| "0 (exact)".to_string())
+        .label_style(("sans-serif", 13))
+        .x_desc("median GPU time per frame (ms; OpenCSG: wall time)")
+        .draw()
+        .map_err(|e| err(path, e))?;
+    for (i, &(algo, depth)) in series.iter().enumerate() {
+        // OpenCSG's rows (a baseline, timed by wall clock) are black.
+        let c = if algo.starts_with(super::opencsg::PREFIX) {
+            BLACK
         } else {
-            let c = algo_color(algo);
-            chart
-                .draw_series(std::iter::once(Circle::new((*x, *y), 5, c.filled())))
-                .map_err(|e| err(path, e))?;
-        }
+            algo_color(algo)
+        };
+        let mine = || pts.iter().filter(move |p| p.2 == algo && p.3 == depth);
+        zero.draw_series(
+            mine()
+                .filter(|p| p.1 == 0.0)
+                .map(|p| depth_marker(depth, (p.0, 0.0), c)),
+        )
+        .map_err(|e| err(path, e))?;
         chart
-            .draw_series(std::iter::once(Text::new(
-                label.clone(),
-                (*x, *y),
-                ("sans-serif", 13).into_font(),
-            )))
+            .draw_series(
+                mine()
+                    .filter(|p| p.1 > 0.0)
+                    .map(|p| depth_marker(depth, (p.0, p.1), c)),
+            )
+            .map_err(|e| err(path, e))?;
+        let y = 40 + 20 * i as i32;
+        legend
+            .draw(&depth_marker(depth, (12, y), c))
+            .map_err(|e| err(path, e))?;
+        legend
+            .draw(&Text::new(
+                format!("{algo} {depth}"),
+                (26, y - 7),
+                ("sans-serif", 14).into_font(),
+            ))
             .map_err(|e| err(path, e))?;
     }
     root.present().map_err(|e| err(path, e))?;

@@ -21,6 +21,11 @@ use peeltrim::scene::{self, LoadOptions};
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
+    /// Memory the run may plan for, e.g. 2G or 512M (default: half of the smaller
+    /// of the physical memory and `ulimit -v`); work estimated above it is
+    /// refused at once with the estimate
+    #[arg(long, global = true, value_parser = peeltrim::budget::parse_size)]
+    memory_budget: Option<u64>,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -361,6 +366,9 @@ fn load(path: &Path, size: Option<(u32, u32)>, scad: ScadArgs) -> Result<scene::
 }
 
 fn run(cli: Cli) -> Result<ExitCode> {
+    if let Some(bytes) = cli.memory_budget {
+        peeltrim::budget::set(bytes);
+    }
     match cli.cmd {
         Cmd::Render {
             scene,
@@ -372,6 +380,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             scad,
         } => {
             let opts = render_options(algo, &gpu)?;
+            peeltrim::output::check_out_dir(&out, "--out")?;
             let mut scene = load(&scene, size, scad)?;
             if layers.alpha.is_some() {
                 scene.appearance.alpha = layers.alpha;
@@ -451,6 +460,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         } => {
             let algos = parse_algos(&algos)?;
             let opts = render_options(Algo::Reference, &gpu)?;
+            peeltrim::output::check_out_dir(&out, "--out")?;
             let mut list: Vec<BenchScene> = Vec::new();
             let scene_files = if scenes.is_empty() && families.is_empty() && !hard {
                 shipped_scenes()?

@@ -58,6 +58,7 @@ pub use ties::{tie_draws, tie_eps, Peeled, Relation};
 pub(crate) use trim::BlistTrimmer;
 pub use trim::Trimmer;
 pub use zones::{leaf_csts, LeafCst, TrimVolume};
+pub(crate) use zones::disjoint;
 
 use super::stencil::{self, LabelLayout, Next};
 use super::step::*;
@@ -149,6 +150,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     if !solid && prep.surfaces.is_empty() {
         return Err(PlanError::NoSolid);
     }
+    super::budget::check_cst(prep, variant)?;
     let mut jobs: Vec<Job> = if solid {
         leaf_csts(&prep.positive, variant, &prep.mesh_bounds, &prep.eye_inside)
             .into_iter()

@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod blister;
+pub mod budget;
 mod common;
 pub mod cst;
 pub mod eye;
@@ -106,6 +107,16 @@ pub enum PlanError {
     NotImplemented(Algo),
     #[error("{0}")]
     Products(String),
+    /// The plan's estimated memory exceeds the budget ([`crate::budget`]).
+    #[error("{0}")]
+    OverBudget(crate::budget::OverBudget),
+    /// The plan's estimated work exceeds what any device renders in reasonable time.
+    #[error("{what}, over the limit of {limit} (a frame would take minutes); {fix}")]
+    TooMuchWork {
+        what: String,
+        limit: u64,
+        fix: String,
+    },
 }
 
 /// A `[[surface]]` as the CST plans need it.

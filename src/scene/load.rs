@@ -15,7 +15,10 @@
 //! - Keys that do not apply to a shape (`radius` on a box) are errors, as are
 //!   `trim`/`keep`/`paint_color` on a primitive.
 //! - A torus needs `minor_radius < radius` (otherwise it self-intersects).
-//! - `segments` and `rings` are at most 65536 and their product at most 2^24.
+//! - `segments` and `rings` are at most 65536 and their product at most 2^24, and
+//!   the meshes' estimated memory ([`super::cost`]) must fit the memory budget.
+//! - Vectors are exactly 3 numbers (`vector.rs`); a file named `.scad` is
+//!   refused as OpenSCAD source ([`super::kind`]).
 //! - Surface `keep` defaults to `"in"`, `paint_color` to `"#c02020"`; a `trim`
 //!   may be unbounded (e.g. `!A`), a solid may not.
 //! - Names share one namespace across primitives and surfaces; solid names are
@@ -27,17 +30,19 @@
 //!   a path ending in `.csg` is loaded as that scene with every default.
 
 use glam::DVec3;
-use serde::de::{self, Deserializer, Visitor};
+use serde::de::{self, Deserializer};
 use serde::Deserialize;
 use std::collections::HashMap;
-use std::fmt;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
+use super::cost;
 use super::fit;
+use super::kind;
 use super::obj::load_obj;
 use super::shapes::{self, default_rings, DEFAULT_SEGMENTS};
 use super::validate::{check_closed, signed_volume};
+use super::vector::{self, RawVec};
 use super::{
     Camera, Keep, Mesh, Primitive, Projection, RenderSettings, Scene, Shape, Solid, Surface,
 };
@@ -67,6 +72,9 @@ pub enum SceneError {
         message: String,
         snippet: String,
     },
+    /// A file that is not a scene (e.g. OpenSCAD source).
+    #[error("{}: {message}", path.display())]
+    Unsupported { path: PathBuf, message: String },
     /// A value that parses but is not valid, located by its key path.
     #[error("{}{}: {key}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
     Invalid {
@@ -104,9 +112,9 @@ struct FileT {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CameraT {
-    eye: Option<[f64; 3]>,
-    target: Option<[f64; 3]>,
-    up: Option<[f64; 3]>,
+    eye: Option<RawVec>,
+    target: Option<RawVec>,
+    up: Option<RawVec>,
     fov_y_deg: Option<f64>,
     projection: Option<ProjT>,
     ortho_height: Option<f64>,
@@ -120,7 +128,7 @@ impl CameraT {
     /// `fit = true`.
     fn fitted_default() -> Self {
         CameraT {
-            eye: Some([3.0, 2.0, 4.0]),
+            eye: Some(vector::raw([3.0, 2.0, 4.0])),
             target: None,
             up: None,
             fov_y_deg: None,
@@ -194,58 +202,21 @@ enum KeepT {
 struct ShapeT {
     name: String,
     shape: ShapeKind,
-    size: Option<[f64; 3]>,
+    size: Option<RawVec>,
     radius: Option<f64>,
     minor_radius: Option<f64>,
     height: Option<f64>,
     segments: Option<u32>,
     rings: Option<u32>,
     path: Option<String>,
-    scale: Option<Scale>,
-    rotate_deg: Option<[f64; 3]>,
-    translate: Option<[f64; 3]>,
+    scale: Option<RawVec>,
+    rotate_deg: Option<RawVec>,
+    translate: Option<RawVec>,
     color: Option<Color>,
     trim: Option<String>,
     keep: Option<KeepT>,
     paint_color: Option<Color>,
     alpha: Option<f64>,
-}
-
-/// `scale`: a number or a 3-vector.
-struct Scale(DVec3);
-
-impl<'de> Deserialize<'de> for Scale {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Scale;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number or an array of 3 numbers, e.g. 2.0 or [1.0, 2.0, 1.0]")
-            }
-            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Scale, E> {
-                Ok(Scale(DVec3::splat(v)))
-            }
-            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Scale, E> {
-                Ok(Scale(DVec3::splat(v as f64)))
-            }
-            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Scale, E> {
-                Ok(Scale(DVec3::splat(v as f64)))
-            }
-            fn visit_seq<A: de::SeqAccess<'de>>(self, mut s: A) -> Result<Scale, A::Error> {
-                let mut c = [0.0; 3];
-                for (i, slot) in c.iter_mut().enumerate() {
-                    *slot = s
-                        .next_element::<f64>()?
-                        .ok_or_else(|| de::Error::invalid_length(i, &self))?;
-                }
-                if s.next_element::<f64>()?.is_some() {
-                    return Err(de::Error::invalid_length(4, &self));
-                }
-                Ok(Scale(DVec3::from_array(c)))
-            }
-        }
-        d.deserialize_any(V)
-    }
 }
 
 /// `"#rrggbb"`.
@@ -287,11 +258,12 @@ pub fn load_with(
     opts: &LoadOptions,
     skip_unsupported: bool,
 ) -> Result<Scene, SceneError> {
+    kind::refuse_unsupported(path)?;
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
         path: path.to_path_buf(),
         source,
     })?;
-    load_str_with(&text, path, opts, skip_unsupported)
+    load_str_with(&text, path, opts, skip_unsupported).map_err(|e| kind::hint(path, e))
 }
 
 /// Loads a scene from its text; `path` names it in errors and meshes are relative
@@ -329,6 +301,7 @@ fn load_str_with(
         text: virtual_toml.as_deref().unwrap_or(text),
         dir: path.parent().unwrap_or(Path::new(".")).to_path_buf(),
         warnings: Vec::new(),
+        mesh_bytes: std::cell::Cell::new(0),
         skip_unsupported,
         inline_csg: virtual_toml.is_some().then_some(text),
     }
@@ -340,6 +313,8 @@ struct Loader<'a> {
     text: &'a str,
     dir: PathBuf,
     warnings: Vec<String>,
+    /// Estimated bytes of the meshes so far ([`cost`]), against the budget.
+    mesh_bytes: std::cell::Cell<u64>,
     /// `--skip-unsupported` (or'ed with `[csg] skip_unsupported`).
     skip_unsupported: bool,
     /// The text of the `.csg` file this scene was made for (a `.csg` loaded
@@ -815,8 +790,8 @@ impl Loader<'_> {
             .collect();
         let default = if openscad {
             CameraT {
-                eye: Some(super::openscad::default_view_dir().to_array()),
-                up: Some([0.0, 0.0, 1.0]),
+                eye: Some(vector::raw(super::openscad::default_view_dir().to_array())),
+                up: Some(vector::raw([0.0, 0.0, 1.0])),
                 fov_y_deg: Some(super::openscad::DEFAULT_FOV_Y_DEG),
                 ..CameraT::fitted_default()
             }
@@ -867,6 +842,42 @@ impl Loader<'_> {
                  e.g. `B !A` (= `B - A`)"
             ),
         ))
+    }
+
+    /// Adds a mesh's estimated bytes to the scene's and refuses the scene when the
+    /// total exceeds the memory budget, before the mesh is built.
+    fn charge(
+        &self,
+        line: Option<usize>,
+        key: String,
+        what: impl FnOnce() -> String,
+        bytes: u64,
+        fix: &str,
+    ) -> Result<(), SceneError> {
+        let total = self.mesh_bytes.get().saturating_add(bytes);
+        self.mesh_bytes.set(total);
+        crate::budget::current()
+            .check(what, total, fix)
+            .map_err(|e| self.invalid(line, key, e.to_string()))
+    }
+
+    /// A fixed-length vector key (`what` names its components in the fix), located
+    /// at its own line.
+    fn vec3(
+        &self,
+        raw: &RawVec,
+        key: &str,
+        what: &str,
+        number_ok: bool,
+    ) -> Result<DVec3, SceneError> {
+        let line = self.line(raw.span());
+        let v = if number_ok {
+            vector::vec3_or_number(raw.get_ref(), what)
+        } else {
+            vector::vec3(raw.get_ref(), what)
+        }
+        .map_err(|m| self.invalid(line, key, m))?;
+        self.finite3(v, line, key)
     }
 
     fn finite3(&self, v: [f64; 3], line: Option<usize>, key: &str) -> Result<DVec3, SceneError> {
@@ -946,7 +957,9 @@ impl Loader<'_> {
                 format!("{segments} is out of range: use 3 to {MAX_DIVISIONS}"),
             ));
         }
-        let rings = |min: u32| -> Result<u32, SceneError> {
+        // The ring count, checked, and the grid's memory charged to the budget
+        // before it is tessellated.
+        let rings = |min: u32, counts: fn(u32, u32) -> (u64, u64)| -> Result<u32, SceneError> {
             let r = p.rings.unwrap_or_else(|| default_rings(segments, min));
             if !(min..=MAX_DIVISIONS).contains(&r) {
                 return Err(self.invalid(
@@ -965,18 +978,26 @@ impl Loader<'_> {
                     ),
                 ));
             }
+            let (v, t) = counts(segments, r);
+            self.charge(
+                line,
+                k("segments"),
+                || format!("this {kname} ({segments} segments × {r} rings: {v} vertices, {t} triangles) with the scene's other meshes"),
+                cost::mesh_bytes(v, t),
+                "lower `segments` and `rings` (64 × 32 already renders a smooth sphere)",
+            )?;
             Ok(r)
         };
         let (shape, local) = match kind {
             K::Box => {
-                let s = p.size.ok_or_else(|| {
+                let s = p.size.as_ref().ok_or_else(|| {
                     self.invalid(
                         line,
                         k("size"),
                         "missing: a box needs `size = [x, y, z]` (full extents)",
                     )
                 })?;
-                let s = self.finite3(s, line, &k("size"))?;
+                let s = self.vec3(s, &k("size"), "full extents x, y, z", false)?;
                 if s.min_element() <= 0.0 {
                     return Err(self.invalid(
                         line,
@@ -988,7 +1009,7 @@ impl Loader<'_> {
             }
             K::Sphere => {
                 let r = self.positive(p.radius, line, &k("radius"), "sphere", "its radius")?;
-                let m = rings(2)?;
+                let m = rings(2, cost::sphere)?;
                 (
                     Shape::Sphere {
                         radius: r,
@@ -1039,7 +1060,7 @@ impl Loader<'_> {
                         format!("{small} must be less than radius = {big}, otherwise the torus intersects itself"),
                     ));
                 }
-                let m = rings(3)?;
+                let m = rings(3, cost::torus)?;
                 (
                     Shape::Torus {
                         radius: big,
@@ -1059,6 +1080,15 @@ impl Loader<'_> {
                     )
                 })?;
                 let full = self.dir.join(rel);
+                if let Ok(meta) = std::fs::metadata(&full) {
+                    self.charge(
+                        line,
+                        k("path"),
+                        || format!("the OBJ file ({} bytes) with the scene's other meshes", meta.len()),
+                        cost::obj_bytes(meta.len()),
+                        "simplify the mesh (fewer triangles)",
+                    )?;
+                }
                 let mesh = load_obj(&full).map_err(|e| {
                     self.invalid(
                         line,
@@ -1070,7 +1100,7 @@ impl Loader<'_> {
             }
         };
         let scale = match &p.scale {
-            Some(s) => self.finite3(s.0.to_array(), line, &k("scale"))?,
+            Some(s) => self.vec3(s, &k("scale"), "factors x, y, z", true)?,
             None => DVec3::ONE,
         };
         if scale.x == 0.0 || scale.y == 0.0 || scale.z == 0.0 {
@@ -1080,12 +1110,12 @@ impl Loader<'_> {
                 format!("{scale} has a zero component: the transform would flatten the {kname} (singular); use a non-zero scale"),
             ));
         }
-        let rot = match p.rotate_deg {
-            Some(r) => self.finite3(r, line, &k("rotate_deg"))?,
+        let rot = match &p.rotate_deg {
+            Some(r) => self.vec3(r, &k("rotate_deg"), "degrees about x, y, z", false)?,
             None => DVec3::ZERO,
         };
-        let tr = match p.translate {
-            Some(t) => self.finite3(t, line, &k("translate"))?,
+        let tr = match &p.translate {
+            Some(t) => self.vec3(t, &k("translate"), "offsets x, y, z", false)?,
             None => DVec3::ZERO,
         };
         let m = shapes::transform(scale, rot, tr);
@@ -1112,20 +1142,24 @@ impl Loader<'_> {
             Some(t) => (t.get_ref(), self.line(t.span())),
             None => (default, None),
         };
-        let eye = c.eye.ok_or_else(|| {
-            self.invalid(
-                line,
-                "camera: eye",
-                "missing: give the eye position, e.g. eye = [3.0, 2.0, 4.0]",
-            )
-        })?;
-        let eye = self.finite3(eye, line, "camera: eye")?;
-        let target = self.finite3(c.target.unwrap_or([0.0; 3]), line, "camera: target")?;
-        let up = self.finite3(
-            c.up.or(default.up).unwrap_or([0.0, 1.0, 0.0]),
-            line,
-            "camera: up",
-        )?;
+        let eye = match &c.eye {
+            Some(e) => self.vec3(e, "camera: eye", "the eye position x, y, z", false)?,
+            None => {
+                return Err(self.invalid(
+                    line,
+                    "camera: eye",
+                    "missing: give the eye position, e.g. eye = [3.0, 2.0, 4.0]",
+                ))
+            }
+        };
+        let target = match &c.target {
+            Some(v) => self.vec3(v, "camera: target", "the point looked at x, y, z", false)?,
+            None => DVec3::ZERO,
+        };
+        let up = match c.up.as_ref().or(default.up.as_ref()) {
+            Some(v) => self.vec3(v, "camera: up", "the up direction x, y, z", false)?,
+            None => DVec3::Y,
+        };
         let dir = target - eye;
         if dir.length() == 0.0 || !dir.normalize().is_finite() {
             return Err(self.invalid(

@@ -188,7 +188,7 @@ fn syntax_and_type_errors_have_line_and_column() {
     ));
     assert!(e.contains("missing field `name`"), "{e}");
     let e = err(&with("scale = [1, 2]\n[csg]\nexpr = \"A\"\n"));
-    assert!(e.contains("array of 3 numbers"), "{e}");
+    assert!(e.contains("exactly 3 numbers"), "{e}");
 }
 
 #[test]
@@ -434,15 +434,140 @@ fn boundedness() {
     }
 }
 
+/// Messages a user meets often: each names the place (file, line, key) and the fix.
 #[test]
-#[ignore]
-fn print_examples() {
-    for extra in [
-        "[[primitive]]\nname = \"B\"\nshape = \"sphere\"\nradius = 0.0\n[csg]\nexpr = \"A\"\n",
-        "[csg]\nexpr = \"A + Q\"\n",
-        "[csg]\nexpr = \"A\"\ncolour = 3\n",
-        "[csg]\nexpr = \"!A + A\"\n",
+fn common_mistakes_name_the_place_and_the_fix() {
+    for (extra, needles) in [
+        (
+            "[[primitive]]\nname = \"B\"\nshape = \"sphere\"\nradius = 0.0\n[csg]\nexpr = \"A\"\n",
+            &["test.toml:8: primitive[2] \"B\": radius", "must be a positive finite number"][..],
+        ),
+        (
+            "[csg]\nexpr = \"A + Q\"\n",
+            &["test.toml:8: csg: expr", "Q"][..],
+        ),
+        (
+            "[csg]\nexpr = \"A\"\ncolour = 3\n",
+            &["test.toml:10:1", "unknown field `colour`", "expr"][..],
+        ),
+        (
+            "[csg]\nexpr = \"!A + A\"\n",
+            &["test.toml:8: csg: expr", "unbounded", "e.g. `B !A`"][..],
+        ),
     ] {
-        println!("{}\n---", err(&with(extra)));
+        let e = err(&with(extra));
+        for n in needles {
+            assert!(e.contains(n), "missing {n:?} in:\n{e}");
+        }
+    }
+}
+
+const BAD_VECTORS: [(&str, &str); 8] = [
+    ("[1.0, 1.0, 1.0, 4.0]", "has 4 elements: write exactly 3 numbers"),
+    ("[1.0, 1.0]", "has 2 elements: write exactly 3 numbers"),
+    ("[]", "has 0 elements"),
+    ("[1.0, 1.0, 1.0, \"x\"]", "has 4 elements"),
+    ("[0.5, \"x\", 1.0]", "element 2 is the string \"x\", not a number"),
+    ("[0.5, 1.0, true]", "element 3 is the boolean true, not a number"),
+    ("\"1 2 3\"", "found the string \"1 2 3\": write an array of 3 numbers"),
+    ("{ x = 1.0 }", "found a table"),
+];
+
+/// Every fixed-length vector of a primitive or surface rejects a wrong length or
+/// element type, naming the file, the line of the key, the key path and the fix.
+#[test]
+fn shape_vectors_reject_wrong_length_and_type() {
+    for key in ["size", "rotate_deg", "translate", "scale"] {
+        for (value, needle) in BAD_VECTORS {
+            for table in ["primitive", "surface"] {
+                let src = format!(
+                    "{CAM}[[{table}]]\nname = \"A\"\nshape = \"box\"\n{}{key} = {value}\ntrim = \"A\"\n",
+                    if key == "size" { "" } else { "size = [1.0, 1.0, 1.0]\n" }
+                );
+                let (src, shift) = if table == "primitive" {
+                    (src.replace("trim = \"A\"\n", "[csg]\nexpr = \"A\"\n"), 0)
+                } else {
+                    let p = "[[primitive]]\nname = \"P\"\nshape = \"box\"\nsize = [1.0, 1.0, 1.0]\n";
+                    (src.replacen("[[surface]]", &format!("{p}[[surface]]"), 1).replace("trim = \"A\"", "trim = \"P\""), 4)
+                };
+                let line = shift + if key == "size" { 7 } else { 8 };
+                let e = err(&src);
+                let want = format!("test.toml:{line}: {table}[1] \"A\": {key}: ");
+                assert!(e.starts_with("/tmp/t/") && e.contains(&want), "{key} = {value}: {e}");
+                if key == "scale" && !value.starts_with('[') {
+                    assert!(e.contains("a number or an array of 3 numbers"), "{e}");
+                } else {
+                    assert!(e.contains(needle), "{key} = {value}: {e}");
+                }
+                assert!(e.contains("e.g."), "{e}");
+            }
+        }
+    }
+}
+
+#[test]
+fn camera_vectors_reject_wrong_length_and_type() {
+    for key in ["eye", "target", "up"] {
+        for (value, needle) in BAD_VECTORS {
+            let mut cam = vec![
+                ("eye", "[3.0, 2.0, 4.0]"),
+                ("target", "[0.0, 0.0, 0.0]"),
+                ("up", "[0.0, 1.0, 0.0]"),
+            ];
+            cam.iter_mut().find(|(k, _)| *k == key).unwrap().1 = value;
+            let cam: String = cam.iter().map(|(k, v)| format!("{k} = {v}\n")).collect();
+            let src = format!("[camera]\n{cam}{BOX_A}[csg]\nexpr = \"A\"\n");
+            let line = 2 + ["eye", "target", "up"].iter().position(|k| *k == key).unwrap();
+            let e = err(&src);
+            let want = format!("test.toml:{line}: camera: {key}: ");
+            assert!(e.contains(&want), "{key} = {value}: {e}");
+            assert!(e.contains(needle), "{key} = {value}: {e}");
+        }
+    }
+}
+
+/// Integers are numbers; `scale` may be one number.
+#[test]
+fn vectors_accept_integers_and_a_scalar_scale() {
+    let src = "[camera]\neye = [3, 2, 4]\nup = [0, 1, 0]\n[[primitive]]\nname = \"A\"\nshape = \"box\"\n\
+               size = [1, 2, 1]\nscale = 2\nrotate_deg = [0, 90, 0]\ntranslate = [1, 0, 0]\n[csg]\nexpr = \"A\"\n";
+    let s = load_str(src, Path::new("/tmp/t/test.toml"), &LoadOptions::default()).unwrap();
+    assert_eq!(s.camera.eye, glam::DVec3::new(3.0, 2.0, 4.0));
+    assert_eq!(
+        s.primitives[0].shape,
+        Shape::Box {
+            size: glam::DVec3::new(1.0, 2.0, 1.0)
+        }
+    );
+    let b = s.primitives[0].mesh.aabb().unwrap();
+    // 1 x 2 x 1 scaled by 2, turned 90° about y, moved +1 in x.
+    assert!((b.max - glam::DVec3::new(2.0, 2.0, 1.0)).length() < 1e-9, "{b:?}");
+}
+
+/// Colours are `"#rrggbb"` strings: a wrong type or form is located and explained.
+#[test]
+fn colours_reject_wrong_form_and_type() {
+    for (key, table_src) in [
+        ("color", format!("{CAM}{BOX_A}color = VALUE\n[csg]\nexpr = \"A\"\n")),
+        (
+            "background",
+            format!("{CAM}{BOX_A}[render]\nbackground = VALUE\n[csg]\nexpr = \"A\"\n"),
+        ),
+        (
+            "paint_color",
+            format!("{CAM}[[surface]]\nname = \"A\"\nshape = \"box\"\nsize = [1.0, 1.0, 1.0]\ntrim = \"A\"\nkeep = \"paint\"\npaint_color = VALUE\n"),
+        ),
+    ] {
+        for (value, needle) in [
+            ("\"#12345\"", "six hexadecimal digits"),
+            ("\"d0a040\"", "six hexadecimal digits"),
+            ("\"#gg0000\"", "six hexadecimal digits"),
+            ("[208, 160, 64]", "expected a string"),
+            ("5", "expected a string"),
+        ] {
+            let e = err(&table_src.replace("VALUE", value));
+            assert!(e.contains("test.toml:") && e.contains(needle), "{key} = {value}: {e}");
+            assert!(e.contains(&format!("{key} = {value}")), "snippet shows the key: {e}");
+        }
     }
 }

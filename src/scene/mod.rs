@@ -8,6 +8,7 @@
 
 pub mod appearance;
 pub mod camera;
+pub mod cost;
 pub mod fit;
 pub mod load;
 pub mod obj;
@@ -15,6 +16,8 @@ pub mod openscad;
 pub mod shapes;
 // TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
 pub mod validate;
+mod vector;
+pub mod kind;
 pub use appearance::Appearance;
 pub use camera::{Camera, Projection};
 pub use load::{is_bounded, load, load_str, load_with, LoadOptions, SceneError};

@@ -1,0 +1,168 @@
+//! Issue 15 from the user's side: messages for common mistakes, the memory
+//! budget refusing at once (with the estimate, the budget and the way out)
+//! instead of aborting, large expressions rendered or refused in bounded time,
+//! and the bench finishing (table and plots) without any installed font.
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use super::{assert_error, run, scene, stderr, tmp};
+
+const AB: &str = "[[primitive]]\nname = \"A\"\nshape = \"box\"\nsize = [1.0, 1.0, 1.0]\n\
+                  [[primitive]]\nname = \"B\"\nshape = \"sphere\"\nradius = 0.6\nsegments = 16\n";
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+#[test]
+fn out_naming_a_file_says_a_folder_is_needed() {
+    let dir = tmp("outfile");
+    let file = write(&dir, "taken", "not a folder");
+    for cmd in [
+        vec!["render", &scene("gear.toml")[..], "--size", "8x8", "--out", &file],
+        vec!["bench", &scene("gear.toml")[..], "--algos", "reference", "--size", "8x8", "--out", &file],
+    ] {
+        let o = run(&cmd);
+        assert_error(&o, &["taken is a file, not a folder", "--out needs a folder"]);
+        assert_eq!(o.status.code(), Some(1));
+    }
+    // A folder below a file: the file is named.
+    let below = format!("{file}/sub");
+    assert_error(
+        &run(&["render", &scene("gear.toml"), "--size", "8x8", "--out", &below]),
+        &["taken is a file, not a folder"],
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a folder");
+}
+
+#[test]
+fn openscad_and_other_files_say_what_a_scene_is() {
+    let dir = tmp("scad");
+    let scad = write(&dir, "model.scad", "difference() {\n  cube(2, center=true);\n  sphere(1.3);\n}\n");
+    let o = run(&["render", &scad]);
+    assert_error(&o, &["model.scad", "OpenSCAD source file is not a scene", "TOML", ".csg", "Export as CSG"]);
+    assert_eq!(o.status.code(), Some(1));
+    let other = write(&dir, "model.txt", "difference() {\n  cube(2);\n}\n");
+    assert_error(
+        &run(&["plan", &other, "--algo", "cst-i"]),
+        &["model.txt:1:", "not named .toml and is not valid TOML", "OpenSCAD's CSG export"],
+    );
+    // A .toml file keeps the plain TOML message.
+    let toml = write(&dir, "broken.toml", "difference() {\n");
+    let o = run(&["plan", &toml]);
+    assert_error(&o, &["broken.toml:1:"]);
+    assert!(!stderr(&o).contains("not named .toml"));
+}
+
+#[test]
+fn a_huge_sphere_is_refused_against_the_budget() {
+    let dir = tmp("sphere");
+    let p = write(
+        &dir,
+        "sphere.toml",
+        "[[primitive]]\nname = \"S\"\nshape = \"sphere\"\nradius = 1.0\nsegments = 4096\n[csg]\nexpr = \"S\"\n",
+    );
+    let t = Instant::now();
+    let o = run(&["render", &p, "--size", "32x32", "--memory-budget", "1G"]);
+    assert_error(
+        &o,
+        &["sphere.toml:1: primitive[1] \"S\": segments", "4096 segments × 2048 rings", "over the budget of 1.0 GiB", "lower `segments`", "--memory-budget"],
+    );
+    assert!(t.elapsed() < Duration::from_secs(5), "{:?}", t.elapsed());
+    assert_error(&run(&["render", &p, "--memory-budget", "lots"]), &["'lots' is not a memory size", "e.g. 2G"]);
+}
+
+/// `n` leaves over A and B joined by `op` (" " or " + ").
+fn chain(n: usize, op: &str) -> String {
+    (0..n).map(|i| if i % 2 == 0 { "A" } else { "B" }).collect::<Vec<_>>().join(op)
+}
+
+fn expr_scene(dir: &Path, name: &str, expr: &str) -> String {
+    write(dir, name, &format!("{AB}[csg]\nexpr = \"{expr}\"\n"))
+}
+
+/// The issue's large expressions: CST refuses the quadratic ones at once, with the
+/// way out; unions of repeated leaves render.
+#[test]
+fn large_expressions_render_or_are_refused_at_once() {
+    let dir = tmp("large");
+    let mut deep = String::new();
+    for _ in 0..10_000 {
+        deep.push_str("(A - ");
+    }
+    deep.push('B');
+    deep.push_str(&")".repeat(10_000));
+    let cases = [
+        ("inter1e4.toml", chain(10_000, " ")),
+        ("deep1e4.toml", deep),
+        ("inter1e5.toml", chain(100_000, " ")),
+    ];
+    for (name, expr) in &cases {
+        let p = expr_scene(&dir, name, expr);
+        for args in [
+            vec!["plan", &p[..], "--algo", "cst-i"],
+            vec!["render", &p[..], "--algo", "cst-i", "--size", "16x16", "--out", dir.join("o").to_str().unwrap()],
+        ] {
+            let t = Instant::now();
+            let o = run(&args);
+            let took = t.elapsed();
+            assert_error(&o, &["cst-i trims each of the", "active zone", "--algo blister"]);
+            // Debug builds are slower; release takes well under a second.
+            assert!(took < Duration::from_secs(10), "{name} {}: {took:?}", args[0]);
+            eprintln!("{name} {}: refused in {took:?}", args[0]);
+        }
+    }
+    // 10^5 unions: every zone is the universe; duplicate leaves draw nothing new.
+    let p = expr_scene(&dir, "union1e5.toml", &chain(100_000, " + "));
+    let t = Instant::now();
+    let o = run(&["plan", &p, "--algo", "cst-i"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    eprintln!("union1e5 plan: {:?}", t.elapsed());
+    let out = dir.join("u");
+    let o = run(&["render", &p, "--algo", "cst-i", "--size", "32x32", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let refp = dir.join("uref");
+    let small = expr_scene(&dir, "union2.toml", "A + B");
+    let o = run(&["render", &small, "--size", "32x32", "--out", refp.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["compare", refp.to_str().unwrap(), out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["coverage_mismatch_interior"], 0, "{report}");
+    assert_eq!(report["prim_mismatch_interior"], 0, "{report}");
+}
+
+#[test]
+fn huge_images_are_refused_clearly_by_every_algorithm() {
+    let algos = ["reference", "goldfeather", "goldfeather-layered", "trickle", "blister", "cst-z", "cst-i", "cst-g", "blister-paper"];
+    for algo in algos {
+        let o = run(&["render", &scene("gear.toml"), "--algo", algo, "--size", "16384x16384", "--memory-budget", "1G", "--out", "/nonexistent-never-written"]);
+        assert_error(&o, &["16384x16384 frame would need about", "over the budget of 1.0 GiB", "smaller --size"]);
+        assert_eq!(o.status.code(), Some(1), "{algo}");
+    }
+}
+
+/// Plots are an optional extra drawn with the embedded font: the bench finishes
+/// with its table whatever fonts the machine has, and a plot that cannot be
+/// written is one warning, not a failed run.
+#[test]
+fn bench_finishes_with_its_table_without_system_fonts() {
+    let dir = tmp("bench-font");
+    let out = dir.join("out");
+    let o = run(&["bench", &scene("gear.toml"), "--algos", "reference", "--size", "16x16", "--frames", "1", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("no plots"), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(out.join("summary.md")).unwrap().contains("reference"));
+    // Where `plots` cannot be created, the run still succeeds.
+    let out2 = dir.join("out2");
+    std::fs::create_dir_all(&out2).unwrap();
+    std::fs::write(out2.join("plots"), "a file in the way").unwrap();
+    let o = run(&["bench", &scene("gear.toml"), "--algos", "reference", "--size", "16x16", "--frames", "1", "--out", out2.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("warning: no plots"), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("reference"));
+    assert!(out2.join("summary.md").exists() && out2.join("results.json").exists());
+}
