@@ -496,3 +496,29 @@ fn depth_setup_defaults_to_reversed_d32() {
 }
 
 mod cli_hardening;
+
+/// A reader that stops early (`peeltrim plan … | head -1`) ends the command
+/// quietly: exit 0, no panic message.
+#[test]
+fn closed_stdout_is_not_a_panic() {
+    use std::process::Stdio;
+    let gear = scene("gear.toml");
+    for args in [
+        vec!["plan", gear.as_str(), "--algo", "cst-z"],
+        vec!["blist", gear.as_str()],
+    ] {
+        let mut child = bin()
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn peeltrim");
+        // Close our end of the pipe before the child writes: its writes fail
+        // with EPIPE (Rust ignores SIGPIPE), as behind `| head`.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("wait for peeltrim");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(out.status.success(), "{args:?}: {:?} {err}", out.status);
+    }
+}

@@ -433,13 +433,13 @@ fn run(cli: Cli) -> Result<ExitCode> {
         }
         Cmd::Blist { input, scad } => {
             let json = blist_json(&input, scad)?;
-            println!("{}", serde_json::to_string_pretty(&json)?);
+            emit(&format!("{}\n", serde_json::to_string_pretty(&json)?))?;
         }
         Cmd::Compare { a, b } => {
             let ia = peeltrim::output::read_images(&a)?;
             let ib = peeltrim::output::read_images(&b)?;
             let report = peeltrim::reference::compare::compare(&ia, &ib)?;
-            println!("{}", serde_json::to_string_pretty(&report)?);
+            emit(&format!("{}\n", serde_json::to_string_pretty(&report)?))?;
         }
         Cmd::Bench {
             scenes,
@@ -502,7 +502,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 }),
             };
             let records = bench::run_and_report(&cfg, &list)?;
-            print!("{}", bench::report::summary(&records));
+            emit(&bench::report::summary(&records))?;
             eprintln!(
                 "results in {}/ (results.json, results.csv, summary.md, plots/, images/)",
                 out.display()
@@ -531,10 +531,11 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 }
                 r => r?,
             };
-            print!(
-                "{}",
-                peeltrim::plan::print::print(&plan, &prep, &scene.mesh_names())
-            );
+            emit(&peeltrim::plan::print::print(
+                &plan,
+                &prep,
+                &scene.mesh_names(),
+            ))?;
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -642,6 +643,18 @@ fn chain(e: &anyhow::Error) -> String {
         }
     }
     out
+}
+
+/// Writes a command's result to standard output. A reader that closed the pipe
+/// early (`peeltrim plan … | head`) has all it wanted: that is not an error, and
+/// must not become the panic `print!` would raise.
+fn emit(text: &str) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => r,
+    }
 }
 
 fn main() -> ExitCode {
