@@ -4,6 +4,7 @@
 use ash::vk;
 
 use crate::plan::{CompareOp, Cull, StencilFace, StencilOp};
+use crate::vk::scissor::Rect;
 
 /// Depth-stencil format of the plan's depth-stencil images (`--depth-format`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
@@ -111,6 +112,20 @@ pub fn depth_value(d: f32, reversed: bool) -> f32 {
     }
 }
 
+/// A screen rectangle (pixels, exclusive upper corner) as a Vulkan scissor.
+pub fn rect2d(r: Rect) -> vk::Rect2D {
+    vk::Rect2D {
+        offset: vk::Offset2D {
+            x: r.x0 as i32,
+            y: r.y0 as i32,
+        },
+        extent: vk::Extent2D {
+            width: r.width(),
+            height: r.height(),
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -187,5 +202,18 @@ mod tests {
         assert_eq!(f.pass, vk::StencilOp::REPLACE);
         assert_eq!(f.depth_fail, vk::StencilOp::ZERO);
         assert_eq!(depth_value(0.25, true), 0.75);
+    }
+
+    #[test]
+    fn rect2d_keeps_corner_and_size() {
+        let r = Rect {
+            x0: 3,
+            y0: 5,
+            x1: 10,
+            y1: 6,
+        };
+        let v = rect2d(r);
+        assert_eq!((v.offset.x, v.offset.y), (3, 5));
+        assert_eq!((v.extent.width, v.extent.height), (7, 1));
     }
 }

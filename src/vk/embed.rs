@@ -378,16 +378,7 @@ impl Embedder {
         };
         // Only where the CSG can be: its meshes' projected bounds.
         let rect = self.exec.output_rect();
-        let scissor = vk::Rect2D {
-            offset: vk::Offset2D {
-                x: rect.x0 as i32,
-                y: rect.y0 as i32,
-            },
-            extent: vk::Extent2D {
-                width: rect.width(),
-                height: rect.height(),
-            },
-        };
+        let scissor = crate::vk::conv::rect2d(rect);
         let color = [vk::RenderingAttachmentInfo::default()
             .image_view(t.color_view)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)

@@ -508,16 +508,7 @@ impl<'a> Recorder<'a> {
             min_depth: 0.0,
             max_depth: 1.0,
         };
-        let sc = vk::Rect2D {
-            offset: vk::Offset2D {
-                x: scissor.x0 as i32,
-                y: scissor.y0 as i32,
-            },
-            extent: vk::Extent2D {
-                width: scissor.width(),
-                height: scissor.height(),
-            },
-        };
+        let sc = crate::vk::conv::rect2d(scissor);
         let cull = draw
             .map(|d| conv::cull_mode(d.cull))
             .unwrap_or(vk::CullModeFlags::NONE);
