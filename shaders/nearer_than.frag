@@ -25,11 +25,16 @@ void main() {
     // with the depth.
     float eps = reversed ? REVERSED_SCALE * pc.color.a * d : pc.color.a;
     // The slope term only for a face parallel to the texture's (a coplanar face
-    // snapped differently), not for one crossing it.
-    if (same_slope(dz, d, eps)) {
-        eps += sign(pc.color.a) * tie_slope() * (abs(dz.x) + abs(dz.y));
-    }
+    // snapped differently), not for one crossing it. It moves the bound by
+    // `slope` (the sign of the tolerance); the five-fetch slope test runs only
+    // for fragments inside that thin band, the only ones whose answer it decides.
+    float slope = sign(pc.color.a) * tie_slope() * (abs(dz.x) + abs(dz.y));
     bool nearer = reversed ? gl_FragCoord.z >= d - eps : gl_FragCoord.z <= d + eps;
+    bool widened = reversed ? gl_FragCoord.z >= d - (eps + slope)
+                            : gl_FragCoord.z <= d + (eps + slope);
+    if (nearer != widened && same_slope(dz, d, eps)) {
+        nearer = widened;
+    }
     if (!nearer) {
         discard;
     }

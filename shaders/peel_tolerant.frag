@@ -26,11 +26,17 @@ void main() {
     // with the depth.
     float eps = (pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.x * prev : pc.color.x;
     // The slope term only for a face parallel to the texture's (a coplanar face
-    // snapped differently), not for one crossing it.
-    if (same_slope(dz, prev, eps)) {
-        eps += sign(pc.color.x) * tie_slope() * (abs(dz.x) + abs(dz.y));
+    // snapped differently), not for one crossing it. It moves the bound by
+    // `slope`; the five-fetch slope test runs only for fragments inside that thin
+    // band, the only ones whose answer it decides.
+    float slope = sign(pc.color.x) * tie_slope() * (abs(dz.x) + abs(dz.y));
+    bool reversed = (pc.flags & 1u) != 0u;
+    bool behind = reversed ? gl_FragCoord.z + eps < prev : gl_FragCoord.z - eps > prev;
+    bool widened = reversed ? gl_FragCoord.z + (eps + slope) < prev
+                            : gl_FragCoord.z - (eps + slope) > prev;
+    if (behind != widened && same_slope(dz, prev, eps)) {
+        behind = widened;
     }
-    bool behind = (pc.flags & 1u) != 0u ? gl_FragCoord.z + eps < prev : gl_FragCoord.z - eps > prev;
     if (!behind) {
         discard;
     }
