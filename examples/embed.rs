@@ -60,9 +60,12 @@ unsafe extern "system" fn on_message(
     _user: *mut c_void,
 ) -> vk::Bool32 {
     // SAFETY: the layer passes a valid callback data struct with a C string.
-    let text = unsafe { CStr::from_ptr((*data).p_message) }.to_string_lossy().into_owned();
+    let text = unsafe { CStr::from_ptr((*data).p_message) }
+        .to_string_lossy()
+        .into_owned();
     if severity.intersects(
-        vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+        vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+            | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
     ) {
         MESSAGES.lock().expect("messages").push(text);
     }
@@ -107,8 +110,8 @@ impl Host {
             )
             .pfn_user_callback(Some(on_message));
         // SAFETY: valid create info; the callback is a plain function.
-        let messenger = unsafe { du.create_debug_utils_messenger(&dci, None) }
-            .map_err(|e| e.to_string())?;
+        let messenger =
+            unsafe { du.create_debug_utils_messenger(&dci, None) }.map_err(|e| e.to_string())?;
         // SAFETY: plain enumeration.
         let physical = *unsafe { instance.enumerate_physical_devices() }
             .map_err(|e| e.to_string())?
@@ -146,13 +149,22 @@ impl Host {
         })
     }
 
-    fn memory(&self, req: vk::MemoryRequirements, flags: vk::MemoryPropertyFlags) -> vk::DeviceMemory {
+    fn memory(
+        &self,
+        req: vk::MemoryRequirements,
+        flags: vk::MemoryPropertyFlags,
+    ) -> vk::DeviceMemory {
         // SAFETY: `physical` belongs to `instance`.
-        let props = unsafe { self.instance.get_physical_device_memory_properties(self.physical) };
+        let props = unsafe {
+            self.instance
+                .get_physical_device_memory_properties(self.physical)
+        };
         let ty = (0..props.memory_type_count)
             .find(|&i| {
                 req.memory_type_bits & (1 << i) != 0
-                    && props.memory_types[i as usize].property_flags.contains(flags)
+                    && props.memory_types[i as usize]
+                        .property_flags
+                        .contains(flags)
             })
             .expect("a memory type for the host's images and buffers");
         let ai = vk::MemoryAllocateInfo::default()
@@ -162,11 +174,21 @@ impl Host {
         unsafe { self.device.allocate_memory(&ai, None) }.expect("host memory")
     }
 
-    fn image(&self, format: vk::Format, usage: vk::ImageUsageFlags, aspect: vk::ImageAspectFlags, [w, h]: [u32; 2]) -> (vk::Image, vk::DeviceMemory, vk::ImageView) {
+    fn image(
+        &self,
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+        aspect: vk::ImageAspectFlags,
+        [w, h]: [u32; 2],
+    ) -> (vk::Image, vk::DeviceMemory, vk::ImageView) {
         let ci = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
             .format(format)
-            .extent(vk::Extent3D { width: w, height: h, depth: 1 })
+            .extent(vk::Extent3D {
+                width: w,
+                height: h,
+                depth: 1,
+            })
             .mip_levels(1)
             .array_layers(1)
             .samples(vk::SampleCountFlags::TYPE_1)
@@ -175,7 +197,10 @@ impl Host {
         // SAFETY: valid create info.
         let image = unsafe { d.create_image(&ci, None) }.expect("host image");
         // SAFETY: `image` is live.
-        let mem = self.memory(unsafe { d.get_image_memory_requirements(image) }, vk::MemoryPropertyFlags::DEVICE_LOCAL);
+        let mem = self.memory(
+            unsafe { d.get_image_memory_requirements(image) },
+            vk::MemoryPropertyFlags::DEVICE_LOCAL,
+        );
         // SAFETY: fresh memory of the required size and type.
         unsafe { d.bind_image_memory(image, mem, 0) }.expect("bind");
         let vci = vk::ImageViewCreateInfo::default()
@@ -193,8 +218,10 @@ impl Host {
         let module = |bytes: &[u8]| {
             let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes)).expect("SPIR-V");
             // SAFETY: SPIR-V compiled by build.rs.
-            unsafe { d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None) }
-                .expect("module")
+            unsafe {
+                d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
+            }
+            .expect("module")
         };
         let (vs, fs) = (module(FLOOR_VERT), module(FLOOR_FRAG));
         let ranges = [vk::PushConstantRange {
@@ -203,21 +230,45 @@ impl Host {
             size: 96,
         }];
         // SAFETY: valid create info.
-        let layout = unsafe { d.create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&ranges), None) }
-            .expect("layout");
+        let layout = unsafe {
+            d.create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&ranges),
+                None,
+            )
+        }
+        .expect("layout");
         let stages = [
-            vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::VERTEX).module(vs).name(c"main"),
-            vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::FRAGMENT).module(fs).name(c"main"),
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::VERTEX)
+                .module(vs)
+                .name(c"main"),
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(fs)
+                .name(c"main"),
         ];
         let vi = vk::PipelineVertexInputStateCreateInfo::default();
-        let ia = vk::PipelineInputAssemblyStateCreateInfo::default().topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let vp = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
-        let rs = vk::PipelineRasterizationStateCreateInfo::default().polygon_mode(vk::PolygonMode::FILL).line_width(1.0);
-        let ms = vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(vk::SampleCountFlags::TYPE_1);
-        let ds = vk::PipelineDepthStencilStateCreateInfo::default().depth_test_enable(true).depth_write_enable(true);
-        let att = [vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA)];
+        let ia = vk::PipelineInputAssemblyStateCreateInfo::default()
+            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let vp = vk::PipelineViewportStateCreateInfo::default()
+            .viewport_count(1)
+            .scissor_count(1);
+        let rs = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .line_width(1.0);
+        let ms = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let ds = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(true)
+            .depth_write_enable(true);
+        let att = [vk::PipelineColorBlendAttachmentState::default()
+            .color_write_mask(vk::ColorComponentFlags::RGBA)];
         let cb = vk::PipelineColorBlendStateCreateInfo::default().attachments(&att);
-        let dy = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR, vk::DynamicState::DEPTH_COMPARE_OP];
+        let dy = [
+            vk::DynamicState::VIEWPORT,
+            vk::DynamicState::SCISSOR,
+            vk::DynamicState::DEPTH_COMPARE_OP,
+        ];
         let dyn_ = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dy);
         let formats = [color];
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
@@ -258,7 +309,12 @@ fn range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
     }
 }
 
-fn barrier(image: vk::Image, aspect: vk::ImageAspectFlags, from: (vk::ImageLayout, vk::AccessFlags), to: (vk::ImageLayout, vk::AccessFlags)) -> vk::ImageMemoryBarrier<'static> {
+fn barrier(
+    image: vk::Image,
+    aspect: vk::ImageAspectFlags,
+    from: (vk::ImageLayout, vk::AccessFlags),
+    to: (vk::ImageLayout, vk::AccessFlags),
+) -> vk::ImageMemoryBarrier<'static> {
     vk::ImageMemoryBarrier::default()
         .old_layout(from.0)
         .src_access_mask(from.1)
@@ -276,17 +332,35 @@ unsafe fn begin_frame(d: &ash::Device, cmd: vk::CommandBuffer, color: vk::Image,
     let undefined = (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty());
     // SAFETY: the caller's: `cmd` is not pending, the images are live.
     unsafe {
-        d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()).expect("begin");
+        d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default())
+            .expect("begin");
         d.cmd_pipeline_barrier(
             cmd,
             vk::PipelineStageFlags::TOP_OF_PIPE,
-            vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
+            vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+                | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
             vk::DependencyFlags::empty(),
             &[],
             &[],
             &[
-                barrier(color, vk::ImageAspectFlags::COLOR, undefined, (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::AccessFlags::COLOR_ATTACHMENT_WRITE)),
-                barrier(depth, vk::ImageAspectFlags::DEPTH, undefined, (vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL, vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE)),
+                barrier(
+                    color,
+                    vk::ImageAspectFlags::COLOR,
+                    undefined,
+                    (
+                        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                        vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+                    ),
+                ),
+                barrier(
+                    depth,
+                    vk::ImageAspectFlags::DEPTH,
+                    undefined,
+                    (
+                        vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                        vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                    ),
+                ),
             ],
         )
     };
@@ -294,12 +368,27 @@ unsafe fn begin_frame(d: &ash::Device, cmd: vk::CommandBuffer, color: vk::Image,
 
 /// The host's CSG: a box with a spherical bite, as plain f32 meshes.
 fn host_meshes() -> Vec<(Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3])> {
-    let f32s = |m: &Mesh| m.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect();
+    let f32s = |m: &Mesh| {
+        m.positions
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+            .collect()
+    };
     let cube = make_box(DVec3::splat(2.0));
     let ball = make_sphere(1.2, 32, 16);
     vec![
-        (f32s(&cube), cube.triangles.clone(), Mat4::IDENTITY, [70, 130, 220]),
-        (f32s(&ball), ball.triangles.clone(), Mat4::from_translation([0.6, 0.7, 0.6].into()), [220, 90, 60]),
+        (
+            f32s(&cube),
+            cube.triangles.clone(),
+            Mat4::IDENTITY,
+            [70, 130, 220],
+        ),
+        (
+            f32s(&ball),
+            ball.triangles.clone(),
+            Mat4::from_translation([0.6, 0.7, 0.6].into()),
+            [220, 90, 60],
+        ),
     ]
 }
 
@@ -324,7 +413,9 @@ pub fn run(extent: [u32; 2], reversed_z: bool) -> Result<Report, String> {
     unsafe {
         host.device.device_wait_idle().ok();
         host.device.destroy_device(None);
-        host.debug.0.destroy_debug_utils_messenger(host.debug.1, None);
+        host.debug
+            .0
+            .destroy_debug_utils_messenger(host.debug.1, None);
         host.instance.destroy_instance(None);
     }
     let mut report = report?;
@@ -337,15 +428,32 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
     // SAFETY: the host's device outlives the context (dropped at the end of this
     // function, before `run` destroys the device); it enables what from_raw needs.
     let ctx = unsafe {
-        Context::from_raw(host.entry.clone(), host.instance.clone(), host.physical, d.clone(), host.family, host.queue)
+        Context::from_raw(
+            host.entry.clone(),
+            host.instance.clone(),
+            host.physical,
+            d.clone(),
+            host.family,
+            host.queue,
+        )
     }
     .map_err(|e| e.to_string())?;
     let meshes = host_meshes();
     let inputs: Vec<MeshInput<'_>> = meshes
         .iter()
-        .map(|(p, i, t, c)| MeshInput { positions: p, indices: i, transform: *t, color: *c })
+        .map(|(p, i, t, c)| MeshInput {
+            positions: p,
+            indices: i,
+            transform: *t,
+            color: *c,
+        })
         .collect();
-    let desc = EmbedDesc { extent, reversed_z, frames_in_flight: 1, ..EmbedDesc::default() };
+    let desc = EmbedDesc {
+        extent,
+        reversed_z,
+        frames_in_flight: 1,
+        ..EmbedDesc::default()
+    };
     let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Text("m0 - m1"), &camera(), &desc)
         .map_err(|e| e.to_string())?;
 
@@ -367,7 +475,12 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
     let bytes = extent[0] as u64 * extent[1] as u64 * 4;
     // SAFETY: valid create info.
     let buffer = unsafe {
-        d.create_buffer(&vk::BufferCreateInfo::default().size(bytes).usage(vk::BufferUsageFlags::TRANSFER_DST), None)
+        d.create_buffer(
+            &vk::BufferCreateInfo::default()
+                .size(bytes)
+                .usage(vk::BufferUsageFlags::TRANSFER_DST),
+            None,
+        )
     }
     .expect("buffer");
     let visible = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
@@ -378,21 +491,48 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
     let pci = vk::CommandPoolCreateInfo::default().queue_family_index(host.family);
     // SAFETY: valid create info.
     let pool = unsafe { d.create_command_pool(&pci, None) }.expect("pool");
-    let ai = vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1);
+    let ai = vk::CommandBufferAllocateInfo::default()
+        .command_pool(pool)
+        .command_buffer_count(1);
     // SAFETY: the pool is live.
     let cmd = unsafe { d.allocate_command_buffers(&ai) }.expect("cmd")[0];
 
-    let ext = vk::Extent2D { width: extent[0], height: extent[1] };
+    let ext = vk::Extent2D {
+        width: extent[0],
+        height: extent[1],
+    };
     let far = if reversed_z { 0.0 } else { 1.0 };
-    let nearer = if reversed_z { vk::CompareOp::GREATER } else { vk::CompareOp::LESS };
+    let nearer = if reversed_z {
+        vk::CompareOp::GREATER
+    } else {
+        vk::CompareOp::LESS
+    };
     let mvp = csg.view_proj().as_mat4();
     let mut push = Vec::with_capacity(96);
-    for f in mvp.to_cols_array().iter().chain(&[FLOOR_Y, FLOOR_HALF, 0.0, 0.0]).chain(&FLOOR_RGB.map(|c| c as f32 / 255.0)).chain(&[1.0]) {
+    for f in mvp
+        .to_cols_array()
+        .iter()
+        .chain(&[FLOOR_Y, FLOOR_HALF, 0.0, 0.0])
+        .chain(&FLOOR_RGB.map(|c| c as f32 / 255.0))
+        .chain(&[1.0])
+    {
         push.extend(f.to_ne_bytes());
     }
-    let targets = HostTargets { color_view, color_format, depth_view, depth_format, extent };
-    let attach = (vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL, vk::AccessFlags::COLOR_ATTACHMENT_WRITE);
-    let depth_attach = (vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL, vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE);
+    let targets = HostTargets {
+        color_view,
+        color_format,
+        depth_view,
+        depth_format,
+        extent,
+    };
+    let attach = (
+        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+        vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
+    );
+    let depth_attach = (
+        vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+        vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+    );
     // SAFETY: every call below records into `cmd`, which this function owns; the
     // images, views, pipeline and buffer are live until after the fence wait.
     unsafe {
@@ -403,13 +543,22 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
             .image_layout(attach.0)
             .load_op(vk::AttachmentLoadOp::CLEAR)
             .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: [bg[0], bg[1], bg[2], 1.0] } })];
+            .clear_value(vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: [bg[0], bg[1], bg[2], 1.0],
+                },
+            })];
         let depth_att = vk::RenderingAttachmentInfo::default()
             .image_view(depth_view)
             .image_layout(depth_attach.0)
             .load_op(vk::AttachmentLoadOp::CLEAR)
             .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue { depth_stencil: vk::ClearDepthStencilValue { depth: far, stencil: 0 } });
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: far,
+                    stencil: 0,
+                },
+            });
         d.cmd_begin_rendering(
             cmd,
             &vk::RenderingInfo::default()
@@ -419,10 +568,27 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
                 .depth_attachment(&depth_att),
         );
         d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
-        d.cmd_set_viewport(cmd, 0, &[vk::Viewport { x: 0.0, y: 0.0, width: ext.width as f32, height: ext.height as f32, min_depth: 0.0, max_depth: 1.0 }]);
+        d.cmd_set_viewport(
+            cmd,
+            0,
+            &[vk::Viewport {
+                x: 0.0,
+                y: 0.0,
+                width: ext.width as f32,
+                height: ext.height as f32,
+                min_depth: 0.0,
+                max_depth: 1.0,
+            }],
+        );
         d.cmd_set_scissor(cmd, 0, &[ext.into()]);
         d.cmd_set_depth_compare_op(cmd, nearer);
-        d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT, 0, &push);
+        d.cmd_push_constants(
+            cmd,
+            layout,
+            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            0,
+            &push,
+        );
         d.cmd_draw(cmd, 6, 1, 0, 0);
         d.cmd_end_rendering(cmd);
     }
@@ -438,24 +604,66 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
             vk::DependencyFlags::empty(),
             &[],
             &[],
-            &[barrier(color_img, vk::ImageAspectFlags::COLOR, attach, (vk::ImageLayout::TRANSFER_SRC_OPTIMAL, vk::AccessFlags::TRANSFER_READ))],
+            &[barrier(
+                color_img,
+                vk::ImageAspectFlags::COLOR,
+                attach,
+                (
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    vk::AccessFlags::TRANSFER_READ,
+                ),
+            )],
         );
         let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers { aspect_mask: vk::ImageAspectFlags::COLOR, mip_level: 0, base_array_layer: 0, layer_count: 1 })
-            .image_extent(vk::Extent3D { width: ext.width, height: ext.height, depth: 1 });
-        d.cmd_copy_image_to_buffer(cmd, color_img, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buffer, &[region]);
-        let to_host = vk::MemoryBarrier::default().src_access_mask(vk::AccessFlags::TRANSFER_WRITE).dst_access_mask(vk::AccessFlags::HOST_READ);
-        d.cmd_pipeline_barrier(cmd, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::HOST, vk::DependencyFlags::empty(), &[to_host], &[], &[]);
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            })
+            .image_extent(vk::Extent3D {
+                width: ext.width,
+                height: ext.height,
+                depth: 1,
+            });
+        d.cmd_copy_image_to_buffer(
+            cmd,
+            color_img,
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            buffer,
+            &[region],
+        );
+        let to_host = vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::HOST_READ);
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::HOST,
+            vk::DependencyFlags::empty(),
+            &[to_host],
+            &[],
+            &[],
+        );
         d.end_command_buffer(cmd).expect("end");
-        let fence = d.create_fence(&vk::FenceCreateInfo::default(), None).expect("fence");
+        let fence = d
+            .create_fence(&vk::FenceCreateInfo::default(), None)
+            .expect("fence");
         let cmds = [cmd];
-        d.queue_submit(host.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence).expect("submit");
+        d.queue_submit(
+            host.queue,
+            &[vk::SubmitInfo::default().command_buffers(&cmds)],
+            fence,
+        )
+        .expect("submit");
         d.wait_for_fences(&[fence], true, u64::MAX).expect("wait");
         d.destroy_fence(fence, None);
     }
     // SAFETY: coherent host-visible memory written by the completed copy.
     let pixels: Vec<[u8; 4]> = unsafe {
-        let p = d.map_memory(buf_mem, 0, bytes, vk::MemoryMapFlags::empty()).expect("map") as *const [u8; 4];
+        let p = d
+            .map_memory(buf_mem, 0, bytes, vk::MemoryMapFlags::empty())
+            .expect("map") as *const [u8; 4];
         let v = std::slice::from_raw_parts(p, (extent[0] * extent[1]) as usize).to_vec();
         d.unmap_memory(buf_mem);
         v
@@ -471,7 +679,10 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
         d.free_memory(buf_mem, None);
         d.destroy_pipeline(pipeline, None);
         d.destroy_pipeline_layout(layout, None);
-        for (img, mem, view) in [(color_img, color_mem, color_view), (depth_img, depth_mem, depth_view)] {
+        for (img, mem, view) in [
+            (color_img, color_mem, color_view),
+            (depth_img, depth_mem, depth_view),
+        ] {
             d.destroy_image_view(view, None);
             d.destroy_image(img, None);
             d.free_memory(mem, None);
@@ -495,7 +706,10 @@ fn compare(csg: &CsgScene, [w, h]: [u32; 2], pixels: &[[u8; 4]]) -> Report {
     let reference = peeltrim::reference::render(csg.scene(), w, h);
     let cam = csg.camera();
     let mut expected = vec![0u8; (w * h) as usize];
-    let mut r = Report { pixels: (w * h) as u64, ..Report::default() };
+    let mut r = Report {
+        pixels: (w * h) as u64,
+        ..Report::default()
+    };
     let mut kinds = vec![None; (w * h) as usize];
     for y in 0..h {
         for x in 0..w {
@@ -503,13 +717,20 @@ fn compare(csg: &CsgScene, [w, h]: [u32; 2], pixels: &[[u8; 4]]) -> Report {
             let ray = cam.ray(x as f64 + 0.5, y as f64 + 0.5, w, h);
             let t = (FLOOR_Y as f64 - ray.origin.y) / ray.dir.y;
             let p = ray.origin + ray.dir * t;
-            let floor = (t > 0.0 && p.x.abs() <= FLOOR_HALF as f64 && p.z.abs() <= FLOOR_HALF as f64)
-                .then(|| cam.view_depth(p));
-            let solid = reference.depth[i].is_finite().then_some(reference.depth[i] as f64);
+            let floor =
+                (t > 0.0 && p.x.abs() <= FLOOR_HALF as f64 && p.z.abs() <= FLOOR_HALF as f64)
+                    .then(|| cam.view_depth(p));
+            let solid = reference.depth[i]
+                .is_finite()
+                .then_some(reference.depth[i] as f64);
             expected[i] = match (floor, solid) {
                 (Some(f), Some(s)) => {
                     kinds[i] = Some(f < s);
-                    if f < s { 1 } else { 2 }
+                    if f < s {
+                        1
+                    } else {
+                        2
+                    }
                 }
                 (Some(_), None) => 1,
                 (None, Some(_)) => 2,
@@ -524,7 +745,10 @@ fn compare(csg: &CsgScene, [w, h]: [u32; 2], pixels: &[[u8; 4]]) -> Report {
             let interior = (-1i32..=1).all(|dy| {
                 (-1i32..=1).all(|dx| {
                     let (nx, ny) = (x as i32 + dx, y as i32 + dy);
-                    nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32
+                    nx < 0
+                        || ny < 0
+                        || nx >= w as i32
+                        || ny >= h as i32
                         || expected[(ny as u32 * w + nx as u32) as usize] == expected[i]
                 })
             });
@@ -559,13 +783,23 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
     use std::time::Instant;
     let scene = peeltrim::scene::load(path, &Default::default()).map_err(|e| e.to_string())?;
     if !scene.surfaces.is_empty() {
-        return Err(format!("{}: trimmed surfaces are not part of the mesh-level API", path.display()));
+        return Err(format!(
+            "{}: trimmed surfaces are not part of the mesh-level API",
+            path.display()
+        ));
     }
     let host = Host::new()?;
     let d = &host.device;
     // SAFETY: the device outlives the context (dropped before `host`'s objects).
     let ctx = unsafe {
-        Context::from_raw(host.entry.clone(), host.instance.clone(), host.physical, d.clone(), host.family, host.queue)
+        Context::from_raw(
+            host.entry.clone(),
+            host.instance.clone(),
+            host.physical,
+            d.clone(),
+            host.family,
+            host.queue,
+        )
     }
     .map_err(|e| e.to_string())?;
     let extent = [scene.render.width, scene.render.height];
@@ -574,37 +808,85 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
         v[v.len() / 2]
     };
     // Embedded: the same plan recorded into the host's command buffer.
-    let f32s = |m: &Mesh| -> Vec<[f32; 3]> { m.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect() };
+    let f32s = |m: &Mesh| -> Vec<[f32; 3]> {
+        m.positions
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+            .collect()
+    };
     let pos: Vec<Vec<[f32; 3]>> = scene.primitives.iter().map(|p| f32s(&p.mesh)).collect();
     let inputs: Vec<MeshInput<'_>> = scene
         .primitives
         .iter()
         .zip(&pos)
-        .map(|(p, v)| MeshInput { positions: v, indices: &p.mesh.triangles, transform: Mat4::IDENTITY, color: p.color })
+        .map(|(p, v)| MeshInput {
+            positions: v,
+            indices: &p.mesh.triangles,
+            transform: Mat4::IDENTITY,
+            color: p.color,
+        })
         .collect();
     let expr = plan::union_of_solids(&scene).ok_or("no solid")?;
-    let desc = EmbedDesc { extent, frames_in_flight: 1, ..EmbedDesc::default() };
-    let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Built(expr), &scene.camera, &desc).map_err(|e| e.to_string())?;
+    let desc = EmbedDesc {
+        extent,
+        frames_in_flight: 1,
+        ..EmbedDesc::default()
+    };
+    let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Built(expr), &scene.camera, &desc)
+        .map_err(|e| e.to_string())?;
     // Standalone: the executor's own submission, on the very scene the mesh-level
     // API built (the host's f32 meshes), so both paths run the same plan.
-    let plan = plan::build(Algo::Goldfeather, &Prepared::new(csg.scene()).map_err(|e| e.to_string())?)
-        .map_err(|e| e.to_string())?;
+    let plan = plan::build(
+        Algo::Goldfeather,
+        &Prepared::new(csg.scene()).map_err(|e| e.to_string())?,
+    )
+    .map_err(|e| e.to_string())?;
     let mut exec = peeltrim::vk::Executor::new(
         &ctx,
-        &peeltrim::vk::ExecDesc { width: extent[0], height: extent[1], depth_format: peeltrim::vk::DepthFormat::D32S8, reversed_z: false },
+        &peeltrim::vk::ExecDesc {
+            width: extent[0],
+            height: extent[1],
+            depth_format: peeltrim::vk::DepthFormat::D32S8,
+            reversed_z: false,
+        },
     )
     .map_err(|e| e.to_string())?;
     exec.upload(csg.scene()).map_err(|e| e.to_string())?;
     let mut standalone = Vec::new();
     let (color_format, depth_format) = (vk::Format::R8G8B8A8_UNORM, vk::Format::D32_SFLOAT);
-    let color = host.image(color_format, vk::ImageUsageFlags::COLOR_ATTACHMENT, vk::ImageAspectFlags::COLOR, extent);
-    let depth = host.image(depth_format, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT, vk::ImageAspectFlags::DEPTH, extent);
-    let targets = HostTargets { color_view: color.2, color_format, depth_view: depth.2, depth_format, extent };
-    let pci = vk::CommandPoolCreateInfo::default().queue_family_index(host.family).flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+    let color = host.image(
+        color_format,
+        vk::ImageUsageFlags::COLOR_ATTACHMENT,
+        vk::ImageAspectFlags::COLOR,
+        extent,
+    );
+    let depth = host.image(
+        depth_format,
+        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+        vk::ImageAspectFlags::DEPTH,
+        extent,
+    );
+    let targets = HostTargets {
+        color_view: color.2,
+        color_format,
+        depth_view: depth.2,
+        depth_format,
+        extent,
+    };
+    let pci = vk::CommandPoolCreateInfo::default()
+        .queue_family_index(host.family)
+        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
     // SAFETY: valid create info.
     let pool = unsafe { d.create_command_pool(&pci, None) }.expect("pool");
     // SAFETY: the pool is live.
-    let cmd = unsafe { d.allocate_command_buffers(&vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(1)) }.expect("cmd")[0];
+    let cmd = unsafe {
+        d.allocate_command_buffers(
+            &vk::CommandBufferAllocateInfo::default()
+                .command_pool(pool)
+                .command_buffer_count(1),
+        )
+    }
+    .expect("cmd")[0];
     // SAFETY: valid create info.
     let fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.expect("fence");
     let (mut embedded, mut record) = (Vec::new(), Vec::new());
@@ -630,7 +912,12 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
         let cmds = [cmd];
         // SAFETY: `cmd` is complete; the fence is unsignalled.
         unsafe {
-            d.queue_submit(host.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence).expect("submit");
+            d.queue_submit(
+                host.queue,
+                &[vk::SubmitInfo::default().command_buffers(&cmds)],
+                fence,
+            )
+            .expect("submit");
             d.wait_for_fences(&[fence], true, u64::MAX).expect("wait");
             d.reset_fences(&[fence]).expect("reset");
         }
@@ -649,7 +936,9 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
             d.free_memory(mem, None);
         }
         d.destroy_device(None);
-        host.debug.0.destroy_debug_utils_messenger(host.debug.1, None);
+        host.debug
+            .0
+            .destroy_debug_utils_messenger(host.debug.1, None);
         host.instance.destroy_instance(None);
     }
     let msgs = MESSAGES.lock().expect("messages").clone();
@@ -676,7 +965,10 @@ fn main() {
     for reversed in [false, true] {
         match run([160, 120], reversed) {
             Ok(r) => {
-                let ok = r.validation.is_empty() && r.interior_match() >= 0.9995 && r.floor_hides_csg > 0 && r.csg_hides_floor > 0;
+                let ok = r.validation.is_empty()
+                    && r.interior_match() >= 0.9995
+                    && r.floor_hides_csg > 0
+                    && r.csg_hides_floor > 0;
                 println!(
                     "reversed_z={reversed}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; {} validation messages",
                     r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.validation.len()

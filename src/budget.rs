@@ -52,7 +52,12 @@ pub struct OverBudget {
 
 impl Budget {
     /// Refuses `estimate` bytes of `what` over the budget.
-    pub fn check(&self, what: impl FnOnce() -> String, estimate: u64, fix: &str) -> Result<(), OverBudget> {
+    pub fn check(
+        &self,
+        what: impl FnOnce() -> String,
+        estimate: u64,
+        fix: &str,
+    ) -> Result<(), OverBudget> {
         if estimate <= self.bytes {
             return Ok(());
         }
@@ -135,7 +140,10 @@ pub fn parse_size(s: &str) -> Result<u64, String> {
     let (num, unit) = t.split_at(split);
     let x: f64 = num.parse().map_err(|_| err())?;
     let unit = unit.trim().to_ascii_uppercase();
-    let unit = unit.strip_suffix("IB").or(unit.strip_suffix('B')).unwrap_or(&unit);
+    let unit = unit
+        .strip_suffix("IB")
+        .or(unit.strip_suffix('B'))
+        .unwrap_or(&unit);
     let mult: u64 = match unit {
         "" => 1,
         "K" => 1 << 10,
@@ -186,11 +194,15 @@ mod tests {
 
     #[test]
     fn reads_proc_fields() {
-        let limits = "Max cpu time              unlimited            unlimited            seconds\n\
+        let limits =
+            "Max cpu time              unlimited            unlimited            seconds\n\
                       Max address space         4294967296           4294967296           bytes\n";
         assert_eq!(proc_field(limits, "Max address space"), Some(4 << 30));
         assert_eq!(proc_field(limits, "Max cpu time"), None);
-        assert_eq!(proc_field("MemTotal:       24684092 kB\n", "MemTotal:"), Some(24684092));
+        assert_eq!(
+            proc_field("MemTotal:       24684092 kB\n", "MemTotal:"),
+            Some(24684092)
+        );
     }
 
     #[test]
@@ -201,10 +213,20 @@ mod tests {
         };
         assert!(b.check(|| "x".into(), 2 << 30, "fix").is_ok());
         let e = b
-            .check(|| "a sphere of 8,390,658 vertices".into(), 5 << 30, "lower `segments`")
+            .check(
+                || "a sphere of 8,390,658 vertices".into(),
+                5 << 30,
+                "lower `segments`",
+            )
             .unwrap_err()
             .to_string();
-        for n in ["a sphere of 8,390,658 vertices", "5.0 GiB", "2.0 GiB", "lower `segments`", "--memory-budget"] {
+        for n in [
+            "a sphere of 8,390,658 vertices",
+            "5.0 GiB",
+            "2.0 GiB",
+            "lower `segments`",
+            "--memory-budget",
+        ] {
             assert!(e.contains(n), "{n}: {e}");
         }
         assert_eq!(human(1536), "1.5 KiB");

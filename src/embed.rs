@@ -84,7 +84,9 @@ pub enum EmbedError {
     #[error("expression: {0} (name meshes m0, m1, … in input order)")]
     Expr(String),
     /// The algorithm has no GPU plan (the CPU reference).
-    #[error("algorithm {0} has no GPU plan: choose a GPU algorithm (e.g. goldfeather, blister, cst-z)")]
+    #[error(
+        "algorithm {0} has no GPU plan: choose a GPU algorithm (e.g. goldfeather, blister, cst-z)"
+    )]
     Algo(Algo),
     /// The plan could not be built.
     #[error(transparent)]
@@ -119,12 +121,19 @@ impl CsgScene {
         if desc.algo == Algo::Reference {
             return Err(EmbedError::Algo(desc.algo));
         }
-        let local: Vec<Mesh> = meshes.iter().enumerate().map(|(i, m)| local_mesh(i, m)).collect::<Result<_, _>>()?;
+        let local: Vec<Mesh> = meshes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| local_mesh(i, m))
+            .collect::<Result<_, _>>()?;
         let expr = match expr {
             CsgExpr::Text(src) => {
                 let names: Vec<String> = (0..meshes.len()).map(|i| format!("m{i}")).collect();
-                let map: HashMap<&str, u32> =
-                    names.iter().enumerate().map(|(i, n)| (n.as_str(), i as u32)).collect();
+                let map: HashMap<&str, u32> = names
+                    .iter()
+                    .enumerate()
+                    .map(|(i, n)| (n.as_str(), i as u32))
+                    .collect();
                 crate::scene::load::parse_expr(src, &map).map_err(EmbedError::Expr)?
             }
             CsgExpr::Built(e) => {
@@ -243,7 +252,10 @@ impl CsgScene {
         } else {
             DepthConvention::Standard
         };
-        self.scene.camera.proj(r.width as f64 / r.height as f64, conv) * self.scene.camera.view()
+        self.scene
+            .camera
+            .proj(r.width as f64 / r.height as f64, conv)
+            * self.scene.camera.view()
     }
 
     /// The scene this API built (for the CPU reference of tests).
@@ -262,14 +274,28 @@ impl CsgScene {
 fn local_mesh(i: usize, m: &MeshInput<'_>) -> Result<Mesh, EmbedError> {
     let err = |problem: String| EmbedError::Mesh { index: i, problem };
     let n = m.positions.len();
-    if let Some(t) = m.indices.iter().find(|t| t.iter().any(|&v| v as usize >= n)) {
-        return Err(err(format!("triangle {t:?} indexes past its {n} positions")));
+    if let Some(t) = m
+        .indices
+        .iter()
+        .find(|t| t.iter().any(|&v| v as usize >= n))
+    {
+        return Err(err(format!(
+            "triangle {t:?} indexes past its {n} positions"
+        )));
     }
-    if let Some(p) = m.positions.iter().find(|p| p.iter().any(|c| !c.is_finite())) {
+    if let Some(p) = m
+        .positions
+        .iter()
+        .find(|p| p.iter().any(|c| !c.is_finite()))
+    {
         return Err(err(format!("position {p:?} is not finite")));
     }
     let mesh = Mesh {
-        positions: m.positions.iter().map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)).collect(),
+        positions: m
+            .positions
+            .iter()
+            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+            .collect(),
         triangles: m.indices.to_vec(),
     };
     check_closed(&mesh).map_err(|p| err(p.describe(&mesh)))?;

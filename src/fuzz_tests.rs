@@ -232,72 +232,79 @@ fn shape_table(table: &'static str, name: &'static str) -> BoxedStrategy<Gen> {
         prop::option::of(count()),
         prop::option::of(vector(finite().boxed())),
         prop::option::of(vector(finite().boxed())),
-        prop::option::of(prop_oneof![positive().prop_map(ok), vector(positive().boxed())]),
+        prop::option::of(prop_oneof![
+            positive().prop_map(ok),
+            vector(positive().boxed())
+        ]),
         prop::option::of(color()),
         extra,
     )
-        .prop_map(move |(shape, size, radius, segments, rings, rot, tr, scale, color, extra)| {
-            let (kind, shape_bad) = shape;
-            let mut parts = vec![
-                ok(format!("[[{table}]]\nname = \"{name}\"\nshape = \"{kind}\"\n")),
-                Gen {
-                    text: String::new(),
-                    bad: shape_bad,
-                },
-            ];
-            let mut key = |k: &str, g: Gen| {
-                parts.push(Gen {
-                    text: format!("{k} = {}\n", g.text),
-                    bad: g.bad,
-                })
-            };
-            match kind {
-                "box" => key("size", size),
-                "sphere" | "torus" => {
-                    if kind == "torus" {
-                        // minor < major is checked; keep that valid here.
-                        key("radius", ok("4.5"));
-                        let minor = match radius.text.parse::<f64>() {
-                            Ok(r) if !radius.bad && r >= 4.5 => bad(radius.text),
-                            _ => radius,
-                        };
-                        key("minor_radius", minor);
-                    } else {
+        .prop_map(
+            move |(shape, size, radius, segments, rings, rot, tr, scale, color, extra)| {
+                let (kind, shape_bad) = shape;
+                let mut parts = vec![
+                    ok(format!(
+                        "[[{table}]]\nname = \"{name}\"\nshape = \"{kind}\"\n"
+                    )),
+                    Gen {
+                        text: String::new(),
+                        bad: shape_bad,
+                    },
+                ];
+                let mut key = |k: &str, g: Gen| {
+                    parts.push(Gen {
+                        text: format!("{k} = {}\n", g.text),
+                        bad: g.bad,
+                    })
+                };
+                match kind {
+                    "box" => key("size", size),
+                    "sphere" | "torus" => {
+                        if kind == "torus" {
+                            // minor < major is checked; keep that valid here.
+                            key("radius", ok("4.5"));
+                            let minor = match radius.text.parse::<f64>() {
+                                Ok(r) if !radius.bad && r >= 4.5 => bad(radius.text),
+                                _ => radius,
+                            };
+                            key("minor_radius", minor);
+                        } else {
+                            key("radius", radius);
+                        }
+                        key("segments", segments);
+                        if let Some(r) = rings {
+                            key("rings", r);
+                        }
+                    }
+                    "cylinder" | "cone" => {
                         key("radius", radius);
+                        key("height", ok("1.0"));
+                        key("segments", segments);
                     }
-                    key("segments", segments);
-                    if let Some(r) = rings {
-                        key("rings", r);
-                    }
+                    "mesh" => key("path", ok("\"does/not/exist.obj\"")),
+                    _ => key("size", size),
                 }
-                "cylinder" | "cone" => {
-                    key("radius", radius);
-                    key("height", ok("1.0"));
-                    key("segments", segments);
+                if let Some(v) = rot {
+                    key("rotate_deg", v);
                 }
-                "mesh" => key("path", ok("\"does/not/exist.obj\"")),
-                _ => key("size", size),
-            }
-            if let Some(v) = rot {
-                key("rotate_deg", v);
-            }
-            if let Some(v) = tr {
-                key("translate", v);
-            }
-            if let Some(v) = scale {
-                key("scale", v);
-            }
-            if let Some(v) = color {
-                key("color", v);
-            }
-            if table == "surface" {
-                key("trim", ok("\"A\""));
-            }
-            let mut g = join(&parts, "");
-            g.text.push_str(&extra.text);
-            g.bad |= extra.bad;
-            g
-        })
+                if let Some(v) = tr {
+                    key("translate", v);
+                }
+                if let Some(v) = scale {
+                    key("scale", v);
+                }
+                if let Some(v) = color {
+                    key("color", v);
+                }
+                if table == "surface" {
+                    key("trim", ok("\"A\""));
+                }
+                let mut g = join(&parts, "");
+                g.text.push_str(&extra.text);
+                g.bad |= extra.bad;
+                g
+            },
+        )
         .boxed()
 }
 
@@ -341,15 +348,20 @@ fn scene() -> BoxedStrategy<Gen> {
         prop::option::of(shape_table("surface", "S")),
         expr_source(),
         prop::option::of((
-            number((1u32..64).prop_map(|n| n.to_string()).boxed(), &["0", "16385", "-1", "4294967296"]),
+            number(
+                (1u32..64).prop_map(|n| n.to_string()).boxed(),
+                &["0", "16385", "-1", "4294967296"],
+            ),
             prop::option::of(color()),
         )),
     )
         .prop_flat_map(|(cam, prims, surface, (expr, _), render)| {
             // Usually all of A-D are defined; fewer make the names past them unknown.
             let n = if prims < 2 { prims + 2 } else { 4 };
-            let tables: Vec<BoxedStrategy<Gen>> =
-                NAMES[..n].iter().map(|name| shape_table("primitive", name)).collect();
+            let tables: Vec<BoxedStrategy<Gen>> = NAMES[..n]
+                .iter()
+                .map(|name| shape_table("primitive", name))
+                .collect();
             (tables, Just((cam, surface, expr, render)))
         })
         .prop_map(|(tables, (cam, surface, expr, render))| {
@@ -379,7 +391,12 @@ fn scene() -> BoxedStrategy<Gen> {
             });
             join(&parts, "")
         });
-    (body, 0u8..10, any::<prop::sample::Index>(), "[\\PC\\x00\\x7f\"=#\\[\\]]{0,4}")
+    (
+        body,
+        0u8..10,
+        any::<prop::sample::Index>(),
+        "[\\PC\\x00\\x7f\"=#\\[\\]]{0,4}",
+    )
         .prop_map(|(g, mutation, at, junk)| {
             let chars: Vec<char> = g.text.chars().collect();
             let k = at.index(chars.len().max(1)).min(chars.len());
@@ -391,7 +408,11 @@ fn scene() -> BoxedStrategy<Gen> {
                 },
                 // Junk spliced in.
                 1 => Gen {
-                    text: chars[..k].iter().chain(junk.chars().collect::<Vec<_>>().iter()).chain(chars[k..].iter()).collect(),
+                    text: chars[..k]
+                        .iter()
+                        .chain(junk.chars().collect::<Vec<_>>().iter())
+                        .chain(chars[k..].iter())
+                        .collect(),
                     bad: false,
                 },
                 _ => g,
@@ -421,17 +442,28 @@ fn fuzz_scene_files() {
         .run(&scene(), |g| {
             if let Some(dir) = &dump {
                 let k = counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                let _ = std::fs::write(dir.join(format!("case-{k:06}{}.toml", if g.bad { "-bad" } else { "" })), &g.text);
+                let _ = std::fs::write(
+                    dir.join(format!(
+                        "case-{k:06}{}.toml",
+                        if g.bad { "-bad" } else { "" }
+                    )),
+                    &g.text,
+                );
             }
             let t = Instant::now();
-            let r = crate::budget::with(FUZZ_BUDGET, || load_str(&g.text, path, &LoadOptions::default()));
+            let r = crate::budget::with(FUZZ_BUDGET, || {
+                load_str(&g.text, path, &LoadOptions::default())
+            });
             let took = t.elapsed();
             prop_assert!(took < limit, "took {took:?}:\n{}", g.text);
             match r {
                 Ok(s) => {
                     accepted.set(accepted.get() + 1);
                     prop_assert!(!g.bad, "accepted a malformed scene:\n{}", g.text);
-                    let persp = matches!(s.camera.projection, crate::scene::Projection::Perspective { .. });
+                    let persp = matches!(
+                        s.camera.projection,
+                        crate::scene::Projection::Perspective { .. }
+                    );
                     prop_assert!(s.camera.near > 0.0 || !persp, "near {}", s.camera.near);
                     prop_assert!(s.camera.near < s.camera.far && s.camera.far.is_finite());
                 }
@@ -451,7 +483,10 @@ fn fuzz_scene_files() {
     // The generator must reach both outcomes in earnest, or the test proves little.
     let (a, r) = (accepted.get(), refused.get());
     eprintln!("fuzz_scene_files: {a} accepted, {r} refused");
-    assert!(a * 10 > a + r && r * 10 > a + r, "{a} accepted, {r} refused");
+    assert!(
+        a * 10 > a + r && r * 10 > a + r,
+        "{a} accepted, {r} refused"
+    );
 }
 
 #[test]
@@ -477,7 +512,12 @@ fn fuzz_expressions() {
                 }
                 Err(e) => {
                     let len = g.text.chars().count();
-                    prop_assert!(e.column >= 1 && e.column <= len + 1, "column {} of {:?}", e.column, g.text);
+                    prop_assert!(
+                        e.column >= 1 && e.column <= len + 1,
+                        "column {} of {:?}",
+                        e.column,
+                        g.text
+                    );
                     prop_assert!(e.to_string().contains("hint: "));
                 }
             }

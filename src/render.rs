@@ -123,7 +123,8 @@ pub enum RenderError {
     #[error("algorithm '{algo}' cannot render {what} yet: use --algo reference")]
     Unsupported { algo: String, what: &'static str },
     #[error("Vulkan validation reported {} message(s); first: {}", .0.len(), .0.first().map(String::as_str).unwrap_or(""))]
-    Validation(Vec<String>),    #[error(transparent)]
+    Validation(Vec<String>),
+    #[error(transparent)]
     OverBudget(#[from] crate::budget::OverBudget),
 }
 
@@ -140,7 +141,11 @@ pub const REFERENCE_BYTES_PER_PIXEL: u64 = 32;
 
 /// Refuses a frame whose images would exceed the memory budget, before any is
 /// allocated.
-pub fn check_frame_budget(width: u32, height: u32, gpu: bool) -> Result<(), crate::budget::OverBudget> {
+pub fn check_frame_budget(
+    width: u32,
+    height: u32,
+    gpu: bool,
+) -> Result<(), crate::budget::OverBudget> {
     let per_pixel = if gpu {
         GPU_HOST_BYTES_PER_PIXEL
     } else {
@@ -212,7 +217,11 @@ impl GpuRenderer {
     ) -> Result<Self, RenderError> {
         check_frame_budget(scene.render.width, scene.render.height, true)?;
         let ctx = vk::Context::new(&vk::ContextDesc { device, validation })?;
-        ctx.check_frame_size(scene.render.width, scene.render.height, DEVICE_BYTES_PER_PIXEL)?;
+        ctx.check_frame_size(
+            scene.render.width,
+            scene.render.height,
+            DEVICE_BYTES_PER_PIXEL,
+        )?;
         let mut why = None;
         if fallback && !ctx.depth_format_usable(depth.exec_format().0.vk()) {
             why = Some(format!(

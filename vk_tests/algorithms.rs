@@ -327,7 +327,10 @@ expr = "(Ball - Pin) + Block"
     .unwrap_or_else(|e| panic!("{e}"));
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
     for p in 1..=3u16 {
-        assert!(reference.prim.iter().any(|&q| q == p), "primitive {p} shows");
+        assert!(
+            reference.prim.iter().any(|&q| q == p),
+            "primitive {p} shows"
+        );
     }
     let prep = Prepared::new(&scene).unwrap();
     assert_eq!(prep.near_cut[..3], [true, true, false]);

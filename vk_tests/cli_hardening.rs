@@ -22,17 +22,43 @@ fn out_naming_a_file_says_a_folder_is_needed() {
     let dir = tmp("outfile");
     let file = write(&dir, "taken", "not a folder");
     for cmd in [
-        vec!["render", &scene("gear.toml")[..], "--size", "8x8", "--out", &file],
-        vec!["bench", &scene("gear.toml")[..], "--algos", "reference", "--size", "8x8", "--out", &file],
+        vec![
+            "render",
+            &scene("gear.toml")[..],
+            "--size",
+            "8x8",
+            "--out",
+            &file,
+        ],
+        vec![
+            "bench",
+            &scene("gear.toml")[..],
+            "--algos",
+            "reference",
+            "--size",
+            "8x8",
+            "--out",
+            &file,
+        ],
     ] {
         let o = run(&cmd);
-        assert_error(&o, &["taken is a file, not a folder", "--out needs a folder"]);
+        assert_error(
+            &o,
+            &["taken is a file, not a folder", "--out needs a folder"],
+        );
         assert_eq!(o.status.code(), Some(1));
     }
     // A folder below a file: the file is named.
     let below = format!("{file}/sub");
     assert_error(
-        &run(&["render", &scene("gear.toml"), "--size", "8x8", "--out", &below]),
+        &run(&[
+            "render",
+            &scene("gear.toml"),
+            "--size",
+            "8x8",
+            "--out",
+            &below,
+        ]),
         &["taken is a file, not a folder"],
     );
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a folder");
@@ -41,14 +67,31 @@ fn out_naming_a_file_says_a_folder_is_needed() {
 #[test]
 fn openscad_and_other_files_say_what_a_scene_is() {
     let dir = tmp("scad");
-    let scad = write(&dir, "model.scad", "difference() {\n  cube(2, center=true);\n  sphere(1.3);\n}\n");
+    let scad = write(
+        &dir,
+        "model.scad",
+        "difference() {\n  cube(2, center=true);\n  sphere(1.3);\n}\n",
+    );
     let o = run(&["render", &scad]);
-    assert_error(&o, &["model.scad", "OpenSCAD source file is not a scene", "TOML", ".csg", "Export as CSG"]);
+    assert_error(
+        &o,
+        &[
+            "model.scad",
+            "OpenSCAD source file is not a scene",
+            "TOML",
+            ".csg",
+            "Export as CSG",
+        ],
+    );
     assert_eq!(o.status.code(), Some(1));
     let other = write(&dir, "model.txt", "difference() {\n  cube(2);\n}\n");
     assert_error(
         &run(&["plan", &other, "--algo", "cst-i"]),
-        &["model.txt:1:", "not named .toml and is not valid TOML", "OpenSCAD's CSG export"],
+        &[
+            "model.txt:1:",
+            "not named .toml and is not valid TOML",
+            "OpenSCAD's CSG export",
+        ],
     );
     // A .toml file keeps the plain TOML message.
     let toml = write(&dir, "broken.toml", "difference() {\n");
@@ -69,15 +112,27 @@ fn a_huge_sphere_is_refused_against_the_budget() {
     let o = run(&["render", &p, "--size", "32x32", "--memory-budget", "1G"]);
     assert_error(
         &o,
-        &["sphere.toml:1: primitive[1] \"S\": segments", "4096 segments × 2048 rings", "over the budget of 1.0 GiB", "lower `segments`", "--memory-budget"],
+        &[
+            "sphere.toml:1: primitive[1] \"S\": segments",
+            "4096 segments × 2048 rings",
+            "over the budget of 1.0 GiB",
+            "lower `segments`",
+            "--memory-budget",
+        ],
     );
     assert!(t.elapsed() < Duration::from_secs(5), "{:?}", t.elapsed());
-    assert_error(&run(&["render", &p, "--memory-budget", "lots"]), &["'lots' is not a memory size", "e.g. 2G"]);
+    assert_error(
+        &run(&["render", &p, "--memory-budget", "lots"]),
+        &["'lots' is not a memory size", "e.g. 2G"],
+    );
 }
 
 /// `n` leaves over A and B joined by `op` (" " or " + ").
 fn chain(n: usize, op: &str) -> String {
-    (0..n).map(|i| if i % 2 == 0 { "A" } else { "B" }).collect::<Vec<_>>().join(op)
+    (0..n)
+        .map(|i| if i % 2 == 0 { "A" } else { "B" })
+        .collect::<Vec<_>>()
+        .join(op)
 }
 
 fn expr_scene(dir: &Path, name: &str, expr: &str) -> String {
@@ -104,14 +159,30 @@ fn large_expressions_render_or_are_refused_at_once() {
         let p = expr_scene(&dir, name, expr);
         for args in [
             vec!["plan", &p[..], "--algo", "cst-i"],
-            vec!["render", &p[..], "--algo", "cst-i", "--size", "16x16", "--out", dir.join("o").to_str().unwrap()],
+            vec![
+                "render",
+                &p[..],
+                "--algo",
+                "cst-i",
+                "--size",
+                "16x16",
+                "--out",
+                dir.join("o").to_str().unwrap(),
+            ],
         ] {
             let t = Instant::now();
             let o = run(&args);
             let took = t.elapsed();
-            assert_error(&o, &["cst-i trims each of the", "active zone", "--algo blister"]);
+            assert_error(
+                &o,
+                &["cst-i trims each of the", "active zone", "--algo blister"],
+            );
             // Debug builds are slower; release takes well under a second.
-            assert!(took < Duration::from_secs(10), "{name} {}: {took:?}", args[0]);
+            assert!(
+                took < Duration::from_secs(10),
+                "{name} {}: {took:?}",
+                args[0]
+            );
             eprintln!("{name} {}: refused in {took:?}", args[0]);
         }
     }
@@ -122,11 +193,27 @@ fn large_expressions_render_or_are_refused_at_once() {
     assert!(o.status.success(), "{}", stderr(&o));
     eprintln!("union1e5 plan: {:?}", t.elapsed());
     let out = dir.join("u");
-    let o = run(&["render", &p, "--algo", "cst-i", "--size", "32x32", "--out", out.to_str().unwrap()]);
+    let o = run(&[
+        "render",
+        &p,
+        "--algo",
+        "cst-i",
+        "--size",
+        "32x32",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let refp = dir.join("uref");
     let small = expr_scene(&dir, "union2.toml", "A + B");
-    let o = run(&["render", &small, "--size", "32x32", "--out", refp.to_str().unwrap()]);
+    let o = run(&[
+        "render",
+        &small,
+        "--size",
+        "32x32",
+        "--out",
+        refp.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run(&["compare", refp.to_str().unwrap(), out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -137,10 +224,38 @@ fn large_expressions_render_or_are_refused_at_once() {
 
 #[test]
 fn huge_images_are_refused_clearly_by_every_algorithm() {
-    let algos = ["reference", "goldfeather", "goldfeather-layered", "trickle", "blister", "cst-z", "cst-i", "cst-g", "blister-paper"];
+    let algos = [
+        "reference",
+        "goldfeather",
+        "goldfeather-layered",
+        "trickle",
+        "blister",
+        "cst-z",
+        "cst-i",
+        "cst-g",
+        "blister-paper",
+    ];
     for algo in algos {
-        let o = run(&["render", &scene("gear.toml"), "--algo", algo, "--size", "16384x16384", "--memory-budget", "1G", "--out", "/nonexistent-never-written"]);
-        assert_error(&o, &["16384x16384 frame would need about", "over the budget of 1.0 GiB", "smaller --size"]);
+        let o = run(&[
+            "render",
+            &scene("gear.toml"),
+            "--algo",
+            algo,
+            "--size",
+            "16384x16384",
+            "--memory-budget",
+            "1G",
+            "--out",
+            "/nonexistent-never-written",
+        ]);
+        assert_error(
+            &o,
+            &[
+                "16384x16384 frame would need about",
+                "over the budget of 1.0 GiB",
+                "smaller --size",
+            ],
+        );
         assert_eq!(o.status.code(), Some(1), "{algo}");
     }
 }
@@ -152,15 +267,39 @@ fn huge_images_are_refused_clearly_by_every_algorithm() {
 fn bench_finishes_with_its_table_without_system_fonts() {
     let dir = tmp("bench-font");
     let out = dir.join("out");
-    let o = run(&["bench", &scene("gear.toml"), "--algos", "reference", "--size", "16x16", "--frames", "1", "--out", out.to_str().unwrap()]);
+    let o = run(&[
+        "bench",
+        &scene("gear.toml"),
+        "--algos",
+        "reference",
+        "--size",
+        "16x16",
+        "--frames",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("no plots"), "{}", stderr(&o));
-    assert!(std::fs::read_to_string(out.join("summary.md")).unwrap().contains("reference"));
+    assert!(std::fs::read_to_string(out.join("summary.md"))
+        .unwrap()
+        .contains("reference"));
     // Where `plots` cannot be created, the run still succeeds.
     let out2 = dir.join("out2");
     std::fs::create_dir_all(&out2).unwrap();
     std::fs::write(out2.join("plots"), "a file in the way").unwrap();
-    let o = run(&["bench", &scene("gear.toml"), "--algos", "reference", "--size", "16x16", "--frames", "1", "--out", out2.to_str().unwrap()]);
+    let o = run(&[
+        "bench",
+        &scene("gear.toml"),
+        "--algos",
+        "reference",
+        "--size",
+        "16x16",
+        "--frames",
+        "1",
+        "--out",
+        out2.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("warning: no plots"), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("reference"));

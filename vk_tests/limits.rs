@@ -31,6 +31,9 @@ fn frames_past_the_device_limits_are_refused_clearly() {
         .check_frame_size(max, max, per_pixel)
         .expect_err("images past the device-local heap")
         .to_string();
-    assert!(msg.contains("of device memory") && msg.contains("smaller --size"), "{msg}");
+    assert!(
+        msg.contains("of device memory") && msg.contains("smaller --size"),
+        "{msg}"
+    );
     assert_clean(&ctx);
 }

@@ -424,7 +424,10 @@ fn peel_loop_stops_after_two_layers() {
         &peel_loop_plan(true),
     );
     assert_eq!(r.stats.counts.loop_iterations, vec![3]);
-    assert_eq!(r.stats.counts.samples_counted, f.stats.counts.samples_counted);
+    assert_eq!(
+        r.stats.counts.samples_counted,
+        f.stats.counts.samples_counted
+    );
     assert_clean(&ctx);
 }
 

@@ -316,7 +316,10 @@ fn run_one(
         0.0
     } else {
         gpu.forget_recording();
-        gpu.execute(&plan).map_err(|e| e.to_string())?.exec.record_ms
+        gpu.execute(&plan)
+            .map_err(|e| e.to_string())?
+            .exec
+            .record_ms
     };
     let images = gpu.read_back().map_err(|e| e.to_string())?;
     let msgs = gpu.validation_messages();

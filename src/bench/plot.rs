@@ -135,7 +135,12 @@ fn percent(v: f64) -> String {
     if v >= 1.0 {
         format!("{v:.0}%")
     } else if v >= 0.01 {
-        format!("{}%", format!("{v:.2}").trim_end_matches('0').trim_end_matches('.'))
+        format!(
+            "{}%",
+            format!("{v:.2}")
+                .trim_end_matches('0')
+                .trim_end_matches('.')
+        )
     } else {
         format!("{v:.0e}%")
     }

@@ -191,7 +191,11 @@ mod tests {
     fn random_text(rng: &mut impl Rng, n: usize) -> String {
         if n == 1 {
             let name = (b'A' + rng.gen_range(0..6u8)) as char;
-            return if rng.gen_bool(0.2) { format!("!{name}") } else { name.to_string() };
+            return if rng.gen_bool(0.2) {
+                format!("!{name}")
+            } else {
+                name.to_string()
+            };
         }
         let k = rng.gen_range(1..n);
         let op = ["+", "-", "*"][rng.gen_range(0..3)];
@@ -206,14 +210,29 @@ mod tests {
         for case in 0..300 {
             let n = rng.gen_range(1..=30);
             let text = random_text(&mut rng, n);
-            let e = crate::csg::parse(&text, &mut |s| Some((s.as_bytes()[0] - b'A') as u32)).unwrap();
+            let e =
+                crate::csg::parse(&text, &mut |s| Some((s.as_bytes()[0] - b'A') as u32)).unwrap();
             let pos = PositiveExpr::from_expr(&e);
             let parent = pos.parents();
             let zones = ActiveZones::new(&pos);
-            let count = |z: &PositiveExpr| if z.is_universe() { 0 } else { z.num_leaves() as u64 };
+            let count = |z: &PositiveExpr| {
+                if z.is_universe() {
+                    0
+                } else {
+                    z.num_leaves() as u64
+                }
+            };
             for leaf in zones.leaves() {
-                assert_eq!(zones.i_size(leaf), count(&zones.i_form(leaf)), "case {case}: {text}");
-                assert_eq!(zones.z_size(leaf), count(&zones.z_form(leaf)), "case {case}: {text}");
+                assert_eq!(
+                    zones.i_size(leaf),
+                    count(&zones.i_form(leaf)),
+                    "case {case}: {text}"
+                );
+                assert_eq!(
+                    zones.z_size(leaf),
+                    count(&zones.z_form(leaf)),
+                    "case {case}: {text}"
+                );
                 let (mut i, mut u) = (Vec::new(), Vec::new());
                 let mut c = zones.leaf_node(leaf);
                 while let Some(p) = parent[c as usize] {
@@ -242,6 +261,10 @@ mod tests {
         assert_eq!(total, 0);
         assert!(zones.leaves().all(|l| zones.i_nodes(l).is_empty()));
         assert_eq!(zones.z_size(0), n as u64 - 1);
-        assert!(t.elapsed() < std::time::Duration::from_secs(2), "{:?}", t.elapsed());
+        assert!(
+            t.elapsed() < std::time::Duration::from_secs(2),
+            "{:?}",
+            t.elapsed()
+        );
     }
 }

@@ -57,8 +57,8 @@ pub(crate) use ties::parity_draw;
 pub use ties::{tie_draws, tie_eps, Peeled, Relation};
 pub(crate) use trim::BlistTrimmer;
 pub use trim::Trimmer;
-pub use zones::{leaf_csts, LeafCst, TrimVolume};
 pub(crate) use zones::disjoint;
+pub use zones::{leaf_csts, LeafCst, TrimVolume};
 
 use super::stencil::{self, LabelLayout, Next};
 use super::step::*;

@@ -46,9 +46,7 @@ impl Usage {
 /// Colour targets of a fragment program, in attachment order.
 pub fn color_targets(f: &Fragment) -> Vec<Resource> {
     match *f {
-        Fragment::None
-        | Fragment::DepthFromTexture { .. }
-        | Fragment::NearerThan { .. } => vec![],
+        Fragment::None | Fragment::DepthFromTexture { .. } | Fragment::NearerThan { .. } => vec![],
         Fragment::Shade
         | Fragment::Paint { .. }
         | Fragment::Background

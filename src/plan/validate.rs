@@ -72,8 +72,9 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
                     ms.iter().try_for_each(|m| mesh(*m))?;
                 }
                 match d.fragment {
-                    Fragment::Peel { prev, out, .. }
-                    | Fragment::PeelTolerant { prev, out, .. } => distinct(prev, out)?,
+                    Fragment::Peel { prev, out, .. } | Fragment::PeelTolerant { prev, out, .. } => {
+                        distinct(prev, out)?
+                    }
                     Fragment::CopyTexel { src, out } => distinct(src, out)?,
                     Fragment::WriteDepth { out } => tex(out)?,
                     Fragment::DepthFromTexture { src } => tex(src)?,

@@ -141,7 +141,7 @@ mod tests {
             [k(200.0, 255.0), k(200.0, 40.0), k(200.0, 40.0), 255]
         );
         assert!(!img.mask[25 * 60 + 15]); // x = -1.45: a only
-        // b sticking out of a (x = 1.55): no clash, b's two faces at alpha 0.3.
+                                          // b sticking out of a (x = 1.55): no clash, b's two faces at alpha 0.3.
         let j = 25 * 60 + 45;
         assert!(!img.mask[j]);
         let bg: f64 = 20.0; // fixture background [10, 20, 30], green channel

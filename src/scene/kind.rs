@@ -7,7 +7,8 @@ use std::path::Path;
 use super::load::SceneError;
 
 /// What the user can give instead (said once, in every such message).
-pub const SUPPORTED: &str = "peeltrim reads scenes written in TOML (`.toml`, see README \"Scenes\") \
+pub const SUPPORTED: &str =
+    "peeltrim reads scenes written in TOML (`.toml`, see README \"Scenes\") \
      and OpenSCAD's CSG export (`.csg`: in OpenSCAD, File > Export > Export as CSG)";
 
 fn extension(path: &Path) -> Option<String> {

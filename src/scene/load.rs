@@ -1084,7 +1084,12 @@ impl Loader<'_> {
                     self.charge(
                         line,
                         k("path"),
-                        || format!("the OBJ file ({} bytes) with the scene's other meshes", meta.len()),
+                        || {
+                            format!(
+                                "the OBJ file ({} bytes) with the scene's other meshes",
+                                meta.len()
+                            )
+                        },
                         cost::obj_bytes(meta.len()),
                         "simplify the mesh (fewer triangles)",
                     )?;

@@ -440,7 +440,10 @@ fn common_mistakes_name_the_place_and_the_fix() {
     for (extra, needles) in [
         (
             "[[primitive]]\nname = \"B\"\nshape = \"sphere\"\nradius = 0.0\n[csg]\nexpr = \"A\"\n",
-            &["test.toml:8: primitive[2] \"B\": radius", "must be a positive finite number"][..],
+            &[
+                "test.toml:8: primitive[2] \"B\": radius",
+                "must be a positive finite number",
+            ][..],
         ),
         (
             "[csg]\nexpr = \"A + Q\"\n",
@@ -463,13 +466,25 @@ fn common_mistakes_name_the_place_and_the_fix() {
 }
 
 const BAD_VECTORS: [(&str, &str); 8] = [
-    ("[1.0, 1.0, 1.0, 4.0]", "has 4 elements: write exactly 3 numbers"),
+    (
+        "[1.0, 1.0, 1.0, 4.0]",
+        "has 4 elements: write exactly 3 numbers",
+    ),
     ("[1.0, 1.0]", "has 2 elements: write exactly 3 numbers"),
     ("[]", "has 0 elements"),
     ("[1.0, 1.0, 1.0, \"x\"]", "has 4 elements"),
-    ("[0.5, \"x\", 1.0]", "element 2 is the string \"x\", not a number"),
-    ("[0.5, 1.0, true]", "element 3 is the boolean true, not a number"),
-    ("\"1 2 3\"", "found the string \"1 2 3\": write an array of 3 numbers"),
+    (
+        "[0.5, \"x\", 1.0]",
+        "element 2 is the string \"x\", not a number",
+    ),
+    (
+        "[0.5, 1.0, true]",
+        "element 3 is the boolean true, not a number",
+    ),
+    (
+        "\"1 2 3\"",
+        "found the string \"1 2 3\": write an array of 3 numbers",
+    ),
     ("{ x = 1.0 }", "found a table"),
 ];
 
@@ -487,13 +502,21 @@ fn shape_vectors_reject_wrong_length_and_type() {
                 let (src, shift) = if table == "primitive" {
                     (src.replace("trim = \"A\"\n", "[csg]\nexpr = \"A\"\n"), 0)
                 } else {
-                    let p = "[[primitive]]\nname = \"P\"\nshape = \"box\"\nsize = [1.0, 1.0, 1.0]\n";
-                    (src.replacen("[[surface]]", &format!("{p}[[surface]]"), 1).replace("trim = \"A\"", "trim = \"P\""), 4)
+                    let p =
+                        "[[primitive]]\nname = \"P\"\nshape = \"box\"\nsize = [1.0, 1.0, 1.0]\n";
+                    (
+                        src.replacen("[[surface]]", &format!("{p}[[surface]]"), 1)
+                            .replace("trim = \"A\"", "trim = \"P\""),
+                        4,
+                    )
                 };
                 let line = shift + if key == "size" { 7 } else { 8 };
                 let e = err(&src);
                 let want = format!("test.toml:{line}: {table}[1] \"A\": {key}: ");
-                assert!(e.starts_with("/tmp/t/") && e.contains(&want), "{key} = {value}: {e}");
+                assert!(
+                    e.starts_with("/tmp/t/") && e.contains(&want),
+                    "{key} = {value}: {e}"
+                );
                 if key == "scale" && !value.starts_with('[') {
                     assert!(e.contains("a number or an array of 3 numbers"), "{e}");
                 } else {
@@ -517,7 +540,10 @@ fn camera_vectors_reject_wrong_length_and_type() {
             cam.iter_mut().find(|(k, _)| *k == key).unwrap().1 = value;
             let cam: String = cam.iter().map(|(k, v)| format!("{k} = {v}\n")).collect();
             let src = format!("[camera]\n{cam}{BOX_A}[csg]\nexpr = \"A\"\n");
-            let line = 2 + ["eye", "target", "up"].iter().position(|k| *k == key).unwrap();
+            let line = 2 + ["eye", "target", "up"]
+                .iter()
+                .position(|k| *k == key)
+                .unwrap();
             let e = err(&src);
             let want = format!("test.toml:{line}: camera: {key}: ");
             assert!(e.contains(&want), "{key} = {value}: {e}");
@@ -541,7 +567,10 @@ fn vectors_accept_integers_and_a_scalar_scale() {
     );
     let b = s.primitives[0].mesh.aabb().unwrap();
     // 1 x 2 x 1 scaled by 2, turned 90° about y, moved +1 in x.
-    assert!((b.max - glam::DVec3::new(2.0, 2.0, 1.0)).length() < 1e-9, "{b:?}");
+    assert!(
+        (b.max - glam::DVec3::new(2.0, 2.0, 1.0)).length() < 1e-9,
+        "{b:?}"
+    );
 }
 
 /// Colours are `"#rrggbb"` strings: a wrong type or form is located and explained.

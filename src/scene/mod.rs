@@ -15,9 +15,9 @@ pub mod obj;
 pub mod openscad;
 pub mod shapes;
 // TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
+pub mod kind;
 pub mod validate;
 mod vector;
-pub mod kind;
 pub use appearance::Appearance;
 pub use camera::{Camera, Projection};
 pub use load::{is_bounded, load, load_str, load_with, LoadOptions, SceneError};

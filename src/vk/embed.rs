@@ -136,7 +136,12 @@ impl Embedder {
         if self.plan.as_ref() == Some(&plan) {
             return;
         }
-        let loops = |p: &Plan| p.steps.iter().filter(|s| matches!(s, crate::plan::Step::Loop(_))).count();
+        let loops = |p: &Plan| {
+            p.steps
+                .iter()
+                .filter(|s| matches!(s, crate::plan::Step::Loop(_)))
+                .count()
+        };
         if let Some((old, l)) = self.layers.take() {
             if loops(&old) == loops(&plan) {
                 self.layers = Some((plan.clone(), l));
@@ -154,7 +159,10 @@ impl Embedder {
     /// its loop counts. Not part of the record path: call it when the host has no
     /// frame of this embedder pending (at load, or after a big change of view).
     pub fn prepare(&mut self) -> Result<ExecStats, VkError> {
-        let plan = self.plan.clone().ok_or_else(|| VkError::Plan("prepare before set_plan".into()))?;
+        let plan = self
+            .plan
+            .clone()
+            .ok_or_else(|| VkError::Plan("prepare before set_plan".into()))?;
         let plan = &plan;
         let stats = self.exec.execute(plan)?;
         self.layers = self.exec.learnt_layers(plan).map(|l| (plan.clone(), l));
@@ -206,7 +214,10 @@ impl Embedder {
         cmd: vk::CommandBuffer,
         targets: &HostTargets,
     ) -> Result<ExecStats, VkError> {
-        let plan = self.plan.clone().ok_or_else(|| VkError::Plan("record before set_plan".into()))?;
+        let plan = self
+            .plan
+            .clone()
+            .ok_or_else(|| VkError::Plan("record before set_plan".into()))?;
         let plan = &plan;
         let d = *self.exec.desc();
         // The host's depth test: nearer wins, the host's geometry on ties.
@@ -245,7 +256,8 @@ impl Embedder {
         };
         let n = u.groups.len();
         let bytes = self.slots[slot].counts.mapped()?;
-        let word = |i: usize| u64::from_ne_bytes(bytes[i * 8..i * 8 + 8].try_into().expect("8 bytes"));
+        let word =
+            |i: usize| u64::from_ne_bytes(bytes[i * 8..i * 8 + 8].try_into().expect("8 bytes"));
         let available = (0..n).all(|i| word(2 * i + 1) != 0);
         if p != *plan || !available {
             return Ok(());
@@ -299,7 +311,10 @@ impl Embedder {
         submit::memory_barrier(
             device,
             cmd,
-            (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+            (
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
             (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
         );
     }
@@ -331,7 +346,10 @@ impl Embedder {
         let images = [
             (out.color.0, vk::ImageAspectFlags::COLOR),
             (out.prim.0, vk::ImageAspectFlags::COLOR),
-            (out.depth.0, vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL),
+            (
+                out.depth.0,
+                vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+            ),
         ];
         let to_sampled = |from: Usage, to: Usage| {
             let (src, dst) = sync::transition(from, to, false);
@@ -500,7 +518,9 @@ impl Composite {
                 descriptor_count: 1,
             },
         ];
-        let pci = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
+        let pci = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
         // SAFETY: valid create info.
         c.pool = unsafe { device.create_descriptor_pool(&pci, None) }
             .check("vkCreateDescriptorPool")
@@ -577,9 +597,8 @@ impl Composite {
             .layout(self.layout)
             .push_next(&mut rendering);
         // SAFETY: the state structs live across the call; modules and layout are live.
-        let made = unsafe {
-            device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None)
-        };
+        let made =
+            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) };
         // SAFETY: modules are only needed while creating the pipeline.
         unsafe { device.destroy_shader_module(vert, None) };
         // SAFETY: as above.

@@ -74,7 +74,10 @@ mod tests {
             (vk::Result::ERROR_OUT_OF_HOST_MEMORY, "smaller --size"),
             (vk::Result::ERROR_DEVICE_LOST, "the device was lost"),
         ] {
-            let e = Err::<(), _>(r).check("vkQueueSubmit").unwrap_err().to_string();
+            let e = Err::<(), _>(r)
+                .check("vkQueueSubmit")
+                .unwrap_err()
+                .to_string();
             assert!(e.contains("vkQueueSubmit") && e.contains(want), "{e}");
         }
         let e = Err::<(), _>(vk::Result::ERROR_INITIALIZATION_FAILED)

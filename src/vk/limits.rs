@@ -32,7 +32,12 @@ impl Context {
 
     /// Refuses a `width`×`height` frame whose sides exceed the device's limit or
     /// whose images (`bytes_per_pixel` in all) exceed its device-local memory.
-    pub fn check_frame_size(&self, width: u32, height: u32, bytes_per_pixel: u64) -> Result<(), VkError> {
+    pub fn check_frame_size(
+        &self,
+        width: u32,
+        height: u32,
+        bytes_per_pixel: u64,
+    ) -> Result<(), VkError> {
         let max = self.max_image_side();
         if width > max || height > max {
             return Err(VkError::FrameTooLarge(format!(

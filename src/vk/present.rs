@@ -298,7 +298,10 @@ impl Presenter {
             return Ok(Presented::Skipped);
         }
         self.present_with(background, |device, cmd, image, extent| {
-            let (w, h) = (src_size[0].min(extent.width), src_size[1].min(extent.height));
+            let (w, h) = (
+                src_size[0].min(extent.width),
+                src_size[1].min(extent.height),
+            );
             if w == 0 || h == 0 {
                 return;
             }
@@ -423,12 +426,23 @@ impl Presenter {
             float32: [bg[0], bg[1], bg[2], 1.0],
         };
         submit.begin(cmd, true)?;
-        let to_dst = barrier(vk::AccessFlags::empty(), write, vk::ImageLayout::UNDEFINED, dst);
+        let to_dst = barrier(
+            vk::AccessFlags::empty(),
+            write,
+            vk::ImageLayout::UNDEFINED,
+            dst,
+        );
         submit::image_barriers(device, cmd, transfer, transfer, &[to_dst]);
         // SAFETY: recording; the image is in TRANSFER_DST_OPTIMAL after the barrier.
         unsafe { device.cmd_clear_color_image(cmd, image, dst, &clear, &[range]) };
         // Orders the clear before the copy.
-        submit::image_barriers(device, cmd, transfer, transfer, &[barrier(write, write, dst, dst)]);
+        submit::image_barriers(
+            device,
+            cmd,
+            transfer,
+            transfer,
+            &[barrier(write, write, dst, dst)],
+        );
         copy(device, cmd, image, self.extent);
         let to_present = barrier(
             write,

@@ -155,7 +155,14 @@ mod tests {
         ];
         let all = bounds_rect(view, proj, c.near, &boxes, 64, 64);
         let union = boxes.iter().fold(Rect::EMPTY, |r, b| {
-            r.union(&bounds_rect(view, proj, c.near, std::slice::from_ref(b), 64, 64))
+            r.union(&bounds_rect(
+                view,
+                proj,
+                c.near,
+                std::slice::from_ref(b),
+                64,
+                64,
+            ))
         });
         assert_eq!(all, union);
         assert!(!all.is_empty() && all != Rect::full(64, 64));

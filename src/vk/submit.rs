@@ -24,7 +24,8 @@ impl Submitter {
             .queue_family_index(shared.queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: valid create info on a live device.
-        let pool = unsafe { device.create_command_pool(&pci, None) }.check("vkCreateCommandPool")?;
+        let pool =
+            unsafe { device.create_command_pool(&pci, None) }.check("vkCreateCommandPool")?;
         let mut s = Submitter {
             shared: shared.clone(),
             pool,

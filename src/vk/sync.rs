@@ -131,6 +131,9 @@ mod tests {
         assert_eq!(dst.layout, vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
         let (src, _) = transition(Usage::ColorTarget, Usage::Clear, true);
         assert_eq!(src.layout, vk::ImageLayout::UNDEFINED);
-        assert_eq!(src.access, vk::AccessFlags::COLOR_ATTACHMENT_WRITE | vk::AccessFlags::COLOR_ATTACHMENT_READ);
+        assert_eq!(
+            src.access,
+            vk::AccessFlags::COLOR_ATTACHMENT_WRITE | vk::AccessFlags::COLOR_ATTACHMENT_READ
+        );
     }
 }

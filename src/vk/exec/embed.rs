@@ -82,7 +82,11 @@ impl Executor {
         let t = self.targets.as_ref()?;
         let pair = |r: Resource| {
             let i = t.image(r);
-            let view = if i.desc.is_depth_stencil() { i.depth_view } else { i.view };
+            let view = if i.desc.is_depth_stencil() {
+                i.depth_view
+            } else {
+                i.view
+            };
             (i.raw, view)
         };
         Some(Output {
@@ -111,7 +115,14 @@ impl Executor {
     pub(crate) fn output_rect(&self) -> Rect {
         let d = self.desc;
         match &self.scene {
-            Some(s) => bounds_rect(s.cam.view, s.cam.proj, s.camera.near, &s.bounds, d.width, d.height),
+            Some(s) => bounds_rect(
+                s.cam.view,
+                s.cam.proj,
+                s.camera.near,
+                &s.bounds,
+                d.width,
+                d.height,
+            ),
             None => Rect::EMPTY,
         }
     }

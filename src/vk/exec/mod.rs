@@ -31,8 +31,8 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 pub use super::conv::DepthFormat;
-pub use stats::{Counts, ExecStats, PassStats};
 pub(crate) use embed::{Output, Unrolled};
+pub use stats::{Counts, ExecStats, PassStats};
 
 use super::error::VkError;
 use super::image::range;
@@ -47,8 +47,8 @@ use crate::plan::validate::validate;
 use crate::plan::{Plan, Step};
 use crate::scene::{Camera, Scene};
 use gpu_scene::{CameraState, GpuScene};
-use record::{Bindings, Group, Recorder};
 pub use record::ClearMode;
+use record::{Bindings, Group, Recorder};
 use targets::Targets;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -489,10 +489,9 @@ impl Executor {
             sub.submit(cmd, &[], &[])?;
             sub.wait()?;
             rec.stats.counts.submits += 1;
-            let samples: u64 =
-                submit::query_results(&shared.device, occ_pool, rec.queries.len())?
-                    .iter()
-                    .sum();
+            let samples: u64 = submit::query_results(&shared.device, occ_pool, rec.queries.len())?
+                .iter()
+                .sum();
             if shared.timestamp_valid_bits > 0 && rec.marks.len() >= 2 {
                 let ts = submit::query_results(&shared.device, ts_pool, rec.marks.len())?;
                 let period = shared.limits.timestamp_period as f64;
@@ -548,7 +547,10 @@ impl Executor {
     #[cfg(feature = "viewer")]
     pub(crate) fn color_target(&self) -> Option<(vk::Image, [u32; 2])> {
         self.last_output?;
-        debug_assert_eq!(sync::access(REST).layout, vk::ImageLayout::TRANSFER_SRC_OPTIMAL);
+        debug_assert_eq!(
+            sync::access(REST).layout,
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL
+        );
         let t = self.targets.as_ref()?;
         Some((t.color.raw, [self.desc.width, self.desc.height]))
     }
@@ -578,7 +580,11 @@ impl Executor {
         let copies = [
             (&t.color, vk::ImageAspectFlags::COLOR, 0),
             (&t.prim, vk::ImageAspectFlags::COLOR, plane),
-            (&t.ds[output as usize], vk::ImageAspectFlags::DEPTH, plane * 2),
+            (
+                &t.ds[output as usize],
+                vk::ImageAspectFlags::DEPTH,
+                plane * 2,
+            ),
         ];
         // Frames leave every image in `REST`, a copy source.
         let layout = sync::access(REST).layout;
@@ -607,7 +613,10 @@ impl Executor {
         submit::memory_barrier(
             device,
             cmd,
-            (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+            (
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
             (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
         );
         self.submit.finish(cmd)?;
@@ -649,12 +658,15 @@ fn layers_fit(plan: &Plan, layers: &[u32], groups: &[Group], samples: &[u64]) ->
         Step::Loop(l) => Some(l.max_iterations),
         _ => None,
     });
-    per_head.iter().zip(loops).all(|(heads, max)| match heads.split_last() {
-        None => max == 0,
-        Some((&last, before)) => {
-            before.iter().all(|&s| s > 0) && (last == 0 || heads.len() as u32 >= max)
-        }
-    })
+    per_head
+        .iter()
+        .zip(loops)
+        .all(|(heads, max)| match heads.split_last() {
+            None => max == 0,
+            Some((&last, before)) => {
+                before.iter().all(|&s| s > 0) && (last == 0 || heads.len() as u32 >= max)
+            }
+        })
 }
 
 /// `plan`'s steps with each loop `i` unrolled to `layers[i]` head executions (the

@@ -125,10 +125,18 @@ impl<'a> Recorder<'a> {
         self.marks.clear();
         self.bound = None;
         // SAFETY: recording; outside rendering; ranges within the pools.
-        unsafe { self.b.device.cmd_reset_query_pool(cmd, self.b.occlusion, 0, occlusion_cap) };
+        unsafe {
+            self.b
+                .device
+                .cmd_reset_query_pool(cmd, self.b.occlusion, 0, occlusion_cap)
+        };
         if let Some(ts) = self.b.timestamps {
             // SAFETY: as above.
-            unsafe { self.b.device.cmd_reset_query_pool(cmd, ts, 0, timestamp_cap) };
+            unsafe {
+                self.b
+                    .device
+                    .cmd_reset_query_pool(cmd, ts, 0, timestamp_cap)
+            };
         }
         self.timestamp(self.pass.clone());
     }
@@ -143,12 +151,22 @@ impl<'a> Recorder<'a> {
     /// with their pending clears done, every image in `REST`.
     pub fn finish_frame(&mut self, output_ds: u8) {
         self.end_block();
-        for r in [Resource::Color, Resource::Prim, Resource::DepthStencil(output_ds)] {
+        for r in [
+            Resource::Color,
+            Resource::Prim,
+            Resource::DepthStencil(output_ds),
+        ] {
             self.flush_clear(r);
         }
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
-        let rest: Vec<_> = self.b.targets.all().into_iter().map(|r| (r, REST)).collect();
+        let rest: Vec<_> = self
+            .b
+            .targets
+            .all()
+            .into_iter()
+            .map(|r| (r, REST))
+            .collect();
         self.transitions(&rest, false);
     }
 
@@ -157,8 +175,12 @@ impl<'a> Recorder<'a> {
         let idx = self.marks.len() as u32;
         // SAFETY: recording, outside rendering; the query was reset in this buffer.
         unsafe {
-            self.b.device
-                .cmd_write_timestamp(self.cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, ts, idx)
+            self.b.device.cmd_write_timestamp(
+                self.cmd,
+                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+                ts,
+                idx,
+            )
         };
         self.marks.push(pass);
     }
@@ -392,7 +414,9 @@ impl<'a> Recorder<'a> {
                 self.fullscreen_internal(&key, FragmentKind::CopyDepth, set)?;
             }
             Step::Draw(draw) => self.draw(draw, step)?,
-            Step::Loop(_) => panic!("loops are unrolled by the executor (plan::validate forbids nesting)"),
+            Step::Loop(_) => {
+                panic!("loops are unrolled by the executor (plan::validate forbids nesting)")
+            }
         }
         Ok(())
     }
@@ -414,7 +438,11 @@ impl<'a> Recorder<'a> {
         self.begin_block(key);
     }
 
-    fn attachment(&mut self, r: Resource, layout: vk::ImageLayout) -> vk::RenderingAttachmentInfo<'static> {
+    fn attachment(
+        &mut self,
+        r: Resource,
+        layout: vk::ImageLayout,
+    ) -> vk::RenderingAttachmentInfo<'static> {
         let img = self.b.targets.image(r);
         let view = img.view;
         let a = vk::RenderingAttachmentInfo::default()
@@ -458,7 +486,11 @@ impl<'a> Recorder<'a> {
         self.bound = None;
     }
 
-    fn pipeline_for(&mut self, key: &BlockKey, kind: FragmentKind) -> Result<vk::Pipeline, VkError> {
+    fn pipeline_for(
+        &mut self,
+        key: &BlockKey,
+        kind: FragmentKind,
+    ) -> Result<vk::Pipeline, VkError> {
         let desc = PipelineDesc {
             fragment: kind,
             color_formats: key
@@ -475,10 +507,14 @@ impl<'a> Recorder<'a> {
         let device = self.b.device;
         if self.bound != Some(pipeline) {
             // SAFETY: recording inside a block whose formats match the pipeline.
-            unsafe { device.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline) };
+            unsafe {
+                device.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline)
+            };
             self.bound = Some(pipeline);
             // SAFETY: the vertex buffer is live while the recording may be replayed.
-            unsafe { device.cmd_bind_vertex_buffers(self.cmd, 0, &[self.b.scene.vertices.raw], &[0]) };
+            unsafe {
+                device.cmd_bind_vertex_buffers(self.cmd, 0, &[self.b.scene.vertices.raw], &[0])
+            };
         }
         if let Some(set) = set {
             // SAFETY: the set matches the pipeline layout's set 0.
@@ -614,7 +650,11 @@ impl<'a> Recorder<'a> {
         };
         self.push(&pc);
         // SAFETY: inside a block with a bound pipeline and vertex buffer.
-        unsafe { self.b.device.cmd_draw(self.cmd, 6, 1, self.b.scene.quad_first, 0) };
+        unsafe {
+            self.b
+                .device
+                .cmd_draw(self.cmd, 6, 1, self.b.scene.quad_first, 0)
+        };
         self.stats.counts.fullscreen_passes += 1;
         self.stats.counts.fullscreen_pixels += full.area();
         Ok(())
@@ -664,7 +704,12 @@ impl<'a> Recorder<'a> {
             self.queries.push(self.group);
             // SAFETY: inside a block; the query was reset in this buffer and is not active.
             unsafe {
-                device.cmd_begin_query(self.cmd, self.b.occlusion, q, vk::QueryControlFlags::empty())
+                device.cmd_begin_query(
+                    self.cmd,
+                    self.b.occlusion,
+                    q,
+                    vk::QueryControlFlags::empty(),
+                )
             };
             Some(q)
         } else {

@@ -127,12 +127,11 @@ impl Targets {
         // SAFETY: the pool has room for exactly these sets.
         let sets =
             unsafe { sh.device.allocate_descriptor_sets(&ai) }.check("vkAllocateDescriptorSets")?;
-        let views: Vec<vk::ImageView> = t
-            .ds
-            .iter()
-            .map(|i| i.depth_view)
-            .chain(t.tex.iter().map(|i| i.view))
-            .collect();
+        let views: Vec<vk::ImageView> =
+            t.ds.iter()
+                .map(|i| i.depth_view)
+                .chain(t.tex.iter().map(|i| i.view))
+                .collect();
         let sampled = sync::access(crate::plan::usage::Usage::Sampled).layout;
         for (set, view) in sets.iter().zip(&views) {
             let image_info = [vk::DescriptorImageInfo {
