@@ -18,7 +18,6 @@ use gpu_allocator::MemoryLocation;
 
 use super::error::{Check, VkError};
 use super::exec::{ExecDesc, ExecStats, Executor, Unrolled};
-use super::image::range;
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::submit;
@@ -355,17 +354,7 @@ impl Embedder {
             let (src, dst) = sync::transition(from, to, false);
             let barriers: Vec<_> = images
                 .iter()
-                .map(|&(img, aspect)| {
-                    vk::ImageMemoryBarrier::default()
-                        .src_access_mask(src.access)
-                        .dst_access_mask(dst.access)
-                        .old_layout(src.layout)
-                        .new_layout(dst.layout)
-                        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                        .image(img)
-                        .subresource_range(range(aspect))
-                })
+                .map(|&(img, aspect)| sync::image_barrier(src, dst, img, aspect))
                 .collect();
             (src.stage, dst.stage, barriers)
         };

@@ -67,6 +67,27 @@ pub fn needs_barrier(prev: Usage, next: Usage, same_block: bool) -> bool {
     true
 }
 
+/// The barrier that moves a whole image (every mip and layer of `aspect`) from
+/// `src` to `dst` on one queue family; stages go to the enclosing
+/// `vkCmdPipelineBarrier`. Written once for the recorder, the executor's first
+/// layouts and the embedding's composite.
+pub fn image_barrier(
+    src: Access,
+    dst: Access,
+    image: vk::Image,
+    aspect: vk::ImageAspectFlags,
+) -> vk::ImageMemoryBarrier<'static> {
+    vk::ImageMemoryBarrier::default()
+        .src_access_mask(src.access)
+        .dst_access_mask(dst.access)
+        .old_layout(src.layout)
+        .new_layout(dst.layout)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(crate::vk::image::range(aspect))
+}
+
 /// One image's transition from `prev` to `next`: `(src, dst)` where `src`'s
 /// layout is `UNDEFINED` when `next` discards the contents. A read-only `prev`
 /// needs an execution dependency only (write-after-read), so its access is empty.

@@ -35,7 +35,6 @@ pub(crate) use embed::{Output, Unrolled};
 pub use stats::{Counts, ExecStats, PassStats};
 
 use super::error::VkError;
-use super::image::range;
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::pipeline::{pipeline_flags, Pipelines};
@@ -225,15 +224,13 @@ impl Executor {
             .into_iter()
             .map(|r| {
                 let img = t.image(r);
-                vk::ImageMemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::empty())
-                    .dst_access_mask(rest.access)
-                    .old_layout(vk::ImageLayout::UNDEFINED)
-                    .new_layout(rest.layout)
-                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .image(img.raw)
-                    .subresource_range(range(img.desc.aspect()))
+                // Nothing to keep: from UNDEFINED, no access to wait for.
+                let fresh = sync::Access {
+                    access: vk::AccessFlags::empty(),
+                    layout: vk::ImageLayout::UNDEFINED,
+                    ..rest
+                };
+                sync::image_barrier(fresh, rest, img.raw, img.desc.aspect())
             })
             .collect();
         submit::image_barriers(

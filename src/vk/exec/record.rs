@@ -221,17 +221,7 @@ impl<'a> Recorder<'a> {
             src_stage |= src.stage;
             dst_stage |= dst.stage;
             let img = self.b.targets.image(r);
-            barriers.push(
-                vk::ImageMemoryBarrier::default()
-                    .src_access_mask(src.access)
-                    .dst_access_mask(dst.access)
-                    .old_layout(src.layout)
-                    .new_layout(dst.layout)
-                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .image(img.raw)
-                    .subresource_range(range(img.desc.aspect())),
-            );
+            barriers.push(sync::image_barrier(src, dst, img.raw, img.desc.aspect()));
         }
         for &(r, u) in uses {
             self.state.insert(r, u);
