@@ -10,7 +10,9 @@ const float REVERSED_SCALE = 0.125;
 // A tie's depth gradient agrees with the texture's within this fraction.
 const float SLOPE_AGREEMENT = 0.03125;
 float tie_slope() {
-    return TIE_SLOPES * exp2(-float((pc.flags >> 8) & 0xffu));
+    // 2^-bits built from its float bits (bits is 4..16): exact, and no exp2
+    // per fragment (lavapipe evaluates it as a polynomial).
+    return TIE_SLOPES * uintBitsToFloat((127u - ((pc.flags >> 8) & 0xffu)) << 23);
 }
 
 // The texture at `p`, clamped to the image: a helper invocation past the edge
