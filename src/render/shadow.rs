@@ -1,0 +1,248 @@
+//! Shadows of a scene with a `[light]` (seed 003, Rossignac & Wu: the CSG solid's
+//! depth buffer seen from the light, then a shadow test in the eye's shading).
+//!
+//! GPU algorithms render the plan twice: from the eye, and from the light's camera
+//! ([`Light::camera_for`]: orthographic for a directional light, perspective for
+//! a point light) into a square shadow map of [`SHADOW_MAP_SCALE`] times the eye
+//! image's larger side. Both are the same algorithm's depth images. The shadow
+//! test then reprojects each visible pixel's point into the map: shadowed when its
+//! light-view depth exceeds the map's by more than the bias [`shadow_bias`] (the
+//! specification's depth error of both images at their slopes, plus the map's
+//! depth change across half a texel). The reference casts exact shadow rays
+//! ([`crate::reference::shadow`]). Both darken shadowed pixels by [`SHADOW_KEEP`].
+#![deny(unsafe_code)]
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::{Frame, RenderError, RenderOptions};
+use crate::output::Images;
+use crate::plan::Algo;
+use crate::reference::precision::{slopes, DepthPrecision};
+use crate::scene::light::Light;
+use crate::scene::{Camera, Scene};
+
+/// The shadow map's side over the eye image's larger side.
+pub const SHADOW_MAP_SCALE: u32 = 2;
+/// Largest shadow-map side.
+pub const SHADOW_MAP_MAX: u32 = 8192;
+/// Fraction of a shadowed pixel's colour kept (the lit shading is the contract's).
+pub const SHADOW_KEEP: f64 = 0.5;
+
+/// The shadow figures of `stats.json` (extension).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ShadowStats {
+    /// The light, e.g. `directional [0.0000, -1.0000, 0.0000]`.
+    pub light: String,
+    /// Visible pixels the light reaches.
+    pub lit_pixels: u64,
+    /// Visible pixels in shadow.
+    pub shadowed_pixels: u64,
+    /// GPU: the shadow map's side in pixels.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadow_map_size: Option<u32>,
+    /// GPU: the shadow map's frame (GPU time).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadow_map_gpu_ms: Option<f64>,
+}
+
+/// The shadow map's side for a `width × height` eye image.
+pub fn shadow_map_size(width: u32, height: u32) -> u32 {
+    (width.max(height) * SHADOW_MAP_SCALE).min(SHADOW_MAP_MAX)
+}
+
+/// `scene` seen from `light` at `size × size`.
+pub fn light_scene(scene: &Scene, light: &Light, size: u32) -> Scene {
+    let mut s = scene.clone();
+    s.camera = light.camera_for(scene);
+    s.render.width = size;
+    s.render.height = size;
+    s
+}
+
+/// One depth image with what its error bound needs.
+pub struct DepthView<'a> {
+    pub images: &'a Images,
+    pub camera: &'a Camera,
+    pub precision: DepthPrecision,
+}
+
+/// The shadow test's bias at a map texel of depth `m` and slope `slope_m` (view
+/// depth per texel, `|∂x| + |∂y|`), for an eye point of view depth `d`, slope
+/// `slope_e` and ray cosine `cos` (ray direction · view direction): the
+/// specification's error of the map's depth and of the eye's (the latter along
+/// the eye ray, so divided by `cos`), plus `slope_m` for the point lying up to
+/// half a texel from the texel centre on each axis (0.5 · slope), doubled because
+/// the slope is a one-sided estimate.
+pub fn shadow_bias(
+    map: &DepthView,
+    m: f64,
+    slope_m: f64,
+    eye: &DepthView,
+    d: f64,
+    slope_e: f64,
+    cos: f64,
+) -> f64 {
+    map.precision.allowed(map.camera, m, slope_m)
+        + slope_m
+        + eye.precision.allowed(eye.camera, d, slope_e) / cos.max(1e-6)
+}
+
+/// Per eye pixel: `None` on background, `Some(true)` in shadow, by the shadow map
+/// `map` seen from `light_cam`.
+pub fn shadow_test(eye: &DepthView, map: &DepthView) -> Vec<Option<bool>> {
+    let (w, h) = (eye.images.width, eye.images.height);
+    let (mw, mh) = (map.images.width, map.images.height);
+    let eye_slopes = slopes(eye.images);
+    let map_slopes = slopes(map.images);
+    let fwd = eye.camera.forward();
+    let mut out = Vec::with_capacity(eye.images.depth.len());
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let d = eye.images.depth[i] as f64;
+            if !d.is_finite() || eye.images.prim[i] == 0 {
+                out.push(None);
+                continue;
+            }
+            let ray = eye.camera.ray(x as f64 + 0.5, y as f64 + 0.5, w, h);
+            let cos = ray.dir.dot(fwd);
+            let p = ray.origin + ray.dir * (d / cos);
+            let (lx, ly) = map.camera.pixel_of(p, mw, mh);
+            let (tx, ty) = (lx.floor(), ly.floor());
+            if tx < 0.0 || ty < 0.0 || tx >= mw as f64 || ty >= mh as f64 {
+                out.push(Some(false));
+                continue;
+            }
+            let t = ty as usize * mw as usize + tx as usize;
+            let m = map.images.depth[t] as f64;
+            let shadowed = m.is_finite() && {
+                let bias = shadow_bias(map, m, map_slopes[t], eye, d, eye_slopes[i], cos);
+                map.camera.view_depth(p) > m + bias
+            };
+            out.push(Some(shadowed));
+        }
+    }
+    out
+}
+
+/// Darkens the shadowed pixels of `color` and counts lit and shadowed ones.
+pub fn apply(color: &mut [[u8; 4]], mask: &[Option<bool>], light: &Light) -> ShadowStats {
+    let mut st = ShadowStats {
+        light: light.describe(),
+        ..Default::default()
+    };
+    for (c, m) in color.iter_mut().zip(mask) {
+        match m {
+            Some(true) => {
+                st.shadowed_pixels += 1;
+                for v in &mut c[..3] {
+                    *v = (*v as f64 * SHADOW_KEEP).round() as u8;
+                }
+            }
+            Some(false) => st.lit_pixels += 1,
+            None => {}
+        }
+    }
+    st
+}
+
+/// A GPU frame of the eye and of the light, with their depth set-ups.
+pub struct ShadowFrames {
+    pub eye: Frame,
+    pub eye_precision: DepthPrecision,
+    pub map: Frame,
+    pub map_camera: Camera,
+    pub map_precision: DepthPrecision,
+}
+
+/// Renders the eye's frame and the shadow map with a GPU algorithm.
+pub fn gpu_frames(
+    scene: &Scene,
+    opts: &RenderOptions,
+    light: &Light,
+) -> Result<ShadowFrames, RenderError> {
+    let (eye, eye_precision) = super::render_gpu(scene, opts)?;
+    let size = shadow_map_size(scene.render.width, scene.render.height);
+    let ls = light_scene(scene, light, size);
+    let (map, map_precision) = super::render_gpu(&ls, opts)?;
+    Ok(ShadowFrames {
+        eye,
+        eye_precision,
+        map,
+        map_camera: ls.camera,
+        map_precision,
+    })
+}
+
+/// The lit/shadowed mask of a GPU algorithm's frames.
+pub fn gpu_mask(scene: &Scene, f: &ShadowFrames) -> Vec<Option<bool>> {
+    shadow_test(
+        &DepthView {
+            images: &f.eye.images,
+            camera: &scene.camera,
+            precision: f.eye_precision,
+        },
+        &DepthView {
+            images: &f.map.images,
+            camera: &f.map_camera,
+            precision: f.map_precision,
+        },
+    )
+}
+
+/// One frame of `scene` lit by `light`, shadows included.
+pub fn render_shadowed(
+    scene: &Scene,
+    opts: &RenderOptions,
+    light: &Light,
+) -> Result<Frame, RenderError> {
+    let t = Instant::now();
+    if opts.algo == Algo::Reference {
+        let mut frame = super::render_opaque(scene, opts)?;
+        let mask = crate::reference::shadow::shadow_rays(
+            scene,
+            light,
+            scene.render.width,
+            scene.render.height,
+        );
+        let st = apply(&mut frame.images.color, &mask, light);
+        frame.stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
+        frame.stats.shadow = Some(st);
+        return Ok(frame);
+    }
+    let f = gpu_frames(scene, opts, light)?;
+    let mask = gpu_mask(scene, &f);
+    let mut frame = f.eye;
+    let mut st = apply(&mut frame.images.color, &mask, light);
+    st.shadow_map_size = Some(f.map.images.width);
+    st.shadow_map_gpu_ms = Some(f.map.stats.exec.gpu_ms);
+    frame.stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
+    frame.stats.shadow = Some(st);
+    Ok(frame)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn apply_darkens_only_shadowed_pixels() {
+        let mut c = vec![[200, 100, 51, 255]; 3];
+        let light = Light::Directional {
+            direction: glam::DVec3::NEG_Y,
+        };
+        let st = apply(&mut c, &[None, Some(true), Some(false)], &light);
+        assert_eq!(c[0], [200, 100, 51, 255]);
+        assert_eq!(c[1], [100, 50, 26, 255]);
+        assert_eq!(c[2], [200, 100, 51, 255]);
+        assert_eq!((st.lit_pixels, st.shadowed_pixels), (1, 1));
+    }
+
+    #[test]
+    fn map_size_scales_and_caps() {
+        assert_eq!(shadow_map_size(400, 300), 800);
+        assert_eq!(shadow_map_size(16384, 10), SHADOW_MAP_MAX);
+    }
+}
