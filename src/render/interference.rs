@@ -65,7 +65,7 @@ pub fn gpu_interference(
     if !supported(opts.algo) {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
-            what: "interference (--interference) on the GPU: use cst-z, cst-i or cst-g",
+            what: "interference (--interference; cst-z, cst-i and cst-g can)",
         });
     }
     let n = scene.render.width as usize * scene.render.height as usize;

@@ -17,11 +17,13 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::{Frame, RenderError, RenderOptions};
+use crate::geom::bvh::{Line, SceneBvh, WorldCrossing};
 use crate::output::Images;
 use crate::plan::Algo;
 use crate::reference::precision::{slopes, DepthPrecision};
 use crate::scene::light::Light;
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, Projection, Scene};
+use glam::DVec3;
 
 /// The shadow map's side over the eye image's larger side.
 pub const SHADOW_MAP_SCALE: u32 = 2;
@@ -89,14 +91,66 @@ pub fn shadow_bias(
         + eye.precision.allowed(eye.camera, d, slope_e) / cos.max(1e-6)
 }
 
+/// The unit normal of the boundary seen at eye pixels, pointing out of the solid
+/// (towards the eye), and whether it bounds a closed primitive. The GPU frame has
+/// no normal image, so the triangle is looked up on the CPU: the crossing of the
+/// pixel's line with the visible primitive's mesh nearest the visible point.
+struct Normals {
+    bvh: SceneBvh,
+    closed: usize,
+}
+
+impl Normals {
+    fn new(scene: &Scene) -> Normals {
+        Normals {
+            bvh: SceneBvh::new(
+                scene
+                    .primitives
+                    .iter()
+                    .map(|p| &p.mesh)
+                    .chain(scene.surfaces.iter().map(|s| &s.mesh)),
+            ),
+            closed: scene.primitives.len(),
+        }
+    }
+
+    /// At 1-based mesh index `prim`, on `line` at parameter `t`.
+    fn at(
+        &self,
+        prim: u16,
+        line: &Line,
+        t: f64,
+        tmp: &mut Vec<WorldCrossing>,
+    ) -> Option<(DVec3, bool)> {
+        let idx = prim as usize - 1;
+        tmp.clear();
+        self.bvh.cast(line, |s| s == idx, &mut Vec::new(), tmp);
+        let c = tmp.iter().min_by(|a, b| {
+            (a.crossing.t - t)
+                .abs()
+                .total_cmp(&(b.crossing.t - t).abs())
+        })?;
+        let n = self.bvh.shapes[idx].normal(c.crossing.tri);
+        let n = if n.dot(line.dir) > 0.0 { -n } else { n };
+        Some((n, idx < self.closed))
+    }
+}
+
 /// Per eye pixel: `None` on background, `Some(true)` in shadow, by the shadow map
-/// `map` seen from `light_cam`.
-pub fn shadow_test(eye: &DepthView, map: &DepthView) -> Vec<Option<bool>> {
+/// `map`. A point on a closed primitive's face turned away from the light is in
+/// its own shadow; otherwise the map decides, with [`shadow_bias`] plus the
+/// receiver's own depth change across the texel (its face's slope seen from the
+/// light: a texel's width times `tan` of the angle to the light), which a face
+/// the light grazes needs because the map may not show it at all.
+pub fn shadow_test(scene: &Scene, eye: &DepthView, map: &DepthView) -> Vec<Option<bool>> {
     let (w, h) = (eye.images.width, eye.images.height);
     let (mw, mh) = (map.images.width, map.images.height);
     let eye_slopes = slopes(eye.images);
     let map_slopes = slopes(map.images);
+    let normals = Normals::new(scene);
     let fwd = eye.camera.forward();
+    let lfwd = map.camera.forward();
+    let mut tmp = Vec::new();
     let mut out = Vec::with_capacity(eye.images.depth.len());
     for y in 0..h {
         for x in 0..w {
@@ -109,6 +163,24 @@ pub fn shadow_test(eye: &DepthView, map: &DepthView) -> Vec<Option<bool>> {
             let ray = eye.camera.ray(x as f64 + 0.5, y as f64 + 0.5, w, h);
             let cos = ray.dir.dot(fwd);
             let p = ray.origin + ray.dir * (d / cos);
+            let dl = map.camera.view_depth(p);
+            let (to_light, texel) = match map.camera.projection {
+                Projection::Orthographic { height } => (-lfwd, height / mh as f64),
+                Projection::Perspective { fov_y_deg } => (
+                    (map.camera.eye - p).normalize(),
+                    2.0 * dl * (fov_y_deg.to_radians() * 0.5).tan() / mh as f64,
+                ),
+            };
+            let line = Line::from_ray(&ray);
+            let facing = normals
+                .at(eye.images.prim[i], &line, d / cos, &mut tmp)
+                .map(|(n, closed)| (n.dot(to_light), closed));
+            if let Some((f, true)) = facing {
+                if f <= 0.0 {
+                    out.push(Some(true));
+                    continue;
+                }
+            }
             let (lx, ly) = map.camera.pixel_of(p, mw, mh);
             let (tx, ty) = (lx.floor(), ly.floor());
             if tx < 0.0 || ty < 0.0 || tx >= mw as f64 || ty >= mh as f64 {
@@ -118,8 +190,10 @@ pub fn shadow_test(eye: &DepthView, map: &DepthView) -> Vec<Option<bool>> {
             let t = ty as usize * mw as usize + tx as usize;
             let m = map.images.depth[t] as f64;
             let shadowed = m.is_finite() && {
+                let f = facing.map_or(1.0, |(f, _)| f.abs()).clamp(1e-3, 1.0);
+                let receiver = texel * (1.0 - f * f).sqrt() / f;
                 let bias = shadow_bias(map, m, map_slopes[t], eye, d, eye_slopes[i], cos);
-                map.camera.view_depth(p) > m + bias
+                dl > m + bias + receiver
             };
             out.push(Some(shadowed));
         }
@@ -179,6 +253,7 @@ pub fn gpu_frames(
 /// The lit/shadowed mask of a GPU algorithm's frames.
 pub fn gpu_mask(scene: &Scene, f: &ShadowFrames) -> Vec<Option<bool>> {
     shadow_test(
+        scene,
         &DepthView {
             images: &f.eye.images,
             camera: &scene.camera,
