@@ -46,76 +46,8 @@ fn agreement(scene: &Scene, light: &Light, algo: Algo) -> (f64, u64, u64) {
         if let (false, Some(a), Some(b)) = (edge[i], want[i], got[i]) {
             n += 1;
             same += (a == b) as u64;
-            if a != b && std::env::var_os("SHADOW_DEBUG").is_some() {
-                let m = &frames.map.images;
-                let d = frames.eye.images.depth[i] as f64;
-                let (x, y) = (i as u32 % w, i as u32 / w);
-                let ray = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5, w, h);
-                let p = ray.origin + ray.dir * (d / ray.dir.dot(scene.camera.forward()));
-                let (lx, ly) = frames.map_camera.pixel_of(p, m.width, m.height);
-                let t = ly.floor() as usize * m.width as usize + lx.floor() as usize;
-                let ls = shadow::light_scene(scene, light, m.width);
-                let lp = peeltrim::reference::Prepared::new(&ls);
-                let (tx, ty) = (lx.floor() as i64, ly.floor() as i64);
-                for dy in -1..=1i64 {
-                    let row: Vec<String> = (-1..=1i64)
-                        .map(|dx| {
-                            let (u, v) = (tx + dx, ty + dy);
-                            let k = v as usize * m.width as usize + u as usize;
-                            let r =
-                                lp.cast_pixel(u as f64 + 0.5, v as f64 + 0.5, m.width, m.height);
-                            format!(
-                                "{:.4}/{:.4}/{}",
-                                m.depth[k],
-                                r.map_or(f64::INFINITY, |h| h.depth),
-                                m.prim[k]
-                            )
-                        })
-                        .collect();
-                    eprintln!("      {}", row.join("  "));
-                }
-                eprintln!(
-                    "  ({x},{y}) want {a} got {b} prim {} lpix ({lx:.2},{ly:.2}) dl {:.5} map {:.5} mapprim {} ",
-                    reference.prim[i],
-                    frames.map_camera.view_depth(p),
-                    m.depth[t],
-                    m.prim[t]
-                );
-            }
             dark += a as u64;
         }
-    }
-    if let Some(dir) = std::env::var_os("SHADOW_DEBUG") {
-        let px: Vec<u8> = (0..want.len())
-            .flat_map(|i| {
-                let c = |v: Option<bool>| match v {
-                    None => 0u8,
-                    Some(false) => 255,
-                    Some(true) => 100,
-                };
-                [c(want[i]), c(got[i]), if edge[i] { 255 } else { 0 }]
-            })
-            .collect();
-        let img = image::RgbImage::from_raw(w, h, px).unwrap();
-        let img = image::imageops::resize(&img, w * 4, h * 4, image::imageops::FilterType::Nearest);
-        let name = format!("{}-{algo}.png", scene.name.as_deref().unwrap_or("s"));
-        img.save(std::path::Path::new(&dir).join(name)).unwrap();
-        let m = &frames.map.images;
-        let mpx: Vec<u8> = m
-            .depth
-            .iter()
-            .map(|d| {
-                if d.is_finite() {
-                    ((d - 7.0) * 40.0).clamp(0.0, 255.0) as u8
-                } else {
-                    0
-                }
-            })
-            .collect();
-        image::GrayImage::from_raw(m.width, m.height, mpx)
-            .unwrap()
-            .save(std::path::Path::new(&dir).join("map.png"))
-            .unwrap();
     }
     (same as f64 / n as f64, n, dark)
 }

@@ -4,7 +4,7 @@
 //! GPU algorithms render the plan twice: from the eye, and from the light's camera
 //! ([`Light::camera_for`]: orthographic for a directional light, perspective for
 //! a point light) into a square shadow map of [`SHADOW_MAP_SCALE`] times the eye
-//! image's larger side. Both are the same algorithm's depth images. The shadow
+//! image's larger side (at least [`SHADOW_MAP_MIN`]). Both are the same algorithm's depth images. The shadow
 //! test then reprojects each visible pixel's point into the map: shadowed when its
 //! light-view depth exceeds the map's by more than the bias [`shadow_bias`] (the
 //! specification's depth error of both images at their slopes, plus the map's
@@ -27,6 +27,9 @@ use glam::DVec3;
 
 /// The shadow map's side over the eye image's larger side.
 pub const SHADOW_MAP_SCALE: u32 = 2;
+/// Smallest shadow-map side: small images get a finer map (shadow edges are
+/// then right to a fraction of a pixel).
+pub const SHADOW_MAP_MIN: u32 = 1024;
 /// Largest shadow-map side.
 pub const SHADOW_MAP_MAX: u32 = 8192;
 /// Fraction of a shadowed pixel's colour kept (the lit shading is the contract's).
@@ -51,7 +54,7 @@ pub struct ShadowStats {
 
 /// The shadow map's side for a `width × height` eye image.
 pub fn shadow_map_size(width: u32, height: u32) -> u32 {
-    (width.max(height) * SHADOW_MAP_SCALE).min(SHADOW_MAP_MAX)
+    (width.max(height) * SHADOW_MAP_SCALE).clamp(SHADOW_MAP_MIN, SHADOW_MAP_MAX)
 }
 
 /// `scene` seen from `light` at `size × size`.
@@ -317,7 +320,8 @@ mod tests {
 
     #[test]
     fn map_size_scales_and_caps() {
-        assert_eq!(shadow_map_size(400, 300), 800);
+        assert_eq!(shadow_map_size(400, 300), SHADOW_MAP_MIN);
+        assert_eq!(shadow_map_size(1000, 300), 2000);
         assert_eq!(shadow_map_size(16384, 10), SHADOW_MAP_MAX);
     }
 }
