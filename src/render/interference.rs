@@ -107,6 +107,7 @@ pub fn render_interference(
     scene: &Scene,
     opts: &RenderOptions,
 ) -> Result<(Frame, GpuInterference), RenderError> {
+    let t = std::time::Instant::now();
     let inter = gpu_interference(scene, opts)?;
     let mut frame = super::render_opaque(scene, opts)?;
     for (c, i) in frame.images.color.iter_mut().zip(&inter.color) {
@@ -115,6 +116,7 @@ pub fn render_interference(
         }
     }
     frame.stats.exec.gpu_ms += inter.gpu_ms;
+    frame.stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
     Ok((frame, inter))
 }
 
