@@ -4,11 +4,15 @@
 //! GPU algorithms render the plan twice: from the eye, and from the light's camera
 //! ([`Light::camera_for`]: orthographic for a directional light, perspective for
 //! a point light) into a square shadow map of [`SHADOW_MAP_SCALE`] times the eye
-//! image's larger side (at least [`SHADOW_MAP_MIN`]). Both are the same algorithm's depth images. The shadow
-//! test then reprojects each visible pixel's point into the map: shadowed when its
+//! image's larger side (at least [`SHADOW_MAP_MIN`]). Both are the same
+//! algorithm's depth images. The shadow test then reprojects each visible pixel's point into the map: shadowed when its
 //! light-view depth exceeds the map's by more than the bias [`shadow_bias`] (the
 //! specification's depth error of both images at their slopes, plus the map's
-//! depth change across half a texel). The reference casts exact shadow rays
+//! depth change across half a texel, and the receiver's own slope towards the
+//! light); a point on a face turned away from the light is in its own shadow.
+//! The shadow test runs on the CPU over the two read-back depth images (the
+//! visible triangle's normal looked up in its mesh); it is not a GPU pass yet.
+//! The reference casts exact shadow rays
 //! ([`crate::reference::shadow`]). Both darken shadowed pixels by [`SHADOW_KEEP`].
 #![deny(unsafe_code)]
 
