@@ -153,25 +153,26 @@ pub(super) fn resolve<'a>(
         }
         (None, Some(p)) => {
             let p = vec("position", p, "the light's world position")?;
-            if let Some((c, r)) = fit::bounding_sphere(drawn) {
-                if p.distance(c) <= r * FRAME_MARGIN {
-                    return Err((
-                        "light: position".into(),
-                        format!(
-                            "[{}, {}, {}] lies within the drawn geometry's bounding sphere \
-                             (centre [{:.3}, {:.3}, {:.3}], radius {:.3}): a point light must \
-                             be farther than {:.3} from the centre (or use `direction`)",
-                            p.x,
-                            p.y,
-                            p.z,
-                            c.x,
-                            c.y,
-                            c.z,
-                            r,
-                            r * FRAME_MARGIN
-                        ),
-                    ));
-                }
+            // As `Light::camera` will frame it (a unit sphere when nothing is drawn).
+            let (c, r) = fit::bounding_sphere(drawn).unwrap_or((DVec3::ZERO, 1.0));
+            let r = if r > 0.0 { r } else { 1.0 };
+            if p.distance(c) <= r * FRAME_MARGIN {
+                return Err((
+                    "light: position".into(),
+                    format!(
+                        "[{}, {}, {}] lies within the drawn geometry's bounding sphere \
+                         (centre [{:.3}, {:.3}, {:.3}], radius {:.3}): a point light must \
+                         be farther than {:.3} from the centre (or use `direction`)",
+                        p.x,
+                        p.y,
+                        p.z,
+                        c.x,
+                        c.y,
+                        c.z,
+                        r,
+                        r * FRAME_MARGIN
+                    ),
+                ));
             }
             Ok(Light::Point { position: p })
         }
