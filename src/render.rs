@@ -14,6 +14,7 @@ use crate::scene::camera::DepthConvention;
 use crate::scene::Scene;
 use crate::vk;
 
+mod kirsch;
 pub mod layers;
 
 /// Depth-buffer set-ups of the speed-against-error studies.

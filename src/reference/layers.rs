@@ -24,7 +24,9 @@
 use rayon::prelude::*;
 
 use super::bvh::{Crossing, Line, WorldCrossing};
+use super::products_reading::{product_scene, LayerReading};
 use super::raycast::Prepared;
+use crate::csg::products::ProductError;
 use crate::output::{shade, Images};
 use crate::scene::Scene;
 
@@ -279,9 +281,36 @@ pub struct LayerLimit {
 
 /// Casts every pixel of a `width × height` image for its layers up to `limit`.
 pub fn render_layers(scene: &Scene, width: u32, height: u32, limit: LayerLimit) -> LayerStack {
-    let layers = Layers::new(scene);
+    let hits = cast_all(&Layers::new(scene), width, height, limit);
+    stack(scene, hits, width, height, limit)
+}
+
+/// [`render_layers`] in either reading of a union of products (seed 001 §7); the
+/// products reading fails when the sum of products exceeds `product_limit`.
+pub fn render_layers_read(
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    limit: LayerLimit,
+    reading: LayerReading,
+    product_limit: usize,
+) -> Result<LayerStack, ProductError> {
+    if reading == LayerReading::Solid {
+        return Ok(render_layers(scene, width, height, limit));
+    }
+    let (products, origin) = product_scene(scene, product_limit)?;
+    let mut hits = cast_all(&Layers::new(&products), width, height, limit);
+    // Opacities are the original solids'.
+    for h in hits.iter_mut().flatten() {
+        h.solid = origin[h.solid as usize];
+    }
+    Ok(stack(scene, hits, width, height, limit))
+}
+
+/// Every pixel's crossings, up to `limit.max` each.
+fn cast_all(layers: &Layers<'_>, width: u32, height: u32, limit: LayerLimit) -> Vec<Vec<LayerHit>> {
     let max = limit.max.unwrap_or(usize::MAX);
-    let mut hits: Vec<Vec<LayerHit>> = (0..height)
+    (0..height)
         .into_par_iter()
         .map_init(Scratch::default, |s, y| {
             (0..width)
@@ -294,7 +323,17 @@ pub fn render_layers(scene: &Scene, width: u32, height: u32, limit: LayerLimit) 
                 .collect::<Vec<_>>()
         })
         .flatten()
-        .collect();
+        .collect()
+}
+
+/// The layers of `hits` up to the threshold of `limit`, and their composite.
+fn stack(
+    scene: &Scene,
+    mut hits: Vec<Vec<LayerHit>>,
+    width: u32,
+    height: u32,
+    limit: LayerLimit,
+) -> LayerStack {
     // Layer k exists only where layer k − 1 does, so pixel counts never grow with k.
     let covering = |k: usize| hits.iter().filter(|v| v.len() > k).count() as u64;
     let n = (0..)

@@ -272,10 +272,20 @@ pub(crate) fn clear_surface() -> Step {
 
 /// The literal's potentially visible faces into the surface image, nearest wins.
 pub(crate) fn surface_draw(a: Lit, fragment: Fragment, count_samples: bool) -> Step {
+    surface_draw_culled(a, a.visible_cull(), fragment, count_samples)
+}
+
+/// [`surface_draw`] of the faces `cull` keeps (Kirsch's back surfaces, seed 001 §4.3).
+pub(crate) fn surface_draw_culled(
+    a: Lit,
+    cull: Cull,
+    fragment: Fragment,
+    count_samples: bool,
+) -> Step {
     Step::Draw(Draw {
         geometry: Geometry::Mesh(a.prim),
         scissor: Scissor::BoundsOf(vec![a.prim]),
-        cull: a.visible_cull(),
+        cull,
         ds: SURFACE,
         depth: DepthState {
             compare: CompareOp::Less,
