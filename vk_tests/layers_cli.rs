@@ -223,3 +223,60 @@ fn interference_lists_the_intersecting_pair() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert_error(&o, &["interference"]);
 }
+
+/// `--algo kirsch` writes its layers like the reference does with
+/// `--layer-reading products`, and refuses what it cannot render.
+#[test]
+fn kirsch_layers_out_and_its_errors() {
+    let s = scene("paper_example.toml");
+    let (gpu, cpu) = (tmp("kirsch-layers"), tmp("kirsch-layers-ref"));
+    let o = render(
+        &s,
+        &gpu,
+        &["--algo", "kirsch", "--layers-out", "--layers", "3"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render(
+        &s,
+        &cpu,
+        &[
+            "--layers-out",
+            "--layers",
+            "3",
+            "--layer-reading",
+            "products",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (sg, sc) = (stats(&gpu), stats(&cpu));
+    assert_eq!(sg["algo"], "kirsch");
+    assert_eq!(sg["layers"], sc["layers"], "{sg} {sc}");
+    let n = sg["layers"].as_u64().unwrap();
+    assert!(n >= 2, "{sg}");
+    for k in 1..=n {
+        let dir = format!("layers/{k:02}");
+        let r = peeltrim::reference::compare::compare(
+            &images(&cpu.join(&dir)),
+            &images(&gpu.join(&dir)),
+        )
+        .unwrap();
+        assert!(
+            r.coverage_mismatch_interior_frac <= 0.001 && r.prim_mismatch_interior_frac <= 0.001,
+            "layer {k}: {r:?}"
+        );
+    }
+    // Layer 1 is the opaque image.
+    assert_eq!(images(&gpu.join("layers/01")), images(&gpu));
+
+    let out = tmp("kirsch-bad");
+    let o = render(&s, &out, &["--algo", "kirsch", "--layer-reading", "solid"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_error(&o, &["kirsch", "--layer-reading products"]);
+    let o = render(&s, &out, &["--algo", "kirsch", "--highlight", "A"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_error(&o, &["kirsch", "cannot render", "--algo reference"]);
+    assert_error(
+        &render(&s, &out, &["--layer-reading", "volume"]),
+        &["--layer-reading", "solid or products"],
+    );
+}

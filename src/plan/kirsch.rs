@@ -366,6 +366,7 @@ mod tests {
         let mut e = ExprBuilder::default();
         let (a, b, c) = (e.leaf(0), e.leaf(1), e.leaf(2));
         scene.primitives[1].mesh = fixtures::box_mesh(DVec3::splat(1.5), DVec3::splat(2.5));
+        scene.primitives[2].mesh = fixtures::box_mesh(DVec3::splat(2.0), DVec3::splat(3.0));
         let bc = e.diff(b, c);
         let root = e.union(a, bc);
         scene.solids[0].expr = e.build(root);
