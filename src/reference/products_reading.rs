@@ -117,8 +117,12 @@ mod tests {
     }
 
     fn depths(scene: &Scene) -> Vec<f64> {
-        // The centre pixel of a 9×9 image looks straight down -z.
-        Layers::new(scene)
+        centre(&Layers::new(scene))
+    }
+
+    /// The centre pixel of a 9×9 image looks straight down -z.
+    fn centre(layers: &Layers<'_>) -> Vec<f64> {
+        layers
             .cast_pixel(4.5, 4.5, 9, 9, None)
             .iter()
             .map(|h| h.depth)
@@ -135,12 +139,30 @@ mod tests {
         assert_eq!(ps.solids.len(), 2);
         assert_eq!(origin, vec![0, 0]);
         // Each product: a's 1 and -1, b's 0 and -2 (view depths 5, 7, 6, 8).
-        let prods = depths(&ps);
+        let prods = centre(&Layers::for_products(&ps, &scene, &origin));
         let want = [5.0, 6.0, 7.0, 8.0];
         assert_eq!(prods.len(), 4, "{prods:?}");
         for (g, w) in prods.iter().zip(want) {
             assert!((g - w).abs() < 1e-9, "{prods:?}");
         }
+    }
+
+    #[test]
+    fn products_touching_at_a_face_are_one_layer_there() {
+        // b moved to touch a's back face: b's front face at z = -1.
+        let mut scene = overlapping();
+        scene.primitives[1].mesh =
+            fixtures::box_mesh(DVec3::new(-0.5, -0.5, -2.0), DVec3::new(0.5, 0.5, -1.0));
+        let (ps, origin) = product_scene(&scene, 4096).unwrap();
+        // Each on its own: a's two faces, b's two, the touching ones one layer.
+        let got = centre(&Layers::for_products(&ps, &scene, &origin));
+        let want = [5.0, 7.0, 8.0];
+        assert_eq!(got.len(), 3, "{got:?}");
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-9, "{got:?}");
+        }
+        // The plain reading of the product scene counts both solids' crossings.
+        assert_eq!(depths(&ps).len(), 4);
     }
 
     #[test]
