@@ -36,7 +36,7 @@
 #![deny(unsafe_code)]
 
 use super::goldfeather::{
-    clear_surface, clip_steps, direct_steps, init_steps, merge_steps, peel_head, products,
+    clear_surface, clip_steps, direct_steps, init_steps, literal_peel_loop, merge_steps, products,
     shade_steps, surface_draw_culled, Lit, ProductOptions, CLIP_BITS, CUR, FAR, OUTPUT, PREV, SURF,
 };
 use super::step::*;
@@ -247,22 +247,11 @@ impl Builder<'_> {
             } else {
                 self.peel(i, PREV, CUR)
             };
-            let head = peel_head(vec![surface_draw_culled(a, cull, frag, true)]);
-            let mut tail = vec![Step::CopyTexture {
-                src: CUR,
-                dst: SURF,
-            }];
-            tail.extend(clip_merge);
-            tail.push(Step::CopyTexture {
-                src: CUR,
-                dst: PREV,
-            });
-            let max_iterations = self.prep.triangles_in(&[a.prim]).max(1) as u32 + 1;
-            self.steps.push(Step::Loop(Loop {
-                head,
-                tail,
-                max_iterations,
-            }));
+            self.steps.push(literal_peel_loop(
+                surface_draw_culled(a, cull, frag, true),
+                clip_merge,
+                self.prep.triangles_in(&[a.prim]),
+            ));
         }
     }
 

@@ -29,13 +29,7 @@ pub(super) fn render_layered(
 ) -> Result<LayeredFrame, RenderError> {
     let t = Instant::now();
     let prep = Prepared::new(scene)?;
-    let mut gpu = GpuRenderer::with_fallback(
-        scene,
-        opts.device,
-        opts.depth,
-        opts.depth_fallback,
-        opts.validation,
-    )?;
+    let mut gpu = GpuRenderer::for_options(scene, opts)?;
     // No layer beyond the total face count: a bound, not a limit reached in practice.
     let bound = prep.triangles_in(&prep.solid_meshes).max(1) as u32;
     let max = lopts.max_layers.unwrap_or(bound).min(bound);
