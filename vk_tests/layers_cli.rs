@@ -267,6 +267,18 @@ fn kirsch_layers_out_and_its_errors() {
     }
     // Layer 1 is the opaque image.
     assert_eq!(images(&gpu.join("layers/01")), images(&gpu));
+    // The occlusion query's threshold (§6): stop at the first layer counting fewer.
+    let second = sg["layer_pixels"][1].as_u64().unwrap();
+    let cut = tmp("kirsch-threshold");
+    let t = (second + 1).to_string();
+    let o = render(
+        &s,
+        &cut,
+        &["--algo", "kirsch", "--layers-out", "--layer-threshold", &t],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stats(&cut)["layers"], 1, "{}", stats(&cut));
+    assert!(!cut.join("layers/02").exists());
 
     let out = tmp("kirsch-bad");
     let o = render(&s, &out, &["--algo", "kirsch", "--layer-reading", "solid"]);
