@@ -11,6 +11,7 @@ pub mod layers;
 pub mod precision;
 pub mod products_reading;
 pub mod raycast;
+pub mod shadow;
 
 /// The BVH lives in [`crate::geom`], shared with the plan builders.
 pub use crate::geom::bvh;

@@ -96,6 +96,9 @@ pub fn render_layered(
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
+    if opts.algo != Algo::Reference && super::interference::interference_only(scene, lopts) {
+        return super::interference::layered_frame(scene, opts);
+    }
     let extras = !lopts.highlight.is_empty() || scene.appearance.interference;
     if opts.algo == Algo::Kirsch && lopts.reading == Some(LayerReading::Solid) {
         return Err(RenderError::Unsupported {
