@@ -15,6 +15,7 @@ use crate::scene::Scene;
 use crate::vk;
 
 pub mod interference;
+mod kirsch;
 pub mod layers;
 pub mod shadow;
 
@@ -254,6 +255,17 @@ impl GpuRenderer {
         })
     }
 
+    /// The device, depth set-up, fallback and validation of `opts`.
+    pub fn for_options(scene: &Scene, opts: &RenderOptions) -> Result<Self, RenderError> {
+        Self::with_fallback(
+            scene,
+            opts.device,
+            opts.depth,
+            opts.depth_fallback,
+            opts.validation,
+        )
+    }
+
     /// The depth set-up in use (after any fallback).
     pub fn depth_setup(&self) -> DepthSetup {
         self.depth
@@ -338,13 +350,7 @@ pub fn render_opaque(scene: &Scene, opts: &RenderOptions) -> Result<Frame, Rende
 fn render_gpu(scene: &Scene, opts: &RenderOptions) -> Result<(Frame, DepthPrecision), RenderError> {
     let prep = Prepared::new(scene)?;
     let plan = plan::build_with(opts.algo, &prep, &opts.build)?;
-    let mut gpu = GpuRenderer::with_fallback(
-        scene,
-        opts.device,
-        opts.depth,
-        opts.depth_fallback,
-        opts.validation,
-    )?;
+    let mut gpu = GpuRenderer::for_options(scene, opts)?;
     let frame = gpu.frame(&plan)?;
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {

@@ -539,7 +539,8 @@ mod tests {
     #[test]
     fn keys_follow_the_command_line_order() {
         let got: Vec<Algo> = ('1'..='9').filter_map(algo_for_key).collect();
-        assert_eq!(got, Algo::ALL.to_vec());
+        // kirsch, the tenth, has no key.
+        assert_eq!(got, Algo::ALL[..9].to_vec());
         assert_eq!(algo_for_key('7'), Algo::parse("cst-i"));
         assert_eq!(algo_for_key('9'), Algo::parse("blister-paper"));
         assert_eq!(algo_for_key('0'), None);

@@ -260,11 +260,12 @@ expr = "Room - Pillar"
         Algo::Goldfeather,
         Algo::GoldfeatherLayered,
         Algo::Trickle,
+        Algo::Kirsch,
     ];
     for algo in algos {
         // The issues' bars: Blister and CST 0.05%, Goldfeather 0.1%.
         let cov = match algo {
-            Algo::Goldfeather | Algo::GoldfeatherLayered | Algo::Trickle => 0.001,
+            Algo::Goldfeather | Algo::GoldfeatherLayered | Algo::Trickle | Algo::Kirsch => 0.001,
             _ => 0.0005,
         };
         for depth in [DepthSetup::D32S8, DepthSetup::D32S8Reversed] {
@@ -343,6 +344,7 @@ expr = "(Ball - Pin) + Block"
         Algo::Goldfeather,
         Algo::GoldfeatherLayered,
         Algo::Trickle,
+        Algo::Kirsch,
     ];
     for algo in algos {
         for depth in [DepthSetup::D32S8, DepthSetup::D32S8Reversed] {

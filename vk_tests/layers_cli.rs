@@ -235,3 +235,79 @@ fn interference_lists_the_intersecting_pair() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert_error(&o, &["interference", "cst-i"]);
 }
+
+/// `--algo kirsch` writes its layers like the reference does with
+/// `--layer-reading products`, and refuses what it cannot render.
+#[test]
+fn kirsch_layers_out_and_its_errors() {
+    let s = scene("paper_example.toml");
+    let (gpu, cpu) = (tmp("kirsch-layers"), tmp("kirsch-layers-ref"));
+    let o = render(
+        &s,
+        &gpu,
+        &["--algo", "kirsch", "--layers-out", "--layers", "3"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = render(
+        &s,
+        &cpu,
+        &[
+            "--layers-out",
+            "--layers",
+            "3",
+            "--layer-reading",
+            "products",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (sg, sc) = (stats(&gpu), stats(&cpu));
+    assert_eq!(sg["algo"], "kirsch");
+    assert_eq!(sg["layers"], sc["layers"], "{sg} {sc}");
+    let n = sg["layers"].as_u64().unwrap();
+    assert!(n >= 2, "{sg}");
+    for k in 1..=n {
+        let dir = format!("layers/{k:02}");
+        let r = peeltrim::reference::compare::compare(
+            &images(&cpu.join(&dir)),
+            &images(&gpu.join(&dir)),
+        )
+        .unwrap();
+        assert!(
+            r.coverage_mismatch_interior_frac <= 0.001 && r.prim_mismatch_interior_frac <= 0.001,
+            "layer {k}: {r:?}"
+        );
+    }
+    // Layer 1 is the opaque image.
+    assert_eq!(images(&gpu.join("layers/01")), images(&gpu));
+    // The occlusion query's threshold (§6): stop at the first layer counting fewer.
+    let fewest = (0..n as usize)
+        .map(|k| sg["layer_pixels"][k].as_u64().unwrap())
+        .min()
+        .unwrap();
+    let cut = tmp("kirsch-threshold");
+    let t = (fewest + 1).to_string();
+    let o = render(
+        &s,
+        &cut,
+        &["--algo", "kirsch", "--layers-out", "--layer-threshold", &t],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let want = (0..n as usize)
+        .take_while(|&k| sg["layer_pixels"][k].as_u64().unwrap() > fewest)
+        .count();
+    assert!(want >= 1, "{sg}");
+    assert_eq!(stats(&cut)["layers"], want, "{}", stats(&cut));
+    assert!(!cut.join(format!("layers/{:02}", want + 1)).exists());
+
+    let out = tmp("kirsch-bad");
+    let o = render(&s, &out, &["--algo", "kirsch", "--layer-reading", "solid"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_error(&o, &["kirsch", "--layer-reading products"]);
+    let o = render(&s, &out, &["--algo", "kirsch", "--highlight", "A"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_error(&o, &["kirsch", "cannot render", "--algo reference"]);
+    assert_error(
+        &render(&s, &out, &["--layer-reading", "volume"]),
+        &["--layer-reading", "solid or products"],
+    );
+}

@@ -9,6 +9,7 @@ mod algorithms;
 mod classic;
 mod cst;
 mod embed;
+mod kirsch;
 mod limits;
 mod openscad;
 mod rounding;

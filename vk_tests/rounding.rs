@@ -125,6 +125,11 @@ fn goldfeather_layered_with_coarse_rounding() {
 }
 
 #[test]
+fn kirsch_with_coarse_rounding() {
+    check(Algo::Kirsch);
+}
+
+#[test]
 fn trickle_with_coarse_rounding() {
     check(Algo::Trickle);
 }

@@ -32,7 +32,7 @@ fn err(path: &Path, e: impl std::fmt::Display) -> BenchError {
     BenchError::Other(format!("plotting {}: {e}", path.display()))
 }
 
-const PALETTE: [RGBColor; 8] = [
+const PALETTE: [RGBColor; 9] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -41,6 +41,7 @@ const PALETTE: [RGBColor; 8] = [
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
     RGBColor(127, 127, 127),
+    RGBColor(23, 190, 207),
 ];
 
 fn algo_color(algo: &str) -> RGBColor {
@@ -53,6 +54,7 @@ fn algo_color(algo: &str) -> RGBColor {
         "goldfeather-layered",
         "trickle",
         "reference",
+        "kirsch",
     ];
     PALETTE[order.iter().position(|a| *a == algo).unwrap_or(7)]
 }

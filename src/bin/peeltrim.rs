@@ -89,10 +89,19 @@ struct LayerArgs {
     /// where hidden (comma-separated primitive names)
     #[arg(long, value_name = "NAME[,NAME]", value_delimiter = ',')]
     highlight: Vec<String>,
+    /// How a union of products is layered (seed 001 §7): `solid` (one volume, the
+    /// reference's default) or `products` (each on its own, kirsch's)
+    #[arg(long, value_name = "solid|products", value_parser = parse_reading)]
+    layer_reading: Option<peeltrim::reference::LayerReading>,
     /// Assemblies: solids semi-transparent, where two solids intersect opaque in
     /// red; stats.json lists the interfering pairs (same as [render] interference = true)
     #[arg(long)]
     interference: bool,
+}
+
+fn parse_reading(s: &str) -> Result<peeltrim::reference::LayerReading, String> {
+    peeltrim::reference::LayerReading::parse(s)
+        .ok_or_else(|| format!("unknown layer reading '{s}'; choose solid or products"))
 }
 
 /// `--highlight` names as 0-based primitive indices; an unknown name is an error
@@ -391,6 +400,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 threshold: layers.layer_threshold,
                 write_layers: layers.layers_out,
                 highlight: highlight_indices(&scene, &layers.highlight)?,
+                reading: layers.layer_reading,
             };
             if lopts.wanted(&scene) && scene.appearance.light.is_some() {
                 eprintln!("peeltrim: warning: [light] is ignored with layers, transparency, highlight or interference: shadows are drawn on opaque renders");

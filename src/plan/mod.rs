@@ -14,6 +14,7 @@ mod common;
 pub mod cst;
 pub mod eye;
 pub mod goldfeather;
+pub mod kirsch;
 pub mod print;
 pub mod stencil;
 pub mod step;
@@ -41,10 +42,13 @@ pub enum Algo {
     /// Blister with the paper's depth-test parity (an extension of the contract's
     /// list, for measuring speckles against the tolerant `blister`).
     BlisterPaper,
+    /// Kirsch, Nienhaus & Döllner's CSG depth peeling of products (seed 001 §4);
+    /// its opaque render is the first layer.
+    Kirsch,
 }
 
 impl Algo {
-    pub const ALL: [Algo; 9] = [
+    pub const ALL: [Algo; 10] = [
         Algo::Reference,
         Algo::Goldfeather,
         Algo::GoldfeatherLayered,
@@ -54,6 +58,7 @@ impl Algo {
         Algo::CstI,
         Algo::CstG,
         Algo::BlisterPaper,
+        Algo::Kirsch,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -66,6 +71,7 @@ impl Algo {
             Algo::CstI => "cst-i",
             Algo::CstG => "cst-g",
             Algo::BlisterPaper => "blister-paper",
+            Algo::Kirsch => "kirsch",
         }
     }
     pub fn parse(s: &str) -> Option<Algo> {
@@ -381,6 +387,7 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
         Algo::BlisterPaper => blister::plan_with(prep, blister::Parity::DepthTest),
         Algo::Goldfeather => goldfeather::plan(prep, &opts.products),
         Algo::GoldfeatherLayered => goldfeather::layered::plan(prep, &opts.products),
+        Algo::Kirsch => kirsch::plan(prep, &opts.products),
         Algo::Trickle => trickle::plan(
             prep,
             &trickle::TrickleOptions {
@@ -394,19 +401,42 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
         other => Err(PlanError::NotImplemented(other)),
     }?;
     // Trickle classifies by the faces behind its candidate: no correction needed.
-    let plan = if algo == Algo::Trickle {
-        plan
+    Ok(if algo == Algo::Trickle {
+        checked(plan, prep)
     } else {
-        Plan {
-            steps: eye::correct(plan.steps, &prep.near_cut),
-            ..plan
-        }
+        corrected(plan, prep)
+    })
+}
+
+/// Layer `layer` (1-based) of Kirsch's depth peeling ([`kirsch::plan_layer`]),
+/// with the eye correction and the checks of [`build_with`].
+pub fn build_kirsch_layer(
+    prep: &Prepared,
+    opts: &BuildOptions,
+    layer: u32,
+) -> Result<Plan, PlanError> {
+    if !prep.has_solid() {
+        return Err(PlanError::NoSolid);
+    }
+    let plan = kirsch::plan_layer(prep, &opts.products, layer, true)?;
+    Ok(corrected(plan, prep))
+}
+
+/// `plan` with the per-pixel eye correction ([`eye`]), checked.
+fn corrected(plan: Plan, prep: &Prepared) -> Plan {
+    let plan = Plan {
+        steps: eye::correct(plan.steps, &prep.near_cut),
+        ..plan
     };
-    // A builder that names a resource it did not declare is a bug, not bad input.
+    checked(plan, prep)
+}
+
+/// A builder that names a resource it did not declare is a bug, not bad input.
+fn checked(plan: Plan, prep: &Prepared) -> Plan {
     if let Err(e) = validate::validate(&plan, prep.mesh_triangles.len() as u32) {
         panic!("the {} plan builder made an invalid plan: {e}", plan.algo);
     }
-    Ok(plan)
+    plan
 }
 
 /// Per primitive (then `false` for surfaces): whether a perspective eye lies

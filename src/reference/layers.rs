@@ -24,7 +24,9 @@
 use rayon::prelude::*;
 
 use super::bvh::{Crossing, Line, WorldCrossing};
+use super::products_reading::{product_scene, LayerReading};
 use super::raycast::Prepared;
+use crate::csg::products::ProductError;
 use crate::output::{shade, Images};
 use crate::scene::Scene;
 
@@ -79,22 +81,14 @@ pub struct Layers<'a> {
     named: Vec<Vec<bool>>,
     /// Every pair `(a, b)`, `a < b`, of solids (for interference).
     pub(super) pairs: Vec<(u32, u32)>,
+    /// Crossings of several solids within one event group are one layer (the
+    /// products reading: a depth peel cannot separate equal depths).
+    one_per_group: bool,
 }
 
 impl<'a> Layers<'a> {
     pub fn new(scene: &'a Scene) -> Layers<'a> {
-        let n = scene.primitives.len();
-        let named = scene
-            .solids
-            .iter()
-            .map(|s| {
-                let mut v = vec![false; n];
-                for p in s.expr.leaves() {
-                    v[p as usize] = true;
-                }
-                v
-            })
-            .collect();
+        let named = named(scene);
         let k = scene.solids.len() as u32;
         Layers {
             prep: Prepared::new(scene),
@@ -102,7 +96,24 @@ impl<'a> Layers<'a> {
             pairs: (0..k)
                 .flat_map(|a| (a + 1..k).map(move |b| (a, b)))
                 .collect(),
+            one_per_group: false,
         }
+    }
+
+    /// The products reading (seed 001 §7a): `products` is `original` with one solid
+    /// per product, product `i` from solid `origin[i]`. A crossing's primitive is
+    /// the lowest index crossing there that its original solid names (the GPU's
+    /// depth-equal shading), and coincident crossings of several products are one
+    /// layer.
+    pub fn for_products(products: &'a Scene, original: &Scene, origin: &[u32]) -> Layers<'a> {
+        let mut l = Layers::new(products);
+        let named_by_solid = named(original);
+        l.named = origin
+            .iter()
+            .map(|&s| named_by_solid[s as usize].clone())
+            .collect();
+        l.one_per_group = true;
+        l
     }
 
     /// The first `max` boundary crossings (all when `None`) along the line through
@@ -215,6 +226,9 @@ impl<'a> Layers<'a> {
                 s.pair_inside[pi] = both;
             }
             s.group.sort_by_key(|hit| hit.prim);
+            if self.one_per_group {
+                s.group.truncate(1);
+            }
             for hit in &s.group {
                 if hit.depth > cam.far {
                     return;
@@ -226,6 +240,22 @@ impl<'a> Layers<'a> {
             i = j;
         }
     }
+}
+
+/// Per solid, which primitives it names.
+fn named(scene: &Scene) -> Vec<Vec<bool>> {
+    let n = scene.primitives.len();
+    scene
+        .solids
+        .iter()
+        .map(|s| {
+            let mut v = vec![false; n];
+            for p in s.expr.leaves() {
+                v[p as usize] = true;
+            }
+            v
+        })
+        .collect()
 }
 
 /// The colour of a crossing: the contract's shading of its primitive's colour.
@@ -279,9 +309,37 @@ pub struct LayerLimit {
 
 /// Casts every pixel of a `width × height` image for its layers up to `limit`.
 pub fn render_layers(scene: &Scene, width: u32, height: u32, limit: LayerLimit) -> LayerStack {
-    let layers = Layers::new(scene);
+    let hits = cast_all(&Layers::new(scene), width, height, limit);
+    stack(scene, hits, width, height, limit)
+}
+
+/// [`render_layers`] in either reading of a union of products (seed 001 §7); the
+/// products reading fails when the sum of products exceeds `product_limit`.
+pub fn render_layers_read(
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    limit: LayerLimit,
+    reading: LayerReading,
+    product_limit: usize,
+) -> Result<LayerStack, ProductError> {
+    if reading == LayerReading::Solid {
+        return Ok(render_layers(scene, width, height, limit));
+    }
+    let (products, origin) = product_scene(scene, product_limit)?;
+    let layers = Layers::for_products(&products, scene, &origin);
+    let mut hits = cast_all(&layers, width, height, limit);
+    // Opacities are the original solids'.
+    for h in hits.iter_mut().flatten() {
+        h.solid = origin[h.solid as usize];
+    }
+    Ok(stack(scene, hits, width, height, limit))
+}
+
+/// Every pixel's crossings, up to `limit.max` each.
+fn cast_all(layers: &Layers<'_>, width: u32, height: u32, limit: LayerLimit) -> Vec<Vec<LayerHit>> {
     let max = limit.max.unwrap_or(usize::MAX);
-    let mut hits: Vec<Vec<LayerHit>> = (0..height)
+    (0..height)
         .into_par_iter()
         .map_init(Scratch::default, |s, y| {
             (0..width)
@@ -294,7 +352,17 @@ pub fn render_layers(scene: &Scene, width: u32, height: u32, limit: LayerLimit) 
                 .collect::<Vec<_>>()
         })
         .flatten()
-        .collect();
+        .collect()
+}
+
+/// The layers of `hits` up to the threshold of `limit`, and their composite.
+fn stack(
+    scene: &Scene,
+    mut hits: Vec<Vec<LayerHit>>,
+    width: u32,
+    height: u32,
+    limit: LayerLimit,
+) -> LayerStack {
     // Layer k exists only where layer k − 1 does, so pixel counts never grow with k.
     let covering = |k: usize| hits.iter().filter(|v| v.len() > k).count() as u64;
     let n = (0..)

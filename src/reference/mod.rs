@@ -9,6 +9,7 @@ pub mod highlight;
 pub mod interference;
 pub mod layers;
 pub mod precision;
+pub mod products_reading;
 pub mod raycast;
 pub mod shadow;
 
@@ -16,6 +17,7 @@ pub mod shadow;
 pub use crate::geom::bvh;
 pub use bvh::{Crossing, Line, MeshBvh, SceneBvh, WorldCrossing};
 pub use compare::{compare, CompareError, CompareReport};
-pub use layers::{render_layers, LayerHit, LayerLimit, LayerStack};
+pub use layers::{render_layers, render_layers_read, LayerHit, LayerLimit, LayerStack};
+pub use products_reading::LayerReading;
 pub use raycast::{render, render_with_normals};
 pub use raycast::{Hit, Prepared, GROUP_TOL_REL};

@@ -1,7 +1,8 @@
 //! Layers of the solid and transparent rendering, start to finish (seed 000 §6):
 //! the options (`--layers`, `--layer-threshold`, `--layers-out`, `--alpha`), the
 //! frame they produce, and writing `layers/NN/`. The reference computes them
-//! exactly ([`crate::reference::layers`]); the GPU algorithms say they cannot yet.
+//! exactly ([`crate::reference::layers`]), kirsch by CSG depth peeling
+//! ([`super::kirsch`]); the other GPU algorithms say they cannot yet.
 #![deny(unsafe_code)]
 
 use std::path::Path;
@@ -12,9 +13,10 @@ use serde::Serialize;
 use super::{Frame, FrameStats, RenderError, RenderOptions};
 use crate::output::{write_images, Images, OutputError};
 use crate::plan::Algo;
+use crate::plan::PlanError;
 use crate::reference::highlight::{highlight_pixel, Highlighted};
 use crate::reference::interference::{render_interference, InterferingPair};
-use crate::reference::{render_layers, LayerLimit};
+use crate::reference::{render_layers_read, LayerLimit, LayerReading};
 use crate::scene::Scene;
 
 /// What the command line asks of layers and transparency.
@@ -28,6 +30,9 @@ pub struct LayerOptions {
     pub write_layers: bool,
     /// `--highlight NAME,...`: 0-based indices of the primitives to highlight.
     pub highlight: Vec<u32>,
+    /// `--layer-reading`: how a union of products is layered (seed 001 §7); `None`:
+    /// the algorithm's own (the reference: the solid, kirsch: the products).
+    pub reading: Option<LayerReading>,
 }
 
 impl LayerOptions {
@@ -36,6 +41,7 @@ impl LayerOptions {
         self.write_layers
             || scene.appearance.interference
             || self.max_layers.is_some()
+            || self.reading.is_some()
             || !self.highlight.is_empty()
             || scene.appearance.is_transparent()
     }
@@ -82,8 +88,9 @@ pub struct LayeredFrame {
     pub layer_stats: LayerStats,
 }
 
-/// Renders `scene` with its layers. Only the reference can yet; other algorithms
-/// get [`RenderError::Unsupported`].
+/// Renders `scene` with its layers. The reference can, and kirsch (products each
+/// on their own, without highlight or interference); other algorithms get
+/// [`RenderError::Unsupported`].
 pub fn render_layered(
     scene: &Scene,
     opts: &RenderOptions,
@@ -91,6 +98,17 @@ pub fn render_layered(
 ) -> Result<LayeredFrame, RenderError> {
     if opts.algo != Algo::Reference && super::interference::interference_only(scene, lopts) {
         return super::interference::layered_frame(scene, opts);
+    }
+    let extras = !lopts.highlight.is_empty() || scene.appearance.interference;
+    if opts.algo == Algo::Kirsch && lopts.reading == Some(LayerReading::Solid) {
+        return Err(RenderError::Unsupported {
+            algo: opts.algo.name().to_string(),
+            what: "the solid's layers as one volume (--layer-reading solid; kirsch peels each \
+                   product on its own: --layer-reading products)",
+        });
+    }
+    if opts.algo == Algo::Kirsch && !extras {
+        return super::kirsch::render_layered(scene, opts, lopts);
     }
     if opts.algo != Algo::Reference {
         return Err(RenderError::Unsupported {
@@ -102,7 +120,16 @@ pub fn render_layered(
     let interference = scene.appearance.interference;
     let t = Instant::now();
     let (w, h) = (scene.render.width, scene.render.height);
-    let stack = render_layers(scene, w, h, lopts.limit());
+    let reading = lopts.reading.unwrap_or_default();
+    let stack = render_layers_read(
+        scene,
+        w,
+        h,
+        lopts.limit(),
+        reading,
+        opts.build.products.limit,
+    )
+    .map_err(|e| PlanError::Products(e.to_string()))?;
     let mut frame = if transparent || interference {
         let first = stack.layers.first();
         let n = w as usize * h as usize;

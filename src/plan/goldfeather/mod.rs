@@ -172,22 +172,11 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                     out: CUR,
                     shade: false,
                 };
-                let head = peel_head(vec![surface_draw(a, peel, true)]);
-                let mut tail = vec![Step::CopyTexture {
-                    src: CUR,
-                    dst: SURF,
-                }];
-                tail.extend(clip_merge);
-                tail.push(Step::CopyTexture {
-                    src: CUR,
-                    dst: PREV,
-                });
-                let max_iterations = prep.triangles_in(&[a.prim]).max(1) as u32 + 1;
-                steps.push(Step::Loop(Loop {
-                    head,
-                    tail,
-                    max_iterations,
-                }));
+                steps.push(literal_peel_loop(
+                    surface_draw(a, peel, true),
+                    clip_merge,
+                    prep.triangles_in(&[a.prim]),
+                ));
             }
         }
     }
@@ -199,6 +188,27 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         stencil_bits: CLIP_BITS,
         output_ds: OUTPUT,
         steps,
+    })
+}
+
+/// Goldfeather's layers of a non-convex literal (§3.5): `peel` (a counted
+/// surface draw into `CUR`, behind `PREV`) each iteration, the layer then clipped
+/// and merged by `clip_merge` and made the next `PREV`; at most one layer per
+/// triangle of the literal's `triangles`.
+pub(crate) fn literal_peel_loop(peel: Step, clip_merge: Vec<Step>, triangles: usize) -> Step {
+    let mut tail = vec![Step::CopyTexture {
+        src: CUR,
+        dst: SURF,
+    }];
+    tail.extend(clip_merge);
+    tail.push(Step::CopyTexture {
+        src: CUR,
+        dst: PREV,
+    });
+    Step::Loop(Loop {
+        head: peel_head(vec![peel]),
+        tail,
+        max_iterations: triangles.max(1) as u32 + 1,
     })
 }
 
@@ -272,10 +282,20 @@ pub(crate) fn clear_surface() -> Step {
 
 /// The literal's potentially visible faces into the surface image, nearest wins.
 pub(crate) fn surface_draw(a: Lit, fragment: Fragment, count_samples: bool) -> Step {
+    surface_draw_culled(a, a.visible_cull(), fragment, count_samples)
+}
+
+/// [`surface_draw`] of the faces `cull` keeps (Kirsch's back surfaces, seed 001 §4.3).
+pub(crate) fn surface_draw_culled(
+    a: Lit,
+    cull: Cull,
+    fragment: Fragment,
+    count_samples: bool,
+) -> Step {
     Step::Draw(Draw {
         geometry: Geometry::Mesh(a.prim),
         scissor: Scissor::BoundsOf(vec![a.prim]),
-        cull: a.visible_cull(),
+        cull,
         ds: SURFACE,
         depth: DepthState {
             compare: CompareOp::Less,

@@ -398,6 +398,13 @@ impl Executor {
         let mut stats = rec.stats.clone();
         stats.counts.loop_iterations = layers.to_vec();
         stats.counts.samples_counted = samples.iter().sum();
+        // Queries are in recording order: those after the last loop head's.
+        let after = rec
+            .queries
+            .iter()
+            .rposition(Option::is_some)
+            .map_or(0, |i| i + 1);
+        stats.counts.final_samples = samples[after..].iter().sum();
         let marks = rec.marks.clone();
         self.add_gpu_times(&mut stats, &marks)?;
         Ok(Some(stats))
@@ -525,7 +532,8 @@ impl Executor {
             }
             loops.push(iterations);
         }
-        samples_counted += run(&mut rec, &pending, Some(plan.output_ds), submit)?;
+        let final_samples = run(&mut rec, &pending, Some(plan.output_ds), submit)?;
+        samples_counted += final_samples;
         let mut stats = rec.stats;
         // Per-pass draws come from the recorder, GPU times from the timestamps.
         for p in &gpu.per_pass {
@@ -536,6 +544,7 @@ impl Executor {
         stats.gpu_ms = gpu.gpu_ms;
         stats.counts.loop_iterations = loops;
         stats.counts.samples_counted = samples_counted;
+        stats.counts.final_samples = final_samples;
         Ok(stats)
     }
 

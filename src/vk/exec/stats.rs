@@ -41,6 +41,9 @@ pub struct Counts {
     pub loop_iterations: Vec<u32>,
     /// Samples passed by all `count_samples` draws.
     pub samples_counted: u64,
+    /// Samples passed by the `count_samples` draws after the plan's last loop
+    /// (Kirsch's layer count, seed 001 §6).
+    pub final_samples: u64,
 }
 
 /// Timings and counts of one `Executor::execute`.
