@@ -14,7 +14,9 @@ use crate::scene::camera::DepthConvention;
 use crate::scene::Scene;
 use crate::vk;
 
+pub mod edges;
 pub mod layers;
+pub mod style;
 
 /// Depth-buffer set-ups of the speed-against-error studies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -290,6 +292,17 @@ impl GpuRenderer {
             exec,
             layers: None,
         })
+    }
+
+    /// Whether later frames also write the normal buffer (seed 001 §5.2), read
+    /// with [`Self::read_normals`].
+    pub fn set_normals(&mut self, on: bool) {
+        self.exec.set_normals(on);
+    }
+
+    /// The last frame's view-space normals (see [`vk::Executor::read_normals`]).
+    pub fn read_normals(&mut self) -> Result<Option<Vec<[f32; 3]>>, RenderError> {
+        Ok(self.exec.read_normals()?)
     }
 
     /// The next frame records its command buffer again instead of replaying it.

@@ -93,6 +93,17 @@ struct LayerArgs {
     /// red; stats.json lists the interfering pairs (same as [render] interference = true)
     #[arg(long)]
     interference: bool,
+    /// How color.png shows the layers (overrides [render] style): opaque,
+    /// transparent, blueprint, wireframe or blueprint-transparent (seed 001 §5)
+    #[arg(long, value_parser = peeltrim::scene::style::parse_style)]
+    style: Option<peeltrim::scene::style::Style>,
+    /// Edge rule: a depth jump larger than this fraction of the nearer depth is a
+    /// silhouette edge
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.01)]
+    edge_depth: f64,
+    /// Edge rule: normals further apart than this many degrees make a crease edge
+    #[arg(long, value_name = "DEGREES", default_value_t = 30.0)]
+    edge_angle: f64,
 }
 
 /// `--highlight` names as 0-based primitive indices; an unknown name is an error
@@ -386,7 +397,17 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 scene.appearance.alpha = layers.alpha;
             }
             scene.appearance.interference |= layers.interference;
+            if let Some(style) = layers.style {
+                scene.appearance.style = style;
+            }
+            let edge_rule = render::edges::EdgeRule {
+                depth_rel: layers.edge_depth,
+                angle_deg: layers.edge_angle,
+            }
+            .check()
+            .map_err(anyhow::Error::msg)?;
             let lopts = render::layers::LayerOptions {
+                edge_rule,
                 max_layers: layers.layers,
                 threshold: layers.layer_threshold,
                 write_layers: layers.layers_out,
@@ -399,7 +420,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             }
             let (frame, layer_images) = match if lopts.wanted(&scene) {
                 render::layers::render_layered(&scene, &opts, &lopts)
-                    .map(|l| (l.frame, Some(l.layers)))
+                    .map(|l| (l.frame.clone(), Some(l)))
             } else {
                 render::render(&scene, &opts).map(|f| (f, None))
             } {

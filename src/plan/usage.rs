@@ -11,6 +11,10 @@ pub enum Resource {
     Color,
     /// The primitive-id target, written with `Color`.
     Prim,
+    /// The normal buffer (seed 001 §5.2): written with `Color` when the executor
+    /// is asked for normals; plans never name it (the executor adds it wherever
+    /// `Color` is written or cleared).
+    Normal,
     DepthStencil(Ds),
     Texture(Tex),
 }

@@ -2,6 +2,8 @@
 //! the options (`--layers`, `--layer-threshold`, `--layers-out`, `--alpha`), the
 //! frame they produce, and writing `layers/NN/`. The reference computes them
 //! exactly ([`crate::reference::layers`]); the GPU algorithms say they cannot yet.
+//! Each layer also has view-space normals and, when asked for, an edge map
+//! ([`super::edges`]), from which the styles compose `color.png` ([`super::style`]).
 #![deny(unsafe_code)]
 
 use std::path::Path;
@@ -9,8 +11,10 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use super::edges::{edge_map, EdgeRule};
+use super::style::{compose, StyleLayer, DEFAULT_ALPHA};
 use super::{Frame, FrameStats, RenderError, RenderOptions};
-use crate::output::{write_images, Images, OutputError};
+use crate::output::{write_edges, write_images, write_normals, Images, OutputError};
 use crate::plan::Algo;
 use crate::reference::highlight::{highlight_pixel, Highlighted};
 use crate::reference::interference::{render_interference, InterferingPair};
@@ -28,6 +32,8 @@ pub struct LayerOptions {
     pub write_layers: bool,
     /// `--highlight NAME,...`: 0-based indices of the primitives to highlight.
     pub highlight: Vec<u32>,
+    /// `--edge-depth`, `--edge-angle`: the edge rule's thresholds.
+    pub edge_rule: EdgeRule,
 }
 
 impl LayerOptions {
@@ -38,6 +44,7 @@ impl LayerOptions {
             || self.max_layers.is_some()
             || !self.highlight.is_empty()
             || scene.appearance.is_transparent()
+            || scene.appearance.style.layered()
     }
 
     fn limit(&self) -> LayerLimit {
@@ -70,6 +77,11 @@ pub struct LayerStats {
     /// With interference: pixels showing an interference.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference_pixels: Option<u64>,
+    /// The style of `color.png` (`--style`, `[render] style`).
+    pub style: &'static str,
+    /// With edge maps: edge pixels of each layer, layer 1 first.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_pixels: Option<Vec<u64>>,
 }
 
 /// A frame with its layers: `images` as the contract's files (the composite in
@@ -79,6 +91,10 @@ pub struct LayerStats {
 pub struct LayeredFrame {
     pub frame: Frame,
     pub layers: Vec<Images>,
+    /// Each layer's view-space normals ([`crate::reference::layers::LayerHit::normal`]).
+    pub normals: Vec<Vec<[f32; 3]>>,
+    /// Each layer's edge map, when the style or `--layers-out` needs them (else empty).
+    pub edges: Vec<Vec<bool>>,
     pub layer_stats: LayerStats,
 }
 
@@ -125,6 +141,7 @@ pub fn render_layered(
             .map(|l| l.prim.iter().filter(|&&p| p != 0).count() as u64)
             .collect(),
         transparent,
+        style: scene.appearance.style.name(),
         ..Default::default()
     };
     if interference {
@@ -132,6 +149,46 @@ pub fn render_layered(
         frame.images.color = img.color;
         layer_stats.interference_pixels = Some(img.mask.iter().filter(|&&m| m).count() as u64);
         layer_stats.interference = Some(img.pairs);
+    }
+    let style = scene.appearance.style;
+    let edges: Vec<Vec<bool>> = if style.edges() || lopts.write_layers {
+        stack
+            .layers
+            .iter()
+            .zip(&stack.normals)
+            .map(|(l, n)| edge_map(&l.depth, n, w, h, &lopts.edge_rule))
+            .collect()
+    } else {
+        vec![]
+    };
+    if !edges.is_empty() {
+        layer_stats.edge_pixels = Some(edges.iter().map(|e| super::edges::count(e)).collect());
+    }
+    if style.layered() {
+        let opacity = |hit: &crate::reference::layers::LayerHit| {
+            if transparent {
+                scene.appearance.alpha_of(hit.prim, hit.solid)
+            } else {
+                DEFAULT_ALPHA
+            }
+        };
+        let styled: Vec<StyleLayer> = stack
+            .layers
+            .iter()
+            .enumerate()
+            .map(|(k, l)| StyleLayer {
+                color: &l.color,
+                covered: l.depth.iter().map(|d| d.is_finite()).collect(),
+                edges: edges.get(k).map_or(&[][..], |e| &e[..]),
+                alpha: stack
+                    .hits
+                    .iter()
+                    .map(|v| v.get(k).map_or(1.0, |hit| opacity(hit)))
+                    .collect(),
+            })
+            .collect();
+        let n = w as usize * h as usize;
+        frame.images.color = compose(style, &styled, scene.render.background, n);
     }
     if !lopts.highlight.is_empty() {
         let mut chosen = vec![false; scene.primitives.len()];
@@ -155,15 +212,24 @@ pub fn render_layered(
     Ok(LayeredFrame {
         frame,
         layers: stack.layers,
+        normals: stack.normals,
+        edges,
         layer_stats,
     })
 }
 
 /// Writes layer k (0-based) into `dir/layers/{k+1:02}/` (`color.png`, `depth.npy`,
-/// `prim.png`).
-pub fn write_layers(dir: &Path, layers: &[Images]) -> Result<(), OutputError> {
-    for (k, img) in layers.iter().enumerate() {
-        write_images(dir.join("layers").join(format!("{:02}", k + 1)), img)?;
+/// `prim.png`, and `normal.npy` and `edges.png` where the frame has them).
+pub fn write_layers(dir: &Path, frame: &LayeredFrame) -> Result<(), OutputError> {
+    for (k, img) in frame.layers.iter().enumerate() {
+        let sub = dir.join("layers").join(format!("{:02}", k + 1));
+        write_images(&sub, img)?;
+        if let Some(n) = frame.normals.get(k) {
+            write_normals(&sub, img.width, img.height, n)?;
+        }
+        if let Some(e) = frame.edges.get(k) {
+            write_edges(&sub, img.width, img.height, e)?;
+        }
     }
     Ok(())
 }

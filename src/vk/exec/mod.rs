@@ -112,6 +112,8 @@ pub struct Executor {
     clears: ClearMode,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
     rounding: Option<super::RoundingEmulation>,
+    /// Write the normal buffer with the colour ([`Executor::set_normals`]).
+    normals: bool,
 }
 
 impl Executor {
@@ -161,6 +163,7 @@ impl Executor {
             last_output: None,
             clears,
             rounding: None,
+            normals: false,
         })
     }
 
@@ -191,6 +194,18 @@ impl Executor {
         Ok(())
     }
 
+    /// Whether later frames also write the normal buffer (seed 001 §5.2): every
+    /// pass that writes colour writes the seen face's normal beside it, so the
+    /// final image's normals are those of its visible faces. Off by default (one
+    /// more 16-byte target per pixel); [`Executor::read_normals`] reads it.
+    pub fn set_normals(&mut self, on: bool) {
+        if self.normals != on {
+            self.normals = on;
+            self.recording = None;
+            self.last_output = None;
+        }
+    }
+
     /// Emulates a coarser device's vertex snapping in every later mesh draw.
     pub fn set_rounding_emulation(&mut self, rounding: Option<super::RoundingEmulation>) {
         self.rounding = rounding;
@@ -210,11 +225,23 @@ impl Executor {
     fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
         let n_ds = plan.depth_stencils.max(1) as usize;
         let n_tex = plan.textures as usize;
-        if self.targets.as_ref().is_some_and(|t| t.fits(n_ds, n_tex)) {
+        let normals = self.normals;
+        if self
+            .targets
+            .as_ref()
+            .is_some_and(|t| t.fits(n_ds, n_tex, normals))
+        {
             return Ok(());
         }
         self.targets = None;
-        let t = Targets::new(&self.shared, &self.pipelines, &self.desc, n_ds, n_tex)?;
+        let t = Targets::new(
+            &self.shared,
+            &self.pipelines,
+            &self.desc,
+            n_ds,
+            n_tex,
+            normals,
+        )?;
         // New images start in `REST`, where every recording expects them.
         let cmd = self.submit.cmd;
         self.submit.begin(cmd, true)?;
@@ -327,6 +354,7 @@ impl Executor {
             clears: self.clears,
             flags,
             snap,
+            normals: self.normals,
         };
         (Recorder::new(b), &self.submit)
     }
@@ -586,23 +614,7 @@ impl Executor {
         // Frames leave every image in `REST`, a copy source.
         let layout = sync::access(REST).layout;
         for (img, aspect, offset) in copies {
-            let region = vk::BufferImageCopy {
-                buffer_offset: offset,
-                buffer_row_length: 0,
-                buffer_image_height: 0,
-                image_subresource: vk::ImageSubresourceLayers {
-                    aspect_mask: aspect,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                },
-                image_offset: vk::Offset3D::default(),
-                image_extent: vk::Extent3D {
-                    width: w,
-                    height: h,
-                    depth: 1,
-                },
-            };
+            let region = whole_image_region(aspect, offset, w, h);
             // SAFETY: outside rendering; the image allows transfer src and rests in
             // `layout`; the region fits the buffer.
             unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, layout, buffer, &[region]) };
@@ -638,6 +650,77 @@ impl Executor {
             gpu_scene::convention(&self.desc),
             scene.background,
         ))
+    }
+
+    /// The last frame's normal buffer, in view space (x right, y up, z towards
+    /// the viewer), each the unit normal of the visible face turned towards the
+    /// eye; zero where nothing was drawn. `None` unless [`Executor::set_normals`]
+    /// was on for that frame.
+    pub fn read_normals(&mut self) -> Result<Option<Vec<[f32; 3]>>, VkError> {
+        if self.last_output.is_none() {
+            return Err(VkError::Plan(
+                "read_normals before execute: no frame".into(),
+            ));
+        }
+        let Some(img) = self.targets.as_ref().and_then(|t| t.normal.as_ref()) else {
+            return Ok(None);
+        };
+        let (w, h) = (self.desc.width, self.desc.height);
+        let size = w as u64 * h as u64 * 16;
+        let buf = Buffer::new(
+            &self.shared,
+            "normal readback",
+            size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let cmd = self.submit.cmd;
+        self.submit.begin(cmd, true)?;
+        let region = whole_image_region(vk::ImageAspectFlags::COLOR, 0, w, h);
+        let layout = sync::access(REST).layout;
+        let device = &self.shared.device;
+        // SAFETY: outside rendering; the normal image allows transfer src and rests
+        // in `layout` after every frame; the region fits the buffer.
+        unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, layout, buf.raw, &[region]) };
+        submit::memory_barrier(
+            device,
+            cmd,
+            (
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            ),
+            (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+        );
+        self.submit.finish(cmd)?;
+        let scene = self.scene.as_ref().expect("scene uploaded");
+        let view = scene.camera.view();
+        Ok(Some(super::readback::decode_normals(buf.mapped()?, &view)))
+    }
+}
+
+/// A copy of a whole `w × h` image aspect to `offset` of a tightly packed buffer.
+fn whole_image_region(
+    aspect: vk::ImageAspectFlags,
+    offset: u64,
+    w: u32,
+    h: u32,
+) -> vk::BufferImageCopy {
+    vk::BufferImageCopy {
+        buffer_offset: offset,
+        buffer_row_length: 0,
+        buffer_image_height: 0,
+        image_subresource: vk::ImageSubresourceLayers {
+            aspect_mask: aspect,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        },
+        image_offset: vk::Offset3D::default(),
+        image_extent: vk::Extent3D {
+            width: w,
+            height: h,
+            depth: 1,
+        },
     }
 }
 

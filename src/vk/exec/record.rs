@@ -56,6 +56,8 @@ pub(super) struct Bindings<'a> {
     pub flags: u32,
     /// Emulated vertex snapping step of mesh draws (zero: off).
     pub snap: [f32; 2],
+    /// Write the normal buffer wherever colour is written (seed 001 §5.2).
+    pub normals: bool,
 }
 
 /// How a plan's clears of attachments are recorded.
@@ -157,6 +159,9 @@ impl<'a> Recorder<'a> {
             Resource::DepthStencil(output_ds),
         ] {
             self.flush_clear(r);
+        }
+        if self.b.normals {
+            self.flush_clear(Resource::Normal);
         }
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
@@ -308,6 +313,14 @@ impl<'a> Recorder<'a> {
                         },
                     ),
                 ]
+                .into_iter()
+                .chain(self.b.normals.then_some((
+                    Resource::Normal,
+                    vk::ClearValue {
+                        color: vk::ClearColorValue { float32: [0.0; 4] },
+                    },
+                )))
+                .collect()
             }
         }
     }
@@ -489,6 +502,7 @@ impl<'a> Recorder<'a> {
                 .map(|r| targets::format(*r, &self.b.desc))
                 .collect(),
             depth_stencil_format: key.ds.map(|_| self.b.desc.depth_format.vk()),
+            normals: key.colors.contains(&Resource::Normal),
         };
         self.b.pipelines.get(&desc)
     }
@@ -670,12 +684,20 @@ impl<'a> Recorder<'a> {
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
             .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));
+        let mut colors = usage::color_targets(&draw.fragment);
+        let mut uses = step.usage();
+        if self.b.normals && colors.contains(&Resource::Color) {
+            // The normal buffer goes with the colour, as the last attachment
+            // (the programs' `NORMALS` variants write it there).
+            colors.push(Resource::Normal);
+            uses.push((Resource::Normal, Usage::ColorTarget));
+        }
         let key = BlockKey {
-            colors: usage::color_targets(&draw.fragment),
+            colors,
             ds: Some(draw.ds),
         };
         let pipeline = self.pipeline_for(&key, kind)?;
-        self.open(&key, &step.usage());
+        self.open(&key, &uses);
         self.bind(pipeline, set);
         self.set_state(Some(draw), scissor);
         let flags = self.flags();

@@ -21,6 +21,8 @@ pub(super) struct Targets {
     pub ds_sets: Vec<vk::DescriptorSet>,
     pub color: Image,
     pub prim: Image,
+    /// The normal buffer, when the executor writes normals.
+    pub normal: Option<Image>,
     pub ds: Vec<Image>,
     pub tex: Vec<Image>,
 }
@@ -36,6 +38,8 @@ pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
     match r {
         Resource::Color => vk::Format::R8G8B8A8_UNORM,
         Resource::Prim => vk::Format::R32_UINT,
+        // xyz: the seen face's unit normal (world orientation); 0 on background.
+        Resource::Normal => vk::Format::R32G32B32A32_SFLOAT,
         Resource::Texture(_) => vk::Format::R32_SFLOAT,
         Resource::DepthStencil(_) => desc.depth_format.vk(),
     }
@@ -43,8 +47,8 @@ pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
 
 impl Targets {
     /// Fits `n_ds` depth-stencil images and `n_tex` textures of `desc`'s size.
-    pub fn fits(&self, n_ds: usize, n_tex: usize) -> bool {
-        self.ds.len() >= n_ds && self.tex.len() >= n_tex
+    pub fn fits(&self, n_ds: usize, n_tex: usize, normals: bool) -> bool {
+        self.ds.len() >= n_ds && self.tex.len() >= n_tex && self.normal.is_some() == normals
     }
 
     pub fn new(
@@ -53,6 +57,7 @@ impl Targets {
         desc: &ExecDesc,
         n_ds: usize,
         n_tex: usize,
+        normals: bool,
     ) -> Result<Targets, VkError> {
         let (w, h) = (desc.width, desc.height);
         let sh = shared;
@@ -71,6 +76,15 @@ impl Targets {
             "prim",
             ImageDesc::new_2d(format(Resource::Prim, desc), [w, h]).usage(out_usage),
         )?;
+        let normal = if normals {
+            Some(Image::new(
+                sh,
+                "normal",
+                ImageDesc::new_2d(format(Resource::Normal, desc), [w, h]).usage(color_usage),
+            )?)
+        } else {
+            None
+        };
         let mut ds = Vec::new();
         for i in 0..n_ds {
             ds.push(Image::new(
@@ -117,6 +131,7 @@ impl Targets {
             ds_sets: Vec::new(),
             color,
             prim,
+            normal,
             ds,
             tex,
         };
@@ -168,6 +183,10 @@ impl Targets {
         match r {
             Resource::Color => &self.color,
             Resource::Prim => &self.prim,
+            Resource::Normal => self
+                .normal
+                .as_ref()
+                .expect("the normal buffer is used only when the executor writes normals"),
             Resource::DepthStencil(d) => &self.ds[d as usize],
             Resource::Texture(t) => &self.tex[t as usize],
         }
@@ -176,6 +195,7 @@ impl Targets {
     /// Every image, in a fixed order.
     pub fn all(&self) -> Vec<Resource> {
         let mut v = vec![Resource::Color, Resource::Prim];
+        v.extend(self.normal.as_ref().map(|_| Resource::Normal));
         v.extend((0..self.ds.len() as u8).map(Resource::DepthStencil));
         v.extend((0..self.tex.len() as u8).map(Resource::Texture));
         v
@@ -186,7 +206,7 @@ impl Targets {
         match r {
             Resource::DepthStencil(d) => self.ds_sets[d as usize],
             Resource::Texture(t) => self.tex_sets[t as usize],
-            Resource::Color | Resource::Prim => {
+            Resource::Color | Resource::Prim | Resource::Normal => {
                 panic!("colour targets are never sampled (plan::usage says so)")
             }
         }
