@@ -305,6 +305,12 @@ impl GpuRenderer {
         Ok(self.exec.read_normals()?)
     }
 
+    /// The last frame's edge map computed on the GPU (`shaders/edges.frag`) by
+    /// `rule`; `None` unless normals were on for that frame.
+    pub fn edge_map(&mut self, rule: &edges::EdgeRule) -> Result<Option<Vec<bool>>, RenderError> {
+        Ok(self.exec.edge_map(rule.depth_rel, rule.angle_deg)?)
+    }
+
     /// The next frame records its command buffer again instead of replaying it.
     pub fn forget_recording(&mut self) {
         self.exec.forget_recording();

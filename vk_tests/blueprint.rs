@@ -3,7 +3,8 @@
 //! edge rule on its depth and normals must find the reference's edges (≥ 99% of
 //! the reference's edge pixels within one pixel of ours, ≤ 1% of ours farther
 //! than one pixel from the reference's), and its normals must be the reference's
-//! where both see the same primitive. Validation on.
+//! where both see the same primitive. The GPU's own edge pass (`shaders/edges.frag`)
+//! must agree with the rule applied on the CPU to the read-back images. Validation on.
 //!
 //! The reference's layers are those of the solid, without surfaces, so scenes with
 //! `[[surface]]`s are left out here (their first layer is not the opaque image).
@@ -18,7 +19,7 @@ use peeltrim::render::{DepthSetup, GpuRenderer};
 use crate::algorithms::{load, shipped_scenes, SIZE};
 
 /// One algorithm on every shipped scene without surfaces.
-fn check_first_layer_edges(algo: Algo) {
+fn check_first_layer_edges(algo: Algo, assert_bars: bool) {
     let (w, h) = SIZE;
     let rule = EdgeRule::default();
     let mut failures = Vec::new();
@@ -49,10 +50,15 @@ fn check_first_layer_edges(algo: Algo) {
         gpu.set_normals(true);
         let frame = gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"));
         let normals = gpu.read_normals().unwrap().expect("normals were asked for");
+        let on_gpu = gpu.edge_map(&rule).unwrap().expect("normals were on");
         let msgs = gpu.validation_messages();
         assert!(msgs.is_empty(), "{algo}: validation messages: {msgs:#?}");
         let ours = edge_map(&frame.images.depth, &normals, w, h, &rule);
         let a = compare_edges(&ref_edges, &ours, w, h);
+        // The GPU's edge pass is the same rule (f32 view depths: a pixel may
+        // flip where a jump is within rounding of the threshold).
+        let differ = ours.iter().zip(&on_gpu).filter(|(a, b)| a != b).count();
+        let g = compare_edges(&ref_edges, &on_gpu, w, h);
 
         // Normals where both see the same primitive, away from boundaries.
         let edge = boundary_mask(ref_img);
@@ -67,31 +73,42 @@ fn check_first_layer_edges(algo: Algo) {
         }
         let name = path.file_stem().unwrap().to_string_lossy().to_string();
         eprintln!(
-            "{algo} {name}: edges ref {} ours {} matched {:.2}% stray {:.2}%; normals off by >1° at {off} of {same}",
+            "{algo} {name}: edges ref {} ours {} matched {:.2}% stray {:.2}% (GPU pass {:.2}% / {:.2}%, {differ} px differ from the CPU rule); normals off by >1° at {off} of {same}",
             a.reference_edges,
             a.our_edges,
             a.matched_frac * 100.0,
-            a.stray_frac * 100.0
+            a.stray_frac * 100.0,
+            g.matched_frac * 100.0,
+            g.stray_frac * 100.0
         );
         scenes += 1;
         assert!(a.reference_edges > 0, "{name}: the reference finds no edge");
-        if a.matched_frac < 0.99 || a.stray_frac > 0.01 || off as f64 > 0.001 * same as f64 {
+        if a.matched_frac < 0.99
+            || a.stray_frac > 0.01
+            || g.matched_frac < 0.99
+            || g.stray_frac > 0.01
+            || differ as f64 > 0.001 * (w * h) as f64
+            || off as f64 > 0.001 * same as f64
+        {
             failures.push(format!("{name}: {a:?}, normals off at {off} of {same}"));
         }
     }
     assert!(scenes >= 6, "{algo}: only {scenes} scenes checked");
     assert!(
-        failures.is_empty(),
+        failures.is_empty() || !assert_bars,
         "{algo}: first-layer edges miss the bars on:\n{}",
         failures.join("\n")
     );
 }
 
+/// `blister-paper` is Blister exactly as its paper writes it, kept to measure
+/// the speckles it leaves (README): its figures are printed, not asserted (on
+/// `coincident` 97.1% matched, 1.9% stray at 128×128).
 #[test]
 fn first_layer_edges_match_the_reference_for_every_gpu_algorithm() {
     for algo in Algo::ALL {
         if algo != Algo::Reference {
-            check_first_layer_edges(algo);
+            check_first_layer_edges(algo, algo != Algo::BlisterPaper);
         }
     }
 }
@@ -107,6 +124,7 @@ fn normal_buffer_leaves_the_images_unchanged() {
         GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::DEFAULT, true).unwrap();
     let plain = gpu.frame(&plan).unwrap();
     assert_eq!(gpu.read_normals().unwrap(), None);
+    assert_eq!(gpu.edge_map(&EdgeRule::default()).unwrap(), None);
     gpu.set_normals(true);
     let with = gpu.frame(&plan).unwrap();
     let n = gpu.read_normals().unwrap().unwrap();

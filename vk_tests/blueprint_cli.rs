@@ -150,7 +150,7 @@ fn style_errors_and_gpu_refusal() {
     let o = render(
         &scene("gear.toml"),
         &out,
-        &["--edge-depth", "-1", "--style", "wireframe"],
+        &["--edge-depth=-1", "--style", "wireframe"],
     );
     assert_error(&o, &["--edge-depth", "positive"]);
     // A GPU algorithm without layers refuses with exit code 2.

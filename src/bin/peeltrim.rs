@@ -460,7 +460,29 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let ia = peeltrim::output::read_images(&a)?;
             let ib = peeltrim::output::read_images(&b)?;
             let report = peeltrim::reference::compare::compare(&ia, &ib)?;
-            emit(&format!("{}\n", serde_json::to_string_pretty(&report)?))?;
+            /// `compare`'s output: the contract's metrics, and with an `edges.png`
+            /// in both folders (layer folders) the edge maps' agreement.
+            #[derive(serde::Serialize)]
+            struct Out {
+                #[serde(flatten)]
+                report: peeltrim::reference::compare::CompareReport,
+                #[serde(skip_serializing_if = "Option::is_none")]
+                edges: Option<peeltrim::reference::edge_compare::EdgeAgreement>,
+            }
+            let edges = if a.join("edges.png").exists() && b.join("edges.png").exists() {
+                let (w, h, ea) = peeltrim::output::read_edges(&a)?;
+                let (wb, hb, eb) = peeltrim::output::read_edges(&b)?;
+                if (w, h) != (wb, hb) {
+                    bail!("edges.png sizes differ: {w}x{h} against {wb}x{hb}");
+                }
+                Some(peeltrim::reference::edge_compare::compare_edges(
+                    &ea, &eb, w, h,
+                ))
+            } else {
+                None
+            };
+            let out = Out { report, edges };
+            emit(&format!("{}\n", serde_json::to_string_pretty(&out)?))?;
         }
         Cmd::Bench {
             scenes,

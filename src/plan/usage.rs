@@ -15,6 +15,9 @@ pub enum Resource {
     /// is asked for normals; plans never name it (the executor adds it wherever
     /// `Color` is written or cleared).
     Normal,
+    /// The first layer's edge map (seed 001 §5.1), written by the executor's
+    /// edge pass from `Normal` and the output depth; plans never name it.
+    Edges,
     DepthStencil(Ds),
     Texture(Tex),
 }

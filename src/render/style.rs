@@ -59,13 +59,18 @@ pub fn compose(style: Style, layers: &[StyleLayer], background: [u8; 3], n: usiz
         .map(|i| {
             let mut c = background.map(|v| v as f64);
             for (k, l) in layers.iter().enumerate().rev() {
-                if !l.covered[i] {
+                let edge = style.edges() && l.edges[i];
+                // The edge rule marks both sides of a silhouette, so an edge
+                // pixel may lie just outside the layer: drawn as an edge, without
+                // a surface.
+                let covered = l.covered[i];
+                if !covered && !edge {
                     continue;
                 }
-                let edge = style.edges() && l.edges[i];
                 let own = [l.color[i][0], l.color[i][1], l.color[i][2]];
                 c = match style {
                     Style::Opaque => unreachable!("checked above"),
+                    Style::Transparent | Style::BlueprintTransparent if !covered => c,
                     Style::Transparent => mix(c, own, l.alpha[i]),
                     Style::BlueprintTransparent => {
                         let k = if edge { EDGE_DARKEN } else { 1.0 };
@@ -73,7 +78,7 @@ pub fn compose(style: Style, layers: &[StyleLayer], background: [u8; 3], n: usiz
                         mix(c, dark, l.alpha[i])
                     }
                     Style::Blueprint => {
-                        let filled = mix(c, FILL, FILL_ALPHA);
+                        let filled = if covered { mix(c, FILL, FILL_ALPHA) } else { c };
                         if edge {
                             mix(filled, EDGE, EDGE_ALPHA)
                         } else {
@@ -143,6 +148,17 @@ mod tests {
         let w = compose(Style::Wireframe, &l, BG, 3);
         assert_eq!(w[0], [255, 255, 255, 255]);
         assert_eq!(w[1], [20, 20, 20, 255]); // covered but no edge
+                                             // An edge pixel just outside layer 1 (pixel 2) is still drawn.
+        let e1c = [true, false, true];
+        let outside = layers(&c1, &c2, &e1c, &e2);
+        assert_eq!(
+            compose(Style::Wireframe, &outside, BG, 3)[2],
+            [255, 255, 255, 255]
+        );
+        assert_eq!(
+            compose(Style::Transparent, &outside, BG, 3)[2],
+            [20, 20, 20, 255]
+        );
         let (e1b, e2b) = ([false; 3], [true, false, false]);
         let hidden = layers(&c1, &c2, &e1b, &e2b);
         assert_eq!(

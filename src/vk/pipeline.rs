@@ -30,6 +30,8 @@ pub enum FragmentKind {
     ShadeAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
     CopyDepth,
+    /// The edge map from the normal buffer (set 0) and a depth buffer (set 1).
+    Edges,
 }
 
 impl FragmentKind {
@@ -87,6 +89,7 @@ impl FragmentKind {
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
+            FragmentKind::Edges => spv!("edges.frag"),
         }
     }
 }
@@ -214,7 +217,9 @@ impl Pipelines {
             offset: 0,
             size: PUSH_SIZE,
         }];
-        let set_layouts = [p.set_layout];
+        // Two sets of the same layout: every program samples at most one image
+        // through set 0, the edge pass a second one through set 1.
+        let set_layouts = [p.set_layout, p.set_layout];
         let lci = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
             .push_constant_ranges(&ranges);

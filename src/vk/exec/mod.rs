@@ -42,6 +42,7 @@ use super::readback::{decode, Raw};
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::output::Images;
+use crate::plan::usage::Resource;
 use crate::plan::validate::validate;
 use crate::plan::{Plan, Step};
 use crate::scene::{Camera, Scene};
@@ -657,20 +658,59 @@ impl Executor {
     /// eye; zero where nothing was drawn. `None` unless [`Executor::set_normals`]
     /// was on for that frame.
     pub fn read_normals(&mut self) -> Result<Option<Vec<[f32; 3]>>, VkError> {
-        if self.last_output.is_none() {
-            return Err(VkError::Plan(
-                "read_normals before execute: no frame".into(),
-            ));
-        }
-        let Some(img) = self.targets.as_ref().and_then(|t| t.normal.as_ref()) else {
+        let Some(bytes) = self.copy_out(Resource::Normal, 16)? else {
             return Ok(None);
         };
+        let view = self.scene.as_ref().expect("scene uploaded").camera.view();
+        Ok(Some(super::readback::decode_normals(&bytes, &view)))
+    }
+
+    /// The edge map of the last frame's image (its first layer) by the rule of
+    /// `render::edges` with thresholds `depth_rel` and `angle_deg`, computed on
+    /// the GPU in one full-screen pass (`shaders/edges.frag`) and read back;
+    /// `None` unless [`Executor::set_normals`] was on for that frame.
+    pub fn edge_map(
+        &mut self,
+        depth_rel: f64,
+        angle_deg: f64,
+    ) -> Result<Option<Vec<bool>>, VkError> {
+        let output = self
+            .last_output
+            .ok_or_else(|| VkError::Plan("edge_map before execute: no frame".into()))?;
+        if !self.normals {
+            return Ok(None);
+        }
+        let cmd = self.submit.cmd;
+        let rule = [depth_rel as f32, angle_deg.to_radians().cos() as f32];
+        let (mut rec, sub) = self.recorder_and_submitter();
+        sub.begin(cmd, true)?;
+        rec.edge_pass(cmd, output, rule)?;
+        sub.finish(cmd)?;
+        drop(rec);
+        let bytes = self
+            .copy_out(Resource::Edges, 1)?
+            .expect("the edge map exists with the normal buffer");
+        Ok(Some(bytes.into_iter().map(|v| v >= 128).collect()))
+    }
+
+    /// Copies target `r` (`bpp` bytes a pixel, resting in `REST` after a frame)
+    /// to the CPU; `None` when the targets lack it.
+    fn copy_out(&mut self, r: Resource, bpp: u64) -> Result<Option<Vec<u8>>, VkError> {
+        if self.last_output.is_none() {
+            return Err(VkError::Plan("read-back before execute: no frame".into()));
+        }
+        let Some(t) = self.targets.as_ref() else {
+            return Ok(None);
+        };
+        if !t.all().contains(&r) {
+            return Ok(None);
+        }
+        let img = t.image(r);
         let (w, h) = (self.desc.width, self.desc.height);
-        let size = w as u64 * h as u64 * 16;
         let buf = Buffer::new(
             &self.shared,
-            "normal readback",
-            size,
+            "target readback",
+            w as u64 * h as u64 * bpp,
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )?;
@@ -679,8 +719,8 @@ impl Executor {
         let region = whole_image_region(vk::ImageAspectFlags::COLOR, 0, w, h);
         let layout = sync::access(REST).layout;
         let device = &self.shared.device;
-        // SAFETY: outside rendering; the normal image allows transfer src and rests
-        // in `layout` after every frame; the region fits the buffer.
+        // SAFETY: outside rendering; the image allows transfer src and rests in
+        // `layout` after every frame; the region fits the buffer.
         unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, layout, buf.raw, &[region]) };
         submit::memory_barrier(
             device,
@@ -692,9 +732,7 @@ impl Executor {
             (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
         );
         self.submit.finish(cmd)?;
-        let scene = self.scene.as_ref().expect("scene uploaded");
-        let view = scene.camera.view();
-        Ok(Some(super::readback::decode_normals(buf.mapped()?, &view)))
+        Ok(Some(buf.mapped()?.to_vec()))
     }
 }
 

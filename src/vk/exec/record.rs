@@ -175,6 +175,80 @@ impl<'a> Recorder<'a> {
         self.transitions(&rest, false);
     }
 
+    /// Seed 001 §5.1's edge map of the last frame's first layer, in one
+    /// full-screen draw (`shaders/edges.frag`) into the edge target, sampling the
+    /// normal buffer and depth-stencil `output_ds`; every image rests in `REST`
+    /// after. `rule`: relative depth threshold and cosine of the crease angle.
+    pub fn edge_pass(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        output_ds: u8,
+        rule: [f32; 2],
+    ) -> Result<(), VkError> {
+        self.cmd = cmd;
+        self.bound = None;
+        let depth = Resource::DepthStencil(output_ds);
+        let key = BlockKey {
+            colors: vec![Resource::Edges],
+            ds: None,
+        };
+        let uses = [
+            (Resource::Edges, Usage::ColorTarget),
+            (Resource::Normal, Usage::Sampled),
+            (depth, Usage::Sampled),
+        ];
+        self.open(&key, &uses);
+        let pipeline = self.pipeline_for(&key, FragmentKind::Edges)?;
+        self.bind(
+            pipeline,
+            Some(self.b.targets.sampling_set(Resource::Normal)),
+        );
+        let depth_set = self.b.targets.sampling_set(depth);
+        // SAFETY: set 1 of the pipeline layout has the set's layout; inside a block.
+        unsafe {
+            self.b.device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.b.pipelines.layout,
+                1,
+                &[depth_set],
+                &[],
+            )
+        };
+        let full = Rect::full(self.b.desc.width, self.b.desc.height);
+        self.set_state(None, full);
+        let cam = &self.b.scene.camera;
+        let ortho = matches!(
+            cam.projection,
+            crate::scene::Projection::Orthographic { .. }
+        );
+        self.push(&PushConstants {
+            mvp: Self::fullscreen_matrix(0.0),
+            view: [cam.near as f32, cam.far as f32, ortho as u32 as f32, 0.0],
+            color: [rule[0], rule[1], 0.0, 0.0],
+            flags: self.flags(),
+            ..Default::default()
+        });
+        // SAFETY: inside a block with a bound pipeline and vertex buffer.
+        unsafe {
+            self.b
+                .device
+                .cmd_draw(cmd, 6, 1, self.b.scene.quad_first, 0)
+        };
+        self.stats.counts.fullscreen_passes += 1;
+        self.stats.counts.fullscreen_pixels += full.area();
+        self.end_block();
+        let rest: Vec<_> = self
+            .b
+            .targets
+            .all()
+            .into_iter()
+            .map(|r| (r, REST))
+            .collect();
+        self.transitions(&rest, false);
+        Ok(())
+    }
+
     fn timestamp(&mut self, pass: String) {
         let Some(ts) = self.b.timestamps else { return };
         let idx = self.marks.len() as u32;
