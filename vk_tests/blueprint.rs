@@ -55,8 +55,9 @@ fn check_first_layer_edges(algo: Algo, assert_bars: bool) {
         assert!(msgs.is_empty(), "{algo}: validation messages: {msgs:#?}");
         let ours = edge_map(&frame.images.depth, &normals, w, h, &rule);
         let a = compare_edges(&ref_edges, &ours, w, h);
-        // The GPU's edge pass is the same rule (f32 view depths: a pixel may
-        // flip where a jump is within rounding of the threshold).
+        // The GPU's edge pass is the same rule in f32 (the CPU decodes depths in
+        // f64): a pair within rounding of a threshold may flip (up to 23 pixels,
+        // 0.14%, on many_50 at 128×128).
         let differ = ours.iter().zip(&on_gpu).filter(|(a, b)| a != b).count();
         let g = compare_edges(&ref_edges, &on_gpu, w, h);
 
@@ -87,7 +88,7 @@ fn check_first_layer_edges(algo: Algo, assert_bars: bool) {
             || a.stray_frac > 0.01
             || g.matched_frac < 0.99
             || g.stray_frac > 0.01
-            || differ as f64 > 0.001 * (w * h) as f64
+            || differ as f64 > 0.005 * (w * h) as f64
             || off as f64 > 0.001 * same as f64
         {
             failures.push(format!("{name}: {a:?}, normals off at {off} of {same}"));

@@ -1,24 +1,8 @@
 //! `render --style`, `--edge-depth`, `--edge-angle` and the layer directories'
 //! `normal.npy` / `edges.png` (seed 001 §5) as a user runs them.
 
-use super::{assert_error, run, scene, stderr, tmp};
-
-fn render(name: &str, out: &std::path::Path, extra: &[&str]) -> std::process::Output {
-    let mut args = vec![
-        "render",
-        name,
-        "--size",
-        "64x48",
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(extra);
-    run(&args)
-}
-
-fn stats(dir: &std::path::Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("stats.json")).unwrap()).unwrap()
-}
+use super::layers_cli::{render, stats};
+use super::{assert_error, scene, stderr, tmp};
 
 /// `normal.npy`: `(H, W, 3)` little-endian f32.
 fn read_normals(path: &std::path::Path) -> (String, Vec<[f32; 3]>) {

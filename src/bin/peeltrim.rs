@@ -78,7 +78,8 @@ struct LayerArgs {
     /// Stop peeling at the first layer covering fewer than N pixels
     #[arg(long, value_name = "N", default_value_t = 0)]
     layer_threshold: u64,
-    /// Also write each layer into OUT/layers/01/, 02/, ... (color.png, depth.npy, prim.png)
+    /// Also write each layer into OUT/layers/01/, 02/, ... (color.png, depth.npy, prim.png,
+    /// normal.npy, edges.png)
     #[arg(long)]
     layers_out: bool,
     /// Opacity in (0, 1] of everything without its own alpha (overrides [render] alpha);

@@ -620,15 +620,7 @@ impl Executor {
             // `layout`; the region fits the buffer.
             unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, layout, buffer, &[region]) };
         }
-        submit::memory_barrier(
-            device,
-            cmd,
-            (
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            ),
-            (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-        );
+        submit::transfer_to_host_barrier(device, cmd);
         self.submit.finish(cmd)?;
         let bytes = self
             .readback
@@ -722,15 +714,7 @@ impl Executor {
         // SAFETY: outside rendering; the image allows transfer src and rests in
         // `layout` after every frame; the region fits the buffer.
         unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, layout, buf.raw, &[region]) };
-        submit::memory_barrier(
-            device,
-            cmd,
-            (
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            ),
-            (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-        );
+        submit::transfer_to_host_barrier(device, cmd);
         self.submit.finish(cmd)?;
         Ok(Some(buf.mapped()?.to_vec()))
     }

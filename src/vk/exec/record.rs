@@ -165,14 +165,7 @@ impl<'a> Recorder<'a> {
         }
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
-        let rest: Vec<_> = self
-            .b
-            .targets
-            .all()
-            .into_iter()
-            .map(|r| (r, REST))
-            .collect();
-        self.transitions(&rest, false);
+        self.rest_all();
     }
 
     /// Seed 001 §5.1's edge map of the last frame's first layer, in one
@@ -238,6 +231,12 @@ impl<'a> Recorder<'a> {
         self.stats.counts.fullscreen_passes += 1;
         self.stats.counts.fullscreen_pixels += full.area();
         self.end_block();
+        self.rest_all();
+        Ok(())
+    }
+
+    /// Every image to `REST`, where frames leave them.
+    fn rest_all(&mut self) {
         let rest: Vec<_> = self
             .b
             .targets
@@ -246,7 +245,6 @@ impl<'a> Recorder<'a> {
             .map(|r| (r, REST))
             .collect();
         self.transitions(&rest, false);
-        Ok(())
     }
 
     fn timestamp(&mut self, pass: String) {
