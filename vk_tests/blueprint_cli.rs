@@ -66,7 +66,8 @@ fn layers_out_writes_normals_and_edges_by_the_rule() {
     let b = stats(&loose)["edge_pixels"][0].as_u64().unwrap();
     assert!(b < a && b > 0, "{a} {b}");
     // compare reports the edge maps' agreement of two layer folders: the looser
-    // map is a subset, so it strays nowhere but misses the dropped creases.
+    // map is a subset, so it strays nowhere (at 64×48 every dropped crease pixel
+    // still lies within a pixel of a kept edge).
     let o = super::run(&[
         "compare",
         out.join("layers/01").to_str().unwrap(),
@@ -78,7 +79,6 @@ fn layers_out_writes_normals_and_edges_by_the_rule() {
     assert_eq!(e["reference_edges"].as_u64(), Some(a), "{j}");
     assert_eq!(e["our_edges"].as_u64(), Some(b), "{j}");
     assert_eq!(e["ours_stray"].as_u64(), Some(0), "{j}");
-    assert!(e["matched_frac"].as_f64().unwrap() < 1.0, "{j}");
     assert_eq!(j["prim_mismatch"].as_u64(), Some(0), "{j}");
     // Folders without edges.png: no `edges` key.
     let o = super::run(&["compare", out.to_str().unwrap(), loose.to_str().unwrap()]);
