@@ -22,6 +22,8 @@ pub struct Appearance {
     pub interference: bool,
     /// `[render] style` (or `--style`): how `color.png` shows the layers.
     pub style: super::style::Style,
+    /// `[light]`: the light that casts the solids' shadows (README "Shadows").
+    pub light: Option<super::light::Light>,
 }
 
 impl Appearance {
