@@ -2,7 +2,10 @@
 //! naga into `OUT_DIR/<name>.<stage>.spv`. A shader that fails to compile is a bug
 //! of this crate, so the build panics with the file name and naga's message.
 //! A line `#include "x.glsl"` is replaced by `shaders/x.glsl` (naga's GLSL front
-//! end has no includes), so shared shader code is written once.
+//! end has no includes), so shared shader code is written once. A shader that
+//! mentions `#ifdef NORMALS` is also compiled with `NORMALS` defined, into
+//! `OUT_DIR/<name>.<stage>.normals.spv`: the variant that writes the normal buffer
+//! (seed 001 §5.2) for executors that ask for one.
 
 use std::path::Path;
 
@@ -23,44 +26,61 @@ fn main() {
         };
         println!("cargo:rerun-if-changed={}", path.display());
         let source = with_includes(shader_dir, &path);
-        let module = naga::front::glsl::Frontend::default()
-            .parse(&naga::front::glsl::Options::from(stage), &source)
-            .unwrap_or_else(|e| {
-                panic!(
-                    "{}: GLSL parse error:\n{}",
-                    path.display(),
-                    e.emit_to_string(&source)
-                )
-            });
-        let info = naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::all(),
-        )
-        .validate(&module)
+        let name = path.file_name().expect("file name").to_string_lossy();
+        compile(
+            &path,
+            stage,
+            &source,
+            None,
+            &Path::new(&out_dir).join(format!("{name}.spv")),
+        );
+        if source.contains("#ifdef NORMALS") {
+            let out = Path::new(&out_dir).join(format!("{name}.normals.spv"));
+            compile(&path, stage, &source, Some("NORMALS"), &out);
+        }
+    }
+}
+
+/// Compiles one shader (with `define` defined as 1) into `out`.
+fn compile(path: &Path, stage: naga::ShaderStage, source: &str, define: Option<&str>, out: &Path) {
+    let mut opts = naga::front::glsl::Options::from(stage);
+    if let Some(d) = define {
+        opts.defines.insert(d.to_string(), "1".to_string());
+    }
+    let module = naga::front::glsl::Frontend::default()
+        .parse(&opts, source)
         .unwrap_or_else(|e| {
             panic!(
-                "{}: naga validation error:\n{}",
+                "{}: GLSL parse error:\n{}",
                 path.display(),
-                e.emit_to_string(&source)
+                e.emit_to_string(source)
             )
         });
-        let options = naga::back::spv::Options {
-            lang_version: (1, 3),
-            // The projection already maps clip y downwards (Vulkan); no flips,
-            // no clamps: depth-equal passes rely on exact, untouched values.
-            flags: naga::back::spv::WriterFlags::LABEL_VARYINGS,
-            // Use the GLSL set and binding decorations as written.
-            fake_missing_bindings: true,
-            ..Default::default()
-        };
-        let words = naga::back::spv::write_vec(&module, &info, &options, None)
-            .unwrap_or_else(|e| panic!("{}: SPIR-V generation error: {e}", path.display()));
-        let name = path.file_name().expect("file name").to_string_lossy();
-        let out = Path::new(&out_dir).join(format!("{name}.spv"));
-        let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-        std::fs::write(&out, bytes)
-            .unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
-    }
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| {
+        panic!(
+            "{}: naga validation error:\n{}",
+            path.display(),
+            e.emit_to_string(source)
+        )
+    });
+    let options = naga::back::spv::Options {
+        lang_version: (1, 3),
+        // The projection already maps clip y downwards (Vulkan); no flips,
+        // no clamps: depth-equal passes rely on exact, untouched values.
+        flags: naga::back::spv::WriterFlags::LABEL_VARYINGS,
+        // Use the GLSL set and binding decorations as written.
+        fake_missing_bindings: true,
+        ..Default::default()
+    };
+    let words = naga::back::spv::write_vec(&module, &info, &options, None)
+        .unwrap_or_else(|e| panic!("{}: SPIR-V generation error: {e}", path.display()));
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+    std::fs::write(out, bytes).unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
 }
 
 /// The shader's text with each `#include "name"` line replaced by `dir/name`.

@@ -13,8 +13,15 @@ layout(push_constant) uniform Push {
 } pc;
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
+#ifdef NORMALS
+// No face: a zero normal (seed 001 §5.2's normal buffer).
+layout(location = 2) out vec4 o_normal;
+#endif
 
 void main() {
     o_color = vec4(pc.color.rgb, 1.0);
     o_prim = 0u;
+#ifdef NORMALS
+    o_normal = vec4(0.0);
+#endif
 }

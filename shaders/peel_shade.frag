@@ -18,6 +18,10 @@ layout(location = 1) flat in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
 layout(location = 2) out float o_depth;
+#ifdef NORMALS
+#define NORMAL_LOCATION 3
+#include "seen_normal.glsl"
+#endif
 
 bool behind_prev() {
     float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
@@ -37,4 +41,7 @@ void main() {
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
     o_depth = gl_FragCoord.z;
+#ifdef NORMALS
+    o_normal = vec4(seen_normal(), 0.0);
+#endif
 }

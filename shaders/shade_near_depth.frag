@@ -21,6 +21,10 @@ layout(location = 0) in vec3 v_world;
 layout(location = 1) flat in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
+#ifdef NORMALS
+#define NORMAL_LOCATION 2
+#include "seen_normal.glsl"
+#endif
 
 
 #include "tie.glsl"
@@ -74,4 +78,7 @@ void main() {
     gl_FragDepth = z;
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
+#ifdef NORMALS
+    o_normal = vec4(seen_normal(), 0.0);
+#endif
 }

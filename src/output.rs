@@ -88,8 +88,12 @@ pub fn shade(rgb: [u8; 3], cos: f64) -> [u8; 4] {
 /// The `.npy` v1.0 header for a C-order little-endian f32 array of `(height, width)`,
 /// padded with spaces and a newline so the data starts at a multiple of 64 bytes.
 pub fn npy_header(height: u32, width: u32) -> Vec<u8> {
-    let dict =
-        format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({height}, {width}), }}");
+    npy_header_shape(&format!("({height}, {width})"))
+}
+
+/// [`npy_header`] for any shape, written as Python prints a tuple: `(2, 3, 3)`.
+fn npy_header_shape(shape: &str) -> Vec<u8> {
+    let dict = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {shape}, }}");
     let unpadded = 10 + dict.len() + 1;
     let total = unpadded.div_ceil(64) * 64;
     let mut h = Vec::with_capacity(total);
@@ -99,6 +103,57 @@ pub fn npy_header(height: u32, width: u32) -> Vec<u8> {
     h.resize(total - 1, b' ');
     h.push(b'\n');
     h
+}
+
+/// `normal.npy` bytes: little-endian f32, shape `(height, width, 3)`.
+pub fn encode_npy_normals(height: u32, width: u32, normals: &[[f32; 3]]) -> Vec<u8> {
+    let mut out = npy_header_shape(&format!("({height}, {width}, 3)"));
+    out.reserve(normals.len() * 12);
+    for c in normals.iter().flatten() {
+        out.extend_from_slice(&c.to_le_bytes());
+    }
+    out
+}
+
+/// Writes a layer's `normal.npy` (view-space unit normals, `(height, width, 3)`
+/// f32, zero where the layer has no point) into `dir`.
+pub fn write_normals(
+    dir: impl AsRef<Path>,
+    width: u32,
+    height: u32,
+    normals: &[[f32; 3]],
+) -> Result<(), OutputError> {
+    assert_eq!(
+        normals.len(),
+        width as usize * height as usize,
+        "normal buffer size"
+    );
+    let path = dir.as_ref().join("normal.npy");
+    std::fs::write(&path, encode_npy_normals(height, width, normals)).map_err(io_err(&path))
+}
+
+/// Writes a layer's `edges.png` (8-bit grey, 255 = edge, 0 elsewhere) into `dir`.
+pub fn write_edges(
+    dir: impl AsRef<Path>,
+    width: u32,
+    height: u32,
+    edges: &[bool],
+) -> Result<(), OutputError> {
+    let path = dir.as_ref().join("edges.png");
+    let px: Vec<u8> = edges.iter().map(|&e| if e { 255 } else { 0 }).collect();
+    image::GrayImage::from_raw(width, height, px)
+        .expect("edge map size matches the image")
+        .save_with_format(&path, image::ImageFormat::Png)
+        .map_err(img_err(&path))
+}
+
+/// Reads `dir/edges.png` (any grey PNG; a pixel at 128 or more is an edge) as
+/// `(width, height, map)`.
+pub fn read_edges(dir: impl AsRef<Path>) -> Result<(u32, u32, Vec<bool>), OutputError> {
+    let path = dir.as_ref().join("edges.png");
+    let g = image::open(&path).map_err(img_err(&path))?.into_luma8();
+    let (w, h) = (g.width(), g.height());
+    Ok((w, h, g.into_raw().into_iter().map(|v| v >= 128).collect()))
 }
 
 /// Writes `depth` as `depth.npy` bytes.

@@ -14,10 +14,12 @@ use crate::scene::camera::DepthConvention;
 use crate::scene::Scene;
 use crate::vk;
 
+pub mod edges;
 pub mod interference;
 mod kirsch;
 pub mod layers;
 pub mod shadow;
+pub mod style;
 
 /// Depth-buffer set-ups of the speed-against-error studies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -308,6 +310,23 @@ impl GpuRenderer {
             layers: None,
             shadow: None,
         })
+    }
+
+    /// Whether later frames also write the normal buffer (seed 001 §5.2), read
+    /// with [`Self::read_normals`].
+    pub fn set_normals(&mut self, on: bool) {
+        self.exec.set_normals(on);
+    }
+
+    /// The last frame's view-space normals (see [`vk::Executor::read_normals`]).
+    pub fn read_normals(&mut self) -> Result<Option<Vec<[f32; 3]>>, RenderError> {
+        Ok(self.exec.read_normals()?)
+    }
+
+    /// The last frame's edge map computed on the GPU (`shaders/edges.frag`) by
+    /// `rule`; `None` unless normals were on for that frame.
+    pub fn edge_map(&mut self, rule: &edges::EdgeRule) -> Result<Option<Vec<bool>>, RenderError> {
+        Ok(self.exec.edge_map(rule.depth_rel, rule.angle_deg)?)
     }
 
     /// The next frame records its command buffer again instead of replaying it.

@@ -8,6 +8,7 @@ use std::process::{Command, Output};
 
 use rand::{Rng, SeedableRng};
 
+mod blueprint_cli;
 mod layers_cli;
 /// OpenSCAD `.csg` models through the command line.
 mod openscad_cli;

@@ -4,7 +4,7 @@
 
 use super::{assert_error, run, scene, stderr, tmp};
 
-fn render(name: &str, out: &std::path::Path, extra: &[&str]) -> std::process::Output {
+pub(super) fn render(name: &str, out: &std::path::Path, extra: &[&str]) -> std::process::Output {
     let mut args = vec![
         "render",
         name,
@@ -21,7 +21,7 @@ fn images(dir: &std::path::Path) -> peeltrim::output::Images {
     peeltrim::output::read_images(dir).unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn stats(dir: &std::path::Path) -> serde_json::Value {
+pub(super) fn stats(dir: &std::path::Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("stats.json")).unwrap()).unwrap()
 }
 

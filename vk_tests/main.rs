@@ -6,6 +6,7 @@
 //! numerical-stability suite.
 
 mod algorithms;
+mod blueprint;
 mod classic;
 mod cst;
 mod embed;

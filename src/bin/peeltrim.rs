@@ -78,7 +78,8 @@ struct LayerArgs {
     /// Stop peeling at the first layer covering fewer than N pixels
     #[arg(long, value_name = "N", default_value_t = 0)]
     layer_threshold: u64,
-    /// Also write each layer into OUT/layers/01/, 02/, ... (color.png, depth.npy, prim.png)
+    /// Also write each layer into OUT/layers/01/, 02/, ... (color.png, depth.npy, prim.png,
+    /// normal.npy, edges.png)
     #[arg(long)]
     layers_out: bool,
     /// Opacity in (0, 1] of everything without its own alpha (overrides [render] alpha);
@@ -97,6 +98,17 @@ struct LayerArgs {
     /// red; stats.json lists the interfering pairs (same as [render] interference = true)
     #[arg(long)]
     interference: bool,
+    /// How color.png shows the layers (overrides [render] style): opaque,
+    /// transparent, blueprint, wireframe or blueprint-transparent (seed 001 §5)
+    #[arg(long, value_parser = peeltrim::scene::style::parse_style)]
+    style: Option<peeltrim::scene::style::Style>,
+    /// Edge rule: a depth jump larger than this fraction of the nearer depth is a
+    /// silhouette edge
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.01)]
+    edge_depth: f64,
+    /// Edge rule: normals further apart than this many degrees make a crease edge
+    #[arg(long, value_name = "DEGREES", default_value_t = 30.0)]
+    edge_angle: f64,
 }
 
 fn parse_reading(s: &str) -> Result<peeltrim::reference::LayerReading, String> {
@@ -395,7 +407,17 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 scene.appearance.alpha = layers.alpha;
             }
             scene.appearance.interference |= layers.interference;
+            if let Some(style) = layers.style {
+                scene.appearance.style = style;
+            }
+            let edge_rule = render::edges::EdgeRule {
+                depth_rel: layers.edge_depth,
+                angle_deg: layers.edge_angle,
+            }
+            .check()
+            .map_err(anyhow::Error::msg)?;
             let lopts = render::layers::LayerOptions {
+                edge_rule,
                 max_layers: layers.layers,
                 threshold: layers.layer_threshold,
                 write_layers: layers.layers_out,
@@ -412,7 +434,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             }
             let (frame, layer_images) = match if lopts.wanted(&scene) {
                 render::layers::render_layered(&scene, &opts, &lopts)
-                    .map(|l| (l.frame, Some(l.layers)))
+                    .map(|l| (l.frame.clone(), Some(l)))
             } else {
                 render::render(&scene, &opts).map(|f| (f, None))
             } {
@@ -452,7 +474,29 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let ia = peeltrim::output::read_images(&a)?;
             let ib = peeltrim::output::read_images(&b)?;
             let report = peeltrim::reference::compare::compare(&ia, &ib)?;
-            emit(&format!("{}\n", serde_json::to_string_pretty(&report)?))?;
+            /// `compare`'s output: the contract's metrics, and with an `edges.png`
+            /// in both folders (layer folders) the edge maps' agreement.
+            #[derive(serde::Serialize)]
+            struct Out {
+                #[serde(flatten)]
+                report: peeltrim::reference::compare::CompareReport,
+                #[serde(skip_serializing_if = "Option::is_none")]
+                edges: Option<peeltrim::reference::edge_compare::EdgeAgreement>,
+            }
+            let edges = if a.join("edges.png").exists() && b.join("edges.png").exists() {
+                let (w, h, ea) = peeltrim::output::read_edges(&a)?;
+                let (wb, hb, eb) = peeltrim::output::read_edges(&b)?;
+                if (w, h) != (wb, hb) {
+                    bail!("edges.png sizes differ: {w}x{h} against {wb}x{hb}");
+                }
+                Some(peeltrim::reference::edge_compare::compare_edges(
+                    &ea, &eb, w, h,
+                ))
+            } else {
+                None
+            };
+            let out = Out { report, edges };
+            emit(&format!("{}\n", serde_json::to_string_pretty(&out)?))?;
         }
         Cmd::Bench {
             scenes,

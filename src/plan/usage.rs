@@ -11,6 +11,13 @@ pub enum Resource {
     Color,
     /// The primitive-id target, written with `Color`.
     Prim,
+    /// The normal buffer (seed 001 §5.2): written with `Color` when the executor
+    /// is asked for normals; plans never name it (the executor adds it wherever
+    /// `Color` is written or cleared).
+    Normal,
+    /// The first layer's edge map (seed 001 §5.1), written by the executor's
+    /// edge pass from `Normal` and the output depth; plans never name it.
+    Edges,
     DepthStencil(Ds),
     Texture(Tex),
 }

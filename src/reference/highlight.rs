@@ -57,6 +57,7 @@ mod tests {
             solid: 0,
             entering: true,
             cos: 1.0,
+            normal: [0.0, 0.0, 1.0],
         }
     }
 

@@ -43,6 +43,11 @@ pub struct LayerHit {
     pub entering: bool,
     /// `|cos|` between the face's geometric normal and the line, for shading.
     pub cos: f64,
+    /// The crossed face's unit normal in view space (x right, y up, z towards
+    /// the viewer: the camera looks down −z), oriented as seen: turned towards
+    /// the eye (`dot(normal, ray) ≤ 0`), whichever side of the solid it bounds.
+    /// Seed 001 §5.2's normal buffer.
+    pub normal: [f64; 3],
 }
 
 /// Every layer of an image, and the transparent composite.
@@ -52,6 +57,8 @@ pub struct LayerStack {
     /// that crossing (background where none), its depth (`+inf`) and 1-based
     /// primitive (0).
     pub layers: Vec<Images>,
+    /// Layer k's view-space normals ([`LayerHit::normal`]; zero where none).
+    pub normals: Vec<Vec<[f32; 3]>>,
     /// The layers composited front to back with the scene's opacities.
     pub composite: Vec<[u8; 4]>,
     /// Each pixel's crossings, front to back, row-major.
@@ -78,6 +85,8 @@ pub(super) struct Scratch {
 /// which primitives it names.
 pub struct Layers<'a> {
     pub(super) prep: Prepared<'a>,
+    /// World → view rotation, for the view-space normals.
+    view: glam::DMat4,
     named: Vec<Vec<bool>>,
     /// Every pair `(a, b)`, `a < b`, of solids (for interference).
     pub(super) pairs: Vec<(u32, u32)>,
@@ -91,6 +100,7 @@ impl<'a> Layers<'a> {
         let named = named(scene);
         let k = scene.solids.len() as u32;
         Layers {
+            view: scene.camera.view(),
             prep: Prepared::new(scene),
             named,
             pairs: (0..k)
@@ -149,15 +159,18 @@ impl<'a> Layers<'a> {
         let line = Line::from_ray(&cam.ray(px, py, w, h));
         let fwd = cam.forward();
         let depth_of = |t: f64| (line.at(t) - cam.eye).dot(fwd);
-        let hit_of = |e: &WorldCrossing, solid: usize, entering: bool| LayerHit {
-            depth: depth_of(e.crossing.t),
-            prim: e.shape,
-            solid: solid as u32,
-            entering,
-            cos: p.prims.shapes[e.shape as usize]
-                .normal(e.crossing.tri)
-                .dot(line.dir)
-                .abs(),
+        let hit_of = |e: &WorldCrossing, solid: usize, entering: bool| {
+            let n = p.prims.shapes[e.shape as usize].normal(e.crossing.tri);
+            let d = n.dot(line.dir);
+            let seen = if d > 0.0 { -n } else { n };
+            LayerHit {
+                depth: depth_of(e.crossing.t),
+                prim: e.shape,
+                solid: solid as u32,
+                entering,
+                cos: d.abs(),
+                normal: self.view.transform_vector3(seen).to_array(),
+            }
         };
 
         s.events.clear();
@@ -397,9 +410,17 @@ fn stack(
                 .collect(),
         })
         .collect();
+    let normals = (0..n)
+        .map(|k| {
+            hits.iter()
+                .map(|v| v.get(k).map_or([0.0; 3], |h| h.normal.map(|c| c as f32)))
+                .collect()
+        })
+        .collect();
     let composite = hits.iter().map(|v| composite(scene, v, bg)).collect();
     LayerStack {
         layers,
+        normals,
         composite,
         hits,
     }

@@ -4,6 +4,7 @@
 #![deny(unsafe_code)]
 
 pub mod compare;
+pub mod edge_compare;
 pub mod fixtures;
 pub mod highlight;
 pub mod interference;

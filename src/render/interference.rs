@@ -128,6 +128,7 @@ pub fn interference_only(scene: &Scene, lopts: &LayerOptions) -> bool {
         && lopts.max_layers.is_none()
         && !lopts.write_layers
         && lopts.highlight.is_empty()
+        && !scene.appearance.style.layered()
 }
 
 /// [`render_interference`] as the layered renderer's answer: layer 1 is the
@@ -140,11 +141,15 @@ pub fn layered_frame(scene: &Scene, opts: &RenderOptions) -> Result<LayeredFrame
         transparent: false,
         interference_pixels: Some(inter.color.iter().filter(|c| c.is_some()).count() as u64),
         interference: Some(inter.pairs),
+        style: scene.appearance.style.name(),
         ..Default::default()
     };
     frame.stats.layers = Some(layer_stats.clone());
     Ok(LayeredFrame {
         layers: vec![frame.images.clone()],
+        // The GPU's interference frame has no normal buffer, so no edge maps.
+        normals: vec![],
+        edges: vec![],
         frame,
         layer_stats,
     })

@@ -83,6 +83,8 @@ pub(super) fn render_layered(
     Ok(LayeredFrame {
         frame: Frame { images, stats },
         layers,
+        normals: vec![],
+        edges: vec![],
         layer_stats,
     })
 }

@@ -3,6 +3,8 @@
 //! frame they produce, and writing `layers/NN/`. The reference computes them
 //! exactly ([`crate::reference::layers`]), kirsch by CSG depth peeling
 //! ([`super::kirsch`]); the other GPU algorithms say they cannot yet.
+//! Each layer also has view-space normals and, when asked for, an edge map
+//! ([`super::edges`]), from which the styles compose `color.png` ([`super::style`]).
 #![deny(unsafe_code)]
 
 use std::path::Path;
@@ -10,8 +12,10 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use super::edges::{edge_map, EdgeRule};
+use super::style::{compose, StyleLayer, DEFAULT_ALPHA};
 use super::{Frame, FrameStats, RenderError, RenderOptions};
-use crate::output::{write_images, Images, OutputError};
+use crate::output::{write_edges, write_images, write_normals, Images, OutputError};
 use crate::plan::Algo;
 use crate::plan::PlanError;
 use crate::reference::highlight::{highlight_pixel, Highlighted};
@@ -33,6 +37,8 @@ pub struct LayerOptions {
     /// `--layer-reading`: how a union of products is layered (seed 001 §7); `None`:
     /// the algorithm's own (the reference: the solid, kirsch: the products).
     pub reading: Option<LayerReading>,
+    /// `--edge-depth`, `--edge-angle`: the edge rule's thresholds.
+    pub edge_rule: EdgeRule,
 }
 
 impl LayerOptions {
@@ -44,6 +50,7 @@ impl LayerOptions {
             || self.reading.is_some()
             || !self.highlight.is_empty()
             || scene.appearance.is_transparent()
+            || scene.appearance.style.layered()
     }
 
     fn limit(&self) -> LayerLimit {
@@ -76,6 +83,11 @@ pub struct LayerStats {
     /// With interference: pixels showing an interference.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference_pixels: Option<u64>,
+    /// The style of `color.png` (`--style`, `[render] style`).
+    pub style: &'static str,
+    /// With edge maps: edge pixels of each layer, layer 1 first.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_pixels: Option<Vec<u64>>,
 }
 
 /// A frame with its layers: `images` as the contract's files (the composite in
@@ -85,6 +97,10 @@ pub struct LayerStats {
 pub struct LayeredFrame {
     pub frame: Frame,
     pub layers: Vec<Images>,
+    /// Each layer's view-space normals ([`crate::reference::layers::LayerHit::normal`]).
+    pub normals: Vec<Vec<[f32; 3]>>,
+    /// Each layer's edge map, when the style or `--layers-out` needs them (else empty).
+    pub edges: Vec<Vec<bool>>,
     pub layer_stats: LayerStats,
 }
 
@@ -107,7 +123,9 @@ pub fn render_layered(
                    product on its own: --layer-reading products)",
         });
     }
-    if opts.algo == Algo::Kirsch && !extras {
+    // Styles and edge maps need each layer's normals, which kirsch does not read back yet.
+    let styled = scene.appearance.style.layered() || lopts.write_layers;
+    if opts.algo == Algo::Kirsch && !extras && !styled {
         return super::kirsch::render_layered(scene, opts, lopts);
     }
     if opts.algo != Algo::Reference {
@@ -155,6 +173,7 @@ pub fn render_layered(
             .map(|l| l.prim.iter().filter(|&&p| p != 0).count() as u64)
             .collect(),
         transparent,
+        style: scene.appearance.style.name(),
         ..Default::default()
     };
     if interference {
@@ -162,6 +181,46 @@ pub fn render_layered(
         frame.images.color = img.color;
         layer_stats.interference_pixels = Some(img.mask.iter().filter(|&&m| m).count() as u64);
         layer_stats.interference = Some(img.pairs);
+    }
+    let style = scene.appearance.style;
+    let edges: Vec<Vec<bool>> = if style.edges() || lopts.write_layers {
+        stack
+            .layers
+            .iter()
+            .zip(&stack.normals)
+            .map(|(l, n)| edge_map(&l.depth, n, w, h, &lopts.edge_rule))
+            .collect()
+    } else {
+        vec![]
+    };
+    if !edges.is_empty() {
+        layer_stats.edge_pixels = Some(edges.iter().map(|e| super::edges::count(e)).collect());
+    }
+    if style.layered() {
+        let opacity = |hit: &crate::reference::layers::LayerHit| {
+            if transparent {
+                scene.appearance.alpha_of(hit.prim, hit.solid)
+            } else {
+                DEFAULT_ALPHA
+            }
+        };
+        let styled: Vec<StyleLayer> = stack
+            .layers
+            .iter()
+            .enumerate()
+            .map(|(k, l)| StyleLayer {
+                color: &l.color,
+                covered: l.depth.iter().map(|d| d.is_finite()).collect(),
+                edges: edges.get(k).map_or(&[][..], |e| &e[..]),
+                alpha: stack
+                    .hits
+                    .iter()
+                    .map(|v| v.get(k).map_or(1.0, |hit| opacity(hit)))
+                    .collect(),
+            })
+            .collect();
+        let n = w as usize * h as usize;
+        frame.images.color = compose(style, &styled, scene.render.background, n);
     }
     if !lopts.highlight.is_empty() {
         let mut chosen = vec![false; scene.primitives.len()];
@@ -185,15 +244,24 @@ pub fn render_layered(
     Ok(LayeredFrame {
         frame,
         layers: stack.layers,
+        normals: stack.normals,
+        edges,
         layer_stats,
     })
 }
 
 /// Writes layer k (0-based) into `dir/layers/{k+1:02}/` (`color.png`, `depth.npy`,
-/// `prim.png`).
-pub fn write_layers(dir: &Path, layers: &[Images]) -> Result<(), OutputError> {
-    for (k, img) in layers.iter().enumerate() {
-        write_images(dir.join("layers").join(format!("{:02}", k + 1)), img)?;
+/// `prim.png`, and `normal.npy` and `edges.png` where the frame has them).
+pub fn write_layers(dir: &Path, frame: &LayeredFrame) -> Result<(), OutputError> {
+    for (k, img) in frame.layers.iter().enumerate() {
+        let sub = dir.join("layers").join(format!("{:02}", k + 1));
+        write_images(&sub, img)?;
+        if let Some(n) = frame.normals.get(k) {
+            write_normals(&sub, img.width, img.height, n)?;
+        }
+        if let Some(e) = frame.edges.get(k) {
+            write_edges(&sub, img.width, img.height, e)?;
+        }
     }
     Ok(())
 }

@@ -157,6 +157,7 @@ struct RenderT {
     background: Option<Color>,
     alpha: Option<f64>,
     interference: Option<bool>,
+    style: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -376,6 +377,15 @@ impl Loader<'_> {
                 .as_ref()
                 .and_then(|r| r.get_ref().interference)
                 .unwrap_or(false),
+            style: match file
+                .render
+                .as_ref()
+                .and_then(|r| r.get_ref().style.as_deref())
+            {
+                Some(s) => super::style::parse_style(s)
+                    .map_err(|m| self.invalid(render_line, "render: style", m))?,
+                None => Default::default(),
+            },
             light: None,
         })
     }

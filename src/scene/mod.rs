@@ -15,6 +15,7 @@ pub mod load;
 pub mod obj;
 pub mod openscad;
 pub mod shapes;
+pub mod style;
 // TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
 pub mod kind;
 pub mod validate;

@@ -30,10 +30,46 @@ pub enum FragmentKind {
     ShadeAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
     CopyDepth,
+    /// The edge map from the normal buffer (set 0) and a depth buffer (set 1).
+    Edges,
 }
 
 impl FragmentKind {
-    fn spirv(self) -> &'static [u8] {
+    /// Whether the program has a variant that also writes the normal buffer
+    /// (`shaders/seen_normal.glsl`; the shading programs).
+    pub fn writes_normals(self) -> bool {
+        self.spirv_normals().is_some()
+    }
+
+    /// The variant writing the normal buffer, for those that have one.
+    fn spirv_normals(self) -> Option<&'static [u8]> {
+        macro_rules! spv {
+            ($f:literal) => {
+                Some(include_bytes!(concat!(
+                    env!("OUT_DIR"),
+                    "/",
+                    $f,
+                    ".normals.spv"
+                )))
+            };
+        }
+        match self {
+            FragmentKind::Shade => spv!("shade.frag"),
+            FragmentKind::Paint => spv!("paint.frag"),
+            FragmentKind::Background => spv!("background.frag"),
+            FragmentKind::PeelShade => spv!("peel_shade.frag"),
+            FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
+            FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
+            _ => None,
+        }
+    }
+
+    fn spirv(self, normals: bool) -> &'static [u8] {
+        if normals {
+            return self
+                .spirv_normals()
+                .unwrap_or_else(|| panic!("{self:?} writes no colour, so no normals"));
+        }
         macro_rules! spv {
             ($f:literal) => {
                 include_bytes!(concat!(env!("OUT_DIR"), "/", $f, ".spv"))
@@ -53,6 +89,7 @@ impl FragmentKind {
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
+            FragmentKind::Edges => spv!("edges.frag"),
         }
     }
 }
@@ -66,6 +103,9 @@ pub struct PipelineDesc {
     pub color_formats: Vec<vk::Format>,
     /// The depth-stencil attachment's format; `None` when none is bound.
     pub depth_stencil_format: Option<vk::Format>,
+    /// The program's variant that also writes the normal buffer (its last colour
+    /// attachment).
+    pub normals: bool,
 }
 
 /// Push constants shared by every shader (`shaders/*`: `Push`).
@@ -121,7 +161,7 @@ pub const VERTEX_STRIDE: u32 = 24;
 pub struct Pipelines {
     shared: Arc<Shared>,
     vertex: vk::ShaderModule,
-    fragments: HashMap<FragmentKind, vk::ShaderModule>,
+    fragments: HashMap<(FragmentKind, bool), vk::ShaderModule>,
     pub(crate) sampler: vk::Sampler,
     pub(crate) set_layout: vk::DescriptorSetLayout,
     pub(crate) layout: vk::PipelineLayout,
@@ -177,7 +217,9 @@ impl Pipelines {
             offset: 0,
             size: PUSH_SIZE,
         }];
-        let set_layouts = [p.set_layout];
+        // Two sets of the same layout: every program samples at most one image
+        // through set 0, the edge pass a second one through set 1.
+        let set_layouts = [p.set_layout, p.set_layout];
         let lci = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
             .push_constant_ranges(&ranges);
@@ -192,11 +234,12 @@ impl Pipelines {
         if let Some(&p) = self.cache.get(desc) {
             return Ok(p);
         }
-        let fragment = match self.fragments.get(&desc.fragment) {
+        let key = (desc.fragment, desc.normals);
+        let fragment = match self.fragments.get(&key) {
             Some(&m) => m,
             None => {
-                let m = shader_module(&self.shared, desc.fragment.spirv())?;
-                self.fragments.insert(desc.fragment, m);
+                let m = shader_module(&self.shared, desc.fragment.spirv(desc.normals))?;
+                self.fragments.insert(key, m);
                 m
             }
         };

@@ -72,6 +72,23 @@ pub fn decode(
     images
 }
 
+/// The normal buffer as copied (RGBA32F, xyz a world-oriented unit normal, 0 on
+/// background) rotated into view space by `view` (world → view); zero stays zero.
+pub fn decode_normals(bytes: &[u8], view: &glam::DMat4) -> Vec<[f32; 3]> {
+    bytes
+        .chunks_exact(16)
+        .map(|t| {
+            let f = |k: usize| f32::from_ne_bytes([t[k], t[k + 1], t[k + 2], t[k + 3]]) as f64;
+            let n = glam::DVec3::new(f(0), f(4), f(8));
+            if n == glam::DVec3::ZERO {
+                [0.0; 3]
+            } else {
+                view.transform_vector3(n).normalize().as_vec3().to_array()
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

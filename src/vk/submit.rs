@@ -130,6 +130,19 @@ impl Drop for Submitter {
 }
 
 /// A global memory barrier.
+/// Makes transfer writes (copies into a read-back buffer) visible to the host.
+pub fn transfer_to_host_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
+    memory_barrier(
+        device,
+        cmd,
+        (
+            vk::PipelineStageFlags::TRANSFER,
+            vk::AccessFlags::TRANSFER_WRITE,
+        ),
+        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+    );
+}
+
 pub fn memory_barrier(
     device: &ash::Device,
     cmd: vk::CommandBuffer,

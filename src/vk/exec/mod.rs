@@ -16,10 +16,12 @@
 //!
 //! Modules: `gpu_scene` (vertex buffer, camera state), `targets` (images and
 //! descriptor sets), `record` (steps to commands, barriers from `plan::usage`
-//! through `vk::sync`), `stats` (typed statistics).
+//! through `vk::sync`), `stats` (typed statistics), `normals` (the optional
+//! normal buffer and the edge pass on it, seed 001 §5).
 
 mod embed;
 mod gpu_scene;
+mod normals;
 mod record;
 mod stats;
 mod targets;
@@ -112,6 +114,8 @@ pub struct Executor {
     clears: ClearMode,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
     rounding: Option<super::RoundingEmulation>,
+    /// Write the normal buffer with the colour ([`Executor::set_normals`]).
+    normals: bool,
 }
 
 impl Executor {
@@ -161,6 +165,7 @@ impl Executor {
             last_output: None,
             clears,
             rounding: None,
+            normals: false,
         })
     }
 
@@ -210,11 +215,23 @@ impl Executor {
     fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
         let n_ds = plan.depth_stencils.max(1) as usize;
         let n_tex = plan.textures as usize;
-        if self.targets.as_ref().is_some_and(|t| t.fits(n_ds, n_tex)) {
+        let normals = self.normals;
+        if self
+            .targets
+            .as_ref()
+            .is_some_and(|t| t.fits(n_ds, n_tex, normals))
+        {
             return Ok(());
         }
         self.targets = None;
-        let t = Targets::new(&self.shared, &self.pipelines, &self.desc, n_ds, n_tex)?;
+        let t = Targets::new(
+            &self.shared,
+            &self.pipelines,
+            &self.desc,
+            n_ds,
+            n_tex,
+            normals,
+        )?;
         // New images start in `REST`, where every recording expects them.
         let cmd = self.submit.cmd;
         self.submit.begin(cmd, true)?;
@@ -327,6 +344,7 @@ impl Executor {
             clears: self.clears,
             flags,
             snap,
+            normals: self.normals,
         };
         (Recorder::new(b), &self.submit)
     }
@@ -595,36 +613,12 @@ impl Executor {
         // Frames leave every image in `REST`, a copy source.
         let layout = sync::access(REST).layout;
         for (img, aspect, offset) in copies {
-            let region = vk::BufferImageCopy {
-                buffer_offset: offset,
-                buffer_row_length: 0,
-                buffer_image_height: 0,
-                image_subresource: vk::ImageSubresourceLayers {
-                    aspect_mask: aspect,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                },
-                image_offset: vk::Offset3D::default(),
-                image_extent: vk::Extent3D {
-                    width: w,
-                    height: h,
-                    depth: 1,
-                },
-            };
+            let region = whole_image_region(aspect, offset, w, h);
             // SAFETY: outside rendering; the image allows transfer src and rests in
             // `layout`; the region fits the buffer.
             unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, layout, buffer, &[region]) };
         }
-        submit::memory_barrier(
-            device,
-            cmd,
-            (
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            ),
-            (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-        );
+        submit::transfer_to_host_barrier(device, cmd);
         self.submit.finish(cmd)?;
         let bytes = self
             .readback
@@ -647,6 +641,32 @@ impl Executor {
             gpu_scene::convention(&self.desc),
             scene.background,
         ))
+    }
+}
+
+/// A copy of a whole `w × h` image aspect to `offset` of a tightly packed buffer.
+pub(super) fn whole_image_region(
+    aspect: vk::ImageAspectFlags,
+    offset: u64,
+    w: u32,
+    h: u32,
+) -> vk::BufferImageCopy {
+    vk::BufferImageCopy {
+        buffer_offset: offset,
+        buffer_row_length: 0,
+        buffer_image_height: 0,
+        image_subresource: vk::ImageSubresourceLayers {
+            aspect_mask: aspect,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        },
+        image_offset: vk::Offset3D::default(),
+        image_extent: vk::Extent3D {
+            width: w,
+            height: h,
+            depth: 1,
+        },
     }
 }
 

@@ -56,6 +56,8 @@ pub(super) struct Bindings<'a> {
     pub flags: u32,
     /// Emulated vertex snapping step of mesh draws (zero: off).
     pub snap: [f32; 2],
+    /// Write the normal buffer wherever colour is written (seed 001 §5.2).
+    pub normals: bool,
 }
 
 /// How a plan's clears of attachments are recorded.
@@ -158,8 +160,83 @@ impl<'a> Recorder<'a> {
         ] {
             self.flush_clear(r);
         }
+        if self.b.normals {
+            self.flush_clear(Resource::Normal);
+        }
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
+        self.rest_all();
+    }
+
+    /// Seed 001 §5.1's edge map of the last frame's first layer, in one
+    /// full-screen draw (`shaders/edges.frag`) into the edge target, sampling the
+    /// normal buffer and depth-stencil `output_ds`; every image rests in `REST`
+    /// after. `rule`: relative depth threshold and cosine of the crease angle.
+    pub fn edge_pass(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        output_ds: u8,
+        rule: [f32; 2],
+    ) -> Result<(), VkError> {
+        self.cmd = cmd;
+        self.bound = None;
+        let depth = Resource::DepthStencil(output_ds);
+        let key = BlockKey {
+            colors: vec![Resource::Edges],
+            ds: None,
+        };
+        let uses = [
+            (Resource::Edges, Usage::ColorTarget),
+            (Resource::Normal, Usage::Sampled),
+            (depth, Usage::Sampled),
+        ];
+        self.open(&key, &uses);
+        let pipeline = self.pipeline_for(&key, FragmentKind::Edges)?;
+        self.bind(
+            pipeline,
+            Some(self.b.targets.sampling_set(Resource::Normal)),
+        );
+        let depth_set = self.b.targets.sampling_set(depth);
+        // SAFETY: set 1 of the pipeline layout has the set's layout; inside a block.
+        unsafe {
+            self.b.device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.b.pipelines.layout,
+                1,
+                &[depth_set],
+                &[],
+            )
+        };
+        let full = Rect::full(self.b.desc.width, self.b.desc.height);
+        self.set_state(None, full);
+        let cam = &self.b.scene.camera;
+        let ortho = matches!(
+            cam.projection,
+            crate::scene::Projection::Orthographic { .. }
+        );
+        self.push(&PushConstants {
+            mvp: Self::fullscreen_matrix(0.0),
+            view: [cam.near as f32, cam.far as f32, ortho as u32 as f32, 0.0],
+            color: [rule[0], rule[1], 0.0, 0.0],
+            flags: self.flags(),
+            ..Default::default()
+        });
+        // SAFETY: inside a block with a bound pipeline and vertex buffer.
+        unsafe {
+            self.b
+                .device
+                .cmd_draw(cmd, 6, 1, self.b.scene.quad_first, 0)
+        };
+        self.stats.counts.fullscreen_passes += 1;
+        self.stats.counts.fullscreen_pixels += full.area();
+        self.end_block();
+        self.rest_all();
+        Ok(())
+    }
+
+    /// Every image to `REST`, where frames leave them.
+    fn rest_all(&mut self) {
         let rest: Vec<_> = self
             .b
             .targets
@@ -308,6 +385,14 @@ impl<'a> Recorder<'a> {
                         },
                     ),
                 ]
+                .into_iter()
+                .chain(self.b.normals.then_some((
+                    Resource::Normal,
+                    vk::ClearValue {
+                        color: vk::ClearColorValue { float32: [0.0; 4] },
+                    },
+                )))
+                .collect()
             }
         }
     }
@@ -489,6 +574,7 @@ impl<'a> Recorder<'a> {
                 .map(|r| targets::format(*r, &self.b.desc))
                 .collect(),
             depth_stencil_format: key.ds.map(|_| self.b.desc.depth_format.vk()),
+            normals: key.colors.contains(&Resource::Normal),
         };
         self.b.pipelines.get(&desc)
     }
@@ -670,12 +756,20 @@ impl<'a> Recorder<'a> {
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
             .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));
+        let mut colors = usage::color_targets(&draw.fragment);
+        let mut uses = step.usage();
+        if self.b.normals && colors.contains(&Resource::Color) {
+            // The normal buffer goes with the colour, as the last attachment
+            // (the programs' `NORMALS` variants write it there).
+            colors.push(Resource::Normal);
+            uses.push((Resource::Normal, Usage::ColorTarget));
+        }
         let key = BlockKey {
-            colors: usage::color_targets(&draw.fragment),
+            colors,
             ds: Some(draw.ds),
         };
         let pipeline = self.pipeline_for(&key, kind)?;
-        self.open(&key, &step.usage());
+        self.open(&key, &uses);
         self.bind(pipeline, set);
         self.set_state(Some(draw), scissor);
         let flags = self.flags();

@@ -21,6 +21,12 @@ pub(super) struct Targets {
     pub ds_sets: Vec<vk::DescriptorSet>,
     pub color: Image,
     pub prim: Image,
+    /// The normal buffer, when the executor writes normals.
+    pub normal: Option<Image>,
+    /// The edge map of the edge pass (with the normal buffer).
+    pub edges: Option<Image>,
+    /// The descriptor set sampling the normal buffer.
+    normal_set: Option<vk::DescriptorSet>,
     pub ds: Vec<Image>,
     pub tex: Vec<Image>,
 }
@@ -36,6 +42,10 @@ pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
     match r {
         Resource::Color => vk::Format::R8G8B8A8_UNORM,
         Resource::Prim => vk::Format::R32_UINT,
+        // xyz: the seen face's unit normal (world orientation); 0 on background.
+        Resource::Normal => vk::Format::R32G32B32A32_SFLOAT,
+        // 255 on edges, 0 elsewhere.
+        Resource::Edges => vk::Format::R8_UNORM,
         Resource::Texture(_) => vk::Format::R32_SFLOAT,
         Resource::DepthStencil(_) => desc.depth_format.vk(),
     }
@@ -43,8 +53,8 @@ pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
 
 impl Targets {
     /// Fits `n_ds` depth-stencil images and `n_tex` textures of `desc`'s size.
-    pub fn fits(&self, n_ds: usize, n_tex: usize) -> bool {
-        self.ds.len() >= n_ds && self.tex.len() >= n_tex
+    pub fn fits(&self, n_ds: usize, n_tex: usize, normals: bool) -> bool {
+        self.ds.len() >= n_ds && self.tex.len() >= n_tex && self.normal.is_some() == normals
     }
 
     pub fn new(
@@ -53,6 +63,7 @@ impl Targets {
         desc: &ExecDesc,
         n_ds: usize,
         n_tex: usize,
+        normals: bool,
     ) -> Result<Targets, VkError> {
         let (w, h) = (desc.width, desc.height);
         let sh = shared;
@@ -71,6 +82,23 @@ impl Targets {
             "prim",
             ImageDesc::new_2d(format(Resource::Prim, desc), [w, h]).usage(out_usage),
         )?;
+        let (normal, edges) = if normals {
+            (
+                Some(Image::new(
+                    sh,
+                    "normal",
+                    ImageDesc::new_2d(format(Resource::Normal, desc), [w, h])
+                        .usage(color_usage | vk::ImageUsageFlags::SAMPLED),
+                )?),
+                Some(Image::new(
+                    sh,
+                    "edges",
+                    ImageDesc::new_2d(format(Resource::Edges, desc), [w, h]).usage(color_usage),
+                )?),
+            )
+        } else {
+            (None, None)
+        };
         let mut ds = Vec::new();
         for i in 0..n_ds {
             ds.push(Image::new(
@@ -93,7 +121,7 @@ impl Targets {
                     .usage(color_usage | vk::ImageUsageFlags::SAMPLED),
             )?);
         }
-        let n_sets = (n_ds + n_tex) as u32;
+        let n_sets = (n_ds + n_tex + normals as usize) as u32;
         let sizes = [
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::SAMPLED_IMAGE,
@@ -117,6 +145,9 @@ impl Targets {
             ds_sets: Vec::new(),
             color,
             prim,
+            normal,
+            edges,
+            normal_set: None,
             ds,
             tex,
         };
@@ -131,6 +162,7 @@ impl Targets {
             t.ds.iter()
                 .map(|i| i.depth_view)
                 .chain(t.tex.iter().map(|i| i.view))
+                .chain(t.normal.iter().map(|i| i.view))
                 .collect();
         let sampled = sync::access(crate::plan::usage::Usage::Sampled).layout;
         for (set, view) in sets.iter().zip(&views) {
@@ -160,7 +192,8 @@ impl Targets {
             unsafe { sh.device.update_descriptor_sets(&writes, &[]) };
         }
         t.ds_sets = sets[..n_ds].to_vec();
-        t.tex_sets = sets[n_ds..].to_vec();
+        t.tex_sets = sets[n_ds..n_ds + n_tex].to_vec();
+        t.normal_set = sets.get(n_ds + n_tex).copied();
         Ok(t)
     }
 
@@ -168,6 +201,14 @@ impl Targets {
         match r {
             Resource::Color => &self.color,
             Resource::Prim => &self.prim,
+            Resource::Normal => self
+                .normal
+                .as_ref()
+                .expect("the normal buffer is used only when the executor writes normals"),
+            Resource::Edges => self
+                .edges
+                .as_ref()
+                .expect("the edge map is used only when the executor writes normals"),
             Resource::DepthStencil(d) => &self.ds[d as usize],
             Resource::Texture(t) => &self.tex[t as usize],
         }
@@ -176,6 +217,8 @@ impl Targets {
     /// Every image, in a fixed order.
     pub fn all(&self) -> Vec<Resource> {
         let mut v = vec![Resource::Color, Resource::Prim];
+        v.extend(self.normal.as_ref().map(|_| Resource::Normal));
+        v.extend(self.edges.as_ref().map(|_| Resource::Edges));
         v.extend((0..self.ds.len() as u8).map(Resource::DepthStencil));
         v.extend((0..self.tex.len() as u8).map(Resource::Texture));
         v
@@ -186,7 +229,10 @@ impl Targets {
         match r {
             Resource::DepthStencil(d) => self.ds_sets[d as usize],
             Resource::Texture(t) => self.tex_sets[t as usize],
-            Resource::Color | Resource::Prim => {
+            Resource::Normal => self
+                .normal_set
+                .expect("the normal buffer is sampled only when the executor writes normals"),
+            Resource::Color | Resource::Prim | Resource::Edges => {
                 panic!("colour targets are never sampled (plan::usage says so)")
             }
         }
