@@ -292,6 +292,12 @@ impl GpuRenderer {
         })
     }
 
+    /// Moves the camera (no upload; the next frame replays its recording when the
+    /// scissors allow, see `vk::Recorded`).
+    pub fn set_camera(&mut self, camera: &crate::scene::Camera) -> Result<(), RenderError> {
+        Ok(self.exec.set_camera(camera)?)
+    }
+
     /// The next frame records its command buffer again instead of replaying it.
     pub fn forget_recording(&mut self) {
         self.exec.forget_recording();
