@@ -11,6 +11,7 @@ mod cst;
 mod embed;
 mod limits;
 mod openscad;
+mod replay;
 mod rounding;
 mod scad_models;
 mod setup;
