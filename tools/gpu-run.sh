@@ -11,8 +11,8 @@
 #     `opencsg-bench`, into .gpu/bin/;
 #   - Debian's Vulkan loader and GL/EGL dispatch libraries, OpenCSG's and GLEW's
 #     runtime libraries into .gl/, the validation layers into .gl/vvl/;
-#   - .gl/ and .gpu/ go into .git/info/exclude: they are build outputs, carried
-#     to the device machine by naming them (`carry: [".gpu", ".gl"]`).
+#   - .gl/ and .gpu/ are ignored (.gitignore): build outputs, carried to the
+#     device machine by naming them (`carry: [".gpu", ".gl"]`).
 #
 # run (needs only the working tree, .gpu/ and .gl/):
 #   - unpacks the debs into a private prefix (never into /), points the loader,
@@ -35,8 +35,6 @@ cd "$(dirname "$0")/.."
 root=$(pwd)
 
 prepare() {
-    grep -qx '/.gl/' .git/info/exclude 2>/dev/null || echo '/.gl/' >>.git/info/exclude
-    grep -qx '/.gpu/' .git/info/exclude 2>/dev/null || echo '/.gpu/' >>.git/info/exclude
     mkdir -p .gpu/bin .gl/vvl
     cargo build --release --bin peeltrim
     strip -o .gpu/bin/peeltrim target/release/peeltrim
@@ -53,6 +51,7 @@ prepare() {
     fi
     (
         cd .gl
+        rm -f ./*.deb vvl/*.deb
         apt-get download libvulkan1 libegl1 libglvnd0 libopengl0 libgl1 libglx0 \
             libgles2 libopencsg1 libglew2.2
         cd vvl && apt-get download vulkan-validationlayers

@@ -169,7 +169,7 @@ pub fn section(records: &[Record]) -> String {
             .count();
         let _ = writeln!(
             s,
-            "\nRecording anew: median {:.2} µs per draw (max {:.2}) over {} runs; a camera moved by {}° replayed without recording in {moved} of them.",
+            "\nRecording anew: median {:.2} µs per draw (max {:.2}) over {} runs; the second frame of an orbit by two steps of {}°/2 replayed without recording in {moved} of them.",
             per_draw[per_draw.len() / 2],
             per_draw[per_draw.len() - 1],
             recorded.len(),

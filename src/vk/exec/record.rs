@@ -62,6 +62,21 @@ impl BlockKey {
         }
     }
 
+    /// The block of a draw with usages `uses` (which list its colour targets
+    /// in attachment order) into depth-stencil `ds`.
+    fn of_draw(uses: &[(Resource, Usage)], ds: u8) -> BlockKey {
+        let mut key = BlockKey::new(&[], Some(ds));
+        for &(r, _) in uses.iter().filter(|u| u.1 == Usage::ColorTarget) {
+            assert!(
+                (key.n_colors as usize) < MAX_COLORS,
+                "a fragment program writes at most {MAX_COLORS} colour targets"
+            );
+            key.colors[key.n_colors as usize] = r;
+            key.n_colors += 1;
+        }
+        key
+    }
+
     fn colors(&self) -> &[Resource] {
         &self.colors[..self.n_colors as usize]
     }
@@ -681,9 +696,10 @@ impl<'a> Recorder<'a> {
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
             .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));
-        let key = BlockKey::new(&usage::color_targets(&draw.fragment), Some(draw.ds));
+        let uses = step.usage();
+        let key = BlockKey::of_draw(&uses, draw.ds);
         let pipeline = self.pipeline_for(&key, kind)?;
-        self.open(&key, &step.usage());
+        self.open(&key, &uses);
         self.bind(pipeline, set);
         self.set_state(Some(draw), scissor);
         let flags = self.flags();
