@@ -214,8 +214,12 @@ fn scaling_table(records: &[Record]) -> String {
                 .unwrap_or_else(|| "none".into())
         );
         s.push_str("| algo | ms per n | intercept ms | exponent | n | frame ms at largest n |\n|---|---|---|---|---|---|\n");
-        let mut algos: Vec<&str> = rows.iter().map(|r| r.algo.as_str()).collect();
-        algos.dedup();
+        let mut algos: Vec<&str> = Vec::new();
+        for r in &rows {
+            if !algos.contains(&r.algo.as_str()) {
+                algos.push(&r.algo);
+            }
+        }
         for a in algos {
             let at_max = rows.iter().find(|r| r.algo == a && r.n == Some(n_max));
             let fit = rows
