@@ -187,6 +187,7 @@ fn scaling_table(records: &[Record]) -> String {
     let mut s = String::new();
     let mut families: Vec<(String, String, u32, u32)> = records
         .iter()
+        .filter(|r| r.algo != "reference")
         .filter_map(|r| Some((r.family.clone()?, r.depth_setup.clone(), r.width, r.height)))
         .collect();
     families.sort();
