@@ -1,7 +1,7 @@
 #version 450
 // Seed 001 §5.1's edge map in one full-screen pass: the rule of src/render/edges.rs
 // on the normal buffer (set 0: xyz the seen face's unit normal, zero where nothing
-// was drawn) and the depth buffer (set 1). Both pixels of a 4-neighbour pair are
+// was drawn) and the depth buffer (set 2; set 1 is the camera). Both pixels of a 4-neighbour pair are
 // edges when coverage differs, when their view depths differ by more than
 // color.x of the nearer one, or when their normals' dot product is below color.y;
 // the image border is never an edge. Writes 1 on edges, 0 elsewhere.
@@ -17,8 +17,8 @@ layout(push_constant) uniform Push {
 } pc;
 layout(set = 0, binding = 0) uniform texture2D u_normal;
 layout(set = 0, binding = 1) uniform sampler u_samp;
-layout(set = 1, binding = 0) uniform texture2D u_depth;
-layout(set = 1, binding = 1) uniform sampler u_samp_depth;
+layout(set = 2, binding = 0) uniform texture2D u_depth;
+layout(set = 2, binding = 1) uniform sampler u_samp_depth;
 layout(location = 0) out vec4 o_edge;
 
 // Camera::view_depth_from_ndc.

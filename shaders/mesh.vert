@@ -9,13 +9,14 @@ layout(push_constant) uniform Push {
     vec4 color;
     // primitive id written to the id target (mesh index + 1)
     uint prim;
-    // bit 0: reversed Z (near = 1, far = 0)
+    // bit 0: reversed Z (near = 1, far = 0); bit 1: a mesh, transformed by cam.mvp
     uint flags;
     // Rounding emulation (tests only; 0 = off): the NDC step of a coarse subpixel
     // grid to which vertices are snapped, as a device with few subPixelPrecisionBits
     // snaps them before interpolating depth (vk::RoundingEmulation).
     vec2 snap;
 } pc;
+#include "camera.glsl"
 
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec3 a_normal;
@@ -28,7 +29,9 @@ invariant gl_Position;
 void main() {
     v_world = a_pos;
     v_normal = a_normal;
-    vec4 p = pc.mvp * vec4(a_pos, 1.0);
+    // Meshes (flags bit 1) use the camera's matrix; full-screen rectangles their own.
+    mat4 m = (pc.flags & 2u) != 0u ? cam.mvp : pc.mvp;
+    vec4 p = m * vec4(a_pos, 1.0);
     if (pc.snap.x > 0.0 && p.w > 0.0) {
         // Window position in grid steps from the viewport corner, rounded, back
         // to clip space with the same w (the point stays on its eye ray up to

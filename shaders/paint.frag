@@ -11,6 +11,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "camera.glsl"
 layout(location = 0) in vec3 v_world;
 layout(location = 1) flat in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
@@ -22,7 +23,7 @@ layout(location = 1) out uint o_prim;
 
 float shade_factor() {
     vec3 n = normalize(v_normal);
-    vec3 v = pc.view.w > 0.5 ? normalize(v_world - pc.view.xyz) : pc.view.xyz;
+    vec3 v = cam.view.w > 0.5 ? normalize(v_world - cam.view.xyz) : cam.view.xyz;
     return 0.25 + 0.75 * abs(dot(n, v));
 }
 

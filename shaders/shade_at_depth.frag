@@ -13,6 +13,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "camera.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) in vec3 v_world;
@@ -26,7 +27,7 @@ layout(location = 1) out uint o_prim;
 
 float shade_factor() {
     vec3 n = normalize(v_normal);
-    vec3 v = pc.view.w > 0.5 ? normalize(v_world - pc.view.xyz) : pc.view.xyz;
+    vec3 v = cam.view.w > 0.5 ? normalize(v_world - cam.view.xyz) : cam.view.xyz;
     return 0.25 + 0.75 * abs(dot(n, v));
 }
 

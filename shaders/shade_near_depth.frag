@@ -15,6 +15,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "camera.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) in vec3 v_world;
@@ -56,14 +57,14 @@ bool near_depth(float z, TieTexel t, vec2 dz) {
 // pixel centre and this is gl_FragCoord.z.
 float plane_depth(vec2 dz) {
     vec2 size = vec2(textureSize(sampler2D(u_tex, u_samp), 0));
-    vec4 clip = pc.mvp * vec4(v_world, 1.0);
+    vec4 clip = cam.mvp * vec4(v_world, 1.0);
     vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * size;
     return clamp(gl_FragCoord.z + dot(dz, gl_FragCoord.xy - at), 0.0, 1.0);
 }
 
 float shade_factor() {
     vec3 n = normalize(v_normal);
-    vec3 v = pc.view.w > 0.5 ? normalize(v_world - pc.view.xyz) : pc.view.xyz;
+    vec3 v = cam.view.w > 0.5 ? normalize(v_world - cam.view.xyz) : cam.view.xyz;
     return 0.25 + 0.75 * abs(dot(n, v));
 }
 

@@ -329,6 +329,12 @@ impl GpuRenderer {
         Ok(self.exec.edge_map(rule.depth_rel, rule.angle_deg)?)
     }
 
+    /// Moves the camera (no upload; the next frame replays its recording when the
+    /// scissors allow, see `vk::Recorded`).
+    pub fn set_camera(&mut self, camera: &crate::scene::Camera) -> Result<(), RenderError> {
+        Ok(self.exec.set_camera(camera)?)
+    }
+
     /// The next frame records its command buffer again instead of replaying it.
     pub fn forget_recording(&mut self) {
         self.exec.forget_recording();

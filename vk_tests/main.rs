@@ -13,6 +13,7 @@ mod embed;
 mod kirsch;
 mod limits;
 mod openscad;
+mod replay;
 mod rounding;
 mod scad_models;
 mod setup;

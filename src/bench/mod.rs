@@ -8,6 +8,7 @@
 //! can be fast because it draws the wrong thing.
 #![deny(unsafe_code)]
 
+pub mod checks;
 pub mod families;
 pub mod modes;
 pub mod opencsg;
@@ -77,8 +78,21 @@ pub struct Record {
     pub frame_ms_iqr: f64,
     /// CPU time recording command buffers (0 when a recording is replayed).
     pub record_ms_median: f64,
-    /// CPU time of recording the frame anew (a new plan or camera), once per run.
+    /// CPU time of recording the frame anew (a new plan), once per run.
     pub rerecord_ms: f64,
+    /// `rerecord_ms` per executed draw, in microseconds.
+    pub rerecord_us_per_draw: f64,
+    /// CPU time recording the frame after the camera orbits by
+    /// [`CAMERA_NUDGE_DEG`] in two half steps, of the second step (0: replayed,
+    /// only the camera's buffer written).
+    pub camera_move_record_ms: f64,
+    /// How that frame came to be.
+    pub camera_move: Option<crate::vk::Recorded>,
+    /// The overhead check of the timed frames.
+    pub overhead: Option<checks::Overhead>,
+    /// For a scaling family: the fit of this algorithm's `frame_ms` over the
+    /// family's sizes.
+    pub scaling: Option<checks::ScalingFit>,
     /// Deterministic counts of the last frame (identical across frames and runs).
     pub counts: Value,
     /// Per-pass GPU time of the median frame.
@@ -203,6 +217,11 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 frame_ms_iqr: 0.0,
                 record_ms_median: 0.0,
                 rerecord_ms: 0.0,
+                rerecord_us_per_draw: 0.0,
+                camera_move_record_ms: 0.0,
+                camera_move: None,
+                overhead: None,
+                scaling: None,
                 counts: Value::Null,
                 per_pass: Value::Null,
                 error: Value::Null,
@@ -267,6 +286,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
         }
     }
     bar.finish_with_message("done");
+    checks::fit_families(&mut records);
     Ok(records)
 }
 
@@ -308,10 +328,16 @@ fn run_one(
     }
     let gpu = gpu.as_mut().expect("created above");
     let mut slow = false;
+    let mut last = None;
     for _ in 0..cfg.warmup {
         let t = Instant::now();
-        gpu.execute(&plan).map_err(|e| e.to_string())?;
+        last = Some(gpu.execute(&plan).map_err(|e| e.to_string())?.exec.recorded);
         slow |= t.elapsed().as_secs_f64() * 1e3 > cfg.budget_ms;
+    }
+    // A plan's first frame runs loop by loop; the next records the frame that
+    // later frames replay. Timed frames are those replays.
+    if cfg.warmup > 0 && last == Some(crate::vk::Recorded::Stepwise) {
+        gpu.execute(&plan).map_err(|e| e.to_string())?;
     }
     // Timed frames leave their images on the GPU; the last one is read back once,
     // after timing, for the error against the reference.
@@ -319,17 +345,26 @@ fn run_one(
     for _ in 0..if slow { 1 } else { cfg.frames.max(1) } {
         frames.push(gpu.execute(&plan).map_err(|e| e.to_string())?);
     }
-    // One more frame, recorded anew: what a new plan or camera costs the CPU
-    // (skipped for runs over the time budget).
-    let rerecord_ms = if slow {
-        0.0
-    } else {
+    let replayed = frames.iter().filter(|f| f.exec.record_ms == 0.0).count() as u32;
+    // A camera move (a viewer's orbit), then one frame recorded anew at the
+    // original camera: what a moved camera and a new plan cost the CPU (skipped
+    // for runs over the time budget).
+    let (mut camera_move_record_ms, mut camera_move, mut rerecord_ms) = (0.0, None, 0.0);
+    if !slow {
+        let err = |e: crate::render::RenderError| e.to_string();
+        // An orbit in two steps: the first records the frame with grown
+        // scissors, the second is what each frame of an orbit then costs.
+        gpu.set_camera(&nudged(&scene.camera, 0.5)).map_err(err)?;
+        gpu.execute(&plan).map_err(err)?;
+        gpu.set_camera(&nudged(&scene.camera, 1.0)).map_err(err)?;
+        let moved = gpu.execute(&plan).map_err(err)?.exec;
+        (camera_move_record_ms, camera_move) = (moved.record_ms, Some(moved.recorded));
+        gpu.set_camera(&scene.camera).map_err(err)?;
+        // Relearns the loop counts should the moved view have changed them.
+        gpu.execute(&plan).map_err(err)?;
         gpu.forget_recording();
-        gpu.execute(&plan)
-            .map_err(|e| e.to_string())?
-            .exec
-            .record_ms
-    };
+        rerecord_ms = gpu.execute(&plan).map_err(err)?.exec.record_ms;
+    }
     let images = gpu.read_back().map_err(|e| e.to_string())?;
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {
@@ -373,6 +408,11 @@ fn run_one(
         frame_ms_iqr: fiqr,
         record_ms_median: rm,
         rerecord_ms,
+        rerecord_us_per_draw: rerecord_ms * 1e3 / (last.exec.counts.draws.max(1) as f64),
+        camera_move_record_ms,
+        camera_move,
+        overhead: Some(checks::Overhead::of(frames.len() as u32, replayed, gm, fm)),
+        scaling: None,
         counts: serde_json::to_value(&counts).unwrap_or(Value::Null),
         per_pass: serde_json::to_value(&mid.exec.per_pass).unwrap_or(Value::Null),
         error,
@@ -381,6 +421,22 @@ fn run_one(
         interference: modes::interference(cfg, scene, algo, depth)?,
     };
     Ok((rec, images))
+}
+
+/// How far the bench orbits the camera (in two half steps) to time a camera move.
+pub const CAMERA_NUDGE_DEG: f64 = 1.0;
+
+/// `cam` orbited by `fraction` of [`CAMERA_NUDGE_DEG`] about its up axis through
+/// its target.
+fn nudged(cam: &crate::scene::Camera, fraction: f64) -> crate::scene::Camera {
+    let turn = glam::DQuat::from_axis_angle(
+        cam.up.normalize(),
+        (fraction * CAMERA_NUDGE_DEG).to_radians(),
+    );
+    crate::scene::Camera {
+        eye: cam.target + turn * (cam.eye - cam.target),
+        ..*cam
+    }
 }
 
 /// The deterministic counts a record keeps of its last frame.

@@ -31,6 +31,8 @@ pub mod sync;
 
 pub use embed::{Embedder, HostTargets};
 pub use error::VkError;
-pub use exec::{ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats};
+pub use exec::{
+    ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats, Recorded,
+};
 pub use instance::{Context, ContextDesc, DeviceChoice};
 pub use rounding::RoundingEmulation;

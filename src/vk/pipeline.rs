@@ -108,7 +108,9 @@ pub struct PipelineDesc {
     pub normals: bool,
 }
 
-/// Push constants shared by every shader (`shaders/*`: `Push`).
+/// Push constants shared by every shader (`shaders/*`: `Push`). Nothing in them
+/// depends on the camera (that is in the uniform buffer of `shaders/camera.glsl`),
+/// so recordings survive camera moves; `view` is unused, kept for the layout.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PushConstants {
@@ -125,6 +127,10 @@ pub struct PushConstants {
 pub const PUSH_SIZE: u32 = std::mem::size_of::<PushConstants>() as u32;
 /// `PushConstants::flags` bit: depths are reversed (near 1, far 0).
 pub const FLAG_REVERSED_Z: u32 = 1;
+/// `PushConstants::flags` bit: a mesh draw, transformed by the camera's matrix
+/// from the uniform buffer (set 1); without it the push constants' `mvp` (the
+/// full-screen rectangle's).
+pub const FLAG_MESH: u32 = 2;
 /// `PushConstants::flags` bits 8..16: the device's subpixel precision bits, from
 /// which the shaders' tie tolerance derives its slope term (`plan::tie`).
 pub const FLAG_SUBPIXEL_SHIFT: u32 = 8;
@@ -164,6 +170,8 @@ pub struct Pipelines {
     fragments: HashMap<(FragmentKind, bool), vk::ShaderModule>,
     pub(crate) sampler: vk::Sampler,
     pub(crate) set_layout: vk::DescriptorSetLayout,
+    /// Set 1: the camera's uniform buffer.
+    pub(crate) camera_set_layout: vk::DescriptorSetLayout,
     pub(crate) layout: vk::PipelineLayout,
     cache: HashMap<PipelineDesc, vk::Pipeline>,
 }
@@ -184,6 +192,7 @@ impl Pipelines {
             fragments: HashMap::new(),
             sampler: vk::Sampler::null(),
             set_layout: vk::DescriptorSetLayout::null(),
+            camera_set_layout: vk::DescriptorSetLayout::null(),
             layout: vk::PipelineLayout::null(),
             cache: HashMap::new(),
         };
@@ -217,9 +226,18 @@ impl Pipelines {
             offset: 0,
             size: PUSH_SIZE,
         }];
-        // Two sets of the same layout: every program samples at most one image
-        // through set 0, the edge pass a second one through set 1.
-        let set_layouts = [p.set_layout, p.set_layout];
+        let camera = [vk::DescriptorSetLayoutBinding::default()
+            .binding(0)
+            .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+            .descriptor_count(1)
+            .stage_flags(vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT)];
+        let cci = vk::DescriptorSetLayoutCreateInfo::default().bindings(&camera);
+        // SAFETY: valid create info on a live device.
+        p.camera_set_layout = unsafe { shared.device.create_descriptor_set_layout(&cci, None) }
+            .check("vkCreateDescriptorSetLayout")?;
+        // Set 0: the image a program samples; set 1: the camera; set 2 (the same
+        // layout as set 0): the edge pass's second image.
+        let set_layouts = [p.set_layout, p.camera_set_layout, p.set_layout];
         let lci = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
             .push_constant_ranges(&ranges);
@@ -368,6 +386,8 @@ impl Drop for Pipelines {
         unsafe { d.destroy_pipeline_layout(self.layout, None) };
         // SAFETY: as above.
         unsafe { d.destroy_descriptor_set_layout(self.set_layout, None) };
+        // SAFETY: as above.
+        unsafe { d.destroy_descriptor_set_layout(self.camera_set_layout, None) };
         // SAFETY: as above.
         unsafe { d.destroy_sampler(self.sampler, None) };
         for (_, m) in self.fragments.drain() {

@@ -47,6 +47,25 @@ impl Rect {
         self.area() == 0
     }
 
+    /// Whether `o` lies inside `self`.
+    pub fn contains(&self, o: &Rect) -> bool {
+        self.x0 <= o.x0 && self.y0 <= o.y0 && o.x1 <= self.x1 && o.y1 <= self.y1
+    }
+
+    /// `self` grown by `mx` pixels left and right and `my` up and down, within a
+    /// `width × height` image; an empty rectangle stays empty.
+    pub fn grown(&self, mx: u32, my: u32, width: u32, height: u32) -> Rect {
+        if self.is_empty() {
+            return *self;
+        }
+        Rect {
+            x0: self.x0.saturating_sub(mx),
+            y0: self.y0.saturating_sub(my),
+            x1: (self.x1 + mx).min(width),
+            y1: (self.y1 + my).min(height),
+        }
+    }
+
     pub fn union(&self, o: &Rect) -> Rect {
         if self.is_empty() {
             return *o;
@@ -116,6 +135,27 @@ pub fn bounds_rect(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn grown_rectangles_stay_in_the_image_and_contain_the_original() {
+        let r = Rect {
+            x0: 2,
+            y0: 10,
+            x1: 30,
+            y1: 40,
+        };
+        let g = r.grown(5, 5, 32, 64);
+        assert_eq!(
+            g,
+            Rect {
+                x0: 0,
+                y0: 5,
+                x1: 32,
+                y1: 45
+            }
+        );
+        assert!(g.contains(&r) && !r.contains(&g));
+        assert!(Rect::EMPTY.grown(5, 5, 32, 64).is_empty());
+    }
     use super::*;
     use crate::scene::camera::DepthConvention;
     use crate::scene::{Camera, Projection};

@@ -60,6 +60,11 @@ impl Executor {
         let meshes = self.scene_ref()?.ranges.len() as u32;
         crate::plan::validate::validate(plan, meshes)?;
         self.ensure_targets(plan)?;
+        let scene = self.scene_ref()?;
+        let cam = scene.cam;
+        self.rects = super::Scissors::exact(scene, &self.desc);
+        // Earlier frames may be in flight: the camera is written in the stream.
+        self.camera.record_update(cmd, &cam);
         let (mut stats, groups, _marks) = self.record_frame(cmd, plan, layers)?;
         stats.counts.submits = 0;
         stats.counts.loop_iterations = layers.to_vec();

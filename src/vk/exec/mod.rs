@@ -10,19 +10,23 @@
 //! first time, or a check that fails (the view changed the depth complexity), runs
 //! loop by loop instead — one submission per head and tail with a CPU wait, which
 //! learns the counts — so images never depend on a guess. The unrolled recording
-//! is kept and replayed as long as the plan, the camera and the layer counts stay
-//! the same (`record_ms` is then 0); the camera is baked into push constants and
-//! scissors, so moving it re-records (see README, "Executor").
+//! is kept and replayed as long as the plan and the layer counts stay the same
+//! (`record_ms` is then 0). The camera is a uniform buffer (`camera`), so a moved
+//! camera replays too, unless a mesh's screen rectangle left the one its scissors
+//! were recorded with ([`Scissors`]; see README, "Executor").
 //!
-//! Modules: `gpu_scene` (vertex buffer, camera state), `targets` (images and
-//! descriptor sets), `record` (steps to commands, barriers from `plan::usage`
-//! through `vk::sync`), `stats` (typed statistics), `normals` (the optional
-//! normal buffer and the edge pass on it, seed 001 §5).
+//! Modules: `gpu_scene` (vertex buffer, camera state), `camera` (its uniform
+//! buffer), `targets` (images and descriptor sets), `record` (steps to commands,
+//! barriers from `plan::usage` through `vk::sync`), `state` (dynamic state
+//! recorded only where it changes), `stats` (typed statistics), `normals` (the
+//! optional normal buffer and the edge pass on it, seed 001 §5).
 
+mod camera;
 mod embed;
 mod gpu_scene;
 mod normals;
 mod record;
+mod state;
 mod stats;
 mod targets;
 
@@ -34,7 +38,7 @@ use gpu_allocator::MemoryLocation;
 
 pub use super::conv::DepthFormat;
 pub(crate) use embed::{Output, Unrolled};
-pub use stats::{Counts, ExecStats, PassStats};
+pub use stats::{Counts, ExecStats, PassStats, Recorded};
 
 use super::error::VkError;
 use super::instance::{Context, Shared};
@@ -47,6 +51,8 @@ use crate::output::Images;
 use crate::plan::validate::validate;
 use crate::plan::{Plan, Step};
 use crate::scene::{Camera, Scene};
+use crate::vk::scissor::{bounds_rect, Rect};
+use camera::CameraBuffer;
 use gpu_scene::{CameraState, GpuScene};
 pub use record::ClearMode;
 use record::{Bindings, Group, Recorder};
@@ -71,9 +77,73 @@ pub struct Frame {
 /// What a kept recording was made for.
 struct RecordingKey {
     plan: Plan,
-    cam: CameraState,
+    /// The screen rectangle of each mesh its scissors were made from.
+    rects: Scissors,
     layers: Vec<u32>,
     epoch: u64,
+}
+
+/// The per-mesh screen rectangles a recording's scissors come from: exact for a
+/// still camera, grown by [`Scissors::MARGIN`] of the image after a camera move,
+/// so that the next moves replay. Scissors only bound work (every plan is
+/// correct with any scissor that contains its meshes' projections), so a
+/// recording stays valid while each mesh's exact rectangle lies inside its
+/// recorded one and no mesh recorded off screen has come on screen.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Scissors {
+    pub rects: Vec<Rect>,
+    pub grown: bool,
+}
+
+impl Scissors {
+    /// Margin of grown rectangles, as a fraction of the image's width and height.
+    pub const MARGIN: u32 = 8;
+
+    /// Each mesh's exact rectangle under `cam`.
+    fn exact(scene: &GpuScene, desc: &ExecDesc) -> Scissors {
+        let rects = scene
+            .bounds
+            .iter()
+            .map(|b| {
+                bounds_rect(
+                    scene.cam.view,
+                    scene.cam.proj,
+                    scene.camera.near,
+                    std::slice::from_ref(b),
+                    desc.width,
+                    desc.height,
+                )
+            })
+            .collect();
+        Scissors {
+            rects,
+            grown: false,
+        }
+    }
+
+    /// `self` grown by 1/MARGIN of the image on every side, within the image.
+    fn grown(&self, desc: &ExecDesc) -> Scissors {
+        let (mx, my) = (
+            (desc.width / Self::MARGIN).max(1),
+            (desc.height / Self::MARGIN).max(1),
+        );
+        let rects = self
+            .rects
+            .iter()
+            .map(|r| r.grown(mx, my, desc.width, desc.height))
+            .collect();
+        Scissors { rects, grown: true }
+    }
+
+    /// Whether a recording made with `self` is valid for `exact`.
+    fn covers(&self, exact: &Scissors) -> bool {
+        self.rects.len() == exact.rects.len()
+            && self
+                .rects
+                .iter()
+                .zip(&exact.rects)
+                .all(|(r, e)| e.is_empty() || r.contains(e))
+    }
 }
 
 /// The kept frame recording and what its replays report.
@@ -104,6 +174,11 @@ pub struct Executor {
     targets: Option<Targets>,
     scene: Option<GpuScene>,
     readback: Option<Buffer>,
+    camera: CameraBuffer,
+    /// The camera of the last frame (a camera that stays gets exact scissors).
+    last_cam: Option<CameraState>,
+    /// The per-mesh rectangles the next recording's scissors are made from.
+    rects: Scissors,
     recording: Option<Recording>,
     /// Loop layer counts the last frame of this plan needed.
     layers: Option<(Plan, Vec<u32>)>,
@@ -142,6 +217,7 @@ impl Executor {
             ClearMode::LoadOp
         };
         let pipelines = Pipelines::new(&shared)?;
+        let camera = CameraBuffer::new(&shared, pipelines.camera_set_layout)?;
         let submit = Submitter::new(&shared)?;
         let frame_cmd = submit.allocate()?;
         let mut occlusion = Queries::new(&shared, vk::QueryType::OCCLUSION);
@@ -159,6 +235,12 @@ impl Executor {
             targets: None,
             scene: None,
             readback: None,
+            camera,
+            last_cam: None,
+            rects: Scissors {
+                rects: Vec::new(),
+                grown: false,
+            },
             recording: None,
             layers: None,
             epoch: 0,
@@ -274,18 +356,26 @@ impl Executor {
             .len() as u32;
         validate(plan, meshes)?;
         self.ensure_targets(plan)?;
+        let scene = self.scene.as_ref().expect("checked above");
+        let cam = scene.cam;
+        let exact = Scissors::exact(scene, &self.desc);
+        // No frame is in flight: the host may write the camera.
+        self.camera.write(&cam)?;
         let mut clock = Clock::default();
         let known = match &self.layers {
             Some((p, n)) if p == plan => Some(n.clone()),
             _ => None,
         };
+        let still = self.last_cam == Some(cam);
+        self.last_cam = Some(cam);
         let unrolled = match known {
-            Some(layers) => self.run_unrolled(plan, &layers, &mut clock)?,
+            Some(layers) => self.run_unrolled(plan, &layers, exact.clone(), still, &mut clock)?,
             None => None,
         };
         let mut stats = match unrolled {
             Some(s) => s,
             None => {
+                self.rects = exact;
                 let s = self.run_stepwise(plan, &mut clock)?;
                 self.layers = Some((plan.clone(), s.counts.loop_iterations.clone()));
                 s
@@ -345,6 +435,8 @@ impl Executor {
             flags,
             snap,
             normals: self.normals,
+            camera_set: self.camera.set,
+            mesh_rects: &self.rects.rects,
         };
         (Recorder::new(b), &self.submit)
     }
@@ -369,20 +461,39 @@ impl Executor {
 
     /// The frame with its loops unrolled to `layers`, recorded once and replayed:
     /// `None` when the GPU's counts show that `layers` no longer fit.
+    /// `exact`: the meshes' rectangles under the current camera; `still`: the
+    /// camera is the last frame's.
     fn run_unrolled(
         &mut self,
         plan: &Plan,
         layers: &[u32],
+        exact: Scissors,
+        still: bool,
         clock: &mut Clock,
     ) -> Result<Option<ExecStats>, VkError> {
-        let cam = self.scene.as_ref().expect("scene uploaded").cam;
-        let fresh = self.recording.as_ref().is_some_and(|r| {
-            r.key.epoch == self.epoch
-                && r.key.cam == cam
-                && r.key.layers == layers
-                && r.key.plan == *plan
-        });
-        if !fresh {
+        // A recording of this plan, objects and loop counts, made for some camera.
+        let same = self
+            .recording
+            .as_ref()
+            .filter(|r| r.key.epoch == self.epoch && r.key.layers == layers && r.key.plan == *plan);
+        let kind = match same {
+            // Scissors grown for a moving camera are made exact once it stops.
+            Some(r) if r.key.rects.covers(&exact) && !(still && r.key.rects.grown) => {
+                if r.key.rects.rects == exact.rects || still {
+                    Recorded::Replayed
+                } else {
+                    Recorded::ReplayedMovedCamera
+                }
+            }
+            Some(_) => Recorded::Camera,
+            None => Recorded::New,
+        };
+        if matches!(kind, Recorded::Camera | Recorded::New) {
+            self.rects = if kind == Recorded::Camera && !still {
+                exact.grown(&self.desc)
+            } else {
+                exact
+            };
             self.recording = None;
             let t = Instant::now();
             let cmd = self.frame_cmd;
@@ -394,7 +505,7 @@ impl Executor {
             self.recording = Some(Recording {
                 key: RecordingKey {
                     plan: plan.clone(),
-                    cam,
+                    rects: self.rects.clone(),
                     layers: layers.to_vec(),
                     epoch: self.epoch,
                 },
@@ -414,6 +525,7 @@ impl Executor {
             return Ok(None);
         }
         let mut stats = rec.stats.clone();
+        stats.recorded = kind;
         stats.counts.loop_iterations = layers.to_vec();
         stats.counts.samples_counted = samples.iter().sum();
         // Queries are in recording order: those after the last loop head's.
@@ -553,6 +665,7 @@ impl Executor {
         let final_samples = run(&mut rec, &pending, Some(plan.output_ds), submit)?;
         samples_counted += final_samples;
         let mut stats = rec.stats;
+        stats.recorded = Recorded::Stepwise;
         // Per-pass draws come from the recorder, GPU times from the timestamps.
         for p in &gpu.per_pass {
             if let Some(e) = stats.pass_entry(&p.name) {

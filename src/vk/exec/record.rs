@@ -18,6 +18,7 @@ use std::collections::BTreeMap;
 use ash::vk;
 
 use super::gpu_scene::GpuScene;
+use super::state::{self, DynState};
 use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
@@ -26,16 +27,59 @@ use crate::plan::{Clear, Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::image::range;
-use crate::vk::pipeline::{FragmentKind, PipelineDesc, Pipelines, PushConstants};
-use crate::vk::scissor::{bounds_rect, Rect};
+use crate::vk::pipeline::{
+    FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_MESH, PUSH_SIZE,
+};
+use crate::vk::scissor::Rect;
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
 
-/// Attachments of a rendering block.
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// Attachments of a rendering block: plain data (no allocation per draw).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct BlockKey {
-    colors: Vec<Resource>,
+    /// The first `n_colors` are the colour attachments, in order.
+    colors: [Resource; MAX_COLORS],
+    n_colors: u8,
     ds: Option<u8>,
+}
+
+/// Most colour targets of a fragment program (`Peel { shade: true }`: colour,
+/// ids, depth texture; and the normal buffer when it is on).
+const MAX_COLORS: usize = 4;
+
+impl BlockKey {
+    fn new(colors: &[Resource], ds: Option<u8>) -> BlockKey {
+        assert!(
+            colors.len() <= MAX_COLORS,
+            "a fragment program writes at most {MAX_COLORS} colour targets"
+        );
+        let mut c = [Resource::Color; MAX_COLORS];
+        c[..colors.len()].copy_from_slice(colors);
+        BlockKey {
+            colors: c,
+            n_colors: colors.len() as u8,
+            ds,
+        }
+    }
+
+    /// The block of a draw with usages `uses` (which list its colour targets
+    /// in attachment order) into depth-stencil `ds`.
+    fn of_draw(uses: &[(Resource, Usage)], ds: u8) -> BlockKey {
+        let mut key = BlockKey::new(&[], Some(ds));
+        for &(r, _) in uses.iter().filter(|u| u.1 == Usage::ColorTarget) {
+            assert!(
+                (key.n_colors as usize) < MAX_COLORS,
+                "a fragment program writes at most {MAX_COLORS} colour targets"
+            );
+            key.colors[key.n_colors as usize] = r;
+            key.n_colors += 1;
+        }
+        key
+    }
+
+    fn colors(&self) -> &[Resource] {
+        &self.colors[..self.n_colors as usize]
+    }
 }
 
 /// Tags the occlusion queries of one loop-head execution: `(loop, iteration)`.
@@ -58,6 +102,12 @@ pub(super) struct Bindings<'a> {
     pub snap: [f32; 2],
     /// Write the normal buffer wherever colour is written (seed 001 §5.2).
     pub normals: bool,
+    /// The camera's uniform buffer (set 1 of every pipeline).
+    pub camera_set: vk::DescriptorSet,
+    /// Screen rectangle of each mesh's bounds (a `BoundsOf` scissor is their
+    /// union, exactly as `bounds_rect` of all the boxes); the executor may pass
+    /// larger ones (see `Executor::execute`).
+    pub mesh_rects: &'a [Rect],
 }
 
 /// How a plan's clears of attachments are recorded.
@@ -77,7 +127,15 @@ pub(super) struct Recorder<'a> {
     b: Bindings<'a>,
     cmd: vk::CommandBuffer,
     block: Option<BlockKey>,
+    /// What the current command buffer has bound and set, so that only changes
+    /// are recorded (command-buffer state outlives pipeline binds and blocks).
     bound: Option<vk::Pipeline>,
+    bound_set: Option<vk::DescriptorSet>,
+    dyn_state: Option<DynState>,
+    pushed: Option<[u8; PUSH_SIZE as usize]>,
+    /// Pipelines of this recording by block and fragment program (a plan uses a
+    /// handful; looked up without building a `PipelineDesc` per draw).
+    pipes: Vec<(BlockKey, FragmentKind, vk::Pipeline)>,
     state: BTreeMap<Resource, Usage>,
     pending_clear: BTreeMap<Resource, vk::ClearValue>,
     /// Group of each occlusion query of the current command buffer.
@@ -86,37 +144,30 @@ pub(super) struct Recorder<'a> {
     pub group: Group,
     /// Pass name at each timestamp of the current command buffer.
     pub marks: Vec<String>,
-    pass: String,
+    /// Index in `stats.per_pass` of the current pass; `None` before the first.
+    pass: Option<usize>,
     pub stats: ExecStats,
-    /// Screen rectangle of each mesh's bounds (a `BoundsOf` scissor is their
-    /// union, exactly as `bounds_rect` of all the boxes).
-    mesh_rects: Vec<Rect>,
 }
 
 impl<'a> Recorder<'a> {
     pub fn new(b: Bindings<'a>) -> Recorder<'a> {
         // Every image rests in `REST` between frames (see `finish_frame`).
         let state = b.targets.all().into_iter().map(|r| (r, REST)).collect();
-        let (w, h) = (b.desc.width, b.desc.height);
-        let (cam, near) = (&b.scene.cam, b.scene.camera.near);
-        let mesh_rects = b
-            .scene
-            .bounds
-            .iter()
-            .map(|bx| bounds_rect(cam.view, cam.proj, near, std::slice::from_ref(bx), w, h))
-            .collect();
         Recorder {
             b,
-            mesh_rects,
             cmd: vk::CommandBuffer::null(),
             block: None,
             bound: None,
+            bound_set: None,
+            dyn_state: None,
+            pushed: None,
+            pipes: Vec::new(),
             state,
             pending_clear: BTreeMap::new(),
             queries: Vec::new(),
             group: None,
             marks: Vec::new(),
-            pass: String::new(),
+            pass: None,
             stats: ExecStats::default(),
         }
     }
@@ -126,6 +177,9 @@ impl<'a> Recorder<'a> {
         self.queries.clear();
         self.marks.clear();
         self.bound = None;
+        self.bound_set = None;
+        self.dyn_state = None;
+        self.pushed = None;
         // SAFETY: recording; outside rendering; ranges within the pools.
         unsafe {
             self.b
@@ -140,7 +194,35 @@ impl<'a> Recorder<'a> {
                     .cmd_reset_query_pool(cmd, ts, 0, timestamp_cap)
             };
         }
-        self.timestamp(self.pass.clone());
+        let pass = self.pass_name();
+        self.timestamp(pass);
+        // Command-buffer state every draw shares.
+        state::record_fixed(self.b.device, cmd, self.b.desc.width, self.b.desc.height);
+        // SAFETY: the vertex buffer is live while the recording may be replayed.
+        unsafe {
+            self.b
+                .device
+                .cmd_bind_vertex_buffers(cmd, 0, &[self.b.scene.vertices.raw], &[0])
+        };
+        // SAFETY: outside rendering; the set matches the layout's set 1 and its
+        // buffer lives as long as the executor.
+        unsafe {
+            self.b.device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.b.pipelines.layout,
+                1,
+                &[self.b.camera_set],
+                &[],
+            )
+        };
+        self.stats.counts.state_commands += 4;
+    }
+
+    fn pass_name(&self) -> String {
+        self.pass
+            .map(|i| self.stats.per_pass[i].name.clone())
+            .unwrap_or_default()
     }
 
     /// Ends the current command buffer's work (it stays to be ended by the caller).
@@ -179,12 +261,13 @@ impl<'a> Recorder<'a> {
         rule: [f32; 2],
     ) -> Result<(), VkError> {
         self.cmd = cmd;
+        // A fresh command buffer: nothing is bound or set in it yet.
         self.bound = None;
+        self.bound_set = None;
+        self.dyn_state = None;
+        self.pushed = None;
         let depth = Resource::DepthStencil(output_ds);
-        let key = BlockKey {
-            colors: vec![Resource::Edges],
-            ds: None,
-        };
+        let key = BlockKey::new(&[Resource::Edges], None);
         let uses = [
             (Resource::Edges, Usage::ColorTarget),
             (Resource::Normal, Usage::Sampled),
@@ -197,13 +280,13 @@ impl<'a> Recorder<'a> {
             Some(self.b.targets.sampling_set(Resource::Normal)),
         );
         let depth_set = self.b.targets.sampling_set(depth);
-        // SAFETY: set 1 of the pipeline layout has the set's layout; inside a block.
+        // SAFETY: set 2 of the pipeline layout has the set's layout; inside a block.
         unsafe {
             self.b.device.cmd_bind_descriptor_sets(
                 cmd,
                 vk::PipelineBindPoint::GRAPHICS,
                 self.b.pipelines.layout,
-                1,
+                2,
                 &[depth_set],
                 &[],
             )
@@ -422,14 +505,14 @@ impl<'a> Recorder<'a> {
         match step {
             Step::Pass(name) => {
                 self.end_block();
-                self.pass = name.clone();
                 self.stats.pass_entry(name);
+                self.pass = self.stats.per_pass.iter().position(|p| &p.name == name);
                 self.timestamp(name.clone());
             }
             Step::Clear(clear) => {
                 for (r, v) in self.clear_values(clear) {
                     let attached = self.block.as_ref().is_some_and(|b| {
-                        b.colors.contains(&r) || b.ds.map(Resource::DepthStencil) == Some(r)
+                        b.colors().contains(&r) || b.ds.map(Resource::DepthStencil) == Some(r)
                     });
                     if attached {
                         self.end_block();
@@ -480,10 +563,7 @@ impl<'a> Recorder<'a> {
                 };
             }
             Step::CopyDepthToTexture { ds, dst } => {
-                let key = BlockKey {
-                    colors: vec![Resource::Texture(*dst)],
-                    ds: None,
-                };
+                let key = BlockKey::new(&[Resource::Texture(*dst)], None);
                 let set = self.b.targets.sampling_set(Resource::DepthStencil(*ds));
                 self.open(&key, &step.usage());
                 self.fullscreen_internal(&key, FragmentKind::CopyDepth, set)?;
@@ -533,11 +613,11 @@ impl<'a> Recorder<'a> {
     fn begin_block(&mut self, key: &BlockKey) {
         let color_layout = sync::access(Usage::ColorTarget).layout;
         let ds_layout = sync::access(Usage::DepthStencilTarget).layout;
-        let colors: Vec<_> = key
-            .colors
-            .iter()
-            .map(|r| self.attachment(*r, color_layout))
-            .collect();
+        let mut colors = [vk::RenderingAttachmentInfo::default(); MAX_COLORS];
+        for (a, r) in colors.iter_mut().zip(key.colors()) {
+            *a = self.attachment(*r, color_layout);
+        }
+        let colors = &colors[..key.n_colors as usize];
         let ds_att = key
             .ds
             .map(|d| self.attachment(Resource::DepthStencil(d), ds_layout));
@@ -550,15 +630,14 @@ impl<'a> Recorder<'a> {
                 },
             })
             .layer_count(1)
-            .color_attachments(&colors);
+            .color_attachments(colors);
         if let Some(a) = ds_att.as_ref() {
             ri = ri.depth_attachment(a).stencil_attachment(a);
         }
         // SAFETY: recording outside rendering; all views are live and, after the
         // recorder's barriers, in the attachment layouts given.
         unsafe { self.b.device.cmd_begin_rendering(self.cmd, &ri) };
-        self.block = Some(key.clone());
-        self.bound = None;
+        self.block = Some(*key);
     }
 
     fn pipeline_for(
@@ -566,19 +645,25 @@ impl<'a> Recorder<'a> {
         key: &BlockKey,
         kind: FragmentKind,
     ) -> Result<vk::Pipeline, VkError> {
+        if let Some(&(_, _, p)) = self.pipes.iter().find(|(k, f, _)| k == key && *f == kind) {
+            return Ok(p);
+        }
         let desc = PipelineDesc {
             fragment: kind,
             color_formats: key
-                .colors
+                .colors()
                 .iter()
                 .map(|r| targets::format(*r, &self.b.desc))
                 .collect(),
             depth_stencil_format: key.ds.map(|_| self.b.desc.depth_format.vk()),
-            normals: key.colors.contains(&Resource::Normal),
+            normals: key.colors().contains(&Resource::Normal),
         };
-        self.b.pipelines.get(&desc)
+        let p = self.b.pipelines.get(&desc)?;
+        self.pipes.push((*key, kind, p));
+        Ok(p)
     }
 
+    /// Binds `pipeline` and `set` where they differ from what is bound.
     fn bind(&mut self, pipeline: vk::Pipeline, set: Option<vk::DescriptorSet>) {
         let device = self.b.device;
         if self.bound != Some(pipeline) {
@@ -587,12 +672,9 @@ impl<'a> Recorder<'a> {
                 device.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline)
             };
             self.bound = Some(pipeline);
-            // SAFETY: the vertex buffer is live while the recording may be replayed.
-            unsafe {
-                device.cmd_bind_vertex_buffers(self.cmd, 0, &[self.b.scene.vertices.raw], &[0])
-            };
+            self.stats.counts.state_commands += 1;
         }
-        if let Some(set) = set {
+        if let Some(set) = set.filter(|&s| self.bound_set != Some(s)) {
             // SAFETY: the set matches the pipeline layout's set 0.
             unsafe {
                 device.cmd_bind_descriptor_sets(
@@ -604,87 +686,30 @@ impl<'a> Recorder<'a> {
                     &[],
                 )
             };
+            self.bound_set = Some(set);
+            self.stats.counts.state_commands += 1;
         }
     }
 
-    /// Sets every dynamic state of the pipelines (all of it, every draw).
-    fn set_state(&self, draw: Option<&Draw>, scissor: Rect) {
-        let d = self.b.device;
-        let cmd = self.cmd;
-        let reversed = self.b.desc.reversed_z;
-        let vp = vk::Viewport {
-            x: 0.0,
-            y: 0.0,
-            width: self.b.desc.width as f32,
-            height: self.b.desc.height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
-        };
-        let sc = crate::vk::conv::rect2d(scissor);
-        let cull = draw
-            .map(|d| conv::cull_mode(d.cull))
-            .unwrap_or(vk::CullModeFlags::NONE);
-        let (depth_test, depth_write, depth_cmp) = match draw {
-            Some(dr) => (
-                true,
-                dr.depth.write,
-                conv::compare_op(dr.depth.compare, reversed),
-            ),
-            None => (false, false, vk::CompareOp::ALWAYS),
-        };
-        let stencil = draw.and_then(|d| d.stencil);
-        let keep = conv::StencilFaceOps {
-            fail: vk::StencilOp::KEEP,
-            pass: vk::StencilOp::KEEP,
-            depth_fail: vk::StencilOp::KEEP,
-            compare: vk::CompareOp::ALWAYS,
-        };
-        let (front, back, cmask, wmask, reference) = match &stencil {
-            Some(s) => (
-                conv::stencil_face(&s.front),
-                conv::stencil_face(&s.back),
-                s.compare_mask as u32,
-                s.write_mask as u32,
-                s.reference as u32,
-            ),
-            None => (keep, keep, 0, 0, 0),
-        };
-        // SAFETY (all calls below): recording inside a rendering block with a bound
-        // pipeline that declares these states dynamic; Vulkan 1.3 core commands.
-        unsafe { d.cmd_set_viewport(cmd, 0, &[vp]) };
-        // SAFETY: see above.
-        unsafe { d.cmd_set_scissor(cmd, 0, &[sc]) };
-        // SAFETY: see above.
-        unsafe { d.cmd_set_cull_mode(cmd, cull) };
-        // SAFETY: see above.
-        unsafe { d.cmd_set_front_face(cmd, conv::FRONT_FACE) };
-        // SAFETY: see above.
-        unsafe { d.cmd_set_depth_test_enable(cmd, depth_test) };
-        // SAFETY: see above.
-        unsafe { d.cmd_set_depth_write_enable(cmd, depth_write) };
-        // SAFETY: see above.
-        unsafe { d.cmd_set_depth_compare_op(cmd, depth_cmp) };
-        // SAFETY: see above.
-        unsafe { d.cmd_set_stencil_test_enable(cmd, stencil.is_some()) };
-        for (face, ops) in [
-            (vk::StencilFaceFlags::FRONT, front),
-            (vk::StencilFaceFlags::BACK, back),
-        ] {
-            // SAFETY: see above.
-            unsafe {
-                d.cmd_set_stencil_op(cmd, face, ops.fail, ops.pass, ops.depth_fail, ops.compare)
-            };
+    /// Records the dynamic state of `draw` that differs from what is set.
+    fn set_state(&mut self, draw: Option<&Draw>, scissor: Rect) {
+        let next = DynState::of(draw, scissor, self.b.desc.reversed_z);
+        let mut n = 0;
+        for f in next.changes(self.dyn_state.as_ref()) {
+            next.record(self.b.device, self.cmd, f);
+            n += 1;
         }
-        let both = vk::StencilFaceFlags::FRONT_AND_BACK;
-        // SAFETY: see above.
-        unsafe { d.cmd_set_stencil_compare_mask(cmd, both, cmask) };
-        // SAFETY: see above.
-        unsafe { d.cmd_set_stencil_write_mask(cmd, both, wmask) };
-        // SAFETY: see above.
-        unsafe { d.cmd_set_stencil_reference(cmd, both, reference) };
+        self.stats.counts.state_commands += n;
+        self.dyn_state = Some(next);
     }
 
-    fn push(&self, pc: &PushConstants) {
+    /// Records `pc` unless it is what the last push left (push constants, too,
+    /// outlive pipeline binds of one layout).
+    fn push(&mut self, pc: &PushConstants) {
+        let bytes = pc.bytes();
+        if self.pushed == Some(bytes) {
+            return;
+        }
         // SAFETY: recording; the range matches the layout's single push range.
         unsafe {
             self.b.device.cmd_push_constants(
@@ -692,9 +717,11 @@ impl<'a> Recorder<'a> {
                 self.b.pipelines.layout,
                 vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                 0,
-                &pc.bytes(),
+                &bytes,
             )
         };
+        self.pushed = Some(bytes);
+        self.stats.counts.state_commands += 1;
     }
 
     fn flags(&self) -> u32 {
@@ -742,7 +769,7 @@ impl<'a> Recorder<'a> {
             Scissor::Full => Rect::full(w, h),
             Scissor::BoundsOf(ms) => ms
                 .iter()
-                .fold(Rect::EMPTY, |r, m| r.union(&self.mesh_rects[*m as usize])),
+                .fold(Rect::EMPTY, |r, m| r.union(&self.b.mesh_rects[*m as usize])),
         }
     }
 
@@ -756,18 +783,13 @@ impl<'a> Recorder<'a> {
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
             .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));
-        let mut colors = usage::color_targets(&draw.fragment);
         let mut uses = step.usage();
-        if self.b.normals && colors.contains(&Resource::Color) {
+        if self.b.normals && uses.contains(&(Resource::Color, Usage::ColorTarget)) {
             // The normal buffer goes with the colour, as the last attachment
             // (the programs' `NORMALS` variants write it there).
-            colors.push(Resource::Normal);
             uses.push((Resource::Normal, Usage::ColorTarget));
         }
-        let key = BlockKey {
-            colors,
-            ds: Some(draw.ds),
-        };
+        let key = BlockKey::of_draw(&uses, draw.ds);
         let pipeline = self.pipeline_for(&key, kind)?;
         self.open(&key, &uses);
         self.bind(pipeline, set);
@@ -800,9 +822,8 @@ impl<'a> Recorder<'a> {
             None
         };
         self.stats.counts.draws += 1;
-        let pass = self.pass.clone();
-        if let Some(p) = self.stats.pass_entry(&pass) {
-            p.draws += 1;
+        if let Some(i) = self.pass {
+            self.stats.per_pass[i].draws += 1;
         }
         match &draw.geometry {
             Geometry::FullScreen { depth } => {
@@ -812,12 +833,12 @@ impl<'a> Recorder<'a> {
                 };
                 let pc = PushConstants {
                     mvp: Self::fullscreen_matrix(conv::depth_value(*depth, self.b.desc.reversed_z)),
-                    view: scene.cam.view_vec,
                     color,
                     prim: 0,
                     flags,
                     // Full-screen rectangles stay unsnapped.
                     snap: [0.0; 2],
+                    ..Default::default()
                 };
                 self.push(&pc);
                 // SAFETY: inside a block with a bound pipeline and vertex buffer.
@@ -844,24 +865,35 @@ impl<'a> Recorder<'a> {
                         count += scene.ranges[ids[j] as usize].1;
                         j += 1;
                     }
-                    let color = match draw.fragment {
-                        Fragment::Paint { rgb: c } => rgb(c),
-                        Fragment::Background => rgb(scene.background),
-                        Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
-                        // The tolerance travels in the colour's alpha.
-                        Fragment::ShadeNearDepth { eps, .. } | Fragment::NearerThan { eps, .. } => {
-                            let [r, g, b, _] = rgb(scene.colors[m as usize]);
-                            [r, g, b, eps]
-                        }
-                        _ => rgb(scene.colors[m as usize]),
+                    // Constants nobody reads stay zero, so that consecutive draws
+                    // push nothing new.
+                    let (color, prim) = if per_mesh {
+                        let color = match draw.fragment {
+                            Fragment::Paint { rgb: c } => rgb(c),
+                            Fragment::Background => rgb(scene.background),
+                            // The tolerance travels in the colour's alpha.
+                            Fragment::ShadeNearDepth { eps, .. } => {
+                                let [r, g, b, _] = rgb(scene.colors[m as usize]);
+                                [r, g, b, eps]
+                            }
+                            _ => rgb(scene.colors[m as usize]),
+                        };
+                        (color, m + 1)
+                    } else {
+                        let color = match draw.fragment {
+                            Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
+                            Fragment::NearerThan { eps, .. } => [0.0, 0.0, 0.0, eps],
+                            _ => [0.0; 4],
+                        };
+                        (color, 0)
                     };
                     let pc = PushConstants {
-                        mvp: scene.cam.mvp,
-                        view: scene.cam.view_vec,
                         color,
-                        prim: m + 1,
-                        flags,
+                        prim,
+                        // The matrix comes from the camera's uniform buffer.
+                        flags: flags | FLAG_MESH,
                         snap: self.b.snap,
+                        ..Default::default()
                     };
                     self.push(&pc);
                     if count > 0 {

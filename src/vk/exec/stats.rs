@@ -35,6 +35,11 @@ pub struct Counts {
     /// plan's first frame, run loop by loop, records more: each of its
     /// submissions starts a new rendering block.
     pub barriers: u64,
+    /// Pipeline, descriptor-set and vertex-buffer binds, push constants and
+    /// dynamic-state commands recorded; one that would repeat what the command
+    /// buffer already holds is not recorded (the CPU cost of recording, with
+    /// `draw_calls`).
+    pub state_commands: u64,
     /// Queue submissions of the frame.
     pub submits: u64,
     /// Head executions of each loop, in execution order.
@@ -44,6 +49,27 @@ pub struct Counts {
     /// Samples passed by the `count_samples` draws after the plan's last loop
     /// (Kirsch's layer count, seed 001 §6).
     pub final_samples: u64,
+}
+
+/// How a frame's commands came to be (issue 9 §3: record once, replay).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Recorded {
+    /// The kept recording, replayed as it was (same plan, loop counts and
+    /// scissors).
+    #[default]
+    Replayed,
+    /// The kept recording replayed under a moved camera: only the camera's
+    /// uniform buffer changed (every mesh stayed inside its recorded scissor).
+    ReplayedMovedCamera,
+    /// Recorded anew because the camera moved a mesh out of its recorded scissor,
+    /// or stopped after moving (scissors made exact again).
+    Camera,
+    /// Recorded: a new plan, new loop counts or replaced device objects.
+    New,
+    /// Run loop by loop, each submission recorded (a plan's first frame, or loop
+    /// counts that no longer fit).
+    Stepwise,
 }
 
 /// Timings and counts of one `Executor::execute`.
@@ -58,6 +84,8 @@ pub struct ExecStats {
     pub frame_ms: f64,
     /// CPU time spent recording command buffers (0 when a recording is replayed).
     pub record_ms: f64,
+    /// Whether the frame replayed a recording or recorded, and why.
+    pub recorded: Recorded,
     pub per_pass: Vec<PassStats>,
     #[serde(flatten)]
     pub counts: Counts,
