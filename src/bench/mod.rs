@@ -8,6 +8,7 @@
 //! can be fast because it draws the wrong thing.
 #![deny(unsafe_code)]
 
+pub mod embedded;
 pub mod families;
 pub mod opencsg;
 pub mod plot;
@@ -49,6 +50,9 @@ pub struct BenchConfig {
     /// `--baseline opencsg`: also render each scene with OpenCSG (a separate
     /// program, see [`opencsg`]).
     pub baseline: Option<opencsg::OpenCsgBaseline>,
+    /// `--embedded`: also time each GPU run through the embedding path
+    /// ([`embedded`]).
+    pub embedded: bool,
 }
 
 /// One benchmark run: one scene, size, algorithm and depth set-up.
@@ -87,6 +91,8 @@ pub struct Record {
     /// Set when the run could not be made (e.g. too many products); other
     /// figures are then zero.
     pub failure: Option<String>,
+    /// With `--embedded`: the same frames through the embedding path.
+    pub embedded: Option<embedded::EmbeddedTimes>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -200,6 +206,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 per_pass: Value::Null,
                 error: Value::Null,
                 failure: None,
+                embedded: None,
             };
             if cfg.algos.contains(&Algo::Reference) {
                 let mut r = base("reference", "f64");
@@ -322,11 +329,23 @@ fn run_one(
             .record_ms
     };
     let images = gpu.read_back().map_err(|e| e.to_string())?;
+    let series = |f: fn(&FrameStats) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
+    let (fm, _, _, fiqr) = median_iqr(&mut series(|s| s.exec.frame_ms));
+    let embedded = match cfg.embedded && !slow {
+        true => Some(embedded::measure(
+            gpu.context(),
+            scene,
+            algo,
+            gpu.depth_setup(),
+            (cfg.warmup, cfg.frames),
+            fm,
+        )?),
+        false => None,
+    };
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {
         return Err(format!("validation: {}", msgs[0]));
     }
-    let series = |f: fn(&FrameStats) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
     let gpu_ms = series(|s| s.exec.gpu_ms);
     // The frame whose GPU time is the median, for the per-pass breakdown.
     let mut order: Vec<usize> = (0..frames.len()).collect();
@@ -335,7 +354,6 @@ fn run_one(
     let last = frames.last().expect("at least one frame");
     let (gm, gmin, gmax, giqr) = median_iqr(&mut gpu_ms.clone());
     let (cm, _, _, ciqr) = median_iqr(&mut series(|s| s.exec.cpu_ms));
-    let (fm, _, _, fiqr) = median_iqr(&mut series(|s| s.exec.frame_ms));
     let (rm, _, _, _) = median_iqr(&mut series(|s| s.exec.record_ms));
     let counts = RunCounts {
         stencil_bits: last.stencil_bits.unwrap_or(0),
@@ -368,6 +386,7 @@ fn run_one(
         per_pass: serde_json::to_value(&mid.exec.per_pass).unwrap_or(Value::Null),
         error,
         failure: None,
+        embedded,
     };
     Ok((rec, images))
 }
