@@ -153,6 +153,26 @@ impl Host {
         })
     }
 
+    /// peeltrim's context on this device.
+    ///
+    /// # Safety
+    ///
+    /// The device outlives the context and everything made from it.
+    unsafe fn context(&self) -> Result<Context, String> {
+        // SAFETY: the caller's; the device enables what `from_raw` needs.
+        unsafe {
+            Context::from_raw(
+                self.entry.clone(),
+                self.instance.clone(),
+                self.physical,
+                self.device.clone(),
+                self.family,
+                self.queue,
+            )
+        }
+        .map_err(|e| e.to_string())
+    }
+
     fn memory(
         &self,
         req: vk::MemoryRequirements,
@@ -378,6 +398,22 @@ unsafe fn begin_frame(
     };
 }
 
+/// The host's CSG scene on `ctx`: [`host_meshes`] combined as `m0 - m1`.
+fn host_csg(ctx: &Context, desc: &EmbedDesc) -> Result<CsgScene, String> {
+    let meshes = host_meshes();
+    let inputs: Vec<MeshInput<'_>> = meshes
+        .iter()
+        .map(|(p, i, t, c)| MeshInput {
+            positions: p,
+            indices: i,
+            transform: *t,
+            color: *c,
+        })
+        .collect();
+    CsgScene::new(ctx, &inputs, CsgExpr::Text("m0 - m1"), &camera(), desc)
+        .map_err(|e| e.to_string())
+}
+
 /// The host's CSG: a box with a spherical bite, as plain f32 meshes.
 fn host_meshes() -> Vec<(Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3])> {
     let f32s = |m: &Mesh| {
@@ -490,29 +526,8 @@ fn srgb_to_linear(c: u8) -> f32 {
 fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     let d = &host.device;
     let extent = setup.extent;
-    // SAFETY: the host's device outlives the context (dropped at the end of this
-    // function, before `run` destroys the device); it enables what from_raw needs.
-    let ctx = unsafe {
-        Context::from_raw(
-            host.entry.clone(),
-            host.instance.clone(),
-            host.physical,
-            d.clone(),
-            host.family,
-            host.queue,
-        )
-    }
-    .map_err(|e| e.to_string())?;
-    let meshes = host_meshes();
-    let inputs: Vec<MeshInput<'_>> = meshes
-        .iter()
-        .map(|(p, i, t, c)| MeshInput {
-            positions: p,
-            indices: i,
-            transform: *t,
-            color: *c,
-        })
-        .collect();
+    // SAFETY: the device outlives the context (dropped before the device).
+    let ctx = unsafe { host.context() }?;
     let inflight = setup.frames_in_flight.max(1);
     let desc = EmbedDesc {
         extent,
@@ -522,8 +537,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         algo: setup.algo,
         ..EmbedDesc::default()
     };
-    let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Text("m0 - m1"), &camera(), &desc)
-        .map_err(|e| e.to_string())?;
+    let mut csg = host_csg(&ctx, &desc)?;
 
     let (color_format, depth_format) = (setup.color_format, setup.depth_format);
     let srgb = matches!(
@@ -925,18 +939,8 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
     }
     let host = Host::new()?;
     let d = &host.device;
-    // SAFETY: the device outlives the context (dropped before `host`'s objects).
-    let ctx = unsafe {
-        Context::from_raw(
-            host.entry.clone(),
-            host.instance.clone(),
-            host.physical,
-            d.clone(),
-            host.family,
-            host.queue,
-        )
-    }
-    .map_err(|e| e.to_string())?;
+    // SAFETY: the device outlives the context (dropped before the device).
+    let ctx = unsafe { host.context() }?;
     let extent = [scene.render.width, scene.render.height];
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
@@ -1125,33 +1129,12 @@ pub fn record_with_formats(color: vk::Format, depth: vk::Format) -> Result<Optio
     let d = &host.device;
     let result = (|| {
         // SAFETY: the device outlives the context (dropped in this closure).
-        let ctx = unsafe {
-            Context::from_raw(
-                host.entry.clone(),
-                host.instance.clone(),
-                host.physical,
-                d.clone(),
-                host.family,
-                host.queue,
-            )
-        }
-        .map_err(|e| e.to_string())?;
-        let meshes = host_meshes();
-        let inputs: Vec<MeshInput<'_>> = meshes
-            .iter()
-            .map(|(p, i, t, c)| MeshInput {
-                positions: p,
-                indices: i,
-                transform: *t,
-                color: *c,
-            })
-            .collect();
+        let ctx = unsafe { host.context() }?;
         let desc = EmbedDesc {
             extent: [32, 32],
             ..EmbedDesc::default()
         };
-        let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Text("m0 - m1"), &camera(), &desc)
-            .map_err(|e| e.to_string())?;
+        let mut csg = host_csg(&ctx, &desc)?;
         let targets = HostTargets {
             color_view: vk::ImageView::null(),
             color_format: color,
@@ -1194,7 +1177,7 @@ pub fn record_with_formats(color: vk::Format, depth: vk::Format) -> Result<Optio
     if !msgs.is_empty() {
         return Err(format!("validation: {}", msgs.join("\n")));
     }
-    result?
+    result
 }
 
 #[allow(dead_code)]

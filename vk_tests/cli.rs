@@ -12,6 +12,9 @@ mod layers_cli;
 /// OpenSCAD `.csg` models through the command line.
 mod openscad_cli;
 mod scad_models;
+/// `peeltrim view` (the second embedding host) in a virtual X server.
+#[cfg(feature = "viewer")]
+mod viewer_cli;
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_peeltrim"));
