@@ -1,43 +1,45 @@
 //! `bench --embedded`: every GPU run also draws its frames through the embedding
 //! path — a [`CsgScene`] made from the scene, recorded into the frames of an
 //! off-screen host ([`vk::OffscreenHost`]: its own colour and depth attachments,
-//! command buffer and submission) — on the same device, right after the
-//! standalone frames, so the two `frame_ms` compare (README "Embedding").
+//! command buffer and submission) — on the same device, each embedded frame right
+//! after a standalone one, so that load on a shared machine hits both alike; the
+//! ratio is the median of the pairs' ratios (README "Embedding").
 
 use serde::Serialize;
 
 use crate::embed::{CsgScene, EmbedDesc, LoopCounts};
-use crate::plan::Algo;
-use crate::render::DepthSetup;
+use crate::plan::{Algo, Plan};
+use crate::render::GpuRenderer;
 use crate::scene::Scene;
-use crate::vk::{self, OffscreenHost};
+use crate::vk::OffscreenHost;
 
 /// The embedded path's figures of one run.
 #[derive(Clone, Debug, Serialize)]
 pub struct EmbeddedTimes {
+    /// Median `frame_ms` of the standalone frames interleaved with these.
+    pub standalone_frame_ms_median: f64,
     /// Median wall time from the host's submission to completion.
     pub frame_ms_median: f64,
     /// Median CPU time recording the host's command buffer (the embedded path
     /// records every frame).
     pub record_ms_median: f64,
-    /// `frame_ms_median` over the standalone path's.
+    /// Median over the frame pairs of embedded over standalone `frame_ms`.
     pub ratio: f64,
     /// Draws of the last embedded frame (the standalone frame's plus nothing:
     /// the composite is a full-screen pass).
     pub draws: u64,
 }
 
-/// `frames` embedded frames (after `warmup`) of `scene` with `algo`; `standalone`
-/// is the standalone path's median `frame_ms`, for the ratio.
+/// `frames` pairs (after `warmup`) of a standalone frame of `plan` on `gpu` and
+/// an embedded frame of `scene` with `algo`, on `gpu`'s device.
 pub fn measure(
-    ctx: &vk::Context,
+    gpu: &mut GpuRenderer,
+    plan: &Plan,
     scene: &Scene,
     algo: Algo,
-    depth: DepthSetup,
     (warmup, frames): (u32, u32),
-    standalone: f64,
 ) -> Result<EmbeddedTimes, String> {
-    let (internal_depth, reversed_z) = depth.exec_format();
+    let (internal_depth, reversed_z) = gpu.depth_setup().exec_format();
     let extent = [scene.render.width, scene.render.height];
     let desc = EmbedDesc {
         extent,
@@ -48,30 +50,36 @@ pub fn measure(
         loop_counts: LoopCounts::Learn,
         internal_depth,
     };
-    let mut csg = CsgScene::from_scene(ctx, scene, &desc).map_err(|e| e.to_string())?;
-    let mut host = OffscreenHost::new(ctx, extent).map_err(|e| e.to_string())?;
+    let ctx = gpu.context().clone();
+    let mut csg = CsgScene::from_scene(&ctx, scene, &desc).map_err(|e| e.to_string())?;
+    let mut host = OffscreenHost::new(&ctx, extent).map_err(|e| e.to_string())?;
     let far = if reversed_z { 0.0 } else { 1.0 };
     let bg = scene.render.background;
-    let (mut frame_ms, mut record_ms, mut draws) = (Vec::new(), Vec::new(), 0);
+    let (mut alone, mut embedded, mut record, mut ratios) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut draws = 0;
     for i in 0..warmup + frames.max(1) {
-        let st = host
+        let s = gpu.execute(plan).map_err(|e| e.to_string())?.exec.frame_ms;
+        let e = host
             .frame(csg.recorder(), bg, far)
             .map_err(|e| e.to_string())?;
         if i >= warmup {
-            frame_ms.push(st.frame_ms);
-            record_ms.push(st.record_ms);
-            draws = st.counts.draws;
+            alone.push(s);
+            embedded.push(e.frame_ms);
+            record.push(e.record_ms);
+            ratios.push(e.frame_ms / s.max(1e-9));
+            draws = e.counts.draws;
         }
     }
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    let frame_ms_median = median(frame_ms);
     Ok(EmbeddedTimes {
-        frame_ms_median,
-        record_ms_median: median(record_ms),
-        ratio: frame_ms_median / standalone.max(1e-9),
+        standalone_frame_ms_median: median(alone),
+        frame_ms_median: median(embedded),
+        record_ms_median: median(record),
+        ratio: median(ratios),
         draws,
     })
 }

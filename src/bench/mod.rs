@@ -329,16 +329,13 @@ fn run_one(
             .record_ms
     };
     let images = gpu.read_back().map_err(|e| e.to_string())?;
-    let series = |f: fn(&FrameStats) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
-    let (fm, _, _, fiqr) = median_iqr(&mut series(|s| s.exec.frame_ms));
     let embedded = match cfg.embedded && !slow {
         true => Some(embedded::measure(
-            gpu.context(),
+            gpu,
+            &plan,
             scene,
             algo,
-            gpu.depth_setup(),
             (cfg.warmup, cfg.frames),
-            fm,
         )?),
         false => None,
     };
@@ -346,6 +343,7 @@ fn run_one(
     if !msgs.is_empty() {
         return Err(format!("validation: {}", msgs[0]));
     }
+    let series = |f: fn(&FrameStats) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
     let gpu_ms = series(|s| s.exec.gpu_ms);
     // The frame whose GPU time is the median, for the per-pass breakdown.
     let mut order: Vec<usize> = (0..frames.len()).collect();
@@ -354,6 +352,7 @@ fn run_one(
     let last = frames.last().expect("at least one frame");
     let (gm, gmin, gmax, giqr) = median_iqr(&mut gpu_ms.clone());
     let (cm, _, _, ciqr) = median_iqr(&mut series(|s| s.exec.cpu_ms));
+    let (fm, _, _, fiqr) = median_iqr(&mut series(|s| s.exec.frame_ms));
     let (rm, _, _, _) = median_iqr(&mut series(|s| s.exec.record_ms));
     let counts = RunCounts {
         stencil_bits: last.stencil_bits.unwrap_or(0),

@@ -117,8 +117,9 @@ pub(super) struct Composite {
     pool: vk::DescriptorPool,
     set: vk::DescriptorSet,
     pipeline: vk::Pipeline,
-    /// Executor epoch the set's views belong to.
-    pub(super) epoch: Option<u64>,
+    /// The output views the set points at (colour, ids, depth): rewritten only
+    /// when they change, which needs a new plan, when no frame is pending.
+    pub(super) views: Option<[vk::ImageView; 3]>,
 }
 
 impl Composite {
@@ -147,7 +148,7 @@ impl Composite {
             pool: vk::DescriptorPool::null(),
             set: vk::DescriptorSet::null(),
             pipeline: vk::Pipeline::null(),
-            epoch: None,
+            views: None,
         };
         let dci = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
         // SAFETY: valid create info on a live device. (Each object made below is

@@ -363,11 +363,11 @@ impl Embedder {
             .exec
             .output()
             .expect("record_unrolled leaves an output");
-        let epoch = self.exec.epoch();
+        let views = [out.color.1, out.prim.1, out.depth.1];
         let c = self.composite.as_mut().expect("made above");
-        if c.epoch != Some(epoch) {
+        if c.views != Some(views) {
             c.write_set(&self.shared, &out, self.sampler);
-            c.epoch = Some(epoch);
+            c.views = Some(views);
         }
         let device = &self.shared.device;
         let images = [
