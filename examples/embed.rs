@@ -153,6 +153,29 @@ impl Host {
         })
     }
 
+    /// Destroys the device, messenger and instance; the validation messages
+    /// reported until then, if any, are the error.
+    ///
+    /// # Safety
+    ///
+    /// Nothing made from the device is alive or pending.
+    unsafe fn finish(&self) -> Result<(), String> {
+        // SAFETY: the caller's; children before their parents.
+        unsafe {
+            self.device.device_wait_idle().ok();
+            self.device.destroy_device(None);
+            self.debug
+                .0
+                .destroy_debug_utils_messenger(self.debug.1, None);
+            self.instance.destroy_instance(None);
+        }
+        let msgs = MESSAGES.lock().expect("messages").clone();
+        match msgs.is_empty() {
+            true => Ok(()),
+            false => Err(format!("validation: {}", msgs.join("\n"))),
+        }
+    }
+
     /// peeltrim's context on this device.
     ///
     /// # Safety
@@ -1076,16 +1099,9 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
             d.destroy_image(img, None);
             d.free_memory(mem, None);
         }
-        d.destroy_device(None);
-        host.debug
-            .0
-            .destroy_debug_utils_messenger(host.debug.1, None);
-        host.instance.destroy_instance(None);
     }
-    let msgs = MESSAGES.lock().expect("messages").clone();
-    if !msgs.is_empty() {
-        return Err(format!("validation: {}", msgs.join("\n")));
-    }
+    // SAFETY: idle; every object made from the device was destroyed above.
+    unsafe { host.finish() }?;
     Ok([median(standalone), median(embedded), median(record)])
 }
 
@@ -1166,17 +1182,7 @@ pub fn record_with_formats(color: vk::Format, depth: vk::Format) -> Result<Optio
         answer
     })();
     // SAFETY: nothing was submitted; every object of the closure is dropped.
-    unsafe {
-        d.destroy_device(None);
-        host.debug
-            .0
-            .destroy_debug_utils_messenger(host.debug.1, None);
-        host.instance.destroy_instance(None);
-    }
-    let msgs = MESSAGES.lock().expect("messages").clone();
-    if !msgs.is_empty() {
-        return Err(format!("validation: {}", msgs.join("\n")));
-    }
+    unsafe { host.finish() }?;
     result
 }
 

@@ -1,6 +1,6 @@
 //! `bench --embedded`: every GPU run also draws its frames through the embedding
 //! path — a [`CsgScene`] made from the scene, recorded into the frames of an
-//! off-screen host ([`vk::OffscreenHost`]: its own colour and depth attachments,
+//! off-screen host (`vk::OffscreenHost`: its own colour and depth attachments,
 //! command buffer and submission) — on the same device, each embedded frame right
 //! after a standalone one, so that load on a shared machine hits both alike; the
 //! ratio is the median of the pairs' ratios (README "Embedding").

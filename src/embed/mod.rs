@@ -1,5 +1,5 @@
 //! The mesh-level embedding API: solids given as plain triangle meshes with
-//! transforms and an expression (our string syntax, or a [`csg::Expr`] built in
+//! transforms and an expression (our string syntax, or a [`crate::Expr`] built in
 //! code), drawn into a host engine's frame by [`vk::Embedder`]. No scene file is
 //! involved; this module builds the [`Scene`] and the plan a scene file would
 //! give, and keeps the plan current as the camera or a transform changes.

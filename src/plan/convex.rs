@@ -25,7 +25,7 @@ const F64_REL: f64 = 1e-9;
 
 /// Whether a closed, outward-oriented mesh bounds a convex set: every vertex lies
 /// on or behind the plane of every (non-degenerate) face, up to the tolerance of
-/// [`face_tolerance`] (f32 rounding of the input coordinates, and at least 1e-9 of
+/// `face_tolerance` (f32 rounding of the input coordinates, and at least 1e-9 of
 /// the mesh's diagonal). Meshes with more than 4·10⁶ vertex-face pairs are
 /// reported as not convex rather than tested (the test is quadratic).
 pub fn is_convex(mesh: &Mesh) -> bool {
