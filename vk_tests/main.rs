@@ -14,6 +14,7 @@ mod openscad;
 mod rounding;
 mod scad_models;
 mod setup;
+mod shadow;
 mod stability;
 
 use glam::{DMat4, DVec3};

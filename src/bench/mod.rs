@@ -10,6 +10,7 @@
 
 pub mod embedded;
 pub mod families;
+pub mod modes;
 pub mod opencsg;
 pub mod plot;
 pub mod report;
@@ -93,6 +94,12 @@ pub struct Record {
     pub failure: Option<String>,
     /// With `--embedded`: the same frames through the embedding path.
     pub embedded: Option<embedded::EmbeddedTimes>,
+    /// With a `[light]`: the light map's and the shadow test's times.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadow: Option<modes::ShadowBench>,
+    /// With `interference = true` (CST variants): the pair frames' time.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interference: Option<modes::InterferenceBench>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -119,7 +126,7 @@ pub struct BenchScene {
     pub n: Option<u32>,
 }
 
-fn median_iqr(v: &mut [f64]) -> (f64, f64, f64, f64) {
+pub(crate) fn median_iqr(v: &mut [f64]) -> (f64, f64, f64, f64) {
     if v.is_empty() {
         return (0.0, 0.0, 0.0, 0.0);
     }
@@ -207,6 +214,8 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 error: Value::Null,
                 failure: None,
                 embedded: None,
+                shadow: None,
+                interference: None,
             };
             if cfg.algos.contains(&Algo::Reference) {
                 let mut r = base("reference", "f64");
@@ -386,6 +395,8 @@ fn run_one(
         error,
         failure: None,
         embedded,
+        shadow: modes::shadows(cfg, scene, algo, depth, &images, gpu, gm)?,
+        interference: modes::interference(cfg, scene, algo, depth)?,
     };
     Ok((rec, images))
 }
