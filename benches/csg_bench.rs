@@ -51,6 +51,7 @@ fn main() {
         save_images: false,
         progress: true,
         baseline: None,
+        embedded: false,
     };
     match run_and_report(&cfg, &scenes) {
         Ok(records) => print!("{}", peeltrim::bench::report::summary(&records)),

@@ -16,10 +16,11 @@ use std::sync::Mutex;
 
 use ash::vk;
 use glam::{DVec3, Mat4};
-use peeltrim::embed::{CsgExpr, CsgScene, EmbedDesc, MeshInput};
+use peeltrim::embed::{CsgExpr, CsgScene, EmbedDesc, LoopCounts, MeshInput};
 use peeltrim::scene::shapes::{make_box, make_sphere};
 use peeltrim::scene::{Camera, Mesh, Projection};
 use peeltrim::vk::{Context, HostTargets};
+use peeltrim::Algo;
 
 const FLOOR_VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/host_floor.vert.spv"));
 const FLOOR_FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/host_floor.frag.spv"));
@@ -42,6 +43,9 @@ pub struct Report {
     /// Reference pixels where the CSG is in front of the floor (and the host shows the CSG).
     pub csg_hides_floor: u64,
     pub csg_hides_floor_ok: u64,
+    /// Loop counts of the first and the last frame's recordings.
+    pub first_counts: Vec<u32>,
+    pub last_counts: Vec<u32>,
     pub validation: Vec<String>,
 }
 
@@ -147,6 +151,49 @@ impl Host {
             family,
             queue,
         })
+    }
+
+    /// Destroys the device, messenger and instance; the validation messages
+    /// reported until then, if any, are the error.
+    ///
+    /// # Safety
+    ///
+    /// Nothing made from the device is alive or pending.
+    unsafe fn finish(&self) -> Result<(), String> {
+        // SAFETY: the caller's; children before their parents.
+        unsafe {
+            self.device.device_wait_idle().ok();
+            self.device.destroy_device(None);
+            self.debug
+                .0
+                .destroy_debug_utils_messenger(self.debug.1, None);
+            self.instance.destroy_instance(None);
+        }
+        let msgs = MESSAGES.lock().expect("messages").clone();
+        match msgs.is_empty() {
+            true => Ok(()),
+            false => Err(format!("validation: {}", msgs.join("\n"))),
+        }
+    }
+
+    /// peeltrim's context on this device.
+    ///
+    /// # Safety
+    ///
+    /// The device outlives the context and everything made from it.
+    unsafe fn context(&self) -> Result<Context, String> {
+        // SAFETY: the caller's; the device enables what `from_raw` needs.
+        unsafe {
+            Context::from_raw(
+                self.entry.clone(),
+                self.instance.clone(),
+                self.physical,
+                self.device.clone(),
+                self.family,
+                self.queue,
+            )
+        }
+        .map_err(|e| e.to_string())
     }
 
     fn memory(
@@ -327,16 +374,24 @@ fn barrier(
 }
 
 /// Begins `cmd` and brings the host's targets (contents discarded) into the
-/// attachment layouts peeltrim's contract expects.
-unsafe fn begin_frame(d: &ash::Device, cmd: vk::CommandBuffer, color: vk::Image, depth: vk::Image) {
-    let undefined = (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty());
+/// attachment layouts peeltrim's contract expects, after the attachment writes
+/// and the read-back copy of the frames before (they share the images).
+unsafe fn begin_frame(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    color: vk::Image,
+    depth: (vk::Image, vk::ImageAspectFlags),
+) {
+    let undefined = |access| (vk::ImageLayout::UNDEFINED, access);
     // SAFETY: the caller's: `cmd` is not pending, the images are live.
     unsafe {
         d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default())
             .expect("begin");
         d.cmd_pipeline_barrier(
             cmd,
-            vk::PipelineStageFlags::TOP_OF_PIPE,
+            vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+                | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS
+                | vk::PipelineStageFlags::TRANSFER,
             vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
                 | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS,
             vk::DependencyFlags::empty(),
@@ -346,16 +401,16 @@ unsafe fn begin_frame(d: &ash::Device, cmd: vk::CommandBuffer, color: vk::Image,
                 barrier(
                     color,
                     vk::ImageAspectFlags::COLOR,
-                    undefined,
+                    undefined(vk::AccessFlags::COLOR_ATTACHMENT_WRITE),
                     (
                         vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
                         vk::AccessFlags::COLOR_ATTACHMENT_WRITE,
                     ),
                 ),
                 barrier(
-                    depth,
-                    vk::ImageAspectFlags::DEPTH,
-                    undefined,
+                    depth.0,
+                    depth.1,
+                    undefined(vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE),
                     (
                         vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
                         vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
@@ -364,6 +419,22 @@ unsafe fn begin_frame(d: &ash::Device, cmd: vk::CommandBuffer, color: vk::Image,
             ],
         )
     };
+}
+
+/// The host's CSG scene on `ctx`: [`host_meshes`] combined as `m0 - m1`.
+fn host_csg(ctx: &Context, desc: &EmbedDesc) -> Result<CsgScene, String> {
+    let meshes = host_meshes();
+    let inputs: Vec<MeshInput<'_>> = meshes
+        .iter()
+        .map(|(p, i, t, c)| MeshInput {
+            positions: p,
+            indices: i,
+            transform: *t,
+            color: *c,
+        })
+        .collect();
+    CsgScene::new(ctx, &inputs, CsgExpr::Text("m0 - m1"), &camera(), desc)
+        .map_err(|e| e.to_string())
 }
 
 /// The host's CSG: a box with a spherical bite, as plain f32 meshes.
@@ -403,12 +474,45 @@ pub fn camera() -> Camera {
     }
 }
 
-/// One host frame at `extent`: floor, then peeltrim, then a read-back; compared
-/// with the reference composite.
-pub fn run(extent: [u32; 2], reversed_z: bool) -> Result<Report, String> {
+/// One host set-up: its formats, depth convention, frames in flight, and how
+/// many frames it records (the last is read back and compared).
+#[derive(Clone, Debug)]
+pub struct Setup {
+    pub extent: [u32; 2],
+    pub reversed_z: bool,
+    /// A 4-byte colour format (RGBA or BGRA order, UNORM or SRGB).
+    pub color_format: vk::Format,
+    pub depth_format: vk::Format,
+    /// Command buffers in flight: the host waits for a frame's fence only when it
+    /// reuses that frame's command buffer.
+    pub frames_in_flight: u32,
+    pub frames: u32,
+    pub loop_counts: LoopCounts,
+    pub algo: Algo,
+}
+
+impl Setup {
+    /// One frame in flight, RGBA8 UNORM colour and D32 depth, estimated counts.
+    pub fn new(extent: [u32; 2], reversed_z: bool) -> Setup {
+        Setup {
+            extent,
+            reversed_z,
+            color_format: vk::Format::R8G8B8A8_UNORM,
+            depth_format: vk::Format::D32_SFLOAT,
+            frames_in_flight: 1,
+            frames: 1,
+            loop_counts: LoopCounts::Estimate,
+            algo: Algo::Goldfeather,
+        }
+    }
+}
+
+/// The host's frames of `setup`: floor, then peeltrim, then (last frame) a
+/// read-back; compared with the reference composite.
+pub fn run(setup: &Setup) -> Result<Report, String> {
     MESSAGES.lock().expect("messages").clear();
     let host = Host::new()?;
-    let report = frame(&host, extent, reversed_z);
+    let report = frame(&host, setup);
     // SAFETY: every object of the frame was destroyed (or the device idles).
     unsafe {
         host.device.device_wait_idle().ok();
@@ -423,42 +527,61 @@ pub fn run(extent: [u32; 2], reversed_z: bool) -> Result<Report, String> {
     Ok(report)
 }
 
-fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, String> {
-    let d = &host.device;
-    // SAFETY: the host's device outlives the context (dropped at the end of this
-    // function, before `run` destroys the device); it enables what from_raw needs.
-    let ctx = unsafe {
-        Context::from_raw(
-            host.entry.clone(),
-            host.instance.clone(),
-            host.physical,
-            d.clone(),
-            host.family,
-            host.queue,
-        )
+/// The aspects of a depth format's image (barriers name all of them).
+fn depth_aspects(format: vk::Format) -> vk::ImageAspectFlags {
+    match format {
+        vk::Format::D16_UNORM | vk::Format::X8_D24_UNORM_PACK32 | vk::Format::D32_SFLOAT => {
+            vk::ImageAspectFlags::DEPTH
+        }
+        _ => vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
     }
-    .map_err(|e| e.to_string())?;
-    let meshes = host_meshes();
-    let inputs: Vec<MeshInput<'_>> = meshes
-        .iter()
-        .map(|(p, i, t, c)| MeshInput {
-            positions: p,
-            indices: i,
-            transform: *t,
-            color: *c,
-        })
-        .collect();
+}
+
+fn srgb_to_linear(c: u8) -> f32 {
+    let c = c as f32 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
+    let d = &host.device;
+    let extent = setup.extent;
+    // SAFETY: the device outlives the context (dropped before the device).
+    let ctx = unsafe { host.context() }?;
+    let inflight = setup.frames_in_flight.max(1);
     let desc = EmbedDesc {
         extent,
-        reversed_z,
-        frames_in_flight: 1,
+        reversed_z: setup.reversed_z,
+        frames_in_flight: inflight,
+        loop_counts: setup.loop_counts,
+        algo: setup.algo,
         ..EmbedDesc::default()
     };
-    let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Text("m0 - m1"), &camera(), &desc)
-        .map_err(|e| e.to_string())?;
+    let mut csg = host_csg(&ctx, &desc)?;
 
-    let color_format = vk::Format::R8G8B8A8_UNORM;
-    let depth_format = vk::Format::D32_SFLOAT;
+    let (color_format, depth_format) = (setup.color_format, setup.depth_format);
+    let srgb = matches!(
+        color_format,
+        vk::Format::R8G8B8A8_SRGB | vk::Format::B8G8R8A8_SRGB
+    );
+    let bgra = matches!(
+        color_format,
+        vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB
+    );
+    // The host's colours as it writes them: linear for an sRGB target.
+    let shade = |c: [u8; 3]| {
+        c.map(|v| {
+            if srgb {
+                srgb_to_linear(v)
+            } else {
+                v as f32 / 255.0
+            }
+        })
+    };
+    let depth_aspect = depth_aspects(depth_format);
     let (color_img, color_mem, color_view) = host.image(
         color_format,
         vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
@@ -468,7 +591,7 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
     let (depth_img, depth_mem, depth_view) = host.image(
         depth_format,
         vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-        vk::ImageAspectFlags::DEPTH,
+        depth_aspect,
         extent,
     );
     let (pipeline, layout) = host.pipeline(color_format, depth_format);
@@ -488,21 +611,28 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
     let buf_mem = host.memory(unsafe { d.get_buffer_memory_requirements(buffer) }, visible);
     // SAFETY: fresh memory of the required size.
     unsafe { d.bind_buffer_memory(buffer, buf_mem, 0) }.expect("bind");
-    let pci = vk::CommandPoolCreateInfo::default().queue_family_index(host.family);
+    let pci = vk::CommandPoolCreateInfo::default()
+        .queue_family_index(host.family)
+        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
     // SAFETY: valid create info.
     let pool = unsafe { d.create_command_pool(&pci, None) }.expect("pool");
     let ai = vk::CommandBufferAllocateInfo::default()
         .command_pool(pool)
-        .command_buffer_count(1);
+        .command_buffer_count(inflight);
     // SAFETY: the pool is live.
-    let cmd = unsafe { d.allocate_command_buffers(&ai) }.expect("cmd")[0];
+    let cmds = unsafe { d.allocate_command_buffers(&ai) }.expect("cmd");
+    let signaled = vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED);
+    let fences: Vec<vk::Fence> = (0..inflight)
+        // SAFETY: valid create info.
+        .map(|_| unsafe { d.create_fence(&signaled, None) }.expect("fence"))
+        .collect();
 
     let ext = vk::Extent2D {
         width: extent[0],
         height: extent[1],
     };
-    let far = if reversed_z { 0.0 } else { 1.0 };
-    let nearer = if reversed_z {
+    let far = if setup.reversed_z { 0.0 } else { 1.0 };
+    let nearer = if setup.reversed_z {
         vk::CompareOp::GREATER
     } else {
         vk::CompareOp::LESS
@@ -513,7 +643,7 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
         .to_cols_array()
         .iter()
         .chain(&[FLOOR_Y, FLOOR_HALF, 0.0, 0.0])
-        .chain(&FLOOR_RGB.map(|c| c as f32 / 255.0))
+        .chain(&shade(FLOOR_RGB))
         .chain(&[1.0])
     {
         push.extend(f.to_ne_bytes());
@@ -533,69 +663,150 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
         vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
         vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
     );
-    // SAFETY: every call below records into `cmd`, which this function owns; the
-    // images, views, pipeline and buffer are live until after the fence wait.
-    unsafe {
-        begin_frame(d, cmd, color_img, depth_img);
-        let bg = BG.map(|c| c as f32 / 255.0);
-        let color_att = [vk::RenderingAttachmentInfo::default()
-            .image_view(color_view)
-            .image_layout(attach.0)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                color: vk::ClearColorValue {
-                    float32: [bg[0], bg[1], bg[2], 1.0],
-                },
-            })];
-        let depth_att = vk::RenderingAttachmentInfo::default()
-            .image_view(depth_view)
-            .image_layout(depth_attach.0)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                depth_stencil: vk::ClearDepthStencilValue {
-                    depth: far,
-                    stencil: 0,
-                },
-            });
-        d.cmd_begin_rendering(
-            cmd,
-            &vk::RenderingInfo::default()
-                .render_area(ext.into())
-                .layer_count(1)
-                .color_attachments(&color_att)
-                .depth_attachment(&depth_att),
-        );
-        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
-        d.cmd_set_viewport(
-            cmd,
-            0,
-            &[vk::Viewport {
-                x: 0.0,
-                y: 0.0,
-                width: ext.width as f32,
-                height: ext.height as f32,
-                min_depth: 0.0,
-                max_depth: 1.0,
-            }],
-        );
-        d.cmd_set_scissor(cmd, 0, &[ext.into()]);
-        d.cmd_set_depth_compare_op(cmd, nearer);
-        d.cmd_push_constants(
-            cmd,
-            layout,
-            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-            0,
-            &push,
-        );
-        d.cmd_draw(cmd, 6, 1, 0, 0);
-        d.cmd_end_rendering(cmd);
+    let mut counts = Vec::new();
+    for k in 0..setup.frames.max(1) {
+        let slot = (k % inflight) as usize;
+        let (cmd, fence) = (cmds[slot], fences[slot]);
+        let last = k + 1 == setup.frames.max(1);
+        // SAFETY: the fence guards this command buffer's previous submission.
+        unsafe {
+            d.wait_for_fences(&[fence], true, u64::MAX).expect("wait");
+            d.reset_fences(&[fence]).expect("reset");
+        }
+        // SAFETY: every call below records into `cmd`, which this function owns and
+        // which is not pending (its fence was waited for); the images, views,
+        // pipeline and buffer are live until after the final wait.
+        unsafe {
+            begin_frame(d, cmd, color_img, (depth_img, depth_aspect));
+            let bg = shade(BG);
+            let color_att = [vk::RenderingAttachmentInfo::default()
+                .image_view(color_view)
+                .image_layout(attach.0)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue {
+                    color: vk::ClearColorValue {
+                        float32: [bg[0], bg[1], bg[2], 1.0],
+                    },
+                })];
+            let depth_att = vk::RenderingAttachmentInfo::default()
+                .image_view(depth_view)
+                .image_layout(depth_attach.0)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue {
+                        depth: far,
+                        stencil: 0,
+                    },
+                });
+            d.cmd_begin_rendering(
+                cmd,
+                &vk::RenderingInfo::default()
+                    .render_area(ext.into())
+                    .layer_count(1)
+                    .color_attachments(&color_att)
+                    .depth_attachment(&depth_att),
+            );
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+            d.cmd_set_viewport(
+                cmd,
+                0,
+                &[vk::Viewport {
+                    x: 0.0,
+                    y: 0.0,
+                    width: ext.width as f32,
+                    height: ext.height as f32,
+                    min_depth: 0.0,
+                    max_depth: 1.0,
+                }],
+            );
+            d.cmd_set_scissor(cmd, 0, &[ext.into()]);
+            d.cmd_set_depth_compare_op(cmd, nearer);
+            d.cmd_push_constants(
+                cmd,
+                layout,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                0,
+                &push,
+            );
+            d.cmd_draw(cmd, 6, 1, 0, 0);
+            d.cmd_end_rendering(cmd);
+        }
+        // SAFETY: `cmd` is recording outside rendering on the context's queue
+        // family; the targets are in the attachment layouts; at most `inflight`
+        // frames are pending (the fence wait above), submitted in recording order.
+        let stats = unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
+        counts.push(stats.counts.loop_iterations.clone());
+        // SAFETY: as above.
+        unsafe {
+            if last {
+                read_back_color(d, cmd, color_img, attach, buffer, ext);
+            }
+            d.end_command_buffer(cmd).expect("end");
+            let cmds = [cmd];
+            d.queue_submit(
+                host.queue,
+                &[vk::SubmitInfo::default().command_buffers(&cmds)],
+                fence,
+            )
+            .expect("submit");
+        }
     }
-    // SAFETY: `cmd` is recording outside rendering on the context's queue family;
-    // the targets are in the attachment layouts; one frame in flight (waited below).
-    let stats = unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
-    // SAFETY: as above.
+    // SAFETY: waits for every frame (the last holds the read-back).
+    unsafe { d.wait_for_fences(&fences, true, u64::MAX) }.expect("wait");
+    // SAFETY: coherent host-visible memory written by the completed copy.
+    let mut pixels: Vec<[u8; 4]> = unsafe {
+        let p = d
+            .map_memory(buf_mem, 0, bytes, vk::MemoryMapFlags::empty())
+            .expect("map") as *const [u8; 4];
+        let v = std::slice::from_raw_parts(p, (extent[0] * extent[1]) as usize).to_vec();
+        d.unmap_memory(buf_mem);
+        v
+    };
+    if bgra {
+        for p in &mut pixels {
+            p.swap(0, 2);
+        }
+    }
+    let mut report = compare(&csg, extent, &pixels);
+    report.first_counts = counts.first().cloned().unwrap_or_default();
+    report.last_counts = counts.last().cloned().unwrap_or_default();
+    drop(csg);
+    drop(ctx);
+    // SAFETY: every frame completed; nothing uses these objects any more.
+    unsafe {
+        for f in fences {
+            d.destroy_fence(f, None);
+        }
+        d.destroy_command_pool(pool, None);
+        d.destroy_buffer(buffer, None);
+        d.free_memory(buf_mem, None);
+        d.destroy_pipeline(pipeline, None);
+        d.destroy_pipeline_layout(layout, None);
+        for (img, mem, view) in [
+            (color_img, color_mem, color_view),
+            (depth_img, depth_mem, depth_view),
+        ] {
+            d.destroy_image_view(view, None);
+            d.destroy_image(img, None);
+            d.free_memory(mem, None);
+        }
+    }
+    Ok(report)
+}
+
+/// Records the copy of the colour image into `buffer`, visible to the host.
+unsafe fn read_back_color(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    color_img: vk::Image,
+    attach: (vk::ImageLayout, vk::AccessFlags),
+    buffer: vk::Buffer,
+    ext: vk::Extent2D,
+) {
+    // SAFETY: the caller's: `cmd` is recording outside rendering, the image is
+    // in `attach`'s layout and the buffer holds the image.
     unsafe {
         d.cmd_pipeline_barrier(
             cmd,
@@ -645,58 +856,19 @@ fn frame(host: &Host, extent: [u32; 2], reversed_z: bool) -> Result<Report, Stri
             &[],
             &[],
         );
-        d.end_command_buffer(cmd).expect("end");
-        let fence = d
-            .create_fence(&vk::FenceCreateInfo::default(), None)
-            .expect("fence");
-        let cmds = [cmd];
-        d.queue_submit(
-            host.queue,
-            &[vk::SubmitInfo::default().command_buffers(&cmds)],
-            fence,
-        )
-        .expect("submit");
-        d.wait_for_fences(&[fence], true, u64::MAX).expect("wait");
-        d.destroy_fence(fence, None);
     }
-    // SAFETY: coherent host-visible memory written by the completed copy.
-    let pixels: Vec<[u8; 4]> = unsafe {
-        let p = d
-            .map_memory(buf_mem, 0, bytes, vk::MemoryMapFlags::empty())
-            .expect("map") as *const [u8; 4];
-        let v = std::slice::from_raw_parts(p, (extent[0] * extent[1]) as usize).to_vec();
-        d.unmap_memory(buf_mem);
-        v
-    };
-    let _ = stats;
-    let report = compare(&csg, extent, &pixels);
-    drop(csg);
-    drop(ctx);
-    // SAFETY: the frame completed; nothing uses these objects any more.
-    unsafe {
-        d.destroy_command_pool(pool, None);
-        d.destroy_buffer(buffer, None);
-        d.free_memory(buf_mem, None);
-        d.destroy_pipeline(pipeline, None);
-        d.destroy_pipeline_layout(layout, None);
-        for (img, mem, view) in [
-            (color_img, color_mem, color_view),
-            (depth_img, depth_mem, depth_view),
-        ] {
-            d.destroy_image_view(view, None);
-            d.destroy_image(img, None);
-            d.free_memory(mem, None);
-        }
-    }
-    Ok(report)
 }
 
-/// Per pixel: 0 background, 1 floor, 2 CSG.
+/// Per pixel: 0 background, 1 floor, 2 CSG (within one step per channel: an
+/// sRGB target stores the host's colours through float).
 fn classify(c: [u8; 4]) -> u8 {
-    match [c[0], c[1], c[2]] {
-        BG => 0,
-        FLOOR_RGB => 1,
-        _ => 2,
+    let near = |k: [u8; 3]| (0..3).all(|i| c[i].abs_diff(k[i]) <= 1);
+    if near(BG) {
+        0
+    } else if near(FLOOR_RGB) {
+        1
+    } else {
+        2
     }
 }
 
@@ -790,18 +962,8 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
     }
     let host = Host::new()?;
     let d = &host.device;
-    // SAFETY: the device outlives the context (dropped before `host`'s objects).
-    let ctx = unsafe {
-        Context::from_raw(
-            host.entry.clone(),
-            host.instance.clone(),
-            host.physical,
-            d.clone(),
-            host.family,
-            host.queue,
-        )
-    }
-    .map_err(|e| e.to_string())?;
+    // SAFETY: the device outlives the context (dropped before the device).
+    let ctx = unsafe { host.context() }?;
     let extent = [scene.render.width, scene.render.height];
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
@@ -830,6 +992,8 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
     let desc = EmbedDesc {
         extent,
         frames_in_flight: 1,
+        // The standalone path learns its counts; so does this one, for equal work.
+        loop_counts: LoopCounts::Learn,
         ..EmbedDesc::default()
     };
     let mut csg = CsgScene::new(&ctx, &inputs, CsgExpr::Built(expr), &scene.camera, &desc)
@@ -899,7 +1063,7 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
         }
         let t = Instant::now();
         // SAFETY: `cmd` is not pending (waited below); the images are live.
-        unsafe { begin_frame(d, cmd, color.0, depth.0) };
+        unsafe { begin_frame(d, cmd, color.0, (depth.0, vk::ImageAspectFlags::DEPTH)) };
         // SAFETY: as above; one frame in flight.
         let et = unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
         if std::env::var_os("EMBED_BENCH_COUNTS").is_some() {
@@ -935,17 +1099,91 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
             d.destroy_image(img, None);
             d.free_memory(mem, None);
         }
-        d.destroy_device(None);
-        host.debug
-            .0
-            .destroy_debug_utils_messenger(host.debug.1, None);
-        host.instance.destroy_instance(None);
     }
-    let msgs = MESSAGES.lock().expect("messages").clone();
-    if !msgs.is_empty() {
-        return Err(format!("validation: {}", msgs.join("\n")));
-    }
+    // SAFETY: idle; every object made from the device was destroyed above.
+    unsafe { host.finish() }?;
     Ok([median(standalone), median(embedded), median(record)])
+}
+
+/// The host set-ups the example (and its test) runs: colour and depth formats,
+/// both depth conventions, one to three frames in flight.
+pub fn setups() -> Vec<(String, Setup)> {
+    use vk::Format as F;
+    let cases = [
+        (F::R8G8B8A8_UNORM, F::D32_SFLOAT, false, 1, 1),
+        (F::R8G8B8A8_UNORM, F::D32_SFLOAT, true, 1, 1),
+        (F::B8G8R8A8_UNORM, F::D24_UNORM_S8_UINT, false, 2, 4),
+        (F::B8G8R8A8_SRGB, F::D32_SFLOAT_S8_UINT, true, 3, 5),
+        (F::R8G8B8A8_SRGB, F::D24_UNORM_S8_UINT, true, 2, 3),
+        (F::B8G8R8A8_UNORM, F::D32_SFLOAT_S8_UINT, false, 2, 3),
+    ];
+    cases
+        .into_iter()
+        .map(|(color, depth, reversed_z, inflight, frames)| {
+            let name = format!(
+                "{color:?}+{depth:?} {} z, {inflight} in flight",
+                if reversed_z { "reversed" } else { "standard" }
+            );
+            let setup = Setup {
+                color_format: color,
+                depth_format: depth,
+                frames_in_flight: inflight,
+                frames,
+                ..Setup::new([160, 120], reversed_z)
+            };
+            (name, setup)
+        })
+        .collect()
+}
+
+/// What `Embedder::record` answers for host formats `color` and `depth`:
+/// `Some(message)` for `VkError::HostFormat`, returned before anything is
+/// recorded (the views, null here, are never touched), `None` if accepted.
+pub fn record_with_formats(color: vk::Format, depth: vk::Format) -> Result<Option<String>, String> {
+    MESSAGES.lock().expect("messages").clear();
+    let host = Host::new()?;
+    let d = &host.device;
+    let result = (|| {
+        // SAFETY: the device outlives the context (dropped in this closure).
+        let ctx = unsafe { host.context() }?;
+        let desc = EmbedDesc {
+            extent: [32, 32],
+            ..EmbedDesc::default()
+        };
+        let mut csg = host_csg(&ctx, &desc)?;
+        let targets = HostTargets {
+            color_view: vk::ImageView::null(),
+            color_format: color,
+            depth_view: vk::ImageView::null(),
+            depth_format: depth,
+            extent: [32, 32],
+        };
+        let pci = vk::CommandPoolCreateInfo::default().queue_family_index(host.family);
+        // SAFETY: valid create info.
+        let pool = unsafe { d.create_command_pool(&pci, None) }.expect("pool");
+        let ai = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .command_buffer_count(1);
+        // SAFETY: the pool is live.
+        let cmd = unsafe { d.allocate_command_buffers(&ai) }.expect("cmd")[0];
+        // SAFETY: a fresh command buffer.
+        unsafe { d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default()) }
+            .expect("begin");
+        // SAFETY: `cmd` records outside rendering; a format error returns before
+        // any command (the null views are never used then), and the buffer is
+        // never submitted.
+        let answer = match unsafe { csg.recorder().record(cmd, &targets) } {
+            Ok(_) => Err("accepted (with null views)".to_string()),
+            Err(e @ peeltrim::vk::VkError::HostFormat { .. }) => Ok(Some(e.to_string())),
+            Err(e) => Err(format!("not a format error: {e}")),
+        };
+        // SAFETY: never submitted; freeing the pool frees the buffer.
+        unsafe { d.destroy_command_pool(pool, None) };
+        answer
+    })();
+    // SAFETY: nothing was submitted; every object of the closure is dropped.
+    unsafe { host.finish() }?;
+    result
 }
 
 #[allow(dead_code)]
@@ -962,16 +1200,16 @@ fn main() {
         return;
     }
     let mut failed = false;
-    for reversed in [false, true] {
-        match run([160, 120], reversed) {
+    for (name, setup) in setups() {
+        match run(&setup) {
             Ok(r) => {
                 let ok = r.validation.is_empty()
                     && r.interior_match() >= 0.9995
                     && r.floor_hides_csg > 0
                     && r.csg_hides_floor > 0;
                 println!(
-                    "reversed_z={reversed}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; {} validation messages",
-                    r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.validation.len()
+                    "{name}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; loop counts {:?} -> {:?}; {} validation messages",
+                    r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.first_counts, r.last_counts, r.validation.len()
                 );
                 for m in &r.validation {
                     println!("  validation: {m}");
@@ -979,7 +1217,7 @@ fn main() {
                 failed |= !ok;
             }
             Err(e) => {
-                eprintln!("embed example: {e}");
+                eprintln!("embed example: {name}: {e}");
                 failed = true;
             }
         }

@@ -6,7 +6,18 @@ layout(set = 0, binding = 0) uniform texture2D u_color;
 layout(set = 0, binding = 1) uniform utexture2D u_prim;
 layout(set = 0, binding = 2) uniform texture2D u_depth;
 layout(set = 0, binding = 3) uniform sampler u_samp;
+// decode_srgb != 0: the host's colour format is _SRGB, whose hardware encoding
+// would encode peeltrim's (already sRGB-encoded) values a second time.
+layout(push_constant) uniform Push {
+    uint decode_srgb;
+} pc;
 layout(location = 0) out vec4 o_color;
+
+vec3 srgb_to_linear(vec3 c) {
+    vec3 lo = c / 12.92;
+    vec3 hi = pow((c + 0.055) / 1.055, vec3(2.4));
+    return mix(lo, hi, step(vec3(0.04045), c));
+}
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
@@ -14,6 +25,10 @@ void main() {
     if (prim == 0u) {
         discard;
     }
-    o_color = texelFetch(sampler2D(u_color, u_samp), p, 0);
+    vec4 c = texelFetch(sampler2D(u_color, u_samp), p, 0);
+    if (pc.decode_srgb != 0u) {
+        c.rgb = srgb_to_linear(c.rgb);
+    }
+    o_color = c;
     gl_FragDepth = texelFetch(sampler2D(u_depth, u_samp), p, 0).r;
 }

@@ -2,19 +2,14 @@
 //! without computing their boundary, by peeling depth layers and classifying each
 //! pixel's candidate point against the expression with a few stencil bits.
 //!
-//! Layers, from the bottom up (see README "Architecture"):
-//! - [`csg`]: Boolean algebra only (parser, positive form, Blist, active zones,
-//!   products, groups). No pixels, no GPU.
-//! - [`scene`]: the scene file of CONTRACT.md, tessellation, OBJ, camera.
-//! - [`geom`]: bounds, the BVH and point-in-mesh parity, shared by `plan` and
-//!   `reference`.
-//! - [`plan`]: every algorithm as a list of [`plan::Step`]s (what to rasterize with
-//!   which depth and stencil state). No `ash`.
-//! - [`vk`]: executes plans on a Vulkan device. Knows stencil ops and images, not CSG.
-//! - [`reference`]: the exact CPU ray caster (the oracle) and image comparison.
-//! - [`output`]: the contract's output files.
-//! - `viewer` (feature `viewer`, on by default): the `peeltrim view` window.
-//! - [`embed`]: the mesh-level embedding API (below).
+//! This documentation is the **embedding API**: what a host engine needs to draw
+//! CSG into its own frames (below). The crate root re-exports all of it; the
+//! `embed` module holds the mesh-level types. The command line (`peeltrim`),
+//! the benches and the tests use the internal layers too — `csg` (the Boolean
+//! algebra), `scene` (scene files, tessellation, cameras), `geom`, `plan` (every
+//! algorithm as a list of steps), `vk` (the executor), `reference` (the exact CPU
+//! ray caster), `output`, `render`, `bench`, `viewer` — which are public for them
+//! but hidden here and not a stable API (README "Architecture").
 //!
 //! # Embedding in a host Vulkan engine
 //!
@@ -54,26 +49,70 @@
 //! unsafe { csg.recorder().record(cmd, &targets)? };
 //! # Ok(()) }
 //! ```
+//!
+//! ## Host formats
+//!
+//! The colour target may be any of [`COLOR_FORMATS`] (8-bit RGBA/BGRA in UNORM
+//! or SRGB, 10-bit, 16-bit and float formats), the depth target any of
+//! [`DEPTH_FORMATS`] (D16, D24, D32 float, with or without stencil; stencil is
+//! never written), with standard or reversed Z ([`EmbedDesc::reversed_z`]). Any
+//! other format, or one the device cannot render to, is
+//! [`VkError::HostFormat`] from [`Embedder::record`], before anything is
+//! recorded.
+//!
+//! ## Frames in flight and plan changes
+//!
+//! The host may keep up to [`EmbedDesc::frames_in_flight`] recorded frames
+//! submitted and not waited for. [`CsgScene::set_camera`] never uploads; it
+//! returns `true` when the plan changed (the eye entered or left a solid), and
+//! then the host lets its pending frames of this scene complete before the next
+//! record, as after [`CsgScene::set_algo`] and [`CsgScene::set_transform`].
+//!
+//! ## Loop counts without a CPU wait
+//!
+//! Depth peeling loops until an occlusion query counts nothing. Embedded frames
+//! unroll each loop to a count: first a CPU estimate ([`LoopCounts`]), then the
+//! GPU's own counts of each frame, read back through a ring of host-visible
+//! slots once the host has waited for that frame anyway. Too few heads are
+//! doubled, too many shrunk; too many never change the image.
 #![warn(unsafe_op_in_unsafe_fn)]
+#![warn(missing_docs)]
 
+// The internal layers: public for the binary, benches, examples and tests,
+// hidden from the documentation.
+#[doc(hidden)]
 pub mod bench;
+#[doc(hidden)]
 pub mod budget;
+#[doc(hidden)]
 pub mod csg;
 pub mod embed;
+#[doc(hidden)]
 pub mod geom;
+#[doc(hidden)]
 pub mod output;
+#[doc(hidden)]
 pub mod plan;
+#[doc(hidden)]
 pub mod reference;
+#[doc(hidden)]
 pub mod render;
+#[doc(hidden)]
 pub mod scene;
 #[cfg(feature = "viewer")]
+#[doc(hidden)]
 pub mod viewer;
+#[doc(hidden)]
 pub mod vk;
 
-pub use embed::{CsgExpr, CsgScene, EmbedDesc, EmbedError, MeshInput};
+pub use csg::{Expr, Node};
+pub use embed::{CsgExpr, CsgScene, EmbedDesc, EmbedError, LoopCounts, MeshInput};
 pub use plan::Algo;
 pub use scene::{Camera, Projection};
-pub use vk::{Context, Embedder, HostTargets};
+pub use vk::{
+    Context, Counts, DepthFormat, Embedder, ExecStats, HostTargets, PassStats, VkError,
+    COLOR_FORMATS, DEPTH_FORMATS,
+};
 
 #[cfg(test)]
 mod fuzz_tests;

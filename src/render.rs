@@ -287,6 +287,11 @@ impl GpuRenderer {
         self.ctx.device_name().to_string()
     }
 
+    /// The device's context (the bench's embedded path runs on it too).
+    pub fn context(&self) -> &vk::Context {
+        &self.ctx
+    }
+
     /// Validation messages collected so far (empty when validation is off).
     pub fn validation_messages(&self) -> Vec<String> {
         self.ctx.validation_messages()

@@ -4,12 +4,18 @@
 //! `S` saves `view.png`, `Esc`/`Q` quit. A frame is rendered only when something
 //! changed; the window title shows scene, algorithm, median GPU time and draws.
 //!
-//! Frames are presented through a Vulkan swapchain on the executor's own device
-//! ([`crate::vk::present`]). `PEELTRIM_VIEW_FRAMES=N` renders N frames (orbiting a
-//! little between them) and exits: a smoke test for machines with a display.
+//! The viewer is the second host of the embedding API (README "Embedding"; the
+//! first is `examples/embed.rs`): a [`CsgScene`] made from the loaded scene
+//! records peeltrim's CSG into each swapchain frame, through
+//! [`crate::vk::present::Presenter::present_recorded`], with
+//! [`present::FRAMES_IN_FLIGHT`] frames in flight; orbiting only moves the
+//! camera ([`CsgScene::set_camera`], no upload). The CPU reference's images are
+//! copied to the window instead. `PEELTRIM_VIEW_FRAMES=N` renders N frames
+//! (orbiting a little between them) and exits: a smoke test for machines with a
+//! display.
 #![deny(unsafe_code)]
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 use std::path::PathBuf;
 
 use glam::{DQuat, DVec3};
@@ -21,11 +27,12 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
+use crate::embed::{CsgScene, EmbedDesc, EmbedError, LoopCounts};
 use crate::output::Images;
-use crate::plan::{self, Algo, Plan, Prepared};
+use crate::plan::Algo;
 use crate::render::{self, DepthSetup, RenderError};
 use crate::scene::{fit, Camera, Projection, Scene};
-use crate::vk::{self, present::Presented, present::Presenter};
+use crate::vk::{self, present, present::Presented, present::Presenter};
 
 /// Radians of orbit per pixel dragged.
 pub const ORBIT_RAD_PER_PX: f64 = 0.01;
@@ -34,7 +41,7 @@ pub const ORBIT_RAD_PER_PX: f64 = 0.01;
 pub const MAX_ELEVATION: f64 = 89.0 * std::f64::consts::PI / 180.0;
 /// Distance factor per wheel notch.
 pub const ZOOM_PER_STEP: f64 = 0.85;
-/// GPU times kept for the title's median.
+/// Frame times kept for the title's median.
 const TIMES_KEPT: usize = 9;
 
 /// The algorithm of digit key `c`, in the command line's order (`'1'` =
@@ -137,15 +144,25 @@ pub enum ViewerError {
     Render(#[from] RenderError),
     #[error(transparent)]
     Vk(#[from] vk::VkError),
+    #[error(transparent)]
+    Embed(#[from] EmbedError),
     #[error("saving {path}: {message}")]
     Save { path: PathBuf, message: String },
 }
 
-/// The device, window surface and executor. Field order is drop order.
+/// The device, window surface and the embedded CSG. Field order is drop order.
 struct Gpu {
-    exec: Option<vk::Executor>,
+    csg: Option<CsgScene>,
     presenter: Presenter,
     ctx: vk::Context,
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        // The CSG's images go first: no frame may still use them. A failed wait
+        // (a lost device) leaves nothing pending either.
+        let _ = self.presenter.wait_frames();
+    }
 }
 
 struct App {
@@ -156,11 +173,13 @@ struct App {
     home: Camera,
     opts: ViewOptions,
     algo: Algo,
-    prepared: Option<Prepared>,
-    plans: HashMap<Algo, Plan>,
-    /// The reference's images; `None` while a GPU frame is shown from the GPU.
+    /// The reference's images; `None` while the GPU algorithms are shown.
     last: Option<Images>,
-    gpu_ms: VecDeque<f64>,
+    /// CPU time of the last frames (recording and submission; the GPU runs
+    /// behind, `FRAMES_IN_FLIGHT` frames deep).
+    frame_ms: VecDeque<f64>,
+    /// The algorithm whose plan failed (shown once, not retried every frame).
+    failed: Option<Algo>,
     cpu_ms: f64,
     draws: u64,
     dirty: bool,
@@ -174,7 +193,6 @@ struct App {
 pub fn run(scene: Scene, opts: ViewOptions) -> Result<(), ViewerError> {
     let event_loop = EventLoop::new().map_err(|e| ViewerError::Window(e.to_string()))?;
     event_loop.set_control_flow(ControlFlow::Wait);
-    let prepared = Prepared::new(&scene).ok();
     let mut app = App {
         gpu: None,
         window: None,
@@ -183,10 +201,9 @@ pub fn run(scene: Scene, opts: ViewOptions) -> Result<(), ViewerError> {
         algo: opts.algo,
         frames_left: opts.frames,
         opts,
-        prepared,
-        plans: HashMap::new(),
         last: None,
-        gpu_ms: VecDeque::new(),
+        frame_ms: VecDeque::new(),
+        failed: None,
         cpu_ms: 0.0,
         draws: 0,
         dirty: true,
@@ -235,7 +252,7 @@ impl App {
             ctx.device_name()
         );
         self.gpu = Some(Gpu {
-            exec: None,
+            csg: None,
             presenter,
             ctx,
         });
@@ -259,8 +276,8 @@ impl App {
             format!("{:.0} ms CPU", self.cpu_ms)
         } else {
             format!(
-                "{:.2} ms GPU, {} draws",
-                median(self.gpu_ms.iter().copied()),
+                "{:.2} ms/frame CPU, {} draws",
+                median(self.frame_ms.iter().copied()),
                 self.draws
             )
         };
@@ -270,108 +287,117 @@ impl App {
         )
     }
 
-    fn plan(&mut self, algo: Algo) -> Result<&Plan, RenderError> {
-        if !self.plans.contains_key(&algo) {
-            let prep = match &self.prepared {
-                Some(p) => p,
-                None => Err(Prepared::new(&self.scene)
-                    .err()
-                    .unwrap_or(plan::PlanError::NoSolid))?,
-            };
-            let p = plan::build(algo, prep)?;
-            self.plans.insert(algo, p);
-        }
-        self.plans
-            .get(&algo)
-            .ok_or_else(|| RenderError::Vk(vk::VkError::Plan("plan cache".into())))
-    }
-
-    /// Renders the current state into `self.last`.
-    fn render(&mut self) -> Result<(), ViewerError> {
-        let (w, h) = (self.scene.render.width, self.scene.render.height);
-        if self.algo == Algo::Reference {
+    /// Shows the CPU reference's image of the current state.
+    fn show_reference(&mut self, size: [u32; 2]) -> Result<Presented, ViewerError> {
+        if self.dirty || self.last.is_none() {
             let f = render::render_reference(&self.scene);
             self.cpu_ms = f.stats.exec.cpu_ms;
             self.last = Some(f.images);
-            return Ok(());
         }
-        let algo = self.algo;
-        let plan = self.plan(algo)?.clone();
-        let (depth_format, reversed_z) = self.opts.depth.exec_format();
-        let Some(gpu) = self.gpu.as_mut() else {
-            return Ok(());
+        let (Some(gpu), Some(img)) = (self.gpu.as_mut(), &self.last) else {
+            return Ok(Presented::Skipped);
         };
-        let fits = gpu
-            .exec
-            .as_ref()
-            .is_some_and(|e| [e.desc().width, e.desc().height] == [w, h]);
-        if !fits {
-            gpu.exec = None;
-            let desc = vk::ExecDesc {
-                width: w,
-                height: h,
-                depth_format,
-                reversed_z,
-            };
-            gpu.exec = Some(vk::Executor::new(&gpu.ctx, &desc)?);
-        }
-        let fresh = !fits;
-        let exec = gpu
-            .exec
-            .as_mut()
-            .ok_or_else(|| vk::VkError::Plan("no executor".into()))?;
-        // A new executor gets the meshes; afterwards only the camera moves.
-        if fresh {
-            exec.upload(&self.scene)?;
-        } else {
-            exec.set_camera(&self.scene.camera)?;
-        }
-        // The frame stays on the GPU: `redraw` presents it from there.
-        let stats = exec.execute(&plan)?;
-        self.gpu_ms.push_back(stats.gpu_ms);
-        while self.gpu_ms.len() > TIMES_KEPT {
-            self.gpu_ms.pop_front();
-        }
-        self.draws = stats.counts.draws;
+        Ok(gpu
+            .presenter
+            .present(img, self.scene.render.background, size)?)
+    }
+
+    /// Records the CSG into the next swapchain frame, as an embedding host does.
+    fn show_csg(&mut self, size: [u32; 2]) -> Result<Presented, ViewerError> {
         self.last = None;
-        Ok(())
+        let (_, reversed_z) = self.opts.depth.exec_format();
+        let Some(gpu) = self.gpu.as_mut() else {
+            return Ok(Presented::Skipped);
+        };
+        let extent = gpu.presenter.extent();
+        if extent[0] == 0 || extent[1] == 0 {
+            return Ok(Presented::Skipped);
+        }
+        let fits = gpu.csg.as_ref().is_some_and(|c| c.extent() == extent);
+        if fits {
+            let csg = gpu.csg.as_mut().expect("fits");
+            if csg.algo() != self.algo {
+                gpu.presenter.wait_frames()?;
+                csg.set_algo(self.algo)?;
+            }
+            // Orbit and zoom: the camera only (no upload); a new plan's images
+            // may replace those the frames in flight use, so wait for them then.
+            if csg.set_camera(&self.scene.camera)? {
+                gpu.presenter.wait_frames()?;
+            }
+        } else {
+            // New size (or first frame): a new scene at the swapchain's size.
+            gpu.presenter.wait_frames()?;
+            gpu.csg = None;
+            let desc = EmbedDesc {
+                extent,
+                reversed_z,
+                frames_in_flight: present::FRAMES_IN_FLIGHT,
+                algo: self.algo,
+                loop_counts: LoopCounts::Estimate,
+                internal_depth: self.opts.depth.exec_format().0,
+            };
+            gpu.csg = Some(CsgScene::from_scene(&gpu.ctx, &self.scene, &desc)?);
+        }
+        let csg = gpu.csg.as_mut().expect("made above");
+        let far = if reversed_z { 0.0 } else { 1.0 };
+        let bg = self.scene.render.background;
+        let start = std::time::Instant::now();
+        let (shown, stats) = gpu
+            .presenter
+            .present_recorded(bg, far, size, csg.recorder())?;
+        match stats {
+            Some(st) => {
+                self.draws = st.counts.draws;
+                self.frame_ms.push_back(start.elapsed().as_secs_f64() * 1e3);
+                while self.frame_ms.len() > TIMES_KEPT {
+                    self.frame_ms.pop_front();
+                }
+            }
+            None if shown == Presented::Shown => {
+                // Drawn without the CSG (size change): draw again.
+                self.dirty = true;
+                return Ok(Presented::Skipped);
+            }
+            None => {}
+        }
+        Ok(shown)
     }
 
     fn redraw(&mut self, el: &ActiveEventLoop) -> Result<(), ViewerError> {
         let rendered = self.dirty;
-        if self.dirty {
-            self.dirty = false;
-            match self.render() {
-                Ok(()) => {}
-                Err(ViewerError::Render(e @ RenderError::Plan(_))) => {
-                    eprintln!("peeltrim view: {}: {e}", self.algo);
-                }
-                Err(e) => return Err(e),
-            }
-            if let Some(w) = &self.window {
-                w.set_title(&self.title());
-            }
-        }
         let size = self
             .window
             .as_ref()
             .map(|w| w.inner_size())
             .unwrap_or_default();
-        let bg = self.scene.render.background;
-        if let Some(gpu) = self.gpu.as_mut() {
-            let size = [size.width, size.height];
-            let shown = match (&self.last, &gpu.exec) {
-                (Some(img), _) => gpu.presenter.present(img, bg, size)?,
-                (None, Some(exec)) => gpu.presenter.present_frame(exec, bg, size)?,
-                (None, None) => Presented::Skipped,
-            };
-            if shown == Presented::Skipped {
-                if let Some(w) = &self.window {
-                    w.request_redraw();
+        let size = [size.width, size.height];
+        let shown = if self.algo == Algo::Reference {
+            self.show_reference(size)?
+        } else if self.failed == Some(self.algo) {
+            Presented::Shown
+        } else {
+            match self.show_csg(size) {
+                Ok(s) => s,
+                Err(ViewerError::Embed(e @ (EmbedError::Plan(_) | EmbedError::Algo(_)))) => {
+                    eprintln!("peeltrim view: {}: {e}", self.algo);
+                    self.failed = Some(self.algo);
+                    Presented::Shown
                 }
+                Err(e) => return Err(e),
             }
+        };
+        if shown == Presented::Skipped {
+            if let Some(w) = &self.window {
+                w.request_redraw();
+            }
+            return Ok(());
         }
+        self.dirty = false;
         if rendered {
+            if let Some(w) = &self.window {
+                w.set_title(&self.title());
+            }
             if let Some(n) = self.frames_left {
                 eprintln!("peeltrim view: frame: {}", self.title());
                 let n = n.saturating_sub(1);
@@ -398,9 +424,16 @@ impl App {
 
     fn save(&mut self) -> Result<(), ViewerError> {
         let path = PathBuf::from("view.png");
-        // A GPU frame is read back only now, when its pixels are wanted.
-        let gpu_img = match (&self.last, self.gpu.as_mut().and_then(|g| g.exec.as_mut())) {
-            (None, Some(exec)) => Some(exec.read_back()?),
+        // A GPU frame is read back only now, when its pixels are wanted: the CSG
+        // images of the last recorded frame, once every frame completed.
+        let gpu_img = match (&self.last, self.gpu.as_mut()) {
+            (None, Some(gpu)) => match gpu.csg.as_mut() {
+                Some(csg) => {
+                    gpu.presenter.wait_frames()?;
+                    Some(csg.recorder().executor().read_back()?)
+                }
+                None => None,
+            },
             _ => None,
         };
         let Some(img) = self.last.as_ref().or(gpu_img.as_ref()) else {
@@ -440,7 +473,7 @@ impl App {
                         if let Some(a) = algo_for_key(c) {
                             if a != self.algo {
                                 self.algo = a;
-                                self.gpu_ms.clear();
+                                self.frame_ms.clear();
                                 self.changed();
                             }
                         }

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs what peeltrim needs on a fresh Debian 12 machine: the Vulkan loader,
-# Mesa's lavapipe (software Vulkan 1.3) and the Khronos validation layers.
+# Mesa's lavapipe (software Vulkan 1.3), the Khronos validation layers, and a
+# virtual X server (xvfb: the viewer's test runs a window without a display).
 # Idempotent: does nothing when everything is already installed.
 set -euo pipefail
-pkgs=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers)
+pkgs=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers xvfb xauth)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")

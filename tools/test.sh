@@ -13,3 +13,7 @@ tools/setup.sh
 # more: `tools/test.sh -- --test-threads=2`.
 export RUST_TEST_THREADS="${RUST_TEST_THREADS:-1}"
 cargo test "$@"
+# The embedding example as a program (a host with its own device and the
+# validation layer; exits non-zero on a mismatch or any validation message).
+# vk_tests/embed.rs runs the same code as tests.
+cargo run -q --example embed

@@ -14,6 +14,9 @@ mod layers_cli;
 mod openscad_cli;
 mod scad_models;
 mod shadow_cli;
+/// `peeltrim view` (the second embedding host) in a virtual X server.
+#[cfg(feature = "viewer")]
+mod viewer_cli;
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_peeltrim"));

@@ -1,36 +1,116 @@
 //! The embedding example as a test: a host with its own device draws a floor, then
 //! records peeltrim's CSG into the same depth buffer (`examples/embed.rs`), with
-//! the validation layer on. Both depth conventions, one after the other (the
-//! example's message log is process-wide).
+//! the validation layer on. Every host set-up of the example (colour formats
+//! RGBA/BGRA, UNORM/SRGB; depth D32, D24S8, D32S8; standard and reversed Z; one
+//! to three frames in flight), one after the other (the example's message log
+//! is process-wide); then loop counts guessed too low and too high, and formats
+//! the composite cannot write.
+
+use ash::vk::Format;
+use peeltrim::{Algo, LoopCounts};
 
 #[allow(dead_code)]
 #[path = "../examples/embed.rs"]
 mod example;
 
+fn check(name: &str, r: &example::Report) {
+    assert!(
+        r.validation.is_empty(),
+        "{name}: validation:\n{}",
+        r.validation.join("\n")
+    );
+    // Both ways of occlusion occur in this view, and each is drawn as the
+    // reference composite says.
+    assert!(r.floor_hides_csg > 200, "{name}: {r:?}");
+    assert!(r.csg_hides_floor > 200, "{name}: {r:?}");
+    assert!(
+        r.floor_hides_csg_ok as f64 >= 0.9995 * r.floor_hides_csg as f64,
+        "{name}: {r:?}"
+    );
+    assert!(
+        r.csg_hides_floor_ok as f64 >= 0.9995 * r.csg_hides_floor as f64,
+        "{name}: {r:?}"
+    );
+    assert!(r.interior_match() >= 0.9995, "{name}: {r:?}");
+}
+
 #[test]
 fn host_floor_and_csg_occlude_each_other_like_the_reference_composite() {
-    for reversed_z in [false, true] {
-        let r = example::run([160, 120], reversed_z).expect("the host frame runs");
-        assert!(
-            r.validation.is_empty(),
-            "reversed_z={reversed_z}: validation:\n{}",
-            r.validation.join("\n")
-        );
-        // Both ways of occlusion occur in this view, and each is drawn as the
-        // reference composite says.
-        assert!(r.floor_hides_csg > 200, "{r:?}");
-        assert!(r.csg_hides_floor > 200, "{r:?}");
-        assert!(
-            r.floor_hides_csg_ok as f64 >= 0.9995 * r.floor_hides_csg as f64,
-            "{r:?}"
-        );
-        assert!(
-            r.csg_hides_floor_ok as f64 >= 0.9995 * r.csg_hides_floor as f64,
-            "{r:?}"
-        );
-        assert!(
-            r.interior_match() >= 0.9995,
-            "reversed_z={reversed_z}: {r:?}"
-        );
+    for (name, setup) in example::setups() {
+        let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
+        check(&name, &r);
+    }
+}
+
+#[test]
+fn loop_counts_guessed_too_low_are_doubled_by_the_ring_and_too_high_are_shrunk() {
+    // Blister peels every face in one loop (the convex box and ball give
+    // Goldfeather none). Too low: one head. With 2 frames in flight a frame's
+    // counts are read 3 frames later and doubled; the last frame has grown
+    // counts and a right image.
+    let low = example::Setup {
+        frames_in_flight: 2,
+        frames: 12,
+        loop_counts: LoopCounts::Fixed(1),
+        algo: Algo::Blister,
+        ..example::Setup::new([160, 120], true)
+    };
+    let r = example::run(&low).expect("runs");
+    check("too low", &r);
+    assert!(
+        !r.first_counts.is_empty() && r.first_counts.iter().all(|&c| c == 1),
+        "{r:?}"
+    );
+    assert!(
+        r.last_counts
+            .iter()
+            .zip(&r.first_counts)
+            .any(|(l, f)| l > f),
+        "{r:?}"
+    );
+    // Too high: the very first frame is already right (empty heads change
+    // nothing), and the counts shrink once its slot comes round.
+    for frames in [1, 5] {
+        let high = example::Setup {
+            frames_in_flight: 2,
+            frames,
+            loop_counts: LoopCounts::Fixed(12),
+            algo: Algo::Blister,
+            ..example::Setup::new([160, 120], false)
+        };
+        let r = example::run(&high).expect("runs");
+        check("too high", &r);
+        if frames > 3 {
+            assert!(
+                r.last_counts
+                    .iter()
+                    .zip(&r.first_counts)
+                    .all(|(l, f)| l < f),
+                "{r:?}"
+            );
+        }
+    }
+    // The default, estimated on the CPU: right from the first frame here.
+    let est = example::Setup {
+        algo: Algo::Blister,
+        ..example::Setup::new([160, 120], false)
+    };
+    let r = example::run(&est).expect("runs");
+    check("estimate", &r);
+    assert!(r.first_counts.iter().all(|&c| c >= 5), "{r:?}");
+}
+
+#[test]
+fn formats_the_composite_cannot_write_are_a_typed_error_before_any_command() {
+    for (color, depth, which) in [
+        (Format::R8G8B8A8_UINT, Format::D32_SFLOAT, "colour"),
+        (Format::R8_UNORM, Format::D32_SFLOAT, "colour"),
+        (Format::R8G8B8A8_UNORM, Format::S8_UINT, "depth"),
+        (Format::R8G8B8A8_UNORM, Format::R32_SFLOAT, "depth"),
+    ] {
+        let e = example::record_with_formats(color, depth)
+            .unwrap_or_else(|e| panic!("{color:?}+{depth:?}: {e}"))
+            .unwrap_or_else(|| panic!("{color:?}+{depth:?} accepted"));
+        assert!(e.contains(which) && e.contains("use one of"), "{e}");
     }
 }

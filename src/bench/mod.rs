@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod checks;
+pub mod embedded;
 pub mod families;
 pub mod modes;
 pub mod opencsg;
@@ -51,6 +52,9 @@ pub struct BenchConfig {
     /// `--baseline opencsg`: also render each scene with OpenCSG (a separate
     /// program, see [`opencsg`]).
     pub baseline: Option<opencsg::OpenCsgBaseline>,
+    /// `--embedded`: also time each GPU run through the embedding path
+    /// ([`embedded`]).
+    pub embedded: bool,
 }
 
 /// One benchmark run: one scene, size, algorithm and depth set-up.
@@ -102,6 +106,8 @@ pub struct Record {
     /// Set when the run could not be made (e.g. too many products); other
     /// figures are then zero.
     pub failure: Option<String>,
+    /// With `--embedded`: the same frames through the embedding path.
+    pub embedded: Option<embedded::EmbeddedTimes>,
     /// With a `[light]`: the light map's and the shadow test's times.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shadow: Option<modes::ShadowBench>,
@@ -226,6 +232,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 per_pass: Value::Null,
                 error: Value::Null,
                 failure: None,
+                embedded: None,
                 shadow: None,
                 interference: None,
             };
@@ -366,6 +373,16 @@ fn run_one(
         rerecord_ms = gpu.execute(&plan).map_err(err)?.exec.record_ms;
     }
     let images = gpu.read_back().map_err(|e| e.to_string())?;
+    let embedded = match cfg.embedded && !slow {
+        true => Some(embedded::measure(
+            gpu,
+            &plan,
+            scene,
+            algo,
+            (cfg.warmup, cfg.frames),
+        )?),
+        false => None,
+    };
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {
         return Err(format!("validation: {}", msgs[0]));
@@ -417,6 +434,7 @@ fn run_one(
         per_pass: serde_json::to_value(&mid.exec.per_pass).unwrap_or(Value::Null),
         error,
         failure: None,
+        embedded,
         shadow: modes::shadows(cfg, scene, algo, depth, &images, gpu, gm)?,
         interference: modes::interference(cfg, scene, algo, depth)?,
     };

@@ -65,7 +65,7 @@ pub fn csv(records: &[Record]) -> String {
     for c in CSV_COUNTS {
         let _ = write!(s, ",{c}");
     }
-    s.push_str(",coverage_mismatch_frac,prim_mismatch_frac,coverage_mismatch_interior_frac,prim_mismatch_interior_frac,depth_abs_err_max,depth_abs_err_p99,depth_abs_err_mean,failure\n");
+    s.push_str(",coverage_mismatch_frac,prim_mismatch_frac,coverage_mismatch_interior_frac,prim_mismatch_interior_frac,depth_abs_err_max,depth_abs_err_p99,depth_abs_err_mean,failure,embedded_frame_ms_median,embedded_ratio\n");
     for r in records {
         let _ = write!(
             s,
@@ -110,12 +110,47 @@ pub fn csv(records: &[Record]) -> String {
                 r.error.get(k).map(|v| v.to_string()).unwrap_or_default()
             );
         }
+        let (e_ms, e_ratio) = match &r.embedded {
+            Some(e) => (
+                format!("{:.4}", e.frame_ms_median),
+                format!("{:.4}", e.ratio),
+            ),
+            None => Default::default(),
+        };
         let _ = writeln!(
             s,
-            ",\"{}\"",
+            ",\"{}\",{e_ms},{e_ratio}",
             r.failure.as_deref().unwrap_or("").replace('"', "'")
         );
     }
+    s
+}
+
+/// Markdown (with `bench --embedded`): each run's standalone and embedded
+/// `frame_ms` and their ratio; empty without embedded runs.
+pub fn embedded_table(records: &[Record]) -> String {
+    let rows: Vec<_> = records
+        .iter()
+        .filter_map(|r| r.embedded.as_ref().map(|e| (r, e)))
+        .collect();
+    if rows.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from("## Embedded path (`--embedded`)\n\nEach embedded frame follows a standalone one; ratio: the median over those pairs.\n\n| scene | algo | depth | standalone frame ms | embedded frame ms | ratio | embedded record ms |\n|---|---|---|---|---|---|---|\n");
+    for (r, e) in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.2} | {:.2} | {:.3} | {:.2} |",
+            r.scene,
+            r.algo,
+            r.depth_setup,
+            e.standalone_frame_ms_median,
+            e.frame_ms_median,
+            e.ratio,
+            e.record_ms_median
+        );
+    }
+    s.push('\n');
     s
 }
 
@@ -185,6 +220,7 @@ pub fn summary(records: &[Record]) -> String {
     s.push_str(&super::checks::section(records));
     s.push_str(&super::modes::summary(records));
     s.push_str(&super::opencsg::side_by_side(records));
+    s.push_str(&embedded_table(records));
     s.push_str(&paper_table(records));
     s
 }

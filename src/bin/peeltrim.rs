@@ -239,6 +239,10 @@ enum Cmd {
         /// Do not give OpenCSG the primitives' screen boxes (as OpenSCAD; slower)
         #[arg(long)]
         opencsg_no_bbox: bool,
+        /// Also time every GPU run through the embedding path (recorded into an
+        /// off-screen host's frames): embedded_frame_ms_median and embedded_ratio
+        #[arg(long)]
+        embedded: bool,
         #[command(flatten)]
         gpu: GpuArgs,
     },
@@ -513,6 +517,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             baseline,
             opencsg_bench,
             opencsg_no_bbox,
+            embedded,
             gpu,
         } => {
             let algos = parse_algos(&algos)?;
@@ -557,6 +562,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 baseline: baseline.map(|_| {
                     bench::opencsg::OpenCsgBaseline::locate(opencsg_bench, !opencsg_no_bbox)
                 }),
+                embedded,
             };
             let records = bench::run_and_report(&cfg, &list)?;
             emit(&bench::report::summary(&records))?;

@@ -11,7 +11,10 @@ pub type LeafId = u32;
 pub enum Node {
     /// An occurrence of a primitive; `prim` indexes the scene's primitives (file order,
     /// 0-based). Each occurrence is its own leaf.
-    Leaf { prim: u32 },
+    Leaf {
+        /// The primitive (mesh) index.
+        prim: u32,
+    },
     /// `!a`: the complement.
     Not(NodeId),
     /// `a + b`
@@ -25,7 +28,9 @@ pub enum Node {
 /// A CSG expression as an arena of [`Node`]s.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Expr {
+    /// The nodes; children are referred to by index.
     pub nodes: Vec<Node>,
+    /// The index of the root node.
     pub root: NodeId,
 }
 

@@ -11,6 +11,7 @@
 pub mod blister;
 pub mod budget;
 mod common;
+mod convex;
 pub mod cst;
 pub mod eye;
 pub mod goldfeather;
@@ -22,6 +23,7 @@ pub mod tie;
 pub mod trickle;
 pub mod usage;
 pub mod validate;
+pub use convex::is_convex;
 pub use step::*;
 pub use tie::{shade_near_depth, SHADE_EPS};
 
@@ -31,13 +33,21 @@ use crate::scene::{Aabb, Keep, Scene};
 /// The algorithms of the command line (`--algo`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Algo {
+    /// The exact CPU ray caster (no GPU plan).
     Reference,
+    /// Goldfeather's sum of products.
     Goldfeather,
+    /// Goldfeather with layered O(kn) peeling.
     GoldfeatherLayered,
+    /// Trickle's depth-interval buffer.
     Trickle,
+    /// Blister (Blist-based layer peeling).
     Blister,
+    /// Constructive Solid Trimming, variant Z.
     CstZ,
+    /// Constructive Solid Trimming, variant I.
     CstI,
+    /// Constructive Solid Trimming, variant G.
     CstG,
     /// Blister with the paper's depth-test parity (an extension of the contract's
     /// list, for measuring speckles against the tolerant `blister`).
@@ -291,42 +301,6 @@ impl Prepared {
             .map(|&m| self.mesh_triangles[m as usize])
             .sum()
     }
-}
-
-/// Whether a closed, outward-oriented mesh bounds a convex set: every vertex lies
-/// on or behind the plane of every (non-degenerate) face, up to a tolerance of
-/// 1e-9 of the mesh's size. Meshes with more than 4·10⁶ vertex-face pairs are
-/// reported as not convex rather than tested (the test is quadratic).
-pub fn is_convex(mesh: &crate::scene::Mesh) -> bool {
-    let (p, t) = (&mesh.positions, &mesh.triangles);
-    if t.len() < 4 || p.len().saturating_mul(t.len()) > 4_000_000 {
-        return false;
-    }
-    let b = bounds(p);
-    let size = (b.max - b.min).length();
-    let tol = 1e-9 * size;
-    let mut planes: Vec<(glam::DVec3, f64)> = Vec::with_capacity(t.len());
-    for &[a, bb, c] in t {
-        let (a, bb, c) = (p[a as usize], p[bb as usize], p[c as usize]);
-        let n = (bb - a).cross(c - a);
-        let len = n.length();
-        if len <= 1e-12 * size * size {
-            continue;
-        }
-        let n = n / len;
-        let d = n.dot(a);
-        if planes
-            .iter()
-            .any(|&(m, e)| m.dot(n) > 1.0 - 1e-12 && (e - d).abs() <= tol)
-        {
-            continue;
-        }
-        planes.push((n, d));
-    }
-    !planes.is_empty()
-        && planes
-            .iter()
-            .all(|&(n, d)| p.iter().all(|&v| n.dot(v) - d <= tol))
 }
 
 use crate::geom::bounds;

@@ -8,19 +8,34 @@
 use glam::{DMat4, DVec3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
+/// How the camera projects.
 pub enum Projection {
-    Perspective { fov_y_deg: f64 },
-    Orthographic { height: f64 },
+    /// A pinhole camera with this vertical field of view.
+    Perspective {
+        /// Vertical field of view, degrees.
+        fov_y_deg: f64,
+    },
+    /// Parallel rays; the view is `height` world units tall.
+    Orthographic {
+        /// Height of the view in world units.
+        height: f64,
+    },
 }
 
 /// A resolved camera (after `fit`, with definite near/far).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Position of the eye (world).
     pub eye: DVec3,
+    /// The point looked at (world).
     pub target: DVec3,
+    /// The world direction shown upwards.
     pub up: DVec3,
+    /// Perspective or orthographic.
     pub projection: Projection,
+    /// Distance of the near plane along the view direction.
     pub near: f64,
+    /// Distance of the far plane along the view direction.
     pub far: f64,
 }
 

@@ -9,12 +9,15 @@ use crate::vk::scissor::Rect;
 /// Depth-stencil format of the plan's depth-stencil images (`--depth-format`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
 pub enum DepthFormat {
+    /// `D24_UNORM_S8_UINT`.
     #[default]
     D24S8,
+    /// `D32_SFLOAT_S8_UINT`.
     D32S8,
 }
 
 impl DepthFormat {
+    /// The Vulkan format.
     pub fn vk(self) -> vk::Format {
         match self {
             DepthFormat::D24S8 => vk::Format::D24_UNORM_S8_UINT,

@@ -3,12 +3,17 @@
 //! Nothing here submits to a queue (see README "Embedding" for the full
 //! synchronization contract, repeated on [`Embedder::record`]).
 //!
-//! The frame itself is the executor's unrolled recording (loops unrolled to learnt
-//! counts, as in the standalone replay of the performance work). Its occlusion
-//! counts are copied on the GPU (`vkCmdCopyQueryPoolResults`) into a host-visible
-//! ring slot per frame in flight, and checked when that slot comes round again,
-//! i.e. after the host has waited for the frame: no CPU wait is ever added. A
-//! failed check adjusts the counts for the next frames.
+//! The frame itself is the executor's unrolled recording (loops unrolled to
+//! counts, as in the standalone replay of the performance work): the counts
+//! start as given ([`Embedder::set_loop_counts`], e.g. the CPU estimate of
+//! `embed::LoopCounts::Estimate`, or learnt by [`Embedder::prepare`]). Each
+//! frame's occlusion counts are copied on the GPU (`vkCmdCopyQueryPoolResults`)
+//! into a host-visible ring slot per frame in flight (plus one), and checked when
+//! that slot comes round again, i.e. after the host has waited for the frame: no
+//! CPU wait is ever added. A failed check corrects the counts of later frames:
+//! doubled where the last head still found samples (the frame missed layers),
+//! shrunk to one past the last head with samples where heads were left empty
+//! (the frame was right, only slower).
 #![warn(missing_docs)]
 
 use std::sync::Arc;
@@ -16,6 +21,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use super::composite::{check_host_formats, Composite};
 use super::error::{Check, VkError};
 use super::exec::{ExecDesc, ExecStats, Executor, Unrolled};
 use super::instance::{Context, Shared};
@@ -24,9 +30,6 @@ use super::submit;
 use super::sync::{self, REST};
 use crate::plan::usage::Usage;
 use crate::plan::Plan;
-
-const VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fullscreen.vert.spv"));
-const FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/composite.frag.spv"));
 
 /// The host's attachments for one frame. Both are views of 2D images of
 /// `extent` with one mip level and one layer; see [`Embedder::record`] for the
@@ -51,18 +54,6 @@ pub struct HostTargets {
 struct Slot {
     counts: Buffer,
     pending: Option<(Plan, Unrolled)>,
-}
-
-/// The composite pass's objects, made for one pair of host formats.
-struct Composite {
-    formats: (vk::Format, vk::Format),
-    set_layout: vk::DescriptorSetLayout,
-    layout: vk::PipelineLayout,
-    pool: vk::DescriptorPool,
-    set: vk::DescriptorSet,
-    pipeline: vk::Pipeline,
-    /// Executor epoch the set's views belong to.
-    epoch: Option<u64>,
 }
 
 /// Records plans into a host's command buffers (see the module doc).
@@ -171,6 +162,28 @@ impl Embedder {
         Ok(stats)
     }
 
+    /// Sets the loop counts the next recordings of the current plan unroll to
+    /// (one per `Step::Loop`, in plan order; each at least 1). The ring's checks
+    /// correct them afterwards (see the module doc).
+    pub fn set_loop_counts(&mut self, counts: Vec<u32>) -> Result<(), VkError> {
+        let plan = self
+            .plan
+            .clone()
+            .ok_or_else(|| VkError::Plan("set_loop_counts before set_plan".into()))?;
+        let loops = plan
+            .steps
+            .iter()
+            .filter(|s| matches!(s, crate::plan::Step::Loop(_)))
+            .count();
+        if counts.len() != loops || counts.contains(&0) {
+            return Err(VkError::Plan(format!(
+                "loop counts {counts:?}: the plan has {loops} loops, each needs a count of at least 1"
+            )));
+        }
+        self.layers = Some((plan, counts));
+        Ok(())
+    }
+
     /// Whether the plan's loop counts are known ([`Embedder::prepare`] ran, or
     /// counts were carried over from an equal plan).
     pub fn prepared(&self) -> bool {
@@ -207,6 +220,11 @@ impl Embedder {
     /// - At most `frames_in_flight` (given to [`Embedder::new`]) command buffers
     ///   holding a recording of this embedder are pending at any time, all on one
     ///   queue, and their submission order is their recording order.
+    /// - If the plan changed since the previous record ([`Embedder::set_plan`]
+    ///   with another plan), those command buffers have completed: a new plan may
+    ///   replace internal images. Likewise when the host's formats change.
+    /// - The host's colour and depth formats are checked first: one the composite
+    ///   cannot write is [`VkError::HostFormat`] with nothing recorded into `cmd`.
     /// - The views stay valid until the command buffer has completed.
     pub unsafe fn record(
         &mut self,
@@ -231,11 +249,17 @@ impl Embedder {
                 targets.extent[0], targets.extent[1], d.width, d.height
             )));
         }
+        // Before anything is recorded: an unsupported format leaves `cmd` untouched.
+        let formats = (targets.color_format, targets.depth_format);
+        if self.composite.as_ref().map(|c| c.formats) != Some(formats) {
+            check_host_formats(&self.shared, formats.0, formats.1)?;
+        }
         self.check_finished_slot(plan)?;
-        let layers = self
-            .layers(plan)
-            .map(<[u32]>::to_vec)
-            .ok_or_else(|| VkError::Plan("record before prepare: loop counts unknown".into()))?;
+        let layers = self.layers(plan).map(<[u32]>::to_vec).ok_or_else(|| {
+            VkError::Plan(
+                "record before the loop counts are known: call set_loop_counts or prepare".into(),
+            )
+        })?;
         let unrolled = self.exec.record_unrolled(cmd, plan, &layers)?;
         let slot = (self.frame % self.slots.len() as u64) as usize;
         self.frame += 1;
@@ -328,18 +352,22 @@ impl Embedder {
     ) -> Result<(), VkError> {
         let formats = (t.color_format, t.depth_format);
         if self.composite.as_ref().map(|c| c.formats) != Some(formats) {
-            self.composite = None;
+            if let Some(old) = self.composite.take() {
+                // The host has no frame of the old formats pending (it changed
+                // its attachments, so it waited for them).
+                old.destroy(&self.shared.device);
+            }
             self.composite = Some(Composite::new(&self.shared, formats)?);
         }
         let out = self
             .exec
             .output()
             .expect("record_unrolled leaves an output");
-        let epoch = self.exec.epoch();
+        let views = [out.color.1, out.prim.1, out.depth.1];
         let c = self.composite.as_mut().expect("made above");
-        if c.epoch != Some(epoch) {
+        if c.views != Some(views) {
             c.write_set(&self.shared, &out, self.sampler);
-            c.epoch = Some(epoch);
+            c.views = Some(views);
         }
         let device = &self.shared.device;
         let images = [
@@ -379,62 +407,9 @@ impl Embedder {
                     | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
             ),
         );
-        let extent = vk::Extent2D {
-            width: t.extent[0],
-            height: t.extent[1],
-        };
         // Only where the CSG can be: its meshes' projected bounds.
-        let rect = self.exec.output_rect();
-        let scissor = crate::vk::conv::rect2d(rect);
-        let color = [vk::RenderingAttachmentInfo::default()
-            .image_view(t.color_view)
-            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::LOAD)
-            .store_op(vk::AttachmentStoreOp::STORE)];
-        let depth = vk::RenderingAttachmentInfo::default()
-            .image_view(t.depth_view)
-            .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::LOAD)
-            .store_op(vk::AttachmentStoreOp::STORE);
-        let ri = vk::RenderingInfo::default()
-            .render_area(extent.into())
-            .layer_count(1)
-            .color_attachments(&color)
-            .depth_attachment(&depth);
-        let viewport = vk::Viewport {
-            x: 0.0,
-            y: 0.0,
-            width: extent.width as f32,
-            height: extent.height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
-        };
-        // SAFETY: outside rendering (the caller's contract); the views are the
-        // host's attachments in the layouts the contract names.
-        unsafe { device.cmd_begin_rendering(cmd, &ri) };
-        // SAFETY: inside the block above; the pipeline was made for its formats.
-        unsafe { device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, c.pipeline) };
-        // SAFETY: the set's images are in `SHADER_READ_ONLY_OPTIMAL` (barrier above).
-        unsafe {
-            device.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                c.layout,
-                0,
-                &[c.set],
-                &[],
-            )
-        };
-        // SAFETY: dynamic state of the bound pipeline.
-        unsafe { device.cmd_set_viewport(cmd, 0, &[viewport]) };
-        // SAFETY: as above; the rectangle lies within the attachments.
-        unsafe { device.cmd_set_scissor(cmd, 0, &[scissor]) };
-        // SAFETY: as above.
-        unsafe { device.cmd_set_depth_compare_op(cmd, depth_compare) };
-        // SAFETY: pipeline, set and state bound; the vertex shader needs no buffer.
-        unsafe { device.cmd_draw(cmd, 3, 1, 0, 0) };
-        // SAFETY: closes the block begun above.
-        unsafe { device.cmd_end_rendering(cmd) };
+        let scissor = crate::vk::conv::rect2d(self.exec.output_rect());
+        c.draw(device, cmd, t, scissor, depth_compare);
         let (s, d, b) = to_sampled(Usage::Sampled, REST);
         submit::image_barriers(device, cmd, s, d, &b);
         Ok(())
@@ -458,197 +433,6 @@ fn adjust_layers(u: &Unrolled, samples: &[u64]) -> Vec<u32> {
             None => (heads.len() as u32 * 2).max(1),
         })
         .collect()
-}
-
-impl Composite {
-    fn new(shared: &Shared, formats: (vk::Format, vk::Format)) -> Result<Composite, VkError> {
-        let device = &shared.device;
-        let binding = |b: u32, ty| {
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(b)
-                .descriptor_type(ty)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT)
-        };
-        let bindings = [
-            binding(0, vk::DescriptorType::SAMPLED_IMAGE),
-            binding(1, vk::DescriptorType::SAMPLED_IMAGE),
-            binding(2, vk::DescriptorType::SAMPLED_IMAGE),
-            binding(3, vk::DescriptorType::SAMPLER),
-        ];
-        let mut c = Composite {
-            formats,
-            set_layout: vk::DescriptorSetLayout::null(),
-            layout: vk::PipelineLayout::null(),
-            pool: vk::DescriptorPool::null(),
-            set: vk::DescriptorSet::null(),
-            pipeline: vk::Pipeline::null(),
-            epoch: None,
-        };
-        let dci = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
-        // SAFETY: valid create info on a live device. (Each object made below is
-        // destroyed by `Composite::destroy` even when a later step fails.)
-        c.set_layout = unsafe { device.create_descriptor_set_layout(&dci, None) }
-            .check("vkCreateDescriptorSetLayout")
-            .inspect_err(|_| c.destroy(device))?;
-        let set_layouts = [c.set_layout];
-        let lci = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
-        // SAFETY: valid create info; the set layout is live.
-        c.layout = unsafe { device.create_pipeline_layout(&lci, None) }
-            .check("vkCreatePipelineLayout")
-            .inspect_err(|_| c.destroy(device))?;
-        let sizes = [
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLED_IMAGE,
-                descriptor_count: 3,
-            },
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLER,
-                descriptor_count: 1,
-            },
-        ];
-        let pci = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(1)
-            .pool_sizes(&sizes);
-        // SAFETY: valid create info.
-        c.pool = unsafe { device.create_descriptor_pool(&pci, None) }
-            .check("vkCreateDescriptorPool")
-            .inspect_err(|_| c.destroy(device))?;
-        let ai = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(c.pool)
-            .set_layouts(&set_layouts);
-        // SAFETY: the pool has room for this one set.
-        c.set = unsafe { device.allocate_descriptor_sets(&ai) }
-            .check("vkAllocateDescriptorSets")
-            .inspect_err(|_| c.destroy(device))?[0];
-        c.pipeline = c.make_pipeline(device).inspect_err(|_| c.destroy(device))?;
-        Ok(c)
-    }
-
-    fn make_pipeline(&self, device: &ash::Device) -> Result<vk::Pipeline, VkError> {
-        let module = |bytes: &[u8]| -> Result<vk::ShaderModule, VkError> {
-            let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes))
-                .map_err(|e| VkError::Plan(format!("embedded SPIR-V unreadable: {e}")))?;
-            let ci = vk::ShaderModuleCreateInfo::default().code(&words);
-            // SAFETY: SPIR-V produced and validated by naga in build.rs.
-            unsafe { device.create_shader_module(&ci, None) }.check("vkCreateShaderModule")
-        };
-        let (vert, frag) = (module(VERT)?, module(FRAG)?);
-        let stages = [
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::VERTEX)
-                .module(vert)
-                .name(c"main"),
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::FRAGMENT)
-                .module(frag)
-                .name(c"main"),
-        ];
-        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
-        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let viewport = vk::PipelineViewportStateCreateInfo::default()
-            .viewport_count(1)
-            .scissor_count(1);
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
-            .polygon_mode(vk::PolygonMode::FILL)
-            .cull_mode(vk::CullModeFlags::NONE)
-            .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-        let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_test_enable(true)
-            .depth_write_enable(true);
-        let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
-            .color_write_mask(vk::ColorComponentFlags::RGBA)];
-        let blend =
-            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
-        let dynamic_states = [
-            vk::DynamicState::VIEWPORT,
-            vk::DynamicState::SCISSOR,
-            vk::DynamicState::DEPTH_COMPARE_OP,
-        ];
-        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let color_formats = [self.formats.0];
-        let mut rendering = vk::PipelineRenderingCreateInfo::default()
-            .color_attachment_formats(&color_formats)
-            .depth_attachment_format(self.formats.1);
-        let ci = vk::GraphicsPipelineCreateInfo::default()
-            .stages(&stages)
-            .vertex_input_state(&vertex_input)
-            .input_assembly_state(&assembly)
-            .viewport_state(&viewport)
-            .rasterization_state(&raster)
-            .multisample_state(&multisample)
-            .depth_stencil_state(&depth_stencil)
-            .color_blend_state(&blend)
-            .dynamic_state(&dynamic)
-            .layout(self.layout)
-            .push_next(&mut rendering);
-        // SAFETY: the state structs live across the call; modules and layout are live.
-        let made =
-            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) };
-        // SAFETY: modules are only needed while creating the pipeline.
-        unsafe { device.destroy_shader_module(vert, None) };
-        // SAFETY: as above.
-        unsafe { device.destroy_shader_module(frag, None) };
-        made.map(|p| p[0]).map_err(|(_, e)| VkError::Call {
-            call: "vkCreateGraphicsPipelines",
-            result: e,
-        })
-    }
-
-    /// Points the set at the executor's current output images.
-    fn write_set(&self, shared: &Shared, out: &super::exec::Output, sampler: vk::Sampler) {
-        let sampled = sync::access(Usage::Sampled).layout;
-        let info = |view| {
-            [vk::DescriptorImageInfo {
-                sampler: vk::Sampler::null(),
-                image_view: view,
-                image_layout: sampled,
-            }]
-        };
-        let (ci, pi, di) = (info(out.color.1), info(out.prim.1), info(out.depth.1));
-        let si = [vk::DescriptorImageInfo {
-            sampler,
-            image_view: vk::ImageView::null(),
-            image_layout: vk::ImageLayout::UNDEFINED,
-        }];
-        let infos: [(vk::DescriptorType, &[vk::DescriptorImageInfo]); 4] = [
-            (vk::DescriptorType::SAMPLED_IMAGE, &ci),
-            (vk::DescriptorType::SAMPLED_IMAGE, &pi),
-            (vk::DescriptorType::SAMPLED_IMAGE, &di),
-            (vk::DescriptorType::SAMPLER, &si),
-        ];
-        let writes: Vec<vk::WriteDescriptorSet<'_>> = infos
-            .iter()
-            .enumerate()
-            .map(|(b, (ty, i))| {
-                vk::WriteDescriptorSet::default()
-                    .dst_set(self.set)
-                    .dst_binding(b as u32)
-                    .descriptor_type(*ty)
-                    .image_info(i)
-            })
-            .collect();
-        // SAFETY: set, views and sampler are live; the set is not in use by a
-        // pending command buffer (it changes only with the executor's images,
-        // which change only when no frame is pending).
-        unsafe { shared.device.update_descriptor_sets(&writes, &[]) };
-    }
-
-    fn destroy(&self, device: &ash::Device) {
-        // SAFETY (each call): no pending command buffer uses these objects (the
-        // embedder is dropped or remade only when the host has no frame of it
-        // pending); null handles are ignored.
-        unsafe { device.destroy_pipeline(self.pipeline, None) };
-        // SAFETY: as above.
-        unsafe { device.destroy_descriptor_pool(self.pool, None) };
-        // SAFETY: as above.
-        unsafe { device.destroy_pipeline_layout(self.layout, None) };
-        // SAFETY: as above.
-        unsafe { device.destroy_descriptor_set_layout(self.set_layout, None) };
-    }
 }
 
 impl Drop for Embedder {

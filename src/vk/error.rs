@@ -4,24 +4,32 @@
 use ash::vk;
 
 #[derive(Debug, thiserror::Error)]
+/// Errors of the Vulkan layer (and of embedding's host targets).
 pub enum VkError {
+    /// No Vulkan loader or driver.
     #[error(
         "no Vulkan driver found: install mesa-vulkan-drivers libvulkan1 (tools/setup.sh) ({0})"
     )]
     Loader(String),
+    /// Validation was asked for but its layer is missing.
     #[error(
         "Vulkan validation was requested (debug build or PEELTRIM_VALIDATION=1) but the layer \
          VK_LAYER_KHRONOS_validation is not installed: install vulkan-validationlayers, or \
          set PEELTRIM_VALIDATION=0"
     )]
     NoValidationLayer,
+    /// No device with what peeltrim needs.
     #[error("no suitable Vulkan device: {0}")]
     NoDevice(String),
+    /// A Vulkan call failed.
     #[error("Vulkan call {call} failed: {result}{}", advice(*result))]
     Call {
+        /// The entry point.
         call: &'static str,
+        /// Its result.
         result: vk::Result,
     },
+    /// Device memory could not be allocated.
     #[error(
         "GPU memory allocation failed: {0}; the device is out of memory: use a smaller --size \
          (or fewer or coarser primitives)"
@@ -30,10 +38,24 @@ pub enum VkError {
     /// A frame the device cannot hold (see `limits.rs`).
     #[error("{0}")]
     FrameTooLarge(String),
+    /// The device lacks a feature or format.
     #[error("the device does not support {0}")]
     Unsupported(String),
+    /// A plan (or a call sequence) the executor cannot run.
     #[error("invalid plan: {0}")]
     Plan(String),
+    /// A host attachment format the embedding composite cannot write (see
+    /// `vk::COLOR_FORMATS`, `vk::DEPTH_FORMATS`).
+    #[error("host {attachment} attachment format {format:?}: {problem}")]
+    HostFormat {
+        /// `"colour"` or `"depth"`.
+        attachment: &'static str,
+        /// The format given.
+        format: vk::Format,
+        /// Why, and what to use instead.
+        problem: String,
+    },
+    /// A plan that fails validation.
     #[error("invalid plan: {0}")]
     InvalidPlan(#[from] crate::plan::validate::InvalidPlan),
 }

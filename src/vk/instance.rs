@@ -531,26 +531,32 @@ impl Context {
         self.shared.debug.is_some()
     }
 
+    /// The device (the host's, for a context from [`Context::from_raw`]).
     pub fn raw_device(&self) -> &ash::Device {
         &self.shared.device
     }
 
+    /// The instance.
     pub fn raw_instance(&self) -> &ash::Instance {
         &self.shared.instance
     }
 
+    /// The loader's entry points.
     pub fn raw_entry(&self) -> &ash::Entry {
         &self.shared.entry
     }
 
+    /// The physical device.
     pub fn raw_physical_device(&self) -> vk::PhysicalDevice {
         self.shared.physical
     }
 
+    /// The queue family peeltrim records and submits for.
     pub fn queue_family(&self) -> u32 {
         self.shared.queue_family
     }
 
+    /// The queue peeltrim submits to (its standalone frames, `LoopCounts::Learn`).
     pub fn raw_queue(&self) -> vk::Queue {
         self.shared.queue
     }

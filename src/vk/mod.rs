@@ -12,10 +12,12 @@
 //! (feature `viewer`: a window's surface and swapchain).
 #![warn(unsafe_op_in_unsafe_fn)]
 
+pub mod composite;
 pub mod conv;
 pub mod embed;
 pub mod error;
 pub mod exec;
+pub mod host_frame;
 pub mod image;
 pub mod instance;
 pub mod limits;
@@ -29,10 +31,12 @@ pub mod scissor;
 pub(crate) mod submit;
 pub mod sync;
 
+pub use composite::{COLOR_FORMATS, DEPTH_FORMATS};
 pub use embed::{Embedder, HostTargets};
 pub use error::VkError;
 pub use exec::{
     ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats, Recorded,
 };
+pub use host_frame::OffscreenHost;
 pub use instance::{Context, ContextDesc, DeviceChoice};
 pub use rounding::RoundingEmulation;

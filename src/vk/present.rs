@@ -2,9 +2,12 @@
 //! made with `ash-window`, a `VK_KHR_swapchain` on the executor's device and queue,
 //! and a host-visible staging buffer copied into the acquired swapchain image.
 //!
-//! A GPU frame is blitted from the executor's colour target
-//! ([`Presenter::present_image`], no read-back); the CPU reference's images go
-//! through a staging buffer ([`Presenter::present`]).
+//! The viewer is an embedding host ([`Presenter::present_recorded`]): each frame
+//! clears the acquired swapchain image and the presenter's own depth buffer, lets
+//! the caller record peeltrim's CSG into them (`vk::Embedder::record`), and
+//! presents, with [`FRAMES_IN_FLIGHT`] frames submitted before the CPU waits for
+//! the oldest. The CPU reference's images go through a staging buffer
+//! ([`Presenter::present`], which waits for its copy).
 
 use std::sync::Arc;
 
@@ -12,11 +15,26 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
 
+use super::embed::Embedder;
 use super::error::{Check, VkError};
+use super::exec::ExecStats;
+use super::host_frame::{host_depth_format, record_host_frame, HostAttachments, COLOR_ATTACHMENT};
+use super::image::{Image, ImageDesc};
 use super::instance::{Context, ContextDesc, PresentHooks, Shared};
 use super::memory::Buffer;
 use super::submit::{self, Submitter};
 use crate::output::Images;
+
+/// Frames [`Presenter::present_recorded`] keeps submitted before waiting.
+pub const FRAMES_IN_FLIGHT: u32 = 2;
+
+/// One frame of `present_recorded`: its command buffer and fence, and the
+/// semaphore its acquire signals.
+struct InFlight {
+    submit: Submitter,
+    acquired: vk::Semaphore,
+    pending: bool,
+}
 
 /// What [`Presenter::present`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,8 +56,14 @@ pub struct Presenter {
     acquired: vk::Semaphore,
     swapchain: vk::SwapchainKHR,
     images: Vec<vk::Image>,
+    /// Colour-attachment views of `images`.
+    views: Vec<vk::ImageView>,
     /// One per swapchain image: signalled by the copy, waited on by the present.
     copied: Vec<vk::Semaphore>,
+    /// The host's depth buffer, at the swapchain's size.
+    depth: Option<Image>,
+    frames: Vec<InFlight>,
+    next: usize,
     format: vk::Format,
     extent: vk::Extent2D,
     staging: Option<Buffer>,
@@ -83,7 +107,11 @@ impl Presenter {
             acquired: vk::Semaphore::null(),
             swapchain: vk::SwapchainKHR::null(),
             images: Vec::new(),
+            views: Vec::new(),
             copied: Vec::new(),
+            depth: None,
+            frames: Vec::new(),
+            next: 0,
             format: vk::Format::UNDEFINED,
             extent: vk::Extent2D::default(),
             staging: None,
@@ -94,6 +122,18 @@ impl Presenter {
         // SAFETY: valid create info.
         p.acquired = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
             .check("vkCreateSemaphore")?;
+        for _ in 0..FRAMES_IN_FLIGHT {
+            let submit = Submitter::new(&shared)?;
+            // SAFETY: valid create info.
+            let acquired =
+                unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
+                    .check("vkCreateSemaphore")?;
+            p.frames.push(InFlight {
+                submit,
+                acquired,
+                pending: false,
+            });
+        }
         p.rebuild(size)?;
         Ok((ctx, p))
     }
@@ -116,7 +156,12 @@ impl Presenter {
             // idle below before the swapchain goes.
             unsafe { device.destroy_semaphore(s, None) };
         }
+        for v in self.views.drain(..) {
+            // SAFETY: the device is idle (callers wait); no frame uses the view.
+            unsafe { device.destroy_image_view(v, None) };
+        }
         self.images.clear();
+        self.depth = None;
         if self.swapchain != vk::SwapchainKHR::null() {
             // SAFETY: the device is idle (callers wait), no image is acquired.
             unsafe { self.swapchain_fn.destroy_swapchain(self.swapchain, None) };
@@ -151,12 +196,10 @@ impl Presenter {
             self.stale = true;
             return Ok(());
         }
-        if !caps
-            .supported_usage_flags
-            .contains(vk::ImageUsageFlags::TRANSFER_DST)
-        {
+        let usage = vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::COLOR_ATTACHMENT;
+        if !caps.supported_usage_flags.contains(usage) {
             return Err(VkError::Unsupported(
-                "swapchain images as transfer destinations".into(),
+                "swapchain images as transfer destinations and colour attachments".into(),
             ));
         }
         // SAFETY: as above.
@@ -191,7 +234,7 @@ impl Presenter {
             .image_color_space(format.color_space)
             .image_extent(extent)
             .image_array_layers(1)
-            .image_usage(vk::ImageUsageFlags::TRANSFER_DST)
+            .image_usage(usage)
             .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
             .pre_transform(caps.current_transform)
             .composite_alpha(alpha)
@@ -204,12 +247,26 @@ impl Presenter {
         // SAFETY: the swapchain was just created.
         self.images = unsafe { self.swapchain_fn.get_swapchain_images(self.swapchain) }
             .check("vkGetSwapchainImagesKHR")?;
-        for _ in 0..self.images.len() {
+        for &image in &self.images {
             // SAFETY: valid create info.
             let s = unsafe { device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
                 .check("vkCreateSemaphore")?;
             self.copied.push(s);
+            let vci = vk::ImageViewCreateInfo::default()
+                .image(image)
+                .view_type(vk::ImageViewType::TYPE_2D)
+                .format(format.format)
+                .subresource_range(color_range());
+            // SAFETY: a view of a live swapchain image in its own format.
+            let v = unsafe { device.create_image_view(&vci, None) }.check("vkCreateImageView")?;
+            self.views.push(v);
         }
+        self.depth = Some(Image::new(
+            &shared,
+            "view depth",
+            ImageDesc::new_2d(host_depth_format(&shared), [extent.width, extent.height])
+                .usage(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT),
+        )?);
         self.format = format.format;
         self.stale = false;
         Ok(())
@@ -284,67 +341,109 @@ impl Presenter {
         })
     }
 
-    /// Shows a frame that is still on the GPU: `src` is an RGBA8 image of
-    /// `src_size` in `TRANSFER_SRC_OPTIMAL` whose writes are complete (the
-    /// executor's colour target after `Executor::execute`). No read-back.
-    fn present_image(
-        &mut self,
-        src: vk::Image,
-        src_size: [u32; 2],
-        background: [u8; 3],
-        size: [u32; 2],
-    ) -> Result<Presented, VkError> {
-        if !self.ready(size)? {
-            return Ok(Presented::Skipped);
-        }
-        self.present_with(background, |device, cmd, image, extent| {
-            let (w, h) = (
-                src_size[0].min(extent.width),
-                src_size[1].min(extent.height),
-            );
-            if w == 0 || h == 0 {
-                return;
+    /// Waits for every frame [`Presenter::present_recorded`] submitted (before
+    /// anything those frames use changes: a new plan's images, a resize).
+    pub fn wait_frames(&mut self) -> Result<(), VkError> {
+        for f in &mut self.frames {
+            if f.pending {
+                f.submit.wait()?;
+                f.pending = false;
             }
-            let layers = vk::ImageSubresourceLayers::default()
-                .aspect_mask(vk::ImageAspectFlags::COLOR)
-                .layer_count(1);
-            let corner = vk::Offset3D {
-                x: w as i32,
-                y: h as i32,
-                z: 1,
-            };
-            let region = vk::ImageBlit::default()
-                .src_subresource(layers)
-                .src_offsets([vk::Offset3D::default(), corner])
-                .dst_subresource(layers)
-                .dst_offsets([vk::Offset3D::default(), corner]);
-            // SAFETY: recording; a 1:1 blit (it converts RGBA to the swapchain's byte
-            // order) inside both images, in the layouts given.
-            unsafe {
-                device.cmd_blit_image(
-                    cmd,
-                    src,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    image,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
-                    vk::Filter::NEAREST,
-                )
-            };
-        })
+        }
+        Ok(())
     }
 
-    /// Shows the last frame `exec` executed, straight from its colour target.
-    pub fn present_frame(
+    /// One host frame: acquires a swapchain image, clears it to `background` and
+    /// the presenter's depth buffer to `far_depth`, records `embedder`'s CSG into
+    /// them ([`Embedder::record`]), and presents. Waits only for the frame
+    /// [`FRAMES_IN_FLIGHT`] frames back, whose command buffer it reuses, so
+    /// `embedder` must have been made for that many frames in flight. When the
+    /// swapchain's size is not the embedder's (a resize), the frame shows the
+    /// background only and no stats are returned.
+    pub fn present_recorded(
         &mut self,
-        exec: &super::Executor,
         background: [u8; 3],
+        far_depth: f32,
         size: [u32; 2],
-    ) -> Result<Presented, VkError> {
-        let (image, extent) = exec
-            .color_target()
-            .ok_or_else(|| VkError::Plan("present_frame before execute: no frame".into()))?;
-        self.present_image(image, extent, background, size)
+        embedder: &mut Embedder,
+    ) -> Result<(Presented, Option<ExecStats>), VkError> {
+        if !self.ready(size)? {
+            return Ok((Presented::Skipped, None));
+        }
+        let shared = self.shared.clone();
+        let device = &shared.device;
+        let slot = self.next;
+        let frame = &mut self.frames[slot];
+        if frame.pending {
+            frame.submit.wait()?;
+            frame.pending = false;
+        }
+        // SAFETY: live swapchain; the frame's semaphore is unsignaled (the submit
+        // that waited on it completed: its fence was waited for above).
+        let acquired = unsafe {
+            self.swapchain_fn.acquire_next_image(
+                self.swapchain,
+                u64::MAX,
+                frame.acquired,
+                vk::Fence::null(),
+            )
+        };
+        let index = match acquired {
+            Ok((i, suboptimal)) => {
+                self.stale |= suboptimal;
+                i as usize
+            }
+            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
+                self.stale = true;
+                return Ok((Presented::Skipped, None));
+            }
+            Err(e) => {
+                return Err(VkError::Call {
+                    call: "vkAcquireNextImageKHR",
+                    result: e,
+                })
+            }
+        };
+        let (image, view) = (self.images[index], self.views[index]);
+        let depth = self.depth.as_ref().expect("made with the swapchain");
+        let cmd = frame.submit.cmd;
+        frame.submit.begin(cmd, true)?;
+        let extent = self.extent;
+        let att = HostAttachments {
+            color: (image, view, self.format),
+            depth,
+            extent,
+        };
+        // SAFETY: `cmd` records outside rendering on the context's queue family
+        // and is submitted below to its queue; the swapchain image was acquired
+        // (its semaphore is waited for before the barrier's stage) and the views
+        // live as long as the swapchain, which is rebuilt only after the device
+        // idles; at most FRAMES_IN_FLIGHT frames are pending (the fence wait
+        // above), in recording order on one queue; the caller made the embedder
+        // for that many.
+        let stats =
+            unsafe { record_host_frame(device, cmd, &att, background, far_depth, embedder) }?;
+        let attach = COLOR_ATTACHMENT.stage;
+        let present = super::sync::Access {
+            stage: vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+            access: vk::AccessFlags::empty(),
+            layout: vk::ImageLayout::PRESENT_SRC_KHR,
+        };
+        let to_present = super::sync::image_barrier(
+            COLOR_ATTACHMENT,
+            present,
+            image,
+            vk::ImageAspectFlags::COLOR,
+        );
+        submit::image_barriers(device, cmd, attach, present.stage, &[to_present]);
+        frame.submit.end(cmd)?;
+        let copied = self.copied[index];
+        frame
+            .submit
+            .submit(cmd, &[(frame.acquired, attach)], &[copied])?;
+        frame.pending = true;
+        self.next = (slot + 1) % self.frames.len();
+        Ok((self.queue_present(index as u32, copied)?, stats))
     }
 
     /// Rebuilds a stale swapchain; false when there is nothing to present to.
@@ -459,6 +558,17 @@ impl Presenter {
         );
         submit.end(cmd)?;
         submit.submit(cmd, &[(self.acquired, transfer)], &[copied])?;
+        let shown = self.queue_present(index, copied);
+        // The staging buffer and `self.acquired` are reused at once.
+        if let Some(s) = &self.submit {
+            s.wait()?;
+        }
+        shown
+    }
+
+    /// Presents swapchain image `index` once `copied` is signalled.
+    fn queue_present(&mut self, index: u32, copied: vk::Semaphore) -> Result<Presented, VkError> {
+        let shared = self.shared.clone();
         let signals = [copied];
         let swapchains = [self.swapchain];
         let indices = [index];
@@ -468,11 +578,10 @@ impl Presenter {
             .image_indices(&indices);
         let presented = {
             let _queue = shared.queue_lock.lock();
-            // SAFETY: `index` was acquired from this swapchain; its copy, submitted
-            // above, signals `copied`; the lock serializes queue access.
+            // SAFETY: `index` was acquired from this swapchain; the submission that
+            // signals `copied` was queued before; the lock serializes queue access.
             unsafe { self.swapchain_fn.queue_present(shared.queue, &pi) }
         };
-        submit.wait()?;
         match presented {
             Ok(false) => Ok(Presented::Shown),
             Ok(true) => {
@@ -489,6 +598,13 @@ impl Presenter {
             }),
         }
     }
+}
+
+fn color_range() -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange::default()
+        .aspect_mask(vk::ImageAspectFlags::COLOR)
+        .level_count(1)
+        .layer_count(1)
 }
 
 /// An 8-bit UNORM swapchain format (the rendered bytes are copied as they are).
@@ -512,6 +628,10 @@ impl Drop for Presenter {
         // SAFETY: as above.
         unsafe { device.destroy_semaphore(self.acquired, None) };
         self.submit = None;
+        for f in self.frames.drain(..) {
+            // SAFETY: as above.
+            unsafe { device.destroy_semaphore(f.acquired, None) };
+        }
         // SAFETY: as above; the swapchain on this surface was destroyed first.
         unsafe { self.surface_fn.destroy_surface(self.surface, None) };
     }

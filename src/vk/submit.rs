@@ -219,6 +219,10 @@ pub struct Queries {
     ty: vk::QueryType,
     pub pool: vk::QueryPool,
     pub cap: u32,
+    /// Pools replaced by a larger one, destroyed with this one: an embedding
+    /// host may still have frames pending that use them (at most one per
+    /// doubling).
+    retired: Vec<vk::QueryPool>,
 }
 
 impl Queries {
@@ -228,6 +232,7 @@ impl Queries {
             ty,
             pool: vk::QueryPool::null(),
             cap: 0,
+            retired: Vec::new(),
         }
     }
 
@@ -239,8 +244,9 @@ impl Queries {
             return Ok(false);
         }
         let device = &self.shared.device;
-        // SAFETY: the pool is idle (every submission was waited on); null is ignored.
-        unsafe { device.destroy_query_pool(self.pool, None) };
+        if self.pool != vk::QueryPool::null() {
+            self.retired.push(self.pool);
+        }
         self.pool = vk::QueryPool::null();
         self.cap = 0;
         let new_cap = need.next_power_of_two();
@@ -256,7 +262,10 @@ impl Queries {
 
 impl Drop for Queries {
     fn drop(&mut self) {
-        // SAFETY: no submission using the pool is pending; null is ignored.
-        unsafe { self.shared.device.destroy_query_pool(self.pool, None) };
+        for p in self.retired.drain(..).chain([self.pool]) {
+            // SAFETY: no submission using the pools is pending (their owners wait
+            // for, or outlive, every frame); null is ignored.
+            unsafe { self.shared.device.destroy_query_pool(p, None) };
+        }
     }
 }

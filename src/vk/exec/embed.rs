@@ -39,11 +39,6 @@ impl Executor {
         }
     }
 
-    /// Bumped whenever an object a recording refers to is replaced.
-    pub(crate) fn epoch(&self) -> u64 {
-        self.epoch
-    }
-
     pub(crate) fn occlusion_pool(&self) -> vk::QueryPool {
         self.occlusion.pool
     }

@@ -679,19 +679,6 @@ impl Executor {
         Ok(stats)
     }
 
-    /// The colour target of the last frame, in `TRANSFER_SRC_OPTIMAL` with its
-    /// writes complete (for presenting without a read-back).
-    #[cfg(feature = "viewer")]
-    pub(crate) fn color_target(&self) -> Option<(vk::Image, [u32; 2])> {
-        self.last_output?;
-        debug_assert_eq!(
-            sync::access(REST).layout,
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL
-        );
-        let t = self.targets.as_ref()?;
-        Some((t.color.raw, [self.desc.width, self.desc.height]))
-    }
-
     /// Copies the last frame's colour, primitive ids and output depth to the CPU.
     pub fn read_back(&mut self) -> Result<Images, VkError> {
         let output = self

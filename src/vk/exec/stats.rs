@@ -7,8 +7,11 @@ use serde::Serialize;
 /// GPU time and draw count of all `Step::Pass` groups of one name.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct PassStats {
+    /// The pass group's name.
     pub name: String,
+    /// Its GPU time (0 where timestamps are not read, e.g. embedded frames).
     pub gpu_ms: f64,
+    /// Its draws.
     pub draws: u64,
 }
 
@@ -86,7 +89,9 @@ pub struct ExecStats {
     pub record_ms: f64,
     /// Whether the frame replayed a recording or recorded, and why.
     pub recorded: Recorded,
+    /// Per pass group, in order of first appearance.
     pub per_pass: Vec<PassStats>,
+    /// Deterministic counts.
     #[serde(flatten)]
     pub counts: Counts,
 }

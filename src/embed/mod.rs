@@ -1,5 +1,5 @@
 //! The mesh-level embedding API: solids given as plain triangle meshes with
-//! transforms and an expression (our string syntax, or a [`csg::Expr`] built in
+//! transforms and an expression (our string syntax, or a [`crate::Expr`] built in
 //! code), drawn into a host engine's frame by [`vk::Embedder`]. No scene file is
 //! involved; this module builds the [`Scene`] and the plan a scene file would
 //! give, and keeps the plan current as the camera or a transform changes.
@@ -9,12 +9,14 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+mod loops;
+
 use std::collections::HashMap;
 
 use glam::{DMat4, DVec3, Mat4};
 
 use crate::csg::Expr;
-use crate::plan::{self, Algo, BuildOptions, PlanError, Prepared};
+use crate::plan::{self, Algo, BuildOptions, Plan, PlanError, Prepared, Step};
 use crate::scene::camera::DepthConvention;
 use crate::scene::shapes::apply_transform;
 use crate::scene::validate::check_closed;
@@ -56,6 +58,31 @@ pub struct EmbedDesc {
     pub frames_in_flight: u32,
     /// The algorithm (CST and Goldfeather variants, Blister, Trickle).
     pub algo: Algo,
+    /// Where the first loop counts come from (see [`LoopCounts`]).
+    pub loop_counts: LoopCounts,
+    /// peeltrim's own depth-stencil format (default D32S8; D24S8 where the device
+    /// lacks it). Independent of the host's depth format.
+    pub internal_depth: vk::DepthFormat,
+}
+
+/// The first counts the embedded frame's data-dependent loops are unrolled to.
+/// Whatever the choice, the GPU's occlusion counts of each recorded frame are
+/// checked when its ring slot comes round (`frames_in_flight + 1` frames later,
+/// never with a CPU wait) and correct the counts of later frames: too few heads
+/// double, too many shrink to one past the last head that found a layer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LoopCounts {
+    /// Estimated on the CPU by casting a coarse grid of rays through the meshes
+    /// each loop peels (no GPU work, no wait). A pixel deeper than every ray
+    /// of the grid can show too few layers until the ring has corrected the count.
+    #[default]
+    Estimate,
+    /// Learnt by one standalone frame on peeltrim's queue, waited for on the CPU
+    /// in [`CsgScene::new`] (and after a change of plan, in [`CsgScene::relearn`]):
+    /// every frame is right from the first.
+    Learn,
+    /// Every loop starts at this count (clamped to its bound; 0 counts as 1).
+    Fixed(u32),
 }
 
 impl Default for EmbedDesc {
@@ -65,6 +92,8 @@ impl Default for EmbedDesc {
             reversed_z: false,
             frames_in_flight: 2,
             algo: Algo::Goldfeather,
+            loop_counts: LoopCounts::Estimate,
+            internal_depth: vk::DepthFormat::D32S8,
         }
     }
 }
@@ -104,13 +133,16 @@ pub struct CsgScene {
     scene: Scene,
     prepared: Prepared,
     algo: Algo,
+    loop_counts: LoopCounts,
     local: Vec<Mesh>,
 }
 
 impl CsgScene {
-    /// Uploads `meshes` once, builds the plan of `expr` for `camera`, and learns
-    /// its loop counts with one standalone frame on peeltrim's queue (the only
-    /// submission the library makes; [`vk::Embedder::record`] makes none).
+    /// Uploads `meshes` once, builds the plan of `expr` for `camera`, and sets its
+    /// first loop counts as `desc.loop_counts` says: by default estimated on the
+    /// CPU, with no GPU work and no wait. Only [`LoopCounts::Learn`] submits (one
+    /// standalone frame on peeltrim's queue, waited for); [`vk::Embedder::record`]
+    /// never does.
     pub fn new(
         ctx: &Context,
         meshes: &[MeshInput<'_>],
@@ -182,31 +214,90 @@ impl CsgScene {
             warnings: Vec::new(),
             appearance: Default::default(),
         };
+        CsgScene::build(ctx, scene, local, desc)
+    }
+
+    /// A scene of peeltrim's own (a loaded scene file: its primitives, solids and
+    /// trimmed surfaces, at the camera it has), drawn into host frames of
+    /// `desc.extent` (the scene's own size is replaced). [`CsgScene::set_transform`]
+    /// moves a primitive from where the scene placed it. The viewer's path.
+    pub fn from_scene(
+        ctx: &Context,
+        scene: &Scene,
+        desc: &EmbedDesc,
+    ) -> Result<CsgScene, EmbedError> {
+        if desc.algo == Algo::Reference {
+            return Err(EmbedError::Algo(desc.algo));
+        }
+        let mut scene = scene.clone();
+        scene.render.width = desc.extent[0];
+        scene.render.height = desc.extent[1];
+        let local = scene.primitives.iter().map(|p| p.mesh.clone()).collect();
+        for p in &mut scene.primitives {
+            p.transform = DMat4::IDENTITY;
+        }
+        CsgScene::build(ctx, scene, local, desc)
+    }
+
+    fn build(
+        ctx: &Context,
+        scene: Scene,
+        local: Vec<Mesh>,
+        desc: &EmbedDesc,
+    ) -> Result<CsgScene, EmbedError> {
         let prepared = Prepared::new(&scene)?;
         let plan = plan::build_with(desc.algo, &prepared, &BuildOptions::default())?;
         let exec_desc = ExecDesc {
             width: desc.extent[0],
             height: desc.extent[1],
-            // Float depth either way: the composite hands it to the host's buffer.
-            depth_format: vk::DepthFormat::D32S8,
+            depth_format: desc.internal_depth,
             reversed_z: desc.reversed_z,
         };
         let mut embedder = Embedder::new(ctx, &exec_desc, desc.frames_in_flight)?;
         embedder.executor().upload(&scene)?;
         embedder.set_plan(plan);
-        embedder.prepare()?;
-        Ok(CsgScene {
+        let mut csg = CsgScene {
             embedder,
             scene,
             prepared,
             algo: desc.algo,
+            loop_counts: desc.loop_counts,
             local,
-        })
+        };
+        csg.first_counts()?;
+        Ok(csg)
+    }
+
+    /// Switches the algorithm (a new plan, with counts as `desc.loop_counts` said,
+    /// estimated where that was [`LoopCounts::Learn`]). Like a new plan from
+    /// [`CsgScene::set_camera`], the host's pending frames of this scene must
+    /// complete before the next record.
+    pub fn set_algo(&mut self, algo: Algo) -> Result<(), EmbedError> {
+        if algo == Algo::Reference {
+            return Err(EmbedError::Algo(algo));
+        }
+        if algo != self.algo {
+            let plan = plan::build_with(algo, &self.prepared, &BuildOptions::default())?;
+            self.algo = algo;
+            self.embedder.set_plan(plan);
+            self.set_counts(self.loop_counts.no_wait())?;
+        }
+        Ok(())
+    }
+
+    /// The algorithm recorded.
+    pub fn algo(&self) -> Algo {
+        self.algo
     }
 
     /// The recorder of host frames: `unsafe { csg.recorder().record(cmd, &targets) }`.
     pub fn recorder(&mut self) -> &mut Embedder {
         &mut self.embedder
+    }
+
+    /// The size of the host targets this scene records into.
+    pub fn extent(&self) -> [u32; 2] {
+        [self.scene.render.width, self.scene.render.height]
     }
 
     /// The camera peeltrim renders with.
@@ -215,8 +306,10 @@ impl CsgScene {
     }
 
     /// Moves the camera: no upload, a new plan only if the eye entered or left a
-    /// primitive (the GPU recording is then made again for the new view).
-    pub fn set_camera(&mut self, camera: &Camera) -> Result<(), EmbedError> {
+    /// primitive. Returns whether the plan changed: a new plan may need new
+    /// internal images, so the host's pending frames of this scene must then
+    /// complete before the next record.
+    pub fn set_camera(&mut self, camera: &Camera) -> Result<bool, EmbedError> {
         self.scene.camera = *camera;
         self.embedder.executor().set_camera(camera)?;
         self.prepared.camera_moved(&self.scene);
@@ -239,7 +332,7 @@ impl CsgScene {
         p.transform = m;
         p.mesh = world;
         self.prepared = Prepared::new(&self.scene)?;
-        self.replan()
+        self.replan().map(|_| ())
     }
 
     /// World → Vulkan clip space of peeltrim's camera at the host's aspect and
@@ -263,11 +356,63 @@ impl CsgScene {
         &self.scene
     }
 
-    fn replan(&mut self) -> Result<(), EmbedError> {
-        let plan = plan::build_with(self.algo, &self.prepared, &BuildOptions::default())?;
-        self.embedder.set_plan(plan);
+    /// Learns the current plan's loop counts with one standalone frame on
+    /// peeltrim's queue, waited for on the CPU ([`LoopCounts::Learn`]). Only while
+    /// the host has no frame of this scene pending.
+    pub fn relearn(&mut self) -> Result<(), EmbedError> {
+        self.embedder.prepare()?;
         Ok(())
     }
+
+    /// Builds the plan for the current camera and transforms; whether it changed.
+    fn replan(&mut self) -> Result<bool, EmbedError> {
+        let plan = plan::build_with(self.algo, &self.prepared, &BuildOptions::default())?;
+        let changed = self.embedder.plan() != Some(&plan);
+        self.embedder.set_plan(plan);
+        if !self.embedder.prepared() {
+            // A plan with other loops: its counts are not known yet.
+            self.set_counts(self.loop_counts.no_wait())?;
+        }
+        Ok(changed)
+    }
+
+    /// The first counts of a new scene.
+    fn first_counts(&mut self) -> Result<(), EmbedError> {
+        match self.loop_counts {
+            LoopCounts::Learn => self.relearn(),
+            c => self.set_counts(c),
+        }
+    }
+
+    fn set_counts(&mut self, counts: LoopCounts) -> Result<(), EmbedError> {
+        let Some(plan) = self.embedder.plan() else {
+            return Ok(());
+        };
+        let counts = match counts {
+            LoopCounts::Fixed(n) => loops_of(plan).map(|max| n.clamp(1, max.max(1))).collect(),
+            _ => loops::estimate(plan, &self.scene, loops::GRID),
+        };
+        self.embedder.set_loop_counts(counts)?;
+        Ok(())
+    }
+}
+
+impl LoopCounts {
+    /// The choice for a plan made while the host may have frames pending.
+    fn no_wait(self) -> LoopCounts {
+        match self {
+            LoopCounts::Learn => LoopCounts::Estimate,
+            c => c,
+        }
+    }
+}
+
+/// The bound of each loop of `plan`, in plan order.
+fn loops_of(plan: &Plan) -> impl Iterator<Item = u32> + '_ {
+    plan.steps.iter().filter_map(|s| match s {
+        Step::Loop(l) => Some(l.max_iterations),
+        _ => None,
+    })
 }
 
 /// Mesh `i` in its own space, checked: indices in range, closed and oriented.

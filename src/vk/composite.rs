@@ -1,0 +1,400 @@
+//! The embedding's composite pass (`vk::embed`): one full-screen draw, inside the
+//! host's own dynamic rendering of its colour and depth attachments, that writes
+//! peeltrim's colour and depth where the CSG covers the pixel, under the host's
+//! depth test. Also the host formats it supports ([`COLOR_FORMATS`],
+//! [`DEPTH_FORMATS`]) and the typed error for the others.
+
+use ash::vk;
+
+use super::error::{Check, VkError};
+use super::instance::Shared;
+use super::sync;
+use super::HostTargets;
+use crate::plan::usage::Usage;
+
+const VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fullscreen.vert.spv"));
+const FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/composite.frag.spv"));
+
+/// Host colour formats the composite writes into. peeltrim's colour is
+/// sRGB-encoded 8-bit RGBA; it is written as those values into UNORM and float
+/// formats, and decoded to linear for the `_SRGB` formats (whose hardware
+/// encoding then stores the same bytes). Other formats (integer, fewer than three
+/// channels, compressed) give [`VkError::HostFormat`].
+pub const COLOR_FORMATS: &[vk::Format] = &[
+    vk::Format::R8G8B8A8_UNORM,
+    vk::Format::R8G8B8A8_SRGB,
+    vk::Format::B8G8R8A8_UNORM,
+    vk::Format::B8G8R8A8_SRGB,
+    vk::Format::A8B8G8R8_UNORM_PACK32,
+    vk::Format::A8B8G8R8_SRGB_PACK32,
+    vk::Format::A2B10G10R10_UNORM_PACK32,
+    vk::Format::A2R10G10B10_UNORM_PACK32,
+    vk::Format::R16G16B16A16_UNORM,
+    vk::Format::R16G16B16A16_SFLOAT,
+    vk::Format::R32G32B32A32_SFLOAT,
+    vk::Format::B10G11R11_UFLOAT_PACK32,
+];
+
+/// Host depth formats the composite writes into (its depth aspect; a stencil
+/// aspect is left untouched). peeltrim's depth is 32-bit float; a UNORM host
+/// buffer stores it rounded to its precision, as it does the host's own depths.
+pub const DEPTH_FORMATS: &[vk::Format] = &[
+    vk::Format::D16_UNORM,
+    vk::Format::X8_D24_UNORM_PACK32,
+    vk::Format::D32_SFLOAT,
+    vk::Format::D16_UNORM_S8_UINT,
+    vk::Format::D24_UNORM_S8_UINT,
+    vk::Format::D32_SFLOAT_S8_UINT,
+];
+
+/// Whether a colour format stores sRGB-encoded values (the composite decodes).
+pub fn is_srgb(format: vk::Format) -> bool {
+    matches!(
+        format,
+        vk::Format::R8G8B8A8_SRGB | vk::Format::B8G8R8A8_SRGB | vk::Format::A8B8G8R8_SRGB_PACK32
+    )
+}
+
+/// Checks the host's formats against the lists above and the device's optimal
+/// tiling features (colour attachment, depth-stencil attachment).
+pub(crate) fn check_host_formats(
+    shared: &Shared,
+    color: vk::Format,
+    depth: vk::Format,
+) -> Result<(), VkError> {
+    let names = |l: &[vk::Format]| {
+        l.iter()
+            .map(|f| format!("{f:?}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let checks = [
+        (
+            "colour",
+            color,
+            COLOR_FORMATS,
+            vk::FormatFeatureFlags::COLOR_ATTACHMENT,
+        ),
+        (
+            "depth",
+            depth,
+            DEPTH_FORMATS,
+            vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT,
+        ),
+    ];
+    for (attachment, format, list, feature) in checks {
+        let problem = if !list.contains(&format) {
+            format!(
+                "not a {attachment} format the composite writes: use one of {}",
+                names(list)
+            )
+        } else {
+            // SAFETY: physical device of this instance; plain query.
+            let fp = unsafe {
+                shared
+                    .instance
+                    .get_physical_device_format_properties(shared.physical, format)
+            };
+            if fp.optimal_tiling_features.contains(feature) {
+                continue;
+            }
+            format!("the device cannot render to it with optimal tiling ({feature:?}): use another of {}", names(list))
+        };
+        return Err(VkError::HostFormat {
+            attachment,
+            format,
+            problem,
+        });
+    }
+    Ok(())
+}
+
+/// The composite pass's objects, made for one pair of host formats.
+pub(super) struct Composite {
+    pub(super) formats: (vk::Format, vk::Format),
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    pipeline: vk::Pipeline,
+    /// The output views the set points at (colour, ids, depth): rewritten only
+    /// when they change, which needs a new plan, when no frame is pending.
+    pub(super) views: Option<[vk::ImageView; 3]>,
+}
+
+impl Composite {
+    pub(super) fn new(
+        shared: &Shared,
+        formats: (vk::Format, vk::Format),
+    ) -> Result<Composite, VkError> {
+        let device = &shared.device;
+        let binding = |b: u32, ty| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(b)
+                .descriptor_type(ty)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT)
+        };
+        let bindings = [
+            binding(0, vk::DescriptorType::SAMPLED_IMAGE),
+            binding(1, vk::DescriptorType::SAMPLED_IMAGE),
+            binding(2, vk::DescriptorType::SAMPLED_IMAGE),
+            binding(3, vk::DescriptorType::SAMPLER),
+        ];
+        let mut c = Composite {
+            formats,
+            set_layout: vk::DescriptorSetLayout::null(),
+            layout: vk::PipelineLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            pipeline: vk::Pipeline::null(),
+            views: None,
+        };
+        let dci = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid create info on a live device. (Each object made below is
+        // destroyed by `Composite::destroy` even when a later step fails.)
+        c.set_layout = unsafe { device.create_descriptor_set_layout(&dci, None) }
+            .check("vkCreateDescriptorSetLayout")
+            .inspect_err(|_| c.destroy(device))?;
+        let set_layouts = [c.set_layout];
+        // One u32: decode sRGB before writing (an `_SRGB` host format).
+        let push = [vk::PushConstantRange {
+            stage_flags: vk::ShaderStageFlags::FRAGMENT,
+            offset: 0,
+            size: 4,
+        }];
+        let lci = vk::PipelineLayoutCreateInfo::default()
+            .set_layouts(&set_layouts)
+            .push_constant_ranges(&push);
+        // SAFETY: valid create info; the set layout is live.
+        c.layout = unsafe { device.create_pipeline_layout(&lci, None) }
+            .check("vkCreatePipelineLayout")
+            .inspect_err(|_| c.destroy(device))?;
+        let sizes = [
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: 3,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLER,
+                descriptor_count: 1,
+            },
+        ];
+        let pci = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: valid create info.
+        c.pool = unsafe { device.create_descriptor_pool(&pci, None) }
+            .check("vkCreateDescriptorPool")
+            .inspect_err(|_| c.destroy(device))?;
+        let ai = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(c.pool)
+            .set_layouts(&set_layouts);
+        // SAFETY: the pool has room for this one set.
+        c.set = unsafe { device.allocate_descriptor_sets(&ai) }
+            .check("vkAllocateDescriptorSets")
+            .inspect_err(|_| c.destroy(device))?[0];
+        c.pipeline = c.make_pipeline(device).inspect_err(|_| c.destroy(device))?;
+        Ok(c)
+    }
+
+    fn make_pipeline(&self, device: &ash::Device) -> Result<vk::Pipeline, VkError> {
+        let module = |bytes: &[u8]| -> Result<vk::ShaderModule, VkError> {
+            let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes))
+                .map_err(|e| VkError::Plan(format!("embedded SPIR-V unreadable: {e}")))?;
+            let ci = vk::ShaderModuleCreateInfo::default().code(&words);
+            // SAFETY: SPIR-V produced and validated by naga in build.rs.
+            unsafe { device.create_shader_module(&ci, None) }.check("vkCreateShaderModule")
+        };
+        let (vert, frag) = (module(VERT)?, module(FRAG)?);
+        let stages = [
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::VERTEX)
+                .module(vert)
+                .name(c"main"),
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(frag)
+                .name(c"main"),
+        ];
+        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
+        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let viewport = vk::PipelineViewportStateCreateInfo::default()
+            .viewport_count(1)
+            .scissor_count(1);
+        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .cull_mode(vk::CullModeFlags::NONE)
+            .line_width(1.0);
+        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(true)
+            .depth_write_enable(true);
+        let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
+            .color_write_mask(vk::ColorComponentFlags::RGBA)];
+        let blend =
+            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let dynamic_states = [
+            vk::DynamicState::VIEWPORT,
+            vk::DynamicState::SCISSOR,
+            vk::DynamicState::DEPTH_COMPARE_OP,
+        ];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        let color_formats = [self.formats.0];
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(&color_formats)
+            .depth_attachment_format(self.formats.1);
+        let ci = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stages)
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&assembly)
+            .viewport_state(&viewport)
+            .rasterization_state(&raster)
+            .multisample_state(&multisample)
+            .depth_stencil_state(&depth_stencil)
+            .color_blend_state(&blend)
+            .dynamic_state(&dynamic)
+            .layout(self.layout)
+            .push_next(&mut rendering);
+        // SAFETY: the state structs live across the call; modules and layout are live.
+        let made =
+            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) };
+        // SAFETY: modules are only needed while creating the pipeline.
+        unsafe { device.destroy_shader_module(vert, None) };
+        // SAFETY: as above.
+        unsafe { device.destroy_shader_module(frag, None) };
+        made.map(|p| p[0]).map_err(|(_, e)| VkError::Call {
+            call: "vkCreateGraphicsPipelines",
+            result: e,
+        })
+    }
+
+    /// Points the set at the executor's current output images.
+    pub(super) fn write_set(
+        &self,
+        shared: &Shared,
+        out: &super::exec::Output,
+        sampler: vk::Sampler,
+    ) {
+        let sampled = sync::access(Usage::Sampled).layout;
+        let info = |view| {
+            [vk::DescriptorImageInfo {
+                sampler: vk::Sampler::null(),
+                image_view: view,
+                image_layout: sampled,
+            }]
+        };
+        let (ci, pi, di) = (info(out.color.1), info(out.prim.1), info(out.depth.1));
+        let si = [vk::DescriptorImageInfo {
+            sampler,
+            image_view: vk::ImageView::null(),
+            image_layout: vk::ImageLayout::UNDEFINED,
+        }];
+        let infos: [(vk::DescriptorType, &[vk::DescriptorImageInfo]); 4] = [
+            (vk::DescriptorType::SAMPLED_IMAGE, &ci),
+            (vk::DescriptorType::SAMPLED_IMAGE, &pi),
+            (vk::DescriptorType::SAMPLED_IMAGE, &di),
+            (vk::DescriptorType::SAMPLER, &si),
+        ];
+        let writes: Vec<vk::WriteDescriptorSet<'_>> = infos
+            .iter()
+            .enumerate()
+            .map(|(b, (ty, i))| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(b as u32)
+                    .descriptor_type(*ty)
+                    .image_info(i)
+            })
+            .collect();
+        // SAFETY: set, views and sampler are live; the set is not in use by a
+        // pending command buffer (it changes only with the executor's images,
+        // which change only when no frame is pending).
+        unsafe { shared.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    /// Draws into the host's attachments (the caller has made peeltrim's output
+    /// images sampled and the host's attachment writes available).
+    pub(super) fn draw(
+        &self,
+        device: &ash::Device,
+        cmd: vk::CommandBuffer,
+        t: &HostTargets,
+        scissor: vk::Rect2D,
+        depth_compare: vk::CompareOp,
+    ) {
+        let extent = vk::Extent2D {
+            width: t.extent[0],
+            height: t.extent[1],
+        };
+        let color = [vk::RenderingAttachmentInfo::default()
+            .image_view(t.color_view)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::LOAD)
+            .store_op(vk::AttachmentStoreOp::STORE)];
+        let depth = vk::RenderingAttachmentInfo::default()
+            .image_view(t.depth_view)
+            .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::LOAD)
+            .store_op(vk::AttachmentStoreOp::STORE);
+        let ri = vk::RenderingInfo::default()
+            .render_area(extent.into())
+            .layer_count(1)
+            .color_attachments(&color)
+            .depth_attachment(&depth);
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: extent.width as f32,
+            height: extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        // SAFETY: outside rendering (the caller's contract); the views are the
+        // host's attachments in the layouts the contract names.
+        unsafe { device.cmd_begin_rendering(cmd, &ri) };
+        // SAFETY: inside the block above; the pipeline was made for its formats.
+        unsafe { device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline) };
+        // SAFETY: the set's images are in `SHADER_READ_ONLY_OPTIMAL` (barrier above).
+        unsafe {
+            device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.layout,
+                0,
+                &[self.set],
+                &[],
+            )
+        };
+        let push = u32::from(is_srgb(t.color_format)).to_ne_bytes();
+        // SAFETY: the layout's range holds this one u32 for the fragment stage.
+        unsafe {
+            device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::FRAGMENT, 0, &push)
+        };
+        // SAFETY: dynamic state of the bound pipeline.
+        unsafe { device.cmd_set_viewport(cmd, 0, &[viewport]) };
+        // SAFETY: as above; the rectangle lies within the attachments.
+        unsafe { device.cmd_set_scissor(cmd, 0, &[scissor]) };
+        // SAFETY: as above.
+        unsafe { device.cmd_set_depth_compare_op(cmd, depth_compare) };
+        // SAFETY: pipeline, set and state bound; the vertex shader needs no buffer.
+        unsafe { device.cmd_draw(cmd, 3, 1, 0, 0) };
+        // SAFETY: closes the block begun above.
+        unsafe { device.cmd_end_rendering(cmd) };
+    }
+
+    pub(super) fn destroy(&self, device: &ash::Device) {
+        // SAFETY (each call): no pending command buffer uses these objects (the
+        // embedder is dropped or remade only when the host has no frame of it
+        // pending); null handles are ignored.
+        unsafe { device.destroy_pipeline(self.pipeline, None) };
+        // SAFETY: as above.
+        unsafe { device.destroy_descriptor_pool(self.pool, None) };
+        // SAFETY: as above.
+        unsafe { device.destroy_pipeline_layout(self.layout, None) };
+        // SAFETY: as above.
+        unsafe { device.destroy_descriptor_set_layout(self.set_layout, None) };
+    }
+}

@@ -1,0 +1,37 @@
+//! `peeltrim view` as the second embedding host (README "Embedding"), in a
+//! virtual X server (`xvfb-run`, installed by tools/setup.sh): every frame
+//! records the CSG into a swapchain image through `Embedder::record`, two frames
+//! in flight, orbiting between frames (the camera moves without an upload), with
+//! the validation layer on. The run must exit 0 with no validation message.
+
+use std::process::Command;
+
+use super::scene;
+
+fn view(scene_file: &str, algo: &str, frames: u32) -> std::process::Output {
+    Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 320x240x24"])
+        .arg(env!("CARGO_BIN_EXE_peeltrim"))
+        .args(["view", scene_file, "--size", "96x80", "--algo", algo])
+        .env("PEELTRIM_VALIDATION", "1")
+        .env("PEELTRIM_VIEW_FRAMES", frames.to_string())
+        .output()
+        .expect("xvfb-run is installed (tools/setup.sh installs xvfb)")
+}
+
+#[test]
+fn the_viewer_records_the_csg_into_its_swapchain_frames() {
+    for (file, algo) in [("gear.toml", "cst-i"), ("paper_example.toml", "blister")] {
+        let out = view(&scene(file), algo, 6);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{file} {algo}: {err}");
+        assert!(!err.contains("vulkan validation"), "{file} {algo}: {err}");
+        // Six frames, each with its draw count in the title line.
+        let frames = err
+            .lines()
+            .filter(|l| l.contains("peeltrim view: frame:"))
+            .count();
+        assert_eq!(frames, 6, "{err}");
+        assert!(err.contains(" draws |"), "{err}");
+    }
+}
