@@ -7,6 +7,7 @@
 
 mod algorithms;
 mod classic;
+mod concurrency;
 mod cst;
 mod embed;
 mod limits;

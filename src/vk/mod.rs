@@ -18,6 +18,7 @@ pub mod error;
 pub mod exec;
 pub mod image;
 pub mod instance;
+pub mod layer_lock;
 pub mod limits;
 pub mod memory;
 pub mod pipeline;

@@ -71,6 +71,7 @@ impl Presenter {
         };
         let (ctx, surface) = Context::new_inner(desc, Some(&hooks))?;
         let shared = ctx.shared.clone();
+        let _layer = shared.layer_use();
         let surface_fn = ash::khr::surface::Instance::new(&shared.entry, &shared.instance);
         let swapchain_fn = ash::khr::swapchain::Device::new(&shared.instance, &shared.device);
         // Build the presenter field by field so its Drop cleans up a partial one.
@@ -223,6 +224,7 @@ impl Presenter {
         background: [u8; 3],
         size: [u32; 2],
     ) -> Result<Presented, VkError> {
+        let _layer = self.shared.layer_use();
         if !self.ready(size)? {
             return Ok(Presented::Skipped);
         }
@@ -294,6 +296,7 @@ impl Presenter {
         background: [u8; 3],
         size: [u32; 2],
     ) -> Result<Presented, VkError> {
+        let _layer = self.shared.layer_use();
         if !self.ready(size)? {
             return Ok(Presented::Skipped);
         }
@@ -341,6 +344,7 @@ impl Presenter {
         background: [u8; 3],
         size: [u32; 2],
     ) -> Result<Presented, VkError> {
+        let _layer = self.shared.layer_use();
         let (image, extent) = exec
             .color_target()
             .ok_or_else(|| VkError::Plan("present_frame before execute: no frame".into()))?;
@@ -362,6 +366,7 @@ impl Presenter {
         background: [u8; 3],
         copy: impl FnOnce(&ash::Device, vk::CommandBuffer, vk::Image, vk::Extent2D),
     ) -> Result<Presented, VkError> {
+        let _layer = self.shared.layer_use();
         let shared = self.shared.clone();
         let device = &shared.device;
         // SAFETY: live swapchain; the semaphore is unsignaled (its last wait finished
@@ -500,6 +505,7 @@ fn pick_format(formats: &[vk::SurfaceFormatKHR]) -> Option<vk::SurfaceFormatKHR>
 
 impl Drop for Presenter {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         let shared = self.shared.clone();
         let device = &shared.device;
         // SAFETY: waiting for idle makes destroying everything below legal; a lost

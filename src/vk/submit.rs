@@ -120,6 +120,7 @@ impl Submitter {
 
 impl Drop for Submitter {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         let d = &self.shared.device;
         // SAFETY: every submission was waited on (`finish`/`wait`), so nothing is
         // pending; destroying the pool frees its command buffers; null is ignored.
@@ -243,6 +244,7 @@ impl Queries {
 
 impl Drop for Queries {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         // SAFETY: no submission using the pool is pending; null is ignored.
         unsafe { self.shared.device.destroy_query_pool(self.pool, None) };
     }
