@@ -89,6 +89,9 @@ pub fn render_layered(
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
+    if opts.algo != Algo::Reference && super::interference::interference_only(scene, lopts) {
+        return super::interference::layered_frame(scene, opts);
+    }
     if opts.algo != Algo::Reference {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
