@@ -21,20 +21,21 @@ layout(location = 0) out float o_depth;
 void main() {
     // Derivatives before any discard (they need the whole quad).
     vec2 dz = vec2(dFdx(gl_FragCoord.z), dFdy(gl_FragCoord.z));
-    float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    TieTexel t = tie_texel();
+    float prev = t.d;
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
     // with the depth.
     float eps = (pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.x * prev : pc.color.x;
     // The slope term only for a face parallel to the texture's (a coplanar face
     // snapped differently), not for one crossing it. It moves the bound by
-    // `slope`; the five-fetch slope test runs only for fragments inside that thin
-    // band, the only ones whose answer it decides.
+    // `slope`; the slope test decides only the
+    // fragments inside that thin band.
     float slope = sign(pc.color.x) * tie_slope() * (abs(dz.x) + abs(dz.y));
     bool reversed = (pc.flags & 1u) != 0u;
     bool behind = reversed ? gl_FragCoord.z + eps < prev : gl_FragCoord.z - eps > prev;
     bool widened = reversed ? gl_FragCoord.z + (eps + slope) < prev
                             : gl_FragCoord.z - (eps + slope) > prev;
-    if (behind != widened && same_slope(dz, prev, eps)) {
+    if (behind != widened && same_slope(dz, t, eps)) {
         behind = widened;
     }
     if (!behind) {

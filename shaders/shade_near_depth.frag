@@ -30,7 +30,8 @@ layout(location = 1) out uint o_prim;
 // faces rasterized alike), or its plane depth `z` (unsnapped) within eps plus
 // the visible depth's snapping (half the two-sided slope term) with the visible
 // face's gradient (a coplanar face snapped differently).
-bool near_depth(float z, float d, vec2 dz) {
+bool near_depth(float z, TieTexel t, vec2 dz) {
+    float d = t.d;
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
     // with the depth.
     float eps = (pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.a * d : pc.color.a;
@@ -38,7 +39,7 @@ bool near_depth(float z, float d, vec2 dz) {
         return true;
     }
     float slope = abs(dz.x) + abs(dz.y);
-    return abs(z - d) <= eps + 0.5 * tie_slope() * slope && same_slope(dz, d, eps);
+    return abs(z - d) <= eps + 0.5 * tie_slope() * slope && same_slope(dz, t, eps);
 }
 
 // The depth of this face's plane at the pixel centre. The device interpolates
@@ -65,9 +66,9 @@ float shade_factor() {
 void main() {
     // Derivatives before any discard (they need the whole quad).
     vec2 dz = vec2(dFdx(gl_FragCoord.z), dFdy(gl_FragCoord.z));
-    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    TieTexel t = tie_texel();
     float z = plane_depth(dz);
-    if (!near_depth(z, d, dz)) {
+    if (!near_depth(z, t, dz)) {
         discard;
     }
     gl_FragDepth = z;

@@ -10,22 +10,46 @@ const float REVERSED_SCALE = 0.125;
 // A tie's depth gradient agrees with the texture's within this fraction.
 const float SLOPE_AGREEMENT = 0.03125;
 float tie_slope() {
-    return TIE_SLOPES * exp2(-float((pc.flags >> 8) & 0xffu));
+    // 2^-bits built from its float bits (bits is 4..16): exact, and no exp2
+    // per fragment (lavapipe evaluates it as a polynomial).
+    return TIE_SLOPES * uintBitsToFloat((127u - ((pc.flags >> 8) & 0xffu)) << 23);
+}
+
+// The texture at `p`, clamped to the image: a helper invocation past the edge
+// (the other half of a quad) reads the edge texel.
+float tie_fetch(ivec2 p) {
+    ivec2 hi = textureSize(sampler2D(u_tex, u_samp), 0) - 1;
+    return texelFetch(sampler2D(u_tex, u_samp), clamp(p, ivec2(0), hi), 0).r;
+}
+
+// The texture's depth at this pixel and its one-sided texel differences: `d`,
+// then (x, y) the side inside this pixel's quad, (z, w) the side outside it.
+// Called in uniform control flow (derivatives). The inside side is a fine
+// derivative, exactly the difference of the two texels (r - d in an even
+// column, d - l in an odd one; likewise rows), so only the outside side costs a
+// fetch: three fetches per fragment where four neighbours and the centre took
+// five (the cost of the tie rule on lavapipe, README "Performance").
+struct TieTexel {
+    float d;
+    vec4 diff;
+};
+TieTexel tie_texel() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    float d = tie_fetch(p);
+    bvec2 odd = equal(p & 1, ivec2(1));
+    float qx = tie_fetch(p + ivec2(odd.x ? 1 : -1, 0));
+    float qy = tie_fetch(p + ivec2(0, odd.y ? 1 : -1));
+    vec4 diff = vec4(dFdxFine(d), dFdyFine(d), odd.x ? qx - d : d - qx, odd.y ? qy - d : d - qy);
+    return TieTexel(d, diff);
 }
 
 // Coplanar faces (true ties) share the depth gradient; a face crossing the
 // texture's at a shallow angle, inside the slope band near the crossing, does
 // not. The texture face's gradient comes from one-sided texel differences: a tie
 // needs one side per axis to agree (the other may cross an edge).
-bool same_slope(vec2 dz, float d, float eps) {
-    ivec2 p = ivec2(gl_FragCoord.xy);
-    ivec2 hi = textureSize(sampler2D(u_tex, u_samp), 0) - 1;
-    float l = texelFetch(sampler2D(u_tex, u_samp), clamp(p - ivec2(1, 0), ivec2(0), hi), 0).r;
-    float r = texelFetch(sampler2D(u_tex, u_samp), clamp(p + ivec2(1, 0), ivec2(0), hi), 0).r;
-    float u = texelFetch(sampler2D(u_tex, u_samp), clamp(p - ivec2(0, 1), ivec2(0), hi), 0).r;
-    float w = texelFetch(sampler2D(u_tex, u_samp), clamp(p + ivec2(0, 1), ivec2(0), hi), 0).r;
+bool same_slope(vec2 dz, TieTexel t, float eps) {
     float tol = SLOPE_AGREEMENT * (abs(dz.x) + abs(dz.y)) + 2.0 * abs(eps);
-    bool x = abs(d - l - dz.x) <= tol || abs(r - d - dz.x) <= tol;
-    bool y = abs(d - u - dz.y) <= tol || abs(w - d - dz.y) <= tol;
+    bool x = abs(t.diff.x - dz.x) <= tol || abs(t.diff.z - dz.x) <= tol;
+    bool y = abs(t.diff.y - dz.y) <= tol || abs(t.diff.w - dz.y) <= tol;
     return x && y;
 }

@@ -56,3 +56,73 @@ fn shadow_counts_agree_and_bad_lights_are_errors() {
     ]);
     assert_error(&o, &["bad.toml", "light: direction", "zero vector"]);
 }
+
+/// `bench` of a scene with `[light]` times the light map and reports the same
+/// lit/shadowed counts as `render` of the same algorithm and size; a scene with
+/// `interference = true` reports its pairs × frames and the interfering pairs
+/// (those `render --interference` lists in stats.json).
+#[test]
+fn bench_times_shadows_and_interference() {
+    let dir = tmp("shadow-bench");
+    let o = run(&[
+        "render",
+        &scene("shadow_block.toml"),
+        "--algo",
+        "cst-i",
+        "--size",
+        "96x72",
+        "--out",
+        dir.join("r").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let st = stats(&dir.join("r"));
+    let b = dir.join("b");
+    let o = run(&[
+        "bench",
+        &scene("shadow_block.toml"),
+        &scene("interference.toml"),
+        "--algos",
+        "cst-i",
+        "--size",
+        "96x72",
+        "--frames",
+        "2",
+        "--no-images",
+        "--out",
+        b.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let res: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(b.join("results.json")).unwrap()).unwrap();
+    let rows = res.as_array().unwrap();
+    let sh = &rows.iter().find(|r| r["scene"] == "shadow_block").unwrap()["shadow"];
+    assert_eq!(sh["lit_pixels"], st["lit_pixels"], "{sh} vs {st}");
+    assert_eq!(sh["shadowed_pixels"], st["shadowed_pixels"], "{sh} vs {st}");
+    assert_eq!(sh["map_size"], st["shadow_map_size"], "{sh}");
+    assert!(
+        sh["light_map_gpu_ms_median"].as_f64().unwrap() > 0.0,
+        "{sh}"
+    );
+    let inter = &rows.iter().find(|r| r["scene"] == "interference").unwrap()["interference"];
+    assert_eq!(inter["frames_per_pair"], 2, "{inter}");
+    let o = run(&[
+        "render",
+        &scene("interference.toml"),
+        "--algo",
+        "cst-i",
+        "--size",
+        "96x72",
+        "--out",
+        dir.join("i").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let ist = stats(&dir.join("i"));
+    let listed = ist["interference"].as_array().unwrap().len();
+    assert_eq!(inter["interfering_pairs"], listed, "{inter} vs {ist}");
+    assert!(inter["pairs"].as_u64().unwrap() >= listed as u64, "{inter}");
+    let summary = std::fs::read_to_string(b.join("summary.md")).unwrap();
+    assert!(
+        summary.contains("## Shadows") && summary.contains("## Interference"),
+        "{summary}"
+    );
+}

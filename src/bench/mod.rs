@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod families;
+pub mod modes;
 pub mod opencsg;
 pub mod plot;
 pub mod report;
@@ -87,6 +88,12 @@ pub struct Record {
     /// Set when the run could not be made (e.g. too many products); other
     /// figures are then zero.
     pub failure: Option<String>,
+    /// With a `[light]`: the light map's and the shadow test's times.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadow: Option<modes::ShadowBench>,
+    /// With `interference = true` (CST variants): the pair frames' time.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interference: Option<modes::InterferenceBench>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -113,7 +120,7 @@ pub struct BenchScene {
     pub n: Option<u32>,
 }
 
-fn median_iqr(v: &mut [f64]) -> (f64, f64, f64, f64) {
+pub(crate) fn median_iqr(v: &mut [f64]) -> (f64, f64, f64, f64) {
     if v.is_empty() {
         return (0.0, 0.0, 0.0, 0.0);
     }
@@ -200,6 +207,8 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 per_pass: Value::Null,
                 error: Value::Null,
                 failure: None,
+                shadow: None,
+                interference: None,
             };
             if cfg.algos.contains(&Algo::Reference) {
                 let mut r = base("reference", "f64");
@@ -368,6 +377,8 @@ fn run_one(
         per_pass: serde_json::to_value(&mid.exec.per_pass).unwrap_or(Value::Null),
         error,
         failure: None,
+        shadow: modes::shadows(cfg, scene, algo, depth, &images, gpu, gm)?,
+        interference: modes::interference(cfg, scene, algo, depth)?,
     };
     Ok((rec, images))
 }

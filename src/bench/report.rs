@@ -182,6 +182,7 @@ pub fn summary(records: &[Record]) -> String {
         }
         s.push('\n');
     }
+    s.push_str(&super::modes::summary(records));
     s.push_str(&super::opencsg::side_by_side(records));
     s.push_str(&paper_table(records));
     s

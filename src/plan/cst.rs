@@ -376,6 +376,48 @@ mod tests {
         }
     }
 
+    /// Full-screen knock-outs of the recorded layer (WriteDepth into CUR).
+    fn knock_outs(steps: &[Step]) -> Vec<&Draw> {
+        steps
+            .iter()
+            .filter_map(|s| match s {
+                Step::Draw(d) if matches!(d.fragment, Fragment::WriteDepth { out: CUR }) => Some(d),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn one_layer_leaves_knock_out_rejected_pixels_by_label() {
+        let mut p = gear();
+        p.mesh_convex = vec![true; 14];
+        for v in [Variant::Z, Variant::I, Variant::G] {
+            let pl = plan(&p, v).unwrap();
+            // One peel, no Push(): the knock-out tests the rejected label.
+            assert!(!pl
+                .steps
+                .iter()
+                .any(|s| matches!(s, Step::Pass(n) if n == "push")));
+            let k = knock_outs(&pl.steps);
+            assert_eq!(k.len(), 14, "{v:?}");
+            for d in k {
+                assert_eq!(d.depth.compare, CompareOp::Always);
+                let st = d.stencil.expect("a stencil test");
+                assert_eq!(st.front.compare, CompareOp::Equal);
+                assert_eq!(st.write_mask, 0);
+            }
+        }
+        // Leaves of unknown depth keep the loop with Push() and knock out the
+        // pixels Push() left far.
+        let p = gear();
+        let pl = plan(&p, Variant::I).unwrap();
+        assert!(has_loop(&pl.steps));
+        for d in knock_outs(&pl.steps) {
+            assert_eq!(d.depth.compare, CompareOp::Equal);
+            assert!(d.stencil.is_none());
+        }
+    }
+
     #[test]
     fn parity_draws_are_eps_tolerant() {
         let p = gear();

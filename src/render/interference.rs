@@ -43,7 +43,7 @@ pub fn supported(algo: Algo) -> bool {
 }
 
 /// `scene` reduced to the one solid `a · b`, drawn in the interference colour.
-fn pair_scene(scene: &Scene, a: &Solid, b: &Solid) -> Scene {
+pub fn pair_scene(scene: &Scene, a: &Solid, b: &Solid) -> Scene {
     let mut s = scene.clone();
     s.solids = vec![Solid {
         name: format!("{}*{}", a.name, b.name),

@@ -113,20 +113,52 @@ pub fn cst(
         src: CUR,
         dst: PREV,
     });
+    let uncounted = |s: &Step| {
+        let mut s = s.clone();
+        if let Step::Draw(d) = &mut s {
+            d.count_samples = false;
+        }
+        s
+    };
+    // Render(S). Every pixel without a kept point is knocked out of the
+    // recorded layer (a far depth), then S is shaded where its depth equals it.
+    // After a loop those pixels have a far depth in WORK (never peeled, pushed,
+    // or locked only because nothing was left to peel).
+    let mut knock = knock_out(
+        &me,
+        DepthState {
+            compare: CompareOp::Equal,
+            write: false,
+        },
+        None,
+    );
     match layers {
         Layers::AtMost(max_iterations) => steps.push(Step::Loop(Loop {
             head,
             tail,
             max_iterations,
         })),
+        Layers::Known(1) => {
+            // One layer: Push() would only feed the knock-out (no peel follows),
+            // and the recorded layer still holds its clear (far) wherever the
+            // peel did not write. So the rejected candidates are knocked out by
+            // their stencil label directly: one full-screen pass, not two, and
+            // the same recorded layer.
+            steps.extend(head.iter().map(uncounted));
+            let push = |s: &Step| matches!(s, Step::Pass(name) if name == "push");
+            steps.extend(tail.iter().take_while(|s| !push(s)).cloned());
+            knock = knock_out(
+                &me,
+                DepthState {
+                    compare: CompareOp::Always,
+                    write: false,
+                },
+                Some(stencil::test_equal(t.rejected(), t.mask())),
+            );
+        }
         Layers::Known(n) => {
             for i in 0..n {
-                steps.extend(head.iter().cloned().map(|mut s| {
-                    if let Step::Draw(d) = &mut s {
-                        d.count_samples = false;
-                    }
-                    s
-                }));
+                steps.extend(head.iter().map(uncounted));
                 // The last layer's copy to PrevDepth would feed no peel.
                 let last = i + 1 == n;
                 steps.extend(
@@ -137,24 +169,8 @@ pub fn cst(
             }
         }
     }
-
-    // Render(S). After the loop every pixel without a kept point has a far depth in
-    // WORK (never peeled, pushed, or locked only because nothing was left to peel):
-    // make the recorded layer far there too, then shade S where its depth equals it.
     steps.push(Step::Pass("merge".into()));
-    steps.push(Step::Draw(Draw {
-        geometry: Geometry::FullScreen { depth: FAR },
-        scissor: Scissor::BoundsOf(me.clone()),
-        cull: Cull::None,
-        ds: WORK,
-        depth: DepthState {
-            compare: CompareOp::Equal,
-            write: false,
-        },
-        stencil: None,
-        fragment: Fragment::WriteDepth { out: CUR },
-        count_samples: false,
-    }));
+    steps.push(knock);
     steps.push(render_draw(
         surface,
         peel_cull,
@@ -162,6 +178,22 @@ pub fn cst(
         Fragment::ShadeAtDepth { tex: CUR },
     ));
     merge.paint(surface, peel_cull, steps);
+}
+
+/// The full-screen pass that writes a far depth into the recorded layer
+/// ([`CUR`]) where WORK's `depth` and `stencil` tests pass: the pixels without a
+/// kept point, which Render(S) must not shade.
+fn knock_out(me: &[MeshId], depth: DepthState, stencil: Option<StencilState>) -> Step {
+    Step::Draw(Draw {
+        geometry: Geometry::FullScreen { depth: FAR },
+        scissor: Scissor::BoundsOf(me.to_vec()),
+        cull: Cull::None,
+        ds: WORK,
+        depth,
+        stencil,
+        fragment: Fragment::WriteDepth { out: CUR },
+        count_samples: false,
+    })
 }
 
 /// Render(S)'s draw into [`FINAL`]: S's peeled faces, nearest wins, shaded by
