@@ -6,12 +6,12 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/setup.sh
-# One test thread: with two GPU tests at once on lavapipe, the vk_tests process
-# died of SIGSEGV in 2 of 4 full runs on this 2-core machine, never in a test's
-# assertions and never with one thread (3 of 3 runs). The cause is not yet
-# found (a run under gdb did not reproduce it). A caller may still ask for
-# more: `tools/test.sh -- --test-threads=2`.
-export RUST_TEST_THREADS="${RUST_TEST_THREADS:-1}"
+# The GPU tests run in parallel (cargo's default). They once died of SIGSEGV in
+# parallel runs: the validation layer's global table of instances and devices is
+# rewritten without a lock when one is created or destroyed, while other threads'
+# calls read it (src/vk/layer_lock.rs serializes that; vk_tests/concurrency.rs
+# reproduces the crash without the lock). `RUST_TEST_THREADS=1 tools/test.sh`
+# still runs them one at a time.
 cargo test "$@"
 # The embedding example as a program (a host with its own device and the
 # validation layer; exits non-zero on a mismatch or any validation message).

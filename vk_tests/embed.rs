@@ -13,6 +13,13 @@ use peeltrim::{Algo, LoopCounts};
 #[path = "../examples/embed.rs"]
 mod example;
 
+/// The example host creates, uses and destroys its own validated instance and
+/// device outside peeltrim: nothing else in this process may call through the
+/// validation layer meanwhile (`vk::layer_lock`).
+fn host_alone() -> impl Drop {
+    peeltrim::vk::layer_lock::exclusive()
+}
+
 fn check(name: &str, r: &example::Report) {
     assert!(
         r.validation.is_empty(),
@@ -36,6 +43,7 @@ fn check(name: &str, r: &example::Report) {
 
 #[test]
 fn host_floor_and_csg_occlude_each_other_like_the_reference_composite() {
+    let _only = host_alone();
     for (name, setup) in example::setups() {
         let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
         check(&name, &r);
@@ -44,6 +52,7 @@ fn host_floor_and_csg_occlude_each_other_like_the_reference_composite() {
 
 #[test]
 fn loop_counts_guessed_too_low_are_doubled_by_the_ring_and_too_high_are_shrunk() {
+    let _only = host_alone();
     // Blister peels every face in one loop (the convex box and ball give
     // Goldfeather none). Too low: one head. With 2 frames in flight a frame's
     // counts are read 3 frames later and doubled; the last frame has grown
@@ -102,6 +111,7 @@ fn loop_counts_guessed_too_low_are_doubled_by_the_ring_and_too_high_are_shrunk()
 
 #[test]
 fn formats_the_composite_cannot_write_are_a_typed_error_before_any_command() {
+    let _only = host_alone();
     for (color, depth, which) in [
         (Format::R8G8B8A8_UINT, Format::D32_SFLOAT, "colour"),
         (Format::R8_UNORM, Format::D32_SFLOAT, "colour"),

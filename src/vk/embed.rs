@@ -75,6 +75,7 @@ impl Embedder {
     /// `frames_in_flight`: the most recorded frames the host has submitted and not
     /// yet waited for at any time (1 for a host that waits every frame).
     pub fn new(ctx: &Context, desc: &ExecDesc, frames_in_flight: u32) -> Result<Embedder, VkError> {
+        let _layer = ctx.shared.layer_use();
         let shared = ctx.shared.clone();
         let exec = Executor::new(ctx, desc)?;
         let sci = vk::SamplerCreateInfo::default()
@@ -149,6 +150,7 @@ impl Embedder {
     /// its loop counts. Not part of the record path: call it when the host has no
     /// frame of this embedder pending (at load, or after a big change of view).
     pub fn prepare(&mut self) -> Result<ExecStats, VkError> {
+        let _layer = self.shared.layer_use();
         let plan = self
             .plan
             .clone()
@@ -231,6 +233,7 @@ impl Embedder {
         cmd: vk::CommandBuffer,
         targets: &HostTargets,
     ) -> Result<ExecStats, VkError> {
+        let _layer = self.shared.layer_use();
         let plan = self
             .plan
             .clone()
@@ -437,6 +440,7 @@ fn adjust_layers(u: &Unrolled, samples: &[u64]) -> Vec<u32> {
 
 impl Drop for Embedder {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         if let Some(c) = self.composite.take() {
             c.destroy(&self.shared.device);
         }

@@ -166,6 +166,7 @@ impl OffscreenHost {
     /// Attachments of `extent` on `ctx`'s device.
     pub fn new(ctx: &Context, extent: [u32; 2]) -> Result<OffscreenHost, VkError> {
         let shared = ctx.shared.clone();
+        let _layer = shared.layer_use();
         let color = Image::new(
             &shared,
             "host colour",
@@ -196,6 +197,7 @@ impl OffscreenHost {
         background: [u8; 3],
         far_depth: f32,
     ) -> Result<ExecStats, VkError> {
+        let _layer = self.shared.layer_use();
         let cmd = self.submit.cmd;
         let record_start = Instant::now();
         self.submit.begin(cmd, true)?;

@@ -127,6 +127,7 @@ pub(crate) fn range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
 
 impl Drop for Image {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         // SAFETY: the owner waited for the GPU; views are destroyed before their image,
         // the image before its memory is freed.
         unsafe {

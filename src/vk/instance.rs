@@ -7,6 +7,7 @@ use std::sync::{Arc, Mutex};
 use ash::vk;
 
 use super::error::{Check, VkError};
+use super::layer_lock::{self, LayerUse};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -82,16 +83,29 @@ pub(crate) struct Shared {
     pub allocator: Mutex<Option<gpu_allocator::vulkan::Allocator>>,
     /// Whether the instance and device were created here (not by [`Context::from_raw`]).
     pub owned: bool,
+    /// Whether calls may go through the validation layer (ours on, or a host's
+    /// device, which may have it): then they hold [`layer_lock::shared`].
+    pub layered: bool,
+}
+
+impl Shared {
+    /// Held by every entry point that calls Vulkan on this context (see `layer_lock`).
+    pub fn layer_use(&self) -> LayerUse {
+        layer_lock::shared(self.layered)
+    }
 }
 
 impl Drop for Shared {
     fn drop(&mut self) {
         if let Ok(mut a) = self.allocator.lock() {
+            let _layer = self.layer_use();
             a.take();
         }
         if !self.owned {
             return;
         }
+        // Erasing the instance and device from the validation layer's table.
+        let _table = self.debug.is_some().then(layer_lock::exclusive);
         // SAFETY: every child object (executors, images, buffers) holds an Arc to this
         // and is gone; waiting for idle makes destroying the device legal.
         unsafe {
@@ -200,6 +214,8 @@ impl Context {
         let app = vk::ApplicationInfo::default()
             .application_name(c"peeltrim")
             .api_version(vk::API_VERSION_1_3);
+        // Adding the instance and device to the validation layer's table, until return.
+        let _table = desc.validation.then(layer_lock::exclusive);
         let mut dbg = debug_info(&messages);
         let mut ci = vk::InstanceCreateInfo::default()
             .application_info(&app)
@@ -429,6 +445,7 @@ impl Context {
                 buffer_device_address: false,
                 allocation_sizes: Default::default(),
             });
+        let layered = debug.is_some() || !owned;
         // Build `Shared` first so its Drop cleans up even if the allocator failed.
         let mut shared = Shared {
             entry,
@@ -444,6 +461,7 @@ impl Context {
             timestamp_valid_bits,
             device_name,
             allocator: Mutex::new(None),
+            layered,
             owned,
         };
         let allocator = allocator?;
@@ -506,6 +524,7 @@ impl Context {
     /// Whether `format` works as a sampled, copyable depth-stencil attachment with
     /// optimal tiling: what the executor needs of a `--depth-format`.
     pub fn depth_format_usable(&self, format: vk::Format) -> bool {
+        let _layer = self.shared.layer_use();
         // SAFETY: physical device of this instance; plain query.
         let fp = unsafe {
             self.shared
@@ -524,6 +543,15 @@ impl Context {
     /// before rasterization (at least 4 on a conformant device).
     pub fn subpixel_bits(&self) -> u32 {
         self.shared.limits.sub_pixel_precision_bits
+    }
+
+    /// Shared use of the validation layer's table (`vk::layer_lock`) for a host's
+    /// own calls on this context's device or instance (e.g. one made by
+    /// [`Context::from_raw`]) while other threads create or drop contexts: held,
+    /// no validated instance or device is created or destroyed in this process.
+    /// peeltrim's own calls take it themselves.
+    pub fn layer_use(&self) -> LayerUse {
+        self.shared.layer_use()
     }
 
     /// Whether the validation layer is active.

@@ -18,6 +18,7 @@ impl Context {
     /// Size of the largest device-local memory heap, in bytes.
     pub fn device_local_bytes(&self) -> u64 {
         let s = &self.shared;
+        let _layer = s.layer_use();
         // SAFETY: `physical` was enumerated from `instance`, which is alive for as
         // long as `shared` is; the call only reads properties.
         let props = unsafe { s.instance.get_physical_device_memory_properties(s.physical) };

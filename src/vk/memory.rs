@@ -105,6 +105,7 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         // SAFETY: the owner waits for the GPU to finish with the buffer before
         // dropping it (executors wait on their fence after every submission).
         unsafe { self.shared.device.destroy_buffer(self.raw, None) };

@@ -20,6 +20,7 @@ pub mod exec;
 pub mod host_frame;
 pub mod image;
 pub mod instance;
+pub mod layer_lock;
 pub mod limits;
 pub mod memory;
 pub mod pipeline;

@@ -377,6 +377,7 @@ impl Pipelines {
 
 impl Drop for Pipelines {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         let d = &self.shared.device;
         for (_, p) in self.cache.drain() {
             // SAFETY: the executor waited for the GPU before dropping its pipelines.

@@ -95,6 +95,7 @@ impl Presenter {
         };
         let (ctx, surface) = Context::new_inner(desc, Some(&hooks))?;
         let shared = ctx.shared.clone();
+        let _layer = shared.layer_use();
         let surface_fn = ash::khr::surface::Instance::new(&shared.entry, &shared.instance);
         let swapchain_fn = ash::khr::swapchain::Device::new(&shared.instance, &shared.device);
         // Build the presenter field by field so its Drop cleans up a partial one.
@@ -280,6 +281,7 @@ impl Presenter {
         background: [u8; 3],
         size: [u32; 2],
     ) -> Result<Presented, VkError> {
+        let _layer = self.shared.layer_use();
         if !self.ready(size)? {
             return Ok(Presented::Skipped);
         }
@@ -344,6 +346,7 @@ impl Presenter {
     /// Waits for every frame [`Presenter::present_recorded`] submitted (before
     /// anything those frames use changes: a new plan's images, a resize).
     pub fn wait_frames(&mut self) -> Result<(), VkError> {
+        let _layer = self.shared.layer_use();
         for f in &mut self.frames {
             if f.pending {
                 f.submit.wait()?;
@@ -367,6 +370,7 @@ impl Presenter {
         size: [u32; 2],
         embedder: &mut Embedder,
     ) -> Result<(Presented, Option<ExecStats>), VkError> {
+        let _layer = self.shared.layer_use();
         if !self.ready(size)? {
             return Ok((Presented::Skipped, None));
         }
@@ -461,6 +465,7 @@ impl Presenter {
         background: [u8; 3],
         copy: impl FnOnce(&ash::Device, vk::CommandBuffer, vk::Image, vk::Extent2D),
     ) -> Result<Presented, VkError> {
+        let _layer = self.shared.layer_use();
         let shared = self.shared.clone();
         let device = &shared.device;
         // SAFETY: live swapchain; the semaphore is unsignaled (its last wait finished
@@ -616,6 +621,7 @@ fn pick_format(formats: &[vk::SurfaceFormatKHR]) -> Option<vk::SurfaceFormatKHR>
 
 impl Drop for Presenter {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         let shared = self.shared.clone();
         let device = &shared.device;
         // SAFETY: waiting for idle makes destroying everything below legal; a lost

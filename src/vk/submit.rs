@@ -120,6 +120,7 @@ impl Submitter {
 
 impl Drop for Submitter {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         let d = &self.shared.device;
         // SAFETY: every submission was waited on (`finish`/`wait`), so nothing is
         // pending; destroying the pool frees its command buffers; null is ignored.
@@ -262,6 +263,7 @@ impl Queries {
 
 impl Drop for Queries {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         for p in self.retired.drain(..).chain([self.pool]) {
             // SAFETY: no submission using the pools is pending (their owners wait
             // for, or outlive, every frame); null is ignored.

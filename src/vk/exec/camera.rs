@@ -128,6 +128,7 @@ impl CameraBuffer {
 
 impl Drop for CameraBuffer {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         // SAFETY: the executor waited for the GPU; destroying the pool frees its set.
         unsafe { self.shared.device.destroy_descriptor_pool(self.pool, None) };
     }

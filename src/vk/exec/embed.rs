@@ -52,6 +52,7 @@ impl Executor {
         plan: &Plan,
         layers: &[u32],
     ) -> Result<Unrolled, VkError> {
+        let _layer = self.shared.layer_use();
         let meshes = self.scene_ref()?.ranges.len() as u32;
         crate::plan::validate::validate(plan, meshes)?;
         self.ensure_targets(plan)?;
@@ -100,6 +101,7 @@ impl Executor {
     /// buffer is host-visible): a moved mesh costs no new buffer and no upload of
     /// the others. Recordings are invalidated (their scissors used the old bounds).
     pub(crate) fn rewrite_mesh(&mut self, i: usize, mesh: &Mesh) -> Result<(), VkError> {
+        let _layer = self.shared.layer_use();
         let scene = self
             .scene
             .as_mut()

@@ -195,6 +195,7 @@ pub struct Executor {
 
 impl Executor {
     pub fn new(ctx: &Context, desc: &ExecDesc) -> Result<Executor, VkError> {
+        let _layer = ctx.shared.layer_use();
         if desc.width == 0 || desc.height == 0 {
             return Err(VkError::Plan("image size must be at least 1x1".into()));
         }
@@ -258,6 +259,7 @@ impl Executor {
     /// Uploads all meshes of `scene` (primitives in file order, then surfaces) and
     /// its camera.
     pub fn upload(&mut self, scene: &Scene) -> Result<(), VkError> {
+        let _layer = self.shared.layer_use();
         self.scene = Some(GpuScene::new(&self.shared, scene, &self.desc)?);
         self.epoch += 1;
         Ok(())
@@ -347,6 +349,7 @@ impl Executor {
 
     /// Executes `plan` on the uploaded scene; the images stay on the GPU.
     pub fn execute(&mut self, plan: &Plan) -> Result<ExecStats, VkError> {
+        let _layer = self.shared.layer_use();
         let start = Instant::now();
         let meshes = self
             .scene
@@ -681,6 +684,7 @@ impl Executor {
 
     /// Copies the last frame's colour, primitive ids and output depth to the CPU.
     pub fn read_back(&mut self) -> Result<Images, VkError> {
+        let _layer = self.shared.layer_use();
         let output = self
             .last_output
             .ok_or_else(|| VkError::Plan("read_back before execute: no frame".into()))?;

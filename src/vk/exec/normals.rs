@@ -30,6 +30,7 @@ impl Executor {
     /// eye; zero where nothing was drawn. `None` unless [`Executor::set_normals`]
     /// was on for that frame.
     pub fn read_normals(&mut self) -> Result<Option<Vec<[f32; 3]>>, VkError> {
+        let _layer = self.shared.layer_use();
         let Some(bytes) = self.copy_out(Resource::Normal, 16)? else {
             return Ok(None);
         };
@@ -46,6 +47,7 @@ impl Executor {
         depth_rel: f64,
         angle_deg: f64,
     ) -> Result<Option<Vec<bool>>, VkError> {
+        let _layer = self.shared.layer_use();
         let output = self
             .last_output
             .ok_or_else(|| VkError::Plan("edge_map before execute: no frame".into()))?;

@@ -33,6 +33,7 @@ pub(super) struct Targets {
 
 impl Drop for Targets {
     fn drop(&mut self) {
+        let _layer = self.shared.layer_use();
         // SAFETY: the executor waited for the GPU; destroying the pool frees its sets.
         unsafe { self.shared.device.destroy_descriptor_pool(self.pool, None) };
     }
