@@ -14,6 +14,7 @@ use crate::scene::camera::DepthConvention;
 use crate::scene::Scene;
 use crate::vk;
 
+mod gpu_layers;
 pub mod layers;
 
 /// Depth-buffer set-ups of the speed-against-error studies.
@@ -247,6 +248,11 @@ impl GpuRenderer {
             depth,
             fallback: why,
         })
+    }
+
+    /// Uploads `scene`'s meshes and camera again (e.g. with other colours).
+    pub fn upload(&mut self, scene: &Scene) -> Result<(), RenderError> {
+        Ok(self.exec.upload(scene)?)
     }
 
     /// The depth set-up in use (after any fallback).

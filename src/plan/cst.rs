@@ -47,6 +47,7 @@
 #![deny(unsafe_code)]
 
 pub mod group;
+pub mod layers;
 mod peel;
 mod ties;
 mod trim;
@@ -113,6 +114,7 @@ fn surface_jobs(prep: &Prepared) -> Vec<Job> {
             prim: s.mesh,
             leaf: 0,
             negated: false,
+            exit: false,
         };
         let job = |zone: &PositiveExpr, paint: Option<[u8; 3]>| {
             let universe = zone.is_universe();
@@ -142,6 +144,67 @@ fn surface_jobs(prep: &Prepared) -> Vec<Job> {
         }
     }
     jobs
+}
+
+/// Records every job's CST into `steps` (peeling behind `floor` when given, see
+/// [`cst`]); returns the stencil bits the trims need. CST-G groups a zone only
+/// when none of its literals lies in a u-node: its counter applies one tie rule
+/// to a whole group, the intersection's (a u-node literal needs the union's, so
+/// such zones — Z forms, which layers use — get the plain Blist trim).
+fn record_jobs(
+    prep: &Prepared,
+    variant: Variant,
+    jobs: &[Job],
+    floor: Option<Tex>,
+    steps: &mut Vec<Step>,
+) -> Result<u8, PlanError> {
+    let mut bits = 0u8;
+    let mut grouped = Vec::new();
+    for Job { c, merge, surface } in jobs {
+        let p = c.peeled.prim;
+        let max_layers = if *surface {
+            Layers::AtMost(prep.mesh_triangles[p as usize] as u32 + 1)
+        } else {
+            Layers::of(prep, p, c.peel_cull)
+        };
+        match &c.volume {
+            None => cst(p, c.peel_cull, None, max_layers, *merge, floor, steps),
+            Some(vol) => {
+                let groups = variant == Variant::G && !vol.relation.contains(&Relation::Union);
+                let trimmer: Box<dyn Trimmer + '_> = if !groups {
+                    let layout =
+                        LabelLayout::new(vol.blist.num_labels).ok_or(PlanError::TooManyLabels {
+                            labels: vol.blist.num_labels,
+                        })?;
+                    let start = layout.value(Next::Label(vol.blist.entries[0].label));
+                    Box::new(BlistTrimmer {
+                        peeled: c.peeled,
+                        vol,
+                        layout,
+                        start,
+                    })
+                } else {
+                    let mut g = group::GroupTrimmer::new(prep, c)?;
+                    if *surface {
+                        g = g.with_relation(Relation::Surface);
+                    }
+                    grouped.push(g);
+                    Box::new(grouped.last().unwrap().clone())
+                };
+                bits = bits.max(trimmer.bits());
+                cst(
+                    p,
+                    c.peel_cull,
+                    Some(trimmer.as_ref()),
+                    max_layers,
+                    *merge,
+                    floor,
+                    steps,
+                );
+            }
+        }
+    }
+    Ok(bits)
 }
 
 /// Builds the CST plan of the prepared scene's solid(s) and surfaces.
@@ -176,54 +239,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
         }),
         Step::Clear(Clear::Color),
     ];
-    let mut bits = 0u8;
-    let mut grouped = Vec::new();
-    for Job { c, merge, surface } in &jobs {
-        let p = c.peeled.prim;
-        let max_layers = if *surface {
-            Layers::AtMost(prep.mesh_triangles[p as usize] as u32 + 1)
-        } else {
-            Layers::of(prep, p, c.peel_cull)
-        };
-        match &c.volume {
-            None => cst(p, c.peel_cull, None, max_layers, *merge, &mut steps),
-            Some(vol) => {
-                let trimmer: Box<dyn Trimmer + '_> = match variant {
-                    Variant::Z | Variant::I => {
-                        let layout = LabelLayout::new(vol.blist.num_labels).ok_or(
-                            PlanError::TooManyLabels {
-                                labels: vol.blist.num_labels,
-                            },
-                        )?;
-                        let start = layout.value(Next::Label(vol.blist.entries[0].label));
-                        Box::new(BlistTrimmer {
-                            peeled: c.peeled,
-                            vol,
-                            layout,
-                            start,
-                        })
-                    }
-                    Variant::G => {
-                        let mut g = group::GroupTrimmer::new(prep, c)?;
-                        if *surface {
-                            g = g.with_relation(Relation::Surface);
-                        }
-                        grouped.push(g);
-                        Box::new(grouped.last().unwrap().clone())
-                    }
-                };
-                bits = bits.max(trimmer.bits());
-                cst(
-                    p,
-                    c.peel_cull,
-                    Some(trimmer.as_ref()),
-                    max_layers,
-                    *merge,
-                    &mut steps,
-                );
-            }
-        }
-    }
+    let bits = record_jobs(prep, variant, &jobs, None, &mut steps)?;
     // Coincident faces of different tessellations rasterize a few ulps apart, which
     // the exact compares of the trim cannot see: give every visible point the lowest
     // index among the primitives whose faces pass through it (CONTRACT §4), drawing
@@ -414,6 +430,7 @@ mod tests {
             prim: 2,
             leaf: 2,
             negated: false,
+            exit: false,
         };
         assert_eq!(
             tie_draws(&p, 1, 1, false, Relation::Union),

@@ -1,7 +1,8 @@
 //! Layers of the solid and transparent rendering, start to finish (seed 000 §6):
 //! the options (`--layers`, `--layer-threshold`, `--layers-out`, `--alpha`), the
 //! frame they produce, and writing `layers/NN/`. The reference computes them
-//! exactly ([`crate::reference::layers`]); the GPU algorithms say they cannot yet.
+//! exactly ([`crate::reference::layers`]); CST-Z/I/G peel them on the GPU
+//! ([`super::gpu_layers`]); the other GPU algorithms say they cannot.
 #![deny(unsafe_code)]
 
 use std::path::Path;
@@ -9,11 +10,14 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::{Frame, FrameStats, RenderError, RenderOptions};
+use super::gpu_layers::{self, GpuLayers, StreamLimit};
+use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::{write_images, Images, OutputError};
-use crate::plan::Algo;
-use crate::reference::highlight::{highlight_pixel, Highlighted};
+use crate::plan::cst::Variant;
+use crate::plan::{Algo, Prepared};
+use crate::reference::highlight::{highlight_at, highlight_pixel, Highlighted, HIGHLIGHT_RGB};
 use crate::reference::interference::{render_interference, InterferingPair};
+use crate::reference::layers::blend_colors;
 use crate::reference::{render_layers, LayerLimit};
 use crate::scene::Scene;
 
@@ -67,34 +71,194 @@ pub struct LayerStats {
     /// whose ray meets their intersection.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference: Option<Vec<InterferingPair>>,
+    /// GPU: layer plans run (the entry and exit streams of every solid, seed 000 §6).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stream_layers: Option<u32>,
+    /// GPU: CSTs run over all layers (the paper's "CSTs", seed 000 §8).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub csts: Option<u64>,
     /// With interference: pixels showing an interference.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference_pixels: Option<u64>,
 }
 
+/// One layer of the solid: the k-th boundary crossing of every pixel's ray. The
+/// one type every producer of layers (the reference, CST peeling, Kirsch's
+/// peeling) fills and every consumer (transparency, highlight, `layers/NN/`,
+/// blueprint edge maps) reads.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolidLayer {
+    /// The contract's images of this crossing: its shaded colour (background
+    /// where the ray has fewer crossings), view depth (`+inf`) and 1-based
+    /// primitive (0).
+    pub images: Images,
+    /// Per pixel, row-major: the unit world-space normal of the crossing's face,
+    /// turned towards the eye (`[0, 0, 0]` where there is none); `None` when the
+    /// producer does not compute normals.
+    pub normal: Option<Vec<[f32; 3]>>,
+}
+
+impl SolidLayer {
+    /// A layer without normals.
+    pub fn new(images: Images) -> SolidLayer {
+        SolidLayer {
+            images,
+            normal: None,
+        }
+    }
+
+    /// Pixels this layer covers.
+    pub fn covered(&self) -> u64 {
+        self.images.prim.iter().filter(|&&p| p != 0).count() as u64
+    }
+}
+
 /// A frame with its layers: `images` as the contract's files (the composite in
 /// `color.png` when transparent; depth and primitive of layer 1 then), and each
-/// layer's own images.
+/// layer, front to back.
 #[derive(Clone, Debug)]
 pub struct LayeredFrame {
     pub frame: Frame,
-    pub layers: Vec<Images>,
+    pub layers: Vec<SolidLayer>,
     pub layer_stats: LayerStats,
 }
 
-/// Renders `scene` with its layers. Only the reference can yet; other algorithms
-/// get [`RenderError::Unsupported`].
+/// Renders `scene` with its layers: exactly with the reference, by CST depth
+/// peeling with `cst-z`, `cst-i` and `cst-g` (layers, transparency, highlight);
+/// other algorithms, and interference on the GPU, get
+/// [`RenderError::Unsupported`].
 pub fn render_layered(
     scene: &Scene,
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
-    if opts.algo != Algo::Reference {
+    let variant = match opts.algo {
+        Algo::Reference => return render_layered_reference(scene, lopts),
+        Algo::CstZ => Variant::Z,
+        Algo::CstI => Variant::I,
+        Algo::CstG => Variant::G,
+        _ => {
+            return Err(RenderError::Unsupported {
+                algo: opts.algo.name().to_string(),
+                what: "layers, transparency, highlight and interference (--layers, --layers-out, --alpha, alpha keys, --highlight, --interference); cst-z, cst-i and cst-g render them except interference",
+            })
+        }
+    };
+    if scene.appearance.interference {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
-            what: "layers, transparency, highlight and interference (--layers, --layers-out, --alpha, alpha keys, --highlight, --interference)",
+            what: "interference (--interference, [render] interference)",
         });
     }
+    render_layered_gpu(scene, opts, lopts, variant)
+}
+
+/// The GPU's layered frame (see [`super::gpu_layers`]): the opaque image as
+/// `render` makes it, or the composite of the layers when something is
+/// see-through; highlight over either.
+fn render_layered_gpu(
+    scene: &Scene,
+    opts: &RenderOptions,
+    lopts: &LayerOptions,
+    variant: Variant,
+) -> Result<LayeredFrame, RenderError> {
+    let t = Instant::now();
+    let transparent = scene.appearance.is_transparent();
+    let mut gpu = GpuRenderer::with_fallback(
+        scene,
+        opts.device,
+        opts.depth,
+        opts.depth_fallback,
+        opts.validation,
+    )?;
+    let limit = StreamLimit {
+        max: lopts.max_layers,
+        threshold: lopts.threshold,
+    };
+    let peeled = gpu_layers::render(&mut gpu, scene, variant, limit)?;
+    let mut frame = if transparent {
+        let n = scene.render.width as usize * scene.render.height as usize;
+        let bg = scene.render.background;
+        let color = (0..n)
+            .map(|i| {
+                let hits = peeled.layers.iter().zip(&peeled.solid).map_while(|(l, s)| {
+                    let prim = l.images.prim[i];
+                    (prim != 0).then(|| {
+                        let alpha = scene.appearance.alpha_of(prim as u32 - 1, s[i]);
+                        (alpha, l.images.color[i])
+                    })
+                });
+                blend_colors(hits, bg)
+            })
+            .collect();
+        let first = peeled.layers.first();
+        Frame {
+            images: Images {
+                width: scene.render.width,
+                height: scene.render.height,
+                color,
+                depth: first.map_or_else(|| vec![f32::INFINITY; n], |l| l.images.depth.clone()),
+                prim: first.map_or_else(|| vec![0; n], |l| l.images.prim.clone()),
+            },
+            stats: FrameStats::default(),
+        }
+    } else {
+        // Opaque: the image `render` makes, unchanged.
+        let prep = Prepared::new(scene)?;
+        let plan = crate::plan::build_with(opts.algo, &prep, &opts.build)?;
+        gpu.frame(&plan)?
+    };
+    let mut exec = peeled.stats.clone();
+    if !transparent {
+        exec.accumulate(&frame.stats.exec);
+    }
+    exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
+    frame.stats = FrameStats {
+        algo: opts.algo.name().to_string(),
+        width: scene.render.width,
+        height: scene.render.height,
+        device: gpu.device_name(),
+        depth_setup: Some(gpu.depth_setup().name()),
+        stencil_bits: frame.stats.stencil_bits,
+        exec,
+        ..Default::default()
+    };
+    let mut layer_stats = LayerStats {
+        layers: peeled.layers.len() as u32,
+        layer_pixels: peeled.layers.iter().map(SolidLayer::covered).collect(),
+        transparent,
+        stream_layers: Some(peeled.stream_layers),
+        csts: Some(peeled.csts),
+        ..Default::default()
+    };
+    if !lopts.highlight.is_empty() {
+        highlight_gpu(
+            &mut gpu,
+            &mut frame,
+            &peeled,
+            scene,
+            variant,
+            lopts,
+            &mut layer_stats,
+        )?;
+    }
+    let msgs = gpu.validation_messages();
+    if !msgs.is_empty() {
+        return Err(RenderError::Validation(msgs));
+    }
+    frame.stats.layers = Some(layer_stats.clone());
+    Ok(LayeredFrame {
+        frame,
+        layers: peeled.layers,
+        layer_stats,
+    })
+}
+
+/// The reference's layered frame (exact).
+fn render_layered_reference(
+    scene: &Scene,
+    lopts: &LayerOptions,
+) -> Result<LayeredFrame, RenderError> {
     let transparent = scene.appearance.is_transparent();
     let interference = scene.appearance.interference;
     let t = Instant::now();
@@ -154,16 +318,64 @@ pub fn render_layered(
     frame.stats.layers = Some(layer_stats.clone());
     Ok(LayeredFrame {
         frame,
-        layers: stack.layers,
+        layers: stack.layers.into_iter().map(SolidLayer::new).collect(),
         layer_stats,
     })
 }
 
+/// `--highlight` on the GPU's layers: the layers peeled again with the chosen
+/// primitives in the highlight colour (same geometry, so the same layers in the
+/// same order), whose colour at each pixel's first chosen layer is the
+/// highlighted face shaded like any face; drawn over `frame`'s colour.
+fn highlight_gpu(
+    gpu: &mut GpuRenderer,
+    frame: &mut Frame,
+    peeled: &GpuLayers,
+    scene: &Scene,
+    variant: Variant,
+    lopts: &LayerOptions,
+    stats: &mut LayerStats,
+) -> Result<(), RenderError> {
+    let mut painted = scene.clone();
+    for &p in &lopts.highlight {
+        painted.primitives[p as usize].color = HIGHLIGHT_RGB;
+    }
+    gpu.upload(&painted)?;
+    let limit = StreamLimit {
+        max: Some(peeled.layers.len() as u32),
+        threshold: 0,
+    };
+    let again = gpu_layers::render(gpu, &painted, variant, limit)?;
+    frame.stats.exec.accumulate(&again.stats);
+    let chosen: Vec<u16> = lopts.highlight.iter().map(|&p| p as u16 + 1).collect();
+    let (mut shown, mut hidden) = (0, 0);
+    for (i, c) in frame.images.color.iter_mut().enumerate() {
+        let first = peeled
+            .layers
+            .iter()
+            .position(|l| chosen.contains(&l.images.prim[i]));
+        let Some(k) = first else { continue };
+        let Some(lit) = again.layers.get(k) else {
+            continue;
+        };
+        let (out, h) = highlight_at(k, lit.images.color[i], *c);
+        *c = out;
+        match h {
+            Highlighted::Visible => shown += 1,
+            Highlighted::Hidden => hidden += 1,
+            Highlighted::No => {}
+        }
+    }
+    stats.highlighted_pixels = Some(shown);
+    stats.highlighted_hidden_pixels = Some(hidden);
+    Ok(())
+}
+
 /// Writes layer k (0-based) into `dir/layers/{k+1:02}/` (`color.png`, `depth.npy`,
 /// `prim.png`).
-pub fn write_layers(dir: &Path, layers: &[Images]) -> Result<(), OutputError> {
-    for (k, img) in layers.iter().enumerate() {
-        write_images(dir.join("layers").join(format!("{:02}", k + 1)), img)?;
+pub fn write_layers(dir: &Path, layers: &[SolidLayer]) -> Result<(), OutputError> {
+    for (k, l) in layers.iter().enumerate() {
+        write_images(dir.join("layers").join(format!("{:02}", k + 1)), &l.images)?;
     }
     Ok(())
 }

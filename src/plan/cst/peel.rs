@@ -36,18 +36,31 @@ impl Layers {
 /// CST(S, V) merged into [`FINAL`] (seed 000 §4): `Initialize; Repeat {Peel(S);
 /// Trim(V); Push()} until Done; Render(S)`. `trimmer: None` means V is the universe:
 /// the first layer of S is drawn directly.
+///
+/// `floor`: a depth texture the peeling starts behind (seed 000 §6: the layers
+/// after the first initialize *PrevDepth* at the previous layer's depth), or
+/// `None` to start at the near plane.
 pub fn cst(
     surface: MeshId,
     peel_cull: Cull,
     trimmer: Option<&dyn Trimmer>,
     layers: Layers,
     merge: Merge,
+    floor: Option<Tex>,
     steps: &mut Vec<Step>,
 ) {
     let me = vec![surface];
     let Some(t) = trimmer else {
         steps.push(Step::Pass("merge".into()));
-        steps.push(render_draw(surface, peel_cull, merge, Fragment::Shade));
+        let fragment = match floor {
+            None => Fragment::Shade,
+            Some(prev) => Fragment::Peel {
+                prev,
+                out: CUR,
+                shade: true,
+            },
+        };
+        steps.push(render_draw(surface, peel_cull, merge, fragment));
         merge.paint(surface, peel_cull, steps);
         return;
     };
@@ -57,10 +70,13 @@ pub fn cst(
         depth: FAR,
         stencil: t.start(),
     }));
-    steps.push(Step::Clear(Clear::Texture {
-        tex: PREV,
-        depth: 0.0,
-    }));
+    steps.push(match floor {
+        None => Step::Clear(Clear::Texture {
+            tex: PREV,
+            depth: 0.0,
+        }),
+        Some(src) => Step::CopyTexture { src, dst: PREV },
+    });
     steps.push(Step::Clear(Clear::Texture {
         tex: CUR,
         depth: FAR,

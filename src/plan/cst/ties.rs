@@ -15,6 +15,9 @@ pub struct Peeled {
     pub prim: MeshId,
     pub leaf: LeafId,
     pub negated: bool,
+    /// The candidates lie where rays leave the solid (back faces of a positive
+    /// leaf: the even layers of seed 000 §6), not where they enter it.
+    pub exit: bool,
 }
 
 impl Peeled {
@@ -41,7 +44,46 @@ pub enum Relation {
 
 /// The parity draws (depth compare, culling) that classify candidates of `peeled`
 /// against the mesh of literal `(prim, leaf, negated)`; see the module comment.
+///
+/// The rules are written for entry candidates. An exit candidate (`peeled.exit`)
+/// is an entry candidate of the ray run backwards: "behind" becomes "in front"
+/// and front faces become back faces. The parity of the faces at or in front of
+/// X equals that of the faces strictly behind it (a closed mesh crosses the line
+/// an even number of times; an eye inside flips both alike), so the mirrored
+/// rule is the same rule with `Less` and `LessOrEqual` swapped and the culling
+/// swapped: coincident faces are then decided as if X were moved along the
+/// reversed ray, and each exit point is still kept exactly once.
 pub fn tie_draws(
+    peeled: &Peeled,
+    prim: u32,
+    leaf: LeafId,
+    negated: bool,
+    rel: Relation,
+) -> Vec<(CompareOp, Cull)> {
+    let draws = entry_tie_draws(peeled, prim, leaf, negated, rel);
+    if !peeled.exit {
+        return draws;
+    }
+    draws
+        .into_iter()
+        .map(|(compare, cull)| {
+            let compare = match compare {
+                CompareOp::Less => CompareOp::LessOrEqual,
+                CompareOp::LessOrEqual => CompareOp::Less,
+                other => panic!("tie draws compare with Less or LessOrEqual, not {other:?}"),
+            };
+            let cull = match cull {
+                Cull::Front => Cull::Back,
+                Cull::Back => Cull::Front,
+                Cull::None => Cull::None,
+            };
+            (compare, cull)
+        })
+        .collect()
+}
+
+/// [`tie_draws`] for a candidate where the ray enters the solid.
+fn entry_tie_draws(
     peeled: &Peeled,
     prim: u32,
     leaf: LeafId,

@@ -80,6 +80,7 @@ pub fn leaf_csts(
             prim: lit.prim,
             leaf: lit.leaf,
             negated: lit.negated,
+            exit: false,
         };
         let (zone, u_leaves) = match variant {
             Variant::Z => {
