@@ -55,7 +55,7 @@ mod zones;
 
 pub use peel::{cst, Layers, Merge, PAINT_PENDING, SURFACE_MARK};
 pub(crate) use ties::parity_draw;
-pub use ties::{tie_draws, tie_eps, Peeled, Relation};
+pub use ties::{tie_draws, tie_eps, Candidates, Peeled, Relation};
 pub(crate) use trim::BlistTrimmer;
 pub use trim::Trimmer;
 pub(crate) use zones::disjoint;
@@ -114,7 +114,7 @@ fn surface_jobs(prep: &Prepared) -> Vec<Job> {
             prim: s.mesh,
             leaf: 0,
             negated: false,
-            exit: false,
+            candidates: Candidates::Visible,
         };
         let job = |zone: &PositiveExpr, paint: Option<[u8; 3]>| {
             let universe = zone.is_universe();
@@ -430,7 +430,7 @@ mod tests {
             prim: 2,
             leaf: 2,
             negated: false,
-            exit: false,
+            candidates: Candidates::Visible,
         };
         assert_eq!(
             tie_draws(&p, 1, 1, false, Relation::Union),

@@ -19,7 +19,7 @@
 
 use super::super::step::*;
 use super::super::{PlanError, Prepared};
-use super::{leaf_csts, record_jobs, Job, Merge, Variant, CUR, FAR, FINAL};
+use super::{leaf_csts, record_jobs, Candidates, Job, Merge, Variant, CUR, FAR, FINAL};
 
 /// The previous layer of the stream: the depth the peels start behind. Kept on
 /// the GPU between the plans of a stream (images persist between frames).
@@ -64,8 +64,11 @@ pub fn layer_plan(
     )
     .into_iter()
     .map(|mut c| {
+        c.peeled.candidates = match side {
+            Side::Entry => Candidates::Entry,
+            Side::Exit => Candidates::Exit,
+        };
         if side == Side::Exit {
-            c.peeled.exit = true;
             c.peel_cull = match c.peel_cull {
                 Cull::Back => Cull::Front,
                 Cull::Front => Cull::Back,

@@ -15,9 +15,25 @@ pub struct Peeled {
     pub prim: MeshId,
     pub leaf: LeafId,
     pub negated: bool,
-    /// The candidates lie where rays leave the solid (back faces of a positive
-    /// leaf: the even layers of seed 000 §6), not where they enter it.
-    pub exit: bool,
+    /// Which boundary points the peel's candidates are.
+    pub candidates: Candidates,
+}
+
+/// The boundary points a leaf's CST keeps, which decides how coincident faces
+/// are resolved.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Candidates {
+    /// Opaque rendering: the visible entry points. A candidate inside the solid
+    /// is hidden behind a nearer entry anyway, so a u-node's coincident exit face
+    /// needs no draw of its own.
+    Visible,
+    /// Every entry point exactly once (the odd layers of seed 000 §6): also where
+    /// a u-node literal leaves as the leaf enters (two solids of a union touching
+    /// face to face), the point is inside the union and dropped.
+    Entry,
+    /// Every exit point exactly once (the even layers): [`Candidates::Entry`]'s
+    /// rule along the reversed ray.
+    Exit,
 }
 
 impl Peeled {
@@ -61,7 +77,7 @@ pub fn tie_draws(
     rel: Relation,
 ) -> Vec<(CompareOp, Cull)> {
     let draws = entry_tie_draws(peeled, prim, leaf, negated, rel);
-    if !peeled.exit {
+    if peeled.candidates != Candidates::Exit {
         return draws;
     }
     draws
@@ -91,23 +107,29 @@ fn entry_tie_draws(
     rel: Relation,
 ) -> Vec<(CompareOp, Cull)> {
     let earlier = peeled.earlier(prim, leaf);
+    // Literal front faces are mesh front faces unless the literal is negated.
+    let (keep_lit_front, keep_lit_back) = if negated {
+        (Cull::Front, Cull::Back)
+    } else {
+        (Cull::Back, Cull::Front)
+    };
     match (rel, earlier) {
         (Relation::Surface, _) => vec![(CompareOp::Less, Cull::None)],
+        // The literal is the complement of an earlier u-node primitive Q. Where Q
+        // enters with P, Q wins (X in Q: the literal's exit face counts); where Q
+        // leaves as P enters, the point is inside the union (X stays in Q: the
+        // literal's entry face does not count). The intersection's rule, below.
+        (Relation::Union, true) if peeled.candidates != Candidates::Visible => vec![
+            (CompareOp::Less, keep_lit_front),
+            (CompareOp::LessOrEqual, keep_lit_back),
+        ],
         (Relation::Union, true) => vec![(CompareOp::LessOrEqual, Cull::None)],
         (Relation::Union, false) => vec![(CompareOp::Less, Cull::None)],
         (Relation::Inter, false) => vec![(CompareOp::LessOrEqual, Cull::None)],
-        (Relation::Inter, true) => {
-            // Literal front faces are mesh front faces unless the literal is negated.
-            let (keep_lit_front, keep_lit_back) = if negated {
-                (Cull::Front, Cull::Back)
-            } else {
-                (Cull::Back, Cull::Front)
-            };
-            vec![
-                (CompareOp::Less, keep_lit_front),
-                (CompareOp::LessOrEqual, keep_lit_back),
-            ]
-        }
+        (Relation::Inter, true) => vec![
+            (CompareOp::Less, keep_lit_front),
+            (CompareOp::LessOrEqual, keep_lit_back),
+        ],
     }
 }
 
