@@ -9,6 +9,7 @@ mod algorithms;
 mod classic;
 mod cst;
 mod embed;
+mod gpu_layers;
 mod limits;
 mod openscad;
 mod rounding;

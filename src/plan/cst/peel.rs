@@ -5,7 +5,7 @@
 
 use super::super::stencil;
 use super::super::step::*;
-use super::super::Prepared;
+use super::super::{Prepared, SHADE_EPS};
 use super::{Trimmer, CUR, FAR, FINAL, PREV, WORK};
 
 /// How many layers of a surface the peel may need.
@@ -95,10 +95,21 @@ pub fn cst(
                 write: true,
             },
             stencil: Some(stencil::test_equal(t.start(), t.mask())),
-            fragment: Fragment::Peel {
-                prev: PREV,
-                out: CUR,
-                shade: false,
+            // Behind a floor, a face within the tie tolerance of the previous layer
+            // is that layer's point again (a coincident face of another primitive,
+            // rasterized a few ulps behind), as the reference groups crossings
+            // closer than its tolerance.
+            fragment: match floor {
+                None => Fragment::Peel {
+                    prev: PREV,
+                    out: CUR,
+                    shade: false,
+                },
+                Some(_) => Fragment::PeelTolerant {
+                    prev: PREV,
+                    out: CUR,
+                    eps: SHADE_EPS,
+                },
             },
             count_samples: true,
         }),
