@@ -158,7 +158,12 @@ fn layer_threshold_and_limit_stop_the_peel() {
         },
     );
     assert_eq!(two.layers.len(), 2);
-    assert_eq!(two.layers[1].images, all.layers[1].images);
+    // Layer 2 of two is layer 2 of all (up to the merge of edge pixels).
+    let c = compare(&all.layers[1].images, &two.layers[1].images).unwrap();
+    assert!(
+        c.coverage_mismatch_interior_frac <= 1e-3 && c.prim_mismatch_interior_frac <= 1e-3,
+        "{c:?}"
+    );
 }
 
 #[test]
