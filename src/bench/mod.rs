@@ -9,6 +9,7 @@
 #![deny(unsafe_code)]
 
 pub mod families;
+pub mod modes;
 pub mod opencsg;
 pub mod plot;
 pub mod report;
