@@ -193,3 +193,60 @@ fn merge(
         .collect();
     (layers, solid)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stream(solid: u32, depth: [f32; 2], prim: [u16; 2]) -> Peeled {
+        Peeled {
+            solid,
+            images: Images {
+                width: 2,
+                height: 1,
+                color: vec![[prim[0] as u8, 0, 0, 255], [prim[1] as u8, 0, 0, 255]],
+                depth: depth.to_vec(),
+                prim: prim.to_vec(),
+            },
+        }
+    }
+
+    #[test]
+    fn merge_orders_by_depth_then_primitive_and_cuts() {
+        let inf = f32::INFINITY;
+        let peeled = [
+            stream(0, [2.0, 1.0], [1, 1]),
+            stream(1, [1.0 + 1e-7, inf], [3, 0]),
+            stream(1, [1.0, 3.0], [2, 2]),
+        ];
+        let all = StreamLimit {
+            max: None,
+            threshold: 0,
+        };
+        let (layers, solid) = merge(&peeled, 2, 1, [9, 9, 9], all);
+        assert_eq!(layers.len(), 3);
+        // Pixel 0: 1.0 (prim 2) and 1.0 + 1e-7 (prim 3) are one depth: index order.
+        assert_eq!(
+            layers.iter().map(|l| l.images.prim[0]).collect::<Vec<_>>(),
+            [2, 3, 1]
+        );
+        assert_eq!(
+            layers.iter().map(|l| l.images.prim[1]).collect::<Vec<_>>(),
+            [1, 2, 0]
+        );
+        assert_eq!(layers[2].images.depth[1], inf);
+        assert_eq!(layers[2].images.color[1], [9, 9, 9, 255]);
+        assert_eq!(solid[0], [1, 0]);
+        // A threshold of two pixels stops before the layer covering one.
+        let two = StreamLimit {
+            max: None,
+            threshold: 2,
+        };
+        assert_eq!(merge(&peeled, 2, 1, [0; 3], two).0.len(), 2);
+        let one = StreamLimit {
+            max: Some(1),
+            threshold: 0,
+        };
+        assert_eq!(merge(&peeled, 2, 1, [0; 3], one).0.len(), 1);
+    }
+}

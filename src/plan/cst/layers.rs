@@ -154,3 +154,150 @@ pub fn coverage_plan() -> Plan {
         ],
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::csg::{parse, PositiveExpr};
+    use crate::plan::cst::{tie_draws, Peeled, Relation};
+    use crate::scene::Aabb;
+
+    fn prepared(expr: &str, prims: u32) -> Prepared {
+        let names: Vec<String> = (0..prims).map(|i| format!("P{i}")).collect();
+        let e = parse(expr, &mut |n: &str| {
+            names.iter().position(|x| x == n).map(|i| i as u32)
+        })
+        .unwrap();
+        let b = Aabb {
+            min: glam::DVec3::splat(-1.0),
+            max: glam::DVec3::splat(1.0),
+        };
+        Prepared {
+            positive: PositiveExpr::from_expr(&e),
+            expr: Some(e),
+            solid_meshes: (0..prims).collect(),
+            mesh_triangles: vec![12; prims as usize],
+            mesh_bounds: vec![b; prims as usize],
+            mesh_convex: vec![false; prims as usize],
+            eye_inside: Vec::new(),
+            near_cut: Vec::new(),
+            surfaces: Vec::new(),
+        }
+    }
+
+    fn peels(plan: &Plan) -> Vec<(Cull, Fragment)> {
+        let mut out = Vec::new();
+        for s in &plan.steps {
+            let Step::Loop(l) = s else { continue };
+            for s in &l.head {
+                if let Step::Draw(d) = s {
+                    out.push((d.cull, d.fragment.clone()));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn exit_layers_peel_back_faces_behind_the_floor() {
+        let p = prepared("(P0 + P1) - P2", 3);
+        for v in [Variant::Z, Variant::I, Variant::G] {
+            let entry = layer_plan(&p, v, Side::Entry, true).unwrap();
+            let exit = layer_plan(&p, v, Side::Exit, false).unwrap();
+            // Every leaf is trimmed against its Z form: three CSTs each.
+            assert_eq!((entry.csts, exit.csts), (3, 3));
+            let (e, x) = (peels(&entry.plan), peels(&exit.plan));
+            assert_eq!(e.len(), 3);
+            // Positive leaves keep front faces at entries, back faces at exits;
+            // the negative leaf the opposite.
+            assert_eq!(
+                e.iter().map(|d| d.0).collect::<Vec<_>>(),
+                [Cull::Back, Cull::Back, Cull::Front]
+            );
+            assert_eq!(
+                x.iter().map(|d| d.0).collect::<Vec<_>>(),
+                [Cull::Front, Cull::Front, Cull::Back]
+            );
+            assert!(x
+                .iter()
+                .all(|d| matches!(d.1, Fragment::PeelTolerant { .. })));
+            // Only the first plan of a stream clears the floor; every CST starts
+            // from it; the floor is saved before the tie shading rewrites depths.
+            let clears_floor = |pl: &Plan| {
+                pl.steps
+                    .iter()
+                    .any(|s| matches!(s, Step::Clear(Clear::Texture { tex, .. }) if *tex == FLOOR))
+            };
+            assert!(clears_floor(&entry.plan) && !clears_floor(&exit.plan));
+            let starts = exit
+                .plan
+                .steps
+                .iter()
+                .filter(|s| matches!(s, Step::CopyTexture { src, .. } if *src == FLOOR))
+                .count();
+            assert_eq!(starts, 3);
+            let save = exit
+                .plan
+                .steps
+                .iter()
+                .position(|s| matches!(s, Step::CopyDepthToTexture { dst, .. } if *dst == FLOOR))
+                .unwrap();
+            let shade = exit
+                .plan
+                .steps
+                .iter()
+                .position(|s| matches!(s, Step::Pass(n) if n == "shade"))
+                .unwrap();
+            assert!(save < shade);
+            assert_eq!(exit.plan.textures, 3);
+        }
+    }
+
+    #[test]
+    fn union_ties_are_regularized_for_layers_and_mirrored_at_exits() {
+        let at = |candidates| Peeled {
+            prim: 1,
+            leaf: 1,
+            negated: false,
+            candidates,
+        };
+        // The complement of an earlier u-node primitive (the literal !P0).
+        let visible = tie_draws(&at(Candidates::Visible), 0, 0, true, Relation::Union);
+        assert_eq!(visible, vec![(CompareOp::LessOrEqual, Cull::None)]);
+        let entry = tie_draws(&at(Candidates::Entry), 0, 0, true, Relation::Union);
+        assert_eq!(
+            entry,
+            vec![
+                (CompareOp::Less, Cull::Front),
+                (CompareOp::LessOrEqual, Cull::Back)
+            ]
+        );
+        // Exits: the same rule along the reversed ray (compare and culling swapped).
+        let exit = tie_draws(&at(Candidates::Exit), 2, 2, false, Relation::Inter);
+        assert_eq!(exit, vec![(CompareOp::Less, Cull::None)]);
+        let exit = tie_draws(&at(Candidates::Exit), 0, 0, true, Relation::Union);
+        assert_eq!(
+            exit,
+            vec![
+                (CompareOp::LessOrEqual, Cull::Back),
+                (CompareOp::Less, Cull::Front)
+            ]
+        );
+    }
+
+    #[test]
+    fn coverage_counts_one_full_screen_draw() {
+        let p = coverage_plan();
+        let counted: Vec<&Draw> = p
+            .steps
+            .iter()
+            .filter_map(|s| match s {
+                Step::Draw(d) if d.count_samples => Some(d),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(counted.len(), 1);
+        assert_eq!(counted[0].ds, FINAL);
+        assert!(!counted[0].depth.write);
+    }
+}
