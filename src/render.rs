@@ -255,6 +255,18 @@ impl GpuRenderer {
         Ok(self.exec.upload(scene)?)
     }
 
+    /// The renderer `opts` asks for (device, depth set-up and its fallback,
+    /// validation).
+    pub fn for_options(scene: &Scene, opts: &RenderOptions) -> Result<Self, RenderError> {
+        Self::with_fallback(
+            scene,
+            opts.device,
+            opts.depth,
+            opts.depth_fallback,
+            opts.validation,
+        )
+    }
+
     /// The depth set-up in use (after any fallback).
     pub fn depth_setup(&self) -> DepthSetup {
         self.depth
@@ -324,13 +336,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError>
     }
     let prep = Prepared::new(scene)?;
     let plan = plan::build_with(opts.algo, &prep, &opts.build)?;
-    let mut gpu = GpuRenderer::with_fallback(
-        scene,
-        opts.device,
-        opts.depth,
-        opts.depth_fallback,
-        opts.validation,
-    )?;
+    let mut gpu = GpuRenderer::for_options(scene, opts)?;
     let frame = gpu.frame(&plan)?;
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {

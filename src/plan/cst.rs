@@ -146,6 +146,19 @@ fn surface_jobs(prep: &Prepared) -> Vec<Job> {
     jobs
 }
 
+/// A plan's first steps: *FinalColorDepth* and the colour targets cleared.
+fn init_final() -> Vec<Step> {
+    vec![
+        Step::Pass("init".into()),
+        Step::Clear(Clear::DepthStencil {
+            ds: FINAL,
+            depth: FAR,
+            stencil: 0,
+        }),
+        Step::Clear(Clear::Color),
+    ]
+}
+
 /// Records every job's CST into `steps` (peeling behind `floor` when given, see
 /// [`cst`]); returns the stencil bits the trims need. CST-G groups a zone only
 /// when none of its literals lies in a u-node: its counter applies one tie rule
@@ -230,15 +243,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     // (the reference keeps the solid unless a surface is nearer by more than its
     // tolerance), and between surfaces the earlier one wins.
     jobs.extend(surface_jobs(prep));
-    let mut steps = vec![
-        Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil {
-            ds: FINAL,
-            depth: FAR,
-            stencil: 0,
-        }),
-        Step::Clear(Clear::Color),
-    ];
+    let mut steps = init_final();
     let bits = record_jobs(prep, variant, &jobs, None, &mut steps)?;
     // Coincident faces of different tessellations rasterize a few ulps apart, which
     // the exact compares of the trim cannot see: give every visible point the lowest

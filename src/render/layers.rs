@@ -164,13 +164,7 @@ fn render_layered_gpu(
 ) -> Result<LayeredFrame, RenderError> {
     let t = Instant::now();
     let transparent = scene.appearance.is_transparent();
-    let mut gpu = GpuRenderer::with_fallback(
-        scene,
-        opts.device,
-        opts.depth,
-        opts.depth_fallback,
-        opts.validation,
-    )?;
+    let mut gpu = GpuRenderer::for_options(scene, opts)?;
     let limit = StreamLimit {
         max: lopts.max_layers,
         threshold: lopts.threshold,

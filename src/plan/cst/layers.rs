@@ -19,7 +19,7 @@
 
 use super::super::step::*;
 use super::super::{PlanError, Prepared};
-use super::{leaf_csts, record_jobs, Candidates, Job, Merge, Variant, CUR, FAR, FINAL};
+use super::{init_final, leaf_csts, record_jobs, Candidates, Job, Merge, Variant, CUR, FAR, FINAL};
 
 /// The previous layer of the stream: the depth the peels start behind. Kept on
 /// the GPU between the plans of a stream (images persist between frames).
@@ -82,15 +82,7 @@ pub fn layer_plan(
         }
     })
     .collect();
-    let mut steps = vec![
-        Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil {
-            ds: FINAL,
-            depth: FAR,
-            stencil: 0,
-        }),
-        Step::Clear(Clear::Color),
-    ];
+    let mut steps = init_final();
     if first {
         steps.push(Step::Clear(Clear::Texture {
             tex: FLOOR,
