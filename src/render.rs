@@ -15,7 +15,9 @@ use crate::scene::Scene;
 use crate::vk;
 
 mod gpu_layers;
+pub mod interference;
 pub mod layers;
+pub mod shadow;
 
 /// Depth-buffer set-ups of the speed-against-error studies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -106,6 +108,9 @@ pub struct FrameStats {
     /// Layers and transparency (extension; only when asked for).
     #[serde(flatten, skip_serializing_if = "Option::is_none")]
     pub layers: Option<layers::LayerStats>,
+    /// Shadows of the `[light]` (extension; only with one).
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub shadow: Option<shadow::ShadowStats>,
 }
 
 /// Images and the `stats.json` of one frame.
@@ -307,6 +312,7 @@ impl GpuRenderer {
             rays: None,
             exec,
             layers: None,
+            shadow: None,
         })
     }
 
@@ -328,12 +334,26 @@ impl GpuRenderer {
     }
 }
 
-/// Renders one frame with the chosen algorithm.
+/// Renders one frame with the chosen algorithm: with the scene's `[light]`, its
+/// shadows too ([`shadow`]).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError> {
+    match &scene.appearance.light {
+        Some(light) => shadow::render_shadowed(scene, opts, light),
+        None => render_opaque(scene, opts),
+    }
+}
+
+/// The contract's opaque frame (any `[light]` ignored).
+pub fn render_opaque(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError> {
     if opts.algo == Algo::Reference {
         check_frame_budget(scene.render.width, scene.render.height, false)?;
         return Ok(render_reference(scene));
     }
+    Ok(render_gpu(scene, opts)?.0)
+}
+
+/// One frame of a GPU algorithm, with the depth bounds of the set-up it used.
+fn render_gpu(scene: &Scene, opts: &RenderOptions) -> Result<(Frame, DepthPrecision), RenderError> {
     let prep = Prepared::new(scene)?;
     let plan = plan::build_with(opts.algo, &prep, &opts.build)?;
     let mut gpu = GpuRenderer::for_options(scene, opts)?;
@@ -342,5 +362,5 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError>
     if !msgs.is_empty() {
         return Err(RenderError::Validation(msgs));
     }
-    Ok(frame)
+    Ok((frame, gpu.precision()))
 }

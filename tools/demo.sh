@@ -13,4 +13,9 @@ tools/setup.sh
 cargo build --release --quiet
 tools/opencsg-bench/build.sh \
   || echo "demo.sh: warning: the OpenCSG baseline could not be built; the bench runs without it" >&2
+# Shadows and interference (issue 11) on their shipped scenes: optional extras.
+for s in shadow_block interference; do
+  target/release/peeltrim render "scenes/$s.toml" --algo cst-i --size 400x400 --out "out/extras/$s" \
+    || echo "demo.sh: warning: rendering scenes/$s.toml failed" >&2
+done
 exec target/release/peeltrim bench --algos all --frames 5 --size 400x400 --out out --baseline opencsg "$@"

@@ -12,6 +12,7 @@ mod layers_cli;
 /// OpenSCAD `.csg` models through the command line.
 mod openscad_cli;
 mod scad_models;
+mod shadow_cli;
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_peeltrim"));

@@ -15,6 +15,7 @@ mod openscad;
 mod rounding;
 mod scad_models;
 mod setup;
+mod shadow;
 mod stability;
 
 use glam::{DMat4, DVec3};

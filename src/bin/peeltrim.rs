@@ -395,6 +395,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 write_layers: layers.layers_out,
                 highlight: highlight_indices(&scene, &layers.highlight)?,
             };
+            if lopts.wanted(&scene) && scene.appearance.light.is_some() {
+                eprintln!("peeltrim: warning: [light] is ignored with layers, transparency, highlight or interference: shadows are drawn on opaque renders");
+            }
             if let Ok(prep) = peeltrim::plan::Prepared::new(&scene) {
                 for w in prep.warnings(opts.algo) {
                     eprintln!("peeltrim: warning: {w}");

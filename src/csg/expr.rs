@@ -73,6 +73,25 @@ impl Expr {
             .collect()
     }
 
+    /// `self * other`: the intersection of two expressions (their arenas joined).
+    pub fn inter(&self, other: &Expr) -> Expr {
+        let off = self.nodes.len() as NodeId;
+        let shift = |n: Node| match n {
+            Node::Leaf { .. } => n,
+            Node::Not(a) => Node::Not(a + off),
+            Node::Union(a, b) => Node::Union(a + off, b + off),
+            Node::Inter(a, b) => Node::Inter(a + off, b + off),
+            Node::Diff(a, b) => Node::Diff(a + off, b + off),
+        };
+        let mut nodes = self.nodes.clone();
+        nodes.extend(other.nodes.iter().map(|&n| shift(n)));
+        nodes.push(Node::Inter(self.root, other.root + off));
+        Expr {
+            root: nodes.len() as NodeId - 1,
+            nodes,
+        }
+    }
+
     /// Evaluates the expression for a point given its membership in each leaf
     /// (`inside(leaf_id, prim)`), iteratively.
     pub fn eval(&self, mut inside: impl FnMut(LeafId, u32) -> bool) -> bool {
@@ -111,6 +130,22 @@ mod tests {
             Node::Diff(2, 4),
         ];
         Expr { nodes, root: 5 }
+    }
+
+    #[test]
+    fn inter_is_the_intersection() {
+        let (e, f) = (sample(), sample());
+        let mut g = Expr {
+            nodes: vec![Node::Leaf { prim: 3 }, Node::Not(0)],
+            root: 1,
+        };
+        g = e.inter(&g);
+        for bits in 0..16u32 {
+            let inside = |_, p: u32| bits >> p & 1 == 1;
+            assert_eq!(g.eval(inside), e.eval(inside) && bits >> 3 & 1 == 0);
+            assert_eq!(e.inter(&f).eval(inside), e.eval(inside));
+        }
+        assert_eq!(g.leaves(), vec![0, 1, 2, 3]);
     }
 
     #[test]

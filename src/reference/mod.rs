@@ -10,6 +10,7 @@ pub mod interference;
 pub mod layers;
 pub mod precision;
 pub mod raycast;
+pub mod shadow;
 
 /// The BVH lives in [`crate::geom`], shared with the plan builders.
 pub use crate::geom::bvh;

@@ -132,6 +132,9 @@ pub fn render_layered(
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
+    if opts.algo != Algo::Reference && super::interference::interference_only(scene, lopts) {
+        return super::interference::layered_frame(scene, opts);
+    }
     let variant = match opts.algo {
         Algo::Reference => return render_layered_reference(scene, lopts),
         Algo::CstZ => Variant::Z,
@@ -140,14 +143,14 @@ pub fn render_layered(
         _ => {
             return Err(RenderError::Unsupported {
                 algo: opts.algo.name().to_string(),
-                what: "layers, transparency, highlight and interference (--layers, --layers-out, --alpha, alpha keys, --highlight, --interference); cst-z, cst-i and cst-g render them except interference",
+                what: "layers, transparency and highlight (--layers, --layers-out, --alpha, alpha keys, --highlight); cst-z, cst-i and cst-g render them",
             })
         }
     };
     if scene.appearance.interference {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
-            what: "interference (--interference, [render] interference)",
+            what: "interference together with layers, transparency or highlight (--interference with --layers, --layers-out, --alpha, --highlight)",
         });
     }
     render_layered_gpu(scene, opts, lopts, variant)

@@ -20,6 +20,8 @@ pub struct Appearance {
     /// `[render] interference = true` (or `--interference`): show where the
     /// assembly's solids intersect.
     pub interference: bool,
+    /// `[light]`: the light that casts the solids' shadows (README "Shadows").
+    pub light: Option<super::light::Light>,
 }
 
 impl Appearance {

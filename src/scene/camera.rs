@@ -133,6 +133,18 @@ impl Camera {
         (p - self.eye).dot(self.forward())
     }
 
+    /// The image point `(px, py)` (pixel units, y downward; pixel centres at
+    /// `x + 0.5`) of a `width × height` image that world point `p` projects to: the
+    /// inverse of [`Camera::ray`].
+    pub fn pixel_of(&self, p: DVec3, width: u32, height: u32) -> (f64, f64) {
+        let m = self.proj(width as f64 / height as f64, DepthConvention::Standard) * self.view();
+        let c = m * p.extend(1.0);
+        (
+            (c.x / c.w + 1.0) * 0.5 * width as f64,
+            (c.y / c.w + 1.0) * 0.5 * height as f64,
+        )
+    }
+
     /// The world-space ray through image point `(px, py)` (pixel centres are at
     /// `x + 0.5, y + 0.5`; y downward) of a `width × height` image.
     pub fn ray(&self, px: f64, py: f64, width: u32, height: u32) -> Ray {

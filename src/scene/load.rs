@@ -107,6 +107,7 @@ struct FileT {
     solid: Vec<Spanned<SolidT>>,
     #[serde(default)]
     surface: Vec<Spanned<ShapeT>>,
+    light: Option<Spanned<super::light::LightT>>,
 }
 
 #[derive(Deserialize)]
@@ -375,6 +376,7 @@ impl Loader<'_> {
                 .as_ref()
                 .and_then(|r| r.get_ref().interference)
                 .unwrap_or(false),
+            light: None,
         })
     }
 
@@ -780,7 +782,8 @@ impl Loader<'_> {
             render.height = h;
         }
 
-        let appearance = self.appearance(&file, r.and_then(|r| r.0.alpha), r.and_then(|r| r.1))?;
+        let mut appearance =
+            self.appearance(&file, r.and_then(|r| r.0.alpha), r.and_then(|r| r.1))?;
 
         let drawn: Vec<&Mesh> = primitives
             .iter()
@@ -799,6 +802,11 @@ impl Loader<'_> {
             CameraT::fitted_default()
         };
         let camera = self.camera(file.camera.as_ref(), &default, &render, &drawn)?;
+        if let Some(l) = &file.light {
+            let light = super::light::resolve(l.get_ref(), drawn.iter().copied())
+                .map_err(|(key, m)| self.invalid(self.line(l.span()), key, m))?;
+            appearance.light = Some(light);
+        }
 
         Ok(Scene {
             name: file.name,

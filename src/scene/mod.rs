@@ -10,6 +10,7 @@ pub mod appearance;
 pub mod camera;
 pub mod cost;
 pub mod fit;
+pub mod light;
 pub mod load;
 pub mod obj;
 pub mod openscad;
