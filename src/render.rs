@@ -15,6 +15,7 @@ use crate::scene::Scene;
 use crate::vk;
 
 pub mod edges;
+mod gpu_layers;
 pub mod interference;
 mod kirsch;
 pub mod layers;
@@ -257,7 +258,13 @@ impl GpuRenderer {
         })
     }
 
-    /// The device, depth set-up, fallback and validation of `opts`.
+    /// Uploads `scene`'s meshes and camera again (e.g. with other colours).
+    pub fn upload(&mut self, scene: &Scene) -> Result<(), RenderError> {
+        Ok(self.exec.upload(scene)?)
+    }
+
+    /// The renderer `opts` asks for (device, depth set-up and its fallback,
+    /// validation).
     pub fn for_options(scene: &Scene, opts: &RenderOptions) -> Result<Self, RenderError> {
         Self::with_fallback(
             scene,

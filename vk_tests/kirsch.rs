@@ -4,6 +4,7 @@
 //! (products each on their own, §7a), and its transparent composite matches the
 //! reference's.
 
+use peeltrim::output::Images;
 use peeltrim::plan::Algo;
 use peeltrim::reference::compare::compare;
 use peeltrim::reference::{render_layers_read, LayerLimit, LayerReading};
@@ -66,12 +67,10 @@ fn kirsch_layers_match_the_products_reading() {
             continue;
         };
         // A layer only one side has must be a sliver (≤ 0.1% of the pixels).
-        let (gn, rn) = (gpu.layers.len(), reference.layers.len());
-        let longer = if gn > rn {
-            &gpu.layers
-        } else {
-            &reference.layers
-        };
+        let gpu_images: Vec<&Images> = gpu.layers.iter().map(|l| &l.images).collect();
+        let ref_images: Vec<&Images> = reference.layers.iter().collect();
+        let (gn, rn) = (gpu_images.len(), ref_images.len());
+        let longer = if gn > rn { &gpu_images } else { &ref_images };
         for (k, l) in longer.iter().enumerate().skip(gn.min(rn)) {
             let covered = l.prim.iter().filter(|&&p| p != 0).count();
             eprintln!("kirsch {name} layer {}: {covered} pixels on one side only ({gn} layers, the reference {rn})", k + 1);
@@ -79,7 +78,7 @@ fn kirsch_layers_match_the_products_reading() {
                 failures.push(format!("{name}: {gn} layers, the reference {rn}"));
             }
         }
-        for (k, (r, g)) in reference.layers.iter().zip(&gpu.layers).enumerate() {
+        for (k, (r, g)) in ref_images.iter().zip(&gpu_images).enumerate() {
             let c = compare(r, g).expect("same size");
             eprintln!(
                 "kirsch {name} layer {}: coverage {:.4}% prim {:.4}% depth p99 {:.2e}",
@@ -94,7 +93,7 @@ fn kirsch_layers_match_the_products_reading() {
             }
         }
         // The counted pixels are the read-back layers' coverage.
-        for (k, g) in gpu.layers.iter().enumerate() {
+        for (k, g) in gpu_images.iter().enumerate() {
             let covered = g.prim.iter().filter(|&&p| p != 0).count() as u64;
             assert_eq!(gpu.layer_stats.layer_pixels[k], covered, "{name} layer {k}");
         }

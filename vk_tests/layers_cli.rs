@@ -125,7 +125,7 @@ fn alpha_composites_and_keeps_layer_one() {
 }
 
 #[test]
-fn layer_flags_reject_bad_values_and_gpu_algorithms_say_they_cannot() {
+fn layer_flags_reject_bad_values_and_non_cst_algorithms_say_they_cannot() {
     let out = tmp("layers-bad");
     let s = scene("paper_example.toml");
     assert_error(
@@ -134,11 +134,34 @@ fn layer_flags_reject_bad_values_and_gpu_algorithms_say_they_cannot() {
     );
     assert_error(&render(&s, &out, &["--alpha", "half"]), &["opacity"]);
     assert_error(&render(&s, &out, &["--layers", "0"]), &["--layers"]);
-    for algo in ["cst-i", "goldfeather"] {
+    for algo in ["goldfeather", "blister"] {
         let o = render(&s, &out, &["--algo", algo, "--layers-out"]);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-        assert_error(&o, &[algo, "cannot render", "--algo reference"]);
+        assert_error(&o, &[algo, "cannot render", "--algo reference", "cst-z"]);
     }
+}
+
+#[test]
+fn cst_writes_its_layers() {
+    let out = tmp("layers-cst");
+    let s = scene("paper_example.toml");
+    let o = render(
+        &s,
+        &out,
+        &["--algo", "cst-g", "--layers-out", "--alpha", "0.4"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let st = stats(&out);
+    let n = st["layers"].as_u64().unwrap() as usize;
+    assert!(
+        n >= 4 && st["transparent"] == true && st["csts"].as_u64() > Some(0),
+        "{st}"
+    );
+    assert!(st["stream_layers"].as_u64() >= Some(n as u64), "{st}");
+    let first = images(&out.join("layers/01"));
+    let main = images(&out);
+    assert_eq!((first.depth, first.prim), (main.depth, main.prim));
+    assert!(out.join(format!("layers/{n:02}/prim.png")).exists());
 }
 
 #[test]

@@ -11,6 +11,7 @@ mod classic;
 mod concurrency;
 mod cst;
 mod embed;
+mod gpu_layers;
 mod kirsch;
 mod limits;
 mod openscad;

@@ -11,6 +11,7 @@
 pub mod checks;
 pub mod embedded;
 pub mod families;
+pub mod layer_modes;
 pub mod modes;
 pub mod opencsg;
 pub mod plot;

@@ -222,6 +222,9 @@ enum Cmd {
         /// families: block-spheres, union-boxes, deep-tree, nonconvex-k
         #[arg(long = "family")]
         families: Vec<String>,
+        /// Also time CST's rendering modes (opaque, transparent, highlight) with their layers and CSTs (modes.csv, modes.md)
+        #[arg(long)]
+        modes: bool,
         /// Add the numerical-stability hard cases (coincident faces, thin walls, grazing views, 1e7 near/far)
         #[arg(long)]
         hard: bool,
@@ -513,6 +516,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             all_depths,
             families,
             hard,
+            modes,
             no_images,
             baseline,
             opencsg_bench,
@@ -566,6 +570,11 @@ fn run(cli: Cli) -> Result<ExitCode> {
             };
             let records = bench::run_and_report(&cfg, &list)?;
             emit(&bench::report::summary(&records))?;
+            if modes {
+                let m = bench::layer_modes::run(&cfg, &list)?;
+                bench::layer_modes::write(&out, &m)?;
+                emit(&bench::layer_modes::table(&m))?;
+            }
             eprintln!(
                 "results in {}/ (results.json, results.csv, summary.md, plots/, images/)",
                 out.display()

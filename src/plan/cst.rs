@@ -47,6 +47,7 @@
 #![deny(unsafe_code)]
 
 pub mod group;
+pub mod layers;
 mod peel;
 mod ties;
 mod trim;
@@ -54,7 +55,7 @@ mod zones;
 
 pub use peel::{cst, Layers, Merge, PAINT_PENDING, SURFACE_MARK};
 pub(crate) use ties::parity_draw;
-pub use ties::{tie_draws, tie_eps, Peeled, Relation};
+pub use ties::{tie_draws, tie_eps, Candidates, Peeled, Relation};
 pub(crate) use trim::BlistTrimmer;
 pub use trim::Trimmer;
 pub(crate) use zones::disjoint;
@@ -113,6 +114,7 @@ fn surface_jobs(prep: &Prepared) -> Vec<Job> {
             prim: s.mesh,
             leaf: 0,
             negated: false,
+            candidates: Candidates::Visible,
         };
         let job = |zone: &PositiveExpr, paint: Option<[u8; 3]>| {
             let universe = zone.is_universe();
@@ -144,6 +146,80 @@ fn surface_jobs(prep: &Prepared) -> Vec<Job> {
     jobs
 }
 
+/// A plan's first steps: *FinalColorDepth* and the colour targets cleared.
+fn init_final() -> Vec<Step> {
+    vec![
+        Step::Pass("init".into()),
+        Step::Clear(Clear::DepthStencil {
+            ds: FINAL,
+            depth: FAR,
+            stencil: 0,
+        }),
+        Step::Clear(Clear::Color),
+    ]
+}
+
+/// Records every job's CST into `steps` (peeling behind `floor` when given, see
+/// [`cst`]); returns the stencil bits the trims need. CST-G groups a zone only
+/// when none of its literals lies in a u-node: its counter applies one tie rule
+/// to a whole group, the intersection's (a u-node literal needs the union's, so
+/// such zones — Z forms, which layers use — get the plain Blist trim).
+fn record_jobs(
+    prep: &Prepared,
+    variant: Variant,
+    jobs: &[Job],
+    floor: Option<Tex>,
+    steps: &mut Vec<Step>,
+) -> Result<u8, PlanError> {
+    let mut bits = 0u8;
+    let mut grouped = Vec::new();
+    for Job { c, merge, surface } in jobs {
+        let p = c.peeled.prim;
+        let max_layers = if *surface {
+            Layers::AtMost(prep.mesh_triangles[p as usize] as u32 + 1)
+        } else {
+            Layers::of(prep, p, c.peel_cull)
+        };
+        match &c.volume {
+            None => cst(p, c.peel_cull, None, max_layers, *merge, floor, steps),
+            Some(vol) => {
+                let groups = variant == Variant::G && !vol.relation.contains(&Relation::Union);
+                let trimmer: Box<dyn Trimmer + '_> = if !groups {
+                    let layout =
+                        LabelLayout::new(vol.blist.num_labels).ok_or(PlanError::TooManyLabels {
+                            labels: vol.blist.num_labels,
+                        })?;
+                    let start = layout.value(Next::Label(vol.blist.entries[0].label));
+                    Box::new(BlistTrimmer {
+                        peeled: c.peeled,
+                        vol,
+                        layout,
+                        start,
+                    })
+                } else {
+                    let mut g = group::GroupTrimmer::new(prep, c)?;
+                    if *surface {
+                        g = g.with_relation(Relation::Surface);
+                    }
+                    grouped.push(g);
+                    Box::new(grouped.last().unwrap().clone())
+                };
+                bits = bits.max(trimmer.bits());
+                cst(
+                    p,
+                    c.peel_cull,
+                    Some(trimmer.as_ref()),
+                    max_layers,
+                    *merge,
+                    floor,
+                    steps,
+                );
+            }
+        }
+    }
+    Ok(bits)
+}
+
 /// Builds the CST plan of the prepared scene's solid(s) and surfaces.
 pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     let solid = prep.has_solid() && !prep.positive.literals().is_empty();
@@ -167,63 +243,8 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     // (the reference keeps the solid unless a surface is nearer by more than its
     // tolerance), and between surfaces the earlier one wins.
     jobs.extend(surface_jobs(prep));
-    let mut steps = vec![
-        Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil {
-            ds: FINAL,
-            depth: FAR,
-            stencil: 0,
-        }),
-        Step::Clear(Clear::Color),
-    ];
-    let mut bits = 0u8;
-    let mut grouped = Vec::new();
-    for Job { c, merge, surface } in &jobs {
-        let p = c.peeled.prim;
-        let max_layers = if *surface {
-            Layers::AtMost(prep.mesh_triangles[p as usize] as u32 + 1)
-        } else {
-            Layers::of(prep, p, c.peel_cull)
-        };
-        match &c.volume {
-            None => cst(p, c.peel_cull, None, max_layers, *merge, &mut steps),
-            Some(vol) => {
-                let trimmer: Box<dyn Trimmer + '_> = match variant {
-                    Variant::Z | Variant::I => {
-                        let layout = LabelLayout::new(vol.blist.num_labels).ok_or(
-                            PlanError::TooManyLabels {
-                                labels: vol.blist.num_labels,
-                            },
-                        )?;
-                        let start = layout.value(Next::Label(vol.blist.entries[0].label));
-                        Box::new(BlistTrimmer {
-                            peeled: c.peeled,
-                            vol,
-                            layout,
-                            start,
-                        })
-                    }
-                    Variant::G => {
-                        let mut g = group::GroupTrimmer::new(prep, c)?;
-                        if *surface {
-                            g = g.with_relation(Relation::Surface);
-                        }
-                        grouped.push(g);
-                        Box::new(grouped.last().unwrap().clone())
-                    }
-                };
-                bits = bits.max(trimmer.bits());
-                cst(
-                    p,
-                    c.peel_cull,
-                    Some(trimmer.as_ref()),
-                    max_layers,
-                    *merge,
-                    &mut steps,
-                );
-            }
-        }
-    }
+    let mut steps = init_final();
+    let bits = record_jobs(prep, variant, &jobs, None, &mut steps)?;
     // Coincident faces of different tessellations rasterize a few ulps apart, which
     // the exact compares of the trim cannot see: give every visible point the lowest
     // index among the primitives whose faces pass through it (CONTRACT §4), drawing
@@ -456,6 +477,7 @@ mod tests {
             prim: 2,
             leaf: 2,
             negated: false,
+            candidates: Candidates::Visible,
         };
         assert_eq!(
             tie_draws(&p, 1, 1, false, Relation::Union),

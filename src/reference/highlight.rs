@@ -37,7 +37,13 @@ pub fn highlight_pixel(
     else {
         return (base, Highlighted::No);
     };
-    let c = shade(HIGHLIGHT_RGB, hit.cos);
+    highlight_at(k, shade(HIGHLIGHT_RGB, hit.cos), base)
+}
+
+/// The pixel's colour when its first highlighted face is layer `k` (0-based),
+/// shaded `c` in the highlight colour, over the image colour `base`: opaque when
+/// it is the first layer, a see-through ghost otherwise.
+pub fn highlight_at(k: usize, c: [u8; 4], base: [u8; 4]) -> ([u8; 4], Highlighted) {
     if k == 0 {
         return (c, Highlighted::Visible);
     }

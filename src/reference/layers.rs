@@ -294,11 +294,22 @@ pub fn blend(
     alpha: impl Fn(&LayerHit) -> f64,
     background: [u8; 3],
 ) -> [u8; 4] {
+    blend_colors(
+        hits.iter().map(|h| (alpha(h), layer_color(scene, h))),
+        background,
+    )
+}
+
+/// Blends `(opacity, colour)` layers, front to back, over `background`:
+/// `C = Σ_k T_k a_k c_k + T_n bg`, `T_{k+1} = T_k (1 − a_k)` (shared by the
+/// reference and the GPU's layers, which composite the same 8-bit colours).
+pub fn blend_colors(
+    layers: impl IntoIterator<Item = (f64, [u8; 4])>,
+    background: [u8; 3],
+) -> [u8; 4] {
     let mut acc = [0.0f64; 3];
     let mut t = 1.0;
-    for hit in hits {
-        let a = alpha(hit);
-        let c = layer_color(scene, hit);
+    for (a, c) in layers {
         for (x, v) in acc.iter_mut().zip(c) {
             *x += t * a * v as f64;
         }

@@ -13,7 +13,7 @@
 //! the solids' opaque image meanwhile.
 #![deny(unsafe_code)]
 
-use super::layers::{LayerOptions, LayerStats, LayeredFrame};
+use super::layers::{LayerOptions, LayerStats, LayeredFrame, SolidLayer};
 use super::{Frame, RenderError, RenderOptions};
 use crate::plan::Algo;
 use crate::reference::interference::{InterferingPair, INTERFERENCE_RGB};
@@ -146,9 +146,8 @@ pub fn layered_frame(scene: &Scene, opts: &RenderOptions) -> Result<LayeredFrame
     };
     frame.stats.layers = Some(layer_stats.clone());
     Ok(LayeredFrame {
-        layers: vec![frame.images.clone()],
+        layers: vec![SolidLayer::new(frame.images.clone())],
         // The GPU's interference frame has no normal buffer, so no edge maps.
-        normals: vec![],
         edges: vec![],
         frame,
         layer_stats,

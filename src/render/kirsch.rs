@@ -14,7 +14,7 @@
 
 use std::time::Instant;
 
-use super::layers::{LayerOptions, LayerStats, LayeredFrame};
+use super::layers::{LayerOptions, LayerStats, LayeredFrame, SolidLayer};
 use super::{Frame, GpuRenderer, RenderError, RenderOptions};
 use crate::output::Images;
 use crate::plan::{self, Prepared};
@@ -82,8 +82,7 @@ pub(super) fn render_layered(
     stats.layers = Some(layer_stats.clone());
     Ok(LayeredFrame {
         frame: Frame { images, stats },
-        layers,
-        normals: vec![],
+        layers: layers.into_iter().map(SolidLayer::new).collect(),
         edges: vec![],
         layer_stats,
     })

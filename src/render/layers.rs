@@ -1,10 +1,11 @@
 //! Layers of the solid and transparent rendering, start to finish (seed 000 §6):
 //! the options (`--layers`, `--layer-threshold`, `--layers-out`, `--alpha`), the
 //! frame they produce, and writing `layers/NN/`. The reference computes them
-//! exactly ([`crate::reference::layers`]), kirsch by CSG depth peeling
-//! ([`super::kirsch`]); the other GPU algorithms say they cannot yet.
-//! Each layer also has view-space normals and, when asked for, an edge map
-//! ([`super::edges`]), from which the styles compose `color.png` ([`super::style`]).
+//! exactly ([`crate::reference::layers`]); CST-Z/I/G peel them on the GPU
+//! ([`super::gpu_layers`]), kirsch by CSG depth peeling ([`super::kirsch`]); the
+//! other GPU algorithms say they cannot. The reference's layers also have
+//! view-space normals and edge maps ([`super::edges`]), from which the styles
+//! compose `color.png` ([`super::style`]).
 #![deny(unsafe_code)]
 
 use std::path::Path;
@@ -13,13 +14,15 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::edges::{edge_map, EdgeRule};
+use super::gpu_layers::{self, GpuLayers, StreamLimit};
 use super::style::{compose, StyleLayer, DEFAULT_ALPHA};
-use super::{Frame, FrameStats, RenderError, RenderOptions};
+use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::{write_edges, write_images, write_normals, Images, OutputError};
-use crate::plan::Algo;
-use crate::plan::PlanError;
-use crate::reference::highlight::{highlight_pixel, Highlighted};
+use crate::plan::cst::Variant;
+use crate::plan::{Algo, PlanError, Prepared};
+use crate::reference::highlight::{highlight_at, highlight_pixel, Highlighted, HIGHLIGHT_RGB};
 use crate::reference::interference::{render_interference, InterferingPair};
+use crate::reference::layers::blend_colors;
 use crate::reference::{render_layers_read, LayerLimit, LayerReading};
 use crate::scene::Scene;
 
@@ -80,6 +83,12 @@ pub struct LayerStats {
     /// whose ray meets their intersection.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference: Option<Vec<InterferingPair>>,
+    /// GPU: layer plans run (the entry and exit streams of every solid, seed 000 §6).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stream_layers: Option<u32>,
+    /// GPU: CSTs run over all layers (the paper's "CSTs", seed 000 §8).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub csts: Option<u64>,
     /// With interference: pixels showing an interference.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference_pixels: Option<u64>,
@@ -90,22 +99,55 @@ pub struct LayerStats {
     pub edge_pixels: Option<Vec<u64>>,
 }
 
+/// One layer of the solid: the k-th boundary crossing of every pixel's ray. The
+/// one type every producer of layers (the reference, CST peeling, Kirsch's
+/// peeling) fills and every consumer (transparency, highlight, `layers/NN/`,
+/// blueprint edge maps) reads.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolidLayer {
+    /// The contract's images of this crossing: its shaded colour (background
+    /// where the ray has fewer crossings), view depth (`+inf`) and 1-based
+    /// primitive (0).
+    pub images: Images,
+    /// Per pixel, row-major: the unit view-space normal of the crossing's face
+    /// (x right, y up, z towards the viewer), turned towards the eye (`[0, 0, 0]` where there is none); `None` when the
+    /// producer does not compute normals.
+    pub normal: Option<Vec<[f32; 3]>>,
+}
+
+impl SolidLayer {
+    /// A layer without normals.
+    pub fn new(images: Images) -> SolidLayer {
+        SolidLayer {
+            images,
+            normal: None,
+        }
+    }
+
+    /// Pixels this layer covers.
+    pub fn covered(&self) -> u64 {
+        self.images.prim.iter().filter(|&&p| p != 0).count() as u64
+    }
+}
+
 /// A frame with its layers: `images` as the contract's files (the composite in
 /// `color.png` when transparent; depth and primitive of layer 1 then), and each
-/// layer's own images.
+/// layer, front to back.
 #[derive(Clone, Debug)]
 pub struct LayeredFrame {
     pub frame: Frame,
-    pub layers: Vec<Images>,
-    /// Each layer's view-space normals ([`crate::reference::layers::LayerHit::normal`]).
-    pub normals: Vec<Vec<[f32; 3]>>,
-    /// Each layer's edge map, when the style or `--layers-out` needs them (else empty).
+    pub layers: Vec<SolidLayer>,
+    /// Each layer's edge map, when the style or `--layers-out` needs them and the
+    /// layers have normals (else empty).
     pub edges: Vec<Vec<bool>>,
     pub layer_stats: LayerStats,
 }
 
-/// Renders `scene` with its layers. The reference can, and kirsch (products each
-/// on their own, without highlight or interference); other algorithms get
+/// Renders `scene` with its layers: exactly with the reference (every style),
+/// by CST depth peeling with `cst-z`, `cst-i` and `cst-g` (layers, transparency,
+/// highlight), by Kirsch's CSG depth peeling with `kirsch` (layers and
+/// transparency, products each on their own); other algorithms and the
+/// combinations not listed get
 /// [`RenderError::Unsupported`].
 pub fn render_layered(
     scene: &Scene,
@@ -115,25 +157,155 @@ pub fn render_layered(
     if opts.algo != Algo::Reference && super::interference::interference_only(scene, lopts) {
         return super::interference::layered_frame(scene, opts);
     }
-    let extras = !lopts.highlight.is_empty() || scene.appearance.interference;
-    if opts.algo == Algo::Kirsch && lopts.reading == Some(LayerReading::Solid) {
+    let gpu_refuses = |what: &'static str| {
+        Err(RenderError::Unsupported {
+            algo: opts.algo.name().to_string(),
+            what,
+        })
+    };
+    if opts.algo != Algo::Reference && scene.appearance.style.layered() {
+        // Styles need each layer's normals and edges, which only the reference
+        // produces so far.
+        return gpu_refuses(
+            "styles other than opaque (--style, [render] style); --algo reference renders them",
+        );
+    }
+    let variant = match opts.algo {
+        Algo::Reference => return render_layered_reference(scene, opts, lopts),
+        Algo::Kirsch => {
+            if lopts.reading == Some(LayerReading::Solid) {
+                return gpu_refuses(
+                    "the solid's layers as one volume (--layer-reading solid; kirsch peels each \
+                     product on its own: --layer-reading products)",
+                );
+            }
+            if !lopts.highlight.is_empty() || scene.appearance.interference {
+                return gpu_refuses("highlight and interference together with layers (cst-z, cst-i and cst-g render highlight)");
+            }
+            return super::kirsch::render_layered(scene, opts, lopts);
+        }
+        Algo::CstZ => Variant::Z,
+        Algo::CstI => Variant::I,
+        Algo::CstG => Variant::G,
+        _ => {
+            return gpu_refuses("layers, transparency and highlight (--layers, --layers-out, --alpha, alpha keys, --highlight); cst-z, cst-i, cst-g and kirsch render them")
+        }
+    };
+    if lopts.reading == Some(LayerReading::Products) {
+        return gpu_refuses("the products reading (--layer-reading products: kirsch; cst-z, cst-i and cst-g peel the solid)");
+    }
+    if scene.appearance.interference {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
-            what: "the solid's layers as one volume (--layer-reading solid; kirsch peels each \
-                   product on its own: --layer-reading products)",
+            what: "interference together with layers, transparency or highlight (--interference with --layers, --layers-out, --alpha, --highlight)",
         });
     }
-    // Styles and edge maps need each layer's normals, which kirsch does not read back yet.
-    let styled = scene.appearance.style.layered() || lopts.write_layers;
-    if opts.algo == Algo::Kirsch && !extras && !styled {
-        return super::kirsch::render_layered(scene, opts, lopts);
+    render_layered_gpu(scene, opts, lopts, variant)
+}
+
+/// The GPU's layered frame (see [`super::gpu_layers`]): the opaque image as
+/// `render` makes it, or the composite of the layers when something is
+/// see-through; highlight over either.
+fn render_layered_gpu(
+    scene: &Scene,
+    opts: &RenderOptions,
+    lopts: &LayerOptions,
+    variant: Variant,
+) -> Result<LayeredFrame, RenderError> {
+    let t = Instant::now();
+    let transparent = scene.appearance.is_transparent();
+    let mut gpu = GpuRenderer::for_options(scene, opts)?;
+    let limit = StreamLimit {
+        max: lopts.max_layers,
+        threshold: lopts.threshold,
+    };
+    let peeled = gpu_layers::render(&mut gpu, scene, variant, limit)?;
+    let mut frame = if transparent {
+        let n = scene.render.width as usize * scene.render.height as usize;
+        let bg = scene.render.background;
+        let color = (0..n)
+            .map(|i| {
+                let hits = peeled.layers.iter().zip(&peeled.solid).map_while(|(l, s)| {
+                    let prim = l.images.prim[i];
+                    (prim != 0).then(|| {
+                        let alpha = scene.appearance.alpha_of(prim as u32 - 1, s[i]);
+                        (alpha, l.images.color[i])
+                    })
+                });
+                blend_colors(hits, bg)
+            })
+            .collect();
+        let first = peeled.layers.first();
+        Frame {
+            images: Images {
+                width: scene.render.width,
+                height: scene.render.height,
+                color,
+                depth: first.map_or_else(|| vec![f32::INFINITY; n], |l| l.images.depth.clone()),
+                prim: first.map_or_else(|| vec![0; n], |l| l.images.prim.clone()),
+            },
+            stats: FrameStats::default(),
+        }
+    } else {
+        // Opaque: the image `render` makes, unchanged.
+        let prep = Prepared::new(scene)?;
+        let plan = crate::plan::build_with(opts.algo, &prep, &opts.build)?;
+        gpu.frame(&plan)?
+    };
+    let mut exec = peeled.stats.clone();
+    if !transparent {
+        exec.accumulate(&frame.stats.exec);
     }
-    if opts.algo != Algo::Reference {
-        return Err(RenderError::Unsupported {
-            algo: opts.algo.name().to_string(),
-            what: "layers, transparency, highlight and interference (--layers, --layers-out, --alpha, alpha keys, --highlight, --interference)",
-        });
+    exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
+    frame.stats = FrameStats {
+        algo: opts.algo.name().to_string(),
+        width: scene.render.width,
+        height: scene.render.height,
+        device: gpu.device_name(),
+        depth_setup: Some(gpu.depth_setup().name()),
+        stencil_bits: frame.stats.stencil_bits,
+        exec,
+        ..Default::default()
+    };
+    let mut layer_stats = LayerStats {
+        layers: peeled.layers.len() as u32,
+        layer_pixels: peeled.layers.iter().map(SolidLayer::covered).collect(),
+        transparent,
+        stream_layers: Some(peeled.stream_layers),
+        csts: Some(peeled.csts),
+        style: scene.appearance.style.name(),
+        ..Default::default()
+    };
+    if !lopts.highlight.is_empty() {
+        highlight_gpu(
+            &mut gpu,
+            &mut frame,
+            &peeled,
+            scene,
+            variant,
+            lopts,
+            &mut layer_stats,
+        )?;
     }
+    let msgs = gpu.validation_messages();
+    if !msgs.is_empty() {
+        return Err(RenderError::Validation(msgs));
+    }
+    frame.stats.layers = Some(layer_stats.clone());
+    Ok(LayeredFrame {
+        frame,
+        layers: peeled.layers,
+        edges: vec![],
+        layer_stats,
+    })
+}
+
+/// The reference's layered frame (exact).
+fn render_layered_reference(
+    scene: &Scene,
+    opts: &RenderOptions,
+    lopts: &LayerOptions,
+) -> Result<LayeredFrame, RenderError> {
     let transparent = scene.appearance.is_transparent();
     let interference = scene.appearance.interference;
     let t = Instant::now();
@@ -243,20 +415,76 @@ pub fn render_layered(
     frame.stats.layers = Some(layer_stats.clone());
     Ok(LayeredFrame {
         frame,
-        layers: stack.layers,
-        normals: stack.normals,
+        layers: stack
+            .layers
+            .into_iter()
+            .zip(stack.normals)
+            .map(|(images, n)| SolidLayer {
+                images,
+                normal: Some(n),
+            })
+            .collect(),
         edges,
         layer_stats,
     })
 }
 
+/// `--highlight` on the GPU's layers: the layers peeled again with the chosen
+/// primitives in the highlight colour (same geometry, so the same layers in the
+/// same order), whose colour at each pixel's first chosen layer is the
+/// highlighted face shaded like any face; drawn over `frame`'s colour.
+fn highlight_gpu(
+    gpu: &mut GpuRenderer,
+    frame: &mut Frame,
+    peeled: &GpuLayers,
+    scene: &Scene,
+    variant: Variant,
+    lopts: &LayerOptions,
+    stats: &mut LayerStats,
+) -> Result<(), RenderError> {
+    let mut painted = scene.clone();
+    for &p in &lopts.highlight {
+        painted.primitives[p as usize].color = HIGHLIGHT_RGB;
+    }
+    gpu.upload(&painted)?;
+    let limit = StreamLimit {
+        max: Some(peeled.layers.len() as u32),
+        threshold: 0,
+    };
+    let again = gpu_layers::render(gpu, &painted, variant, limit)?;
+    frame.stats.exec.accumulate(&again.stats);
+    let chosen: Vec<u16> = lopts.highlight.iter().map(|&p| p as u16 + 1).collect();
+    let (mut shown, mut hidden) = (0, 0);
+    for (i, c) in frame.images.color.iter_mut().enumerate() {
+        let first = peeled
+            .layers
+            .iter()
+            .position(|l| chosen.contains(&l.images.prim[i]));
+        let Some(k) = first else { continue };
+        let Some(lit) = again.layers.get(k) else {
+            continue;
+        };
+        let (out, h) = highlight_at(k, lit.images.color[i], *c);
+        *c = out;
+        match h {
+            Highlighted::Visible => shown += 1,
+            Highlighted::Hidden => hidden += 1,
+            Highlighted::No => {}
+        }
+    }
+    stats.highlighted_pixels = Some(shown);
+    stats.highlighted_hidden_pixels = Some(hidden);
+    Ok(())
+}
+
 /// Writes layer k (0-based) into `dir/layers/{k+1:02}/` (`color.png`, `depth.npy`,
 /// `prim.png`, and `normal.npy` and `edges.png` where the frame has them).
 pub fn write_layers(dir: &Path, frame: &LayeredFrame) -> Result<(), OutputError> {
-    for (k, img) in frame.layers.iter().enumerate() {
+    for (k, l) in frame.layers.iter().enumerate() {
         let sub = dir.join("layers").join(format!("{:02}", k + 1));
+        let img = &l.images;
         write_images(&sub, img)?;
-        if let Some(n) = frame.normals.get(k) {
+        if let Some(n) = &l.normal {
             write_normals(&sub, img.width, img.height, n)?;
         }
         if let Some(e) = frame.edges.get(k) {

@@ -5,7 +5,7 @@
 
 use super::super::stencil;
 use super::super::step::*;
-use super::super::Prepared;
+use super::super::{Prepared, SHADE_EPS};
 use super::{Trimmer, CUR, FAR, FINAL, PREV, WORK};
 
 /// How many layers of a surface the peel may need.
@@ -36,18 +36,31 @@ impl Layers {
 /// CST(S, V) merged into [`FINAL`] (seed 000 §4): `Initialize; Repeat {Peel(S);
 /// Trim(V); Push()} until Done; Render(S)`. `trimmer: None` means V is the universe:
 /// the first layer of S is drawn directly.
+///
+/// `floor`: a depth texture the peeling starts behind (seed 000 §6: the layers
+/// after the first initialize *PrevDepth* at the previous layer's depth), or
+/// `None` to start at the near plane.
 pub fn cst(
     surface: MeshId,
     peel_cull: Cull,
     trimmer: Option<&dyn Trimmer>,
     layers: Layers,
     merge: Merge,
+    floor: Option<Tex>,
     steps: &mut Vec<Step>,
 ) {
     let me = vec![surface];
     let Some(t) = trimmer else {
         steps.push(Step::Pass("merge".into()));
-        steps.push(render_draw(surface, peel_cull, merge, Fragment::Shade));
+        let fragment = match floor {
+            None => Fragment::Shade,
+            Some(prev) => Fragment::Peel {
+                prev,
+                out: CUR,
+                shade: true,
+            },
+        };
+        steps.push(render_draw(surface, peel_cull, merge, fragment));
         merge.paint(surface, peel_cull, steps);
         return;
     };
@@ -57,10 +70,13 @@ pub fn cst(
         depth: FAR,
         stencil: t.start(),
     }));
-    steps.push(Step::Clear(Clear::Texture {
-        tex: PREV,
-        depth: 0.0,
-    }));
+    steps.push(match floor {
+        None => Step::Clear(Clear::Texture {
+            tex: PREV,
+            depth: 0.0,
+        }),
+        Some(src) => Step::CopyTexture { src, dst: PREV },
+    });
     steps.push(Step::Clear(Clear::Texture {
         tex: CUR,
         depth: FAR,
@@ -79,10 +95,21 @@ pub fn cst(
                 write: true,
             },
             stencil: Some(stencil::test_equal(t.start(), t.mask())),
-            fragment: Fragment::Peel {
-                prev: PREV,
-                out: CUR,
-                shade: false,
+            // Behind a floor, a face within the tie tolerance of the previous layer
+            // is that layer's point again (a coincident face of another primitive,
+            // rasterized a few ulps behind), as the reference groups crossings
+            // closer than its tolerance.
+            fragment: match floor {
+                None => Fragment::Peel {
+                    prev: PREV,
+                    out: CUR,
+                    shade: false,
+                },
+                Some(_) => Fragment::PeelTolerant {
+                    prev: PREV,
+                    out: CUR,
+                    eps: SHADE_EPS,
+                },
             },
             count_samples: true,
         }),

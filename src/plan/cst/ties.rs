@@ -15,6 +15,25 @@ pub struct Peeled {
     pub prim: MeshId,
     pub leaf: LeafId,
     pub negated: bool,
+    /// Which boundary points the peel's candidates are.
+    pub candidates: Candidates,
+}
+
+/// The boundary points a leaf's CST keeps, which decides how coincident faces
+/// are resolved.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Candidates {
+    /// Opaque rendering: the visible entry points. A candidate inside the solid
+    /// is hidden behind a nearer entry anyway, so a u-node's coincident exit face
+    /// needs no draw of its own.
+    Visible,
+    /// Every entry point exactly once (the odd layers of seed 000 §6): also where
+    /// a u-node literal leaves as the leaf enters (two solids of a union touching
+    /// face to face), the point is inside the union and dropped.
+    Entry,
+    /// Every exit point exactly once (the even layers): [`Candidates::Entry`]'s
+    /// rule along the reversed ray.
+    Exit,
 }
 
 impl Peeled {
@@ -41,6 +60,15 @@ pub enum Relation {
 
 /// The parity draws (depth compare, culling) that classify candidates of `peeled`
 /// against the mesh of literal `(prim, leaf, negated)`; see the module comment.
+///
+/// The rules are written for entry candidates. An exit candidate (`peeled.exit`)
+/// is an entry candidate of the ray run backwards: "behind" becomes "in front"
+/// and front faces become back faces. The parity of the faces at or in front of
+/// X equals that of the faces strictly behind it (a closed mesh crosses the line
+/// an even number of times; an eye inside flips both alike), so the mirrored
+/// rule is the same rule with `Less` and `LessOrEqual` swapped and the culling
+/// swapped: coincident faces are then decided as if X were moved along the
+/// reversed ray, and each exit point is still kept exactly once.
 pub fn tie_draws(
     peeled: &Peeled,
     prim: u32,
@@ -48,24 +76,60 @@ pub fn tie_draws(
     negated: bool,
     rel: Relation,
 ) -> Vec<(CompareOp, Cull)> {
+    let draws = entry_tie_draws(peeled, prim, leaf, negated, rel);
+    if peeled.candidates != Candidates::Exit {
+        return draws;
+    }
+    draws
+        .into_iter()
+        .map(|(compare, cull)| {
+            let compare = match compare {
+                CompareOp::Less => CompareOp::LessOrEqual,
+                CompareOp::LessOrEqual => CompareOp::Less,
+                other => panic!("tie draws compare with Less or LessOrEqual, not {other:?}"),
+            };
+            let cull = match cull {
+                Cull::Front => Cull::Back,
+                Cull::Back => Cull::Front,
+                Cull::None => Cull::None,
+            };
+            (compare, cull)
+        })
+        .collect()
+}
+
+/// [`tie_draws`] for a candidate where the ray enters the solid.
+fn entry_tie_draws(
+    peeled: &Peeled,
+    prim: u32,
+    leaf: LeafId,
+    negated: bool,
+    rel: Relation,
+) -> Vec<(CompareOp, Cull)> {
     let earlier = peeled.earlier(prim, leaf);
+    // Literal front faces are mesh front faces unless the literal is negated.
+    let (keep_lit_front, keep_lit_back) = if negated {
+        (Cull::Front, Cull::Back)
+    } else {
+        (Cull::Back, Cull::Front)
+    };
     match (rel, earlier) {
         (Relation::Surface, _) => vec![(CompareOp::Less, Cull::None)],
+        // The literal is the complement of an earlier u-node primitive Q. Where Q
+        // enters with P, Q wins (X in Q: the literal's exit face counts); where Q
+        // leaves as P enters, the point is inside the union (X stays in Q: the
+        // literal's entry face does not count). The intersection's rule, below.
+        (Relation::Union, true) if peeled.candidates != Candidates::Visible => vec![
+            (CompareOp::Less, keep_lit_front),
+            (CompareOp::LessOrEqual, keep_lit_back),
+        ],
         (Relation::Union, true) => vec![(CompareOp::LessOrEqual, Cull::None)],
         (Relation::Union, false) => vec![(CompareOp::Less, Cull::None)],
         (Relation::Inter, false) => vec![(CompareOp::LessOrEqual, Cull::None)],
-        (Relation::Inter, true) => {
-            // Literal front faces are mesh front faces unless the literal is negated.
-            let (keep_lit_front, keep_lit_back) = if negated {
-                (Cull::Front, Cull::Back)
-            } else {
-                (Cull::Back, Cull::Front)
-            };
-            vec![
-                (CompareOp::Less, keep_lit_front),
-                (CompareOp::LessOrEqual, keep_lit_back),
-            ]
-        }
+        (Relation::Inter, true) => vec![
+            (CompareOp::Less, keep_lit_front),
+            (CompareOp::LessOrEqual, keep_lit_back),
+        ],
     }
 }
 

@@ -7,7 +7,7 @@
 use std::collections::HashSet;
 
 use super::super::step::*;
-use super::{Peeled, Relation, Variant};
+use super::{Candidates, Peeled, Relation, Variant};
 use crate::csg::active_zone::ActiveZones;
 use crate::csg::{Blist, LeafId, PNode, PNodeId, PositiveExpr, Restricted};
 use crate::scene::Aabb;
@@ -80,6 +80,7 @@ pub fn leaf_csts(
             prim: lit.prim,
             leaf: lit.leaf,
             negated: lit.negated,
+            candidates: Candidates::Visible,
         };
         let (zone, u_leaves) = match variant {
             Variant::Z => {

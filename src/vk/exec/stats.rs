@@ -114,4 +114,32 @@ impl ExecStats {
         };
         Some(&mut self.per_pass[i])
     }
+
+    /// Adds the figures of another frame run as part of the same result (e.g.
+    /// the plans of the layers of one transparent image): times and counts sum,
+    /// loop iterations and passes are appended (passes of one name summed).
+    pub fn accumulate(&mut self, other: &ExecStats) {
+        self.gpu_ms += other.gpu_ms;
+        self.cpu_ms += other.cpu_ms;
+        self.frame_ms += other.frame_ms;
+        self.record_ms += other.record_ms;
+        for p in &other.per_pass {
+            if let Some(e) = self.pass_entry(&p.name) {
+                e.gpu_ms += p.gpu_ms;
+                e.draws += p.draws;
+            }
+        }
+        let (c, o) = (&mut self.counts, &other.counts);
+        c.draws += o.draws;
+        c.mesh_draws += o.mesh_draws;
+        c.draw_calls += o.draw_calls;
+        c.fullscreen_passes += o.fullscreen_passes;
+        c.triangles += o.triangles;
+        c.fullscreen_pixels += o.fullscreen_pixels;
+        c.skipped_steps += o.skipped_steps;
+        c.barriers += o.barriers;
+        c.submits += o.submits;
+        c.loop_iterations.extend_from_slice(&o.loop_iterations);
+        c.samples_counted += o.samples_counted;
+    }
 }
