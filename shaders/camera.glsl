@@ -6,3 +6,8 @@ layout(set = 1, binding = 0) uniform Camera {
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
     vec4 view;
 } cam;
+
+// From the eye towards `world` (perspective), or the view direction (orthographic).
+vec3 view_dir(vec3 world) {
+    return cam.view.w > 0.5 ? normalize(world - cam.view.xyz) : cam.view.xyz;
+}

@@ -23,7 +23,7 @@ layout(location = 1) out uint o_prim;
 
 float shade_factor() {
     vec3 n = normalize(v_normal);
-    vec3 v = cam.view.w > 0.5 ? normalize(v_world - cam.view.xyz) : cam.view.xyz;
+    vec3 v = view_dir(v_world);
     return 0.25 + 0.75 * abs(dot(n, v));
 }
 

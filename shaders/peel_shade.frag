@@ -31,7 +31,7 @@ bool behind_prev() {
 
 float shade_factor() {
     vec3 n = normalize(v_normal);
-    vec3 v = cam.view.w > 0.5 ? normalize(v_world - cam.view.xyz) : cam.view.xyz;
+    vec3 v = view_dir(v_world);
     return 0.25 + 0.75 * abs(dot(n, v));
 }
 

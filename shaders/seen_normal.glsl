@@ -6,6 +6,6 @@ layout(location = NORMAL_LOCATION) out vec4 o_normal;
 
 vec3 seen_normal() {
     vec3 n = normalize(v_normal);
-    vec3 v = pc.view.w > 0.5 ? normalize(v_world - pc.view.xyz) : pc.view.xyz;
+    vec3 v = view_dir(v_world);
     return dot(n, v) > 0.0 ? -n : n;
 }

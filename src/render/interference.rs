@@ -6,17 +6,19 @@
 //! variant, every primitive coloured [`INTERFERENCE_RGB`]: its coverage is the
 //! pair's pixels, and the nearest pair's visible point is the opaque
 //! interference. The reference ([`crate::reference::interference`]) computes the
-//! same sets exactly.
-//!
-//! Not yet on the GPU: the solids' semi-transparent layers in front (the GPU
-//! layers are another issue's); `color.png` shows the interference opaque over
-//! the solids' opaque image meanwhile.
+//! same sets exactly. The solids' layers in front of it are the GPU's layers of
+//! the solid (seed 000 §6, [`super::gpu_layers`]), blended semi-transparent.
 #![deny(unsafe_code)]
 
+use super::gpu_layers::{self, GpuLayers, StreamLimit};
 use super::layers::{LayerOptions, LayerStats, LayeredFrame, SolidLayer};
-use super::{Frame, RenderError, RenderOptions};
+use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
+use crate::output::Images;
+use crate::plan::cst::Variant;
 use crate::plan::Algo;
+use crate::reference::interference::SOLID_ALPHA;
 use crate::reference::interference::{InterferingPair, INTERFERENCE_RGB};
+use crate::reference::layers::blend_colors;
 use crate::scene::{Appearance, Scene, Solid};
 
 /// The GPU's interference of a frame.
@@ -24,6 +26,8 @@ use crate::scene::{Appearance, Scene, Solid};
 pub struct GpuInterference {
     /// Per pixel: the nearest pair intersection's shaded colour, where there is one.
     pub color: Vec<Option<[u8; 4]>>,
+    /// Per pixel: that intersection's view depth (`+inf` where there is none).
+    pub depth: Vec<f32>,
     /// Pairs with at least one pixel, in solid order.
     pub pairs: Vec<InterferingPair>,
     /// GPU time of all pair frames.
@@ -69,9 +73,9 @@ pub fn gpu_interference(
         });
     }
     let n = scene.render.width as usize * scene.render.height as usize;
-    let mut nearest = vec![f32::INFINITY; n];
     let mut out = GpuInterference {
         color: vec![None; n],
+        depth: vec![f32::INFINITY; n],
         pairs: Vec::new(),
         gpu_ms: 0.0,
     };
@@ -85,8 +89,8 @@ pub fn gpu_interference(
                     continue;
                 }
                 pixels += 1;
-                if d < nearest[k] {
-                    nearest[k] = d;
+                if d < out.depth[k] {
+                    out.depth[k] = d;
                     out.color[k] = Some(f.images.color[k]);
                 }
             }
@@ -101,23 +105,77 @@ pub fn gpu_interference(
     Ok(out)
 }
 
-/// The interference view of a GPU algorithm: the opaque frame of the scene, the
-/// interference drawn over it.
+/// The interference view of a GPU algorithm, as the reference draws it (seed 000
+/// §6): each pixel's nearest interference opaque in the interference colour, the
+/// solids' layers in front of it semi-transparent (their `alpha` where below 1,
+/// else [`SOLID_ALPHA`]); where there is none, every layer semi-transparent over
+/// the background. The layers are the GPU's ([`super::gpu_layers`]); depth and
+/// primitive are layer 1's.
 pub fn render_interference(
     scene: &Scene,
     opts: &RenderOptions,
-) -> Result<(Frame, GpuInterference), RenderError> {
+) -> Result<(Frame, GpuInterference, GpuLayers), RenderError> {
     let t = std::time::Instant::now();
     let inter = gpu_interference(scene, opts)?;
-    let mut frame = super::render_opaque(scene, opts)?;
-    for (c, i) in frame.images.color.iter_mut().zip(&inter.color) {
-        if let Some(i) = i {
-            *c = *i;
-        }
+    let variant = match opts.algo {
+        Algo::CstZ => Variant::Z,
+        Algo::CstI => Variant::I,
+        _ => Variant::G,
+    };
+    let mut gpu = GpuRenderer::for_options(scene, opts)?;
+    let every = StreamLimit {
+        max: None,
+        threshold: 0,
+    };
+    let peeled = gpu_layers::render(&mut gpu, scene, variant, every)?;
+    let msgs = gpu.validation_messages();
+    if !msgs.is_empty() {
+        return Err(RenderError::Validation(msgs));
     }
-    frame.stats.exec.gpu_ms += inter.gpu_ms;
-    frame.stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
-    Ok((frame, inter))
+    let (w, h) = (scene.render.width, scene.render.height);
+    let n = w as usize * h as usize;
+    let bg = scene.render.background;
+    let color = (0..n)
+        .map(|i| {
+            let (back, limit) = match inter.color[i] {
+                // A layer within the GPU's depth error of the interference is
+                // its own entry point, not in front of it.
+                Some(c) => ([c[0], c[1], c[2]], inter.depth[i] * (1.0 - 1e-4)),
+                None => (bg, f32::INFINITY),
+            };
+            let front = peeled.layers.iter().zip(&peeled.solid).map_while(|(l, s)| {
+                let prim = l.images.prim[i];
+                (prim != 0 && l.images.depth[i] < limit).then(|| {
+                    let a = scene.appearance.alpha_of(prim as u32 - 1, s[i]);
+                    (if a < 1.0 { a } else { SOLID_ALPHA }, l.images.color[i])
+                })
+            });
+            blend_colors(front, back)
+        })
+        .collect();
+    let first = peeled.layers.first();
+    let mut exec = peeled.stats.clone();
+    exec.gpu_ms += inter.gpu_ms;
+    exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
+    let frame = Frame {
+        images: Images {
+            width: w,
+            height: h,
+            color,
+            depth: first.map_or_else(|| vec![f32::INFINITY; n], |l| l.images.depth.clone()),
+            prim: first.map_or_else(|| vec![0; n], |l| l.images.prim.clone()),
+        },
+        stats: FrameStats {
+            algo: opts.algo.name().to_string(),
+            width: w,
+            height: h,
+            device: gpu.device_name(),
+            depth_setup: Some(gpu.depth_setup().name()),
+            exec,
+            ..Default::default()
+        },
+    };
+    Ok((frame, inter, peeled))
 }
 
 /// Whether `--interference` is all the layered features asked for (the part the
@@ -131,23 +189,25 @@ pub fn interference_only(scene: &Scene, lopts: &LayerOptions) -> bool {
         && !scene.appearance.style.layered()
 }
 
-/// [`render_interference`] as the layered renderer's answer: layer 1 is the
-/// opaque frame; `stats.json` gets the pairs and the interference's pixels.
+/// [`render_interference`] as the layered renderer's answer: the GPU's layers,
+/// and in `stats.json` the pairs and the interference's pixels.
 pub fn layered_frame(scene: &Scene, opts: &RenderOptions) -> Result<LayeredFrame, RenderError> {
-    let (mut frame, inter) = render_interference(scene, opts)?;
+    let (mut frame, inter, peeled) = render_interference(scene, opts)?;
     let layer_stats = LayerStats {
-        layers: 1,
-        layer_pixels: vec![frame.images.prim.iter().filter(|&&p| p != 0).count() as u64],
-        transparent: false,
+        layers: peeled.layers.len() as u32,
+        layer_pixels: peeled.layers.iter().map(SolidLayer::covered).collect(),
+        transparent: scene.appearance.is_transparent(),
         interference_pixels: Some(inter.color.iter().filter(|c| c.is_some()).count() as u64),
         interference: Some(inter.pairs),
+        stream_layers: Some(peeled.stream_layers),
+        csts: Some(peeled.csts),
         style: scene.appearance.style.name(),
         ..Default::default()
     };
     frame.stats.layers = Some(layer_stats.clone());
     Ok(LayeredFrame {
-        layers: vec![SolidLayer::new(frame.images.clone())],
-        // The GPU's interference frame has no normal buffer, so no edge maps.
+        layers: peeled.layers,
+        // The GPU's layers have no normals here, so no edge maps.
         edges: vec![],
         frame,
         layer_stats,

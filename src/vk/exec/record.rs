@@ -173,13 +173,8 @@ impl<'a> Recorder<'a> {
     }
 
     pub fn begin(&mut self, cmd: vk::CommandBuffer, occlusion_cap: u32, timestamp_cap: u32) {
-        self.cmd = cmd;
         self.queries.clear();
         self.marks.clear();
-        self.bound = None;
-        self.bound_set = None;
-        self.dyn_state = None;
-        self.pushed = None;
         // SAFETY: recording; outside rendering; ranges within the pools.
         unsafe {
             self.b
@@ -194,9 +189,19 @@ impl<'a> Recorder<'a> {
                     .cmd_reset_query_pool(cmd, ts, 0, timestamp_cap)
             };
         }
+        self.begin_state(cmd);
         let pass = self.pass_name();
         self.timestamp(pass);
-        // Command-buffer state every draw shares.
+    }
+
+    /// Starts recording into the fresh command buffer `cmd`: nothing is bound
+    /// or set in it yet, then the state every draw shares.
+    fn begin_state(&mut self, cmd: vk::CommandBuffer) {
+        self.cmd = cmd;
+        self.bound = None;
+        self.bound_set = None;
+        self.dyn_state = None;
+        self.pushed = None;
         state::record_fixed(self.b.device, cmd, self.b.desc.width, self.b.desc.height);
         // SAFETY: the vertex buffer is live while the recording may be replayed.
         unsafe {
@@ -260,12 +265,7 @@ impl<'a> Recorder<'a> {
         output_ds: u8,
         rule: [f32; 2],
     ) -> Result<(), VkError> {
-        self.cmd = cmd;
-        // A fresh command buffer: nothing is bound or set in it yet.
-        self.bound = None;
-        self.bound_set = None;
-        self.dyn_state = None;
-        self.pushed = None;
+        self.begin_state(cmd);
         let depth = Resource::DepthStencil(output_ds);
         let key = BlockKey::new(&[Resource::Edges], None);
         let uses = [
