@@ -4,7 +4,10 @@
 //! final counted pass, the executor's `final_samples`) counts no pixel or fewer than
 //! `--layer-threshold`. The transparent `color.png` blends the read-back colour
 //! layer maps back to front with their opacities (§4.5's depth sprites, composed on
-//! the host).
+//! the host). With `--layers-out` or a style (seed 001 §5) the executor's normal
+//! buffer is on: each layer's view-space normals are read right after its plan,
+//! its edge map is the reference's rule on them ([`super::edges`]), and the style
+//! composes `color.png` as the reference's does ([`super::style::compose_scene`]).
 //!
 //! Each layer's plan peels all layers before it again (the executor keeps no
 //! texture from one frame to the next), so N layers cost N(N+1)/2 layer passes.
@@ -14,7 +17,9 @@
 
 use std::time::Instant;
 
+use super::edges::{count, edge_map};
 use super::layers::{LayerOptions, LayerStats, LayeredFrame, SolidLayer};
+use super::style::compose_scene;
 use super::{Frame, GpuRenderer, RenderError, RenderOptions};
 use crate::output::Images;
 use crate::plan::{self, Prepared};
@@ -34,6 +39,11 @@ pub(super) fn render_layered(
     let bound = prep.triangles_in(&prep.solid_meshes).max(1) as u32;
     let max = lopts.max_layers.unwrap_or(bound).min(bound);
     let mut layers: Vec<Images> = Vec::new();
+    // Normals (and the edge maps from them) only where something reads them.
+    let style = scene.appearance.style;
+    let want_normals = lopts.write_layers || style.layered();
+    gpu.set_normals(want_normals);
+    let mut normals: Vec<Vec<[f32; 3]>> = Vec::new();
     let mut layer_pixels = Vec::new();
     let mut stats = None;
     // GPU and frame time of every layer's plan, the one that finds none included.
@@ -49,6 +59,13 @@ pub(super) fn render_layered(
             break;
         }
         layers.push(gpu.read_back()?);
+        if want_normals {
+            // Read before the next layer's plan overwrites the normal buffer.
+            normals.push(
+                gpu.read_normals()?
+                    .expect("the normal buffer is on for this frame"),
+            );
+        }
         layer_pixels.push(covered);
         stats = Some(s);
     }
@@ -70,34 +87,64 @@ pub(super) fn render_layered(
         Some(first) => first.clone(),
         None => gpu.read_back()?,
     };
-    if transparent {
-        images.color = composite(scene, &layers, &images);
+    let solid_of = solid_of(scene);
+    let (w, h) = (scene.render.width, scene.render.height);
+    let edges: Vec<Vec<bool>> = if style.edges() || lopts.write_layers {
+        layers
+            .iter()
+            .zip(&normals)
+            .map(|(l, n)| edge_map(&l.depth, n, w, h, &lopts.edge_rule))
+            .collect()
+    } else {
+        vec![]
+    };
+    if style.layered() {
+        images.color = compose_scene(scene, &layers, &edges, |k, i| {
+            let prim = (layers[k].prim[i] as u32).checked_sub(1)?;
+            Some((prim, solid_of[prim as usize]))
+        });
+    } else if transparent {
+        images.color = composite(scene, &layers, &images, &solid_of);
     }
     let layer_stats = LayerStats {
         layers: layers.len() as u32,
         layer_pixels,
         transparent,
+        style: style.name(),
+        edge_pixels: (!edges.is_empty()).then(|| edges.iter().map(|e| count(e)).collect()),
         ..Default::default()
     };
     stats.layers = Some(layer_stats.clone());
+    let mut normals = normals.into_iter().map(Some);
     Ok(LayeredFrame {
         frame: Frame { images, stats },
-        layers: layers.into_iter().map(SolidLayer::new).collect(),
-        edges: vec![],
+        layers: layers
+            .into_iter()
+            .map(|images| SolidLayer {
+                images,
+                normal: normals.next().flatten(),
+            })
+            .collect(),
+        edges,
         layer_stats,
     })
 }
 
-/// The colour layer maps blended back to front over the background (§4.5), each
-/// pixel with its primitive's opacity (else its solid's: the first solid naming
-/// the primitive; else the render's).
-fn composite(scene: &Scene, layers: &[Images], first: &Images) -> Vec<[u8; 4]> {
+/// Per primitive, the solid whose opacity it takes: the first solid naming it.
+fn solid_of(scene: &Scene) -> Vec<u32> {
     let mut solid_of = vec![0u32; scene.primitives.len()];
     for (si, s) in scene.solids.iter().enumerate().rev() {
         for p in s.expr.leaves() {
             solid_of[p as usize] = si as u32;
         }
     }
+    solid_of
+}
+
+/// The colour layer maps blended back to front over the background (§4.5), each
+/// pixel with its primitive's opacity (else its solid's: the first solid naming
+/// the primitive; else the render's).
+fn composite(scene: &Scene, layers: &[Images], first: &Images, solid_of: &[u32]) -> Vec<[u8; 4]> {
     let bg = scene.render.background;
     (0..first.color.len())
         .map(|i| {
@@ -135,7 +182,7 @@ mod tests {
             prim: vec![p],
         };
         let (l1, l2) = (img([200, 100, 0, 255], 1), img([0, 50, 250, 255], 2));
-        let got = composite(&scene, &[l1.clone(), l2], &l1)[0];
+        let got = composite(&scene, &[l1.clone(), l2], &l1, &solid_of(&scene))[0];
         // Front to back: C = a1 c1 + (1 − a1)(a2 c2 + (1 − a2) bg).
         let want =
             |c1: f64, c2: f64, bg: f64| (0.4 * c1 + 0.6 * (0.7 * c2 + 0.3 * bg)).round() as u8;

@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use super::edges::{edge_map, EdgeRule};
 use super::gpu_layers::{self, GpuLayers, StreamLimit};
-use super::style::{compose, StyleLayer, DEFAULT_ALPHA};
+use super::style::compose_scene;
 use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::{write_edges, write_images, write_normals, Images, OutputError};
 use crate::plan::cst::Variant;
@@ -163,11 +163,11 @@ pub fn render_layered(
             what,
         })
     };
-    if opts.algo != Algo::Reference && scene.appearance.style.layered() {
+    if !matches!(opts.algo, Algo::Reference | Algo::Kirsch) && scene.appearance.style.layered() {
         // Styles need each layer's normals and edges, which only the reference
-        // produces so far.
+        // and kirsch produce so far.
         return gpu_refuses(
-            "styles other than opaque (--style, [render] style); --algo reference renders them",
+            "styles other than opaque (--style, [render] style); --algo reference or kirsch renders them",
         );
     }
     let variant = match opts.algo {
@@ -369,30 +369,9 @@ fn render_layered_reference(
         layer_stats.edge_pixels = Some(edges.iter().map(|e| super::edges::count(e)).collect());
     }
     if style.layered() {
-        let opacity = |hit: &crate::reference::layers::LayerHit| {
-            if transparent {
-                scene.appearance.alpha_of(hit.prim, hit.solid)
-            } else {
-                DEFAULT_ALPHA
-            }
-        };
-        let styled: Vec<StyleLayer> = stack
-            .layers
-            .iter()
-            .enumerate()
-            .map(|(k, l)| StyleLayer {
-                color: &l.color,
-                covered: l.depth.iter().map(|d| d.is_finite()).collect(),
-                edges: edges.get(k).map_or(&[][..], |e| &e[..]),
-                alpha: stack
-                    .hits
-                    .iter()
-                    .map(|v| v.get(k).map_or(1.0, |hit| opacity(hit)))
-                    .collect(),
-            })
-            .collect();
-        let n = w as usize * h as usize;
-        frame.images.color = compose(style, &styled, scene.render.background, n);
+        frame.images.color = compose_scene(scene, &stack.layers, &edges, |k, i| {
+            stack.hits[i].get(k).map(|hit| (hit.prim, hit.solid))
+        });
     }
     if !lopts.highlight.is_empty() {
         let mut chosen = vec![false; scene.primitives.len()];

@@ -15,7 +15,9 @@
 //!   by `EDGE_DARKEN` on its edge pixels.
 #![deny(unsafe_code)]
 
+use crate::output::Images;
 use crate::scene::style::Style;
+use crate::scene::Scene;
 
 /// Blueprint fill per covering layer (bluish) and its opacity.
 pub const FILL: [u8; 3] = [40, 90, 190];
@@ -95,6 +97,39 @@ pub fn compose(style: Style, layers: &[StyleLayer], background: [u8; 3], n: usiz
             [px(c[0]), px(c[1]), px(c[2]), 255]
         })
         .collect()
+}
+
+/// `color.png` of `scene` in its (layered) style from `layers` (layer 1 first)
+/// with their edge maps (empty when the style needs none); the one composition of
+/// every producer of layers. `hit(k, i)` names layer k's crossing at pixel i as
+/// (0-based primitive, solid whose opacity it takes), `None` where there is none.
+/// A layer's opacity is the scene's for that primitive when the scene is
+/// see-through, else [`DEFAULT_ALPHA`].
+pub fn compose_scene(
+    scene: &Scene,
+    layers: &[Images],
+    edges: &[Vec<bool>],
+    hit: impl Fn(usize, usize) -> Option<(u32, u32)>,
+) -> Vec<[u8; 4]> {
+    let transparent = scene.appearance.is_transparent();
+    let n = scene.render.width as usize * scene.render.height as usize;
+    let styled: Vec<StyleLayer> = layers
+        .iter()
+        .enumerate()
+        .map(|(k, l)| StyleLayer {
+            color: &l.color,
+            covered: l.depth.iter().map(|d| d.is_finite()).collect(),
+            edges: edges.get(k).map_or(&[][..], |e| &e[..]),
+            alpha: (0..n)
+                .map(|i| match hit(k, i) {
+                    Some((prim, solid)) if transparent => scene.appearance.alpha_of(prim, solid),
+                    Some(_) => DEFAULT_ALPHA,
+                    None => 1.0,
+                })
+                .collect(),
+        })
+        .collect();
+    compose(scene.appearance.style, &styled, scene.render.background, n)
 }
 
 #[cfg(test)]
