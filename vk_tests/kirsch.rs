@@ -2,14 +2,18 @@
 //! its first layer is the opaque render (against the reference like every
 //! algorithm), its layers 1–4 match the reference's layers of the same reading
 //! (products each on their own, §7a), and its transparent composite matches the
-//! reference's.
+//! reference's; its layers' edge maps (from the executor's normal buffer) match
+//! the reference's, and so does a style composed from them.
 
 use peeltrim::output::Images;
 use peeltrim::plan::Algo;
 use peeltrim::reference::compare::compare;
+use peeltrim::reference::edge_compare::compare_edges;
 use peeltrim::reference::{render_layers_read, LayerLimit, LayerReading};
+use peeltrim::render::edges::edge_map;
 use peeltrim::render::layers::{render_layered, LayerOptions, LayeredFrame};
 use peeltrim::render::{DepthSetup, RenderOptions};
+use peeltrim::scene::style::Style;
 use peeltrim::scene::Scene;
 
 use crate::algorithms::{check_algo, load, shipped_scenes, SIZE};
@@ -21,6 +25,14 @@ fn kirsch_matches_reference_on_shipped_scenes() {
 }
 
 fn kirsch_layers(scene: &Scene, max: u32) -> Option<LayeredFrame> {
+    let lopts = LayerOptions {
+        max_layers: Some(max),
+        ..Default::default()
+    };
+    kirsch_layered(scene, &lopts)
+}
+
+fn kirsch_layered(scene: &Scene, lopts: &LayerOptions) -> Option<LayeredFrame> {
     let opts = RenderOptions {
         algo: Algo::Kirsch,
         device: crate::setup::device(),
@@ -29,11 +41,7 @@ fn kirsch_layers(scene: &Scene, max: u32) -> Option<LayeredFrame> {
         validation: true,
         build: Default::default(),
     };
-    let lopts = LayerOptions {
-        max_layers: Some(max),
-        ..Default::default()
-    };
-    match render_layered(scene, &opts, &lopts) {
+    match render_layered(scene, &opts, lopts) {
         Ok(f) => Some(f),
         // A scene of surfaces only has no layers of a solid.
         Err(peeltrim::render::RenderError::Plan(peeltrim::plan::PlanError::NoSolid)) => None,
@@ -151,5 +159,135 @@ fn kirsch_transparency_matches_the_reference() {
         }
         eprintln!("kirsch {name} alpha 0.4: {off} of {n} interior pixels off");
         assert!(n > 1000 && off * 100 <= n, "{name}: {off} of {n}");
+    }
+}
+
+/// `--layers-out` with layers k ≤ 3: each kirsch layer has normals and an edge map,
+/// and the edge map finds the reference's (the edge rule on the products reading's
+/// depth and normals): ≥ 99% of the reference's edge pixels within one pixel of
+/// ours, ≤ 1% of ours farther. `stats.json`'s `edge_pixels` counts the maps.
+#[test]
+fn kirsch_edge_maps_match_the_products_reading() {
+    const MAX: u32 = 3;
+    let mut checked = 0;
+    for name in ["drilled_block.toml", "gear.toml", "complex.toml"] {
+        let scene = load(&crate::setup::scenes_dir().join(name));
+        let lopts = LayerOptions {
+            max_layers: Some(MAX),
+            write_layers: true,
+            ..Default::default()
+        };
+        let limit = LayerLimit {
+            max: Some(MAX as usize),
+            threshold: 0,
+        };
+        let reference =
+            render_layers_read(&scene, SIZE.0, SIZE.1, limit, LayerReading::Products, 4096)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let gpu = kirsch_layered(&scene, &lopts).expect("a solid");
+        assert_eq!(
+            gpu.edges.len(),
+            gpu.layers.len(),
+            "{name}: an edge map a layer"
+        );
+        let counts: Vec<u64> = gpu
+            .edges
+            .iter()
+            .map(|e| e.iter().filter(|&&b| b).count() as u64)
+            .collect();
+        assert_eq!(
+            gpu.layer_stats.edge_pixels.as_ref(),
+            Some(&counts),
+            "{name}"
+        );
+        for (k, (l, ours)) in gpu.layers.iter().zip(&gpu.edges).enumerate() {
+            let normals = l
+                .normal
+                .as_ref()
+                .unwrap_or_else(|| panic!("{name} layer {}: no normals", k + 1));
+            assert_eq!(normals.len(), l.images.depth.len());
+            let Some(r) = reference.layers.get(k) else {
+                continue;
+            };
+            let ref_edges = edge_map(
+                &r.depth,
+                &reference.normals[k],
+                SIZE.0,
+                SIZE.1,
+                &lopts.edge_rule,
+            );
+            let a = compare_edges(&ref_edges, ours, SIZE.0, SIZE.1);
+            eprintln!(
+                "kirsch {name} layer {}: edges ref {} ours {} matched {:.2}% stray {:.2}%",
+                k + 1,
+                a.reference_edges,
+                a.our_edges,
+                a.matched_frac * 100.0,
+                a.stray_frac * 100.0
+            );
+            assert!(
+                a.reference_edges > 0,
+                "{name} layer {}: the reference finds no edge",
+                k + 1
+            );
+            assert!(
+                a.matched_frac >= 0.99 && a.stray_frac <= 0.01,
+                "{name} layer {}: {a:?}",
+                k + 1
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6, "only {checked} layers compared");
+}
+
+/// A style on kirsch's layers (blueprint, wireframe) against the reference's, both
+/// reading the products: ≤ 2% of the pixels off by more than 4 levels (the edge
+/// maps may differ by a pixel where a threshold is met within rounding).
+#[test]
+fn kirsch_styles_match_the_reference() {
+    for style in [Style::Blueprint, Style::Wireframe] {
+        for name in ["drilled_block.toml", "gear.toml"] {
+            let mut scene = load(&crate::setup::scenes_dir().join(name));
+            scene.appearance.style = style;
+            let lopts = LayerOptions {
+                max_layers: Some(4),
+                reading: Some(LayerReading::Products),
+                ..Default::default()
+            };
+            let opts = RenderOptions {
+                algo: Algo::Reference,
+                device: crate::setup::device(),
+                depth: DepthSetup::DEFAULT,
+                depth_fallback: true,
+                validation: true,
+                build: Default::default(),
+            };
+            let reference = render_layered(&scene, &opts, &lopts).unwrap();
+            let gpu = kirsch_layered(&scene, &lopts).expect("a solid");
+            assert_eq!(gpu.layer_stats.style, style.name());
+            let (a, b) = (&reference.frame.images.color, &gpu.frame.images.color);
+            let off = a
+                .iter()
+                .zip(b)
+                .filter(|(a, b)| (0..3).any(|c| (a[c] as i32 - b[c] as i32).abs() > 4))
+                .count();
+            let background = b
+                .iter()
+                .filter(|c| c[..3] == scene.render.background)
+                .count();
+            eprintln!(
+                "kirsch {name} {}: {off} of {} pixels off",
+                style.name(),
+                a.len()
+            );
+            assert!(background < a.len(), "{name}: the style drew nothing");
+            assert!(
+                off * 50 <= a.len(),
+                "{name} {}: {off} of {} pixels off",
+                style.name(),
+                a.len()
+            );
+        }
     }
 }
