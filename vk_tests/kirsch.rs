@@ -32,16 +32,20 @@ fn kirsch_layers(scene: &Scene, max: u32) -> Option<LayeredFrame> {
     kirsch_layered(scene, &lopts)
 }
 
-fn kirsch_layered(scene: &Scene, lopts: &LayerOptions) -> Option<LayeredFrame> {
-    let opts = RenderOptions {
-        algo: Algo::Kirsch,
+/// `algo` on the test device, validation on.
+fn options(algo: Algo) -> RenderOptions {
+    RenderOptions {
+        algo,
         device: crate::setup::device(),
         depth: DepthSetup::DEFAULT,
         depth_fallback: true,
         validation: true,
         build: Default::default(),
-    };
-    match render_layered(scene, &opts, lopts) {
+    }
+}
+
+fn kirsch_layered(scene: &Scene, lopts: &LayerOptions) -> Option<LayeredFrame> {
+    match render_layered(scene, &options(Algo::Kirsch), lopts) {
         Ok(f) => Some(f),
         // A scene of surfaces only has no layers of a solid.
         Err(peeltrim::render::RenderError::Plan(peeltrim::plan::PlanError::NoSolid)) => None,
@@ -242,7 +246,7 @@ fn kirsch_edge_maps_match_the_products_reading() {
 }
 
 /// A style on kirsch's layers (blueprint, wireframe) against the reference's, both
-/// reading the products: ≤ 2% of the pixels off by more than 4 levels (the edge
+/// reading the products: ≤ 1% of the pixels off by more than 4 levels (the edge
 /// maps may differ by a pixel where a threshold is met within rounding).
 #[test]
 fn kirsch_styles_match_the_reference() {
@@ -255,15 +259,7 @@ fn kirsch_styles_match_the_reference() {
                 reading: Some(LayerReading::Products),
                 ..Default::default()
             };
-            let opts = RenderOptions {
-                algo: Algo::Reference,
-                device: crate::setup::device(),
-                depth: DepthSetup::DEFAULT,
-                depth_fallback: true,
-                validation: true,
-                build: Default::default(),
-            };
-            let reference = render_layered(&scene, &opts, &lopts).unwrap();
+            let reference = render_layered(&scene, &options(Algo::Reference), &lopts).unwrap();
             let gpu = kirsch_layered(&scene, &lopts).expect("a solid");
             assert_eq!(gpu.layer_stats.style, style.name());
             let (a, b) = (&reference.frame.images.color, &gpu.frame.images.color);
@@ -283,7 +279,7 @@ fn kirsch_styles_match_the_reference() {
             );
             assert!(background < a.len(), "{name}: the style drew nothing");
             assert!(
-                off * 50 <= a.len(),
+                off * 100 <= a.len(),
                 "{name} {}: {off} of {} pixels off",
                 style.name(),
                 a.len()
