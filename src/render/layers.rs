@@ -167,7 +167,7 @@ pub fn render_layered(
         // Styles need each layer's normals and edges, which only the reference
         // and kirsch produce so far.
         return gpu_refuses(
-            "styles other than opaque (--style, [render] style); --algo reference or kirsch renders them",
+            "styles other than opaque (--style, [render] style; reference and kirsch render them)",
         );
     }
     let variant = match opts.algo {
