@@ -32,3 +32,22 @@ pub(crate) fn sweep(ds: Ds, scissor: Scissor, stencil: StencilState) -> Step {
         count_samples: false,
     })
 }
+
+/// Counts (occlusion query) the pixels of depth-stencil `ds` whose stored depth
+/// is nearer than the far plane: where a layer is (the layer peelers' stop
+/// test, seed 000 §6 and seed 001 §6). Changes no image.
+pub(crate) fn count_covered(ds: Ds, scissor: Scissor) -> Step {
+    Step::Draw(Draw {
+        geometry: Geometry::FullScreen { depth: 1.0 },
+        scissor,
+        cull: Cull::None,
+        ds,
+        depth: DepthState {
+            compare: CompareOp::Greater,
+            write: false,
+        },
+        stencil: None,
+        fragment: Fragment::None,
+        count_samples: true,
+    })
+}

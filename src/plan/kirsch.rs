@@ -142,20 +142,7 @@ pub fn plan_layer(
 
 /// Counts (occlusion query) the pixels where the output depth holds a layer.
 fn count_pass(prep: &Prepared) -> Step {
-    Step::Draw(Draw {
-        geometry: Geometry::FullScreen { depth: FAR },
-        scissor: Scissor::BoundsOf(prep.solid_meshes.clone()),
-        cull: Cull::None,
-        ds: OUTPUT,
-        // Passes where the stored depth is nearer than far: a layer is there.
-        depth: DepthState {
-            compare: CompareOp::Greater,
-            write: false,
-        },
-        stencil: None,
-        fragment: Fragment::None,
-        count_samples: true,
-    })
+    super::common::count_covered(OUTPUT, Scissor::BoundsOf(prep.solid_meshes.clone()))
 }
 
 struct Builder<'a> {

@@ -19,7 +19,7 @@
 
 use super::super::step::*;
 use super::super::{PlanError, Prepared};
-use super::{init_final, leaf_csts, record_jobs, Candidates, Job, Merge, Variant, CUR, FAR, FINAL};
+use super::{init_final, leaf_csts, record_jobs, Candidates, Job, Merge, Variant, CUR, FINAL};
 
 /// The previous layer of the stream: the depth the peels start behind. Kept on
 /// the GPU between the plans of a stream (images persist between frames).
@@ -129,20 +129,7 @@ pub fn coverage_plan() -> Plan {
         output_ds: FINAL,
         steps: vec![
             Step::Pass("coverage".into()),
-            Step::Draw(Draw {
-                geometry: Geometry::FullScreen { depth: FAR },
-                scissor: Scissor::Full,
-                cull: Cull::None,
-                ds: FINAL,
-                // Passes where something nearer than the far plane was merged.
-                depth: DepthState {
-                    compare: CompareOp::Greater,
-                    write: false,
-                },
-                stencil: None,
-                fragment: Fragment::None,
-                count_samples: true,
-            }),
+            crate::plan::common::count_covered(FINAL, Scissor::Full),
         ],
     }
 }
