@@ -9,7 +9,7 @@ use peeltrim::output::Images;
 use peeltrim::plan::Algo;
 use peeltrim::reference::compare::compare;
 use peeltrim::reference::edge_compare::compare_edges;
-use peeltrim::reference::{render_layers_read, LayerLimit, LayerReading};
+use peeltrim::reference::{render_layers_read, LayerLimit, LayerReading, LayerStack};
 use peeltrim::render::edges::edge_map;
 use peeltrim::render::layers::{render_layered, LayerOptions, LayeredFrame};
 use peeltrim::render::{DepthSetup, RenderOptions};
@@ -30,6 +30,16 @@ fn kirsch_layers(scene: &Scene, max: u32) -> Option<LayeredFrame> {
         ..Default::default()
     };
     kirsch_layered(scene, &lopts)
+}
+
+/// The reference's layers 1..=max, products each on their own (§7a).
+fn products_reading(scene: &Scene, name: &str, max: u32) -> LayerStack {
+    let limit = LayerLimit {
+        max: Some(max as usize),
+        threshold: 0,
+    };
+    render_layers_read(scene, SIZE.0, SIZE.1, limit, LayerReading::Products, 4096)
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 /// `algo` on the test device, validation on.
@@ -68,13 +78,7 @@ fn kirsch_layers_match_the_products_reading() {
             continue;
         }
         let name = path.file_stem().unwrap().to_string_lossy().to_string();
-        let limit = LayerLimit {
-            max: Some(MAX as usize),
-            threshold: 0,
-        };
-        let reference =
-            render_layers_read(&scene, SIZE.0, SIZE.1, limit, LayerReading::Products, 4096)
-                .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let reference = products_reading(&scene, &name, MAX);
         let Some(gpu) = kirsch_layers(&scene, MAX) else {
             continue;
         };
@@ -181,13 +185,7 @@ fn kirsch_edge_maps_match_the_products_reading() {
             write_layers: true,
             ..Default::default()
         };
-        let limit = LayerLimit {
-            max: Some(MAX as usize),
-            threshold: 0,
-        };
-        let reference =
-            render_layers_read(&scene, SIZE.0, SIZE.1, limit, LayerReading::Products, 4096)
-                .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let reference = products_reading(&scene, &name, MAX);
         let gpu = kirsch_layered(&scene, &lopts).expect("a solid");
         assert_eq!(
             gpu.edges.len(),
