@@ -161,10 +161,10 @@ fn style_errors_and_gpu_refusal() {
     let o = render(
         &scene("gear.toml"),
         &out,
-        &["--style", "blueprint", "--algo", "cst-i"],
+        &["--style", "blueprint", "--algo", "goldfeather"],
     );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("cst-i"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("goldfeather"), "{}", stderr(&o));
     // [render] style in a scene file, and a bad one named with its place.
     let dir = tmp("bp-scene");
     let src = std::fs::read_to_string(scene("gear.toml")).unwrap();

@@ -234,3 +234,70 @@ fn other_algorithms_refuse_layers() {
         }
     }
 }
+
+/// The CST layers' edge maps (seed 001 §5 on seed 000 §6's layers, normals from
+/// the executor's normal buffer) against the reference's, same rule: ≥ 99% of
+/// the reference's edge pixels within 1 px of ours, ≤ 1% of ours farther, for
+/// layers 1–3; and a style composes from them.
+#[test]
+fn cst_layer_edge_maps_match_the_reference() {
+    use peeltrim::reference::edge_compare::compare_edges;
+    use peeltrim::reference::{render_layers_read, LayerLimit, LayerReading};
+    use peeltrim::render::edges::edge_map;
+    let mut checked = 0;
+    for name in ["drilled_block.toml", "complex.toml"] {
+        // Large enough that a layer has a thousand edge pixels or more: the 1%
+        // bar then tolerates a few pixels of a layer's own mismatches.
+        let mut s = scene(name, None);
+        (s.render.width, s.render.height) = (192, 144);
+        let (w, h) = (s.render.width, s.render.height);
+        let lopts = LayerOptions {
+            max_layers: Some(3),
+            write_layers: true,
+            ..Default::default()
+        };
+        let limit = LayerLimit {
+            max: Some(3),
+            threshold: 0,
+        };
+        let reference = render_layers_read(&s, w, h, limit, LayerReading::Solid, 4096)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let got =
+            render_layered(&s, &options(Algo::CstI), &lopts).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            got.edges.len(),
+            got.layers.len(),
+            "{name}: an edge map a layer"
+        );
+        for (k, ours) in got.edges.iter().enumerate().take(reference.layers.len()) {
+            let r = &reference.layers[k];
+            let want = edge_map(&r.depth, &reference.normals[k], w, h, &lopts.edge_rule);
+            let a = compare_edges(&want, ours, w, h);
+            eprintln!(
+                "cst-i {name} layer {}: edges ref {} ours {} matched {:.2}% stray {:.2}%",
+                k + 1,
+                a.reference_edges,
+                a.our_edges,
+                a.matched_frac * 100.0,
+                a.stray_frac * 100.0
+            );
+            assert!(a.reference_edges > 0, "{name} layer {}", k + 1);
+            assert!(
+                a.matched_frac >= 0.99 && a.stray_frac <= 0.01,
+                "{name} layer {}: {a:?}",
+                k + 1
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 5, "only {checked} layers compared");
+    // A style is drawn from those layers (not refused, not the opaque image).
+    let mut s = scene("drilled_block.toml", None);
+    s.appearance.style = peeltrim::scene::style::Style::Blueprint;
+    let styled = render_layered(&s, &options(Algo::CstI), &LayerOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let opaque = render::render(&scene("drilled_block.toml", None), &options(Algo::CstI))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_ne!(styled.frame.images.color, opaque.images.color);
+    assert_eq!(styled.frame.images.prim, opaque.images.prim);
+}

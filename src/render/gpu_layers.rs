@@ -45,6 +45,8 @@ pub struct GpuLayers {
 struct Peeled {
     solid: u32,
     images: Images,
+    /// View-space normals, when the renderer writes its normal buffer.
+    normal: Option<Vec<[f32; 3]>>,
 }
 
 /// The scene restricted to solid `i` without surfaces (surfaces are no part of
@@ -104,6 +106,7 @@ pub fn render(
                 peeled.push(Peeled {
                     solid: i as u32,
                     images: gpu.read_back()?,
+                    normal: gpu.read_normals()?,
                 });
                 if alternating && covered < limit.threshold {
                     break;
@@ -137,16 +140,20 @@ fn merge(
     limit: StreamLimit,
 ) -> (Vec<SolidLayer>, Vec<Vec<u32>>) {
     let n = w as usize * h as usize;
-    // Per pixel: (depth, prim, solid, colour) of every stream layer covering it.
-    let mut hits: Vec<Vec<(f32, u16, u32, [u8; 4])>> = vec![Vec::new(); n];
+    // Per pixel: (depth, prim, solid, colour, normal) of every stream layer
+    // covering it.
+    type Hit = (f32, u16, u32, [u8; 4], [f32; 3]);
+    let mut hits: Vec<Vec<Hit>> = vec![Vec::new(); n];
     for p in peeled {
         for (i, v) in hits.iter_mut().enumerate() {
             let prim = p.images.prim[i];
             if prim != 0 {
-                v.push((p.images.depth[i], prim, p.solid, p.images.color[i]));
+                let normal = p.normal.as_ref().map_or([0.0; 3], |nm| nm[i]);
+                v.push((p.images.depth[i], prim, p.solid, p.images.color[i], normal));
             }
         }
     }
+    let normals = !peeled.is_empty() && peeled.iter().all(|p| p.normal.is_some());
     for v in &mut hits {
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
         // Insertion pass: neighbours at the same depth go by primitive index.
@@ -171,8 +178,8 @@ fn merge(
         .unwrap_or(max);
     let bg = [background[0], background[1], background[2], 255];
     let layers = (0..count)
-        .map(|k| {
-            SolidLayer::new(Images {
+        .map(|k| SolidLayer {
+            images: Images {
                 width: w,
                 height: h,
                 color: hits.iter().map(|v| v.get(k).map_or(bg, |x| x.3)).collect(),
@@ -181,7 +188,12 @@ fn merge(
                     .map(|v| v.get(k).map_or(f32::INFINITY, |x| x.0))
                     .collect(),
                 prim: hits.iter().map(|v| v.get(k).map_or(0, |x| x.1)).collect(),
-            })
+            },
+            normal: normals.then(|| {
+                hits.iter()
+                    .map(|v| v.get(k).map_or([0.0; 3], |x| x.4))
+                    .collect()
+            }),
         })
         .collect();
     let solid = (0..count)
@@ -208,6 +220,7 @@ mod tests {
                 depth: depth.to_vec(),
                 prim: prim.to_vec(),
             },
+            normal: None,
         }
     }
 

@@ -163,11 +163,15 @@ pub fn render_layered(
             what,
         })
     };
-    if !matches!(opts.algo, Algo::Reference | Algo::Kirsch) && scene.appearance.style.layered() {
-        // Styles need each layer's normals and edges, which only the reference
-        // and kirsch produce so far.
+    let styled_algo = matches!(
+        opts.algo,
+        Algo::Reference | Algo::Kirsch | Algo::CstZ | Algo::CstI | Algo::CstG
+    );
+    if !styled_algo && scene.appearance.style.layered() {
+        // Styles need each layer's normals and edges: the reference's, and the
+        // GPU's layer peelers'.
         return gpu_refuses(
-            "styles other than opaque (--style, [render] style; reference and kirsch render them)",
+            "styles other than opaque (--style, [render] style; reference, cst-z, cst-i, cst-g and kirsch render them)",
         );
     }
     let variant = match opts.algo {
@@ -215,6 +219,10 @@ fn render_layered_gpu(
     let t = Instant::now();
     let transparent = scene.appearance.is_transparent();
     let mut gpu = GpuRenderer::for_options(scene, opts)?;
+    let style = scene.appearance.style;
+    // Edge maps (styles, `--layers-out`) need each layer's normals.
+    let want_edges = style.edges() || lopts.write_layers;
+    gpu.set_normals(want_edges || style.layered());
     let limit = StreamLimit {
         max: lopts.max_layers,
         threshold: lopts.threshold,
@@ -276,6 +284,34 @@ fn render_layered_gpu(
         style: scene.appearance.style.name(),
         ..Default::default()
     };
+    let (w, h) = (scene.render.width, scene.render.height);
+    let edges: Vec<Vec<bool>> = if want_edges {
+        peeled
+            .layers
+            .iter()
+            .filter_map(|l| {
+                Some(edge_map(
+                    &l.images.depth,
+                    l.normal.as_ref()?,
+                    w,
+                    h,
+                    &lopts.edge_rule,
+                ))
+            })
+            .collect()
+    } else {
+        vec![]
+    };
+    if !edges.is_empty() {
+        layer_stats.edge_pixels = Some(edges.iter().map(|e| super::edges::count(e)).collect());
+    }
+    if style.layered() {
+        let images: Vec<Images> = peeled.layers.iter().map(|l| l.images.clone()).collect();
+        frame.images.color = compose_scene(scene, &images, &edges, |k, i| {
+            let prim = (images[k].prim[i] as u32).checked_sub(1)?;
+            Some((prim, peeled.solid[k][i]))
+        });
+    }
     if !lopts.highlight.is_empty() {
         highlight_gpu(
             &mut gpu,
@@ -295,7 +331,7 @@ fn render_layered_gpu(
     Ok(LayeredFrame {
         frame,
         layers: peeled.layers,
-        edges: vec![],
+        edges,
         layer_stats,
     })
 }
