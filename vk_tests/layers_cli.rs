@@ -334,3 +334,54 @@ fn kirsch_layers_out_and_its_errors() {
         &["--layer-reading", "solid or products"],
     );
 }
+
+/// `bench --modes` times every layered mode of CST and kirsch: a row per mode
+/// and algorithm, with the layers each peeled (kirsch refuses highlight, which
+/// is skipped with a warning, not a failed run).
+#[test]
+fn bench_modes_time_every_style() {
+    let out = tmp("bench-modes");
+    let o = run(&[
+        "bench",
+        &scene("drilled_block.toml"),
+        "--algos",
+        "cst-i,kirsch",
+        "--size",
+        "64x48",
+        "--frames",
+        "1",
+        "--modes",
+        "--no-images",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("modes.csv")).expect("modes.csv");
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let row = |algo: &str, mode: &str| {
+        rows.iter()
+            .find(|r| r[1] == algo && r[2] == mode)
+            .unwrap_or_else(|| panic!("no {algo} {mode} row in\n{csv}"))
+    };
+    for mode in [
+        "opaque",
+        "transparent",
+        "blueprint",
+        "wireframe",
+        "blueprint-transparent",
+    ] {
+        for algo in ["cst-i", "kirsch"] {
+            let r = row(algo, mode);
+            let layers: u32 = r[4].parse().unwrap();
+            assert_eq!(layers, if mode == "opaque" { 1 } else { 4 }, "{r:?}");
+            assert!(r[7].parse::<f64>().unwrap() > 0.0, "{r:?}");
+        }
+    }
+    assert!(row("cst-i", "highlight")[6].parse::<u64>().unwrap() > 0);
+    assert!(!rows.iter().any(|r| r[1] == "kirsch" && r[2] == "highlight"));
+    assert!(stderr(&o).contains("kirsch highlight"), "{}", stderr(&o));
+}

@@ -1,8 +1,10 @@
-//! `bench --modes`: the rendering modes CST makes possible, timed side by side —
-//! opaque, transparent (the first four layers, seed 000 §6) and highlighted —
-//! with the layers peeled and the CSTs run, as the paper's second table
-//! (seed 000 §8: Prims, CSTs, Time) reports them. Writes `modes.csv` and
-//! `modes.md`.
+//! `bench --modes`: the rendering modes the layer peelers make possible, timed
+//! side by side — opaque, transparent (the first four layers, seed 000 §6), the
+//! three blueprint styles of the same layers (seed 001 §5) and highlighted —
+//! with the layers peeled and the CSTs run, as the CST paper's second table
+//! (seed 000 §8: Prims, CSTs, Time) reports them, for CST-Z/I/G and kirsch
+//! (whose CSTs are 0; it refuses highlight, which is then skipped with a
+//! warning). Writes `modes.csv` and `modes.md`.
 #![deny(unsafe_code)]
 
 use std::fmt::Write as _;
@@ -16,7 +18,20 @@ use crate::plan::cst::{leaf_csts, Variant};
 use crate::plan::{Algo, Prepared};
 use crate::render::layers::{render_layered, LayerOptions};
 use crate::render::{self, RenderOptions};
+use crate::scene::style::Style;
 use crate::scene::{self, LoadOptions};
+
+/// The modes timed: the opaque image, its first four layers composited
+/// (transparent, and in the three blueprint styles of seed 001 §5), and a
+/// highlight of the first primitive.
+pub const MODES: [&str; 6] = [
+    "opaque",
+    "transparent",
+    "blueprint",
+    "wireframe",
+    "blueprint-transparent",
+    "highlight",
+];
 
 /// Layers the transparent mode composites (the paper's "Transparent" row).
 pub const TRANSPARENT_LAYERS: u32 = 4;
@@ -28,7 +43,7 @@ pub const TRANSPARENT_ALPHA: f64 = 0.5;
 pub struct ModeRecord {
     pub scene: String,
     pub algo: String,
-    /// `opaque`, `transparent` or `highlight`.
+    /// One of [`MODES`].
     pub mode: &'static str,
     pub prims: usize,
     /// Layers of the image (1 for opaque).
@@ -51,10 +66,10 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
         .algos
         .iter()
         .copied()
-        .filter(|a| matches!(a, Algo::CstZ | Algo::CstI | Algo::CstG))
+        .filter(|a| matches!(a, Algo::CstZ | Algo::CstI | Algo::CstG | Algo::Kirsch))
         .collect();
     let &(w, h) = cfg.sizes.first().expect("at least one size");
-    let total = (scenes.len() * algos.len() * 3) as u64;
+    let total = (scenes.len() * algos.len() * MODES.len()) as u64;
     let bar = if cfg.progress {
         ProgressBar::new(total)
     } else {
@@ -75,7 +90,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                 }
             })?;
         if scene.solids.is_empty() {
-            bar.inc(3 * algos.len() as u64);
+            bar.inc((MODES.len() * algos.len()) as u64);
             continue;
         }
         let label = scene_label(&bs.path);
@@ -88,7 +103,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                 validation: cfg.validation,
                 build: cfg.build.clone(),
             };
-            for mode in ["opaque", "transparent", "highlight"] {
+            for mode in MODES {
                 bar.set_message(format!("{label}: {} {mode}", algo.name()));
                 let mut gpu = Vec::new();
                 let mut wall = Vec::new();
@@ -102,28 +117,41 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                                 let f = render::render(&scene, &opts)?;
                                 let prep = Prepared::new(&scene)?;
                                 let variant = match algo {
-                                    Algo::CstZ => Variant::Z,
-                                    Algo::CstI => Variant::I,
-                                    _ => Variant::G,
+                                    Algo::CstZ => Some(Variant::Z),
+                                    Algo::CstI => Some(Variant::I),
+                                    Algo::CstG => Some(Variant::G),
+                                    _ => None,
                                 };
-                                let csts = leaf_csts(
-                                    &prep.positive,
-                                    variant,
-                                    &prep.mesh_bounds,
-                                    &prep.eye_inside,
-                                )
-                                .len() as u64;
+                                let csts = variant.map_or(0, |v| {
+                                    leaf_csts(
+                                        &prep.positive,
+                                        v,
+                                        &prep.mesh_bounds,
+                                        &prep.eye_inside,
+                                    )
+                                    .len() as u64
+                                });
                                 (f.stats.exec.gpu_ms, 1, 1, csts)
                             }
                             _ => {
+                                let highlight = mode == "highlight";
                                 let transparent = mode == "transparent";
                                 scene.appearance.alpha = transparent.then_some(TRANSPARENT_ALPHA);
+                                // The blueprint styles (seed 001 §5) of the same layers.
+                                scene.appearance.style = match mode {
+                                    "blueprint" => Style::Blueprint,
+                                    "wireframe" => Style::Wireframe,
+                                    "blueprint-transparent" => Style::BlueprintTransparent,
+                                    _ => Style::Opaque,
+                                };
                                 let lopts = LayerOptions {
-                                    max_layers: transparent.then_some(TRANSPARENT_LAYERS),
-                                    highlight: if transparent { vec![] } else { vec![0] },
+                                    max_layers: (!highlight).then_some(TRANSPARENT_LAYERS),
+                                    highlight: if highlight { vec![0] } else { vec![] },
                                     ..Default::default()
                                 };
-                                let l = render_layered(&scene, &opts, &lopts)?;
+                                let l = render_layered(&scene, &opts, &lopts);
+                                scene.appearance.style = Style::Opaque;
+                                let l = l?;
                                 let s = &l.layer_stats;
                                 (
                                     l.frame.stats.exec.gpu_ms,
@@ -138,10 +166,10 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                         Ok(r) => r,
                         Err(e) => {
                             // An extra: a mode that cannot run is said and skipped.
-                            bar.println(format!(
-                                "peeltrim: warning: {label} {} {mode}: {e}",
-                                algo.name()
-                            ));
+                            // (`suspend`, not `println`: a hidden bar prints nothing.)
+                            bar.suspend(|| {
+                                eprintln!("peeltrim: warning: {label} {} {mode}: {e}", algo.name())
+                            });
                             break;
                         }
                     };

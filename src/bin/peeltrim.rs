@@ -222,7 +222,7 @@ enum Cmd {
         /// families: block-spheres, union-boxes, deep-tree, nonconvex-k
         #[arg(long = "family")]
         families: Vec<String>,
-        /// Also time CST's rendering modes (opaque, transparent, highlight) with their layers and CSTs (modes.csv, modes.md)
+        /// Also time the layered modes (opaque, transparent, the blueprint styles, highlight) of CST-Z/I/G and kirsch with their layers and CSTs (modes.csv, modes.md)
         #[arg(long)]
         modes: bool,
         /// Add the numerical-stability hard cases (coincident faces, thin walls, grazing views, 1e7 near/far)
