@@ -99,7 +99,8 @@ pub(super) fn render_layered(
         vec![]
     };
     if style.layered() {
-        images.color = compose_scene(scene, &layers, &edges, |k, i| {
+        let refs: Vec<&Images> = layers.iter().collect();
+        images.color = compose_scene(scene, &refs, &edges, |k, i| {
             let prim = (layers[k].prim[i] as u32).checked_sub(1)?;
             Some((prim, solid_of[prim as usize]))
         });

@@ -306,7 +306,7 @@ fn render_layered_gpu(
         layer_stats.edge_pixels = Some(edges.iter().map(|e| super::edges::count(e)).collect());
     }
     if style.layered() {
-        let images: Vec<Images> = peeled.layers.iter().map(|l| l.images.clone()).collect();
+        let images: Vec<&Images> = peeled.layers.iter().map(|l| &l.images).collect();
         frame.images.color = compose_scene(scene, &images, &edges, |k, i| {
             let prim = (images[k].prim[i] as u32).checked_sub(1)?;
             Some((prim, peeled.solid[k][i]))
@@ -405,7 +405,8 @@ fn render_layered_reference(
         layer_stats.edge_pixels = Some(edges.iter().map(|e| super::edges::count(e)).collect());
     }
     if style.layered() {
-        frame.images.color = compose_scene(scene, &stack.layers, &edges, |k, i| {
+        let images: Vec<&Images> = stack.layers.iter().collect();
+        frame.images.color = compose_scene(scene, &images, &edges, |k, i| {
             stack.hits[i].get(k).map(|hit| (hit.prim, hit.solid))
         });
     }

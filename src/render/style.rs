@@ -107,7 +107,7 @@ pub fn compose(style: Style, layers: &[StyleLayer], background: [u8; 3], n: usiz
 /// see-through, else [`DEFAULT_ALPHA`].
 pub fn compose_scene(
     scene: &Scene,
-    layers: &[Images],
+    layers: &[&Images],
     edges: &[Vec<bool>],
     hit: impl Fn(usize, usize) -> Option<(u32, u32)>,
 ) -> Vec<[u8; 4]> {
