@@ -15,7 +15,7 @@ use super::layers::{LayerOptions, LayerStats, LayeredFrame, SolidLayer};
 use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::Images;
 use crate::plan::cst::Variant;
-use crate::plan::Algo;
+use crate::plan::{Algo, Prepared};
 use crate::reference::interference::SOLID_ALPHA;
 use crate::reference::interference::{InterferingPair, INTERFERENCE_RGB};
 use crate::reference::layers::blend_colors;
@@ -66,12 +66,32 @@ pub fn gpu_interference(
     scene: &Scene,
     opts: &RenderOptions,
 ) -> Result<GpuInterference, RenderError> {
+    let mut gpu = renderer(scene, opts)?;
+    let out = pairs_on(&mut gpu, scene, opts)?;
+    let msgs = gpu.validation_messages();
+    if !msgs.is_empty() {
+        return Err(RenderError::Validation(msgs));
+    }
+    Ok(out)
+}
+
+/// One renderer for every pair frame and the layers (one device, not one each).
+fn renderer(scene: &Scene, opts: &RenderOptions) -> Result<GpuRenderer, RenderError> {
     if !supported(opts.algo) {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
             what: "interference (--interference; cst-z, cst-i and cst-g can)",
         });
     }
+    GpuRenderer::for_options(scene, opts)
+}
+
+/// Every pair's `A·B` on `gpu` (which it leaves holding the last pair's meshes).
+fn pairs_on(
+    gpu: &mut GpuRenderer,
+    scene: &Scene,
+    opts: &RenderOptions,
+) -> Result<GpuInterference, RenderError> {
     let n = scene.render.width as usize * scene.render.height as usize;
     let mut out = GpuInterference {
         color: vec![None; n],
@@ -81,7 +101,10 @@ pub fn gpu_interference(
     };
     for (i, a) in scene.solids.iter().enumerate() {
         for b in &scene.solids[i + 1..] {
-            let f = super::render_opaque(&pair_scene(scene, a, b), opts)?;
+            let pair = pair_scene(scene, a, b);
+            let plan = crate::plan::build_with(opts.algo, &Prepared::new(&pair)?, &opts.build)?;
+            gpu.upload(&pair)?;
+            let f = gpu.frame(&plan)?;
             out.gpu_ms += f.stats.exec.gpu_ms;
             let mut pixels = 0;
             for (k, (&p, &d)) in f.images.prim.iter().zip(&f.images.depth).enumerate() {
@@ -116,13 +139,14 @@ pub fn render_interference(
     opts: &RenderOptions,
 ) -> Result<(Frame, GpuInterference, GpuLayers), RenderError> {
     let t = std::time::Instant::now();
-    let inter = gpu_interference(scene, opts)?;
+    let mut gpu = renderer(scene, opts)?;
+    let inter = pairs_on(&mut gpu, scene, opts)?;
+    gpu.upload(scene)?;
     let variant = match opts.algo {
         Algo::CstZ => Variant::Z,
         Algo::CstI => Variant::I,
         _ => Variant::G,
     };
-    let mut gpu = GpuRenderer::for_options(scene, opts)?;
     let every = StreamLimit {
         max: None,
         threshold: 0,
