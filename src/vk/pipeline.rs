@@ -32,6 +32,9 @@ pub enum FragmentKind {
     CopyDepth,
     /// The edge map from the normal buffer (set 0) and a depth buffer (set 1).
     Edges,
+    /// A peeled layer blended front to back into the accumulation target
+    /// (colour: set 0, ids: set 2, opacities: set 3; seed 000 §6).
+    Accumulate,
 }
 
 impl FragmentKind {
@@ -90,6 +93,7 @@ impl FragmentKind {
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
             FragmentKind::Edges => spv!("edges.frag"),
+            FragmentKind::Accumulate => spv!("accumulate.frag"),
         }
     }
 }
@@ -235,9 +239,15 @@ impl Pipelines {
         // SAFETY: valid create info on a live device.
         p.camera_set_layout = unsafe { shared.device.create_descriptor_set_layout(&cci, None) }
             .check("vkCreateDescriptorSetLayout")?;
-        // Set 0: the image a program samples; set 1: the camera; set 2 (the same
-        // layout as set 0): the edge pass's second image.
-        let set_layouts = [p.set_layout, p.camera_set_layout, p.set_layout];
+        // Set 0: the image a program samples; set 1: the camera; sets 2 and 3
+        // (the same layout as set 0): the edge and accumulate passes' other
+        // images.
+        let set_layouts = [
+            p.set_layout,
+            p.camera_set_layout,
+            p.set_layout,
+            p.set_layout,
+        ];
         let lci = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
             .push_constant_ranges(&ranges);
@@ -321,9 +331,21 @@ impl Pipelines {
             .color_formats
             .iter()
             .map(|_| {
-                vk::PipelineColorBlendAttachmentState::default()
+                let a = vk::PipelineColorBlendAttachmentState::default()
                     .blend_enable(false)
-                    .color_write_mask(vk::ColorComponentFlags::RGBA)
+                    .color_write_mask(vk::ColorComponentFlags::RGBA);
+                if desc.fragment != FragmentKind::Accumulate {
+                    return a;
+                }
+                // Front to back ("under"): dst += (1 − dst.a) · src, for colour
+                // (premultiplied by the shader) and coverage alike.
+                a.blend_enable(true)
+                    .src_color_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
+                    .dst_color_blend_factor(vk::BlendFactor::ONE)
+                    .color_blend_op(vk::BlendOp::ADD)
+                    .src_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
+                    .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+                    .alpha_blend_op(vk::BlendOp::ADD)
             })
             .collect();
         let blend =

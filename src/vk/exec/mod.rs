@@ -19,7 +19,8 @@
 //! buffer), `targets` (images and descriptor sets), `record` (steps to commands,
 //! barriers from `plan::usage` through `vk::sync`), `state` (dynamic state
 //! recorded only where it changes), `stats` (typed statistics), `normals` (the
-//! optional normal buffer and the edge pass on it, seed 001 §5).
+//! optional normal buffer and the edge pass on it, seed 001 §5), `transparency`
+//! (the accumulate pass compositing peeled layers on the GPU, seed 000 §6).
 
 mod camera;
 mod embed;
@@ -29,6 +30,7 @@ mod record;
 mod state;
 mod stats;
 mod targets;
+mod transparency;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -191,6 +193,8 @@ pub struct Executor {
     rounding: Option<super::RoundingEmulation>,
     /// Write the normal buffer with the colour ([`Executor::set_normals`]).
     normals: bool,
+    /// Keep the accumulate pass's images ([`Executor::set_transparency`]).
+    transparency: bool,
 }
 
 impl Executor {
@@ -249,6 +253,7 @@ impl Executor {
             clears,
             rounding: None,
             normals: false,
+            transparency: false,
         })
     }
 
@@ -299,11 +304,11 @@ impl Executor {
     fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
         let n_ds = plan.depth_stencils.max(1) as usize;
         let n_tex = plan.textures as usize;
-        let normals = self.normals;
+        let (normals, transparency) = (self.normals, self.transparency);
         if self
             .targets
             .as_ref()
-            .is_some_and(|t| t.fits(n_ds, n_tex, normals))
+            .is_some_and(|t| t.fits(n_ds, n_tex, normals, transparency))
         {
             return Ok(());
         }
@@ -315,6 +320,7 @@ impl Executor {
             n_ds,
             n_tex,
             normals,
+            transparency,
         )?;
         // New images start in `REST`, where every recording expects them.
         let cmd = self.submit.cmd;
