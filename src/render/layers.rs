@@ -159,8 +159,8 @@ pub fn render_layered(
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
-    if opts.algo != Algo::Reference && super::interference::interference_only(scene, lopts) {
-        return super::interference::layered_frame(scene, opts);
+    if opts.algo != Algo::Reference && super::interference::handles(scene, lopts) {
+        return super::interference::layered_frame(scene, opts, lopts);
     }
     let gpu_refuses = |what: &'static str| {
         Err(RenderError::Unsupported {
@@ -206,7 +206,7 @@ pub fn render_layered(
     if scene.appearance.interference {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
-            what: "interference together with layers, transparency or highlight (--interference with --layers, --layers-out, --alpha, --highlight)",
+            what: "interference together with highlight or styles (--interference with --highlight or --style)",
         });
     }
     render_layered_gpu(scene, opts, lopts, variant)
