@@ -50,6 +50,15 @@ pub struct GpuLayers {
     /// CSTs run: the leaves peeled and trimmed by each layer plan, summed (the
     /// paper's "CSTs" column, seed 000 §8).
     pub csts: u64,
+    /// Bytes copied from the GPU: layer images (colour, id, depth; normals
+    /// when on) and the composite.
+    pub readback_bytes: u64,
+}
+
+/// Bytes a pixel of one layer's read-back takes: colour, id and depth (4 each),
+/// and the normal buffer's 16 when it is on.
+fn layer_bytes(normal: &Option<Vec<[f32; 3]>>) -> u64 {
+    12 + if normal.is_some() { 16 } else { 0 }
 }
 
 /// One peeled layer of one stream.
@@ -98,7 +107,8 @@ pub fn render(
 ) -> Result<GpuLayers, RenderError> {
     let mut stats = ExecStats::default();
     let mut peeled = Vec::new();
-    let (mut stream_layers, mut csts) = (0, 0);
+    let (mut stream_layers, mut csts, mut readback_bytes) = (0, 0, 0);
+    let pixels = scene.render.width as u64 * scene.render.height as u64;
     let coverage = coverage_plan();
     for i in 0..scene.solids.len() {
         let Some((prep, alternating, bound)) = peelable(scene, i)? else {
@@ -123,11 +133,13 @@ pub fn render(
                 if covered == 0 {
                     break;
                 }
-                peeled.push(Peeled {
+                let p = Peeled {
                     solid: i as u32,
                     images: gpu.read_back()?,
                     normal: gpu.read_normals()?,
-                });
+                };
+                readback_bytes += pixels * layer_bytes(&p.normal);
+                peeled.push(p);
                 if alternating && covered < limit.threshold {
                     break;
                 }
@@ -143,6 +155,7 @@ pub fn render(
         stats,
         stream_layers,
         csts,
+        readback_bytes,
     })
 }
 
@@ -193,7 +206,9 @@ pub fn composite(
         stats: ExecStats::default(),
         stream_layers: 0,
         csts: 0,
+        readback_bytes: 0,
     };
+    let pixels = w as u64 * h as u64;
     let mut first = None;
     let coverage = coverage_plan();
     let max = limit.max.unwrap_or(2 * bound);
@@ -221,6 +236,7 @@ pub fn composite(
                 images: gpu.read_back()?,
                 normal: gpu.read_normals()?,
             };
+            out.readback_bytes += pixels * layer_bytes(&layer.normal);
             if m == 0 {
                 first = Some(layer.images.clone());
             }
@@ -240,6 +256,7 @@ pub fn composite(
     let bg = scene.render.background;
     let n = w as usize * h as usize;
     let color = if first.is_some() {
+        out.readback_bytes += pixels * 16;
         gpu.read_accumulation()?
             .iter()
             .map(|p| resolve(*p, bg))

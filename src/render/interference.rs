@@ -258,6 +258,7 @@ pub fn layered_frame(
         transparent: scene.appearance.is_transparent(),
         interference_pixels: Some(inter.color.iter().filter(|c| c.is_some()).count() as u64),
         interference: Some(inter.pairs),
+        readback_bytes: Some(peeled.readback_bytes),
         stream_layers: Some(peeled.stream_layers),
         csts: Some(peeled.csts),
         style: scene.appearance.style.name(),

@@ -94,6 +94,10 @@ pub struct LayerStats {
     /// GPU: CSTs run over all layers (the paper's "CSTs", seed 000 §8).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub csts: Option<u64>,
+    /// GPU: bytes read back for the layers and the composite (deterministic;
+    /// what the GPU composite saves, README "What runs where").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub readback_bytes: Option<u64>,
     /// With interference: pixels showing an interference.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference_pixels: Option<u64>,
@@ -272,6 +276,7 @@ fn render_layered_gpu(
         layer_pixels: peeled.pixels.clone(),
         transparent,
         composited_on_gpu: transparent.then_some(on_gpu),
+        readback_bytes: Some(peeled.readback_bytes),
         stream_layers: Some(peeled.stream_layers),
         csts: Some(peeled.csts),
         style: scene.appearance.style.name(),
@@ -531,6 +536,7 @@ fn highlight_gpu(
     }
     stats.highlighted_pixels = Some(shown);
     stats.highlighted_hidden_pixels = Some(hidden);
+    stats.readback_bytes = stats.readback_bytes.map(|b| b + again.readback_bytes);
     Ok(())
 }
 
