@@ -22,7 +22,7 @@ fn scene(name: &str, alpha: Option<f64>) -> Scene {
     s
 }
 
-fn options(algo: Algo) -> RenderOptions {
+pub(crate) fn options(algo: Algo) -> RenderOptions {
     RenderOptions {
         algo,
         device: crate::setup::device(),
@@ -33,7 +33,7 @@ fn options(algo: Algo) -> RenderOptions {
     }
 }
 
-fn layered(scene: &Scene, algo: Algo, lopts: &LayerOptions) -> LayeredFrame {
+pub(crate) fn layered(scene: &Scene, algo: Algo, lopts: &LayerOptions) -> LayeredFrame {
     render_layered(scene, &options(algo), lopts)
         .unwrap_or_else(|e| panic!("{} {}: {e}", scene.path.display(), algo.name()))
 }

@@ -9,27 +9,12 @@ use peeltrim::plan::Algo;
 use peeltrim::reference::compare::{boundary_mask, compare};
 use peeltrim::reference::layers::blend_colors;
 use peeltrim::render::interference::gpu_interference;
-use peeltrim::render::layers::{render_layered, LayerOptions, LayeredFrame};
-use peeltrim::render::{DepthSetup, RenderOptions};
-use peeltrim::scene::{self, LoadOptions, Scene};
+use peeltrim::render::layers::LayerOptions;
+use peeltrim::scene::{self, LoadOptions};
+
+use crate::gpu_layers::{layered, options};
 
 const CST: [Algo; 3] = [Algo::CstZ, Algo::CstI, Algo::CstG];
-
-fn options(algo: Algo) -> RenderOptions {
-    RenderOptions {
-        algo,
-        device: crate::setup::device(),
-        depth: DepthSetup::DEFAULT,
-        depth_fallback: true,
-        validation: true,
-        build: Default::default(),
-    }
-}
-
-fn layered(scene: &Scene, algo: Algo, lopts: &LayerOptions) -> LayeredFrame {
-    render_layered(scene, &options(algo), lopts)
-        .unwrap_or_else(|e| panic!("{} {}: {e}", scene.path.display(), algo.name()))
-}
 
 /// Pixels not within a pixel of a coverage or primitive change of any layer,
 /// nor of a change of `mask` (when given).
