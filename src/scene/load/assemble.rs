@@ -307,7 +307,9 @@ impl Loader<'_> {
             name: file.name.clone().unwrap_or_else(|| "csg".to_string()),
             expr: model.expr,
         }];
-        self.finish(file, opts, model.primitives, solids, Vec::new(), true)
+        let mut scene = self.finish(file, opts, model.primitives, solids, Vec::new(), true)?;
+        scene.appearance.background = model.background;
+        Ok(scene)
     }
 
     /// Render settings and the camera, then the scene. `openscad`: OpenSCAD's
@@ -444,6 +446,7 @@ impl Loader<'_> {
                 None => Default::default(),
             },
             light: None,
+            background: Vec::new(),
         })
     }
 
