@@ -426,7 +426,13 @@ fn deep_nesting_from_file_to_plan() {
             }
         };
         for algo in crate::plan::Algo::ALL {
-            if algo == crate::plan::Algo::Reference {
+            use crate::plan::Algo;
+            // Blister's plan of 10^5 nested differences of distinct primitives
+            // grows quadratically (15 GB at 10^5, 0.4 GB at 10^4): not bounded
+            // yet, so not run here (README "Memory budget").
+            let quadratic =
+                what == "nested differences" && matches!(algo, Algo::Blister | Algo::BlisterPaper);
+            if algo == Algo::Reference || quadratic {
                 continue;
             }
             let r = crate::budget::with(1 << 30, || crate::plan::build(algo, &prep));
@@ -441,4 +447,32 @@ fn deep_nesting_from_file_to_plan() {
         }
         assert!(t.elapsed().as_secs() < 30, "{what}: {:?}", t.elapsed());
     }
+}
+
+/// Found by `fuzz_bytes_of_shipped_files`: a finite but huge size (`1e308`)
+/// made an infinite fitted camera and infinite `f32` copies. Such scenes are
+/// refused by the primitive's name and the bound; a `.csg` likewise.
+#[test]
+fn huge_finite_coordinates_are_refused_by_name() {
+    let toml = "[[primitive]]\nname = \"A\"\nshape = \"box\"\nsize = [1e308, 1.0, 1.0]\n[csg]\nexpr = \"A\"\n";
+    let e = load_str(toml, Path::new("/h/s.toml"), &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("primitive \"A\"") && e.contains("beyond ±1e12"),
+        "{e}"
+    );
+    let csg =
+        "multmatrix([[1, 0, 0, 2e12], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 1);\n";
+    let e = load_str(csg, Path::new("/h/m.csg"), &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("primitive \"cube_L1\"") && e.contains("scale the scene down"),
+        "{e}"
+    );
+    // Large but within the bound: loads, with a finite camera.
+    let ok = toml.replace("1e308", "1e9");
+    let s = load_str(&ok, Path::new("/h/s.toml"), &LoadOptions::default()).unwrap();
+    assert!(s.camera.eye.is_finite() && s.camera.far.is_finite());
 }

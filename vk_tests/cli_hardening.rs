@@ -332,8 +332,7 @@ fn without_d32s8_render_and_bench_fall_back_to_d24s8() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let stats: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
+    let stats = super::layers_cli::stats(&out);
     assert_eq!(stats["depth_setup"], "d24s8");
     let why = stats["depth_setup_fallback"].as_str().unwrap_or_default();
     assert!(why.contains("cannot use D32S8: d24s8 instead"), "{stats}");

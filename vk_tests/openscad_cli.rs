@@ -235,19 +235,8 @@ fn background_parts_are_drawn_see_through_where_layers_are() {
             out.to_str().unwrap(),
         ]);
         assert!(o.status.success(), "{algo}: {}", stderr(&o));
-        let prim: Vec<u16> = image::open(out.join("prim.png"))
-            .unwrap()
-            .into_luma16()
-            .pixels()
-            .map(|p| p.0[0])
-            .collect();
-        let color: Vec<[u8; 4]> = image::open(out.join("color.png"))
-            .unwrap()
-            .into_rgba8()
-            .pixels()
-            .map(|p| p.0)
-            .collect();
-        (prim, color, stderr(&o))
+        let images = peeltrim::output::read_images(&out).unwrap_or_else(|e| panic!("{e}"));
+        (images.prim, images.color, stderr(&o))
     };
     // Opaque algorithm: the part is left out, and the warning says who draws it.
     let (prim_o, color_o, err) = render("blister");

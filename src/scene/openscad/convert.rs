@@ -26,6 +26,7 @@ use super::tessellate::{self, Resolution, F_MINIMUM};
 use super::{ScadError, ScadPrimitive};
 use crate::csg::expr::{Node as E, NodeId};
 use crate::csg::Expr;
+use crate::scene::cost;
 use crate::scene::load::{MAX_DIVISIONS, MAX_GRID};
 use crate::scene::validate::{check_closed, signed_volume, MeshProblem};
 use crate::scene::Mesh;
@@ -145,6 +146,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         warnings: Vec::new(),
         ctx: vec![None; tree.nodes.len()],
         background_roots: Vec::new(),
+        mesh_bytes: 0,
     };
     let roots = c.roots();
     let base = Ctx {
@@ -190,7 +192,9 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
             None => Term::Empty,
         });
     }
-    // A background root's term is its own set, not its parent's child.
+    // A background root's term is its own set, not its parent's child. In order
+    // of appearance (the arena's pre-order; top-level nodes are entered first).
+    c.background_roots.sort_unstable();
     let mut is_background_root = vec![false; tree.nodes.len()];
     for &r in &c.background_roots {
         is_background_root[r as usize] = true;
@@ -358,6 +362,8 @@ struct Converter<'a> {
     ctx: Vec<Option<Ctx>>,
     /// The outermost `%` nodes entered.
     background_roots: Vec<u32>,
+    /// Estimated bytes of the meshes tessellated so far (`scene::cost`).
+    mesh_bytes: u64,
 }
 
 impl Converter<'_> {
@@ -624,6 +630,29 @@ impl Converter<'_> {
         }
         let n = tessellate::fragments(r, res);
         let rings = n.div_ceil(rings_div);
+        // Legal counts can still be more than the memory budget holds: refuse
+        // before tessellating, as the TOML loader does for `segments`.
+        let (v, t) = if rings_div == 2 {
+            (
+                n.saturating_mul(rings),
+                n.saturating_mul(rings).saturating_mul(2),
+            )
+        } else {
+            (2 * n + 2, 4 * n)
+        };
+        self.mesh_bytes = self.mesh_bytes.saturating_add(cost::mesh_bytes(v, t));
+        crate::budget::current()
+            .check(
+                || {
+                    format!(
+                        "`{}` with {n} fragments ({v} vertices; with the model's meshes before it)",
+                        node.name
+                    )
+                },
+                self.mesh_bytes,
+                "lower $fn or raise $fa/$fs",
+            )
+            .map_err(|e| ScadError::new(node.pos, e.to_string()))?;
         if n > MAX_DIVISIONS as u64 || (rings_div == 2 && n.saturating_mul(rings) > MAX_GRID) {
             return Err(ScadError::new(
                 node.pos,
