@@ -430,3 +430,32 @@ fn render_gpu(scene: &Scene, opts: &RenderOptions) -> Result<(Frame, DepthPrecis
     }
     Ok((frame, gpu.precision()))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The one fallback rule of `render`, `bench` and `view`.
+    #[test]
+    fn depth_setup_falls_back_only_by_default_and_only_without_d32s8() {
+        let no_d32 = |f: vk::DepthFormat| f != vk::DepthFormat::D32S8;
+        let all = |_: vk::DepthFormat| true;
+        // The default on a device without D32S8: D24S8, with the reason.
+        let (d, why) = DepthSetup::DEFAULT.resolve(true, "dev", no_d32);
+        assert_eq!(d, DepthSetup::D24S8);
+        assert_eq!(why.as_deref(), Some("dev cannot use D32S8: d24s8 instead"));
+        let (d, why) = DepthSetup::D32S8.resolve(true, "dev", no_d32);
+        assert_eq!((d, why.is_some()), (DepthSetup::D24S8, true));
+        // Asked for by name (no fallback): kept, for the executor to refuse.
+        let (d, why) = DepthSetup::D32S8Reversed.resolve(false, "dev", no_d32);
+        assert_eq!((d, why), (DepthSetup::D32S8Reversed, None));
+        // A device with D32S8, or D24S8 asked for: nothing changes.
+        for s in DepthSetup::ALL {
+            assert_eq!(s.resolve(true, "dev", all), (s, None));
+        }
+        assert_eq!(
+            DepthSetup::D24S8.resolve(true, "dev", no_d32),
+            (DepthSetup::D24S8, None)
+        );
+    }
+}
