@@ -59,8 +59,9 @@ fn value() -> BoxedStrategy<(String, bool)> {
     prop_oneof![
         30 => (0.1f64..20.0).prop_map(|f| (format!("{f}"), false)),
         4 => (1i32..10).prop_map(|i| (i.to_string(), false)),
-        1 => prop::sample::select(vec!["0", "-0", "1e-300", "-3"]).prop_map(|s| (s.to_string(), false)),
-        1 => prop::sample::select(vec!["nan", "inf", "-inf", "1e999", "\"x\"", "[1, 2]", "undef", "true"])
+        // `undef` is OpenSCAD's "not given": the parameter's default.
+        1 => prop::sample::select(vec!["0", "-0", "1e-300", "-3", "undef"]).prop_map(|s| (s.to_string(), false)),
+        1 => prop::sample::select(vec!["nan", "inf", "-inf", "1e999", "\"x\"", "[1, 2]", "true"])
             .prop_map(|s| (s.to_string(), true)),
     ]
     .boxed()

@@ -630,6 +630,15 @@ impl Converter<'_> {
         }
         let n = tessellate::fragments(r, res);
         let rings = n.div_ceil(rings_div);
+        if n > MAX_DIVISIONS as u64 || (rings_div == 2 && n.saturating_mul(rings) > MAX_GRID) {
+            return Err(ScadError::new(
+                node.pos,
+                format!(
+                    "`{}` would have {n} fragments (from $fn = {}, $fa = {}, $fs = {}); at most {MAX_DIVISIONS} (and {MAX_GRID} sphere vertices) are accepted: lower $fn or raise $fa/$fs",
+                    node.name, res.fn_, res.fa, res.fs
+                ),
+            ));
+        }
         // Legal counts can still be more than the memory budget holds: refuse
         // before tessellating, as the TOML loader does for `segments`.
         let (v, t) = if rings_div == 2 {
@@ -638,7 +647,7 @@ impl Converter<'_> {
                 n.saturating_mul(rings).saturating_mul(2),
             )
         } else {
-            (2 * n + 2, 4 * n)
+            (n.saturating_mul(2).saturating_add(2), n.saturating_mul(4))
         };
         self.mesh_bytes = self.mesh_bytes.saturating_add(cost::mesh_bytes(v, t));
         crate::budget::current()
@@ -653,15 +662,6 @@ impl Converter<'_> {
                 "lower $fn or raise $fa/$fs",
             )
             .map_err(|e| ScadError::new(node.pos, e.to_string()))?;
-        if n > MAX_DIVISIONS as u64 || (rings_div == 2 && n.saturating_mul(rings) > MAX_GRID) {
-            return Err(ScadError::new(
-                node.pos,
-                format!(
-                    "`{}` would have {n} fragments (from $fn = {}, $fa = {}, $fs = {}); at most {MAX_DIVISIONS} (and {MAX_GRID} sphere vertices) are accepted: lower $fn or raise $fa/$fs",
-                    node.name, res.fn_, res.fa, res.fs
-                ),
-            ));
-        }
         Ok(n)
     }
 
