@@ -41,6 +41,7 @@ fn main() {
         ],
         sizes: vec![(400, 400)],
         depth_setups: vec![DepthSetup::D32S8],
+        depth_fallback: true,
         frames,
         warmup: 1,
         budget_ms: 60_000.0,

@@ -115,4 +115,6 @@ pub use vk::{
 };
 
 #[cfg(test)]
+mod fuzz_scad_tests;
+#[cfg(test)]
 mod fuzz_tests;

@@ -19,6 +19,7 @@ mod gpu_layers;
 pub mod interference;
 mod kirsch;
 pub mod layers;
+pub mod memory;
 pub mod shadow;
 pub mod style;
 
@@ -64,6 +65,38 @@ impl DepthSetup {
             subpixel_bits,
         }
     }
+    /// The set-up to use on a device that can use the depth formats `usable`
+    /// says it can: `self`, or with `fallback` (the user named no
+    /// `--depth-format`) [`DepthSetup::FALLBACK`] where `self`'s format is not
+    /// usable, with the reason (stats.json's `depth_setup_fallback`). The one
+    /// rule of `render`, `bench` and `view`; a set-up asked for by name is kept,
+    /// and the executor then refuses it with the flag to change.
+    pub fn resolve(
+        self,
+        fallback: bool,
+        device: &str,
+        usable: impl Fn(vk::DepthFormat) -> bool,
+    ) -> (DepthSetup, Option<String>) {
+        let format = self.exec_format().0;
+        if !fallback || usable(format) {
+            return (self, None);
+        }
+        (
+            DepthSetup::FALLBACK,
+            Some(format!(
+                "{device} cannot use {format:?}: {} instead",
+                DepthSetup::FALLBACK.name()
+            )),
+        )
+    }
+
+    /// [`DepthSetup::resolve`] on `ctx`'s device.
+    pub fn resolve_on(self, ctx: &vk::Context, fallback: bool) -> (DepthSetup, Option<String>) {
+        self.resolve(fallback, ctx.device_name(), |f| {
+            ctx.depth_format_usable(f.vk())
+        })
+    }
+
     pub fn exec_format(self) -> (vk::DepthFormat, bool) {
         match self {
             DepthSetup::D24S8 => (vk::DepthFormat::D24S8, false),
@@ -137,34 +170,22 @@ pub enum RenderError {
     OverBudget(#[from] crate::budget::OverBudget),
 }
 
-/// Device bytes per pixel of the executor's images: colour and primitive id (4 + 4),
-/// two depth-stencil images (8 each with D32S8), the depth textures (4 each) and
-/// the read-back copy.
-pub const DEVICE_BYTES_PER_PIXEL: u64 = 48;
-/// Host bytes per pixel of a GPU frame: the read-back buffer and the output
-/// images, plus the device images on a software device (lavapipe), whose device
-/// memory is host memory.
-pub const GPU_HOST_BYTES_PER_PIXEL: u64 = 32 + DEVICE_BYTES_PER_PIXEL;
-/// Host bytes per pixel of the reference: per-pixel results and the output images.
-pub const REFERENCE_BYTES_PER_PIXEL: u64 = 32;
+pub use memory::{
+    FrameMemory, DEVICE_BYTES_PER_PIXEL, GPU_HOST_BYTES_PER_PIXEL, REFERENCE_BYTES_PER_PIXEL,
+};
 
 /// Refuses a frame whose images would exceed the memory budget, before any is
-/// allocated.
+/// allocated (its extras: [`FrameMemory`]).
 pub fn check_frame_budget(
     width: u32,
     height: u32,
     gpu: bool,
 ) -> Result<(), crate::budget::OverBudget> {
-    let per_pixel = if gpu {
-        GPU_HOST_BYTES_PER_PIXEL
-    } else {
-        REFERENCE_BYTES_PER_PIXEL
-    };
-    crate::budget::current().check(
-        || format!("a {width}x{height} frame"),
-        width as u64 * height as u64 * per_pixel,
-        "use a smaller --size",
-    )
+    FrameMemory {
+        gpu,
+        ..Default::default()
+    }
+    .check(width, height)
 }
 
 /// The CPU reference: exact ray casting.
@@ -220,7 +241,7 @@ impl GpuRenderer {
     pub fn with_fallback(
         scene: &Scene,
         device: vk::DeviceChoice,
-        mut depth: DepthSetup,
+        depth: DepthSetup,
         fallback: bool,
         validation: bool,
     ) -> Result<Self, RenderError> {
@@ -231,16 +252,7 @@ impl GpuRenderer {
             scene.render.height,
             DEVICE_BYTES_PER_PIXEL,
         )?;
-        let mut why = None;
-        if fallback && !ctx.depth_format_usable(depth.exec_format().0.vk()) {
-            why = Some(format!(
-                "{} cannot use {:?}: {} instead",
-                ctx.device_name(),
-                depth.exec_format().0,
-                DepthSetup::FALLBACK.name()
-            ));
-            depth = DepthSetup::FALLBACK;
-        }
+        let (depth, why) = depth.resolve_on(&ctx, fallback);
         let (depth_format, reversed_z) = depth.exec_format();
         let desc = vk::ExecDesc {
             width: scene.render.width,
@@ -278,6 +290,11 @@ impl GpuRenderer {
     /// The depth set-up in use (after any fallback).
     pub fn depth_setup(&self) -> DepthSetup {
         self.depth
+    }
+
+    /// Why the requested depth set-up was replaced, if it was.
+    pub fn depth_setup_fallback(&self) -> Option<String> {
+        self.fallback.clone()
     }
 
     /// The specification's depth bounds for this device and set-up.
@@ -325,9 +342,27 @@ impl GpuRenderer {
     }
 
     /// Whether later frames also write the normal buffer (seed 001 §5.2), read
-    /// with [`Self::read_normals`].
-    pub fn set_normals(&mut self, on: bool) {
+    /// with [`Self::read_normals`]; refused when the buffer would not fit the
+    /// memory budget or the device.
+    pub fn set_normals(&mut self, on: bool) -> Result<(), RenderError> {
+        if on {
+            let d = self.exec.desc();
+            let m = FrameMemory {
+                gpu: true,
+                normals: true,
+                ..Default::default()
+            };
+            m.check(d.width, d.height)?;
+            self.ctx
+                .check_frame_size(d.width, d.height, m.device_bytes_per_pixel())?;
+        }
         self.exec.set_normals(on);
+        Ok(())
+    }
+
+    /// Whether frames write the normal buffer ([`Self::set_normals`]).
+    pub fn normals(&self) -> bool {
+        self.exec.normals()
     }
 
     /// The last frame's view-space normals (see [`vk::Executor::read_normals`]).
@@ -411,4 +446,33 @@ fn render_gpu(scene: &Scene, opts: &RenderOptions) -> Result<(Frame, DepthPrecis
         return Err(RenderError::Validation(msgs));
     }
     Ok((frame, gpu.precision()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The one fallback rule of `render`, `bench` and `view`.
+    #[test]
+    fn depth_setup_falls_back_only_by_default_and_only_without_d32s8() {
+        let no_d32 = |f: vk::DepthFormat| f != vk::DepthFormat::D32S8;
+        let all = |_: vk::DepthFormat| true;
+        // The default on a device without D32S8: D24S8, with the reason.
+        let (d, why) = DepthSetup::DEFAULT.resolve(true, "dev", no_d32);
+        assert_eq!(d, DepthSetup::D24S8);
+        assert_eq!(why.as_deref(), Some("dev cannot use D32S8: d24s8 instead"));
+        let (d, why) = DepthSetup::D32S8.resolve(true, "dev", no_d32);
+        assert_eq!((d, why.is_some()), (DepthSetup::D24S8, true));
+        // Asked for by name (no fallback): kept, for the executor to refuse.
+        let (d, why) = DepthSetup::D32S8Reversed.resolve(false, "dev", no_d32);
+        assert_eq!((d, why), (DepthSetup::D32S8Reversed, None));
+        // A device with D32S8, or D24S8 asked for: nothing changes.
+        for s in DepthSetup::ALL {
+            assert_eq!(s.resolve(true, "dev", all), (s, None));
+        }
+        assert_eq!(
+            DepthSetup::D24S8.resolve(true, "dev", no_d32),
+            (DepthSetup::D24S8, None)
+        );
+    }
 }

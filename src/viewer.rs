@@ -131,6 +131,9 @@ pub struct ViewOptions {
     pub algo: Algo,
     pub device: vk::DeviceChoice,
     pub depth: DepthSetup,
+    /// Fall back to D24S8 where the device cannot use `depth`'s D32S8 (no
+    /// `--depth-format` given), as `render` does.
+    pub depth_fallback: bool,
     pub validation: bool,
     /// Render this many frames and exit (`PEELTRIM_VIEW_FRAMES`); `None`: interactive.
     pub frames: Option<u32>,
@@ -246,6 +249,11 @@ impl App {
             validation: self.opts.validation,
         };
         let (ctx, presenter) = Presenter::new(&desc, display, handle, [inner.width, inner.height])?;
+        let (depth, why) = self.opts.depth.resolve_on(&ctx, self.opts.depth_fallback);
+        if let Some(why) = why {
+            eprintln!("peeltrim view: {why}");
+        }
+        self.opts.depth = depth;
         eprintln!(
             "peeltrim view: {} on {}",
             self.scene.path.display(),

@@ -47,7 +47,7 @@ fn check_first_layer_edges(algo: Algo, assert_bars: bool) {
 
         let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::DEFAULT, true)
             .expect("a Vulkan device (lavapipe)");
-        gpu.set_normals(true);
+        gpu.set_normals(true).unwrap();
         let frame = gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"));
         let normals = gpu.read_normals().unwrap().expect("normals were asked for");
         let on_gpu = gpu.edge_map(&rule).unwrap().expect("normals were on");
@@ -126,7 +126,7 @@ fn normal_buffer_leaves_the_images_unchanged() {
     let plain = gpu.frame(&plan).unwrap();
     assert_eq!(gpu.read_normals().unwrap(), None);
     assert_eq!(gpu.edge_map(&EdgeRule::default()).unwrap(), None);
-    gpu.set_normals(true);
+    gpu.set_normals(true).unwrap();
     let with = gpu.frame(&plan).unwrap();
     let n = gpu.read_normals().unwrap().unwrap();
     assert_eq!(plain.images, with.images);

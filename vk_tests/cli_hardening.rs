@@ -305,3 +305,86 @@ fn bench_finishes_with_its_table_without_system_fonts() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("reference"));
     assert!(out2.join("summary.md").exists() && out2.join("results.json").exists());
 }
+
+/// A device without D32S8 (emulated with `PEELTRIM_EMULATE_NO_D32S8=1`): `render`
+/// and `bench` take D24S8 by the one rule and say why; a set-up asked for by name
+/// is not replaced but refused with the flag to change.
+#[test]
+fn without_d32s8_render_and_bench_fall_back_to_d24s8() {
+    let dir = tmp("nod32");
+    let s = scene("gear.toml");
+    let no_d32 = |args: &[&str]| {
+        super::bin()
+            .env("PEELTRIM_EMULATE_NO_D32S8", "1")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let out = dir.join("render");
+    let o = no_d32(&[
+        "render",
+        &s,
+        "--algo",
+        "cst-i",
+        "--size",
+        "24x24",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stats = super::layers_cli::stats(&out);
+    assert_eq!(stats["depth_setup"], "d24s8");
+    let why = stats["depth_setup_fallback"].as_str().unwrap_or_default();
+    assert!(why.contains("cannot use D32S8: d24s8 instead"), "{stats}");
+
+    let out = dir.join("bench");
+    let o = no_d32(&[
+        "bench",
+        &s,
+        "--algos",
+        "cst-i,blister",
+        "--size",
+        "24x24",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--no-images",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let results: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    let gpu: Vec<&serde_json::Value> = results
+        .as_array()
+        .expect("results.json is a list of runs")
+        .iter()
+        .filter(|r| r["algo"] != "reference")
+        .collect();
+    assert_eq!(gpu.len(), 2, "{results}");
+    for r in gpu {
+        assert!(r["failure"].is_null(), "{r}");
+        assert_eq!(r["depth_setup"], "d24s8", "{r}");
+        let why = r["depth_setup_fallback"].as_str().unwrap_or_default();
+        assert!(why.contains("cannot use D32S8"), "{r}");
+        // The image is still right: the error against the reference is small.
+        let mismatch = r["error"]["coverage_mismatch_interior_frac"].as_f64();
+        assert!(mismatch.is_some_and(|m| m < 0.01), "{r}");
+    }
+
+    // Asked for by name: not replaced; the run says which flag to change.
+    let o = no_d32(&[
+        "render",
+        &s,
+        "--algo",
+        "cst-i",
+        "--size",
+        "24x24",
+        "--depth-format",
+        "d32s8",
+        "--out",
+        dir.join("named").to_str().unwrap(),
+    ]);
+    assert_error(&o, &["D32S8", "--depth-format"]);
+}

@@ -7,9 +7,11 @@ use peeltrim::output::Images;
 use peeltrim::plan::Algo;
 use peeltrim::reference::compare::{boundary_mask, compare};
 use peeltrim::render::layers::{render_layered, LayerOptions, LayeredFrame};
-use peeltrim::render::{self, DepthSetup, RenderError, RenderOptions};
+use peeltrim::render::{self, RenderError};
 use peeltrim::scene::load;
 use peeltrim::scene::Scene;
+
+use crate::setup::options;
 
 const CST: [Algo; 3] = [Algo::CstZ, Algo::CstI, Algo::CstG];
 
@@ -20,17 +22,6 @@ fn scene(name: &str, alpha: Option<f64>) -> Scene {
     s.render.height = 72;
     s.appearance.alpha = alpha;
     s
-}
-
-pub(crate) fn options(algo: Algo) -> RenderOptions {
-    RenderOptions {
-        algo,
-        device: crate::setup::device(),
-        depth: DepthSetup::DEFAULT,
-        depth_fallback: true,
-        validation: true,
-        build: Default::default(),
-    }
 }
 
 pub(crate) fn layered(scene: &Scene, algo: Algo, lopts: &LayerOptions) -> LayeredFrame {
@@ -255,7 +246,6 @@ fn other_algorithms_refuse_layers() {
 /// layers 1–3; and a style composes from them.
 #[test]
 fn cst_layer_edge_maps_match_the_reference() {
-    use peeltrim::reference::edge_compare::compare_edges;
     use peeltrim::reference::{render_layers_read, LayerLimit, LayerReading};
     use peeltrim::render::edges::edge_map;
     let mut checked = 0;
@@ -286,21 +276,7 @@ fn cst_layer_edge_maps_match_the_reference() {
         for (k, ours) in got.edges.iter().enumerate().take(reference.layers.len()) {
             let r = &reference.layers[k];
             let want = edge_map(&r.depth, &reference.normals[k], w, h, &lopts.edge_rule);
-            let a = compare_edges(&want, ours, w, h);
-            eprintln!(
-                "cst-i {name} layer {}: edges ref {} ours {} matched {:.2}% stray {:.2}%",
-                k + 1,
-                a.reference_edges,
-                a.our_edges,
-                a.matched_frac * 100.0,
-                a.stray_frac * 100.0
-            );
-            assert!(a.reference_edges > 0, "{name} layer {}", k + 1);
-            assert!(
-                a.matched_frac >= 0.99 && a.stray_frac <= 0.01,
-                "{name} layer {}: {a:?}",
-                k + 1
-            );
+            crate::setup::assert_layer_edges(&format!("cst-i {name}"), k, &want, ours, (w, h));
             checked += 1;
         }
     }

@@ -8,15 +8,15 @@
 use peeltrim::output::Images;
 use peeltrim::plan::Algo;
 use peeltrim::reference::compare::compare;
-use peeltrim::reference::edge_compare::compare_edges;
 use peeltrim::reference::{render_layers_read, LayerLimit, LayerReading, LayerStack};
 use peeltrim::render::edges::edge_map;
 use peeltrim::render::layers::{render_layered, LayerOptions, LayeredFrame};
-use peeltrim::render::{DepthSetup, RenderOptions};
+use peeltrim::render::DepthSetup;
 use peeltrim::scene::style::Style;
 use peeltrim::scene::Scene;
 
 use crate::algorithms::{check_algo, load, shipped_scenes, SIZE};
+use crate::setup::options;
 
 /// The bar on the first layer: 0.05% interior mismatches.
 #[test]
@@ -40,18 +40,6 @@ fn products_reading(scene: &Scene, name: &str, max: u32) -> LayerStack {
     };
     render_layers_read(scene, SIZE.0, SIZE.1, limit, LayerReading::Products, 4096)
         .unwrap_or_else(|e| panic!("{name}: {e}"))
-}
-
-/// `algo` on the test device, validation on.
-fn options(algo: Algo) -> RenderOptions {
-    RenderOptions {
-        algo,
-        device: crate::setup::device(),
-        depth: DepthSetup::DEFAULT,
-        depth_fallback: true,
-        validation: true,
-        build: Default::default(),
-    }
 }
 
 fn kirsch_layered(scene: &Scene, lopts: &LayerOptions) -> Option<LayeredFrame> {
@@ -218,25 +206,7 @@ fn kirsch_edge_maps_match_the_products_reading() {
                 SIZE.1,
                 &lopts.edge_rule,
             );
-            let a = compare_edges(&ref_edges, ours, SIZE.0, SIZE.1);
-            eprintln!(
-                "kirsch {name} layer {}: edges ref {} ours {} matched {:.2}% stray {:.2}%",
-                k + 1,
-                a.reference_edges,
-                a.our_edges,
-                a.matched_frac * 100.0,
-                a.stray_frac * 100.0
-            );
-            assert!(
-                a.reference_edges > 0,
-                "{name} layer {}: the reference finds no edge",
-                k + 1
-            );
-            assert!(
-                a.matched_frac >= 0.99 && a.stray_frac <= 0.01,
-                "{name} layer {}: {a:?}",
-                k + 1
-            );
+            crate::setup::assert_layer_edges(&format!("kirsch {name}"), k, &ref_edges, ours, SIZE);
             checked += 1;
         }
     }

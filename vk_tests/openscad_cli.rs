@@ -209,3 +209,80 @@ fn crossing_unions() -> String {
     s.push_str("\t}\n}\n");
     s
 }
+
+/// `%` parts: see-through grey solids of their own with the algorithms that
+/// composite layers (the reference and CST agree on the composite), left out
+/// with a warning by the others.
+#[test]
+fn background_parts_are_drawn_see_through_where_layers_are() {
+    let d = tmp("scad-background");
+    let m = write(
+        &d,
+        "bg.csg",
+        "sphere($fn = 24, r = 10);\n\
+         %multmatrix([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 8], [0, 0, 0, 1]]) cube(size = [30, 4, 4], center = true);\n",
+    );
+    let render = |algo: &str| {
+        let out = d.join(algo);
+        let o = run(&[
+            "render",
+            &m,
+            "--algo",
+            algo,
+            "--size",
+            "64x64",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{algo}: {}", stderr(&o));
+        let images = peeltrim::output::read_images(&out).unwrap_or_else(|e| panic!("{e}"));
+        (images.prim, images.color, stderr(&o))
+    };
+    // Opaque algorithm: the part is left out, and the warning says who draws it.
+    let (prim_o, color_o, err) = render("blister");
+    assert!(prim_o.iter().all(|&p| p <= 1), "only the sphere");
+    assert!(
+        err.contains("bg.csg:2:2: `%multmatrix` (background) is left out") && err.contains("cst-i"),
+        "{err}"
+    );
+    let (prim_r, color_r, err) = render("reference");
+    assert!(!err.contains("left out"), "{err}");
+    // The bar is in front of the sphere's top and reaches past it on both sides.
+    let bar = (0..prim_r.len())
+        .filter(|&i| prim_r[i] == 2)
+        .collect::<Vec<_>>();
+    let over_sphere = bar.iter().filter(|&&i| prim_o[i] == 1).count();
+    let over_background = bar.iter().filter(|&&i| prim_o[i] == 0).count();
+    assert!(
+        over_sphere > 20 && over_background > 20,
+        "{over_sphere} {over_background}"
+    );
+    // See-through: where the bar is, the colour is neither what lies behind it
+    // nor an opaque grey; over the background it is a blend with #ffffe5.
+    for &i in &bar {
+        assert_ne!(
+            color_r[i], color_o[i],
+            "pixel {i}: the bar changes the colour"
+        );
+    }
+    for &i in bar.iter().filter(|&&i| prim_o[i] == 0) {
+        let c = color_r[i];
+        // Grey (r = g = b) blended at 128/255 over #ffffe5: blue below red.
+        assert!(c[0] > c[2] && c[0] >= 0x80, "pixel {i}: {c:?}");
+    }
+    // CST composites the same layers as the reference.
+    let (prim_c, color_c, _) = render("cst-i");
+    let n = prim_r.len();
+    let off = (0..n)
+        .filter(|&i| (0..3).any(|k| color_c[i][k].abs_diff(color_r[i][k]) > 2))
+        .count();
+    let prim_off = (0..n).filter(|&i| prim_c[i] != prim_r[i]).count();
+    assert!(
+        off * 100 <= 2 * n,
+        "{off} of {n} pixels differ by more than 2/255"
+    );
+    assert!(
+        prim_off * 100 <= 2 * n,
+        "{prim_off} of {n} pixels name another primitive"
+    );
+}

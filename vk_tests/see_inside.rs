@@ -12,7 +12,8 @@ use peeltrim::render::interference::gpu_interference;
 use peeltrim::render::layers::LayerOptions;
 use peeltrim::scene::{self, LoadOptions};
 
-use crate::gpu_layers::{layered, options};
+use crate::gpu_layers::layered;
+use crate::setup::options;
 
 const CST: [Algo; 3] = [Algo::CstZ, Algo::CstI, Algo::CstG];
 

@@ -7,8 +7,9 @@
 use std::path::PathBuf;
 
 use peeltrim::output::Images;
+use peeltrim::plan::Algo;
 use peeltrim::reference::precision::spec_depth_check;
-use peeltrim::render::GpuRenderer;
+use peeltrim::render::{DepthSetup, GpuRenderer, RenderOptions};
 use peeltrim::scene::Scene;
 use peeltrim::vk::DeviceChoice;
 
@@ -20,6 +21,19 @@ pub fn device() -> DeviceChoice {
         Ok("auto") => DeviceChoice::Auto,
         Ok("gpu") => DeviceChoice::Gpu,
         Ok(other) => panic!("PEELTRIM_TEST_DEVICE='{other}': use cpu, auto or gpu"),
+    }
+}
+
+/// `algo` on the test device with the default depth set-up (and its fallback),
+/// validation on: the options of the layer, kirsch and shadow tests.
+pub fn options(algo: Algo) -> RenderOptions {
+    RenderOptions {
+        algo,
+        device: device(),
+        depth: DepthSetup::DEFAULT,
+        depth_fallback: true,
+        validation: true,
+        build: Default::default(),
     }
 }
 
@@ -51,4 +65,35 @@ pub fn depth_passes(
         || (!strict(&gpu.device_name())
             && spec_depth_check(reference, images, &scene.camera, &gpu.precision()).ratio_p99
                 <= 1.0)
+}
+
+/// A layer's edge map against the reference's (the bar: at least 99% of
+/// the reference's edge pixels matched within a pixel, at most 1% of ours
+/// stray); `label` names the algorithm and scene, `layer` is 0-based.
+pub fn assert_layer_edges(
+    label: &str,
+    layer: usize,
+    reference: &[bool],
+    ours: &[bool],
+    (w, h): (u32, u32),
+) {
+    let a = peeltrim::reference::edge_compare::compare_edges(reference, ours, w, h);
+    eprintln!(
+        "{label} layer {}: edges ref {} ours {} matched {:.2}% stray {:.2}%",
+        layer + 1,
+        a.reference_edges,
+        a.our_edges,
+        a.matched_frac * 100.0,
+        a.stray_frac * 100.0
+    );
+    assert!(
+        a.reference_edges > 0,
+        "{label} layer {}: the reference finds no edge",
+        layer + 1
+    );
+    assert!(
+        a.matched_frac >= 0.99 && a.stray_frac <= 0.01,
+        "{label} layer {}: {a:?}",
+        layer + 1
+    );
 }

@@ -5,26 +5,17 @@
 //! opaque colour exactly; validation clean.
 
 use glam::DVec3;
-use peeltrim::plan::{Algo, BuildOptions};
+use peeltrim::plan::Algo;
 use peeltrim::reference::compare::boundary_mask;
-use peeltrim::render::{self, shadow, DepthSetup, RenderOptions};
+use peeltrim::render::{self, shadow};
 use peeltrim::scene::light::Light;
 use peeltrim::scene::{self, LoadOptions, Scene};
+
+use crate::setup::options;
 
 const SIZE: (u32, u32) = (160, 160);
 /// The bar.
 const AGREE: f64 = 0.995;
-
-fn opts(algo: Algo) -> RenderOptions {
-    RenderOptions {
-        algo,
-        device: crate::setup::device(),
-        depth: DepthSetup::DEFAULT,
-        depth_fallback: true,
-        validation: true,
-        build: BuildOptions::default(),
-    }
-}
 
 fn load(name: &str) -> Scene {
     let p = crate::setup::scenes_dir().join(name);
@@ -38,7 +29,7 @@ fn agreement(scene: &Scene, light: &Light, algo: Algo) -> (f64, u64, u64) {
     let (w, h) = SIZE;
     let reference = peeltrim::reference::render(scene, w, h);
     let want = peeltrim::reference::shadow::shadow_rays(scene, light, w, h);
-    let frames = shadow::gpu_frames(scene, &opts(algo), light).unwrap_or_else(|e| panic!("{e}"));
+    let frames = shadow::gpu_frames(scene, &options(algo), light).unwrap_or_else(|e| panic!("{e}"));
     let got = shadow::gpu_mask(scene, &frames);
     let edge = boundary_mask(&reference);
     let (mut n, mut same, mut dark) = (0u64, 0u64, 0u64);
@@ -106,8 +97,8 @@ fn shipped_scenes_with_a_light_match_shadow_rays() {
 fn shadows_change_only_shadowed_pixels() {
     let s = load("shadow_block.toml");
     for algo in [Algo::Reference, Algo::CstI] {
-        let lit = render::render(&s, &opts(algo)).unwrap_or_else(|e| panic!("{e}"));
-        let opaque = render::render_opaque(&s, &opts(algo)).unwrap_or_else(|e| panic!("{e}"));
+        let lit = render::render(&s, &options(algo)).unwrap_or_else(|e| panic!("{e}"));
+        let opaque = render::render_opaque(&s, &options(algo)).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(lit.images.depth, opaque.images.depth);
         assert_eq!(lit.images.prim, opaque.images.prim);
         let st = lit.stats.shadow.clone().expect("shadow stats");
@@ -153,7 +144,7 @@ fn interference_matches_the_reference() {
     }
     assert!(want.pairs.len() == 2, "{:?}", want.pairs);
     for algo in [Algo::CstI, Algo::CstZ, Algo::CstG] {
-        let got = gpu_interference(&s, &opts(algo)).unwrap_or_else(|e| panic!("{e}"));
+        let got = gpu_interference(&s, &options(algo)).unwrap_or_else(|e| panic!("{e}"));
         let mask = got.mask();
         let interior = edge.iter().filter(|e| !**e).count();
         let wrong = (0..mask.len())
@@ -182,8 +173,9 @@ fn interference_matches_the_reference() {
     // The view itself: the solids' GPU layers semi-transparent in front of the
     // interference, as the reference composites them: within 2/255 at ≥ 99.9%
     // of the interior pixels.
-    let (frame, _, _) = peeltrim::render::interference::render_interference(&s, &opts(Algo::CstI))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let (frame, _, _) =
+        peeltrim::render::interference::render_interference(&s, &options(Algo::CstI))
+            .unwrap_or_else(|e| panic!("{e}"));
     let interior = edge.iter().filter(|e| !**e).count();
     let off = (0..edge.len())
         .filter(|&i| {
@@ -193,6 +185,6 @@ fn interference_matches_the_reference() {
     eprintln!("interference colour: {off} of {interior} interior pixels off by more than 2/255");
     assert!(off as f64 <= 0.001 * interior as f64, "{off} of {interior}");
     // Other algorithms say they cannot.
-    let e = gpu_interference(&s, &opts(Algo::Blister)).unwrap_err();
+    let e = gpu_interference(&s, &options(Algo::Blister)).unwrap_err();
     assert!(e.to_string().contains("cst-i"), "{e}");
 }

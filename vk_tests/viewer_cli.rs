@@ -9,14 +9,45 @@ use std::process::Command;
 use super::scene;
 
 fn view(scene_file: &str, algo: &str, frames: u32) -> std::process::Output {
+    view_with(scene_file, algo, frames, &[])
+}
+
+fn view_with(
+    scene_file: &str,
+    algo: &str,
+    frames: u32,
+    env: &[(&str, &str)],
+) -> std::process::Output {
     Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 320x240x24"])
         .arg(env!("CARGO_BIN_EXE_peeltrim"))
         .args(["view", scene_file, "--size", "96x80", "--algo", algo])
         .env("PEELTRIM_VALIDATION", "1")
         .env("PEELTRIM_VIEW_FRAMES", frames.to_string())
+        .envs(env.iter().copied())
         .output()
         .expect("xvfb-run is installed (tools/setup.sh installs xvfb)")
+}
+
+/// On a device without D32S8 (emulated), the viewer takes D24S8 as `render`
+/// does, says so, and draws its frames without a validation message.
+#[test]
+fn the_viewer_falls_back_to_d24s8_without_d32s8() {
+    let out = view_with(
+        &scene("gear.toml"),
+        "cst-i",
+        2,
+        &[("PEELTRIM_EMULATE_NO_D32S8", "1")],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("cannot use D32S8: d24s8 instead"), "{err}");
+    assert!(!err.contains("vulkan validation"), "{err}");
+    let frames = err
+        .lines()
+        .filter(|l| l.contains("peeltrim view: frame:"))
+        .count();
+    assert_eq!(frames, 2, "{err}");
 }
 
 #[test]

@@ -103,7 +103,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                 algo,
                 device: cfg.device,
                 depth: cfg.depth_setups[0],
-                depth_fallback: true,
+                depth_fallback: cfg.depth_fallback,
                 validation: cfg.validation,
                 build: cfg.build.clone(),
             };

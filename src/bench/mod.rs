@@ -37,6 +37,9 @@ pub struct BenchConfig {
     pub algos: Vec<Algo>,
     pub sizes: Vec<(u32, u32)>,
     pub depth_setups: Vec<DepthSetup>,
+    /// Fall back to D24S8 where the device cannot use a set-up's D32S8 (the
+    /// default set-up; not when one was asked for by name), as `render` does.
+    pub depth_fallback: bool,
     pub frames: u32,
     pub warmup: u32,
     /// A run whose warm-up frame takes longer than this (ms, wall clock) is
@@ -69,6 +72,9 @@ pub struct Record {
     pub height: u32,
     pub algo: String,
     pub depth_setup: String,
+    /// Why the requested set-up was replaced by D24S8, if it was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub depth_setup_fallback: Option<String>,
     pub device: String,
     pub frames: u32,
     pub gpu_ms_median: f64,
@@ -212,6 +218,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 height: h,
                 algo: algo.to_string(),
                 depth_setup: depth.to_string(),
+                depth_setup_fallback: None,
                 device: String::new(),
                 frames: 0,
                 gpu_ms_median: 0.0,
@@ -268,7 +275,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                                 ..r
                             };
                             if cfg.save_images {
-                                save(cfg, &label, w, h, algo.name(), depth.name(), &images)?;
+                                save(cfg, &label, w, h, algo.name(), &rec.depth_setup, &images)?;
                             }
                         }
                         Err(e) => rec.failure = Some(e),
@@ -330,8 +337,14 @@ fn run_one(
     let plan = plan::build_with(algo, prep, &cfg.build).map_err(|e| e.to_string())?;
     if gpu.is_none() {
         *gpu = Some(
-            GpuRenderer::new(scene, cfg.device, depth, cfg.validation)
-                .map_err(|e| e.to_string())?,
+            GpuRenderer::with_fallback(
+                scene,
+                cfg.device,
+                depth,
+                cfg.depth_fallback,
+                cfg.validation,
+            )
+            .map_err(|e| e.to_string())?,
         );
     }
     let gpu = gpu.as_mut().expect("created above");
@@ -413,7 +426,8 @@ fn run_one(
         width: images.width,
         height: images.height,
         algo: algo.name().into(),
-        depth_setup: depth.name().into(),
+        depth_setup: gpu.depth_setup().name().into(),
+        depth_setup_fallback: gpu.depth_setup_fallback(),
         device: gpu.device_name(),
         frames: frames.len() as u32,
         gpu_ms_median: gm,

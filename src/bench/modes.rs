@@ -55,7 +55,8 @@ fn timed(
     let prep = Prepared::new(scene).map_err(|e| e.to_string())?;
     let plan = plan::build_with(algo, &prep, &cfg.build).map_err(|e| e.to_string())?;
     let mut gpu =
-        GpuRenderer::new(scene, cfg.device, depth, cfg.validation).map_err(|e| e.to_string())?;
+        GpuRenderer::with_fallback(scene, cfg.device, depth, cfg.depth_fallback, cfg.validation)
+            .map_err(|e| e.to_string())?;
     for _ in 0..cfg.warmup {
         gpu.execute(&plan).map_err(|e| e.to_string())?;
     }

@@ -386,7 +386,21 @@ fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
 }
 
 fn load(path: &Path, size: Option<(u32, u32)>, scad: ScadArgs) -> Result<scene::Scene> {
-    let scene = scene::load_with(path, &LoadOptions { size }, scad.skip_unsupported)?;
+    load_shown(path, size, scad, false)
+}
+
+/// [`load`]; with `background`, an OpenSCAD model's `%` parts are drawn
+/// (see-through, by an algorithm that draws transparency).
+fn load_shown(
+    path: &Path,
+    size: Option<(u32, u32)>,
+    scad: ScadArgs,
+    background: bool,
+) -> Result<scene::Scene> {
+    let mut scene = scene::load_with(path, &LoadOptions { size }, scad.skip_unsupported)?;
+    if background {
+        scene::openscad::background::show(&mut scene);
+    }
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -409,7 +423,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
         } => {
             let opts = render_options(algo, &gpu)?;
             peeltrim::output::check_out_dir(&out, "--out")?;
-            let mut scene = load(&scene, size, scad)?;
+            let mut scene =
+                load_shown(&scene, size, scad, render::layers::draws_transparency(algo))?;
             if layers.alpha.is_some() {
                 scene.appearance.alpha = layers.alpha;
             }
@@ -554,6 +569,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 } else {
                     vec![opts.depth]
                 },
+                depth_fallback: opts.depth_fallback && !all_depths,
                 frames,
                 warmup,
                 budget_ms: budget_s * 1e3,
@@ -639,6 +655,7 @@ fn view(
             algo,
             device: opts.device,
             depth: opts.depth,
+            depth_fallback: opts.depth_fallback,
             validation: opts.validation,
             frames,
         },

@@ -32,7 +32,20 @@ pub enum ProductError {
          use an algorithm that works on the tree, e.g. --algo cst-i"
     )]
     TooLarge { at_least: u64, limit: usize },
+    /// Few products but long ones: a deep difference chain of distinct
+    /// primitives (`A − (B − (C − …))`) has n/2 products of up to n literals.
+    #[error(
+        "expanding the sum-of-products form builds at least {at_least} literals (limit {limit}): \
+         its products are too long; use an algorithm that works on the tree, e.g. --algo cst-i, \
+         or write the expression with fewer nested differences"
+    )]
+    TooManyLiterals { at_least: u64, limit: u64 },
 }
+
+/// The most literals the expansion may build over all its stages (bounds its
+/// time and memory; a Goldfeather plan of that many literals is far past a
+/// frame of minutes anyway).
+pub const MAX_LITERALS: u64 = 50_000_000;
 
 type Aabb = ([f64; 3], [f64; 3]);
 
@@ -99,6 +112,9 @@ pub fn sum_of_products(
     // Only nodes reachable from the root matter; each is used by exactly one parent,
     // so a child's list can be moved out when its parent is built.
     let mut lists: Vec<Option<Vec<Partial>>> = vec![None; pos.nodes.len()];
+    // Literals built by every multiplication so far (long products cost their
+    // length at every stage).
+    let mut built = 0u64;
     for (i, n) in pos.nodes.iter().enumerate() {
         let list = match *n {
             PNode::Universe => vec![Partial {
@@ -121,6 +137,7 @@ pub fn sum_of_products(
                 if total > limit as u64 {
                     return Err(too_large(total));
                 }
+
                 x.extend(y);
                 x
             }
@@ -142,6 +159,13 @@ pub fn sum_of_products(
                         if let Some(r) = multiply(p, q) {
                             if out.len() == limit {
                                 return Err(too_large(limit as u64 + 1));
+                            }
+                            built += r.literals.len() as u64;
+                            if built > MAX_LITERALS {
+                                return Err(ProductError::TooManyLiterals {
+                                    at_least: built,
+                                    limit: MAX_LITERALS,
+                                });
                             }
                             out.push(r);
                         }

@@ -450,9 +450,43 @@ fn products_limit_fails_fast() {
     let t = std::time::Instant::now();
     let err = sum_of_products(&pos, &|_| ([0.0; 3], [1.0; 3]), 100_000).unwrap_err();
     assert!(t.elapsed().as_secs_f64() < 1.0);
-    let ProductError::TooLarge { at_least, limit } = err.clone();
+    let ProductError::TooLarge { at_least, limit } = err.clone() else {
+        panic!("{err}");
+    };
     assert!(at_least > limit as u64);
     assert!(err.to_string().contains("--algo cst-i"), "{err}");
+}
+
+/// A deep difference chain of distinct primitives, `P0 − (P1 − (P2 − …))`: few
+/// products (n/2) but of up to n literals; refused by the literal count in
+/// bounded time and memory instead of growing to n²/4 literals.
+#[test]
+fn long_products_are_refused_by_their_literals() {
+    let n = 20_000u32;
+    let mut src = String::new();
+    for i in 0..n {
+        src.push_str(&format!("P{i} - ("));
+    }
+    src.push('Q');
+    src.push_str(&")".repeat(n as usize));
+    let mut resolve = |s: &str| match s {
+        "Q" => Some(n),
+        _ => s[1..].parse().ok(),
+    };
+    let e = parse(&src, &mut resolve).unwrap();
+    let pos = PositiveExpr::from_expr(&e);
+    let t = std::time::Instant::now();
+    let err = sum_of_products(&pos, &|_| ([0.0; 3], [1.0; 3]), 1 << 20).unwrap_err();
+    assert!(t.elapsed().as_secs_f64() < 10.0, "{:?}", t.elapsed());
+    assert!(
+        matches!(err, ProductError::TooManyLiterals { at_least, limit } if at_least > limit),
+        "{err}"
+    );
+    assert!(err.to_string().contains("--algo cst-i"), "{err}");
+    // A short chain still expands: P0 − (P1 − Q) = P0·!P1 + P0·Q.
+    let e = parse("P0 - (P1 - Q)", &mut resolve).unwrap();
+    let p = sum_of_products(&PositiveExpr::from_expr(&e), &|_| ([0.0; 3], [1.0; 3]), 64).unwrap();
+    assert_eq!(p.len(), 2);
 }
 
 #[test]

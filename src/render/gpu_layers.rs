@@ -133,6 +133,14 @@ pub fn render(
                 if covered == 0 {
                     break;
                 }
+                // Every peeled layer stays on the host until the merge.
+                super::FrameMemory {
+                    gpu: true,
+                    normals: gpu.normals(),
+                    layers: peeled.len() as u64 + 1,
+                    shadow_map: None,
+                }
+                .check(scene.render.width, scene.render.height)?;
                 let p = Peeled {
                     solid: i as u32,
                     images: gpu.read_back()?,

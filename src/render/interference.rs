@@ -151,7 +151,7 @@ fn render_interference_with(
 ) -> Result<(Frame, GpuInterference, GpuLayers), RenderError> {
     let t = std::time::Instant::now();
     let mut gpu = renderer(scene, opts)?;
-    gpu.set_normals(normals);
+    gpu.set_normals(normals)?;
     let inter = pairs_on(&mut gpu, scene, opts)?;
     gpu.upload(scene)?;
     let variant = match opts.algo {

@@ -42,7 +42,7 @@ pub(super) fn render_layered(
     // Normals (and the edge maps from them) only where something reads them.
     let style = scene.appearance.style;
     let want_normals = lopts.write_layers || style.layered();
-    gpu.set_normals(want_normals);
+    gpu.set_normals(want_normals)?;
     let mut normals: Vec<Vec<[f32; 3]>> = Vec::new();
     let mut layer_pixels = Vec::new();
     let mut stats = None;

@@ -152,6 +152,15 @@ pub struct LayeredFrame {
     pub layer_stats: LayerStats,
 }
 
+/// Whether `algo` renders layers and composites them (transparency, styles; an
+/// OpenSCAD model's `%` parts): the reference, kirsch and the CST variants.
+pub fn draws_transparency(algo: Algo) -> bool {
+    matches!(
+        algo,
+        Algo::Reference | Algo::Kirsch | Algo::CstZ | Algo::CstI | Algo::CstG
+    )
+}
+
 /// Renders `scene` with its layers: exactly with the reference (every style),
 /// by CST depth peeling with `cst-z`, `cst-i` and `cst-g` (layers, transparency,
 /// highlight), by Kirsch's CSG depth peeling with `kirsch` (layers and
@@ -172,10 +181,7 @@ pub fn render_layered(
             what,
         })
     };
-    let styled_algo = matches!(
-        opts.algo,
-        Algo::Reference | Algo::Kirsch | Algo::CstZ | Algo::CstI | Algo::CstG
-    );
+    let styled_algo = draws_transparency(opts.algo);
     if !styled_algo && scene.appearance.style.layered() {
         // Styles need each layer's normals and edges: the reference's, and the
         // GPU's layer peelers'.
@@ -231,7 +237,7 @@ fn render_layered_gpu(
     let style = scene.appearance.style;
     // Edge maps (styles, `--layers-out`) need each layer's normals.
     let want_edges = style.edges() || lopts.write_layers;
-    gpu.set_normals(want_edges || style.layered());
+    gpu.set_normals(want_edges || style.layered())?;
     let limit = StreamLimit {
         max: lopts.max_layers,
         threshold: lopts.threshold,

@@ -244,8 +244,15 @@ pub fn gpu_frames(
     opts: &RenderOptions,
     light: &Light,
 ) -> Result<ShadowFrames, RenderError> {
-    let (eye, eye_precision) = super::render_gpu(scene, opts)?;
     let size = shadow_map_size(scene.render.width, scene.render.height);
+    // The eye's frame is held while the light's map renders.
+    super::FrameMemory {
+        gpu: true,
+        shadow_map: Some(size),
+        ..Default::default()
+    }
+    .check(scene.render.width, scene.render.height)?;
+    let (eye, eye_precision) = super::render_gpu(scene, opts)?;
     let ls = light_scene(scene, light, size);
     let (map, map_precision) = super::render_gpu(&ls, opts)?;
     Ok(ShadowFrames {

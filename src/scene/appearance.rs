@@ -24,6 +24,9 @@ pub struct Appearance {
     pub style: super::style::Style,
     /// `[light]`: the light that casts the solids' shadows (README "Shadows").
     pub light: Option<super::light::Light>,
+    /// An OpenSCAD model's `%` background parts, not drawn until
+    /// [`super::openscad::background::show`] adds them as see-through solids.
+    pub background: Vec<super::openscad::background::Background>,
 }
 
 impl Appearance {

@@ -523,7 +523,14 @@ impl Context {
 
     /// Whether `format` works as a sampled, copyable depth-stencil attachment with
     /// optimal tiling: what the executor needs of a `--depth-format`.
+    /// `PEELTRIM_EMULATE_NO_D32S8=1` emulates a device without D32S8 (the
+    /// tests of the D24S8 fallback, on lavapipe, which has it).
     pub fn depth_format_usable(&self, format: vk::Format) -> bool {
+        if format == vk::Format::D32_SFLOAT_S8_UINT
+            && std::env::var_os("PEELTRIM_EMULATE_NO_D32S8").is_some_and(|v| v == "1")
+        {
+            return false;
+        }
         let _layer = self.shared.layer_use();
         // SAFETY: physical device of this instance; plain query.
         let fp = unsafe {

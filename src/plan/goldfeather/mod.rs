@@ -89,6 +89,10 @@ impl Lit {
     }
 }
 
+/// The most literal pairs (Σ k² over products of k literals) a product-based
+/// plan may draw: past it a frame takes many minutes on lavapipe.
+pub const MAX_PRODUCT_WORK: u64 = 20_000_000;
+
 /// The sum of products of the prepared scene, pruned by bounding boxes; products
 /// without a positive literal (unbounded) are dropped.
 pub fn products(prep: &Prepared, limit: usize) -> Result<Vec<Vec<Lit>>, PlanError> {
@@ -102,6 +106,20 @@ pub fn products(prep: &Prepared, limit: usize) -> Result<Vec<Vec<Lit>>, PlanErro
         prim: l.prim,
         negated: l.negated,
     };
+    // Goldfeather draws every literal of a product once per literal (O(k²) per
+    // product of k); refuse before a plan of that many steps is built.
+    let work: u64 = prods.iter().map(|p| (p.literals.len() as u64).pow(2)).sum();
+    if work > MAX_PRODUCT_WORK {
+        return Err(PlanError::TooMuchWork {
+            what: format!(
+                "the {} products of the sum-of-products form hold {} literals; drawing each against each is {work} rasterizations",
+                prods.len(),
+                prods.iter().map(|p| p.literals.len()).sum::<usize>()
+            ),
+            limit: MAX_PRODUCT_WORK,
+            fix: "use --algo cst-i or --algo blister, which work on the tree".to_string(),
+        });
+    }
     let mut out: Vec<Vec<Lit>> = Vec::with_capacity(prods.len());
     for p in &prods {
         let mut lits: Vec<Lit> = p.literals.iter().map(lit).collect();

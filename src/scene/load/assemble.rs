@@ -307,7 +307,9 @@ impl Loader<'_> {
             name: file.name.clone().unwrap_or_else(|| "csg".to_string()),
             expr: model.expr,
         }];
-        self.finish(file, opts, model.primitives, solids, Vec::new(), true)
+        let mut scene = self.finish(file, opts, model.primitives, solids, Vec::new(), true)?;
+        scene.appearance.background = model.background;
+        Ok(scene)
     }
 
     /// Render settings and the camera, then the scene. `openscad`: OpenSCAD's
@@ -362,6 +364,31 @@ impl Loader<'_> {
         let mut appearance =
             self.appearance(&file, r.and_then(|r| r.0.alpha), r.and_then(|r| r.1))?;
 
+        // Huge but finite sizes would make an infinite camera or GPU copies.
+        let named = primitives
+            .iter()
+            .filter(|p| p.used)
+            .map(|p| ("primitive", &p.name, &p.mesh))
+            .chain(surfaces.iter().map(|s| ("surface", &s.name, &s.mesh)));
+        for (kind, name, mesh) in named {
+            if let Some(v) = mesh
+                .positions
+                .iter()
+                .find(|v| !(v.abs().max_element() <= super::MAX_COORD))
+            {
+                return Err(self.invalid(
+                    None,
+                    format!("{kind} \"{name}\""),
+                    format!(
+                        "a vertex lies at ({:e}, {:e}, {:e}), beyond ±{:e}: give sizes, radii, translations and mesh coordinates below that (scale the scene down)",
+                        v.x,
+                        v.y,
+                        v.z,
+                        super::MAX_COORD
+                    ),
+                ));
+            }
+        }
         let drawn: Vec<&Mesh> = primitives
             .iter()
             .filter(|p| p.used)
@@ -444,6 +471,7 @@ impl Loader<'_> {
                 None => Default::default(),
             },
             light: None,
+            background: Vec::new(),
         })
     }
 

@@ -63,6 +63,9 @@ pub const MAX_DIVISIONS: u32 = 65536;
 pub const MAX_GRID: u64 = 1 << 24;
 /// Largest image side accepted from `[render]` or `--size`.
 pub const MAX_SIZE: u32 = 16384;
+/// Largest world-space coordinate of a drawn vertex: far inside `f32` (the
+/// GPU's copies) with room for the camera fit's products in `f64`.
+pub const MAX_COORD: f64 = 1e12;
 
 /// Loads and validates a scene file.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {

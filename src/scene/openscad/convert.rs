@@ -26,6 +26,7 @@ use super::tessellate::{self, Resolution, F_MINIMUM};
 use super::{ScadError, ScadPrimitive};
 use crate::csg::expr::{Node as E, NodeId};
 use crate::csg::Expr;
+use crate::scene::cost;
 use crate::scene::load::{MAX_DIVISIONS, MAX_GRID};
 use crate::scene::validate::{check_closed, signed_volume, MeshProblem};
 use crate::scene::Mesh;
@@ -45,6 +46,9 @@ pub const BACK_COLOR: [f32; 4] = [
     1.0,
 ];
 pub const HIGHLIGHT_COLOR: [f32; 4] = [1.0, 0x51 as f32 / 255.0, 0x51 as f32 / 255.0, 0.5];
+/// `%` background parts: OpenSCAD's `ColorMode::BACKGROUND`, `{180, 180, 180,
+/// 128}` (Renderer.cc), drawn see-through and never part of the solid.
+pub const BACKGROUND_COLOR: [f32; 4] = [180.0 / 255.0, 180.0 / 255.0, 180.0 / 255.0, 128.0 / 255.0];
 
 /// The node kinds the reader evaluates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -104,6 +108,8 @@ struct Ctx {
     /// Under an odd number of difference subtrahends: OpenSCAD draws such faces
     /// in its back colour.
     negated: bool,
+    /// Inside a `%` background subtree.
+    background: bool,
 }
 
 /// A node's contribution to its parent.
@@ -119,6 +125,18 @@ pub struct Converted {
     pub primitives: Vec<ScadPrimitive>,
     pub expr: Option<Expr>,
     pub warnings: Vec<String>,
+    /// The `%` subtrees, each its own set (not part of the solid), in order of
+    /// appearance.
+    pub background: Vec<BackgroundTree>,
+}
+
+/// A `%` background subtree: its node, its primitives (in order of appearance)
+/// and its own expression over them.
+pub struct BackgroundTree {
+    pub node: String,
+    pub pos: super::Pos,
+    pub primitives: Vec<ScadPrimitive>,
+    pub expr: Expr,
 }
 
 pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadError> {
@@ -127,6 +145,8 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         skip_unsupported,
         warnings: Vec::new(),
         ctx: vec![None; tree.nodes.len()],
+        background_roots: Vec::new(),
+        mesh_bytes: 0,
     };
     let roots = c.roots();
     let base = Ctx {
@@ -134,6 +154,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         color: None,
         highlight: false,
         negated: false,
+        background: false,
     };
     for &r in &roots {
         c.ctx[r as usize] = c.enter(r, base)?;
@@ -171,6 +192,13 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
             None => Term::Empty,
         });
     }
+    // A background root's term is its own set, not its parent's child. In order
+    // of appearance (the arena's pre-order; top-level nodes are entered first).
+    c.background_roots.sort_unstable();
+    let mut is_background_root = vec![false; tree.nodes.len()];
+    for &r in &c.background_roots {
+        is_background_root[r as usize] = true;
+    }
     // Operators bottom-up.
     for i in (0..tree.nodes.len()).rev() {
         let (Some(_), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
@@ -182,14 +210,40 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         let kids: Vec<Term> = tree.nodes[i]
             .children
             .iter()
+            .filter(|&&ch| !is_background_root[ch as usize])
             .filter_map(|&ch| term[ch as usize])
             .collect();
         term[i] = combine(&mut nodes, k, kids);
     }
-    let top: Vec<Term> = roots.iter().filter_map(|&r| term[r as usize]).collect();
-    let (primitives, expr) = match combine(&mut nodes, Kind::Union, top) {
+    let top: Vec<Term> = roots
+        .iter()
+        .filter(|&&r| !is_background_root[r as usize])
+        .filter_map(|&r| term[r as usize])
+        .collect();
+    let top = combine(&mut nodes, Kind::Union, top);
+    let mut all = Expr { nodes, root: 0 };
+    let background = c
+        .background_roots
+        .iter()
+        .filter_map(|&r| match term[r as usize] {
+            Some(Term::Node(root)) => {
+                let node = &tree.nodes[r as usize];
+                all.root = root;
+                let (primitives, expr) = compact(&out, &all);
+                Some(BackgroundTree {
+                    node: node.name.clone(),
+                    pos: node.pos,
+                    primitives,
+                    expr,
+                })
+            }
+            _ => None,
+        })
+        .collect();
+    let (primitives, expr) = match top {
         Some(Term::Node(root)) => {
-            let (p, e) = compact(out, &Expr { nodes, root });
+            all.root = root;
+            let (p, e) = compact(&out, &all);
             (p, Some(e))
         }
         _ => (Vec::new(), None),
@@ -198,23 +252,24 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         primitives,
         expr,
         warnings: c.warnings,
+        background,
     })
 }
 
 /// Keeps only what the solid reaches: primitives its leaves name (still in
 /// order of appearance, renumbered) and its reachable nodes. A primitive can be
 /// unreachable when an operator above it was pruned (`cube ∩ ∅`).
-fn compact(prims: Vec<ScadPrimitive>, e: &Expr) -> (Vec<ScadPrimitive>, Expr) {
+fn compact(prims: &[ScadPrimitive], e: &Expr) -> (Vec<ScadPrimitive>, Expr) {
     let mut used = vec![false; prims.len()];
     for p in e.leaves() {
         used[p as usize] = true;
     }
     let mut new_prim = vec![u32::MAX; prims.len()];
     let mut kept = Vec::new();
-    for (i, p) in prims.into_iter().enumerate() {
+    for (i, p) in prims.iter().enumerate() {
         if used[i] {
             new_prim[i] = kept.len() as u32;
-            kept.push(p);
+            kept.push(p.clone());
         }
     }
     let mut id = vec![NodeId::MAX; e.nodes.len()];
@@ -305,6 +360,10 @@ struct Converter<'a> {
     skip_unsupported: bool,
     warnings: Vec<String>,
     ctx: Vec<Option<Ctx>>,
+    /// The outermost `%` nodes entered.
+    background_roots: Vec<u32>,
+    /// Estimated bytes of the meshes tessellated so far (`scene::cost`).
+    mesh_bytes: u64,
 }
 
 impl Converter<'_> {
@@ -337,12 +396,12 @@ impl Converter<'_> {
         if node.modifiers.disabled {
             return Ok(None);
         }
-        if node.modifiers.background {
-            self.warnings.push(format!(
-                "{at}: `%{}` (background) is not drawn: peeltrim has no transparency yet, so background parts are left out of the picture (they are never part of the solid)",
-                node.name
-            ));
-            return Ok(None);
+        let mut ctx = parent;
+        if node.modifiers.background && !parent.background {
+            // Its own set, drawn see-through where the algorithm draws
+            // transparency (`super::background`).
+            self.background_roots.push(i);
+            ctx.background = true;
         }
         let Some(k) = kind(&node.name) else {
             let what = if TWO_D.contains(&node.name.as_str()) {
@@ -350,9 +409,14 @@ impl Converter<'_> {
             } else {
                 format!("`{}`", node.name)
             };
-            if self.skip_unsupported {
+            if self.skip_unsupported || ctx.background {
+                let why = if ctx.background {
+                    "in a `%` background part"
+                } else {
+                    "--skip-unsupported"
+                };
                 self.warnings.push(format!(
-                    "{at}: {what} is not supported and was dropped with its children (--skip-unsupported): the picture lacks it"
+                    "{at}: {what} is not supported and was dropped with its children ({why}): the picture lacks it"
                 ));
                 return Ok(None);
             }
@@ -369,7 +433,6 @@ impl Converter<'_> {
                 format!("`{}` takes no children: end it with `;`", node.name),
             ));
         }
-        let mut ctx = parent;
         ctx.highlight |= node.modifiers.highlight;
         match k {
             Kind::Multmatrix => ctx.matrix = parent.matrix * self.matrix(node)?,
@@ -523,7 +586,9 @@ impl Converter<'_> {
             ));
             return Ok(None);
         }
-        let rgba = if ctx.highlight {
+        let rgba = if ctx.background {
+            BACKGROUND_COLOR
+        } else if ctx.highlight {
             HIGHLIGHT_COLOR
         } else {
             ctx.color
@@ -574,6 +639,29 @@ impl Converter<'_> {
                 ),
             ));
         }
+        // Legal counts can still be more than the memory budget holds: refuse
+        // before tessellating, as the TOML loader does for `segments`.
+        let (v, t) = if rings_div == 2 {
+            (
+                n.saturating_mul(rings),
+                n.saturating_mul(rings).saturating_mul(2),
+            )
+        } else {
+            (n.saturating_mul(2).saturating_add(2), n.saturating_mul(4))
+        };
+        self.mesh_bytes = self.mesh_bytes.saturating_add(cost::mesh_bytes(v, t));
+        crate::budget::current()
+            .check(
+                || {
+                    format!(
+                        "`{}` with {n} fragments ({v} vertices; with the model's meshes before it)",
+                        node.name
+                    )
+                },
+                self.mesh_bytes,
+                "lower $fn or raise $fa/$fs",
+            )
+            .map_err(|e| ScadError::new(node.pos, e.to_string()))?;
         Ok(n)
     }
 

@@ -16,6 +16,7 @@
 #![deny(unsafe_code)]
 
 pub mod args;
+pub mod background;
 pub mod convert;
 pub mod lex;
 pub mod parse;
@@ -88,6 +89,9 @@ pub struct Model {
     pub primitives: Vec<Primitive>,
     pub expr: Expr,
     pub warnings: Vec<String>,
+    /// The `%` background parts, kept apart from the solid
+    /// ([`background::show`] adds them to a scene).
+    pub background: Vec<background::Background>,
 }
 
 /// Reads and converts the `.csg` file at `path`.
@@ -108,7 +112,7 @@ pub fn model_from_str(
     let located = |e: ScadError| located_error(text, path, e);
     let tree = parse::parse(text).map_err(located)?;
     let c = convert::convert(&tree, skip_unsupported).map_err(located)?;
-    let warnings = c
+    let mut warnings: Vec<String> = c
         .warnings
         .iter()
         .map(|w| format!("{}:{w}", path.display()))
@@ -120,33 +124,43 @@ pub fn model_from_str(
              add a primitive such as `cube(size = [1, 1, 1]);`",
         )));
     };
+    // Names are unique over the solid's and the background parts' primitives.
     let mut seen: HashMap<String, u32> = HashMap::new();
-    let primitives = c
-        .primitives
+    let mut named = |prims: Vec<ScadPrimitive>| -> Vec<Primitive> {
+        prims
+            .into_iter()
+            .map(|p| {
+                let base = format!("{}_L{}", p.node, p.line);
+                let k = seen.entry(base.clone()).or_insert(0);
+                *k += 1;
+                let name = if *k == 1 { base } else { format!("{base}_{k}") };
+                Primitive {
+                    name,
+                    color: [p.rgba[0], p.rgba[1], p.rgba[2]].map(|c| (c * 255.0).round() as u8),
+                    shape: Shape::OpenScad {
+                        node: p.node,
+                        line: p.line,
+                        rgba: p.rgba,
+                    },
+                    transform: p.matrix,
+                    mesh: p.mesh,
+                    used: true,
+                }
+            })
+            .collect()
+    };
+    let primitives = named(c.primitives);
+    let background: Vec<background::Background> = c
+        .background
         .into_iter()
-        .map(|p| {
-            let base = format!("{}_L{}", p.node, p.line);
-            let k = seen.entry(base.clone()).or_insert(0);
-            *k += 1;
-            let name = if *k == 1 { base } else { format!("{base}_{k}") };
-            Primitive {
-                name,
-                color: [p.rgba[0], p.rgba[1], p.rgba[2]].map(|c| (c * 255.0).round() as u8),
-                shape: Shape::OpenScad {
-                    node: p.node,
-                    line: p.line,
-                    rgba: p.rgba,
-                },
-                transform: p.matrix,
-                mesh: p.mesh,
-                used: true,
-            }
-        })
+        .map(|b| background::Background::new(path, b.node, b.pos, named(b.primitives), b.expr))
         .collect();
+    warnings.extend(background.iter().map(|b| b.warning.clone()));
     Ok(Model {
         primitives,
         expr,
         warnings,
+        background,
     })
 }
 

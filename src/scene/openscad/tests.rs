@@ -373,6 +373,10 @@ fn modifiers() {
         .warnings
         .iter()
         .any(|w| w.contains("t.csg:1:2:") && w.contains("background")));
+    // The `%` part is a set of its own, in OpenSCAD's background grey.
+    assert_eq!(m.background.len(), 1);
+    assert_eq!(m.background[0].name, "background_sphere_L1");
+    assert_eq!(m.background[0].primitives[0].color, [180, 180, 180]);
     // `!`: only that subtree, without its ancestors' transforms.
     let m = model("cube(size = 9);\nmultmatrix([[1, 0, 0, 5], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) { !sphere(r = 1, $fn = 6); }");
     assert_eq!(m.primitives.len(), 1);
@@ -566,4 +570,78 @@ proptest! {
         let text = format!("{}{}{}", &VALID[..start], ins, &VALID[end..]);
         check_outcome(&text);
     }
+}
+
+/// `%` subtrees: out of the solid, each its own set (transforms and
+/// operators inside kept, nested `%` part of the outer one, unsupported nodes
+/// dropped with a warning); `show` adds them as see-through solids.
+#[test]
+fn background_parts_are_sets_of_their_own() {
+    let text = "difference() {\n cube(size = 4);\n %multmatrix([[1, 0, 0, 9], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) difference() { cube(size = 2); %sphere(r = 1, $fn = 8); square(1); }\n}\n%cube(size = 1);\n";
+    let m = model(text);
+    // The solid is the cube alone: the `%` subtrahend vanishes from it.
+    assert_eq!(m.primitives.len(), 1);
+    assert_eq!(m.expr.leaves().len(), 1);
+    assert_eq!(m.background.len(), 2);
+    let b = &m.background[0];
+    assert_eq!(b.name, "background_multmatrix_L3");
+    // cube − sphere, moved by the part's own multmatrix; the square dropped.
+    assert_eq!(b.primitives.len(), 2);
+    assert!(matches!(b.expr.nodes[b.expr.root as usize], Node::Diff(..)));
+    assert!(b.primitives[0]
+        .mesh
+        .positions
+        .iter()
+        .all(|p| p.x >= 9.0 - 1e-9));
+    assert!(m
+        .warnings
+        .iter()
+        .any(|w| w.contains("`square`") && w.contains("background part")));
+    assert_eq!(m.background[1].name, "background_cube_L5");
+    // Names are unique over the solid and the parts.
+    let mut names: Vec<&str> = m
+        .primitives
+        .iter()
+        .chain(m.background.iter().flat_map(|b| &b.primitives))
+        .map(|p| p.name.as_str())
+        .collect();
+    names.sort();
+    names.dedup();
+    assert_eq!(names.len(), 4);
+
+    let mut scene =
+        crate::scene::load_str(text, Path::new("/m/t.csg"), &Default::default()).unwrap();
+    assert_eq!(scene.solids.len(), 1);
+    assert_eq!(scene.appearance.background.len(), 2);
+    assert!(!scene.appearance.is_transparent());
+    assert_eq!(
+        scene
+            .warnings
+            .iter()
+            .filter(|w| w.contains("is left out"))
+            .count(),
+        2
+    );
+    let (near, far) = (scene.camera.near, scene.camera.far);
+    assert_eq!(super::background::show(&mut scene), 2);
+    assert_eq!(scene.solids.len(), 3);
+    assert_eq!(scene.primitives.len(), 4);
+    // The parts' leaves index their own primitives after the model's.
+    let leaves: Vec<u32> = scene.solids[1].expr.leaves();
+    assert_eq!(leaves, vec![1, 2]);
+    assert_eq!(scene.solids[2].expr.leaves(), vec![3]);
+    let a = super::background::alpha();
+    assert!((a - 128.0 / 255.0).abs() < 1e-6);
+    assert_eq!(scene.appearance.alpha_of(0, 0), 1.0);
+    assert_eq!(scene.appearance.alpha_of(1, 1), a);
+    assert!(scene.appearance.is_transparent());
+    assert!(scene.warnings.iter().all(|w| !w.contains("is left out")));
+    assert!(scene.camera.near <= near && scene.camera.far >= far);
+    // The far part (x = 9..11) is inside the depth range.
+    for p in &scene.primitives[1].mesh.positions {
+        let d = scene.camera.view_depth(*p);
+        assert!(d > scene.camera.near && d < scene.camera.far, "{d}");
+    }
+    assert!(scene.appearance.background.is_empty());
+    assert_eq!(super::background::show(&mut scene), 0);
 }

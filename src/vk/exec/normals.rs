@@ -25,6 +25,11 @@ impl Executor {
         }
     }
 
+    /// Whether frames write the normal buffer ([`Executor::set_normals`]).
+    pub fn normals(&self) -> bool {
+        self.normals
+    }
+
     /// The last frame's normal buffer, in view space (x right, y up, z towards
     /// the viewer), each the unit normal of the visible face turned towards the
     /// eye; zero where nothing was drawn. `None` unless [`Executor::set_normals`]
