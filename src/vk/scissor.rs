@@ -66,6 +66,21 @@ impl Rect {
         }
     }
 
+    /// The pixels in both rectangles (empty when they do not meet).
+    pub fn intersection(&self, o: &Rect) -> Rect {
+        let r = Rect {
+            x0: self.x0.max(o.x0),
+            y0: self.y0.max(o.y0),
+            x1: self.x1.min(o.x1),
+            y1: self.y1.min(o.y1),
+        };
+        if r.is_empty() {
+            Rect::EMPTY
+        } else {
+            r
+        }
+    }
+
     pub fn union(&self, o: &Rect) -> Rect {
         if self.is_empty() {
             return *o;
