@@ -90,6 +90,13 @@ pub enum Geometry {
 pub enum Scissor {
     Full,
     BoundsOf(Vec<MeshId>),
+    /// The rectangle of `meshes` cut to that of `within`: a draw whose effect is
+    /// read only where `within`'s faces can be (Goldfeather's parity draws of a
+    /// large primitive clipping a small literal's surface).
+    Within {
+        meshes: Vec<MeshId>,
+        within: Vec<MeshId>,
+    },
 }
 
 /// The fragment program of a draw and the colour targets it writes. Every variant

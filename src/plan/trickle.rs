@@ -111,7 +111,7 @@ pub fn plan(prep: &Prepared, opts: &TrickleOptions) -> Result<Plan, PlanError> {
 }
 
 fn full(
-    scissor: Vec<MeshId>,
+    scissor: Scissor,
     ds: Ds,
     depth: DepthState,
     stencil: Option<StencilState>,
@@ -119,7 +119,7 @@ fn full(
 ) -> Draw {
     Draw {
         geometry: Geometry::FullScreen { depth: 0.0 },
-        scissor: Scissor::BoundsOf(scissor),
+        scissor,
         cull: Cull::None,
         ds,
         depth,
@@ -191,9 +191,14 @@ fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
             pass: StencilOp::Invert,
             depth_fail: StencilOp::Invert,
         };
+        // Outside the product's region Z2 is far: no face is behind it, so the
+        // scan changes nothing there and is cut to the region.
         head.push(Step::Draw(Draw {
             geometry: Geometry::Mesh(q.prim),
-            scissor: Scissor::BoundsOf(vec![q.prim]),
+            scissor: Scissor::Within {
+                meshes: vec![q.prim],
+                within: region.clone(),
+            },
             cull: Cull::None,
             ds: SCAN,
             depth: DepthState {
@@ -217,9 +222,12 @@ fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
         // ff = 1 outside a positive Q's projection too, so its move covers the
         // product's region; a complemented Q only sets ff within its own bounds.
         let moved = if q.negated {
-            vec![q.prim]
+            Scissor::Within {
+                meshes: vec![q.prim],
+                within: region.clone(),
+            }
         } else {
-            region.clone()
+            Scissor::BoundsOf(region.clone())
         };
         head.push(Step::Draw(full(
             moved,
@@ -232,7 +240,7 @@ fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
     // Change detection: Z2 at the round's start as depth, then count where Z2 differs.
     head.push(Step::Pass("trickle-change".into()));
     head.push(Step::Draw(full(
-        region.clone(),
+        Scissor::BoundsOf(region.clone()),
         SCAN,
         DepthState {
             compare: CompareOp::Always,
@@ -242,7 +250,7 @@ fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
         Fragment::DepthFromTexture { src: Z2_START },
     )));
     let mut count = full(
-        region.clone(),
+        Scissor::BoundsOf(region.clone()),
         SCAN,
         DepthState {
             compare: CompareOp::NotEqual,
@@ -262,7 +270,7 @@ fn product_steps(prep: &Prepared, p: &[Lit], eps: f32) -> Vec<Step> {
     }));
     steps.push(Step::Pass("merge".into()));
     steps.push(Step::Draw(full(
-        region,
+        Scissor::BoundsOf(region),
         OUTPUT,
         DepthState {
             compare: CompareOp::Less,

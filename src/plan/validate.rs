@@ -68,8 +68,12 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
                     Geometry::Meshes(ms) => ms.iter().try_for_each(|m| mesh(*m))?,
                     Geometry::FullScreen { .. } => {}
                 }
-                if let Scissor::BoundsOf(ms) = &d.scissor {
-                    ms.iter().try_for_each(|m| mesh(*m))?;
+                match &d.scissor {
+                    Scissor::Full => {}
+                    Scissor::BoundsOf(ms) => ms.iter().try_for_each(|m| mesh(*m))?,
+                    Scissor::Within { meshes, within } => {
+                        meshes.iter().chain(within).try_for_each(|m| mesh(*m))?
+                    }
                 }
                 match d.fragment {
                     Fragment::Peel { prev, out, .. } | Fragment::PeelTolerant { prev, out, .. } => {

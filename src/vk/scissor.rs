@@ -66,6 +66,21 @@ impl Rect {
         }
     }
 
+    /// The pixels in both rectangles (empty when they do not meet).
+    pub fn intersection(&self, o: &Rect) -> Rect {
+        let r = Rect {
+            x0: self.x0.max(o.x0),
+            y0: self.y0.max(o.y0),
+            x1: self.x1.min(o.x1),
+            y1: self.y1.min(o.y1),
+        };
+        if r.is_empty() {
+            Rect::EMPTY
+        } else {
+            r
+        }
+    }
+
     pub fn union(&self, o: &Rect) -> Rect {
         if self.is_empty() {
             return *o;
@@ -155,6 +170,19 @@ mod tests {
         );
         assert!(g.contains(&r) && !r.contains(&g));
         assert!(Rect::EMPTY.grown(5, 5, 32, 64).is_empty());
+    }
+
+    #[test]
+    fn intersection_is_the_common_pixels_or_empty() {
+        let r = |x0, y0, x1, y1| Rect { x0, y0, x1, y1 };
+        let a = r(2, 10, 30, 40);
+        assert_eq!(a.intersection(&r(20, 0, 50, 12)), r(20, 10, 30, 12));
+        assert_eq!(a.intersection(&a), a);
+        assert!(a.contains(&a.intersection(&r(0, 0, 64, 64))));
+        // Disjoint, touching and empty operands give the empty rectangle.
+        assert_eq!(a.intersection(&r(30, 10, 40, 40)), Rect::EMPTY);
+        assert_eq!(a.intersection(&r(40, 50, 60, 70)), Rect::EMPTY);
+        assert_eq!(a.intersection(&Rect::EMPTY), Rect::EMPTY);
     }
     use super::*;
     use crate::scene::camera::DepthConvention;

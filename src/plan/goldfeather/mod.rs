@@ -335,6 +335,11 @@ pub(crate) fn surface_draw_culled(
 ///
 /// `eye_inside` (per mesh) marks primitives containing the eye: their parity
 /// counted from the near plane is inverted, so the expected bit flips.
+///
+/// Only pixels of the surface matter: elsewhere its depth is far before and
+/// after the sweep. So a parity draw is cut to the surface's rectangle (a large
+/// primitive clipping a small literal rasterizes only where the literal is), no
+/// bit is set outside it, and the sweep covers it alone.
 pub(crate) fn clip_steps(
     against: &[Lit],
     surface: &[MeshId],
@@ -344,19 +349,18 @@ pub(crate) fn clip_steps(
     let mut steps = vec![Step::Pass("clip".into())];
     for chunk in against.chunks(CLIP_BITS as usize) {
         let (mut mask, mut inside) = (0u8, 0u8);
-        // A positive literal is violated everywhere its faces are not (the whole
-        // surface); all bits can only be set within their primitives' bounds.
-        let mut scissor = surface.to_vec();
         for (k, &b) in chunk.iter().enumerate() {
             let bit = 1u8 << k;
             mask |= bit;
             if !b.negated != eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
                 inside |= bit;
             }
-            scissor.push(b.prim);
             steps.push(Step::Draw(Draw {
                 geometry: Geometry::Mesh(b.prim),
-                scissor: Scissor::BoundsOf(vec![b.prim]),
+                scissor: Scissor::Within {
+                    meshes: vec![b.prim],
+                    within: surface.to_vec(),
+                },
                 cull: Cull::None,
                 ds: SURFACE,
                 depth: DepthState {
@@ -374,9 +378,11 @@ pub(crate) fn clip_steps(
                 count_samples: false,
             }));
         }
-        scissor.sort_unstable();
-        scissor.dedup();
-        steps.push(reject_sweep(mask, inside, Scissor::BoundsOf(scissor)));
+        steps.push(reject_sweep(
+            mask,
+            inside,
+            Scissor::BoundsOf(surface.to_vec()),
+        ));
     }
     steps
 }
@@ -534,6 +540,39 @@ pub(crate) mod tests {
         assert!(!steps
             .iter()
             .any(|s| matches!(s, Step::Pass(p) if p == "direct")));
+    }
+
+    #[test]
+    fn parity_draws_and_sweeps_are_cut_to_the_surface() {
+        // block - s0 - s1: each literal's surface is clipped by the other two.
+        let prep = Prepared::new(&block_minus_spheres(2)).unwrap();
+        let steps = plan(&prep, &ProductOptions::default()).unwrap().steps;
+        let mut surface = None;
+        let (mut parity, mut sweeps) = (0, 0);
+        for s in &steps {
+            let Step::Draw(d) = s else { continue };
+            match (&d.fragment, &d.geometry) {
+                (Fragment::WriteDepth { .. }, Geometry::Mesh(m)) => surface = Some(*m),
+                (Fragment::NearerThan { .. }, Geometry::Mesh(b)) => {
+                    let a = surface.expect("a surface before its clip");
+                    assert_ne!(*b, a);
+                    assert_eq!(
+                        d.scissor,
+                        Scissor::Within {
+                            meshes: vec![*b],
+                            within: vec![a],
+                        }
+                    );
+                    parity += 1;
+                }
+                (Fragment::WriteDepth { .. }, Geometry::FullScreen { .. }) => {
+                    assert_eq!(d.scissor, Scissor::BoundsOf(vec![surface.unwrap()]));
+                    sweeps += 1;
+                }
+                _ => {}
+            }
+        }
+        assert_eq!((parity, sweeps), (6, 3));
     }
 
     #[test]

@@ -23,7 +23,7 @@ use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
 use crate::plan::usage::{self, Resource, Usage};
-use crate::plan::{Clear, Draw, Fragment, Geometry, Scissor, Step};
+use crate::plan::{Clear, Draw, Fragment, Geometry, MeshId, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::image::range;
@@ -835,10 +835,17 @@ impl<'a> Recorder<'a> {
         let (w, h) = (self.b.desc.width, self.b.desc.height);
         match s {
             Scissor::Full => Rect::full(w, h),
-            Scissor::BoundsOf(ms) => ms
-                .iter()
-                .fold(Rect::EMPTY, |r, m| r.union(&self.b.mesh_rects[*m as usize])),
+            Scissor::BoundsOf(ms) => self.bounds_of(ms),
+            Scissor::Within { meshes, within } => {
+                self.bounds_of(meshes).intersection(&self.bounds_of(within))
+            }
         }
+    }
+
+    /// The union of the meshes' screen rectangles.
+    fn bounds_of(&self, ms: &[MeshId]) -> Rect {
+        ms.iter()
+            .fold(Rect::EMPTY, |r, m| r.union(&self.b.mesh_rects[*m as usize]))
     }
 
     fn draw(&mut self, draw: &Draw, step: &Step) -> Result<(), VkError> {
@@ -921,6 +928,7 @@ impl<'a> Recorder<'a> {
                     Geometry::FullScreen { .. } => &[],
                 };
                 self.stats.counts.mesh_draws += 1;
+                self.stats.counts.mesh_pixels += scissor.area();
                 let per_mesh = per_mesh_constants(&draw.fragment);
                 let mut i = 0;
                 while i < ids.len() {

@@ -32,6 +32,9 @@ pub struct Counts {
     pub triangles: u64,
     /// Sum of the scissor areas of full-screen draws.
     pub fullscreen_pixels: u64,
+    /// Sum of the scissor areas of mesh draws: a bound on the pixels their
+    /// fragments can cover (the per-fragment work of a software rasterizer).
+    pub mesh_pixels: u64,
     /// Plan steps not recorded because their scissor is empty on screen.
     pub skipped_steps: u64,
     /// Pipeline barriers recorded (each may carry several image barriers). A
