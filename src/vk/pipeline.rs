@@ -176,7 +176,7 @@ pub struct Pipelines {
     cache: HashMap<PipelineDesc, vk::Pipeline>,
 }
 
-fn shader_module(shared: &Shared, bytes: &[u8]) -> Result<vk::ShaderModule, VkError> {
+pub(crate) fn shader_module(shared: &Shared, bytes: &[u8]) -> Result<vk::ShaderModule, VkError> {
     let words = ash::util::read_spv(&mut Cursor::new(bytes))
         .map_err(|e| VkError::Plan(format!("embedded SPIR-V unreadable: {e}")))?;
     let ci = vk::ShaderModuleCreateInfo::default().code(&words);

@@ -26,6 +26,7 @@ mod embed;
 mod gpu_scene;
 mod normals;
 mod record;
+mod shadow;
 mod state;
 mod stats;
 mod targets;
@@ -38,6 +39,7 @@ use gpu_allocator::MemoryLocation;
 
 pub use super::conv::DepthFormat;
 pub(crate) use embed::{Output, Unrolled};
+pub(crate) use shadow::color_format;
 pub use stats::{Counts, ExecStats, PassStats, Recorded};
 
 use super::error::VkError;
