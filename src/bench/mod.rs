@@ -248,7 +248,8 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 )
                 .unwrap_or(Value::Null);
                 if cfg.save_images {
-                    save(cfg, &label, w, h, "reference", "f64", &reference)?;
+                    let shown = modes::shadowed_reference(&scene, &reference);
+                    save(cfg, &label, w, h, "reference", "f64", &shown)?;
                 }
                 records.push(r);
             }

@@ -107,7 +107,8 @@ fn shadow_frames(
     opaque_gpu_ms: f64,
 ) -> Result<(ShadowBench, Images), String> {
     let err = |e: crate::render::RenderError| e.to_string();
-    let mut sh = shadow::GpuShadows::new(gpu, scene, light, algo, &cfg.build).map_err(err)?;
+    let mut sh =
+        shadow::GpuShadows::for_renderer(gpu, scene, light, algo, &cfg.build).map_err(err)?;
     // (map, eye, pass, wall) per frame; warm-up frames learn both plans' loops.
     let mut frame = |gpu: &mut GpuRenderer| -> Result<[f64; 4], String> {
         let t = Instant::now();
@@ -128,7 +129,8 @@ fn shadow_frames(
     if let Some(m) = gpu.validation_messages().first() {
         return Err(format!("validation: {m}"));
     }
-    let med = |f: &dyn Fn(&[f64; 4]) -> f64| median_iqr(&mut runs.iter().map(f).collect::<Vec<_>>()).0;
+    let med =
+        |f: &dyn Fn(&[f64; 4]) -> f64| median_iqr(&mut runs.iter().map(f).collect::<Vec<_>>()).0;
     Ok((
         ShadowBench {
             map_size: sh.map_size(),
@@ -143,6 +145,18 @@ fn shadow_frames(
         },
         images,
     ))
+}
+
+/// The reference's image as the bench saves it: with the shadow rays' shadows
+/// when the scene has a `[light]` (the GPU runs' saved images have theirs).
+pub fn shadowed_reference(scene: &Scene, reference: &Images) -> Images {
+    let mut shown = reference.clone();
+    if let Some(light) = &scene.appearance.light {
+        let rays =
+            crate::reference::shadow::shadow_rays(scene, light, reference.width, reference.height);
+        shadow::apply(&mut shown.color, &rays, light);
+    }
+    shown
 }
 
 /// With `interference = true` and a CST variant: every pair's `A·B` frames.

@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::{Frame, GpuRenderer, RenderError, RenderOptions};
+use super::{DepthSetup, Frame, GpuRenderer, RenderError, RenderOptions};
 use crate::plan::{Algo, Plan, Prepared};
 use crate::reference::precision::DepthPrecision;
 use crate::scene::camera::DepthConvention;
@@ -166,21 +166,42 @@ pub fn apply(color: &mut [[u8; 4]], mask: &[Option<bool>], light: &Light) -> Sha
     st
 }
 
+/// What the shadow pass's parameters need of the light's side: the map's
+/// camera and side, the closed primitives' count and the depth bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightView {
+    pub map_camera: Camera,
+    pub size: u32,
+    pub closed: usize,
+    pub precision: DepthPrecision,
+}
+
+impl LightView {
+    /// The pass's uniform block for an eye camera on a `width × height` image.
+    pub fn params(&self, eye: &Camera, extent: (u32, u32)) -> ShadowParams {
+        pass_params(
+            eye,
+            extent,
+            &self.map_camera,
+            self.size,
+            &self.precision,
+            self.closed,
+        )
+    }
+}
+
 /// The light's side of a GPU renderer: the light's depth map on an executor of
 /// its own (same device, map size) and the shadow pass. The map of a
 /// world-fixed light depends only on the plan, so it is rendered once per plan
 /// ([`GpuShadows::ensure_map`]); each eye frame then costs one shadow pass.
 pub struct GpuShadows {
-    // Field order is drop order: both go before the renderer's context.
     pass: vk::shadow::ShadowPass,
     map: vk::Executor,
     map_plan: Plan,
-    map_camera: Camera,
-    /// The plan the map holds a frame of.
-    map_done: Option<Plan>,
+    /// Whether the map holds a frame of `map_plan`.
+    map_done: bool,
     light: Light,
-    closed: usize,
-    size: u32,
+    view: LightView,
 }
 
 /// One shadowed eye frame's extra costs.
@@ -193,17 +214,19 @@ pub struct ShadowCost {
 }
 
 impl GpuShadows {
-    /// Shadows of `light` for `gpu` (which from now on writes normals), the map
-    /// rendered by `algo` with `build`'s options.
+    /// Shadows of `light` over `width × height` eye frames on `ctx`'s device
+    /// with depth set-up `depth` (bounds `precision`), the map rendered by
+    /// `algo` with `build`'s options. The eye's executor must write normals.
     pub fn new(
-        gpu: &mut GpuRenderer,
+        ctx: &vk::Context,
+        (depth, precision): (DepthSetup, DepthPrecision),
         scene: &Scene,
         light: &Light,
         algo: Algo,
         build: &crate::plan::BuildOptions,
     ) -> Result<GpuShadows, RenderError> {
-        gpu.set_normals(true);
-        let size = shadow_map_size(scene.render.width, scene.render.height);
+        let (width, height) = (scene.render.width, scene.render.height);
+        let size = shadow_map_size(width, height);
         let ls = light_scene(scene, light, size);
         let prep = Prepared::new(&ls)?;
         let map_plan = crate::plan::build_with(algo, &prep, build)?;
@@ -212,9 +235,8 @@ impl GpuShadows {
             size as u64 * size as u64 * super::GPU_HOST_BYTES_PER_PIXEL,
             "use a smaller --size (the map is 2x the image's larger side)",
         )?;
-        let ctx = gpu.context();
         ctx.check_frame_size(size, size, super::DEVICE_BYTES_PER_PIXEL)?;
-        let (depth_format, reversed_z) = gpu.depth_setup().exec_format();
+        let (depth_format, reversed_z) = depth.exec_format();
         let mut map = vk::Executor::new(
             ctx,
             &vk::ExecDesc {
@@ -225,39 +247,54 @@ impl GpuShadows {
             },
         )?;
         map.upload(&ls)?;
-        let pass = vk::shadow::ShadowPass::new(ctx, scene.render.width, scene.render.height)?;
+        let pass = vk::shadow::ShadowPass::new(ctx, width, height)?;
         Ok(GpuShadows {
             pass,
             map,
             map_plan,
-            map_camera: ls.camera,
-            map_done: None,
+            map_done: false,
             light: *light,
-            closed: scene.primitives.len(),
-            size,
+            view: LightView {
+                map_camera: ls.camera,
+                size,
+                closed: scene.primitives.len(),
+                precision,
+            },
         })
+    }
+
+    /// Shadows for `gpu`'s frames (which from now on write normals).
+    pub fn for_renderer(
+        gpu: &mut GpuRenderer,
+        scene: &Scene,
+        light: &Light,
+        algo: Algo,
+        build: &crate::plan::BuildOptions,
+    ) -> Result<GpuShadows, RenderError> {
+        gpu.set_normals(true);
+        let setup = (gpu.depth_setup(), gpu.precision());
+        Self::new(gpu.context(), setup, scene, light, algo, build)
     }
 
     /// The shadow map's side.
     pub fn map_size(&self) -> u32 {
-        self.size
+        self.view.size
     }
 
     /// Renders the light's map unless it holds this plan's already (a
     /// world-fixed light's map does not change with the eye's camera).
     pub fn ensure_map(&mut self) -> Result<Option<vk::ExecStats>, RenderError> {
-        if self.map_done.as_ref() == Some(&self.map_plan) {
+        if self.map_done {
             return Ok(None);
         }
-        self.map_done = None;
         let st = self.map.execute(&self.map_plan)?;
-        self.map_done = Some(self.map_plan.clone());
+        self.map_done = true;
         Ok(Some(st))
     }
 
     /// Renders the light's map again (the bench times it).
     pub fn render_map(&mut self) -> Result<vk::ExecStats, RenderError> {
-        self.map_done = None;
+        self.map_done = false;
         Ok(self.ensure_map()?.expect("just forgotten"))
     }
 
@@ -267,18 +304,31 @@ impl GpuShadows {
         let map = self.ensure_map()?;
         let exec = gpu.executor();
         let d = exec.desc();
-        let params = pass_params(
-            eye,
-            (d.width, d.height),
-            &self.map_camera,
-            self.size,
-            &gpu.precision(),
-            self.closed,
-        );
+        let params = self.view.params(eye, (d.width, d.height));
         let pass = self
             .pass
             .run(exec, &self.map, &params, exec.output_rect())?;
         Ok(ShadowCost { map, pass })
+    }
+
+    /// The map rendered, and the pass, handed to an embedder
+    /// (`vk::Embedder::set_shadow`) for frames seen by `eye`; the light's view
+    /// gives the parameters of later cameras.
+    pub fn into_embedded(
+        mut self,
+        eye: &Camera,
+    ) -> Result<(vk::shadow::EmbeddedShadow, LightView), RenderError> {
+        self.ensure_map()?;
+        let extent = self.pass.extent();
+        let params = self.view.params(eye, (extent[0], extent[1]));
+        Ok((
+            vk::shadow::EmbeddedShadow {
+                pass: self.pass,
+                map: self.map,
+                params,
+            },
+            self.view,
+        ))
     }
 
     /// The last pass's shadowed pixels.
@@ -291,7 +341,7 @@ impl GpuShadows {
         let mask = self.mask()?;
         let mut st = ShadowStats {
             light: self.light.describe(),
-            shadow_map_size: Some(self.size),
+            shadow_map_size: Some(self.view.size),
             ..Default::default()
         };
         for (&p, &m) in prim.iter().zip(&mask) {
@@ -325,7 +375,7 @@ pub fn gpu_shadowed(
     let prep = Prepared::new(scene)?;
     let plan = crate::plan::build_with(opts.algo, &prep, &opts.build)?;
     let mut gpu = GpuRenderer::for_options(scene, opts)?;
-    let mut shadows = GpuShadows::new(&mut gpu, scene, light, opts.algo, &opts.build)?;
+    let mut shadows = GpuShadows::for_renderer(&mut gpu, scene, light, opts.algo, &opts.build)?;
     let mut stats = gpu.execute(&plan)?;
     let cost = shadows.shade(&gpu, &scene.camera)?;
     let images = gpu.read_back()?;

@@ -109,15 +109,14 @@ impl ShadowPass {
             &shared,
             "shadow uniform",
             ShadowParams::default().bytes().len() as u64,
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
-            MemoryLocation::CpuToGpu,
+            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
         )?;
         let mask = Image::new(
             &shared,
             "shadow mask",
-            ImageDesc::new_2d(MASK_FORMAT, [width, height]).usage(
-                vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
-            ),
+            ImageDesc::new_2d(MASK_FORMAT, [width, height])
+                .usage(vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC),
         )?;
         let mut timestamps = Queries::new(&shared, vk::QueryType::TIMESTAMP);
         timestamps.ensure(2)?;
@@ -178,8 +177,8 @@ impl ShadowPass {
             .descriptor_pool(p.pool)
             .set_layouts(&set_layouts);
         // SAFETY: the pool has room for this one set.
-        p.set = unsafe { device.allocate_descriptor_sets(&ai) }
-            .check("vkAllocateDescriptorSets")?[0];
+        p.set =
+            unsafe { device.allocate_descriptor_sets(&ai) }.check("vkAllocateDescriptorSets")?[0];
         let sci = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::NEAREST)
             .min_filter(vk::Filter::NEAREST);
@@ -231,7 +230,9 @@ impl ShadowPass {
             .dst_alpha_blend_factor(vk::BlendFactor::ONE)
             .alpha_blend_op(vk::BlendOp::ADD)
             .color_write_mask(
-                vk::ColorComponentFlags::R | vk::ColorComponentFlags::G | vk::ColorComponentFlags::B,
+                vk::ColorComponentFlags::R
+                    | vk::ColorComponentFlags::G
+                    | vk::ColorComponentFlags::B,
             );
         let attachments = [one, one];
         // `keep` a little over SHADOW_KEEP: an odd channel value's half is a
@@ -269,6 +270,11 @@ impl ShadowPass {
             call: "vkCreateGraphicsPipelines",
             result: e,
         })
+    }
+
+    /// The eye image size the pass was made for.
+    pub fn extent(&self) -> [u32; 2] {
+        self.extent
     }
 
     /// Points the set at the sampler and the uniform buffer (once).
@@ -330,8 +336,9 @@ impl ShadowPass {
     }
 
     /// Darkens the shadowed pixels of `eye`'s last frame by `map`'s last frame
-    /// (both executors of this pass's device, idle), within `scissor`. `eye`
-    /// must have written its normal buffer ([`Executor::set_normals`]).
+    /// (both executors of this pass's device, idle), within `scissor`, in one
+    /// submission waited for. `eye` must have written its normal buffer
+    /// ([`Executor::set_normals`]).
     pub fn run(
         &mut self,
         eye: &Executor,
@@ -340,6 +347,39 @@ impl ShadowPass {
         scissor: Rect,
     ) -> Result<ShadowRun, VkError> {
         let _layer = self.shared.layer_use();
+        let cmd = self.submit.cmd;
+        self.submit.begin(cmd, true)?;
+        let ts = (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool);
+        self.record(cmd, eye, map, params, scissor, ts)?;
+        self.submit.finish(cmd)?;
+        let device = &self.shared.device;
+        let gpu_ms = match ts {
+            Some(pool) => {
+                let t = submit::query_results(device, pool, 2)?;
+                t[1].saturating_sub(t[0]) as f64 * self.shared.limits.timestamp_period as f64 * 1e-6
+            }
+            None => 0.0,
+        };
+        Ok(ShadowRun {
+            gpu_ms,
+            pixels: scissor.area(),
+        })
+    }
+
+    /// Records the pass into `cmd` (recording, outside rendering), with
+    /// timestamps 0 and 1 of `ts` around the draw. Every image starts and ends
+    /// in `sync::REST`; the uniform block is written in the command stream, so
+    /// earlier recordings may still be pending. The views of `eye`'s and `map`'s
+    /// images may change only when none is (they change with a new plan).
+    pub fn record(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        eye: &Executor,
+        map: &Executor,
+        params: &ShadowParams,
+        scissor: Rect,
+        ts: Option<vk::QueryPool>,
+    ) -> Result<(), VkError> {
         let d = eye.desc();
         if [d.width, d.height] != self.extent {
             return Err(VkError::Plan(format!(
@@ -348,20 +388,38 @@ impl ShadowPass {
             )));
         }
         let no_frame = || VkError::Plan("shadow pass before both frames ran".into());
-        let (e, m) = (eye.output().ok_or_else(no_frame)?, map.output().ok_or_else(no_frame)?);
+        let (e, m) = (
+            eye.output().ok_or_else(no_frame)?,
+            map.output().ok_or_else(no_frame)?,
+        );
         let normal = eye.normal_output().ok_or_else(|| {
             VkError::Plan("shadow pass needs the eye frame's normal buffer".into())
         })?;
-        self.uniform.mapped_mut()?.copy_from_slice(&params.bytes());
         self.write_views([e.depth.1, e.prim.1, normal.1, m.depth.1, m.prim.1]);
         let device = &self.shared.device;
-        let cmd = self.submit.cmd;
-        self.submit.begin(cmd, true)?;
-        let ts = (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool);
         if let Some(pool) = ts {
             // SAFETY: recording, outside rendering; the pool holds 2 queries.
             unsafe { device.cmd_reset_query_pool(cmd, pool, 0, 2) };
         }
+        // The uniform block in the stream: after earlier passes' reads of it,
+        // before this pass's.
+        let frag = vk::PipelineStageFlags::FRAGMENT_SHADER;
+        let transfer = vk::PipelineStageFlags::TRANSFER;
+        submit::memory_barrier(
+            device,
+            cmd,
+            (frag, vk::AccessFlags::empty()),
+            (transfer, vk::AccessFlags::TRANSFER_WRITE),
+        );
+        // SAFETY: outside rendering; the buffer allows transfer dst and holds
+        // the block (a multiple of 4 bytes, under 64 KiB).
+        unsafe { device.cmd_update_buffer(cmd, self.uniform.raw, 0, &params.bytes()) };
+        submit::memory_barrier(
+            device,
+            cmd,
+            (transfer, vk::AccessFlags::TRANSFER_WRITE),
+            (frag, vk::AccessFlags::UNIFORM_READ),
+        );
         let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
         let col = vk::ImageAspectFlags::COLOR;
         let sampled = [
@@ -396,7 +454,9 @@ impl ShadowPass {
         );
         if let Some(pool) = ts {
             // SAFETY: recording, outside rendering; query 0 was reset above.
-            unsafe { device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0) };
+            unsafe {
+                device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0)
+            };
         }
         self.draw(cmd, e.color.1, scissor);
         if let Some(pool) = ts {
@@ -418,19 +478,8 @@ impl ShadowPass {
                 sync::image_barrier(src, to, self.mask.raw, col),
             ],
         );
-        self.submit.finish(cmd)?;
         self.ran = true;
-        let gpu_ms = match ts {
-            Some(pool) => {
-                let t = submit::query_results(device, pool, 2)?;
-                t[1].saturating_sub(t[0]) as f64 * self.shared.limits.timestamp_period as f64 * 1e-6
-            }
-            None => 0.0,
-        };
-        Ok(ShadowRun {
-            gpu_ms,
-            pixels: scissor.area(),
-        })
+        Ok(())
     }
 
     /// The draw: the mask cleared over the whole image, the full-screen
@@ -527,6 +576,15 @@ impl ShadowPass {
         self.submit.finish(cmd)?;
         Ok(buf.mapped()?.iter().map(|&v| v >= 128).collect())
     }
+}
+
+/// Shadows in an embedded frame (`vk::Embedder::set_shadow`): the light's map,
+/// rendered standalone on its own executor beforehand, and the pass recorded
+/// after each frame, before the composite, with `params` of the current camera.
+pub struct EmbeddedShadow {
+    pub pass: ShadowPass,
+    pub map: Executor,
+    pub params: ShadowParams,
 }
 
 impl Drop for ShadowPass {
