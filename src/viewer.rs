@@ -399,16 +399,14 @@ impl App {
         };
         let mut sized = self.scene.clone();
         (sized.render.width, sized.render.height) = (extent[0], extent[1]);
-        let depth = self.opts.depth;
-        let setup = (depth, depth.precision(gpu.ctx.subpixel_bits()));
-        let build = crate::plan::BuildOptions::default();
-        let recorder = csg.recorder();
-        recorder.set_shadow(None);
-        recorder.executor().set_normals(true);
-        let shadows =
-            render::shadow::GpuShadows::new(&gpu.ctx, setup, &sized, light, self.algo, &build)?;
-        let (embedded, view) = shadows.into_embedded(&self.scene.camera)?;
-        recorder.set_shadow(Some(embedded));
+        let view = render::shadow::embed_shadows(
+            csg.recorder(),
+            &gpu.ctx,
+            self.opts.depth,
+            &sized,
+            light,
+            self.algo,
+        )?;
         gpu.light = Some(view);
         Ok(())
     }

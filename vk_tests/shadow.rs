@@ -151,6 +151,63 @@ fn shadows_change_only_shadowed_pixels() {
     }
 }
 
+/// Shadows in an embedded frame (`view`'s path: the map rendered once, the
+/// pass recorded into the host's command buffer after the frame) give the same
+/// image as `render`'s standalone frames, with validation on.
+#[test]
+fn embedded_frames_have_the_same_shadows() {
+    use peeltrim::vk::{self, OffscreenHost};
+    use peeltrim::{CsgScene, EmbedDesc, LoopCounts};
+    let s = load("shadow_block.toml");
+    let light = s.appearance.light.expect("a light");
+    let o = opts(Algo::CstI);
+    let (want, _) = shadow::gpu_shadowed(&s, &o, &light).unwrap_or_else(|e| panic!("{e}"));
+    let ctx = vk::Context::new(&vk::ContextDesc {
+        device: o.device,
+        validation: true,
+    })
+    .unwrap();
+    let (format, reversed_z) = o.depth.exec_format();
+    let extent = [s.render.width, s.render.height];
+    let mut csg = CsgScene::from_scene(
+        &ctx,
+        &s,
+        &EmbedDesc {
+            extent,
+            reversed_z,
+            frames_in_flight: 1,
+            algo: Algo::CstI,
+            loop_counts: LoopCounts::Learn,
+            internal_depth: format,
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    shadow::embed_shadows(csg.recorder(), &ctx, o.depth, &s, &light, Algo::CstI)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut host = OffscreenHost::new(&ctx, extent).unwrap();
+    let far = if reversed_z { 0.0 } else { 1.0 };
+    for _ in 0..2 {
+        host.frame(csg.recorder(), s.render.background, far)
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    let got = csg.recorder().executor().read_back().unwrap();
+    assert!(
+        ctx.validation_messages().is_empty(),
+        "{:?}",
+        ctx.validation_messages()
+    );
+    let same = (0..got.color.len())
+        .filter(|&i| got.color[i] == want.images.color[i])
+        .count();
+    let dark = want.stats.shadow.as_ref().unwrap().shadowed_pixels;
+    eprintln!(
+        "embedded shadows: {same} of {} pixels equal ({dark} shadowed)",
+        got.color.len()
+    );
+    assert!(dark > 500, "{dark}");
+    assert_eq!(same, got.color.len());
+}
+
 /// `--interference` on the GPU (each pair's `A·B` by a CST variant) against the
 /// reference's exact interference: pixel sets within 0.1% of the interior pixels
 /// (not within a pixel of an edge of the reference's coverage, ids or

@@ -355,6 +355,30 @@ impl GpuShadows {
     }
 }
 
+/// Shadows of `light` in every later frame `embedder` records (its images of
+/// `scene`'s render size, depth set-up `depth`, on `ctx`'s device): the eye
+/// writes normals, the light's map is rendered now by `algo` (a world-fixed
+/// light's map does not follow the camera), and the shadow pass is recorded
+/// after each frame. Returns what later cameras' parameters need (set them in
+/// `embedder.shadow_mut()`). Only while no frame of `embedder` is pending.
+pub fn embed_shadows(
+    embedder: &mut vk::Embedder,
+    ctx: &vk::Context,
+    depth: DepthSetup,
+    scene: &Scene,
+    light: &Light,
+    algo: Algo,
+) -> Result<LightView, RenderError> {
+    embedder.set_shadow(None);
+    embedder.executor().set_normals(true);
+    let setup = (depth, depth.precision(ctx.subpixel_bits()));
+    let build = crate::plan::BuildOptions::default();
+    let shadows = GpuShadows::new(ctx, setup, scene, light, algo, &build)?;
+    let (embedded, view) = shadows.into_embedded(&scene.camera)?;
+    embedder.set_shadow(Some(embedded));
+    Ok(view)
+}
+
 /// Per eye pixel: `None` on background, `Some(true)` in shadow, from a shadow
 /// pass's `mask` and the frame's ids `prim`.
 pub fn classify(prim: &[u16], mask: &[bool]) -> Vec<Option<bool>> {
