@@ -19,7 +19,8 @@
 //! buffer), `targets` (images and descriptor sets), `record` (steps to commands,
 //! barriers from `plan::usage` through `vk::sync`), `state` (dynamic state
 //! recorded only where it changes), `stats` (typed statistics), `normals` (the
-//! optional normal buffer and the edge pass on it, seed 001 §5).
+//! optional normal buffer and the edge pass on it, seed 001 §5), `shadow` (what
+//! the shadow pass, `vk::shadow`, reads of an executor).
 
 mod camera;
 mod embed;
