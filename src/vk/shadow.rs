@@ -13,7 +13,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use super::error::{Check, VkError};
-use super::exec::{whole_image_region, Executor};
+use super::exec::{copy_to_host, Executor};
 use super::image::{Image, ImageDesc};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
@@ -439,19 +439,23 @@ impl ShadowPass {
         };
         let (s, dst, b) = barriers(REST, Usage::Sampled);
         submit::image_barriers(device, cmd, s, dst, &b);
-        let (src, to) = sync::transition(REST, Usage::ColorTarget, false);
-        // The mask is cleared: its old contents need not be kept.
-        let (mask_src, mask_to) = sync::transition(REST, Usage::ColorTarget, true);
-        submit::image_barriers(
-            device,
-            cmd,
-            src.stage,
-            to.stage,
-            &[
-                sync::image_barrier(src, to, e.color.0, col),
-                sync::image_barrier(mask_src, mask_to, self.mask.raw, col),
-            ],
-        );
+        // The colour and the mask as targets and back; the mask is cleared,
+        // its old contents need not be kept.
+        let targets = |from: Usage, to: Usage| {
+            let (src, dst) = sync::transition(from, to, false);
+            let (mask_src, mask_dst) = sync::transition(from, to, to == Usage::ColorTarget);
+            submit::image_barriers(
+                device,
+                cmd,
+                src.stage,
+                dst.stage,
+                &[
+                    sync::image_barrier(src, dst, e.color.0, col),
+                    sync::image_barrier(mask_src, mask_dst, self.mask.raw, col),
+                ],
+            );
+        };
+        targets(REST, Usage::ColorTarget);
         if let Some(pool) = ts {
             // SAFETY: recording, outside rendering; query 0 was reset above.
             unsafe {
@@ -467,17 +471,7 @@ impl ShadowPass {
         }
         let (s, dst, b) = barriers(Usage::Sampled, REST);
         submit::image_barriers(device, cmd, s, dst, &b);
-        let (src, to) = sync::transition(Usage::ColorTarget, REST, false);
-        submit::image_barriers(
-            device,
-            cmd,
-            src.stage,
-            to.stage,
-            &[
-                sync::image_barrier(src, to, e.color.0, col),
-                sync::image_barrier(src, to, self.mask.raw, col),
-            ],
-        );
+        targets(Usage::ColorTarget, REST);
         self.ran = true;
         Ok(())
     }
@@ -507,34 +501,17 @@ impl ShadowPass {
             .render_area(extent.into())
             .layer_count(1)
             .color_attachments(&attachments);
-        let viewport = vk::Viewport {
-            x: 0.0,
-            y: 0.0,
-            width: extent.width as f32,
-            height: extent.height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
-        };
         // SAFETY: outside rendering; both views are colour attachments in
-        // `COLOR_ATTACHMENT_OPTIMAL` (barrier in `run`).
+        // `COLOR_ATTACHMENT_OPTIMAL` (barrier in `record`).
         unsafe { device.cmd_begin_rendering(cmd, &ri) };
-        // SAFETY: inside the block; the pipeline was made for these formats.
-        unsafe { device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline) };
-        // SAFETY: the set's images are in `SHADER_READ_ONLY_OPTIMAL` (barrier in `run`).
-        unsafe {
-            device.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                self.layout,
-                0,
-                &[self.set],
-                &[],
-            )
-        };
-        // SAFETY: dynamic state of the bound pipeline.
-        unsafe { device.cmd_set_viewport(cmd, 0, &[viewport]) };
-        // SAFETY: as above; the rectangle lies within the image.
-        unsafe { device.cmd_set_scissor(cmd, 0, &[super::conv::rect2d(scissor)]) };
+        // The set's images are in `SHADER_READ_ONLY_OPTIMAL` (barrier in `record`).
+        super::composite::bind_fullscreen(
+            device,
+            cmd,
+            (self.pipeline, self.layout, self.set),
+            extent,
+            super::conv::rect2d(scissor),
+        );
         if !scissor.is_empty() {
             // SAFETY: pipeline, set and state bound; the vertex shader needs no buffer.
             unsafe { device.cmd_draw(cmd, 3, 1, 0, 0) };
@@ -550,31 +527,8 @@ impl ShadowPass {
             return Err(VkError::Plan("read_mask before a shadow pass".into()));
         }
         let [w, h] = self.extent;
-        let buf = Buffer::new(
-            &self.shared,
-            "shadow mask readback",
-            w as u64 * h as u64,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )?;
-        let cmd = self.submit.cmd;
-        self.submit.begin(cmd, true)?;
-        let region = whole_image_region(vk::ImageAspectFlags::COLOR, 0, w, h);
-        let device = &self.shared.device;
-        // SAFETY: outside rendering; the mask rests in `REST` (a copy source)
-        // after a pass; the region fits the buffer.
-        unsafe {
-            device.cmd_copy_image_to_buffer(
-                cmd,
-                self.mask.raw,
-                sync::access(REST).layout,
-                buf.raw,
-                &[region],
-            )
-        };
-        submit::transfer_to_host_barrier(device, cmd);
-        self.submit.finish(cmd)?;
-        Ok(buf.mapped()?.iter().map(|&v| v >= 128).collect())
+        let bytes = copy_to_host(&self.shared, &self.submit, self.mask.raw, [w, h], 1)?;
+        Ok(bytes.iter().map(|&v| v >= 128).collect())
     }
 }
 

@@ -40,6 +40,7 @@ use gpu_allocator::MemoryLocation;
 
 pub use super::conv::DepthFormat;
 pub(crate) use embed::{Output, Unrolled};
+pub(crate) use normals::copy_to_host;
 pub(crate) use shadow::color_format;
 pub use stats::{Counts, ExecStats, PassStats, Recorded};
 
