@@ -8,6 +8,7 @@ use ash::vk;
 
 use super::error::{Check, VkError};
 use super::instance::Shared;
+use super::pipeline::shader_module;
 use super::sync;
 use super::HostTargets;
 use crate::plan::usage::Usage;
@@ -107,6 +108,83 @@ pub(crate) fn check_host_formats(
         });
     }
     Ok(())
+}
+
+/// What differs between the pipelines of full-screen passes (one triangle from
+/// `shaders/fullscreen.vert`, no culling, one sample, viewport and scissor
+/// dynamic).
+pub(crate) struct FullscreenDesc<'a> {
+    /// The fragment shader's SPIR-V.
+    pub frag: &'a [u8],
+    pub layout: vk::PipelineLayout,
+    pub color_formats: &'a [vk::Format],
+    /// The depth attachment's format and tests, if any.
+    pub depth: Option<(vk::Format, vk::PipelineDepthStencilStateCreateInfo<'a>)>,
+    pub blend: vk::PipelineColorBlendStateCreateInfo<'a>,
+    pub dynamic_states: &'a [vk::DynamicState],
+}
+
+/// A full-screen pass's pipeline (the composite's, the shadow pass's).
+pub(crate) fn fullscreen_pipeline(
+    shared: &Shared,
+    d: &FullscreenDesc,
+) -> Result<vk::Pipeline, VkError> {
+    let device = &shared.device;
+    let vert = shader_module(shared, VERT)?;
+    let frag = shader_module(shared, d.frag).inspect_err(|_| {
+        // SAFETY: the module is not used by any pipeline yet.
+        unsafe { device.destroy_shader_module(vert, None) }
+    })?;
+    let stages = [
+        (vk::ShaderStageFlags::VERTEX, vert),
+        (vk::ShaderStageFlags::FRAGMENT, frag),
+    ]
+    .map(|(stage, module)| {
+        vk::PipelineShaderStageCreateInfo::default()
+            .stage(stage)
+            .module(module)
+            .name(c"main")
+    });
+    let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
+    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let viewport = vk::PipelineViewportStateCreateInfo::default()
+        .viewport_count(1)
+        .scissor_count(1);
+    let raster = vk::PipelineRasterizationStateCreateInfo::default()
+        .polygon_mode(vk::PolygonMode::FILL)
+        .cull_mode(vk::CullModeFlags::NONE)
+        .line_width(1.0);
+    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(d.dynamic_states);
+    let mut rendering =
+        vk::PipelineRenderingCreateInfo::default().color_attachment_formats(d.color_formats);
+    let mut ci = vk::GraphicsPipelineCreateInfo::default()
+        .stages(&stages)
+        .vertex_input_state(&vertex_input)
+        .input_assembly_state(&assembly)
+        .viewport_state(&viewport)
+        .rasterization_state(&raster)
+        .multisample_state(&multisample)
+        .color_blend_state(&d.blend)
+        .dynamic_state(&dynamic)
+        .layout(d.layout);
+    if let Some((format, tests)) = &d.depth {
+        rendering = rendering.depth_attachment_format(*format);
+        ci = ci.depth_stencil_state(tests);
+    }
+    let ci = ci.push_next(&mut rendering);
+    // SAFETY: the state structs live across the call; modules and layout are live.
+    let made = unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) };
+    // SAFETY: modules are only needed while creating the pipeline.
+    unsafe { device.destroy_shader_module(vert, None) };
+    // SAFETY: as above.
+    unsafe { device.destroy_shader_module(frag, None) };
+    made.map(|p| p[0]).map_err(|(_, e)| VkError::Call {
+        call: "vkCreateGraphicsPipelines",
+        result: e,
+    })
 }
 
 /// Inside a rendering block of `extent`: binds a full-screen pass's pipeline
@@ -233,81 +311,32 @@ impl Composite {
         c.set = unsafe { device.allocate_descriptor_sets(&ai) }
             .check("vkAllocateDescriptorSets")
             .inspect_err(|_| c.destroy(device))?[0];
-        c.pipeline = c.make_pipeline(device).inspect_err(|_| c.destroy(device))?;
+        c.pipeline = c.make_pipeline(shared).inspect_err(|_| c.destroy(device))?;
         Ok(c)
     }
 
-    fn make_pipeline(&self, device: &ash::Device) -> Result<vk::Pipeline, VkError> {
-        let module = |bytes: &[u8]| -> Result<vk::ShaderModule, VkError> {
-            let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes))
-                .map_err(|e| VkError::Plan(format!("embedded SPIR-V unreadable: {e}")))?;
-            let ci = vk::ShaderModuleCreateInfo::default().code(&words);
-            // SAFETY: SPIR-V produced and validated by naga in build.rs.
-            unsafe { device.create_shader_module(&ci, None) }.check("vkCreateShaderModule")
-        };
-        let (vert, frag) = (module(VERT)?, module(FRAG)?);
-        let stages = [
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::VERTEX)
-                .module(vert)
-                .name(c"main"),
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::FRAGMENT)
-                .module(frag)
-                .name(c"main"),
-        ];
-        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
-        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let viewport = vk::PipelineViewportStateCreateInfo::default()
-            .viewport_count(1)
-            .scissor_count(1);
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
-            .polygon_mode(vk::PolygonMode::FILL)
-            .cull_mode(vk::CullModeFlags::NONE)
-            .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    fn make_pipeline(&self, shared: &Shared) -> Result<vk::Pipeline, VkError> {
         let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(true)
             .depth_write_enable(true);
         let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
             .color_write_mask(vk::ColorComponentFlags::RGBA)];
-        let blend =
-            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
-        let dynamic_states = [
-            vk::DynamicState::VIEWPORT,
-            vk::DynamicState::SCISSOR,
-            vk::DynamicState::DEPTH_COMPARE_OP,
-        ];
-        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let color_formats = [self.formats.0];
-        let mut rendering = vk::PipelineRenderingCreateInfo::default()
-            .color_attachment_formats(&color_formats)
-            .depth_attachment_format(self.formats.1);
-        let ci = vk::GraphicsPipelineCreateInfo::default()
-            .stages(&stages)
-            .vertex_input_state(&vertex_input)
-            .input_assembly_state(&assembly)
-            .viewport_state(&viewport)
-            .rasterization_state(&raster)
-            .multisample_state(&multisample)
-            .depth_stencil_state(&depth_stencil)
-            .color_blend_state(&blend)
-            .dynamic_state(&dynamic)
-            .layout(self.layout)
-            .push_next(&mut rendering);
-        // SAFETY: the state structs live across the call; modules and layout are live.
-        let made =
-            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) };
-        // SAFETY: modules are only needed while creating the pipeline.
-        unsafe { device.destroy_shader_module(vert, None) };
-        // SAFETY: as above.
-        unsafe { device.destroy_shader_module(frag, None) };
-        made.map(|p| p[0]).map_err(|(_, e)| VkError::Call {
-            call: "vkCreateGraphicsPipelines",
-            result: e,
-        })
+        fullscreen_pipeline(
+            shared,
+            &FullscreenDesc {
+                frag: FRAG,
+                layout: self.layout,
+                color_formats: &[self.formats.0],
+                depth: Some((self.formats.1, depth_stencil)),
+                blend: vk::PipelineColorBlendStateCreateInfo::default()
+                    .attachments(&blend_attachments),
+                dynamic_states: &[
+                    vk::DynamicState::VIEWPORT,
+                    vk::DynamicState::SCISSOR,
+                    vk::DynamicState::DEPTH_COMPARE_OP,
+                ],
+            },
+        )
     }
 
     /// Points the set at the executor's current output images.

@@ -12,18 +12,17 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use super::composite::{fullscreen_pipeline, FullscreenDesc};
 use super::error::{Check, VkError};
 use super::exec::{copy_to_host, Executor};
 use super::image::{Image, ImageDesc};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
-use super::pipeline::shader_module;
 use super::scissor::Rect;
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::plan::usage::Usage;
 
-const VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fullscreen.vert.spv"));
 const FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/shadow.frag.spv"));
 
 /// The mask image's format: 1 where the pass found a shadow, 0 elsewhere.
@@ -190,34 +189,6 @@ impl ShadowPass {
     }
 
     fn make_pipeline(&self) -> Result<vk::Pipeline, VkError> {
-        let device = &self.shared.device;
-        let vert = shader_module(&self.shared, VERT)?;
-        let frag = shader_module(&self.shared, FRAG).inspect_err(|_| {
-            // SAFETY: the module is not used by any pipeline yet.
-            unsafe { device.destroy_shader_module(vert, None) }
-        })?;
-        let stages = [
-            (vk::ShaderStageFlags::VERTEX, vert),
-            (vk::ShaderStageFlags::FRAGMENT, frag),
-        ]
-        .map(|(stage, module)| {
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(stage)
-                .module(module)
-                .name(c"main")
-        });
-        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
-        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let viewport = vk::PipelineViewportStateCreateInfo::default()
-            .viewport_count(1)
-            .scissor_count(1);
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
-            .polygon_mode(vk::PolygonMode::FILL)
-            .cull_mode(vk::CullModeFlags::NONE)
-            .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
         // Shadowed fragments write 0 to the colour and 1 to the mask: with
         // `ONE · src + keep · dst` the colour becomes `keep · colour` and the
         // (cleared) mask 1. One state for both attachments (no independent blend).
@@ -240,36 +211,19 @@ impl ShadowPass {
         // rounds it up, as the CPU's `round` does, and leaves even values'
         // halves exact (255 · 2^-10 < 0.25).
         let keep = (crate::render::shadow::SHADOW_KEEP + 1.0 / 1024.0) as f32;
-        let blend = vk::PipelineColorBlendStateCreateInfo::default()
-            .attachments(&attachments)
-            .blend_constants([keep; 4]);
-        let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
-        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let color_formats = [super::exec::color_format(), MASK_FORMAT];
-        let mut rendering =
-            vk::PipelineRenderingCreateInfo::default().color_attachment_formats(&color_formats);
-        let ci = vk::GraphicsPipelineCreateInfo::default()
-            .stages(&stages)
-            .vertex_input_state(&vertex_input)
-            .input_assembly_state(&assembly)
-            .viewport_state(&viewport)
-            .rasterization_state(&raster)
-            .multisample_state(&multisample)
-            .color_blend_state(&blend)
-            .dynamic_state(&dynamic)
-            .layout(self.layout)
-            .push_next(&mut rendering);
-        // SAFETY: the state structs live across the call; modules and layout are live.
-        let made =
-            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) };
-        // SAFETY: modules are only needed while creating the pipeline.
-        unsafe { device.destroy_shader_module(vert, None) };
-        // SAFETY: as above.
-        unsafe { device.destroy_shader_module(frag, None) };
-        made.map(|p| p[0]).map_err(|(_, e)| VkError::Call {
-            call: "vkCreateGraphicsPipelines",
-            result: e,
-        })
+        fullscreen_pipeline(
+            &self.shared,
+            &FullscreenDesc {
+                frag: FRAG,
+                layout: self.layout,
+                color_formats: &[super::exec::color_format(), MASK_FORMAT],
+                depth: None,
+                blend: vk::PipelineColorBlendStateCreateInfo::default()
+                    .attachments(&attachments)
+                    .blend_constants([keep; 4]),
+                dynamic_states: &[vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR],
+            },
+        )
     }
 
     /// The eye image size the pass was made for.
