@@ -8,7 +8,7 @@ use ash::vk;
 
 use super::error::{Check, VkError};
 use super::instance::Shared;
-use super::pipeline::shader_module;
+use super::pipeline::{graphics_pipeline, shader_module, Graphics};
 use super::sync;
 use super::HostTargets;
 use crate::plan::usage::Usage;
@@ -108,83 +108,6 @@ pub(crate) fn check_host_formats(
         });
     }
     Ok(())
-}
-
-/// What differs between the pipelines of full-screen passes (one triangle from
-/// `shaders/fullscreen.vert`, no culling, one sample, viewport and scissor
-/// dynamic).
-pub(crate) struct FullscreenDesc<'a> {
-    /// The fragment shader's SPIR-V.
-    pub frag: &'a [u8],
-    pub layout: vk::PipelineLayout,
-    pub color_formats: &'a [vk::Format],
-    /// The depth attachment's format and tests, if any.
-    pub depth: Option<(vk::Format, vk::PipelineDepthStencilStateCreateInfo<'a>)>,
-    pub blend: vk::PipelineColorBlendStateCreateInfo<'a>,
-    pub dynamic_states: &'a [vk::DynamicState],
-}
-
-/// A full-screen pass's pipeline (the composite's, the shadow pass's).
-pub(crate) fn fullscreen_pipeline(
-    shared: &Shared,
-    d: &FullscreenDesc,
-) -> Result<vk::Pipeline, VkError> {
-    let device = &shared.device;
-    let vert = shader_module(shared, VERT)?;
-    let frag = shader_module(shared, d.frag).inspect_err(|_| {
-        // SAFETY: the module is not used by any pipeline yet.
-        unsafe { device.destroy_shader_module(vert, None) }
-    })?;
-    let stages = [
-        (vk::ShaderStageFlags::VERTEX, vert),
-        (vk::ShaderStageFlags::FRAGMENT, frag),
-    ]
-    .map(|(stage, module)| {
-        vk::PipelineShaderStageCreateInfo::default()
-            .stage(stage)
-            .module(module)
-            .name(c"main")
-    });
-    let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
-    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-    let viewport = vk::PipelineViewportStateCreateInfo::default()
-        .viewport_count(1)
-        .scissor_count(1);
-    let raster = vk::PipelineRasterizationStateCreateInfo::default()
-        .polygon_mode(vk::PolygonMode::FILL)
-        .cull_mode(vk::CullModeFlags::NONE)
-        .line_width(1.0);
-    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-    let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(d.dynamic_states);
-    let mut rendering =
-        vk::PipelineRenderingCreateInfo::default().color_attachment_formats(d.color_formats);
-    let mut ci = vk::GraphicsPipelineCreateInfo::default()
-        .stages(&stages)
-        .vertex_input_state(&vertex_input)
-        .input_assembly_state(&assembly)
-        .viewport_state(&viewport)
-        .rasterization_state(&raster)
-        .multisample_state(&multisample)
-        .color_blend_state(&d.blend)
-        .dynamic_state(&dynamic)
-        .layout(d.layout);
-    if let Some((format, tests)) = &d.depth {
-        rendering = rendering.depth_attachment_format(*format);
-        ci = ci.depth_stencil_state(tests);
-    }
-    let ci = ci.push_next(&mut rendering);
-    // SAFETY: the state structs live across the call; modules and layout are live.
-    let made = unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) };
-    // SAFETY: modules are only needed while creating the pipeline.
-    unsafe { device.destroy_shader_module(vert, None) };
-    // SAFETY: as above.
-    unsafe { device.destroy_shader_module(frag, None) };
-    made.map(|p| p[0]).map_err(|(_, e)| VkError::Call {
-        call: "vkCreateGraphicsPipelines",
-        result: e,
-    })
 }
 
 /// Inside a rendering block of `extent`: binds a full-screen pass's pipeline
@@ -316,27 +239,50 @@ impl Composite {
     }
 
     fn make_pipeline(&self, shared: &Shared) -> Result<vk::Pipeline, VkError> {
-        let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_test_enable(true)
-            .depth_write_enable(true);
-        let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
-            .color_write_mask(vk::ColorComponentFlags::RGBA)];
-        fullscreen_pipeline(
-            shared,
-            &FullscreenDesc {
-                frag: FRAG,
-                layout: self.layout,
-                color_formats: &[self.formats.0],
-                depth: Some((self.formats.1, depth_stencil)),
-                blend: vk::PipelineColorBlendStateCreateInfo::default()
-                    .attachments(&blend_attachments),
-                dynamic_states: &[
-                    vk::DynamicState::VIEWPORT,
-                    vk::DynamicState::SCISSOR,
-                    vk::DynamicState::DEPTH_COMPARE_OP,
-                ],
-            },
-        )
+        let vert = shader_module(shared, VERT)?;
+        let frag = shader_module(shared, FRAG);
+        let device = &shared.device;
+        let made = frag.and_then(|frag| {
+            let stages = [
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(vk::ShaderStageFlags::VERTEX)
+                    .module(vert)
+                    .name(c"main"),
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(vk::ShaderStageFlags::FRAGMENT)
+                    .module(frag)
+                    .name(c"main"),
+            ];
+            let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
+                .depth_test_enable(true)
+                .depth_write_enable(true);
+            let made = graphics_pipeline(
+                device,
+                &Graphics {
+                    stages: &stages,
+                    vertex_input: &vk::PipelineVertexInputStateCreateInfo::default(),
+                    cull: vk::CullModeFlags::NONE,
+                    depth_stencil: &depth_stencil,
+                    dynamic_states: &[
+                        vk::DynamicState::VIEWPORT,
+                        vk::DynamicState::SCISSOR,
+                        vk::DynamicState::DEPTH_COMPARE_OP,
+                    ],
+                    color_formats: &[self.formats.0],
+                    depth_format: self.formats.1,
+                    // Only the depth aspect is written: no stencil attachment.
+                    stencil_format: vk::Format::UNDEFINED,
+                    layout: self.layout,
+                    blend: None,
+                },
+            );
+            // SAFETY: modules are only needed while creating the pipeline.
+            unsafe { device.destroy_shader_module(frag, None) };
+            made
+        });
+        // SAFETY: as above.
+        unsafe { device.destroy_shader_module(vert, None) };
+        made
     }
 
     /// Points the set at the executor's current output images.

@@ -12,17 +12,18 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::composite::{fullscreen_pipeline, FullscreenDesc};
 use super::error::{Check, VkError};
 use super::exec::{copy_to_host, Executor};
 use super::image::{Image, ImageDesc};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
+use super::pipeline::{graphics_pipeline, shader_module, Graphics};
 use super::scissor::Rect;
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::plan::usage::Usage;
 
+const VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fullscreen.vert.spv"));
 const FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/shadow.frag.spv"));
 
 /// The mask image's format: 1 where the pass found a shadow, 0 elsewhere.
@@ -205,25 +206,46 @@ impl ShadowPass {
                     | vk::ColorComponentFlags::G
                     | vk::ColorComponentFlags::B,
             );
-        let attachments = [one, one];
         // `keep` a little over SHADOW_KEEP: an odd channel value's half is a
         // tie, which the UNORM conversion may round either way; 2^-10 more
         // rounds it up, as the CPU's `round` does, and leaves even values'
         // halves exact (255 · 2^-10 < 0.25).
         let keep = (crate::render::shadow::SHADOW_KEEP + 1.0 / 1024.0) as f32;
-        fullscreen_pipeline(
-            &self.shared,
-            &FullscreenDesc {
-                frag: FRAG,
-                layout: self.layout,
-                color_formats: &[super::exec::color_format(), MASK_FORMAT],
-                depth: None,
-                blend: vk::PipelineColorBlendStateCreateInfo::default()
-                    .attachments(&attachments)
-                    .blend_constants([keep; 4]),
-                dynamic_states: &[vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR],
-            },
-        )
+        let vert = shader_module(&self.shared, VERT)?;
+        let device = &self.shared.device;
+        let made = shader_module(&self.shared, FRAG).and_then(|frag| {
+            let stages = [
+                (vk::ShaderStageFlags::VERTEX, vert),
+                (vk::ShaderStageFlags::FRAGMENT, frag),
+            ]
+            .map(|(stage, module)| {
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(stage)
+                    .module(module)
+                    .name(c"main")
+            });
+            let made = graphics_pipeline(
+                device,
+                &Graphics {
+                    stages: &stages,
+                    vertex_input: &vk::PipelineVertexInputStateCreateInfo::default(),
+                    cull: vk::CullModeFlags::NONE,
+                    depth_stencil: &vk::PipelineDepthStencilStateCreateInfo::default(),
+                    dynamic_states: &[vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR],
+                    color_formats: &[super::exec::color_format(), MASK_FORMAT],
+                    depth_format: vk::Format::UNDEFINED,
+                    stencil_format: vk::Format::UNDEFINED,
+                    layout: self.layout,
+                    blend: Some((one, [keep; 4])),
+                },
+            );
+            // SAFETY: modules are only needed while creating the pipeline.
+            unsafe { device.destroy_shader_module(frag, None) };
+            made
+        });
+        // SAFETY: as above.
+        unsafe { device.destroy_shader_module(vert, None) };
+        made
     }
 
     /// The eye image size the pass was made for.
