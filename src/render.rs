@@ -311,6 +311,11 @@ impl GpuRenderer {
         self.ctx.device_name().to_string()
     }
 
+    /// The executor of the frames (the shadow pass samples its images).
+    pub(crate) fn executor(&self) -> &vk::Executor {
+        &self.exec
+    }
+
     /// The device's context (the bench's embedded path runs on it too).
     pub fn context(&self) -> &vk::Context {
         &self.ctx

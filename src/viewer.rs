@@ -156,6 +156,9 @@ pub enum ViewerError {
 /// The device, window surface and the embedded CSG. Field order is drop order.
 struct Gpu {
     csg: Option<CsgScene>,
+    /// With a `[light]`: what the shadow pass's parameters need (the map and
+    /// the pass live in the CSG's embedder).
+    light: Option<render::shadow::LightView>,
     presenter: Presenter,
     ctx: vk::Context,
 }
@@ -261,6 +264,7 @@ impl App {
         );
         self.gpu = Some(Gpu {
             csg: None,
+            light: None,
             presenter,
             ctx,
         });
@@ -298,7 +302,12 @@ impl App {
     /// Shows the CPU reference's image of the current state.
     fn show_reference(&mut self, size: [u32; 2]) -> Result<Presented, ViewerError> {
         if self.dirty || self.last.is_none() {
-            let f = render::render_reference(&self.scene);
+            let mut f = render::render_reference(&self.scene);
+            if let Some(light) = &self.scene.appearance.light {
+                let (w, h) = (f.images.width, f.images.height);
+                let rays = crate::reference::shadow::shadow_rays(&self.scene, light, w, h);
+                render::shadow::apply(&mut f.images.color, &rays, light);
+            }
             self.cpu_ms = f.stats.exec.cpu_ms;
             self.last = Some(f.images);
         }
@@ -322,11 +331,13 @@ impl App {
             return Ok(Presented::Skipped);
         }
         let fits = gpu.csg.as_ref().is_some_and(|c| c.extent() == extent);
+        let mut attach = false;
         if fits {
             let csg = gpu.csg.as_mut().expect("fits");
             if csg.algo() != self.algo {
                 gpu.presenter.wait_frames()?;
                 csg.set_algo(self.algo)?;
+                attach = true;
             }
             // Orbit and zoom: the camera only (no upload); a new plan's images
             // may replace those the frames in flight use, so wait for them then.
@@ -346,8 +357,19 @@ impl App {
                 internal_depth: self.opts.depth.exec_format().0,
             };
             gpu.csg = Some(CsgScene::from_scene(&gpu.ctx, &self.scene, &desc)?);
+            attach = true;
         }
+        if attach {
+            self.attach_shadows(extent)?;
+        }
+        let Some(gpu) = self.gpu.as_mut() else {
+            return Ok(Presented::Skipped);
+        };
         let csg = gpu.csg.as_mut().expect("made above");
+        // The light is world-fixed: its map stays; the pass follows the camera.
+        if let (Some(lv), Some(sh)) = (&gpu.light, csg.recorder().shadow_mut()) {
+            sh.params = lv.params(&self.scene.camera, (extent[0], extent[1]));
+        }
         let far = if reversed_z { 0.0 } else { 1.0 };
         let bg = self.scene.render.background;
         let start = std::time::Instant::now();
@@ -370,6 +392,31 @@ impl App {
             None => {}
         }
         Ok(shown)
+    }
+
+    /// With a `[light]`: the light's map rendered once for the current
+    /// algorithm (the light does not move with the camera) and the shadow pass
+    /// handed to the CSG's embedder, which then records it after every frame.
+    /// Called with no frame of the CSG pending.
+    fn attach_shadows(&mut self, extent: [u32; 2]) -> Result<(), ViewerError> {
+        let (Some(light), Some(gpu)) = (&self.scene.appearance.light, self.gpu.as_mut()) else {
+            return Ok(());
+        };
+        let Some(csg) = gpu.csg.as_mut() else {
+            return Ok(());
+        };
+        let mut sized = self.scene.clone();
+        (sized.render.width, sized.render.height) = (extent[0], extent[1]);
+        let view = render::shadow::embed_shadows(
+            csg.recorder(),
+            &gpu.ctx,
+            self.opts.depth,
+            &sized,
+            light,
+            self.algo,
+        )?;
+        gpu.light = Some(view);
+        Ok(())
     }
 
     fn redraw(&mut self, el: &ActiveEventLoop) -> Result<(), ViewerError> {

@@ -103,6 +103,14 @@ fn bench_times_shadows_and_interference() {
         sh["light_map_gpu_ms_median"].as_f64().unwrap() > 0.0,
         "{sh}"
     );
+    // One frame is the map, the eye and the shadow pass.
+    let ms = |k: &str| sh[k].as_f64().unwrap_or_else(|| panic!("{k}: {sh}"));
+    assert!(ms("shadow_pass_gpu_ms_median") > 0.0, "{sh}");
+    assert!(ms("frame_ms_median") > 0.0, "{sh}");
+    assert!(
+        ms("frame_gpu_ms_median") >= ms("light_map_gpu_ms_median").max(ms("eye_gpu_ms_median")),
+        "{sh}"
+    );
     let inter = &rows.iter().find(|r| r["scene"] == "interference").unwrap()["interference"];
     assert_eq!(inter["frames_per_pair"], 2, "{inter}");
     let o = run(&[

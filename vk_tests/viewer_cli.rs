@@ -52,7 +52,13 @@ fn the_viewer_falls_back_to_d24s8_without_d32s8() {
 
 #[test]
 fn the_viewer_records_the_csg_into_its_swapchain_frames() {
-    for (file, algo) in [("gear.toml", "cst-i"), ("paper_example.toml", "blister")] {
+    // shadow_block has a `[light]`: the light's map once, the shadow pass
+    // recorded into every frame.
+    for (file, algo) in [
+        ("gear.toml", "cst-i"),
+        ("paper_example.toml", "blister"),
+        ("shadow_block.toml", "cst-z"),
+    ] {
         let out = view(&scene(file), algo, 6);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "{file} {algo}: {err}");

@@ -255,7 +255,8 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 )
                 .unwrap_or(Value::Null);
                 if cfg.save_images {
-                    save(cfg, &label, w, h, "reference", "f64", &reference)?;
+                    let shown = modes::shadowed_reference(&scene, &reference);
+                    save(cfg, &label, w, h, "reference", "f64", &shown)?;
                 }
                 records.push(r);
             }
@@ -418,6 +419,9 @@ fn run_one(
     };
     let error = serde_json::to_value(compare(reference, &images).map_err(|e| e.to_string())?)
         .unwrap_or(Value::Null);
+    // With a `[light]`: the light's map and the shadow pass timed too; the saved
+    // images are shadowed, the error above is the opaque frame's.
+    let shadowed = modes::shadows(cfg, scene, algo, &plan, gpu, gm)?;
     let rec = Record {
         scene: String::new(),
         family: None,
@@ -450,10 +454,10 @@ fn run_one(
         error,
         failure: None,
         embedded,
-        shadow: modes::shadows(cfg, scene, algo, depth, &images, gpu, gm)?,
+        shadow: shadowed.as_ref().map(|(b, _)| b.clone()),
         interference: modes::interference(cfg, scene, algo, depth)?,
     };
-    Ok((rec, images))
+    Ok((rec, shadowed.map_or(images, |(_, i)| i)))
 }
 
 /// How far the bench orbits the camera (in two half steps) to time a camera move.

@@ -16,17 +16,25 @@ use crate::plan::{self, Algo, Prepared};
 use crate::render::{interference, shadow, DepthSetup, GpuRenderer};
 use crate::scene::Scene;
 
-/// The shadow figures of one run (`results.json` key `shadow`).
+/// The shadow figures of one run (`results.json` key `shadow`): each timed
+/// frame renders the light's map, the eye's frame (with its normal buffer) and
+/// the shadow pass, on one device with no read-back between them.
 #[derive(Clone, Debug, Serialize)]
 pub struct ShadowBench {
     /// The shadow map's side in texels.
     pub map_size: u32,
     /// Median GPU time of the light's depth map.
     pub light_map_gpu_ms_median: f64,
-    /// Median GPU time of the eye's frame (the run's `gpu_ms_median`).
+    /// Median GPU time of the eye's frame with the normal buffer the pass reads.
     pub eye_gpu_ms_median: f64,
-    /// CPU time of the shadow test over the read-back depth images (once).
-    pub shadow_test_cpu_ms: f64,
+    /// Median GPU time of the opaque eye frame (the run's `gpu_ms_median`).
+    pub opaque_eye_gpu_ms_median: f64,
+    /// Median GPU time of the shadow pass.
+    pub shadow_pass_gpu_ms_median: f64,
+    /// Median over the frames of map + eye + pass GPU time.
+    pub frame_gpu_ms_median: f64,
+    /// Median wall time of map + eye + pass (first submission to GPU idle).
+    pub frame_ms_median: f64,
     pub lit_pixels: u64,
     pub shadowed_pixels: u64,
 }
@@ -71,47 +79,85 @@ fn timed(
     Ok((median_iqr(&mut ms).0, images, gpu))
 }
 
-/// With a `[light]`: the light map's frames and the shadow test over the eye's
-/// last frame `eye` (rendered by `eye_gpu`).
+/// With a `[light]`: frames of the light's map, the eye (`plan` on `gpu`) and
+/// the shadow pass, timed; and the last frame's shadowed images. `gpu` writes
+/// no normals afterwards, as before.
 pub fn shadows(
     cfg: &BenchConfig,
     scene: &Scene,
     algo: Algo,
-    depth: DepthSetup,
-    eye: &Images,
-    eye_gpu: &GpuRenderer,
-    eye_gpu_ms: f64,
-) -> Result<Option<ShadowBench>, String> {
+    plan: &plan::Plan,
+    gpu: &mut GpuRenderer,
+    opaque_gpu_ms: f64,
+) -> Result<Option<(ShadowBench, Images)>, String> {
     let Some(light) = &scene.appearance.light else {
         return Ok(None);
     };
-    let size = shadow::shadow_map_size(scene.render.width, scene.render.height);
-    let ls = shadow::light_scene(scene, light, size);
-    let (map_ms, map, map_gpu) = timed(cfg, &ls, algo, depth)?;
-    let t = Instant::now();
-    let mask = shadow::shadow_test(
-        scene,
-        &shadow::DepthView {
-            images: eye,
-            camera: &scene.camera,
-            precision: eye_gpu.precision(),
+    let out = shadow_frames(cfg, scene, light, algo, plan, gpu, opaque_gpu_ms);
+    gpu.set_normals(false).map_err(|e| e.to_string())?;
+    out.map(Some)
+}
+
+fn shadow_frames(
+    cfg: &BenchConfig,
+    scene: &Scene,
+    light: &crate::scene::light::Light,
+    algo: Algo,
+    plan: &plan::Plan,
+    gpu: &mut GpuRenderer,
+    opaque_gpu_ms: f64,
+) -> Result<(ShadowBench, Images), String> {
+    let err = |e: crate::render::RenderError| e.to_string();
+    let mut sh =
+        shadow::GpuShadows::for_renderer(gpu, scene, light, algo, &cfg.build).map_err(err)?;
+    // (map, eye, pass, wall) per frame; warm-up frames learn both plans' loops.
+    let mut frame = |gpu: &mut GpuRenderer| -> Result<[f64; 4], String> {
+        let t = Instant::now();
+        let map = sh.render_map().map_err(err)?.gpu_ms;
+        let eye = gpu.execute(plan).map_err(err)?.exec.gpu_ms;
+        let pass = sh.shade(gpu, &scene.camera).map_err(err)?.pass.gpu_ms;
+        Ok([map, eye, pass, t.elapsed().as_secs_f64() * 1e3])
+    };
+    for _ in 0..cfg.warmup.max(2) {
+        frame(gpu)?;
+    }
+    let mut runs = Vec::new();
+    for _ in 0..cfg.frames.max(1) {
+        runs.push(frame(gpu)?);
+    }
+    let images = gpu.read_back().map_err(err)?;
+    let st = sh.stats(&images.prim).map_err(err)?;
+    if let Some(m) = gpu.validation_messages().first() {
+        return Err(format!("validation: {m}"));
+    }
+    let med =
+        |f: &dyn Fn(&[f64; 4]) -> f64| median_iqr(&mut runs.iter().map(f).collect::<Vec<_>>()).0;
+    Ok((
+        ShadowBench {
+            map_size: sh.map_size(),
+            light_map_gpu_ms_median: med(&|r| r[0]),
+            eye_gpu_ms_median: med(&|r| r[1]),
+            opaque_eye_gpu_ms_median: opaque_gpu_ms,
+            shadow_pass_gpu_ms_median: med(&|r| r[2]),
+            frame_gpu_ms_median: med(&|r| r[0] + r[1] + r[2]),
+            frame_ms_median: med(&|r| r[3]),
+            lit_pixels: st.lit_pixels,
+            shadowed_pixels: st.shadowed_pixels,
         },
-        &shadow::DepthView {
-            images: &map,
-            camera: &ls.camera,
-            precision: map_gpu.precision(),
-        },
-    );
-    let test_ms = t.elapsed().as_secs_f64() * 1e3;
-    let count = |v: bool| mask.iter().filter(|m| **m == Some(v)).count() as u64;
-    Ok(Some(ShadowBench {
-        map_size: size,
-        light_map_gpu_ms_median: map_ms,
-        eye_gpu_ms_median: eye_gpu_ms,
-        shadow_test_cpu_ms: test_ms,
-        lit_pixels: count(false),
-        shadowed_pixels: count(true),
-    }))
+        images,
+    ))
+}
+
+/// The reference's image as the bench saves it: with the shadow rays' shadows
+/// when the scene has a `[light]` (the GPU runs' saved images have theirs).
+pub fn shadowed_reference(scene: &Scene, reference: &Images) -> Images {
+    let mut shown = reference.clone();
+    if let Some(light) = &scene.appearance.light {
+        let rays =
+            crate::reference::shadow::shadow_rays(scene, light, reference.width, reference.height);
+        shadow::apply(&mut shown.color, &rays, light);
+    }
+    shown
 }
 
 /// With `interference = true` and a CST variant: every pair's `A·B` frames.
@@ -149,11 +195,11 @@ pub fn summary(records: &[Record]) -> String {
         .filter_map(|r| r.shadow.as_ref().map(|b| (r, b)))
         .collect();
     if !sh.is_empty() {
-        s.push_str("## Shadows\n\n| scene | size | algo | depth | map side | light map GPU ms | eye GPU ms | shadow test CPU ms | lit px | shadowed px |\n|---|---|---|---|---|---|---|---|---|---|\n");
+        s.push_str("## Shadows\n\n| scene | size | algo | depth | map side | light map GPU ms | eye GPU ms (opaque) | shadow pass GPU ms | frame GPU ms | frame ms | lit px | shadowed px |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for (r, b) in sh {
             let _ = writeln!(
                 s,
-                "| {} | {}×{} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {} | {} |",
+                "| {} | {}×{} | {} | {} | {} | {:.2} | {:.2} ({:.2}) | {:.2} | {:.2} | {:.1} | {} | {} |",
                 r.scene,
                 r.width,
                 r.height,
@@ -162,7 +208,10 @@ pub fn summary(records: &[Record]) -> String {
                 b.map_size,
                 b.light_map_gpu_ms_median,
                 b.eye_gpu_ms_median,
-                b.shadow_test_cpu_ms,
+                b.opaque_eye_gpu_ms_median,
+                b.shadow_pass_gpu_ms_median,
+                b.frame_gpu_ms_median,
+                b.frame_ms_median,
                 b.lit_pixels,
                 b.shadowed_pixels
             );

@@ -1,18 +1,18 @@
 //! Shadows of a scene with a `[light]` (seed 003, Rossignac & Wu: the CSG solid's
 //! depth buffer seen from the light, then a shadow test in the eye's shading).
 //!
-//! GPU algorithms render the plan twice: from the eye, and from the light's camera
-//! ([`Light::camera_for`]: orthographic for a directional light, perspective for
-//! a point light) into a square shadow map of [`SHADOW_MAP_SCALE`] times the eye
-//! image's larger side (at least [`SHADOW_MAP_MIN`]). Both are the same
-//! algorithm's depth images. The shadow test then reprojects each visible pixel's point into the map: shadowed when its
-//! light-view depth exceeds the map's by more than the bias [`shadow_bias`] (the
-//! specification's depth error of both images at their slopes, plus the map's
-//! depth change across half a texel, and the receiver's own slope towards the
-//! light); a point on a face turned away from the light is in its own shadow.
-//! The shadow test runs on the CPU over the two read-back depth images (the
-//! visible triangle's normal looked up in its mesh); it is not a GPU pass yet.
-//! The reference casts exact shadow rays
+//! GPU algorithms render the plan twice on one device: from the eye (with the
+//! normal buffer), and from the light's camera ([`Light::camera_for`]:
+//! orthographic for a directional light, perspective for a point light) into a
+//! square shadow map of [`SHADOW_MAP_SCALE`] times the eye image's larger side
+//! (at least [`SHADOW_MAP_MIN`]) on an executor of its own. The shadow pass
+//! (`vk::shadow`, `shaders/shadow.frag`) then reprojects each visible pixel's
+//! point into the map on the GPU: shadowed when its light-view depth exceeds the
+//! map's by more than the bias — the specification's depth error of both images
+//! at their slopes, plus the map's depth change across half a texel, and the
+//! receiver's own slope towards the light; a point on a closed primitive's face
+//! turned away from the light is in its own shadow. This module forms the pass's
+//! parameters and runs the frames. The reference casts exact shadow rays
 //! ([`crate::reference::shadow`]). Both darken shadowed pixels by [`SHADOW_KEEP`].
 #![deny(unsafe_code)]
 
@@ -20,14 +20,14 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::{Frame, RenderError, RenderOptions};
-use crate::geom::bvh::{Line, SceneBvh, WorldCrossing};
-use crate::output::Images;
-use crate::plan::Algo;
-use crate::reference::precision::{slopes, DepthPrecision};
+use super::{DepthSetup, Frame, GpuRenderer, RenderError, RenderOptions};
+use crate::plan::{Algo, Plan, Prepared};
+use crate::reference::precision::DepthPrecision;
+use crate::scene::camera::DepthConvention;
 use crate::scene::light::Light;
 use crate::scene::{Camera, Projection, Scene};
-use glam::DVec3;
+use crate::vk::{self, shadow::ShadowParams};
+use glam::{DMat4, DVec3};
 
 /// The shadow map's side over the eye image's larger side.
 pub const SHADOW_MAP_SCALE: u32 = 2;
@@ -54,6 +54,9 @@ pub struct ShadowStats {
     /// GPU: the shadow map's frame (GPU time).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shadow_map_gpu_ms: Option<f64>,
+    /// GPU: the shadow pass (GPU time).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadow_pass_gpu_ms: Option<f64>,
 }
 
 /// The shadow map's side for a `width × height` eye image.
@@ -70,142 +73,76 @@ pub fn light_scene(scene: &Scene, light: &Light, size: u32) -> Scene {
     s
 }
 
-/// One depth image with what its error bound needs.
-pub struct DepthView<'a> {
-    pub images: &'a Images,
-    pub camera: &'a Camera,
-    pub precision: DepthPrecision,
-}
-
-/// The shadow test's bias at a map texel of depth `m` and slope `slope_m` (view
-/// depth per texel, `|∂x| + |∂y|`), for an eye point of view depth `d`, slope
-/// `slope_e` and ray cosine `cos` (ray direction · view direction): the
-/// specification's error of the map's depth and of the eye's (the latter along
-/// the eye ray, so divided by `cos`), plus `slope_m` for the point lying up to
-/// half a texel from the texel centre on each axis (0.5 · slope), doubled because
-/// the slope is a one-sided estimate.
-pub fn shadow_bias(
-    map: &DepthView,
-    m: f64,
-    slope_m: f64,
-    eye: &DepthView,
-    d: f64,
-    slope_e: f64,
-    cos: f64,
-) -> f64 {
-    map.precision.allowed(map.camera, m, slope_m)
-        + slope_m
-        + eye.precision.allowed(eye.camera, d, slope_e) / cos.max(1e-6)
-}
-
-/// The unit normal of the boundary seen at eye pixels, pointing out of the solid
-/// (towards the eye), and whether it bounds a closed primitive. The GPU frame has
-/// no normal image, so the triangle is looked up on the CPU: the crossing of the
-/// pixel's line with the visible primitive's mesh nearest the visible point.
-struct Normals {
-    bvh: SceneBvh,
+/// The shadow pass's uniform block for an eye camera `eye` on a `width ×
+/// height` image and the light's camera `map` on a `size × size` map, with the
+/// set-up's depth bounds `precision` and `closed` closed primitives (mesh ids
+/// above are open surfaces). Formed in f64 relative to the map camera's target
+/// (the drawn geometry's centre) and rounded once.
+pub fn pass_params(
+    eye: &Camera,
+    (width, height): (u32, u32),
+    map: &Camera,
+    size: u32,
+    precision: &DepthPrecision,
     closed: usize,
-}
-
-impl Normals {
-    fn new(scene: &Scene) -> Normals {
-        Normals {
-            bvh: SceneBvh::new(
-                scene
-                    .primitives
-                    .iter()
-                    .map(|p| &p.mesh)
-                    .chain(scene.surfaces.iter().map(|s| &s.mesh)),
-            ),
-            closed: scene.primitives.len(),
+) -> ShadowParams {
+    let origin = map.target;
+    let reversed = precision.convention == DepthConvention::Reversed;
+    let f32s = |v: &[f64]| -> Vec<f32> { v.iter().map(|&x| x as f32).collect() };
+    let vec4 = |v: DVec3, w: f64| -> [f32; 4] { [v.x as f32, v.y as f32, v.z as f32, w as f32] };
+    let ortho = |c: &Camera| matches!(c.projection, Projection::Orthographic { .. });
+    let cam = |c: &Camera| {
+        [
+            c.near as f32,
+            c.far as f32,
+            ortho(c) as u32 as f32,
+            reversed as u32 as f32,
+        ]
+    };
+    // (nx·d, ny·d, d, 1) or (nx, ny, d, 1) → world: Camera::ray's point at view
+    // depth d (NDC y downward, view y upward).
+    let aspect = width as f64 / height as f64;
+    let (sx, sy) = match eye.projection {
+        Projection::Perspective { fov_y_deg } => {
+            let th = (fov_y_deg.to_radians() * 0.5).tan();
+            (th * aspect, th)
         }
-    }
-
-    /// At 1-based mesh index `prim`, on `line` at parameter `t`.
-    fn at(
-        &self,
-        prim: u16,
-        line: &Line,
-        t: f64,
-        tmp: &mut Vec<WorldCrossing>,
-    ) -> Option<(DVec3, bool)> {
-        let idx = prim as usize - 1;
-        tmp.clear();
-        self.bvh.cast(line, |s| s == idx, &mut Vec::new(), tmp);
-        let c = tmp.iter().min_by(|a, b| {
-            (a.crossing.t - t)
-                .abs()
-                .total_cmp(&(b.crossing.t - t).abs())
-        })?;
-        let n = self.bvh.shapes[idx].normal(c.crossing.tri);
-        let n = if n.dot(line.dir) > 0.0 { -n } else { n };
-        Some((n, idx < self.closed))
-    }
-}
-
-/// Per eye pixel: `None` on background, `Some(true)` in shadow, by the shadow map
-/// `map`. A point on a closed primitive's face turned away from the light is in
-/// its own shadow; otherwise the map decides, with [`shadow_bias`] plus the
-/// receiver's own depth change across the texel (its face's slope seen from the
-/// light: a texel's width times `tan` of the angle to the light), which a face
-/// the light grazes needs because the map may not show it at all.
-pub fn shadow_test(scene: &Scene, eye: &DepthView, map: &DepthView) -> Vec<Option<bool>> {
-    let (w, h) = (eye.images.width, eye.images.height);
-    let (mw, mh) = (map.images.width, map.images.height);
-    let eye_slopes = slopes(eye.images);
-    let map_slopes = slopes(map.images);
-    let normals = Normals::new(scene);
-    let fwd = eye.camera.forward();
-    let lfwd = map.camera.forward();
-    let mut tmp = Vec::new();
-    let mut out = Vec::with_capacity(eye.images.depth.len());
-    for y in 0..h {
-        for x in 0..w {
-            let i = (y * w + x) as usize;
-            let d = eye.images.depth[i] as f64;
-            if !d.is_finite() || eye.images.prim[i] == 0 {
-                out.push(None);
-                continue;
-            }
-            let ray = eye.camera.ray(x as f64 + 0.5, y as f64 + 0.5, w, h);
-            let cos = ray.dir.dot(fwd);
-            let p = ray.origin + ray.dir * (d / cos);
-            let dl = map.camera.view_depth(p);
-            let (to_light, texel) = match map.camera.projection {
-                Projection::Orthographic { height } => (-lfwd, height / mh as f64),
-                Projection::Perspective { fov_y_deg } => (
-                    (map.camera.eye - p).normalize(),
-                    2.0 * dl * (fov_y_deg.to_radians() * 0.5).tan() / mh as f64,
-                ),
-            };
-            let line = Line::from_ray(&ray);
-            let facing = normals
-                .at(eye.images.prim[i], &line, d / cos, &mut tmp)
-                .map(|(n, closed)| (n.dot(to_light), closed));
-            if let Some((f, true)) = facing {
-                if f <= 0.0 {
-                    out.push(Some(true));
-                    continue;
-                }
-            }
-            let (lx, ly) = map.camera.pixel_of(p, mw, mh);
-            let (tx, ty) = (lx.floor(), ly.floor());
-            if tx < 0.0 || ty < 0.0 || tx >= mw as f64 || ty >= mh as f64 {
-                out.push(Some(false));
-                continue;
-            }
-            let t = ty as usize * mw as usize + tx as usize;
-            let m = map.images.depth[t] as f64;
-            let shadowed = m.is_finite() && {
-                let f = facing.map_or(1.0, |(f, _)| f.abs()).clamp(1e-3, 1.0);
-                let receiver = texel * (1.0 - f * f).sqrt() / f;
-                let bias = shadow_bias(map, m, map_slopes[t], eye, d, eye_slopes[i], cos);
-                dl > m + bias + receiver
-            };
-            out.push(Some(shadowed));
+        Projection::Orthographic { height } => (height * aspect * 0.5, height * 0.5),
+    };
+    let inv_view = eye.view().inverse();
+    let col = |v: DVec3| inv_view.transform_vector3(v).extend(0.0);
+    let unproject = DMat4::from_cols(
+        col(DVec3::new(sx, 0.0, 0.0)),
+        col(DVec3::new(0.0, -sy, 0.0)),
+        col(DVec3::NEG_Z),
+        (eye.eye - origin).extend(1.0),
+    );
+    let light_clip =
+        map.proj(1.0, DepthConvention::Standard) * map.view() * DMat4::from_translation(origin);
+    // A texel's world size: fixed (orthographic) or per unit of view depth.
+    let texel = match map.projection {
+        Projection::Orthographic { height } => height / size as f64,
+        Projection::Perspective { fov_y_deg } => {
+            2.0 * (fov_y_deg.to_radians() * 0.5).tan() / size as f64
         }
+    };
+    ShadowParams {
+        eye_unproject: f32s(&unproject.to_cols_array()).try_into().expect("16"),
+        light_clip: f32s(&light_clip.to_cols_array()).try_into().expect("16"),
+        eye_cam: cam(eye),
+        map_cam: cam(map),
+        eye_pos: vec4(eye.eye - origin, !ortho(eye) as u32 as f64),
+        eye_fwd: vec4(eye.forward(), 0.0),
+        light_pos: vec4(map.eye - origin, !ortho(map) as u32 as f64),
+        light_fwd: vec4(map.forward(), texel),
+        sizes: [width as f32, height as f32, size as f32, size as f32],
+        prec: [
+            precision.float as u32 as f32,
+            0.5f32.powi(precision.subpixel_bits as i32 + 1),
+            closed as f32,
+            0.0,
+        ],
     }
-    out
 }
 
 /// Darkens the shadowed pixels of `color` and counts lit and shadowed ones.
@@ -229,84 +166,284 @@ pub fn apply(color: &mut [[u8; 4]], mask: &[Option<bool>], light: &Light) -> Sha
     st
 }
 
-/// A GPU frame of the eye and of the light, with their depth set-ups.
-pub struct ShadowFrames {
-    pub eye: Frame,
-    pub eye_precision: DepthPrecision,
-    pub map: Frame,
+/// What the shadow pass's parameters need of the light's side: the map's
+/// camera and side, the closed primitives' count and the depth bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightView {
     pub map_camera: Camera,
-    pub map_precision: DepthPrecision,
+    pub size: u32,
+    pub closed: usize,
+    pub precision: DepthPrecision,
 }
 
-/// Renders the eye's frame and the shadow map with a GPU algorithm.
-pub fn gpu_frames(
+impl LightView {
+    /// The pass's uniform block for an eye camera on a `width × height` image.
+    pub fn params(&self, eye: &Camera, extent: (u32, u32)) -> ShadowParams {
+        pass_params(
+            eye,
+            extent,
+            &self.map_camera,
+            self.size,
+            &self.precision,
+            self.closed,
+        )
+    }
+}
+
+/// The light's side of a GPU renderer: the light's depth map on an executor of
+/// its own (same device, map size) and the shadow pass. The map of a
+/// world-fixed light depends only on the plan, so it is rendered once per plan
+/// ([`GpuShadows::ensure_map`]); each eye frame then costs one shadow pass.
+pub struct GpuShadows {
+    pass: vk::shadow::ShadowPass,
+    map: vk::Executor,
+    map_plan: Plan,
+    /// Whether the map holds a frame of `map_plan`.
+    map_done: bool,
+    light: Light,
+    view: LightView,
+}
+
+/// One shadowed eye frame's extra costs.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShadowCost {
+    /// The light map's frame, when this frame rendered it.
+    pub map: Option<vk::ExecStats>,
+    /// The shadow pass.
+    pub pass: vk::shadow::ShadowRun,
+}
+
+impl GpuShadows {
+    /// Shadows of `light` over `width × height` eye frames on `ctx`'s device
+    /// with depth set-up `depth` (bounds `precision`), the map rendered by
+    /// `algo` with `build`'s options. The eye's executor must write normals.
+    pub fn new(
+        ctx: &vk::Context,
+        (depth, precision): (DepthSetup, DepthPrecision),
+        scene: &Scene,
+        light: &Light,
+        algo: Algo,
+        build: &crate::plan::BuildOptions,
+    ) -> Result<GpuShadows, RenderError> {
+        let (width, height) = (scene.render.width, scene.render.height);
+        let size = shadow_map_size(width, height);
+        let ls = light_scene(scene, light, size);
+        let prep = Prepared::new(&ls)?;
+        let map_plan = crate::plan::build_with(algo, &prep, build)?;
+        crate::budget::current().check(
+            || format!("a {size}x{size} shadow map"),
+            size as u64 * size as u64 * super::GPU_HOST_BYTES_PER_PIXEL,
+            "use a smaller --size (the map is 2x the image's larger side)",
+        )?;
+        ctx.check_frame_size(size, size, super::DEVICE_BYTES_PER_PIXEL)?;
+        let (depth_format, reversed_z) = depth.exec_format();
+        let mut map = vk::Executor::new(
+            ctx,
+            &vk::ExecDesc {
+                width: size,
+                height: size,
+                depth_format,
+                reversed_z,
+            },
+        )?;
+        map.upload(&ls)?;
+        let pass = vk::shadow::ShadowPass::new(ctx, width, height)?;
+        Ok(GpuShadows {
+            pass,
+            map,
+            map_plan,
+            map_done: false,
+            light: *light,
+            view: LightView {
+                map_camera: ls.camera,
+                size,
+                closed: scene.primitives.len(),
+                precision,
+            },
+        })
+    }
+
+    /// Shadows for `gpu`'s frames (which from now on write normals).
+    pub fn for_renderer(
+        gpu: &mut GpuRenderer,
+        scene: &Scene,
+        light: &Light,
+        algo: Algo,
+        build: &crate::plan::BuildOptions,
+    ) -> Result<GpuShadows, RenderError> {
+        gpu.set_normals(true)?;
+        let setup = (gpu.depth_setup(), gpu.precision());
+        Self::new(gpu.context(), setup, scene, light, algo, build)
+    }
+
+    /// The shadow map's side.
+    pub fn map_size(&self) -> u32 {
+        self.view.size
+    }
+
+    /// Renders the light's map unless it holds this plan's already (a
+    /// world-fixed light's map does not change with the eye's camera).
+    pub fn ensure_map(&mut self) -> Result<Option<vk::ExecStats>, RenderError> {
+        if self.map_done {
+            return Ok(None);
+        }
+        let st = self.map.execute(&self.map_plan)?;
+        self.map_done = true;
+        Ok(Some(st))
+    }
+
+    /// Renders the light's map again (the bench times it).
+    pub fn render_map(&mut self) -> Result<vk::ExecStats, RenderError> {
+        self.map_done = false;
+        Ok(self.ensure_map()?.expect("just forgotten"))
+    }
+
+    /// Darkens the shadowed pixels of `gpu`'s last frame (seen by `eye`), the
+    /// map rendered first if it needs to be.
+    pub fn shade(&mut self, gpu: &GpuRenderer, eye: &Camera) -> Result<ShadowCost, RenderError> {
+        let map = self.ensure_map()?;
+        let exec = gpu.executor();
+        let d = exec.desc();
+        let params = self.view.params(eye, (d.width, d.height));
+        let pass = self
+            .pass
+            .run(exec, &self.map, &params, exec.output_rect())?;
+        Ok(ShadowCost { map, pass })
+    }
+
+    /// The map rendered, and the pass, handed to an embedder
+    /// (`vk::Embedder::set_shadow`) for frames seen by `eye`; the light's view
+    /// gives the parameters of later cameras.
+    pub fn into_embedded(
+        mut self,
+        eye: &Camera,
+    ) -> Result<(vk::shadow::EmbeddedShadow, LightView), RenderError> {
+        self.ensure_map()?;
+        let extent = self.pass.extent();
+        let params = self.view.params(eye, (extent[0], extent[1]));
+        Ok((
+            vk::shadow::EmbeddedShadow {
+                pass: self.pass,
+                map: self.map,
+                params,
+            },
+            self.view,
+        ))
+    }
+
+    /// The last pass's shadowed pixels.
+    pub fn mask(&mut self) -> Result<Vec<bool>, RenderError> {
+        Ok(self.pass.read_mask()?)
+    }
+
+    /// Lit/shadowed counts over the covered pixels of `prim` by the last pass.
+    pub fn stats(&mut self, prim: &[u16]) -> Result<ShadowStats, RenderError> {
+        let mask = self.mask()?;
+        let mut st = ShadowStats {
+            light: self.light.describe(),
+            shadow_map_size: Some(self.view.size),
+            ..Default::default()
+        };
+        for (&p, &m) in prim.iter().zip(&mask) {
+            match (p != 0, m) {
+                (true, true) => st.shadowed_pixels += 1,
+                (true, false) => st.lit_pixels += 1,
+                (false, _) => {}
+            }
+        }
+        Ok(st)
+    }
+}
+
+/// Shadows of `light` in every later frame `embedder` records (its images of
+/// `scene`'s render size, depth set-up `depth`, on `ctx`'s device): the eye
+/// writes normals, the light's map is rendered now by `algo` (a world-fixed
+/// light's map does not follow the camera), and the shadow pass is recorded
+/// after each frame. Returns what later cameras' parameters need (set them in
+/// `embedder.shadow_mut()`). Only while no frame of `embedder` is pending.
+pub fn embed_shadows(
+    embedder: &mut vk::Embedder,
+    ctx: &vk::Context,
+    depth: DepthSetup,
+    scene: &Scene,
+    light: &Light,
+    algo: Algo,
+) -> Result<LightView, RenderError> {
+    embedder.set_shadow(None);
+    embedder.executor().set_normals(true);
+    let setup = (depth, depth.precision(ctx.subpixel_bits()));
+    let build = crate::plan::BuildOptions::default();
+    let shadows = GpuShadows::new(ctx, setup, scene, light, algo, &build)?;
+    let (embedded, view) = shadows.into_embedded(&scene.camera)?;
+    embedder.set_shadow(Some(embedded));
+    Ok(view)
+}
+
+/// Per eye pixel: `None` on background, `Some(true)` in shadow, from a shadow
+/// pass's `mask` and the frame's ids `prim`.
+pub fn classify(prim: &[u16], mask: &[bool]) -> Vec<Option<bool>> {
+    prim.iter()
+        .zip(mask)
+        .map(|(&p, &m)| (p != 0).then_some(m))
+        .collect()
+}
+
+/// A GPU algorithm's frame of `scene` with the shadows of `light`, and its
+/// shadow mask (tests compare it with the shadow rays).
+pub fn gpu_shadowed(
     scene: &Scene,
     opts: &RenderOptions,
     light: &Light,
-) -> Result<ShadowFrames, RenderError> {
-    let size = shadow_map_size(scene.render.width, scene.render.height);
+) -> Result<(Frame, Vec<Option<bool>>), RenderError> {
+    let t = Instant::now();
     // The eye's frame is held while the light's map renders.
     super::FrameMemory {
         gpu: true,
-        shadow_map: Some(size),
+        shadow_map: Some(shadow_map_size(scene.render.width, scene.render.height)),
         ..Default::default()
     }
     .check(scene.render.width, scene.render.height)?;
-    let (eye, eye_precision) = super::render_gpu(scene, opts)?;
-    let ls = light_scene(scene, light, size);
-    let (map, map_precision) = super::render_gpu(&ls, opts)?;
-    Ok(ShadowFrames {
-        eye,
-        eye_precision,
-        map,
-        map_camera: ls.camera,
-        map_precision,
-    })
+    let prep = Prepared::new(scene)?;
+    let plan = crate::plan::build_with(opts.algo, &prep, &opts.build)?;
+    let mut gpu = GpuRenderer::for_options(scene, opts)?;
+    let mut shadows = GpuShadows::for_renderer(&mut gpu, scene, light, opts.algo, &opts.build)?;
+    let mut stats = gpu.execute(&plan)?;
+    let cost = shadows.shade(&gpu, &scene.camera)?;
+    let images = gpu.read_back()?;
+    let mask = shadows.mask()?;
+    let mut st = shadows.stats(&images.prim)?;
+    st.shadow_map_gpu_ms = cost.map.map(|m| m.gpu_ms);
+    st.shadow_pass_gpu_ms = Some(cost.pass.gpu_ms);
+    stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
+    stats.shadow = Some(st);
+    drop(shadows);
+    let msgs = gpu.validation_messages();
+    if !msgs.is_empty() {
+        return Err(RenderError::Validation(msgs));
+    }
+    let classes = classify(&images.prim, &mask);
+    Ok((Frame { images, stats }, classes))
 }
 
-/// The lit/shadowed mask of a GPU algorithm's frames.
-pub fn gpu_mask(scene: &Scene, f: &ShadowFrames) -> Vec<Option<bool>> {
-    shadow_test(
-        scene,
-        &DepthView {
-            images: &f.eye.images,
-            camera: &scene.camera,
-            precision: f.eye_precision,
-        },
-        &DepthView {
-            images: &f.map.images,
-            camera: &f.map_camera,
-            precision: f.map_precision,
-        },
-    )
-}
-
-/// One frame of `scene` lit by `light`, shadows included.
+/// One frame of `scene` lit by `light`, shadows included: the reference casts
+/// shadow rays, GPU algorithms run the shadow pass.
 pub fn render_shadowed(
     scene: &Scene,
     opts: &RenderOptions,
     light: &Light,
 ) -> Result<Frame, RenderError> {
-    let t = Instant::now();
-    if opts.algo == Algo::Reference {
-        let mut frame = super::render_opaque(scene, opts)?;
-        let mask = crate::reference::shadow::shadow_rays(
-            scene,
-            light,
-            scene.render.width,
-            scene.render.height,
-        );
-        let st = apply(&mut frame.images.color, &mask, light);
-        frame.stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
-        frame.stats.shadow = Some(st);
-        return Ok(frame);
+    if opts.algo != Algo::Reference {
+        return Ok(gpu_shadowed(scene, opts, light)?.0);
     }
-    let f = gpu_frames(scene, opts, light)?;
-    let mask = gpu_mask(scene, &f);
-    let mut frame = f.eye;
-    let mut st = apply(&mut frame.images.color, &mask, light);
-    st.shadow_map_size = Some(f.map.images.width);
-    st.shadow_map_gpu_ms = Some(f.map.stats.exec.gpu_ms);
+    let t = Instant::now();
+    let mut frame = super::render_opaque(scene, opts)?;
+    let mask = crate::reference::shadow::shadow_rays(
+        scene,
+        light,
+        scene.render.width,
+        scene.render.height,
+    );
+    let st = apply(&mut frame.images.color, &mask, light);
     frame.stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
     frame.stats.shadow = Some(st);
     Ok(frame)

@@ -110,6 +110,45 @@ pub(crate) fn check_host_formats(
     Ok(())
 }
 
+/// Inside a rendering block of `extent`: binds a full-screen pass's pipeline
+/// and its one descriptor set (set 0 of `layout`), whose images the caller has
+/// made readable, and sets the viewport to the whole extent and the scissor
+/// (within it). Shared by the composite and the shadow pass (`vk::shadow`).
+pub(crate) fn bind_fullscreen(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    (pipeline, layout, set): (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet),
+    extent: vk::Extent2D,
+    scissor: vk::Rect2D,
+) {
+    let viewport = vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: extent.width as f32,
+        height: extent.height as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    };
+    // SAFETY: inside a rendering block whose formats the pipeline was made for.
+    unsafe { device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline) };
+    // SAFETY: the set matches set 0 of `layout`; its images are readable (the
+    // caller's barriers).
+    unsafe {
+        device.cmd_bind_descriptor_sets(
+            cmd,
+            vk::PipelineBindPoint::GRAPHICS,
+            layout,
+            0,
+            &[set],
+            &[],
+        )
+    };
+    // SAFETY: dynamic state of the bound pipeline.
+    unsafe { device.cmd_set_viewport(cmd, 0, &[viewport]) };
+    // SAFETY: as above; the rectangle lies within the attachments.
+    unsafe { device.cmd_set_scissor(cmd, 0, &[scissor]) };
+}
+
 /// The composite pass's objects, made for one pair of host formats.
 pub(super) struct Composite {
     pub(super) formats: (vk::Format, vk::Format),
@@ -234,7 +273,7 @@ impl Composite {
                     // Only the depth aspect is written: no stencil attachment.
                     stencil_format: vk::Format::UNDEFINED,
                     layout: self.layout,
-                    under: false,
+                    blend: None,
                 },
             );
             // SAFETY: modules are only needed while creating the pipeline.
@@ -319,40 +358,24 @@ impl Composite {
             .layer_count(1)
             .color_attachments(&color)
             .depth_attachment(&depth);
-        let viewport = vk::Viewport {
-            x: 0.0,
-            y: 0.0,
-            width: extent.width as f32,
-            height: extent.height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
-        };
         // SAFETY: outside rendering (the caller's contract); the views are the
         // host's attachments in the layouts the contract names.
         unsafe { device.cmd_begin_rendering(cmd, &ri) };
-        // SAFETY: inside the block above; the pipeline was made for its formats.
-        unsafe { device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline) };
-        // SAFETY: the set's images are in `SHADER_READ_ONLY_OPTIMAL` (barrier above).
-        unsafe {
-            device.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                self.layout,
-                0,
-                &[self.set],
-                &[],
-            )
-        };
+        // The pipeline was made for these formats; the set's images are in
+        // `SHADER_READ_ONLY_OPTIMAL` (barrier above).
+        bind_fullscreen(
+            device,
+            cmd,
+            (self.pipeline, self.layout, self.set),
+            extent,
+            scissor,
+        );
         let push = u32::from(is_srgb(t.color_format)).to_ne_bytes();
         // SAFETY: the layout's range holds this one u32 for the fragment stage.
         unsafe {
             device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::FRAGMENT, 0, &push)
         };
         // SAFETY: dynamic state of the bound pipeline.
-        unsafe { device.cmd_set_viewport(cmd, 0, &[viewport]) };
-        // SAFETY: as above; the rectangle lies within the attachments.
-        unsafe { device.cmd_set_scissor(cmd, 0, &[scissor]) };
-        // SAFETY: as above.
         unsafe { device.cmd_set_depth_compare_op(cmd, depth_compare) };
         // SAFETY: pipeline, set and state bound; the vertex shader needs no buffer.
         unsafe { device.cmd_draw(cmd, 3, 1, 0, 0) };

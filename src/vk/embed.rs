@@ -68,6 +68,8 @@ pub struct Embedder {
     sampler: vk::Sampler,
     /// What `record` draws.
     plan: Option<Plan>,
+    /// Shadows of a light, darkening each frame before the composite.
+    shadow: Option<super::shadow::EmbeddedShadow>,
 }
 
 impl Embedder {
@@ -107,6 +109,7 @@ impl Embedder {
             composite: None,
             sampler,
             plan: None,
+            shadow: None,
         })
     }
 
@@ -118,6 +121,17 @@ impl Embedder {
     /// The executor (upload meshes, move the camera, run standalone frames).
     pub fn executor(&mut self) -> &mut Executor {
         &mut self.exec
+    }
+
+    /// Shadows recorded after each frame (`None`: none). The executor must write
+    /// normals while they are set; set only while no frame is pending.
+    pub fn set_shadow(&mut self, shadow: Option<super::shadow::EmbeddedShadow>) {
+        self.shadow = shadow;
+    }
+
+    /// The shadows' state (the host updates `params` when its camera moves).
+    pub fn shadow_mut(&mut self) -> Option<&mut super::shadow::EmbeddedShadow> {
+        self.shadow.as_mut()
     }
 
     /// Sets the plan [`Embedder::record`] draws (kept when equal to the current one).
@@ -267,6 +281,11 @@ impl Embedder {
         let slot = (self.frame % self.slots.len() as u64) as usize;
         self.frame += 1;
         let counted = self.copy_counts(cmd, slot, unrolled.groups.len() as u32);
+        if let Some(sh) = &mut self.shadow {
+            let rect = self.exec.output_rect();
+            sh.pass
+                .record(cmd, &self.exec, &sh.map, &sh.params, rect, None)?;
+        }
         let mut stats = unrolled.stats.clone();
         self.composite(cmd, targets, depth_compare, counted, &mut stats)?;
         self.slots[slot].pending = Some((plan.clone(), unrolled));

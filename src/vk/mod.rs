@@ -30,6 +30,7 @@ pub mod present;
 pub mod readback;
 pub mod rounding;
 pub mod scissor;
+pub mod shadow;
 pub(crate) mod submit;
 pub mod sync;
 

@@ -344,7 +344,7 @@ impl Pipelines {
                 depth_format: ds_format,
                 stencil_format: ds_format,
                 layout: self.layout,
-                under: desc.fragment == FragmentKind::Accumulate,
+                blend: (desc.fragment == FragmentKind::Accumulate).then(under_blend),
             },
         )
     }
@@ -353,7 +353,7 @@ impl Pipelines {
 /// What differs between peeltrim's graphics pipelines (the executor's and the
 /// embedding's composite); [`graphics_pipeline`] fills in the fixed rest:
 /// triangle lists, one dynamic viewport and scissor, filled polygons, one
-/// sample, no blending unless `under`, dynamic rendering.
+/// sample, no blending unless `blend` says, dynamic rendering.
 pub(crate) struct Graphics<'a> {
     pub stages: &'a [vk::PipelineShaderStageCreateInfo<'a>],
     pub vertex_input: &'a vk::PipelineVertexInputStateCreateInfo<'a>,
@@ -365,9 +365,24 @@ pub(crate) struct Graphics<'a> {
     pub depth_format: vk::Format,
     pub stencil_format: vk::Format,
     pub layout: vk::PipelineLayout,
-    /// Blend front to back ("under", the accumulate pass): `dst += (1 −
-    /// dst.a)·src` for colour (premultiplied by the shader) and coverage alike.
-    pub under: bool,
+    /// Blending of every colour attachment and the blend constants (`None`:
+    /// no blending, all channels written).
+    pub blend: Option<(vk::PipelineColorBlendAttachmentState, [f32; 4])>,
+}
+
+/// Front-to-back blending ("under", the accumulate pass): `dst += (1 −
+/// dst.a)·src` for colour (premultiplied by the shader) and coverage alike.
+pub(crate) fn under_blend() -> (vk::PipelineColorBlendAttachmentState, [f32; 4]) {
+    let a = vk::PipelineColorBlendAttachmentState::default()
+        .blend_enable(true)
+        .color_write_mask(vk::ColorComponentFlags::RGBA)
+        .src_color_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
+        .dst_color_blend_factor(vk::BlendFactor::ONE)
+        .color_blend_op(vk::BlendOp::ADD)
+        .src_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
+        .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+        .alpha_blend_op(vk::BlendOp::ADD);
+    (a, [0.0; 4])
 }
 
 /// Creates the graphics pipeline `g` describes (see [`Graphics`]).
@@ -386,25 +401,16 @@ pub(crate) fn graphics_pipeline(
         .line_width(1.0);
     let multisample = vk::PipelineMultisampleStateCreateInfo::default()
         .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-    let blend_attachments: Vec<_> = g
-        .color_formats
-        .iter()
-        .map(|_| {
-            let a = vk::PipelineColorBlendAttachmentState::default()
-                .blend_enable(g.under)
-                .color_write_mask(vk::ColorComponentFlags::RGBA);
-            if !g.under {
-                return a;
-            }
-            a.src_color_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
-                .dst_color_blend_factor(vk::BlendFactor::ONE)
-                .color_blend_op(vk::BlendOp::ADD)
-                .src_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
-                .dst_alpha_blend_factor(vk::BlendFactor::ONE)
-                .alpha_blend_op(vk::BlendOp::ADD)
-        })
-        .collect();
-    let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+    let (each, constants) = g.blend.unwrap_or((
+        vk::PipelineColorBlendAttachmentState::default()
+            .blend_enable(false)
+            .color_write_mask(vk::ColorComponentFlags::RGBA),
+        [0.0; 4],
+    ));
+    let blend_attachments = vec![each; g.color_formats.len()];
+    let blend = vk::PipelineColorBlendStateCreateInfo::default()
+        .attachments(&blend_attachments)
+        .blend_constants(constants);
     let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(g.dynamic_states);
     let mut rendering = vk::PipelineRenderingCreateInfo::default()
         .color_attachment_formats(g.color_formats)

@@ -20,13 +20,15 @@
 //! barriers from `plan::usage` through `vk::sync`), `state` (dynamic state
 //! recorded only where it changes), `stats` (typed statistics), `normals` (the
 //! optional normal buffer and the edge pass on it, seed 001 §5), `transparency`
-//! (the accumulate pass compositing peeled layers on the GPU, seed 000 §6).
+//! (the accumulate pass compositing peeled layers on the GPU, seed 000 §6),
+//! `shadow` (what the shadow pass, `vk::shadow`, reads of an executor).
 
 mod camera;
 mod embed;
 mod gpu_scene;
 mod normals;
 mod record;
+mod shadow;
 mod state;
 mod stats;
 mod targets;
@@ -40,6 +42,8 @@ use gpu_allocator::MemoryLocation;
 
 pub use super::conv::DepthFormat;
 pub(crate) use embed::{Output, Unrolled};
+pub(crate) use normals::copy_to_host;
+pub(crate) use shadow::color_format;
 pub use stats::{Counts, ExecStats, PassStats, Recorded};
 
 use super::error::VkError;

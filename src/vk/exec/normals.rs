@@ -8,8 +8,9 @@ use gpu_allocator::MemoryLocation;
 use super::{whole_image_region, Executor};
 use crate::plan::usage::Resource;
 use crate::vk::error::VkError;
+use crate::vk::instance::Shared;
 use crate::vk::memory::Buffer;
-use crate::vk::submit;
+use crate::vk::submit::{self, Submitter};
 use crate::vk::sync::{self, REST};
 
 impl Executor {
@@ -84,25 +85,37 @@ impl Executor {
         if !t.all().contains(&r) {
             return Ok(None);
         }
-        let img = t.image(r);
+        let img = t.image(r).raw;
         let (w, h) = (self.desc.width, self.desc.height);
-        let buf = Buffer::new(
-            &self.shared,
-            "target readback",
-            w as u64 * h as u64 * bpp,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )?;
-        let cmd = self.submit.cmd;
-        self.submit.begin(cmd, true)?;
-        let region = whole_image_region(vk::ImageAspectFlags::COLOR, 0, w, h);
-        let layout = sync::access(REST).layout;
-        let device = &self.shared.device;
-        // SAFETY: outside rendering; the image allows transfer src and rests in
-        // `layout` after every frame; the region fits the buffer.
-        unsafe { device.cmd_copy_image_to_buffer(cmd, img.raw, layout, buf.raw, &[region]) };
-        submit::transfer_to_host_barrier(device, cmd);
-        self.submit.finish(cmd)?;
-        Ok(Some(buf.mapped()?.to_vec()))
+        copy_to_host(&self.shared, &self.submit, img, [w, h], bpp).map(Some)
     }
+}
+
+/// Copies colour image `image` (`extent`, `bpp` bytes a pixel, resting in
+/// `REST`) to the CPU with `submit`'s command buffer, waited for.
+pub(crate) fn copy_to_host(
+    shared: &std::sync::Arc<Shared>,
+    submit: &Submitter,
+    image: vk::Image,
+    [w, h]: [u32; 2],
+    bpp: u64,
+) -> Result<Vec<u8>, VkError> {
+    let buf = Buffer::new(
+        shared,
+        "target readback",
+        w as u64 * h as u64 * bpp,
+        vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuToCpu,
+    )?;
+    let cmd = submit.cmd;
+    submit.begin(cmd, true)?;
+    let region = whole_image_region(vk::ImageAspectFlags::COLOR, 0, w, h);
+    let layout = sync::access(REST).layout;
+    let device = &shared.device;
+    // SAFETY: outside rendering; the image allows transfer src and rests in
+    // `layout` (the caller's contract); the region fits the buffer.
+    unsafe { device.cmd_copy_image_to_buffer(cmd, image, layout, buf.raw, &[region]) };
+    submit::transfer_to_host_barrier(device, cmd);
+    submit.finish(cmd)?;
+    Ok(buf.mapped()?.to_vec())
 }
