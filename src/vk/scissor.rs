@@ -66,6 +66,21 @@ impl Rect {
         }
     }
 
+    /// The pixels in both; [`Rect::EMPTY`] when they do not meet.
+    pub fn intersect(&self, o: &Rect) -> Rect {
+        let r = Rect {
+            x0: self.x0.max(o.x0),
+            y0: self.y0.max(o.y0),
+            x1: self.x1.min(o.x1),
+            y1: self.y1.min(o.y1),
+        };
+        if r.is_empty() {
+            Rect::EMPTY
+        } else {
+            r
+        }
+    }
+
     pub fn union(&self, o: &Rect) -> Rect {
         if self.is_empty() {
             return *o;
@@ -135,6 +150,18 @@ pub fn bounds_rect(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn intersections_are_the_common_pixels_or_empty() {
+        let r = |x0, y0, x1, y1| super::Rect { x0, y0, x1, y1 };
+        let a = r(0, 0, 10, 10);
+        assert_eq!(a.intersect(&r(5, 2, 20, 8)), r(5, 2, 10, 8));
+        assert_eq!(r(5, 2, 20, 8).intersect(&a), r(5, 2, 10, 8));
+        assert_eq!(a.intersect(&r(10, 0, 20, 10)), super::Rect::EMPTY);
+        assert_eq!(a.intersect(&r(12, 12, 20, 20)), super::Rect::EMPTY);
+        assert_eq!(a.intersect(&super::Rect::EMPTY), super::Rect::EMPTY);
+        assert!(a.contains(&a.intersect(&r(3, 3, 4, 40))));
+    }
+
     #[test]
     fn grown_rectangles_stay_in_the_image_and_contain_the_original() {
         let r = Rect {

@@ -23,14 +23,19 @@ fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &m
         for (compare, cull) in tie_draws(peeled, e.prim, e.leaf, e.negated, rel) {
             steps.push(parity_draw(
                 e.prim,
+                peeled.prim,
                 compare,
                 cull,
                 stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
             ));
         }
+        // Parity is set only where the entry's mesh drew, inside both boxes.
         let inside = sweep(
             WORK,
-            Scissor::BoundsOf(vec![e.prim]),
+            Scissor::Overlap {
+                of: vec![e.prim],
+                and: me.clone(),
+            },
             stencil::change_stencil_state(
                 here | LabelLayout::PARITY,
                 layout.value(on_inside),

@@ -23,7 +23,7 @@ use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
 use crate::plan::usage::{self, Resource, Usage};
-use crate::plan::{Clear, Draw, Fragment, Geometry, Scissor, Step};
+use crate::plan::{Clear, Draw, Fragment, Geometry, MeshId, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::image::range;
@@ -767,10 +767,17 @@ impl<'a> Recorder<'a> {
         let (w, h) = (self.b.desc.width, self.b.desc.height);
         match s {
             Scissor::Full => Rect::full(w, h),
-            Scissor::BoundsOf(ms) => ms
-                .iter()
-                .fold(Rect::EMPTY, |r, m| r.union(&self.b.mesh_rects[*m as usize])),
+            Scissor::BoundsOf(ms) => self.bounds(ms),
+            Scissor::Overlap { of, and } => and.iter().fold(self.bounds(of), |r, m| {
+                r.intersect(&self.b.mesh_rects[*m as usize])
+            }),
         }
+    }
+
+    /// The union of the meshes' rectangles.
+    fn bounds(&self, ms: &[MeshId]) -> Rect {
+        ms.iter()
+            .fold(Rect::EMPTY, |r, m| r.union(&self.b.mesh_rects[*m as usize]))
     }
 
     fn draw(&mut self, draw: &Draw, step: &Step) -> Result<(), VkError> {
