@@ -32,6 +32,7 @@ use super::super::common::{next, sweep};
 use super::super::stencil::{self, Next};
 use super::super::step::*;
 use super::super::{PlanError, Prepared};
+use super::trim::literal_sweeps;
 use super::{parity_draw, tie_draws, LeafCst, Peeled, Relation, Trimmer, WORK};
 use crate::csg::groups::{Group, GroupedBlist, Item};
 use crate::scene::Aabb;
@@ -189,11 +190,13 @@ pub struct GroupTrimmer {
 
 /// Stencil labels for the entries of a grouped Blist whose targets name entry
 /// indices: the smallest free label when an entry is first referenced, freed when
-/// it is reached (label reuse, seed 002 §5.3.3) — but only after the entry's own
-/// targets have theirs, so a target never shares its source's label. A counter
-/// sweep could not tell pixels moved to such a target from pixels still to be
-/// classified; the rule costs at most one label over plain reuse.
-pub fn assign_labels(targets: &[(Next, Next)]) -> Vec<u32> {
+/// it is reached (label reuse, seed 002 §5.3.3). A group's label is freed only
+/// after its own targets have theirs, so a group's target never shares its label:
+/// a counter sweep could not tell pixels moved to such a target from pixels
+/// still to be classified (at most one label over plain reuse). A literal
+/// (`reuse[i]`) frees its label first: its parity sweeps handle a target at
+/// their own label ([`literal_sweeps`]) and leave out that sweep.
+pub fn assign_labels(targets: &[(Next, Next)], reuse: &[bool]) -> Vec<u32> {
     let mut label = vec![u32::MAX; targets.len()];
     let mut used: Vec<bool> = Vec::new();
     let alloc = |used: &mut Vec<bool>| match used.iter().position(|u| !u) {
@@ -211,6 +214,9 @@ pub fn assign_labels(targets: &[(Next, Next)]) -> Vec<u32> {
     }
     label[0] = alloc(&mut used);
     for (i, &(t, f)) in targets.iter().enumerate() {
+        if reuse[i] {
+            used[label[i] as usize] = false;
+        }
         for n in [t, f] {
             if let Next::Label(j) = n {
                 if label[j as usize] == u32::MAX {
@@ -218,7 +224,9 @@ pub fn assign_labels(targets: &[(Next, Next)]) -> Vec<u32> {
                 }
             }
         }
-        used[label[i] as usize] = false;
+        if !reuse[i] {
+            used[label[i] as usize] = false;
+        }
     }
     label
 }
@@ -242,7 +250,7 @@ impl GroupTrimmer {
         };
         let (blist, layout) = Self::chunked(zone, &keep)?;
         let by_entry = Self::targets(&blist);
-        let labels = assign_labels(&by_entry);
+        let labels = assign_labels(&by_entry, &Self::literals(&blist));
         let targets = relabel(&by_entry, &labels);
         Ok(GroupTrimmer {
             peeled: c.peeled,
@@ -272,7 +280,7 @@ impl GroupTrimmer {
         let mut max = usize::MAX;
         loop {
             let blist = GroupedBlist::grouped(zone, max, keep);
-            let labels = assign_labels(&Self::targets(&blist))
+            let labels = assign_labels(&Self::targets(&blist), &Self::literals(&blist))
                 .into_iter()
                 .max()
                 .map_or(1, |m| m + 1);
@@ -301,6 +309,15 @@ impl GroupTrimmer {
             }
             max = next;
         }
+    }
+
+    /// Per entry, whether it is a single literal.
+    fn literals(blist: &GroupedBlist) -> Vec<bool> {
+        blist
+            .entries
+            .iter()
+            .map(|e| matches!(e.item, Item::Literal(_)))
+            .collect()
     }
 
     /// The Blist's targets as entry indices: a target `Label(l)` of entry `i` is
@@ -366,18 +383,13 @@ impl Trimmer for GroupTrimmer {
                             stencil::toggle_parity(here, label_mask, 1),
                         ));
                     }
-                    steps.push(sweep(
-                        WORK,
-                        Scissor::Overlap {
-                            of: vec![lit.prim],
-                            and: me.clone(),
-                        },
-                        stencil::change_stencil_state(here | 1, l.value(on_inside), all_mask),
-                    ));
-                    steps.push(sweep(
-                        WORK,
-                        Scissor::BoundsOf(me.clone()),
-                        stencil::change_stencil_state(here, l.value(on_outside), all_mask),
+                    steps.extend(literal_sweeps(
+                        lit.prim,
+                        self.peeled.prim,
+                        here,
+                        1,
+                        (l.value(on_inside), l.value(on_outside)),
+                        all_mask,
                     ));
                 }
                 Item::Group(g) => {
@@ -499,13 +511,14 @@ mod tests {
             .unwrap();
             let blist = GroupedBlist::with_max_group(&PositiveExpr::from_expr(&e), 3);
             let by_entry = GroupTrimmer::targets(&blist);
-            let labels = assign_labels(&by_entry);
+            let literal = GroupTrimmer::literals(&blist);
+            let labels = assign_labels(&by_entry, &literal);
             for (i, &(t, f)) in by_entry.iter().enumerate() {
                 for n in [t, f] {
                     if let Next::Label(j) = n {
-                        assert_ne!(
-                            labels[j as usize], labels[i],
-                            "{src}: entry {i} targets its own label"
+                        assert!(
+                            literal[i] || labels[j as usize] != labels[i],
+                            "{src}: group {i} targets its own label"
                         );
                         // No entry between i and j holds j's label while j is pending.
                         for k in i + 1..j as usize {
