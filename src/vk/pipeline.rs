@@ -176,7 +176,7 @@ pub struct Pipelines {
     cache: HashMap<PipelineDesc, vk::Pipeline>,
 }
 
-fn shader_module(shared: &Shared, bytes: &[u8]) -> Result<vk::ShaderModule, VkError> {
+pub(crate) fn shader_module(shared: &Shared, bytes: &[u8]) -> Result<vk::ShaderModule, VkError> {
     let words = ash::util::read_spv(&mut Cursor::new(bytes))
         .map_err(|e| VkError::Plan(format!("embedded SPIR-V unreadable: {e}")))?;
     let ci = vk::ShaderModuleCreateInfo::default().code(&words);
@@ -303,31 +303,10 @@ impl Pipelines {
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&vb)
             .vertex_attribute_descriptions(&va);
-        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let viewport = vk::PipelineViewportStateCreateInfo::default()
-            .viewport_count(1)
-            .scissor_count(1);
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
-            .polygon_mode(vk::PolygonMode::FILL)
-            .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
         let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_bounds_test_enable(false)
             .min_depth_bounds(0.0)
             .max_depth_bounds(1.0);
-        let blend_attachments: Vec<_> = desc
-            .color_formats
-            .iter()
-            .map(|_| {
-                vk::PipelineColorBlendAttachmentState::default()
-                    .blend_enable(false)
-                    .color_write_mask(vk::ColorComponentFlags::RGBA)
-            })
-            .collect();
-        let blend =
-            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
         let dynamic_states = [
             vk::DynamicState::VIEWPORT,
             vk::DynamicState::SCISSOR,
@@ -342,37 +321,93 @@ impl Pipelines {
             vk::DynamicState::STENCIL_WRITE_MASK,
             vk::DynamicState::STENCIL_REFERENCE,
         ];
-        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
         let ds_format = desc.depth_stencil_format.unwrap_or(vk::Format::UNDEFINED);
-        let mut rendering = vk::PipelineRenderingCreateInfo::default()
-            .color_attachment_formats(&desc.color_formats)
-            .depth_attachment_format(ds_format)
-            .stencil_attachment_format(ds_format);
-        let ci = vk::GraphicsPipelineCreateInfo::default()
-            .stages(&stages)
-            .vertex_input_state(&vertex_input)
-            .input_assembly_state(&assembly)
-            .viewport_state(&viewport)
-            .rasterization_state(&raster)
-            .multisample_state(&multisample)
-            .depth_stencil_state(&depth_stencil)
-            .color_blend_state(&blend)
-            .dynamic_state(&dynamic)
-            .layout(self.layout)
-            .push_next(&mut rendering);
-        // SAFETY: all state structs above live across the call; modules and layout
-        // are live.
-        let pipelines = unsafe {
-            self.shared
-                .device
-                .create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None)
-        }
-        .map_err(|(_, e)| VkError::Call {
-            call: "vkCreateGraphicsPipelines",
-            result: e,
-        })?;
-        Ok(pipelines[0])
+        graphics_pipeline(
+            &self.shared.device,
+            &Graphics {
+                stages: &stages,
+                vertex_input: &vertex_input,
+                cull: vk::CullModeFlags::NONE,
+                depth_stencil: &depth_stencil,
+                dynamic_states: &dynamic_states,
+                color_formats: &desc.color_formats,
+                depth_format: ds_format,
+                stencil_format: ds_format,
+                layout: self.layout,
+            },
+        )
     }
+}
+
+/// What differs between peeltrim's graphics pipelines (the executor's and the
+/// embedding's composite); [`graphics_pipeline`] fills in the fixed rest:
+/// triangle lists, one dynamic viewport and scissor, filled polygons, one
+/// sample, no blending, dynamic rendering.
+pub(crate) struct Graphics<'a> {
+    pub stages: &'a [vk::PipelineShaderStageCreateInfo<'a>],
+    pub vertex_input: &'a vk::PipelineVertexInputStateCreateInfo<'a>,
+    /// Static cull mode (ignored where `CULL_MODE` is dynamic).
+    pub cull: vk::CullModeFlags,
+    pub depth_stencil: &'a vk::PipelineDepthStencilStateCreateInfo<'a>,
+    pub dynamic_states: &'a [vk::DynamicState],
+    pub color_formats: &'a [vk::Format],
+    pub depth_format: vk::Format,
+    pub stencil_format: vk::Format,
+    pub layout: vk::PipelineLayout,
+}
+
+/// Creates the graphics pipeline `g` describes (see [`Graphics`]).
+pub(crate) fn graphics_pipeline(
+    device: &ash::Device,
+    g: &Graphics<'_>,
+) -> Result<vk::Pipeline, VkError> {
+    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let viewport = vk::PipelineViewportStateCreateInfo::default()
+        .viewport_count(1)
+        .scissor_count(1);
+    let raster = vk::PipelineRasterizationStateCreateInfo::default()
+        .polygon_mode(vk::PolygonMode::FILL)
+        .cull_mode(g.cull)
+        .line_width(1.0);
+    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    let blend_attachments: Vec<_> = g
+        .color_formats
+        .iter()
+        .map(|_| {
+            vk::PipelineColorBlendAttachmentState::default()
+                .blend_enable(false)
+                .color_write_mask(vk::ColorComponentFlags::RGBA)
+        })
+        .collect();
+    let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+    let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(g.dynamic_states);
+    let mut rendering = vk::PipelineRenderingCreateInfo::default()
+        .color_attachment_formats(g.color_formats)
+        .depth_attachment_format(g.depth_format)
+        .stencil_attachment_format(g.stencil_format);
+    let ci = vk::GraphicsPipelineCreateInfo::default()
+        .stages(g.stages)
+        .vertex_input_state(g.vertex_input)
+        .input_assembly_state(&assembly)
+        .viewport_state(&viewport)
+        .rasterization_state(&raster)
+        .multisample_state(&multisample)
+        .depth_stencil_state(g.depth_stencil)
+        .color_blend_state(&blend)
+        .dynamic_state(&dynamic)
+        .layout(g.layout)
+        .push_next(&mut rendering);
+    // SAFETY: all state structs above and in `g` live across the call; its
+    // modules and layout are live (the caller's).
+    let pipelines =
+        unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) }
+            .map_err(|(_, e)| VkError::Call {
+                call: "vkCreateGraphicsPipelines",
+                result: e,
+            })?;
+    Ok(pipelines[0])
 }
 
 impl Drop for Pipelines {

@@ -158,7 +158,19 @@ struct Recording {
 #[derive(Default)]
 struct Clock {
     first_submit: Option<Instant>,
+    /// The process's CPU time at the first submission (`vk::cpu_clock`).
+    first_submit_cpu: u64,
     record_ms: f64,
+}
+
+impl Clock {
+    /// Notes the first submission of the frame (later ones change nothing).
+    fn submitting(&mut self) {
+        if self.first_submit.is_none() {
+            self.first_submit_cpu = crate::vk::cpu_clock::process_ns();
+            self.first_submit = Some(Instant::now());
+        }
+    }
 }
 
 /// Runs plans on one device at one image size.
@@ -388,6 +400,9 @@ impl Executor {
             .first_submit
             .map(|t| t.elapsed().as_secs_f64() * 1e3)
             .unwrap_or(0.0);
+        if clock.first_submit.is_some() {
+            stats.frame_cpu_ms = crate::vk::cpu_clock::ms_since(clock.first_submit_cpu);
+        }
         stats.record_ms = clock.record_ms;
         stats.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         self.last_output = Some(plan.output_ds);
@@ -518,7 +533,7 @@ impl Executor {
             });
         }
         let rec = self.recording.as_ref().expect("recorded above");
-        clock.first_submit.get_or_insert_with(Instant::now);
+        clock.submitting();
         self.submit.submit(self.frame_cmd, &[], &[])?;
         self.submit.wait()?;
         let device = &self.shared.device;
@@ -622,7 +637,7 @@ impl Executor {
             rec.end();
             sub.end(cmd)?;
             clock.record_ms += t.elapsed().as_secs_f64() * 1e3;
-            clock.first_submit.get_or_insert_with(Instant::now);
+            clock.submitting();
             sub.submit(cmd, &[], &[])?;
             sub.wait()?;
             rec.stats.counts.submits += 1;
