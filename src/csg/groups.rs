@@ -112,6 +112,13 @@ impl GroupedBlist {
     /// consecutive operands of the same operator (so consecutive entries), which
     /// keeps the counter small at the cost of more labels. Semantics unchanged.
     pub fn with_max_group(pos: &PositiveExpr, max_group: usize) -> Self {
+        Self::grouped(pos, max_group, &|_| true)
+    }
+
+    /// As [`GroupedBlist::with_max_group`], keeping as a group only the chunks
+    /// `keep` accepts: the others become one entry per literal (under the same
+    /// operator, so the semantics are unchanged).
+    pub fn grouped(pos: &PositiveExpr, max_group: usize, keep: &dyn Fn(&Group) -> bool) -> Self {
         let max_group = max_group.max(2);
         if pos.is_universe() {
             return GroupedBlist {
@@ -119,7 +126,7 @@ impl GroupedBlist {
                 num_labels: 0,
             };
         }
-        let (tree, root, items) = grouped_tree(pos, max_group);
+        let (tree, root, items) = grouped_tree(pos, max_group, keep);
         let lay = layout(&tree, root, true);
         let entries = lay
             .entries
@@ -181,7 +188,11 @@ impl GroupedBlist {
 }
 
 /// Builds the grouped tree: one atom per group or lone literal. Iterative.
-fn grouped_tree(pos: &PositiveExpr, max_group: usize) -> (Vec<BNode>, u32, Vec<Item>) {
+fn grouped_tree(
+    pos: &PositiveExpr,
+    max_group: usize,
+    keep: &dyn Fn(&Group) -> bool,
+) -> (Vec<BNode>, u32, Vec<Item>) {
     let parent = pos.parents();
     let op_of = |n: PNodeId| match pos.nodes[n as usize] {
         PNode::Union(..) => Some(GroupKind::Union),
@@ -227,17 +238,17 @@ fn grouped_tree(pos: &PositiveExpr, max_group: usize) -> (Vec<BNode>, u32, Vec<I
             let take = rest.len().div_ceil(chunks - k);
             let (chunk, tail) = rest.split_at(take);
             rest = tail;
-            parts.push(match chunk.len() {
-                1 => atom(&mut tree, &mut items, Item::Literal(chunk[0])),
-                _ => atom(
-                    &mut tree,
-                    &mut items,
-                    Item::Group(Group {
-                        kind,
-                        literals: chunk.to_vec(),
-                    }),
-                ),
-            });
+            let group = Group {
+                kind,
+                literals: chunk.to_vec(),
+            };
+            if chunk.len() > 1 && keep(&group) {
+                parts.push(atom(&mut tree, &mut items, Item::Group(group)));
+            } else {
+                for &lit in chunk {
+                    parts.push(atom(&mut tree, &mut items, Item::Literal(lit)));
+                }
+            }
         }
         parts.extend(subs);
         let mut acc = parts[0];

@@ -143,11 +143,15 @@ pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
         // label, and [label, 0] written by the parity-set sweep would then be
         // taken again by a later parity-clear sweep. The parity-set sweep only
         // matches parity 1, which the parity-clear sweep never writes.
-        tail.push(sweep(
-            0,
-            Scissor::BoundsOf(all.clone()),
-            stencil::change_stencil_state(here, layout.value(on_outside), all_mask),
-        ));
+        // With label reuse the parity-clear target may be this entry's own label:
+        // that sweep would change no bit (write mask 0), so it is left out.
+        if layout.value(on_outside) != here {
+            tail.push(sweep(
+                0,
+                Scissor::BoundsOf(all.clone()),
+                stencil::change_stencil_state(here, layout.value(on_outside), all_mask),
+            ));
+        }
         // Parity can only be set inside the primitive's screen bounds.
         tail.push(sweep(
             0,
@@ -275,6 +279,35 @@ mod tests {
             }
         }
         v
+    }
+
+    #[test]
+    fn no_sweep_changes_nothing() {
+        // A difference chain: label reuse makes every parity-clear target the
+        // entry's own label, so only the parity-set sweeps remain.
+        let e = crate::csg::parse("A - B - C - D", &mut |n: &str| {
+            "ABCD".find(n).map(|i| i as u32)
+        })
+        .unwrap();
+        let unit = Aabb {
+            min: DVec3::ZERO,
+            max: DVec3::ONE,
+        };
+        let prep = Prepared::from_parts(e, vec![12; 4], vec![unit; 4]);
+        let pl = plan(&prep).unwrap();
+        crate::plan::cst::tests::assert_no_idle_passes(&pl.steps, "blister");
+        let Some(Step::Loop(l)) = pl.steps.iter().find(|s| matches!(s, Step::Loop(_))) else {
+            panic!("no loop")
+        };
+        let sweeps = l
+            .tail
+            .iter()
+            .filter(
+                |s| matches!(s, Step::Draw(d) if matches!(d.geometry, Geometry::FullScreen { .. })),
+            )
+            .count();
+        // 4 parity-set sweeps (or fewer parity-clear ones) and the push: not 2 per entry.
+        assert!(sweeps < 2 * 4 + 1, "{sweeps}");
     }
 
     /// The recorded stencil program equals the tree for random expressions and

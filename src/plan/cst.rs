@@ -270,7 +270,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::csg::parse;
     use crate::plan::print::count;
@@ -469,6 +469,203 @@ mod tests {
             }
             assert!(n > 0, "{v:?}");
         }
+    }
+
+    /// Every draw of a plan, loops included.
+    fn all_draws(steps: &[Step]) -> Vec<&Draw> {
+        let mut out = Vec::new();
+        for s in steps {
+            match s {
+                Step::Draw(d) => out.push(d),
+                Step::Loop(l) => {
+                    out.extend(all_draws(&l.head));
+                    out.extend(all_draws(&l.tail));
+                }
+                _ => {}
+            }
+        }
+        out
+    }
+
+    /// A full-screen pass that writes no stencil bit, no depth, no colour and
+    /// counts nothing: a pass whose result nobody reads.
+    pub(crate) fn assert_no_idle_passes(steps: &[Step], what: &str) {
+        for d in all_draws(steps) {
+            if matches!(d.geometry, Geometry::FullScreen { .. })
+                && d.fragment == Fragment::None
+                && !d.depth.write
+                && !d.count_samples
+            {
+                let writes = d.stencil.is_some_and(|s| s.write_mask != 0);
+                assert!(writes, "{what}: an idle full-screen pass {d:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn trims_are_scissored_to_the_peeled_leaf() {
+        let p = gear();
+        for v in [Variant::Z, Variant::I, Variant::G] {
+            let pl = plan(&p, v).unwrap();
+            assert_no_idle_passes(&pl.steps, &format!("{v:?}"));
+            // The peeled mesh of the CST a step belongs to: the last peel before it.
+            let mut peeled = None;
+            let mut parity = 0;
+            let mut flat = Vec::new();
+            fn flatten<'a>(steps: &'a [Step], out: &mut Vec<&'a Step>) {
+                for s in steps {
+                    match s {
+                        Step::Loop(l) => {
+                            flatten(&l.head, out);
+                            flatten(&l.tail, out);
+                        }
+                        s => out.push(s),
+                    }
+                }
+            }
+            flatten(&pl.steps, &mut flat);
+            for s in flat {
+                let Step::Draw(d) = s else { continue };
+                match (&d.fragment, &d.geometry) {
+                    (Fragment::Peel { .. }, Geometry::Mesh(m)) => peeled = Some(*m),
+                    (Fragment::NearerThan { .. }, Geometry::Mesh(m)) => {
+                        let me = peeled.expect("a parity draw after a peel");
+                        assert_eq!(
+                            d.scissor,
+                            Scissor::Overlap {
+                                of: vec![*m],
+                                and: vec![me]
+                            },
+                            "{v:?}"
+                        );
+                        parity += 1;
+                    }
+                    // Every sweep of a trim stays inside the peeled leaf's bounds.
+                    (Fragment::None, Geometry::FullScreen { .. }) if d.ds == WORK => {
+                        let me = peeled.expect("a sweep after a peel");
+                        match &d.scissor {
+                            Scissor::BoundsOf(ms) => assert_eq!(ms, &vec![me], "{v:?}"),
+                            Scissor::Overlap { of, and } => {
+                                assert!(of.contains(&me) || and.contains(&me), "{v:?}")
+                            }
+                            Scissor::Full | Scissor::Within { .. } => {
+                                panic!("{v:?}: not cut to the peeled leaf")
+                            }
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            assert!(parity > 0, "{v:?}");
+        }
+    }
+
+    /// Runs a trim's steps for one pixel in the software stencil unit. The pixel
+    /// has a candidate of the peeled leaf `me` (inside its screen rectangle);
+    /// `in_rect[m]`: inside mesh m's rectangle; `inside[m]`: the candidate is
+    /// inside primitive m (so also in its rectangle). A parity or counter draw
+    /// of a mesh containing the point passes one more front face than back
+    /// faces: its front-face op, once.
+    fn run_trim(steps: &[Step], start: u8, inside: &[bool], in_rect: &[bool]) -> u8 {
+        let rect = |s: &Scissor| match s {
+            Scissor::Full => true,
+            Scissor::BoundsOf(ms) => ms.iter().any(|m| in_rect[*m as usize]),
+            Scissor::Overlap { of, and } => {
+                of.iter().any(|m| in_rect[*m as usize]) && and.iter().all(|m| in_rect[*m as usize])
+            }
+            Scissor::Within { meshes, within } => {
+                meshes.iter().any(|m| in_rect[*m as usize])
+                    && within.iter().any(|m| in_rect[*m as usize])
+            }
+        };
+        let mut v = start;
+        for d in all_draws(steps) {
+            let Some(st) = &d.stencil else { continue };
+            if !rect(&d.scissor) {
+                continue;
+            }
+            match d.geometry {
+                Geometry::Mesh(m) if inside[m as usize] && d.cull != Cull::Front => {
+                    v = stencil::simulate(st, v, true)
+                }
+                Geometry::FullScreen { .. } => v = stencil::simulate(st, v, true),
+                _ => {}
+            }
+        }
+        v
+    }
+
+    /// Every variant's trim, scissors included, classifies like its zone: random
+    /// products and sums with holes, random boxes (so CST-G keeps some groups and
+    /// splits others), random points and screen rectangles.
+    #[test]
+    fn trims_classify_like_the_zone_within_their_scissors() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let ops = ["+", "-", " "];
+        let mut kept = [0usize; 2];
+        for case in 0..300 {
+            let prims = rng.gen_range(2..10u32);
+            let mut src = String::from("P0");
+            for _ in 0..rng.gen_range(1..12) {
+                src.push_str(ops[rng.gen_range(0..3)]);
+                src.push_str(&format!("P{}", rng.gen_range(0..prims)));
+            }
+            let mut p = prepared(&src, prims, 12);
+            for b in &mut p.mesh_bounds {
+                let c = glam::DVec3::new(rng.gen(), rng.gen(), rng.gen());
+                let h = glam::DVec3::new(rng.gen(), rng.gen(), rng.gen()) * 0.6 + 0.05;
+                *b = Aabb {
+                    min: c - h,
+                    max: c + h,
+                };
+            }
+            for v in [Variant::Z, Variant::I, Variant::G] {
+                for c in leaf_csts(&p.positive, v, &[], &[]) {
+                    let (Some(vol), Some(zone)) = (&c.volume, &c.zone) else {
+                        continue;
+                    };
+                    let trimmer: Box<dyn Trimmer> =
+                        if v == Variant::G && !vol.relation.contains(&Relation::Union) {
+                            let g = group::GroupTrimmer::new(&p, &c).unwrap();
+                            kept[(g.blist().num_groups() > 0) as usize] += 1;
+                            Box::new(g)
+                        } else {
+                            let layout = LabelLayout::new(vol.blist.num_labels).unwrap();
+                            let start = layout.value(Next::Label(vol.blist.entries[0].label));
+                            Box::new(BlistTrimmer {
+                                peeled: c.peeled,
+                                vol,
+                                layout,
+                                start,
+                            })
+                        };
+                    let mut steps = Vec::new();
+                    trimmer.trim(&mut steps);
+                    let me = c.peeled.prim as usize;
+                    for _ in 0..24 {
+                        let inside: Vec<bool> = (0..prims)
+                            .map(|m| m as usize != me && rng.gen_bool(0.5))
+                            .collect();
+                        let in_rect: Vec<bool> = (0..prims as usize)
+                            .map(|m| m == me || inside[m] || rng.gen_bool(0.5))
+                            .collect();
+                        let want = zone.eval(|l| inside[l.prim as usize]);
+                        let got = run_trim(&steps, trimmer.start(), &inside, &in_rect);
+                        let expect = if want {
+                            trimmer.locked()
+                        } else {
+                            trimmer.rejected()
+                        };
+                        assert_eq!(
+                            got, expect,
+                            "case {case} {v:?} {src} leaf {me}: {inside:?} {in_rect:?}"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(kept[0] > 0 && kept[1] > 0, "groups kept / split: {kept:?}");
     }
 
     #[test]

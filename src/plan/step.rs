@@ -90,13 +90,35 @@ pub enum Geometry {
 pub enum Scissor {
     Full,
     BoundsOf(Vec<MeshId>),
-    /// The rectangle of `meshes` cut to that of `within`: a draw whose effect is
+    /// The rectangle of `meshes` cut to the rectangle of all of `within` (one
+    /// union, where [`Scissor::Overlap`] cuts to each mesh of `and`): a draw whose effect is
     /// read only where `within`'s faces can be (Goldfeather's parity draws of a
     /// large primitive clipping a small literal's surface).
     Within {
         meshes: Vec<MeshId>,
         within: Vec<MeshId>,
     },
+    /// The rectangle of `BoundsOf(of)` clipped to the rectangle of each mesh of
+    /// `and`: a step that can only change pixels where all of them may be, e.g.
+    /// a CST parity draw of a trimming primitive, which matters only where the
+    /// peeled leaf has candidates (seed 000 §4). Empty when they do not meet.
+    Overlap {
+        of: Vec<MeshId>,
+        and: Vec<MeshId>,
+    },
+}
+
+impl Scissor {
+    /// The meshes whose bounds the scissor is made from.
+    pub fn meshes(&self) -> impl Iterator<Item = MeshId> + '_ {
+        let (a, b): (&[MeshId], &[MeshId]) = match self {
+            Scissor::Full => (&[], &[]),
+            Scissor::BoundsOf(ms) => (ms, &[]),
+            Scissor::Overlap { of, and } => (of, and),
+            Scissor::Within { meshes, within } => (meshes, within),
+        };
+        a.iter().chain(b).copied()
+    }
 }
 
 /// The fragment program of a draw and the colour targets it writes. Every variant

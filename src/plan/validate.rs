@@ -2,7 +2,7 @@
 //! mesh of the scene, and loops do not nest. Pure, so it is tested without a GPU;
 //! the executor runs it on every plan it is given.
 
-use super::step::{Clear, Fragment, Geometry, Plan, Scissor, Step, Tex};
+use super::step::{Clear, Fragment, Geometry, Plan, Step, Tex};
 
 /// Why a plan cannot be executed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -68,13 +68,7 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
                     Geometry::Meshes(ms) => ms.iter().try_for_each(|m| mesh(*m))?,
                     Geometry::FullScreen { .. } => {}
                 }
-                match &d.scissor {
-                    Scissor::Full => {}
-                    Scissor::BoundsOf(ms) => ms.iter().try_for_each(|m| mesh(*m))?,
-                    Scissor::Within { meshes, within } => {
-                        meshes.iter().chain(within).try_for_each(|m| mesh(*m))?
-                    }
-                }
+                d.scissor.meshes().try_for_each(mesh)?;
                 match d.fragment {
                     Fragment::Peel { prev, out, .. } | Fragment::PeelTolerant { prev, out, .. } => {
                         distinct(prev, out)?

@@ -66,8 +66,8 @@ impl Rect {
         }
     }
 
-    /// The pixels in both rectangles (empty when they do not meet).
-    pub fn intersection(&self, o: &Rect) -> Rect {
+    /// The pixels in both; [`Rect::EMPTY`] when they do not meet.
+    pub fn intersect(&self, o: &Rect) -> Rect {
         let r = Rect {
             x0: self.x0.max(o.x0),
             y0: self.y0.max(o.y0),
@@ -151,6 +151,18 @@ pub fn bounds_rect(
 #[cfg(test)]
 mod tests {
     #[test]
+    fn intersections_are_the_common_pixels_or_empty() {
+        let r = |x0, y0, x1, y1| super::Rect { x0, y0, x1, y1 };
+        let a = r(0, 0, 10, 10);
+        assert_eq!(a.intersect(&r(5, 2, 20, 8)), r(5, 2, 10, 8));
+        assert_eq!(r(5, 2, 20, 8).intersect(&a), r(5, 2, 10, 8));
+        assert_eq!(a.intersect(&r(10, 0, 20, 10)), super::Rect::EMPTY);
+        assert_eq!(a.intersect(&r(12, 12, 20, 20)), super::Rect::EMPTY);
+        assert_eq!(a.intersect(&super::Rect::EMPTY), super::Rect::EMPTY);
+        assert!(a.contains(&a.intersect(&r(3, 3, 4, 40))));
+    }
+
+    #[test]
     fn grown_rectangles_stay_in_the_image_and_contain_the_original() {
         let r = Rect {
             x0: 2,
@@ -172,18 +184,6 @@ mod tests {
         assert!(Rect::EMPTY.grown(5, 5, 32, 64).is_empty());
     }
 
-    #[test]
-    fn intersection_is_the_common_pixels_or_empty() {
-        let r = |x0, y0, x1, y1| Rect { x0, y0, x1, y1 };
-        let a = r(2, 10, 30, 40);
-        assert_eq!(a.intersection(&r(20, 0, 50, 12)), r(20, 10, 30, 12));
-        assert_eq!(a.intersection(&a), a);
-        assert!(a.contains(&a.intersection(&r(0, 0, 64, 64))));
-        // Disjoint, touching and empty operands give the empty rectangle.
-        assert_eq!(a.intersection(&r(30, 10, 40, 40)), Rect::EMPTY);
-        assert_eq!(a.intersection(&r(40, 50, 60, 70)), Rect::EMPTY);
-        assert_eq!(a.intersection(&Rect::EMPTY), Rect::EMPTY);
-    }
     use super::*;
     use crate::scene::camera::DepthConvention;
     use crate::scene::{Camera, Projection};

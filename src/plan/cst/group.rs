@@ -17,16 +17,26 @@
 //! final value matters; it lies in `[−c_n, c_p]`, so `counter_bits =
 //! ⌈log₂(c_n + c_p + 1)⌉` distinguishes "in the group" (`≡ c_p`) from every other
 //! outcome for any `k`, and `c0 = 0` needs no initialization sweep. Per group: the
-//! draws, then three sweeps: matching counter → the group's "in" target; zero the
-//! counter of the pixels still at this label; → the "out" target.
+//! draws, then three sweeps: matching counter → the group's "in" target; the rest
+//! of the label → the "out" target's label, counter and all; zero the counters of
+//! that label where a literal drew. Each is scissored to what it can touch (with
+//! no counter-positive literal, the last two only cover the literals' boxes).
+//!
+//! A group is kept only where the counter pays ([`counter_pays`]): with label
+//! reuse a plain entry costs one sweep, so a few small holes in a large leaf
+//! are cheaper one by one (complex's base plate; seed 000 §7 counts two sweeps per
+//! entry, without reuse).
 #![deny(unsafe_code)]
 
 use super::super::common::{next, sweep};
 use super::super::stencil::{self, Next};
 use super::super::step::*;
 use super::super::{PlanError, Prepared};
+use super::trim::literal_sweeps;
 use super::{parity_draw, tie_draws, LeafCst, Peeled, Relation, Trimmer, WORK};
 use crate::csg::groups::{Group, GroupedBlist, Item};
+use crate::scene::Aabb;
+use glam::DVec3;
 
 /// Bits to hold `values` distinct values (at least 1).
 fn bits_for(values: u32) -> u8 {
@@ -95,6 +105,74 @@ impl GroupLayout {
     }
 }
 
+/// Surface area of a box (0 when empty): proportional to its mean projected
+/// area over all view directions (Cauchy), so a camera-free estimate of the
+/// pixels a sweep scissored to it covers.
+fn area(b: &Aabb) -> f64 {
+    let d = (b.max - b.min).max(DVec3::ZERO);
+    2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+}
+
+fn meet(a: &Aabb, b: &Aabb) -> Aabb {
+    Aabb {
+        min: a.min.max(b.min),
+        max: a.max.min(b.max),
+    }
+}
+
+/// Whether the counter classifies `g` with fewer swept pixels than one Blist
+/// entry per literal, for the peeled leaf with box `me` (`boxes` per mesh).
+///
+/// The counter costs three sweeps (see [`GroupTrimmer::trim`]): one over the
+/// leaf (or the counter-positive boxes in it), and two over the literals' boxes
+/// in the leaf (or one of them and one over the leaf, when some literal is
+/// counter-positive). One entry per literal costs one sweep each, label reuse
+/// leaving out the other: over the literal's box in the leaf for a
+/// counter-negative literal (e.g. a hole `!H` of an intersection: parity set →
+/// rejected), over the whole leaf for a counter-positive one. A sweep's fixed
+/// cost is counted as 1/16 of the leaf. So a block minus a few small holes
+/// keeps one sweep per hole (complex's base plate: 3 sweeps over the plate cost
+/// more than 10 over the holes), and a big intersection or a union of large
+/// overlapping teeth is counted.
+pub fn counter_pays(g: &Group, me: &Aabb, boxes: &[Aabb]) -> bool {
+    let of = |l: &crate::csg::Literal| boxes.get(l.prim as usize).copied().unwrap_or(*me);
+    let positive = |l: &crate::csg::Literal| l.negated == g.inverted();
+    let leaf = area(me);
+    let fixed = leaf / 16.0;
+    let drawn = g
+        .literals
+        .iter()
+        .map(|l| meet(&of(l), me))
+        .reduce(|u, b| Aabb {
+            min: u.min.min(b.min),
+            max: u.max.max(b.max),
+        });
+    let drawn = drawn.map_or(0.0, |b| area(&b));
+    let counter = if g.literals.iter().any(positive) {
+        let inside = g
+            .literals
+            .iter()
+            .filter(|l| positive(l))
+            .fold(*me, |b, l| meet(&b, &of(l)));
+        area(&inside) + leaf + drawn
+    } else {
+        leaf + 2.0 * drawn
+    } + 3.0 * fixed;
+    let literals: f64 = g
+        .literals
+        .iter()
+        .map(|l| {
+            fixed
+                + if positive(l) {
+                    leaf
+                } else {
+                    area(&meet(&of(l), me))
+                }
+        })
+        .sum();
+    counter <= literals
+}
+
 /// Trim(V) of one leaf against its grouped i-zone.
 #[derive(Clone, Debug)]
 pub struct GroupTrimmer {
@@ -112,11 +190,13 @@ pub struct GroupTrimmer {
 
 /// Stencil labels for the entries of a grouped Blist whose targets name entry
 /// indices: the smallest free label when an entry is first referenced, freed when
-/// it is reached (label reuse, seed 002 §5.3.3) — but only after the entry's own
-/// targets have theirs, so a target never shares its source's label. A counter
-/// sweep could not tell pixels moved to such a target from pixels still to be
-/// classified; the rule costs at most one label over plain reuse.
-pub fn assign_labels(targets: &[(Next, Next)]) -> Vec<u32> {
+/// it is reached (label reuse, seed 002 §5.3.3). A group's label is freed only
+/// after its own targets have theirs, so a group's target never shares its label:
+/// a counter sweep could not tell pixels moved to such a target from pixels
+/// still to be classified (at most one label over plain reuse). A literal
+/// (`reuse[i]`) frees its label first: its parity sweeps handle a target at
+/// their own label ([`literal_sweeps`]) and leave out that sweep.
+pub fn assign_labels(targets: &[(Next, Next)], reuse: &[bool]) -> Vec<u32> {
     let mut label = vec![u32::MAX; targets.len()];
     let mut used: Vec<bool> = Vec::new();
     let alloc = |used: &mut Vec<bool>| match used.iter().position(|u| !u) {
@@ -134,6 +214,9 @@ pub fn assign_labels(targets: &[(Next, Next)]) -> Vec<u32> {
     }
     label[0] = alloc(&mut used);
     for (i, &(t, f)) in targets.iter().enumerate() {
+        if reuse[i] {
+            used[label[i] as usize] = false;
+        }
         for n in [t, f] {
             if let Next::Label(j) = n {
                 if label[j as usize] == u32::MAX {
@@ -141,7 +224,9 @@ pub fn assign_labels(targets: &[(Next, Next)]) -> Vec<u32> {
                 }
             }
         }
-        used[label[i] as usize] = false;
+        if !reuse[i] {
+            used[label[i] as usize] = false;
+        }
     }
     label
 }
@@ -156,11 +241,16 @@ fn relabel(targets: &[(Next, Next)], labels: &[u32]) -> Vec<(Next, Next)> {
 }
 
 impl GroupTrimmer {
-    pub fn new(_prep: &Prepared, c: &LeafCst) -> Result<Self, PlanError> {
+    pub fn new(prep: &Prepared, c: &LeafCst) -> Result<Self, PlanError> {
         let zone = c.zone.as_ref().expect("a trimmed leaf has a zone");
-        let (blist, layout) = Self::chunked(zone)?;
+        let boxes = &prep.mesh_bounds;
+        let keep = |g: &Group| match boxes.get(c.peeled.prim as usize) {
+            Some(me) => counter_pays(g, me, boxes),
+            None => true,
+        };
+        let (blist, layout) = Self::chunked(zone, &keep)?;
         let by_entry = Self::targets(&blist);
-        let labels = assign_labels(&by_entry);
+        let labels = assign_labels(&by_entry, &Self::literals(&blist));
         let targets = relabel(&by_entry, &labels);
         Ok(GroupTrimmer {
             peeled: c.peeled,
@@ -185,11 +275,12 @@ impl GroupTrimmer {
     /// so this repeats with the new label count until it fits (the cap only falls).
     pub fn chunked(
         zone: &crate::csg::PositiveExpr,
+        keep: &dyn Fn(&Group) -> bool,
     ) -> Result<(GroupedBlist, GroupLayout), PlanError> {
         let mut max = usize::MAX;
         loop {
-            let blist = GroupedBlist::with_max_group(zone, max);
-            let labels = assign_labels(&Self::targets(&blist))
+            let blist = GroupedBlist::grouped(zone, max, keep);
+            let labels = assign_labels(&Self::targets(&blist), &Self::literals(&blist))
                 .into_iter()
                 .max()
                 .map_or(1, |m| m + 1);
@@ -218,6 +309,15 @@ impl GroupTrimmer {
             }
             max = next;
         }
+    }
+
+    /// Per entry, whether it is a single literal.
+    fn literals(blist: &GroupedBlist) -> Vec<bool> {
+        blist
+            .entries
+            .iter()
+            .map(|e| matches!(e.item, Item::Literal(_)))
+            .collect()
     }
 
     /// The Blist's targets as entry indices: a target `Label(l)` of entry `i` is
@@ -277,25 +377,24 @@ impl Trimmer for GroupTrimmer {
                     {
                         steps.push(parity_draw(
                             lit.prim,
+                            self.peeled.prim,
                             compare,
                             cull,
                             stencil::toggle_parity(here, label_mask, 1),
                         ));
                     }
-                    steps.push(sweep(
-                        WORK,
-                        Scissor::BoundsOf(vec![lit.prim]),
-                        stencil::change_stencil_state(here | 1, l.value(on_inside), all_mask),
-                    ));
-                    steps.push(sweep(
-                        WORK,
-                        Scissor::BoundsOf(me.clone()),
-                        stencil::change_stencil_state(here, l.value(on_outside), all_mask),
+                    steps.extend(literal_sweeps(
+                        lit.prim,
+                        self.peeled.prim,
+                        here,
+                        1,
+                        (l.value(on_inside), l.value(on_outside)),
+                        all_mask,
                     ));
                 }
                 Item::Group(g) => {
                     let inverted = g.inverted();
-                    let mut meshes = Vec::new();
+                    let (mut meshes, mut positive) = (Vec::new(), Vec::new());
                     for lit in &g.literals {
                         // Counter-positive: the literal (or, inverted, its complement)
                         // holds inside the primitive.
@@ -322,33 +421,63 @@ impl Trimmer for GroupTrimmer {
                         for (compare, cull) in
                             tie_draws(&self.peeled, lit.prim, lit.leaf, lit.negated, self.relation)
                         {
-                            steps.push(parity_draw(lit.prim, compare, cull, st));
+                            steps.push(parity_draw(lit.prim, self.peeled.prim, compare, cull, st));
                         }
                         meshes.push(lit.prim);
+                        if counter_positive {
+                            positive.push(lit.prim);
+                        }
                     }
                     let target = (g.c_p() as u8) & counter_mask;
                     // In the intersection-group (or out of the union-group, inverted).
                     let (on_match, on_other) = if inverted { (f, t) } else { (t, f) };
+                    let drawn = Scissor::Overlap {
+                        of: meshes,
+                        and: me.clone(),
+                    };
+                    // The counter reaches c_p only inside every counter-positive
+                    // primitive, and is non-zero only where some literal drew.
                     steps.push(sweep(
                         WORK,
-                        Scissor::BoundsOf(me.clone()),
+                        Scissor::Overlap {
+                            of: me.clone(),
+                            and: positive.clone(),
+                        },
                         stencil::change_stencil_state(here | target, l.value(on_match), all_mask),
                     ));
+                    // The rest of this label goes to the other target, counter
+                    // and all: with no counter-positive literal (c_p = 0) the match
+                    // took every pixel whose counter stayed 0, so the rest lies
+                    // where a literal drew.
+                    let rest = if positive.is_empty() {
+                        drawn.clone()
+                    } else {
+                        Scissor::BoundsOf(me.clone())
+                    };
+                    let other = l.value(on_other);
                     steps.push(sweep(
                         WORK,
-                        Scissor::BoundsOf(meshes),
+                        rest,
+                        stencil::both(
+                            CompareOp::Equal,
+                            StencilOp::Invert,
+                            label_mask,
+                            here ^ other,
+                            here,
+                        ),
+                    ));
+                    // Then the counters they brought are zeroed (the other
+                    // target's earlier pixels have zero counters already).
+                    steps.push(sweep(
+                        WORK,
+                        drawn,
                         stencil::both(
                             CompareOp::Equal,
                             StencilOp::Zero,
                             label_mask,
                             counter_mask,
-                            here,
+                            other,
                         ),
-                    ));
-                    steps.push(sweep(
-                        WORK,
-                        Scissor::BoundsOf(me.clone()),
-                        stencil::change_stencil_state(here, l.value(on_other), all_mask),
                     ));
                 }
             }
@@ -382,13 +511,14 @@ mod tests {
             .unwrap();
             let blist = GroupedBlist::with_max_group(&PositiveExpr::from_expr(&e), 3);
             let by_entry = GroupTrimmer::targets(&blist);
-            let labels = assign_labels(&by_entry);
+            let literal = GroupTrimmer::literals(&blist);
+            let labels = assign_labels(&by_entry, &literal);
             for (i, &(t, f)) in by_entry.iter().enumerate() {
                 for n in [t, f] {
                     if let Next::Label(j) = n {
-                        assert_ne!(
-                            labels[j as usize], labels[i],
-                            "{src}: entry {i} targets its own label"
+                        assert!(
+                            literal[i] || labels[j as usize] != labels[i],
+                            "{src}: group {i} targets its own label"
                         );
                         // No entry between i and j holds j's label while j is pending.
                         for k in i + 1..j as usize {

@@ -147,18 +147,25 @@ pub fn tie_eps(compare: CompareOp) -> f32 {
     }
 }
 
-/// A parity draw of `mesh` over the candidates at label `here`: depth test off, the
+/// A parity draw of `mesh` over the candidates of the `peeled` surface at label
+/// `here`, scissored to where both may be: depth test off, the
 /// fragment keeps the faces in front of the candidate's exact depth within the
 /// tolerance of [`tie_eps`].
 pub(crate) fn parity_draw(
     mesh: MeshId,
+    peeled: MeshId,
     compare: CompareOp,
     cull: Cull,
     stencil: StencilState,
 ) -> Step {
     Step::Draw(Draw {
         geometry: Geometry::Mesh(mesh),
-        scissor: Scissor::BoundsOf(vec![mesh]),
+        // Only pixels where the peeled surface has candidates are read (the
+        // knock-out and the merge are scissored to it; the next CST clears WORK).
+        scissor: Scissor::Overlap {
+            of: vec![mesh],
+            and: vec![peeled],
+        },
         cull,
         ds: WORK,
         depth: DepthState {

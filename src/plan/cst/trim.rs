@@ -16,41 +16,64 @@ use crate::csg::BlistEntry;
 fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &mut Vec<Step>) {
     let label_mask = layout.label_mask();
     let all_mask = layout.all_mask();
-    let me = vec![peeled.prim];
     for (e, &rel) in vol.blist.entries.iter().zip(&vol.relation) {
         let here = layout.value(Next::Label(e.label));
         let (on_inside, on_outside) = entry_targets(e);
         for (compare, cull) in tie_draws(peeled, e.prim, e.leaf, e.negated, rel) {
             steps.push(parity_draw(
                 e.prim,
+                peeled.prim,
                 compare,
                 cull,
                 stencil::toggle_parity(here, label_mask, LabelLayout::PARITY),
             ));
         }
-        let inside = sweep(
-            WORK,
-            Scissor::BoundsOf(vec![e.prim]),
-            stencil::change_stencil_state(
-                here | LabelLayout::PARITY,
-                layout.value(on_inside),
-                all_mask,
-            ),
-        );
-        let outside = sweep(
-            WORK,
-            Scissor::BoundsOf(me.clone()),
-            stencil::change_stencil_state(here, layout.value(on_outside), all_mask),
-        );
-        // A freed label may be reused by the entry's own target (seed 000 Fig. 11):
-        // then the pixels moved there must not be swept again by the other rule.
-        if layout.value(on_inside) == here {
-            steps.extend([outside, inside]);
-        } else if layout.value(on_outside) == here {
-            steps.push(inside);
-        } else {
-            steps.extend([inside, outside]);
-        }
+        steps.extend(literal_sweeps(
+            e.prim,
+            peeled.prim,
+            here,
+            LabelLayout::PARITY,
+            (layout.value(on_inside), layout.value(on_outside)),
+            all_mask,
+        ));
+    }
+}
+
+/// The ChangeStencilState sweeps that follow a literal's parity draws: pixels at
+/// `here` with `parity` set go to the "inside" value, the others to the
+/// "outside" one (`to`). The parity-set sweep is scissored to where the
+/// literal's mesh drew (inside the peeled leaf's rectangle too), the other to
+/// the leaf's. A target that reuses `here` (label reuse, seed 000 Fig. 11) needs
+/// no sweep of its own, only the parity cleared — after the other rule moved its
+/// pixels, so they are not swept again.
+pub(crate) fn literal_sweeps(
+    prim: MeshId,
+    peeled: MeshId,
+    here: u8,
+    parity: u8,
+    to: (u8, u8),
+    all_mask: u8,
+) -> Vec<Step> {
+    let (on_inside, on_outside) = to;
+    let inside = sweep(
+        WORK,
+        Scissor::Overlap {
+            of: vec![prim],
+            and: vec![peeled],
+        },
+        stencil::change_stencil_state(here | parity, on_inside, all_mask),
+    );
+    let outside = sweep(
+        WORK,
+        Scissor::BoundsOf(vec![peeled]),
+        stencil::change_stencil_state(here, on_outside, all_mask),
+    );
+    if on_inside == here {
+        vec![outside, inside]
+    } else if on_outside == here {
+        vec![inside]
+    } else {
+        vec![inside, outside]
     }
 }
 

@@ -835,15 +835,18 @@ impl<'a> Recorder<'a> {
         let (w, h) = (self.b.desc.width, self.b.desc.height);
         match s {
             Scissor::Full => Rect::full(w, h),
-            Scissor::BoundsOf(ms) => self.bounds_of(ms),
+            Scissor::BoundsOf(ms) => self.bounds(ms),
             Scissor::Within { meshes, within } => {
-                self.bounds_of(meshes).intersection(&self.bounds_of(within))
+                self.bounds(meshes).intersect(&self.bounds(within))
             }
+            Scissor::Overlap { of, and } => and.iter().fold(self.bounds(of), |r, m| {
+                r.intersect(&self.b.mesh_rects[*m as usize])
+            }),
         }
     }
 
-    /// The union of the meshes' screen rectangles.
-    fn bounds_of(&self, ms: &[MeshId]) -> Rect {
+    /// The union of the meshes' rectangles.
+    fn bounds(&self, ms: &[MeshId]) -> Rect {
         ms.iter()
             .fold(Rect::EMPTY, |r, m| r.union(&self.b.mesh_rects[*m as usize]))
     }
