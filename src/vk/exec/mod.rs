@@ -40,6 +40,7 @@ pub use super::conv::DepthFormat;
 pub(crate) use embed::{Output, Unrolled};
 pub use stats::{Counts, ExecStats, PassStats, Recorded};
 
+use super::cpu_clock;
 use super::error::VkError;
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
@@ -158,7 +159,19 @@ struct Recording {
 #[derive(Default)]
 struct Clock {
     first_submit: Option<Instant>,
+    /// The process's CPU time at the first submission.
+    first_submit_cpu: f64,
     record_ms: f64,
+}
+
+impl Clock {
+    /// Notes the frame's first submission (later ones change nothing).
+    fn submitting(&mut self) {
+        if self.first_submit.is_none() {
+            self.first_submit_cpu = cpu_clock::process_cpu_ms();
+            self.first_submit = Some(Instant::now());
+        }
+    }
 }
 
 /// Runs plans on one device at one image size.
@@ -187,6 +200,8 @@ pub struct Executor {
     /// Output depth-stencil of the last executed plan (what `read_back` copies).
     last_output: Option<u8>,
     clears: ClearMode,
+    /// Timestamps at every pass (per-pass GPU times) or only around the frame.
+    pass_timestamps: bool,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
     rounding: Option<super::RoundingEmulation>,
     /// Write the normal buffer with the colour ([`Executor::set_normals`]).
@@ -213,7 +228,11 @@ impl Executor {
                 .get_physical_device_properties(shared.physical)
         };
         let clears = if props.device_type == vk::PhysicalDeviceType::CPU {
-            ClearMode::Command
+            match std::env::var("PT_X_CLEAR").as_deref() {
+                Ok("fast") => ClearMode::Fast,
+                Ok("load") => ClearMode::LoadOp,
+                _ => ClearMode::Command,
+            }
         } else {
             ClearMode::LoadOp
         };
@@ -247,6 +266,7 @@ impl Executor {
             epoch: 0,
             last_output: None,
             clears,
+            pass_timestamps: std::env::var("PT_X_TS").map_or(true, |v| v != "0"),
             rounding: None,
             normals: false,
         })
@@ -389,6 +409,9 @@ impl Executor {
             .map(|t| t.elapsed().as_secs_f64() * 1e3)
             .unwrap_or(0.0);
         stats.record_ms = clock.record_ms;
+        if clock.first_submit.is_some() {
+            stats.process_cpu_ms = cpu_clock::process_cpu_ms() - clock.first_submit_cpu;
+        }
         stats.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         self.last_output = Some(plan.output_ds);
         Ok(stats)
@@ -398,6 +421,14 @@ impl Executor {
     /// elsewhere). Both give the same images.
     pub fn set_clear_mode(&mut self, clears: ClearMode) {
         self.clears = clears;
+        self.recording = None;
+    }
+
+    /// Per-pass GPU times (a timestamp at every `Step::Pass`; the default) or
+    /// only the frame's (two timestamps, so that lavapipe's scenes are not cut
+    /// at pass boundaries).
+    pub fn set_pass_timestamps(&mut self, on: bool) {
+        self.pass_timestamps = on;
         self.recording = None;
     }
 
@@ -435,6 +466,7 @@ impl Executor {
             occlusion: self.occlusion.pool,
             timestamps: (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool),
             clears: self.clears,
+            pass_timestamps: self.pass_timestamps,
             flags,
             snap,
             normals: self.normals,
@@ -518,7 +550,7 @@ impl Executor {
             });
         }
         let rec = self.recording.as_ref().expect("recorded above");
-        clock.first_submit.get_or_insert_with(Instant::now);
+        clock.submitting();
         self.submit.submit(self.frame_cmd, &[], &[])?;
         self.submit.wait()?;
         let device = &self.shared.device;
@@ -622,7 +654,7 @@ impl Executor {
             rec.end();
             sub.end(cmd)?;
             clock.record_ms += t.elapsed().as_secs_f64() * 1e3;
-            clock.first_submit.get_or_insert_with(Instant::now);
+            clock.submitting();
             sub.submit(cmd, &[], &[])?;
             sub.wait()?;
             rec.stats.counts.submits += 1;

@@ -96,6 +96,9 @@ pub(super) struct Bindings<'a> {
     /// `None` when the queue has no timestamps.
     pub timestamps: Option<vk::QueryPool>,
     pub clears: ClearMode,
+    /// A timestamp at every `Step::Pass` (per-pass GPU times); otherwise only
+    /// around the command buffer.
+    pub pass_timestamps: bool,
     /// Push-constant flags (reversed Z, subpixel precision).
     pub flags: u32,
     /// Emulated vertex snapping step of mesh draws (zero: off).
@@ -116,9 +119,17 @@ pub enum ClearMode {
     /// As the load op of the next rendering block into the image (tile-based and
     /// other hardware GPUs clear on load for free).
     LoadOp,
-    /// As clear commands. Lavapipe clears on load far more slowly than with a
-    /// clear command (README, "Executor"), so CPU devices use this.
+    /// As clear commands.
     Command,
+    /// As load ops where every colour attachment a block clears on load shares
+    /// one clear value, as clear commands otherwise. Lavapipe clears on load in
+    /// its rasterizer threads, tile by tile, only then (`render_clear_fast`);
+    /// otherwise it clears each attachment on the calling thread after waiting
+    /// for the rasterizer, far more slowly than a clear command (README,
+    /// "Executor"). A clear command also waits and fills on one thread.
+    Fast,
+    /// EXPERIMENT: no clear commands.
+    Skip,
 }
 
 /// Records steps into command buffers; its image states persist from one
@@ -190,7 +201,10 @@ impl<'a> Recorder<'a> {
             };
         }
         self.begin_state(cmd);
-        let pass = self.pass_name();
+        let pass = match self.b.pass_timestamps {
+            true => self.pass_name(),
+            false => String::new(),
+        };
         self.timestamp(pass);
     }
 
@@ -343,6 +357,7 @@ impl<'a> Recorder<'a> {
             )
         };
         self.marks.push(pass);
+        self.stats.counts.timestamps += 1;
     }
 
     fn end_block(&mut self) {
@@ -398,36 +413,59 @@ impl<'a> Recorder<'a> {
     /// Records `r`'s pending clear as a clear command (its next use is not as an
     /// attachment of a new block).
     fn flush_clear(&mut self, r: Resource) {
-        let Some(value) = self.pending_clear.remove(&r) else {
+        self.flush_clears(&[r]);
+    }
+
+    /// Records the pending clears of `rs` as clear commands, after one barrier
+    /// that brings them all to `Usage::Clear` (lavapipe waits for its rasterizer
+    /// threads at every barrier, so one barrier for all instead of one each).
+    fn flush_clears(&mut self, rs: &[Resource]) {
+        let values: Vec<(Resource, vk::ClearValue)> = rs
+            .iter()
+            .filter_map(|r| self.pending_clear.remove(r).map(|v| (*r, v)))
+            .collect();
+        if values.is_empty() {
             return;
-        };
-        self.transitions(&[(r, Usage::Clear)], false);
-        let img = self.b.targets.image(r);
-        let layout = sync::access(Usage::Clear).layout;
-        if img.desc.is_depth_stencil() {
-            // SAFETY: outside rendering; the image allows transfer dst and is in `layout`;
-            // a depth-stencil clear value was stored for it.
-            unsafe {
-                self.b.device.cmd_clear_depth_stencil_image(
-                    self.cmd,
-                    img.raw,
-                    layout,
-                    &value.depth_stencil,
-                    &[range(img.desc.aspect())],
-                )
-            };
-        } else {
-            // SAFETY: as above, with a colour clear value.
-            unsafe {
-                self.b.device.cmd_clear_color_image(
-                    self.cmd,
-                    img.raw,
-                    layout,
-                    &value.color,
-                    &[range(vk::ImageAspectFlags::COLOR)],
-                )
-            };
         }
+        let uses: Vec<_> = values.iter().map(|(r, _)| (*r, Usage::Clear)).collect();
+        self.transitions(&uses, false);
+        let layout = sync::access(Usage::Clear).layout;
+        for (r, value) in values {
+            if self.b.clears == ClearMode::Skip {
+                continue;
+            }
+            let img = self.b.targets.image(r);
+            self.stats.counts.clear_commands += 1;
+            self.stats.counts.cleared_pixels += self.full_area();
+            if img.desc.is_depth_stencil() {
+                // SAFETY: outside rendering; the image allows transfer dst and is in `layout`;
+                // a depth-stencil clear value was stored for it.
+                unsafe {
+                    self.b.device.cmd_clear_depth_stencil_image(
+                        self.cmd,
+                        img.raw,
+                        layout,
+                        &value.depth_stencil,
+                        &[range(img.desc.aspect())],
+                    )
+                };
+            } else {
+                // SAFETY: as above, with a colour clear value.
+                unsafe {
+                    self.b.device.cmd_clear_color_image(
+                        self.cmd,
+                        img.raw,
+                        layout,
+                        &value.color,
+                        &[range(vk::ImageAspectFlags::COLOR)],
+                    )
+                };
+            }
+        }
+    }
+
+    fn full_area(&self) -> u64 {
+        self.b.desc.width as u64 * self.b.desc.height as u64
     }
 
     fn clear_values(&self, clear: &Clear) -> Vec<(Resource, vk::ClearValue)> {
@@ -480,34 +518,54 @@ impl<'a> Recorder<'a> {
         }
     }
 
-    /// Flushes the pending clears of resources used other than as attachments, and
-    /// drops those a whole-image write replaces.
+    /// Flushes the pending clears of resources used other than as attachments
+    /// (and of attachments the clear mode does not clear on load), and drops
+    /// those a whole-image write replaces.
     fn settle_clears(&mut self, uses: &[(Resource, Usage)]) {
+        let mut flush = Vec::new();
+        // The colour clear value the block's load ops use (`ClearMode::Fast`).
+        let mut load_value: Option<[u32; 4]> = None;
         for &(r, u) in uses {
-            if !self.pending_clear.contains_key(&r) {
+            let Some(value) = self.pending_clear.get(&r) else {
                 continue;
-            }
+            };
             match u {
-                Usage::ColorTarget | Usage::DepthStencilTarget => {
-                    if self.b.clears == ClearMode::Command {
-                        self.flush_clear(r);
+                Usage::DepthStencilTarget => {
+                    if matches!(self.b.clears, ClearMode::Command | ClearMode::Skip) {
+                        flush.push(r);
                     }
                 }
+                Usage::ColorTarget => match self.b.clears {
+                    ClearMode::LoadOp => {}
+                    ClearMode::Command | ClearMode::Skip => flush.push(r),
+                    ClearMode::Fast => {
+                        // SAFETY: plain data; every bit pattern is a valid `[u32; 4]`.
+                        let bits = unsafe { value.color.uint32 };
+                        if *load_value.get_or_insert(bits) != bits {
+                            flush.push(r);
+                        }
+                    }
+                },
                 Usage::CopyDst | Usage::Clear => {
                     self.pending_clear.remove(&r);
                 }
-                Usage::Sampled | Usage::CopySrc => self.flush_clear(r),
+                Usage::Sampled | Usage::CopySrc => flush.push(r),
             }
         }
+        self.flush_clears(&flush);
     }
 
     pub fn step(&mut self, step: &Step) -> Result<(), VkError> {
         match step {
             Step::Pass(name) => {
-                self.end_block();
                 self.stats.pass_entry(name);
                 self.pass = self.stats.per_pass.iter().position(|p| &p.name == name);
-                self.timestamp(name.clone());
+                if self.b.pass_timestamps {
+                    // Lavapipe ends its binned scene at a timestamp (and bins the
+                    // query into every tile): only when per-pass times are asked for.
+                    self.end_block();
+                    self.timestamp(name.clone());
+                }
             }
             Step::Clear(clear) => {
                 for (r, v) in self.clear_values(clear) {
@@ -549,6 +607,7 @@ impl<'a> Recorder<'a> {
                         depth: 1,
                     },
                 };
+                self.stats.counts.copied_pixels += self.full_area();
                 // SAFETY: outside rendering; both images allow transfer, same format,
                 // in the copy layouts after the barrier above.
                 unsafe {
@@ -605,7 +664,11 @@ impl<'a> Recorder<'a> {
             .image_layout(layout)
             .store_op(vk::AttachmentStoreOp::STORE);
         match self.pending_clear.remove(&r) {
-            Some(v) => a.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(v),
+            Some(v) => {
+                self.stats.counts.load_op_clears += 1;
+                self.stats.counts.cleared_pixels += self.full_area();
+                a.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(v)
+            }
             None => a.load_op(vk::AttachmentLoadOp::LOAD),
         }
     }
@@ -637,6 +700,7 @@ impl<'a> Recorder<'a> {
         // SAFETY: recording outside rendering; all views are live and, after the
         // recorder's barriers, in the attachment layouts given.
         unsafe { self.b.device.cmd_begin_rendering(self.cmd, &ri) };
+        self.stats.counts.render_passes += 1;
         self.block = Some(*key);
     }
 

@@ -43,6 +43,20 @@ pub struct Counts {
     /// buffer already holds is not recorded (the CPU cost of recording, with
     /// `draw_calls`).
     pub state_commands: u64,
+    /// Rendering blocks (`vkCmdBeginRendering`) recorded. Lavapipe starts a new
+    /// binned scene for each whose attachments differ from the last one's.
+    pub render_passes: u64,
+    /// Clear commands (`vkCmdClear*Image`): on lavapipe each waits for the
+    /// rasterizer and fills the whole image on the calling thread.
+    pub clear_commands: u64,
+    /// Attachments cleared by their block's load op.
+    pub load_op_clears: u64,
+    /// Pixels cleared, by clear commands and load ops (each image counted whole).
+    pub cleared_pixels: u64,
+    /// Pixels copied between textures (`CopyTexture`).
+    pub copied_pixels: u64,
+    /// GPU timestamps written (per pass, or only around the frame).
+    pub timestamps: u64,
     /// Queue submissions of the frame.
     pub submits: u64,
     /// Head executions of each loop, in execution order.
@@ -87,6 +101,10 @@ pub struct ExecStats {
     pub frame_ms: f64,
     /// CPU time spent recording command buffers (0 when a recording is replayed).
     pub record_ms: f64,
+    /// CPU time of the whole process, every thread, over `frame_ms` (on lavapipe
+    /// its rasterizer threads' work: steady on a shared machine where wall and
+    /// timestamp times are not).
+    pub process_cpu_ms: f64,
     /// Whether the frame replayed a recording or recorded, and why.
     pub recorded: Recorded,
     /// Per pass group, in order of first appearance.
@@ -123,6 +141,7 @@ impl ExecStats {
         self.cpu_ms += other.cpu_ms;
         self.frame_ms += other.frame_ms;
         self.record_ms += other.record_ms;
+        self.process_cpu_ms += other.process_cpu_ms;
         for p in &other.per_pass {
             if let Some(e) = self.pass_entry(&p.name) {
                 e.gpu_ms += p.gpu_ms;
@@ -138,6 +157,12 @@ impl ExecStats {
         c.fullscreen_pixels += o.fullscreen_pixels;
         c.skipped_steps += o.skipped_steps;
         c.barriers += o.barriers;
+        c.render_passes += o.render_passes;
+        c.clear_commands += o.clear_commands;
+        c.load_op_clears += o.load_op_clears;
+        c.cleared_pixels += o.cleared_pixels;
+        c.copied_pixels += o.copied_pixels;
+        c.timestamps += o.timestamps;
         c.submits += o.submits;
         c.loop_iterations.extend_from_slice(&o.loop_iterations);
         c.samples_counted += o.samples_counted;
