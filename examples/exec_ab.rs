@@ -5,7 +5,9 @@
 //!
 //! `cargo run --release --example exec_ab -- SIZE FRAMES ALGOS SCENE...`
 //! with ALGOS comma-separated (e.g. `400x400 15 cst-i,goldfeather scenes/complex.toml`).
-//! Variants: clear commands / fast load-op clears / load ops, per-pass timestamps on or off.
+//! Variants: whole-image or scissored clears (`Executor::set_scissored_clears`),
+//! per-pass timestamps on or off (`Executor::set_pass_timestamps`). README,
+//! "Executor fixed costs on lavapipe".
 
 use std::path::Path;
 
@@ -29,11 +31,12 @@ fn main() {
         .split(',')
         .map(|a| Algo::parse(a).expect("algo"))
         .collect();
-    let variants: Vec<(&str, ClearMode, bool)> = vec![
-        ("cmd", ClearMode::Command, true),
-        ("fast", ClearMode::Fast, true),
-        ("cmd-nots", ClearMode::Command, false),
-        ("skip", ClearMode::Skip, true),
+    // (name, clear mode, scissored clears, per-pass timestamps)
+    let variants: Vec<(&str, ClearMode, bool, bool)> = vec![
+        ("whole", ClearMode::Command, false, true),
+        ("scissored", ClearMode::Command, true, true),
+        ("whole-nots", ClearMode::Command, false, false),
+        ("scissored-nots", ClearMode::Command, true, false),
     ];
     let ctx = Context::new(&ContextDesc {
         device: DeviceChoice::Cpu,
@@ -53,9 +56,10 @@ fn main() {
             };
             let mut exs: Vec<Executor> = variants
                 .iter()
-                .map(|&(_, clears, ts)| {
+                .map(|&(_, clears, scissored, ts)| {
                     let mut e = Executor::new(&ctx, &desc).expect("executor");
                     e.set_clear_mode(clears);
+                    e.set_scissored_clears(scissored);
                     e.set_pass_timestamps(ts);
                     e.upload(&scene).expect("upload");
                     for _ in 0..3 {
@@ -73,7 +77,7 @@ fn main() {
                     wall[i].push(s.frame_ms);
                 }
             }
-            let c = exs[0].execute(&plan).expect("frame").counts;
+            let c = exs[1].execute(&plan).expect("frame").counts;
             print!("{:16} {:12}", scene_name(path), algo.name());
             for (i, v) in variants.iter().enumerate() {
                 print!(
@@ -84,8 +88,11 @@ fn main() {
                 );
             }
             println!(
-                "  | barriers {} passes {} clears {}",
-                c.barriers, c.render_passes, c.clear_commands
+                "  | barriers {} passes {} clears {} cleared {:.2} Mpx",
+                c.barriers,
+                c.render_passes,
+                c.clear_commands,
+                c.cleared_pixels as f64 * 1e-6
             );
         }
     }

@@ -202,6 +202,8 @@ pub struct Executor {
     clears: ClearMode,
     /// Timestamps at every pass (per-pass GPU times) or only around the frame.
     pass_timestamps: bool,
+    /// Clears reach only what later steps read ([`Executor::set_scissored_clears`]).
+    scissored_clears: bool,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
     rounding: Option<super::RoundingEmulation>,
     /// Write the normal buffer with the colour ([`Executor::set_normals`]).
@@ -228,11 +230,7 @@ impl Executor {
                 .get_physical_device_properties(shared.physical)
         };
         let clears = if props.device_type == vk::PhysicalDeviceType::CPU {
-            match std::env::var("PT_X_CLEAR").as_deref() {
-                Ok("fast") => ClearMode::Fast,
-                Ok("load") => ClearMode::LoadOp,
-                _ => ClearMode::Command,
-            }
+            ClearMode::Command
         } else {
             ClearMode::LoadOp
         };
@@ -266,7 +264,8 @@ impl Executor {
             epoch: 0,
             last_output: None,
             clears,
-            pass_timestamps: std::env::var("PT_X_TS").map_or(true, |v| v != "0"),
+            pass_timestamps: true,
+            scissored_clears: true,
             rounding: None,
             normals: false,
         })
@@ -421,6 +420,13 @@ impl Executor {
     /// elsewhere). Both give the same images.
     pub fn set_clear_mode(&mut self, clears: ClearMode) {
         self.clears = clears;
+        self.recording = None;
+    }
+
+    /// Whether clears reach only the part of an image later steps read (the
+    /// default) or the whole image. Both give the same images.
+    pub fn set_scissored_clears(&mut self, on: bool) {
+        self.scissored_clears = on;
         self.recording = None;
     }
 
@@ -587,7 +593,12 @@ impl Executor {
         let flat = unroll(plan, layers);
         self.ensure_queries(&flat)?;
         let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
+        let scissored_clears = self.scissored_clears;
         let mut rec = self.recorder();
+        let steps: Vec<&Step> = flat.iter().map(|(s, _)| *s).collect();
+        if scissored_clears {
+            rec.plan_clears(&steps, plan.output_ds);
+        }
         rec.begin(cmd, occ_cap, ts_cap);
         for (s, g) in &flat {
             rec.group = *g;

@@ -13,7 +13,7 @@
 //! screen are not recorded. Meshes of one draw that lie contiguously in the
 //! vertex buffer and need no per-mesh push constants are drawn with one call.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 
 use ash::vk;
 
@@ -22,11 +22,13 @@ use super::state::{self, DynState};
 use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
+use clears::PendingClear;
+
+mod clears;
 use crate::plan::usage::{self, Resource, Usage};
-use crate::plan::{Clear, Draw, Fragment, Geometry, Scissor, Step};
+use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
-use crate::vk::image::range;
 use crate::vk::pipeline::{
     FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_MESH, PUSH_SIZE,
 };
@@ -119,17 +121,10 @@ pub enum ClearMode {
     /// As the load op of the next rendering block into the image (tile-based and
     /// other hardware GPUs clear on load for free).
     LoadOp,
-    /// As clear commands.
+    /// As clear commands of the region later steps read (`clears.rs`).
+    /// Lavapipe clears on load far more slowly (README, "Executor"), so CPU
+    /// devices use this.
     Command,
-    /// As load ops where every colour attachment a block clears on load shares
-    /// one clear value, as clear commands otherwise. Lavapipe clears on load in
-    /// its rasterizer threads, tile by tile, only then (`render_clear_fast`);
-    /// otherwise it clears each attachment on the calling thread after waiting
-    /// for the rasterizer, far more slowly than a clear command (README,
-    /// "Executor"). A clear command also waits and fills on one thread.
-    Fast,
-    /// EXPERIMENT: no clear commands.
-    Skip,
 }
 
 /// Records steps into command buffers; its image states persist from one
@@ -148,7 +143,9 @@ pub(super) struct Recorder<'a> {
     /// handful; looked up without building a `PipelineDesc` per draw).
     pipes: Vec<(BlockKey, FragmentKind, vk::Pipeline)>,
     state: BTreeMap<Resource, Usage>,
-    pending_clear: BTreeMap<Resource, vk::ClearValue>,
+    pending_clear: BTreeMap<Resource, PendingClear>,
+    /// Regions of the clears recorded next, in order (`clears::clear_regions`).
+    clear_regions: VecDeque<Rect>,
     /// Group of each occlusion query of the current command buffer.
     pub queries: Vec<Group>,
     /// Group of the counted draws recorded next.
@@ -175,6 +172,7 @@ impl<'a> Recorder<'a> {
             pipes: Vec::new(),
             state,
             pending_clear: BTreeMap::new(),
+            clear_regions: VecDeque::new(),
             queries: Vec::new(),
             group: None,
             marks: Vec::new(),
@@ -254,16 +252,13 @@ impl<'a> Recorder<'a> {
     /// with their pending clears done, every image in `REST`.
     pub fn finish_frame(&mut self, output_ds: u8) {
         self.end_block();
-        for r in [
+        let mut outputs = vec![
             Resource::Color,
             Resource::Prim,
             Resource::DepthStencil(output_ds),
-        ] {
-            self.flush_clear(r);
-        }
-        if self.b.normals {
-            self.flush_clear(Resource::Normal);
-        }
+        ];
+        outputs.extend(self.b.normals.then_some(Resource::Normal));
+        self.flush_clears(&outputs);
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
         self.rest_all();
@@ -410,151 +405,6 @@ impl<'a> Recorder<'a> {
         true
     }
 
-    /// Records `r`'s pending clear as a clear command (its next use is not as an
-    /// attachment of a new block).
-    fn flush_clear(&mut self, r: Resource) {
-        self.flush_clears(&[r]);
-    }
-
-    /// Records the pending clears of `rs` as clear commands, after one barrier
-    /// that brings them all to `Usage::Clear` (lavapipe waits for its rasterizer
-    /// threads at every barrier, so one barrier for all instead of one each).
-    fn flush_clears(&mut self, rs: &[Resource]) {
-        let values: Vec<(Resource, vk::ClearValue)> = rs
-            .iter()
-            .filter_map(|r| self.pending_clear.remove(r).map(|v| (*r, v)))
-            .collect();
-        if values.is_empty() {
-            return;
-        }
-        let uses: Vec<_> = values.iter().map(|(r, _)| (*r, Usage::Clear)).collect();
-        self.transitions(&uses, false);
-        let layout = sync::access(Usage::Clear).layout;
-        for (r, value) in values {
-            if self.b.clears == ClearMode::Skip {
-                continue;
-            }
-            let img = self.b.targets.image(r);
-            self.stats.counts.clear_commands += 1;
-            self.stats.counts.cleared_pixels += self.full_area();
-            if img.desc.is_depth_stencil() {
-                // SAFETY: outside rendering; the image allows transfer dst and is in `layout`;
-                // a depth-stencil clear value was stored for it.
-                unsafe {
-                    self.b.device.cmd_clear_depth_stencil_image(
-                        self.cmd,
-                        img.raw,
-                        layout,
-                        &value.depth_stencil,
-                        &[range(img.desc.aspect())],
-                    )
-                };
-            } else {
-                // SAFETY: as above, with a colour clear value.
-                unsafe {
-                    self.b.device.cmd_clear_color_image(
-                        self.cmd,
-                        img.raw,
-                        layout,
-                        &value.color,
-                        &[range(vk::ImageAspectFlags::COLOR)],
-                    )
-                };
-            }
-        }
-    }
-
-    fn full_area(&self) -> u64 {
-        self.b.desc.width as u64 * self.b.desc.height as u64
-    }
-
-    fn clear_values(&self, clear: &Clear) -> Vec<(Resource, vk::ClearValue)> {
-        let reversed = self.b.desc.reversed_z;
-        match *clear {
-            Clear::DepthStencil { ds, depth, stencil } => vec![(
-                Resource::DepthStencil(ds),
-                vk::ClearValue {
-                    depth_stencil: vk::ClearDepthStencilValue {
-                        depth: conv::depth_value(depth, reversed),
-                        stencil: stencil as u32,
-                    },
-                },
-            )],
-            Clear::Texture { tex, depth } => vec![(
-                Resource::Texture(tex),
-                vk::ClearValue {
-                    color: vk::ClearColorValue {
-                        float32: [conv::depth_value(depth, reversed), 0.0, 0.0, 0.0],
-                    },
-                },
-            )],
-            Clear::Color => {
-                let bg = self.b.scene.background.map(|c| c as f32 / 255.0);
-                vec![
-                    (
-                        Resource::Color,
-                        vk::ClearValue {
-                            color: vk::ClearColorValue {
-                                float32: [bg[0], bg[1], bg[2], 1.0],
-                            },
-                        },
-                    ),
-                    (
-                        Resource::Prim,
-                        vk::ClearValue {
-                            color: vk::ClearColorValue { uint32: [0; 4] },
-                        },
-                    ),
-                ]
-                .into_iter()
-                .chain(self.b.normals.then_some((
-                    Resource::Normal,
-                    vk::ClearValue {
-                        color: vk::ClearColorValue { float32: [0.0; 4] },
-                    },
-                )))
-                .collect()
-            }
-        }
-    }
-
-    /// Flushes the pending clears of resources used other than as attachments
-    /// (and of attachments the clear mode does not clear on load), and drops
-    /// those a whole-image write replaces.
-    fn settle_clears(&mut self, uses: &[(Resource, Usage)]) {
-        let mut flush = Vec::new();
-        // The colour clear value the block's load ops use (`ClearMode::Fast`).
-        let mut load_value: Option<[u32; 4]> = None;
-        for &(r, u) in uses {
-            let Some(value) = self.pending_clear.get(&r) else {
-                continue;
-            };
-            match u {
-                Usage::DepthStencilTarget => {
-                    if matches!(self.b.clears, ClearMode::Command | ClearMode::Skip) {
-                        flush.push(r);
-                    }
-                }
-                Usage::ColorTarget => match self.b.clears {
-                    ClearMode::LoadOp => {}
-                    ClearMode::Command | ClearMode::Skip => flush.push(r),
-                    ClearMode::Fast => {
-                        // SAFETY: plain data; every bit pattern is a valid `[u32; 4]`.
-                        let bits = unsafe { value.color.uint32 };
-                        if *load_value.get_or_insert(bits) != bits {
-                            flush.push(r);
-                        }
-                    }
-                },
-                Usage::CopyDst | Usage::Clear => {
-                    self.pending_clear.remove(&r);
-                }
-                Usage::Sampled | Usage::CopySrc => flush.push(r),
-            }
-        }
-        self.flush_clears(&flush);
-    }
-
     pub fn step(&mut self, step: &Step) -> Result<(), VkError> {
         match step {
             Step::Pass(name) => {
@@ -567,17 +417,7 @@ impl<'a> Recorder<'a> {
                     self.timestamp(name.clone());
                 }
             }
-            Step::Clear(clear) => {
-                for (r, v) in self.clear_values(clear) {
-                    let attached = self.block.as_ref().is_some_and(|b| {
-                        b.colors().contains(&r) || b.ds.map(Resource::DepthStencil) == Some(r)
-                    });
-                    if attached {
-                        self.end_block();
-                    }
-                    self.pending_clear.insert(r, v);
-                }
-            }
+            Step::Clear(clear) => self.clear(clear),
             Step::CopyTexture { src, dst } => {
                 if src == dst {
                     return Ok(());
@@ -607,7 +447,8 @@ impl<'a> Recorder<'a> {
                         depth: 1,
                     },
                 };
-                self.stats.counts.copied_pixels += self.full_area();
+                self.stats.counts.copied_pixels +=
+                    Rect::full(self.b.desc.width, self.b.desc.height).area();
                 // SAFETY: outside rendering; both images allow transfer, same format,
                 // in the copy layouts after the barrier above.
                 unsafe {
@@ -652,38 +493,27 @@ impl<'a> Recorder<'a> {
         self.begin_block(key);
     }
 
-    fn attachment(
-        &mut self,
-        r: Resource,
-        layout: vk::ImageLayout,
-    ) -> vk::RenderingAttachmentInfo<'static> {
-        let img = self.b.targets.image(r);
-        let view = img.view;
-        let a = vk::RenderingAttachmentInfo::default()
-            .image_view(view)
-            .image_layout(layout)
-            .store_op(vk::AttachmentStoreOp::STORE);
-        match self.pending_clear.remove(&r) {
-            Some(v) => {
-                self.stats.counts.load_op_clears += 1;
-                self.stats.counts.cleared_pixels += self.full_area();
-                a.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(v)
-            }
-            None => a.load_op(vk::AttachmentLoadOp::LOAD),
-        }
-    }
-
     fn begin_block(&mut self, key: &BlockKey) {
         let color_layout = sync::access(Usage::ColorTarget).layout;
         let ds_layout = sync::access(Usage::DepthStencilTarget).layout;
+        let mut in_block = Vec::new();
+        let mut attachment = |rec: &mut Self, r: Resource, index, layout| {
+            let (load, clear) = rec.load_op(r, index, &mut in_block);
+            vk::RenderingAttachmentInfo::default()
+                .image_view(rec.b.targets.image(r).view)
+                .image_layout(layout)
+                .load_op(load)
+                .clear_value(clear)
+                .store_op(vk::AttachmentStoreOp::STORE)
+        };
         let mut colors = [vk::RenderingAttachmentInfo::default(); MAX_COLORS];
-        for (a, r) in colors.iter_mut().zip(key.colors()) {
-            *a = self.attachment(*r, color_layout);
+        for (i, (a, r)) in colors.iter_mut().zip(key.colors()).enumerate() {
+            *a = attachment(self, *r, Some(i as u32), color_layout);
         }
         let colors = &colors[..key.n_colors as usize];
         let ds_att = key
             .ds
-            .map(|d| self.attachment(Resource::DepthStencil(d), ds_layout));
+            .map(|d| attachment(self, Resource::DepthStencil(d), None, ds_layout));
         let mut ri = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D { x: 0, y: 0 },
@@ -702,6 +532,7 @@ impl<'a> Recorder<'a> {
         unsafe { self.b.device.cmd_begin_rendering(self.cmd, &ri) };
         self.stats.counts.render_passes += 1;
         self.block = Some(*key);
+        self.clear_in_block(&in_block);
     }
 
     fn pipeline_for(
