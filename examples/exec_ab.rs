@@ -73,7 +73,7 @@ fn main() {
             for _ in 0..frames {
                 for (i, e) in exs.iter_mut().enumerate() {
                     let s = e.execute(&plan).expect("frame");
-                    cpu[i].push(s.process_cpu_ms);
+                    cpu[i].push(s.frame_cpu_ms);
                     wall[i].push(s.frame_ms);
                 }
             }

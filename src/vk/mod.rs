@@ -3,8 +3,7 @@
 //!
 //! Modules: `instance` ([`Context`]: instance, debug messenger, device, allocator);
 //! `memory` and `image` (buffers and images that own their memory); `pipeline`
-//! (one per fragment program, all depth/stencil state dynamic); `cpu_clock` (the
-//! process's CPU time, lavapipe's work); `conv` and
+//! (one per fragment program, all depth/stencil state dynamic); `conv` and
 //! `scissor` (pure mappings, tested without a GPU); `sync` (the pure table from a
 //! step's resource usages to stages, accesses and layouts); `submit` (one-shot
 //! command buffers, barriers, query pools, shared with `present`); `exec` (the plan

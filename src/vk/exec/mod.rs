@@ -19,7 +19,8 @@
 //! buffer), `targets` (images and descriptor sets), `record` (steps to commands,
 //! barriers from `plan::usage` through `vk::sync`), `state` (dynamic state
 //! recorded only where it changes), `stats` (typed statistics), `normals` (the
-//! optional normal buffer and the edge pass on it, seed 001 §5).
+//! optional normal buffer and the edge pass on it, seed 001 §5), `transparency`
+//! (the accumulate pass compositing peeled layers on the GPU, seed 000 §6).
 
 mod camera;
 mod embed;
@@ -29,6 +30,7 @@ mod record;
 mod state;
 mod stats;
 mod targets;
+mod transparency;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -40,7 +42,6 @@ pub use super::conv::DepthFormat;
 pub(crate) use embed::{Output, Unrolled};
 pub use stats::{Counts, ExecStats, PassStats, Recorded};
 
-use super::cpu_clock;
 use super::error::VkError;
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
@@ -159,16 +160,16 @@ struct Recording {
 #[derive(Default)]
 struct Clock {
     first_submit: Option<Instant>,
-    /// The process's CPU time at the first submission.
-    first_submit_cpu: f64,
+    /// The process's CPU time at the first submission (`vk::cpu_clock`).
+    first_submit_cpu: u64,
     record_ms: f64,
 }
 
 impl Clock {
-    /// Notes the frame's first submission (later ones change nothing).
+    /// Notes the first submission of the frame (later ones change nothing).
     fn submitting(&mut self) {
         if self.first_submit.is_none() {
-            self.first_submit_cpu = cpu_clock::process_cpu_ms();
+            self.first_submit_cpu = crate::vk::cpu_clock::process_ns();
             self.first_submit = Some(Instant::now());
         }
     }
@@ -208,6 +209,8 @@ pub struct Executor {
     rounding: Option<super::RoundingEmulation>,
     /// Write the normal buffer with the colour ([`Executor::set_normals`]).
     normals: bool,
+    /// Keep the accumulate pass's images ([`Executor::set_transparency`]).
+    transparency: bool,
 }
 
 impl Executor {
@@ -268,6 +271,7 @@ impl Executor {
             scissored_clears: true,
             rounding: None,
             normals: false,
+            transparency: false,
         })
     }
 
@@ -318,11 +322,11 @@ impl Executor {
     fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
         let n_ds = plan.depth_stencils.max(1) as usize;
         let n_tex = plan.textures as usize;
-        let normals = self.normals;
+        let (normals, transparency) = (self.normals, self.transparency);
         if self
             .targets
             .as_ref()
-            .is_some_and(|t| t.fits(n_ds, n_tex, normals))
+            .is_some_and(|t| t.fits(n_ds, n_tex, normals, transparency))
         {
             return Ok(());
         }
@@ -334,6 +338,7 @@ impl Executor {
             n_ds,
             n_tex,
             normals,
+            transparency,
         )?;
         // New images start in `REST`, where every recording expects them.
         let cmd = self.submit.cmd;
@@ -407,10 +412,10 @@ impl Executor {
             .first_submit
             .map(|t| t.elapsed().as_secs_f64() * 1e3)
             .unwrap_or(0.0);
-        stats.record_ms = clock.record_ms;
         if clock.first_submit.is_some() {
-            stats.process_cpu_ms = cpu_clock::process_cpu_ms() - clock.first_submit_cpu;
+            stats.frame_cpu_ms = crate::vk::cpu_clock::ms_since(clock.first_submit_cpu);
         }
+        stats.record_ms = clock.record_ms;
         stats.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         self.last_output = Some(plan.output_ds);
         Ok(stats)

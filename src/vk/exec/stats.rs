@@ -46,12 +46,13 @@ pub struct Counts {
     /// Rendering blocks (`vkCmdBeginRendering`) recorded. Lavapipe starts a new
     /// binned scene for each whose attachments differ from the last one's.
     pub render_passes: u64,
-    /// Clear commands (`vkCmdClear*Image`): on lavapipe each waits for the
-    /// rasterizer and fills the whole image on the calling thread.
+    /// Clear commands (`vkCmdClear*Image`, `vkCmdClearAttachments`): on lavapipe
+    /// each waits for the rasterizer and fills on the calling thread.
     pub clear_commands: u64,
     /// Attachments cleared by their block's load op.
     pub load_op_clears: u64,
-    /// Pixels cleared, by clear commands and load ops (each image counted whole).
+    /// Pixels cleared, by clear commands (their rectangles) and load ops (whole
+    /// images).
     pub cleared_pixels: u64,
     /// Pixels copied between textures (`CopyTexture`).
     pub copied_pixels: u64,
@@ -99,12 +100,12 @@ pub struct ExecStats {
     /// Wall time from the first submission of the frame until the GPU is idle,
     /// images left on the GPU.
     pub frame_ms: f64,
+    /// The process's CPU time, all threads (`vk::cpu_clock`), over the same
+    /// interval as `frame_ms`: on a CPU device the frame's cost unaffected by
+    /// other processes' load.
+    pub frame_cpu_ms: f64,
     /// CPU time spent recording command buffers (0 when a recording is replayed).
     pub record_ms: f64,
-    /// CPU time of the whole process, every thread, over `frame_ms` (on lavapipe
-    /// its rasterizer threads' work: steady on a shared machine where wall and
-    /// timestamp times are not).
-    pub process_cpu_ms: f64,
     /// Whether the frame replayed a recording or recorded, and why.
     pub recorded: Recorded,
     /// Per pass group, in order of first appearance.
@@ -140,8 +141,8 @@ impl ExecStats {
         self.gpu_ms += other.gpu_ms;
         self.cpu_ms += other.cpu_ms;
         self.frame_ms += other.frame_ms;
+        self.frame_cpu_ms += other.frame_cpu_ms;
         self.record_ms += other.record_ms;
-        self.process_cpu_ms += other.process_cpu_ms;
         for p in &other.per_pass {
             if let Some(e) = self.pass_entry(&p.name) {
                 e.gpu_ms += p.gpu_ms;
