@@ -87,6 +87,9 @@ pub struct Record {
     /// Wall time from a frame's first submission to GPU idle (images left on the GPU).
     pub frame_ms_median: f64,
     pub frame_ms_iqr: f64,
+    /// The process's CPU time over a frame, every thread (`ExecStats::frame_cpu_ms`:
+    /// on lavapipe the rasterizer's work, steady on a loaded machine).
+    pub frame_cpu_ms_median: f64,
     /// CPU time recording command buffers (0 when a recording is replayed).
     pub record_ms_median: f64,
     /// CPU time of recording the frame anew (a new plan), once per run.
@@ -229,6 +232,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 cpu_ms_iqr: 0.0,
                 frame_ms_median: 0.0,
                 frame_ms_iqr: 0.0,
+                frame_cpu_ms_median: 0.0,
                 record_ms_median: 0.0,
                 rerecord_ms: 0.0,
                 rerecord_us_per_draw: 0.0,
@@ -413,6 +417,7 @@ fn run_one(
     let (cm, _, _, ciqr) = median_iqr(&mut series(|s| s.exec.cpu_ms));
     let (fm, _, _, fiqr) = median_iqr(&mut series(|s| s.exec.frame_ms));
     let (rm, _, _, _) = median_iqr(&mut series(|s| s.exec.record_ms));
+    let (pm, _, _, _) = median_iqr(&mut series(|s| s.exec.frame_cpu_ms));
     let counts = RunCounts {
         stencil_bits: last.stencil_bits.unwrap_or(0),
         counts: &last.exec.counts,
@@ -442,6 +447,7 @@ fn run_one(
         cpu_ms_iqr: ciqr,
         frame_ms_median: fm,
         frame_ms_iqr: fiqr,
+        frame_cpu_ms_median: pm,
         record_ms_median: rm,
         rerecord_ms,
         rerecord_us_per_draw: rerecord_ms * 1e3 / (last.exec.counts.draws.max(1) as f64),

@@ -205,6 +205,10 @@ pub struct Executor {
     /// Output depth-stencil of the last executed plan (what `read_back` copies).
     last_output: Option<u8>,
     clears: ClearMode,
+    /// Timestamps at every pass (per-pass GPU times) or only around the frame.
+    pass_timestamps: bool,
+    /// Clears reach only what later steps read ([`Executor::set_scissored_clears`]).
+    scissored_clears: bool,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
     rounding: Option<super::RoundingEmulation>,
     /// Write the normal buffer with the colour ([`Executor::set_normals`]).
@@ -267,6 +271,8 @@ impl Executor {
             epoch: 0,
             last_output: None,
             clears,
+            pass_timestamps: true,
+            scissored_clears: true,
             rounding: None,
             normals: false,
             transparency: false,
@@ -426,6 +432,21 @@ impl Executor {
         self.recording = None;
     }
 
+    /// Whether clears reach only the part of an image later steps read (the
+    /// default) or the whole image. Both give the same images.
+    pub fn set_scissored_clears(&mut self, on: bool) {
+        self.scissored_clears = on;
+        self.recording = None;
+    }
+
+    /// Per-pass GPU times (a timestamp at every `Step::Pass`; the default) or
+    /// only the frame's (two timestamps, so that lavapipe's scenes are not cut
+    /// at pass boundaries).
+    pub fn set_pass_timestamps(&mut self, on: bool) {
+        self.pass_timestamps = on;
+        self.recording = None;
+    }
+
     /// Drops the kept recording: the next frame records again (what a new plan or
     /// camera costs; the bench measures it with this).
     pub fn forget_recording(&mut self) {
@@ -460,6 +481,7 @@ impl Executor {
             occlusion: self.occlusion.pool,
             timestamps: (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool),
             clears: self.clears,
+            pass_timestamps: self.pass_timestamps,
             flags,
             snap,
             normals: self.normals,
@@ -580,7 +602,12 @@ impl Executor {
         let flat = unroll(plan, layers);
         self.ensure_queries(&flat)?;
         let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
+        let scissored_clears = self.scissored_clears;
         let mut rec = self.recorder();
+        let steps: Vec<&Step> = flat.iter().map(|(s, _)| *s).collect();
+        if scissored_clears {
+            rec.plan_clears(&steps, plan.output_ds);
+        }
         rec.begin(cmd, occ_cap, ts_cap);
         for (s, g) in &flat {
             rec.group = *g;

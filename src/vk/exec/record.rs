@@ -13,7 +13,7 @@
 //! screen are not recorded. Meshes of one draw that lie contiguously in the
 //! vertex buffer and need no per-mesh push constants are drawn with one call.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 
 use ash::vk;
 
@@ -22,11 +22,13 @@ use super::state::{self, DynState};
 use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
+use clears::PendingClear;
+
+mod clears;
 use crate::plan::usage::{self, Resource, Usage};
-use crate::plan::{Clear, Draw, Fragment, Geometry, MeshId, Scissor, Step};
+use crate::plan::{Draw, Fragment, Geometry, MeshId, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
-use crate::vk::image::range;
 use crate::vk::pipeline::{
     FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_MESH, PUSH_SIZE,
 };
@@ -96,6 +98,9 @@ pub(super) struct Bindings<'a> {
     /// `None` when the queue has no timestamps.
     pub timestamps: Option<vk::QueryPool>,
     pub clears: ClearMode,
+    /// A timestamp at every `Step::Pass` (per-pass GPU times); otherwise only
+    /// around the command buffer.
+    pub pass_timestamps: bool,
     /// Push-constant flags (reversed Z, subpixel precision).
     pub flags: u32,
     /// Emulated vertex snapping step of mesh draws (zero: off).
@@ -116,8 +121,9 @@ pub enum ClearMode {
     /// As the load op of the next rendering block into the image (tile-based and
     /// other hardware GPUs clear on load for free).
     LoadOp,
-    /// As clear commands. Lavapipe clears on load far more slowly than with a
-    /// clear command (README, "Executor"), so CPU devices use this.
+    /// As clear commands of the region later steps read (`clears.rs`).
+    /// Lavapipe clears on load far more slowly (README, "Executor"), so CPU
+    /// devices use this.
     Command,
 }
 
@@ -137,7 +143,9 @@ pub(super) struct Recorder<'a> {
     /// handful; looked up without building a `PipelineDesc` per draw).
     pipes: Vec<(BlockKey, FragmentKind, vk::Pipeline)>,
     state: BTreeMap<Resource, Usage>,
-    pending_clear: BTreeMap<Resource, vk::ClearValue>,
+    pending_clear: BTreeMap<Resource, PendingClear>,
+    /// Regions of the clears recorded next, in order (`clears::clear_regions`).
+    clear_regions: VecDeque<Rect>,
     /// Group of each occlusion query of the current command buffer.
     pub queries: Vec<Group>,
     /// Group of the counted draws recorded next.
@@ -164,6 +172,7 @@ impl<'a> Recorder<'a> {
             pipes: Vec::new(),
             state,
             pending_clear: BTreeMap::new(),
+            clear_regions: VecDeque::new(),
             queries: Vec::new(),
             group: None,
             marks: Vec::new(),
@@ -190,7 +199,10 @@ impl<'a> Recorder<'a> {
             };
         }
         self.begin_state(cmd);
-        let pass = self.pass_name();
+        let pass = match self.b.pass_timestamps {
+            true => self.pass_name(),
+            false => String::new(),
+        };
         self.timestamp(pass);
     }
 
@@ -240,16 +252,13 @@ impl<'a> Recorder<'a> {
     /// with their pending clears done, every image in `REST`.
     pub fn finish_frame(&mut self, output_ds: u8) {
         self.end_block();
-        for r in [
+        let mut outputs = vec![
             Resource::Color,
             Resource::Prim,
             Resource::DepthStencil(output_ds),
-        ] {
-            self.flush_clear(r);
-        }
-        if self.b.normals {
-            self.flush_clear(Resource::Normal);
-        }
+        ];
+        outputs.extend(self.b.normals.then_some(Resource::Normal));
+        self.flush_clears(&outputs);
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
         self.rest_all();
@@ -347,10 +356,14 @@ impl<'a> Recorder<'a> {
                     &[region],
                 )
             };
+            // Read whole by the full-screen composite.
             self.pending_clear.insert(
                 Resource::Accum,
-                vk::ClearValue {
-                    color: vk::ClearColorValue { float32: [0.0; 4] },
+                PendingClear {
+                    value: vk::ClearValue {
+                        color: vk::ClearColorValue { float32: [0.0; 4] },
+                    },
+                    rect: Rect::full(self.b.desc.width, self.b.desc.height),
                 },
             );
         }
@@ -411,6 +424,7 @@ impl<'a> Recorder<'a> {
             )
         };
         self.marks.push(pass);
+        self.stats.counts.timestamps += 1;
     }
 
     fn end_block(&mut self) {
@@ -463,131 +477,19 @@ impl<'a> Recorder<'a> {
         true
     }
 
-    /// Records `r`'s pending clear as a clear command (its next use is not as an
-    /// attachment of a new block).
-    fn flush_clear(&mut self, r: Resource) {
-        let Some(value) = self.pending_clear.remove(&r) else {
-            return;
-        };
-        self.transitions(&[(r, Usage::Clear)], false);
-        let img = self.b.targets.image(r);
-        let layout = sync::access(Usage::Clear).layout;
-        if img.desc.is_depth_stencil() {
-            // SAFETY: outside rendering; the image allows transfer dst and is in `layout`;
-            // a depth-stencil clear value was stored for it.
-            unsafe {
-                self.b.device.cmd_clear_depth_stencil_image(
-                    self.cmd,
-                    img.raw,
-                    layout,
-                    &value.depth_stencil,
-                    &[range(img.desc.aspect())],
-                )
-            };
-        } else {
-            // SAFETY: as above, with a colour clear value.
-            unsafe {
-                self.b.device.cmd_clear_color_image(
-                    self.cmd,
-                    img.raw,
-                    layout,
-                    &value.color,
-                    &[range(vk::ImageAspectFlags::COLOR)],
-                )
-            };
-        }
-    }
-
-    fn clear_values(&self, clear: &Clear) -> Vec<(Resource, vk::ClearValue)> {
-        let reversed = self.b.desc.reversed_z;
-        match *clear {
-            Clear::DepthStencil { ds, depth, stencil } => vec![(
-                Resource::DepthStencil(ds),
-                vk::ClearValue {
-                    depth_stencil: vk::ClearDepthStencilValue {
-                        depth: conv::depth_value(depth, reversed),
-                        stencil: stencil as u32,
-                    },
-                },
-            )],
-            Clear::Texture { tex, depth } => vec![(
-                Resource::Texture(tex),
-                vk::ClearValue {
-                    color: vk::ClearColorValue {
-                        float32: [conv::depth_value(depth, reversed), 0.0, 0.0, 0.0],
-                    },
-                },
-            )],
-            Clear::Color => {
-                let bg = self.b.scene.background.map(|c| c as f32 / 255.0);
-                vec![
-                    (
-                        Resource::Color,
-                        vk::ClearValue {
-                            color: vk::ClearColorValue {
-                                float32: [bg[0], bg[1], bg[2], 1.0],
-                            },
-                        },
-                    ),
-                    (
-                        Resource::Prim,
-                        vk::ClearValue {
-                            color: vk::ClearColorValue { uint32: [0; 4] },
-                        },
-                    ),
-                ]
-                .into_iter()
-                .chain(self.b.normals.then_some((
-                    Resource::Normal,
-                    vk::ClearValue {
-                        color: vk::ClearColorValue { float32: [0.0; 4] },
-                    },
-                )))
-                .collect()
-            }
-        }
-    }
-
-    /// Flushes the pending clears of resources used other than as attachments, and
-    /// drops those a whole-image write replaces.
-    fn settle_clears(&mut self, uses: &[(Resource, Usage)]) {
-        for &(r, u) in uses {
-            if !self.pending_clear.contains_key(&r) {
-                continue;
-            }
-            match u {
-                Usage::ColorTarget | Usage::DepthStencilTarget => {
-                    if self.b.clears == ClearMode::Command {
-                        self.flush_clear(r);
-                    }
-                }
-                Usage::CopyDst | Usage::Clear => {
-                    self.pending_clear.remove(&r);
-                }
-                Usage::Sampled | Usage::CopySrc => self.flush_clear(r),
-            }
-        }
-    }
-
     pub fn step(&mut self, step: &Step) -> Result<(), VkError> {
         match step {
             Step::Pass(name) => {
-                self.end_block();
                 self.stats.pass_entry(name);
                 self.pass = self.stats.per_pass.iter().position(|p| &p.name == name);
-                self.timestamp(name.clone());
-            }
-            Step::Clear(clear) => {
-                for (r, v) in self.clear_values(clear) {
-                    let attached = self.block.as_ref().is_some_and(|b| {
-                        b.colors().contains(&r) || b.ds.map(Resource::DepthStencil) == Some(r)
-                    });
-                    if attached {
-                        self.end_block();
-                    }
-                    self.pending_clear.insert(r, v);
+                if self.b.pass_timestamps {
+                    // Lavapipe ends its binned scene at a timestamp (and bins the
+                    // query into every tile): only when per-pass times are asked for.
+                    self.end_block();
+                    self.timestamp(name.clone());
                 }
             }
+            Step::Clear(clear) => self.clear(clear),
             Step::CopyTexture { src, dst } => {
                 if src == dst {
                     return Ok(());
@@ -617,6 +519,8 @@ impl<'a> Recorder<'a> {
                         depth: 1,
                     },
                 };
+                self.stats.counts.copied_pixels +=
+                    Rect::full(self.b.desc.width, self.b.desc.height).area();
                 // SAFETY: outside rendering; both images allow transfer, same format,
                 // in the copy layouts after the barrier above.
                 unsafe {
@@ -661,34 +565,27 @@ impl<'a> Recorder<'a> {
         self.begin_block(key);
     }
 
-    fn attachment(
-        &mut self,
-        r: Resource,
-        layout: vk::ImageLayout,
-    ) -> vk::RenderingAttachmentInfo<'static> {
-        let img = self.b.targets.image(r);
-        let view = img.view;
-        let a = vk::RenderingAttachmentInfo::default()
-            .image_view(view)
-            .image_layout(layout)
-            .store_op(vk::AttachmentStoreOp::STORE);
-        match self.pending_clear.remove(&r) {
-            Some(v) => a.load_op(vk::AttachmentLoadOp::CLEAR).clear_value(v),
-            None => a.load_op(vk::AttachmentLoadOp::LOAD),
-        }
-    }
-
     fn begin_block(&mut self, key: &BlockKey) {
         let color_layout = sync::access(Usage::ColorTarget).layout;
         let ds_layout = sync::access(Usage::DepthStencilTarget).layout;
+        let mut in_block = Vec::new();
+        let mut attachment = |rec: &mut Self, r: Resource, index, layout| {
+            let (load, clear) = rec.load_op(r, index, &mut in_block);
+            vk::RenderingAttachmentInfo::default()
+                .image_view(rec.b.targets.image(r).view)
+                .image_layout(layout)
+                .load_op(load)
+                .clear_value(clear)
+                .store_op(vk::AttachmentStoreOp::STORE)
+        };
         let mut colors = [vk::RenderingAttachmentInfo::default(); MAX_COLORS];
-        for (a, r) in colors.iter_mut().zip(key.colors()) {
-            *a = self.attachment(*r, color_layout);
+        for (i, (a, r)) in colors.iter_mut().zip(key.colors()).enumerate() {
+            *a = attachment(self, *r, Some(i as u32), color_layout);
         }
         let colors = &colors[..key.n_colors as usize];
         let ds_att = key
             .ds
-            .map(|d| self.attachment(Resource::DepthStencil(d), ds_layout));
+            .map(|d| attachment(self, Resource::DepthStencil(d), None, ds_layout));
         let mut ri = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {
                 offset: vk::Offset2D { x: 0, y: 0 },
@@ -705,7 +602,9 @@ impl<'a> Recorder<'a> {
         // SAFETY: recording outside rendering; all views are live and, after the
         // recorder's barriers, in the attachment layouts given.
         unsafe { self.b.device.cmd_begin_rendering(self.cmd, &ri) };
+        self.stats.counts.render_passes += 1;
         self.block = Some(*key);
+        self.clear_in_block(&in_block);
     }
 
     fn pipeline_for(

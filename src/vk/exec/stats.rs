@@ -46,6 +46,21 @@ pub struct Counts {
     /// buffer already holds is not recorded (the CPU cost of recording, with
     /// `draw_calls`).
     pub state_commands: u64,
+    /// Rendering blocks (`vkCmdBeginRendering`) recorded. Lavapipe starts a new
+    /// binned scene for each whose attachments differ from the last one's.
+    pub render_passes: u64,
+    /// Clear commands (`vkCmdClear*Image`, `vkCmdClearAttachments`): on lavapipe
+    /// each waits for the rasterizer and fills on the calling thread.
+    pub clear_commands: u64,
+    /// Attachments cleared by their block's load op.
+    pub load_op_clears: u64,
+    /// Pixels cleared, by clear commands (their rectangles) and load ops (whole
+    /// images).
+    pub cleared_pixels: u64,
+    /// Pixels copied between textures (`CopyTexture`).
+    pub copied_pixels: u64,
+    /// GPU timestamps written (per pass, or only around the frame).
+    pub timestamps: u64,
     /// Queue submissions of the frame.
     pub submits: u64,
     /// Head executions of each loop, in execution order.
@@ -146,6 +161,12 @@ impl ExecStats {
         c.fullscreen_pixels += o.fullscreen_pixels;
         c.skipped_steps += o.skipped_steps;
         c.barriers += o.barriers;
+        c.render_passes += o.render_passes;
+        c.clear_commands += o.clear_commands;
+        c.load_op_clears += o.load_op_clears;
+        c.cleared_pixels += o.cleared_pixels;
+        c.copied_pixels += o.copied_pixels;
+        c.timestamps += o.timestamps;
         c.submits += o.submits;
         c.loop_iterations.extend_from_slice(&o.loop_iterations);
         c.samples_counted += o.samples_counted;
