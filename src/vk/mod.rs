@@ -14,6 +14,7 @@
 
 pub mod composite;
 pub mod conv;
+pub mod cpu_clock;
 pub mod embed;
 pub mod error;
 pub mod exec;

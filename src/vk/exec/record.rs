@@ -30,7 +30,7 @@ use crate::vk::image::range;
 use crate::vk::pipeline::{
     FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_MESH, PUSH_SIZE,
 };
-use crate::vk::scissor::Rect;
+use crate::vk::scissor::{Rect, RectUnions};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
 
@@ -105,9 +105,9 @@ pub(super) struct Bindings<'a> {
     /// The camera's uniform buffer (set 1 of every pipeline).
     pub camera_set: vk::DescriptorSet,
     /// Screen rectangle of each mesh's bounds (a `BoundsOf` scissor is their
-    /// union, exactly as `bounds_rect` of all the boxes); the executor may pass
-    /// larger ones (see `Executor::execute`).
-    pub mesh_rects: &'a [Rect],
+    /// union, exactly as `bounds_rect` of all the boxes), as a table of unions;
+    /// the executor may pass larger ones (see `Executor::execute`).
+    pub mesh_rects: RectUnions,
 }
 
 /// How a plan's clears of attachments are recorded.
@@ -767,9 +767,7 @@ impl<'a> Recorder<'a> {
         let (w, h) = (self.b.desc.width, self.b.desc.height);
         match s {
             Scissor::Full => Rect::full(w, h),
-            Scissor::BoundsOf(ms) => ms
-                .iter()
-                .fold(Rect::EMPTY, |r, m| r.union(&self.b.mesh_rects[*m as usize])),
+            Scissor::BoundsOf(ms) => self.b.mesh_rects.of(ms),
         }
     }
 
