@@ -335,6 +335,23 @@ impl GpuRenderer {
         Ok(self.exec.read_normals()?)
     }
 
+    /// Whether later frames keep the GPU composite's images; `false` when the
+    /// device cannot (see [`vk::Executor::set_transparency`]).
+    pub fn set_transparency(&mut self, on: bool) -> Result<bool, RenderError> {
+        Ok(self.exec.set_transparency(on)?)
+    }
+
+    /// Blends the last frame's layer into the GPU composite (see
+    /// [`vk::Executor::accumulate`]).
+    pub fn accumulate(&mut self, alpha: Option<&[f32]>) -> Result<(), RenderError> {
+        Ok(self.exec.accumulate(alpha)?)
+    }
+
+    /// The GPU composite so far: premultiplied colour and coverage per pixel.
+    pub fn read_accumulation(&mut self) -> Result<Vec<[f32; 4]>, RenderError> {
+        Ok(self.exec.read_accumulation()?)
+    }
+
     /// The last frame's edge map computed on the GPU (`shaders/edges.frag`) by
     /// `rule`; `None` unless normals were on for that frame.
     pub fn edge_map(&mut self, rule: &edges::EdgeRule) -> Result<Option<Vec<bool>>, RenderError> {

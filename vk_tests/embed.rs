@@ -124,3 +124,44 @@ fn formats_the_composite_cannot_write_are_a_typed_error_before_any_command() {
         assert!(e.contains(which) && e.contains("use one of"), "{e}");
     }
 }
+
+/// `bench --embedded`'s pairs: at least 15 however few frames are asked for; the
+/// embedded frame draws what the standalone one draws, plus the composite (one
+/// full-screen pass scissored to the CSG, its barriers); both timings are read,
+/// and the validation layer reports nothing.
+#[test]
+fn bench_pairs_time_equal_work_plus_the_composite() {
+    use peeltrim::bench::embedded::{measure, MIN_PAIRS};
+    use peeltrim::plan::{self, Prepared};
+    use peeltrim::render::{DepthSetup, GpuRenderer};
+    let mut scene = crate::algorithms::load(&crate::setup::scenes_dir().join("coincident.toml"));
+    (scene.render.width, scene.render.height) = (96, 80);
+    let plan = plan::build(Algo::Goldfeather, &Prepared::new(&scene).unwrap()).unwrap();
+    let mut gpu =
+        GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true).unwrap();
+    // The first frame learns the loop counts, the second records the replay.
+    gpu.execute(&plan).unwrap();
+    let alone = gpu.execute(&plan).unwrap().exec;
+    let t = measure(&mut gpu, &plan, &scene, Algo::Goldfeather, (1, 3)).unwrap();
+    assert_eq!(t.pairs, MIN_PAIRS);
+    assert_eq!(t.draws, alone.counts.draws, "{t:?}");
+    assert_eq!(
+        t.fullscreen_passes,
+        alone.counts.fullscreen_passes + 1,
+        "{t:?}"
+    );
+    assert!(t.barriers >= alone.counts.barriers + 2, "{t:?}");
+    for v in [t.standalone_frame_ms_median, t.frame_ms_median, t.ratio] {
+        assert!(v > 0.0 && v.is_finite(), "{t:?}");
+    }
+    // Linux: CPU time is read from /proc.
+    for v in [
+        t.standalone_frame_cpu_ms_median,
+        t.frame_cpu_ms_median,
+        t.cpu_ratio,
+    ] {
+        assert!(v > 0.0 && v.is_finite(), "{t:?}");
+    }
+    let msgs = gpu.validation_messages();
+    assert!(msgs.is_empty(), "{msgs:?}");
+}

@@ -22,7 +22,7 @@ fn scene(name: &str, alpha: Option<f64>) -> Scene {
     s
 }
 
-fn options(algo: Algo) -> RenderOptions {
+pub(crate) fn options(algo: Algo) -> RenderOptions {
     RenderOptions {
         algo,
         device: crate::setup::device(),
@@ -33,7 +33,7 @@ fn options(algo: Algo) -> RenderOptions {
     }
 }
 
-fn layered(scene: &Scene, algo: Algo, lopts: &LayerOptions) -> LayeredFrame {
+pub(crate) fn layered(scene: &Scene, algo: Algo, lopts: &LayerOptions) -> LayeredFrame {
     render_layered(scene, &options(algo), lopts)
         .unwrap_or_else(|e| panic!("{} {}: {e}", scene.path.display(), algo.name()))
 }
@@ -70,9 +70,23 @@ fn cst_layers_match_the_reference_crossings() {
         "assembly.toml",
     ] {
         let s = scene(name, Some(0.5));
-        let reference = layered(&s, Algo::Reference, &four());
+        // The layers kept (`--layers-out`): a transparent frame reads back
+        // only its composite otherwise.
+        let kept = LayerOptions {
+            write_layers: true,
+            ..four()
+        };
+        let reference = layered(&s, Algo::Reference, &kept);
         for algo in CST {
-            let gpu = layered(&s, algo, &four());
+            let gpu = layered(&s, algo, &kept);
+            // One solid seen from outside is composited on the GPU; an
+            // assembly's streams are merged and composited on the CPU.
+            assert_eq!(
+                gpu.layer_stats.composited_on_gpu,
+                Some(name != "assembly.toml"),
+                "{name} {}",
+                algo.name()
+            );
             assert_eq!(
                 gpu.layers.len(),
                 reference.layers.len(),

@@ -378,9 +378,14 @@ fn bench_modes_time_every_style() {
             let r = row(algo, mode);
             let layers: u32 = r[4].parse().unwrap();
             assert_eq!(layers, if mode == "opaque" { 1 } else { 4 }, "{r:?}");
-            assert!(r[7].parse::<f64>().unwrap() > 0.0, "{r:?}");
+            assert!(r[8].parse::<f64>().unwrap() > 0.0, "{r:?}");
         }
     }
+    // cst-i composites drilled_block's layers on the GPU: it reads back layer 1
+    // (colour, ids, depth) and the f32 composite, not the four layers.
+    let bytes = |mode: &str| row("cst-i", mode)[7].parse::<u64>().unwrap();
+    assert_eq!(bytes("transparent"), (12 + 16) * 64 * 48);
+    assert_eq!(bytes("opaque"), 12 * 64 * 48);
     assert!(row("cst-i", "highlight")[6].parse::<u64>().unwrap() > 0);
     assert!(!rows.iter().any(|r| r[1] == "kirsch" && r[2] == "highlight"));
     assert!(stderr(&o).contains("kirsch highlight"), "{}", stderr(&o));

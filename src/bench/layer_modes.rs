@@ -52,6 +52,10 @@ pub struct ModeRecord {
     pub stream_layers: u32,
     /// CSTs run.
     pub csts: u64,
+    /// Bytes read back from the GPU (the opaque frame's images; the layers'
+    /// and the composite's: a transparent frame composited on the GPU reads
+    /// back layer 1 and the composite only).
+    pub readback_bytes: u64,
     /// Median over the frames of the GPU time of all the mode's plans.
     pub gpu_ms_median: f64,
     /// Median wall time of the whole mode (device set-up included).
@@ -110,58 +114,63 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                 let mut last = None;
                 for _ in 0..cfg.frames.max(1) {
                     let t = std::time::Instant::now();
-                    let r = (|| -> Result<(f64, u32, u32, u64), Box<dyn std::error::Error>> {
-                        Ok(match mode {
-                            "opaque" => {
-                                scene.appearance.alpha = None;
-                                let f = render::render(&scene, &opts)?;
-                                let prep = Prepared::new(&scene)?;
-                                let variant = match algo {
-                                    Algo::CstZ => Some(Variant::Z),
-                                    Algo::CstI => Some(Variant::I),
-                                    Algo::CstG => Some(Variant::G),
-                                    _ => None,
-                                };
-                                let csts = variant.map_or(0, |v| {
-                                    leaf_csts(
-                                        &prep.positive,
-                                        v,
-                                        &prep.mesh_bounds,
-                                        &prep.eye_inside,
+                    let r =
+                        (|| -> Result<(f64, u32, u32, u64, u64), Box<dyn std::error::Error>> {
+                            Ok(match mode {
+                                "opaque" => {
+                                    scene.appearance.alpha = None;
+                                    let f = render::render(&scene, &opts)?;
+                                    let prep = Prepared::new(&scene)?;
+                                    let variant = match algo {
+                                        Algo::CstZ => Some(Variant::Z),
+                                        Algo::CstI => Some(Variant::I),
+                                        Algo::CstG => Some(Variant::G),
+                                        _ => None,
+                                    };
+                                    let csts = variant.map_or(0, |v| {
+                                        leaf_csts(
+                                            &prep.positive,
+                                            v,
+                                            &prep.mesh_bounds,
+                                            &prep.eye_inside,
+                                        )
+                                        .len() as u64
+                                    });
+                                    // Colour, ids and depth: 4 bytes each a pixel.
+                                    let bytes = 12 * w as u64 * h as u64;
+                                    (f.stats.exec.gpu_ms, 1, 1, csts, bytes)
+                                }
+                                _ => {
+                                    let highlight = mode == "highlight";
+                                    let transparent = mode == "transparent";
+                                    scene.appearance.alpha =
+                                        transparent.then_some(TRANSPARENT_ALPHA);
+                                    // The blueprint styles (seed 001 §5) of the same layers.
+                                    scene.appearance.style = match mode {
+                                        "blueprint" => Style::Blueprint,
+                                        "wireframe" => Style::Wireframe,
+                                        "blueprint-transparent" => Style::BlueprintTransparent,
+                                        _ => Style::Opaque,
+                                    };
+                                    let lopts = LayerOptions {
+                                        max_layers: (!highlight).then_some(TRANSPARENT_LAYERS),
+                                        highlight: if highlight { vec![0] } else { vec![] },
+                                        ..Default::default()
+                                    };
+                                    let l = render_layered(&scene, &opts, &lopts);
+                                    scene.appearance.style = Style::Opaque;
+                                    let l = l?;
+                                    let s = &l.layer_stats;
+                                    (
+                                        l.frame.stats.exec.gpu_ms,
+                                        s.layers,
+                                        s.stream_layers.unwrap_or(0),
+                                        s.csts.unwrap_or(0),
+                                        s.readback_bytes.unwrap_or(0),
                                     )
-                                    .len() as u64
-                                });
-                                (f.stats.exec.gpu_ms, 1, 1, csts)
-                            }
-                            _ => {
-                                let highlight = mode == "highlight";
-                                let transparent = mode == "transparent";
-                                scene.appearance.alpha = transparent.then_some(TRANSPARENT_ALPHA);
-                                // The blueprint styles (seed 001 §5) of the same layers.
-                                scene.appearance.style = match mode {
-                                    "blueprint" => Style::Blueprint,
-                                    "wireframe" => Style::Wireframe,
-                                    "blueprint-transparent" => Style::BlueprintTransparent,
-                                    _ => Style::Opaque,
-                                };
-                                let lopts = LayerOptions {
-                                    max_layers: (!highlight).then_some(TRANSPARENT_LAYERS),
-                                    highlight: if highlight { vec![0] } else { vec![] },
-                                    ..Default::default()
-                                };
-                                let l = render_layered(&scene, &opts, &lopts);
-                                scene.appearance.style = Style::Opaque;
-                                let l = l?;
-                                let s = &l.layer_stats;
-                                (
-                                    l.frame.stats.exec.gpu_ms,
-                                    s.layers,
-                                    s.stream_layers.unwrap_or(0),
-                                    s.csts.unwrap_or(0),
-                                )
-                            }
-                        })
-                    })();
+                                }
+                            })
+                        })();
                     let r = match r {
                         Ok(r) => r,
                         Err(e) => {
@@ -177,7 +186,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                     gpu.push(r.0);
                     last = Some(r);
                 }
-                let Some((_, layers, stream_layers, csts)) = last else {
+                let Some((_, layers, stream_layers, csts, readback_bytes)) = last else {
                     bar.inc(1);
                     continue;
                 };
@@ -189,6 +198,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                     layers,
                     stream_layers,
                     csts,
+                    readback_bytes,
                     gpu_ms_median: median_iqr(&mut gpu).0,
                     wall_ms_median: median_iqr(&mut wall).0,
                     frames: gpu.len() as u32,
@@ -205,13 +215,13 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
 /// The table of seed 000 §8's second kind: per scene, algorithm and mode.
 pub fn table(records: &[ModeRecord]) -> String {
     let mut s = String::from(
-        "| scene | prims | algo | mode | layers | layer plans | CSTs | GPU ms | wall ms |\n\
-         |---|---|---|---|---|---|---|---|---|\n",
+        "| scene | prims | algo | mode | layers | layer plans | CSTs | read back KiB | GPU ms | wall ms |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in records {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {:.1} | {:.1} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.1} | {:.1} |",
             r.scene,
             r.prims,
             r.algo,
@@ -219,6 +229,7 @@ pub fn table(records: &[ModeRecord]) -> String {
             r.layers,
             r.stream_layers,
             r.csts,
+            r.readback_bytes / 1024,
             r.gpu_ms_median,
             r.wall_ms_median
         );
@@ -231,12 +242,12 @@ pub fn write(dir: &Path, records: &[ModeRecord]) -> Result<(), BenchError> {
     let io =
         |e: std::io::Error| BenchError::Other(format!("writing modes into {}: {e}", dir.display()));
     let mut csv = String::from(
-        "scene,algo,mode,prims,layers,stream_layers,csts,gpu_ms_median,wall_ms_median,frames\n",
+        "scene,algo,mode,prims,layers,stream_layers,csts,readback_bytes,gpu_ms_median,wall_ms_median,frames\n",
     );
     for r in records {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{},{},{},{:.3},{:.3},{}",
+            "{},{},{},{},{},{},{},{},{:.3},{:.3},{}",
             r.scene,
             r.algo,
             r.mode,
@@ -244,6 +255,7 @@ pub fn write(dir: &Path, records: &[ModeRecord]) -> Result<(), BenchError> {
             r.layers,
             r.stream_layers,
             r.csts,
+            r.readback_bytes,
             r.gpu_ms_median,
             r.wall_ms_median,
             r.frames

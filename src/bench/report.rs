@@ -65,7 +65,7 @@ pub fn csv(records: &[Record]) -> String {
     for c in CSV_COUNTS {
         let _ = write!(s, ",{c}");
     }
-    s.push_str(",coverage_mismatch_frac,prim_mismatch_frac,coverage_mismatch_interior_frac,prim_mismatch_interior_frac,depth_abs_err_max,depth_abs_err_p99,depth_abs_err_mean,failure,embedded_frame_ms_median,embedded_ratio\n");
+    s.push_str(",coverage_mismatch_frac,prim_mismatch_frac,coverage_mismatch_interior_frac,prim_mismatch_interior_frac,depth_abs_err_max,depth_abs_err_p99,depth_abs_err_mean,failure,embedded_frame_ms_median,embedded_ratio,embedded_cpu_ratio\n");
     for r in records {
         let _ = write!(
             s,
@@ -110,16 +110,17 @@ pub fn csv(records: &[Record]) -> String {
                 r.error.get(k).map(|v| v.to_string()).unwrap_or_default()
             );
         }
-        let (e_ms, e_ratio) = match &r.embedded {
+        let (e_ms, e_ratio, e_cpu) = match &r.embedded {
             Some(e) => (
                 format!("{:.4}", e.frame_ms_median),
                 format!("{:.4}", e.ratio),
+                format!("{:.4}", e.cpu_ratio),
             ),
             None => Default::default(),
         };
         let _ = writeln!(
             s,
-            ",\"{}\",{e_ms},{e_ratio}",
+            ",\"{}\",{e_ms},{e_ratio},{e_cpu}",
             r.failure.as_deref().unwrap_or("").replace('"', "'")
         );
     }
@@ -136,17 +137,21 @@ pub fn embedded_table(records: &[Record]) -> String {
     if rows.is_empty() {
         return String::new();
     }
-    let mut s = String::from("## Embedded path (`--embedded`)\n\nEach embedded frame follows a standalone one; ratio: the median over those pairs.\n\n| scene | algo | depth | standalone frame ms | embedded frame ms | ratio | embedded record ms |\n|---|---|---|---|---|---|---|\n");
+    let mut s = String::from("## Embedded path (`--embedded`)\n\nStandalone and embedded frames in pairs (order alternating; the host's clear submitted apart, untimed); ratios: medians over the pairs of embedded over standalone, of wall time from submission to completion (`frame ms`) and of the process's CPU time over it (`cpu ms`, all threads).\n\n| scene | algo | depth | pairs | standalone frame ms | embedded frame ms | ratio | standalone cpu ms | embedded cpu ms | cpu ratio | embedded record ms |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (r, e) in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.2} | {:.2} | {:.3} | {:.2} |",
+            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.3} | {:.2} | {:.2} | {:.3} | {:.2} |",
             r.scene,
             r.algo,
             r.depth_setup,
+            e.pairs,
             e.standalone_frame_ms_median,
             e.frame_ms_median,
             e.ratio,
+            e.standalone_frame_cpu_ms_median,
+            e.frame_cpu_ms_median,
+            e.cpu_ratio,
             e.record_ms_median
         );
     }

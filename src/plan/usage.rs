@@ -18,6 +18,13 @@ pub enum Resource {
     /// The first layer's edge map (seed 001 §5.1), written by the executor's
     /// edge pass from `Normal` and the output depth; plans never name it.
     Edges,
+    /// The transparency accumulation target (seed 000 §6, front to back:
+    /// premultiplied colour and coverage), written by the executor's
+    /// accumulate pass from `Color` and `Prim`; plans never name it.
+    Accum,
+    /// The opacity of each primitive id, sampled by the accumulate pass; plans
+    /// never name it.
+    AlphaTable,
     DepthStencil(Ds),
     Texture(Tex),
 }

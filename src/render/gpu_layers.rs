@@ -4,13 +4,21 @@
 //! layer's depth ([`crate::plan::cst::layers`]), each stream stopped by an
 //! occlusion query; the streams are then merged front to back per pixel into
 //! the layers of the image, so an assembly's layers are the union of its solids'
-//! boundaries, each solid counted on its own.
+//! boundaries, each solid counted on its own ([`render`]).
+//!
+//! One solid seen from outside needs no merge: its crossings alternate entry,
+//! exit, entry…, so peeling the two streams in turn (each with its own floor
+//! texture) produces the image's layers in order, and each is blended into the
+//! GPU's accumulation target as it is produced ([`composite`]): a transparent
+//! frame then reads back one image instead of every layer. An assembly's
+//! streams interleave differently at every pixel, so its layers are merged and
+//! composited on the CPU (README, "Layers of the solid and transparency").
 #![deny(unsafe_code)]
 
 use super::layers::SolidLayer;
 use super::{GpuRenderer, RenderError};
 use crate::output::Images;
-use crate::plan::cst::layers::{coverage_plan, layer_plan, Side};
+use crate::plan::cst::layers::{coverage_plan, layer_plan, Side, EXIT_FLOOR, FLOOR};
 use crate::plan::cst::Variant;
 use crate::plan::Prepared;
 use crate::scene::Scene;
@@ -27,8 +35,11 @@ pub struct StreamLimit {
 
 /// The GPU's layers of a scene and what they cost.
 pub struct GpuLayers {
-    /// The image's layers, front to back.
+    /// The image's layers, front to back (empty when [`composite`] was not
+    /// asked for them).
     pub layers: Vec<SolidLayer>,
+    /// Pixels each layer covers, layer 1 first.
+    pub pixels: Vec<u64>,
     /// Solid (0-based) of each layer's crossing per pixel, parallel to `layers`
     /// (`u32::MAX` where there is none): the opacity of a point may be its solid's.
     pub solid: Vec<Vec<u32>>,
@@ -39,6 +50,15 @@ pub struct GpuLayers {
     /// CSTs run: the leaves peeled and trimmed by each layer plan, summed (the
     /// paper's "CSTs" column, seed 000 §8).
     pub csts: u64,
+    /// Bytes copied from the GPU: layer images (colour, id, depth; normals
+    /// when on) and the composite.
+    pub readback_bytes: u64,
+}
+
+/// Bytes a pixel of one layer's read-back takes: colour, id and depth (4 each),
+/// and the normal buffer's 16 when it is on.
+fn layer_bytes(normal: &Option<Vec<[f32; 3]>>) -> u64 {
+    12 + if normal.is_some() { 16 } else { 0 }
 }
 
 /// One peeled layer of one stream.
@@ -58,6 +78,26 @@ fn solid_scene(scene: &Scene, i: usize) -> Scene {
     s
 }
 
+/// Solid `i` of `scene` prepared for peeling (`None`: it has no solid), whether
+/// its crossings alternate entry, exit, entry… (one solid seen from outside:
+/// layer 2k − 1 is the entry stream's k-th and 2k the exit stream's, and a
+/// stream may stop where its layer covers fewer pixels than the threshold;
+/// otherwise — an assembly, the eye or the near plane inside a primitive — the
+/// merge decides the order, and each stream may hold any of the first N), and
+/// a bound on any stream's layers.
+fn peelable(scene: &Scene, i: usize) -> Result<Option<(Prepared, bool, u32)>, RenderError> {
+    let sub = solid_scene(scene, i);
+    let prep = Prepared::new(&sub)?;
+    if !prep.has_solid() || prep.positive.literals().is_empty() {
+        return Ok(None);
+    }
+    let alternating = scene.solids.len() == 1
+        && !prep.eye_inside.iter().any(|&b| b)
+        && !prep.near_cut.iter().any(|&b| b);
+    let bound = prep.mesh_triangles.iter().sum::<usize>() as u32 + 1;
+    Ok(Some((prep, alternating, bound)))
+}
+
 /// Peels every solid's streams on `gpu` (the scene uploaded) and merges them.
 pub fn render(
     gpu: &mut GpuRenderer,
@@ -67,23 +107,13 @@ pub fn render(
 ) -> Result<GpuLayers, RenderError> {
     let mut stats = ExecStats::default();
     let mut peeled = Vec::new();
-    let (mut stream_layers, mut csts) = (0, 0);
+    let (mut stream_layers, mut csts, mut readback_bytes) = (0, 0, 0);
+    let pixels = scene.render.width as u64 * scene.render.height as u64;
     let coverage = coverage_plan();
     for i in 0..scene.solids.len() {
-        let sub = solid_scene(scene, i);
-        let prep = Prepared::new(&sub)?;
-        if !prep.has_solid() || prep.positive.literals().is_empty() {
+        let Some((prep, alternating, bound)) = peelable(scene, i)? else {
             continue;
-        }
-        // One solid seen from outside: its crossings alternate entry, exit, entry…
-        // so layer 2k − 1 is the entry stream's k-th and 2k the exit stream's, and a
-        // stream may stop where its layer covers fewer pixels than the threshold.
-        // Otherwise (an assembly, the eye or the near plane inside a primitive) the
-        // merge decides the order, and each stream may hold any of the first N.
-        let alternating = scene.solids.len() == 1
-            && !prep.eye_inside.iter().any(|&b| b)
-            && !prep.near_cut.iter().any(|&b| b);
-        let bound = prep.mesh_triangles.iter().sum::<usize>() as u32 + 1;
+        };
         for side in [Side::Entry, Side::Exit] {
             let cap = match (limit.max, alternating, side) {
                 (None, _, _) => bound,
@@ -92,7 +122,7 @@ pub fn render(
                 (Some(n), true, Side::Exit) => n / 2,
             };
             for k in 0..cap {
-                let lp = layer_plan(&prep, variant, side, k == 0)?;
+                let lp = layer_plan(&prep, variant, side, k == 0, FLOOR)?;
                 let st = gpu.execute(&lp.plan)?;
                 stats.accumulate(&st.exec);
                 stream_layers += 1;
@@ -103,11 +133,13 @@ pub fn render(
                 if covered == 0 {
                     break;
                 }
-                peeled.push(Peeled {
+                let p = Peeled {
                     solid: i as u32,
                     images: gpu.read_back()?,
                     normal: gpu.read_normals()?,
-                });
+                };
+                readback_bytes += pixels * layer_bytes(&p.normal);
+                peeled.push(p);
                 if alternating && covered < limit.threshold {
                     break;
                 }
@@ -117,12 +149,146 @@ pub fn render(
     let (w, h) = (scene.render.width, scene.render.height);
     let (layers, solid) = merge(&peeled, w, h, scene.render.background, limit);
     Ok(GpuLayers {
+        pixels: layers.iter().map(SolidLayer::covered).collect(),
         layers,
         solid,
         stats,
         stream_layers,
         csts,
+        readback_bytes,
     })
+}
+
+/// The transparent image of a scene composited on the GPU, and its layers.
+pub struct Composited {
+    /// `color.png`: the layers blended front to back over the background.
+    pub color: Vec<[u8; 4]>,
+    /// Layer 1's images (`depth.npy`, `prim.png`): background where none.
+    pub first: Images,
+    /// The layers (their images only when asked for) and what they cost.
+    pub layers: GpuLayers,
+}
+
+/// The layers of a one-solid scene seen from outside, peeled in order (entry
+/// and exit streams in turn, each from its own floor) and each blended into
+/// the GPU's accumulation target right after it is peeled, at the opacity
+/// `alpha(p)` of its primitive `p` (0-based); only layer 1 is read back, and
+/// every layer when `images` (`--layers-out`, styles, highlight). `None` when
+/// the scene's crossings do not alternate (an assembly, the eye or the near
+/// plane inside a primitive: [`render`] merges those) or the device cannot
+/// blend the accumulation target; the caller then composites on the CPU.
+pub fn composite(
+    gpu: &mut GpuRenderer,
+    scene: &Scene,
+    variant: Variant,
+    limit: StreamLimit,
+    images: bool,
+    alpha: impl Fn(u32) -> f64,
+) -> Result<Option<Composited>, RenderError> {
+    if scene.solids.len() != 1 {
+        return Ok(None);
+    }
+    let Some((prep, true, bound)) = peelable(scene, 0)? else {
+        return Ok(None);
+    };
+    if !gpu.set_transparency(true)? {
+        return Ok(None);
+    }
+    // Opacity by primitive id (1-based; 0 is no primitive).
+    let table: Vec<f32> = std::iter::once(0.0)
+        .chain((0..scene.primitives.len() as u32).map(|p| alpha(p) as f32))
+        .collect();
+    let (w, h) = (scene.render.width, scene.render.height);
+    let mut out = GpuLayers {
+        layers: Vec::new(),
+        pixels: Vec::new(),
+        solid: Vec::new(),
+        stats: ExecStats::default(),
+        stream_layers: 0,
+        csts: 0,
+        readback_bytes: 0,
+    };
+    let pixels = w as u64 * h as u64;
+    let mut first = None;
+    let coverage = coverage_plan();
+    let max = limit.max.unwrap_or(2 * bound);
+    for m in 0..max {
+        // Layer m + 1: the entry stream's (m / 2 + 1)-th, or the exit stream's.
+        let (side, floor) = match m % 2 {
+            0 => (Side::Entry, FLOOR),
+            _ => (Side::Exit, EXIT_FLOOR),
+        };
+        let lp = layer_plan(&prep, variant, side, m < 2, floor)?;
+        let st = gpu.execute(&lp.plan)?;
+        out.stats.accumulate(&st.exec);
+        out.stream_layers += 1;
+        out.csts += lp.csts as u64;
+        let counted = gpu.execute(&coverage)?;
+        out.stats.accumulate(&counted.exec);
+        let covered = counted.exec.counts.samples_counted;
+        if covered == 0 || covered < limit.threshold {
+            break;
+        }
+        gpu.accumulate((m == 0).then_some(&table[..]))?;
+        out.pixels.push(covered);
+        if images || m == 0 {
+            let layer = SolidLayer {
+                images: gpu.read_back()?,
+                normal: gpu.read_normals()?,
+            };
+            out.readback_bytes += pixels * layer_bytes(&layer.normal);
+            if m == 0 {
+                first = Some(layer.images.clone());
+            }
+            if images {
+                out.solid.push(
+                    layer
+                        .images
+                        .prim
+                        .iter()
+                        .map(|&p| if p == 0 { u32::MAX } else { 0 })
+                        .collect(),
+                );
+                out.layers.push(layer);
+            }
+        }
+    }
+    let bg = scene.render.background;
+    let n = w as usize * h as usize;
+    let color = if first.is_some() {
+        out.readback_bytes += pixels * 16;
+        gpu.read_accumulation()?
+            .iter()
+            .map(|p| resolve(*p, bg))
+            .collect()
+    } else {
+        vec![[bg[0], bg[1], bg[2], 255]; n]
+    };
+    let first = first.unwrap_or_else(|| Images {
+        width: w,
+        height: h,
+        color: vec![[bg[0], bg[1], bg[2], 255]; n],
+        depth: vec![f32::INFINITY; n],
+        prim: vec![0; n],
+    });
+    Ok(Some(Composited {
+        color,
+        first,
+        layers: out,
+    }))
+}
+
+/// One pixel of the composite: the accumulated premultiplied colour `C` (0..1)
+/// and coverage `A` over the background, `C + (1 − A)·bg`, in bytes as the
+/// reference rounds them.
+fn resolve(p: [f32; 4], bg: [u8; 3]) -> [u8; 4] {
+    let t = (1.0 - p[3] as f64).max(0.0);
+    let px = |k: usize| {
+        (255.0 * p[k] as f64 + t * bg[k] as f64)
+            .round()
+            .clamp(0.0, 255.0) as u8
+    };
+    [px(0), px(1), px(2), 255]
 }
 
 /// Two depths the merge treats as one point (relative; GPU depths of faces that
@@ -222,6 +388,17 @@ mod tests {
             },
             normal: None,
         }
+    }
+
+    #[test]
+    fn resolve_blends_the_rest_of_the_background() {
+        // Nothing accumulated: the background.
+        assert_eq!(resolve([0.0; 4], [10, 20, 30]), [10, 20, 30, 255]);
+        // Two layers at 0.5, colours 1.0 then 0.0 (C = 0.5, A = 0.75) over 200:
+        // 127.5 + 50 = 177.5, rounded as the reference rounds (half away).
+        assert_eq!(resolve([0.5, 0.5, 0.5, 0.75], [200; 3])[0], 178);
+        // Opaque: the background is gone.
+        assert_eq!(resolve([0.2, 0.4, 0.6, 1.0], [255; 3]), [51, 102, 153, 255]);
     }
 
     #[test]

@@ -10,8 +10,9 @@
 //! the solid (seed 000 §6, [`super::gpu_layers`]), blended semi-transparent.
 #![deny(unsafe_code)]
 
+use super::edges::edge_map;
 use super::gpu_layers::{self, GpuLayers, StreamLimit};
-use super::layers::{LayerOptions, LayerStats, LayeredFrame, SolidLayer};
+use super::layers::{LayerOptions, LayerStats, LayeredFrame};
 use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::Images;
 use crate::plan::cst::Variant;
@@ -138,8 +139,19 @@ pub fn render_interference(
     scene: &Scene,
     opts: &RenderOptions,
 ) -> Result<(Frame, GpuInterference, GpuLayers), RenderError> {
+    render_interference_with(scene, opts, false)
+}
+
+/// [`render_interference`]; with `normals`, the layers have their normals
+/// (for their edge maps).
+fn render_interference_with(
+    scene: &Scene,
+    opts: &RenderOptions,
+    normals: bool,
+) -> Result<(Frame, GpuInterference, GpuLayers), RenderError> {
     let t = std::time::Instant::now();
     let mut gpu = renderer(scene, opts)?;
+    gpu.set_normals(normals);
     let inter = pairs_on(&mut gpu, scene, opts)?;
     gpu.upload(scene)?;
     let variant = match opts.algo {
@@ -202,37 +214,62 @@ pub fn render_interference(
     Ok((frame, inter, peeled))
 }
 
-/// Whether `--interference` is all the layered features asked for (the part the
-/// GPU does without layers).
-pub fn interference_only(scene: &Scene, lopts: &LayerOptions) -> bool {
-    scene.appearance.interference
-        && !scene.appearance.is_transparent()
-        && lopts.max_layers.is_none()
-        && !lopts.write_layers
-        && lopts.highlight.is_empty()
-        && !scene.appearance.style.layered()
+/// Whether the GPU's interference view answers the layered request:
+/// `--interference` alone or with transparency (`alpha` keys, `--alpha`),
+/// `--layers`, `--layer-threshold` and `--layers-out`. Highlight and styles
+/// together with interference are the reference's.
+pub fn handles(scene: &Scene, lopts: &LayerOptions) -> bool {
+    scene.appearance.interference && lopts.highlight.is_empty() && !scene.appearance.style.layered()
 }
 
-/// [`render_interference`] as the layered renderer's answer: the GPU's layers,
-/// and in `stats.json` the pairs and the interference's pixels.
-pub fn layered_frame(scene: &Scene, opts: &RenderOptions) -> Result<LayeredFrame, RenderError> {
-    let (mut frame, inter, peeled) = render_interference(scene, opts)?;
+/// [`render_interference`] as the layered renderer's answer: the composite of
+/// every layer in front of the interference (as the reference's, whatever
+/// `--layers` says), the GPU's layers cut as `lopts` asks (`--layers`,
+/// `--layer-threshold`; with `--layers-out` their normals and edge maps), and
+/// in `stats.json` the pairs and the interference's pixels.
+pub fn layered_frame(
+    scene: &Scene,
+    opts: &RenderOptions,
+    lopts: &LayerOptions,
+) -> Result<LayeredFrame, RenderError> {
+    let (mut frame, inter, mut peeled) = render_interference_with(scene, opts, lopts.write_layers)?;
+    // The reference's cut: at most N layers, stopping before the first that
+    // covers fewer pixels than the threshold.
+    let count = peeled
+        .pixels
+        .iter()
+        .take_while(|&&p| p >= lopts.threshold.max(1))
+        .count()
+        .min(lopts.max_layers.map_or(usize::MAX, |m| m as usize));
+    peeled.layers.truncate(count);
+    peeled.pixels.truncate(count);
+    let (w, h) = (scene.render.width, scene.render.height);
+    let edges: Vec<Vec<bool>> = peeled
+        .layers
+        .iter()
+        .filter_map(|l| {
+            let n = l.normal.as_ref()?;
+            Some(edge_map(&l.images.depth, n, w, h, &lopts.edge_rule))
+        })
+        .collect();
     let layer_stats = LayerStats {
-        layers: peeled.layers.len() as u32,
-        layer_pixels: peeled.layers.iter().map(SolidLayer::covered).collect(),
+        layers: count as u32,
+        layer_pixels: peeled.pixels,
         transparent: scene.appearance.is_transparent(),
         interference_pixels: Some(inter.color.iter().filter(|c| c.is_some()).count() as u64),
         interference: Some(inter.pairs),
+        readback_bytes: Some(peeled.readback_bytes),
         stream_layers: Some(peeled.stream_layers),
         csts: Some(peeled.csts),
         style: scene.appearance.style.name(),
+        edge_pixels: (!edges.is_empty())
+            .then(|| edges.iter().map(|e| super::edges::count(e)).collect()),
         ..Default::default()
     };
     frame.stats.layers = Some(layer_stats.clone());
     Ok(LayeredFrame {
         layers: peeled.layers,
-        // The GPU's layers have no normals here, so no edge maps.
-        edges: vec![],
+        edges,
         frame,
         layer_stats,
     })

@@ -73,6 +73,11 @@ pub struct LayerStats {
     pub layer_pixels: Vec<u64>,
     /// `color.png` is the alpha composite of the layers.
     pub transparent: bool,
+    /// GPU, transparent: whether the layers were blended on the GPU as they
+    /// were peeled (one solid seen from outside) rather than merged and
+    /// composited on the CPU.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub composited_on_gpu: Option<bool>,
     /// With `--highlight`: pixels where a highlighted face is the first layer.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub highlighted_pixels: Option<u64>,
@@ -89,6 +94,10 @@ pub struct LayerStats {
     /// GPU: CSTs run over all layers (the paper's "CSTs", seed 000 §8).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub csts: Option<u64>,
+    /// GPU: bytes read back for the layers and the composite (deterministic;
+    /// what the GPU composite saves, README "What runs where").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub readback_bytes: Option<u64>,
     /// With interference: pixels showing an interference.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference_pixels: Option<u64>,
@@ -154,8 +163,8 @@ pub fn render_layered(
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
-    if opts.algo != Algo::Reference && super::interference::interference_only(scene, lopts) {
-        return super::interference::layered_frame(scene, opts);
+    if opts.algo != Algo::Reference && super::interference::handles(scene, lopts) {
+        return super::interference::layered_frame(scene, opts, lopts);
     }
     let gpu_refuses = |what: &'static str| {
         Err(RenderError::Unsupported {
@@ -201,7 +210,7 @@ pub fn render_layered(
     if scene.appearance.interference {
         return Err(RenderError::Unsupported {
             algo: opts.algo.name().to_string(),
-            what: "interference together with layers, transparency or highlight (--interference with --layers, --layers-out, --alpha, --highlight)",
+            what: "interference together with highlight or styles (--interference with --highlight or --style)",
         });
     }
     render_layered_gpu(scene, opts, lopts, variant)
@@ -227,38 +236,25 @@ fn render_layered_gpu(
         max: lopts.max_layers,
         threshold: lopts.threshold,
     };
-    let peeled = gpu_layers::render(&mut gpu, scene, variant, limit)?;
-    let mut frame = if transparent {
-        let n = scene.render.width as usize * scene.render.height as usize;
-        let bg = scene.render.background;
-        let color = (0..n)
-            .map(|i| {
-                let hits = peeled.layers.iter().zip(&peeled.solid).map_while(|(l, s)| {
-                    let prim = l.images.prim[i];
-                    (prim != 0).then(|| {
-                        let alpha = scene.appearance.alpha_of(prim as u32 - 1, s[i]);
-                        (alpha, l.images.color[i])
-                    })
-                });
-                blend_colors(hits, bg)
-            })
-            .collect();
-        let first = peeled.layers.first();
-        Frame {
-            images: Images {
-                width: scene.render.width,
-                height: scene.render.height,
-                color,
-                depth: first.map_or_else(|| vec![f32::INFINITY; n], |l| l.images.depth.clone()),
-                prim: first.map_or_else(|| vec![0; n], |l| l.images.prim.clone()),
-            },
-            stats: FrameStats::default(),
-        }
+    // Every layer's images: for `--layers-out`, the styles and highlight.
+    let keep = want_edges || style.layered() || !lopts.highlight.is_empty();
+    let composited = if transparent {
+        let alpha = |p: u32| scene.appearance.alpha_of(p, 0);
+        gpu_layers::composite(&mut gpu, scene, variant, limit, keep, alpha)?
     } else {
-        // Opaque: the image `render` makes, unchanged.
-        let prep = Prepared::new(scene)?;
-        let plan = crate::plan::build_with(opts.algo, &prep, &opts.build)?;
-        gpu.frame(&plan)?
+        None
+    };
+    let on_gpu = composited.is_some();
+    let (peeled, mut frame) = match composited {
+        Some(c) => {
+            let images = Images {
+                color: c.color,
+                ..c.first
+            };
+            let stats = FrameStats::default();
+            (c.layers, Frame { images, stats })
+        }
+        None => cpu_composite(&mut gpu, scene, opts, variant, limit)?,
     };
     let mut exec = peeled.stats.clone();
     if !transparent {
@@ -276,9 +272,11 @@ fn render_layered_gpu(
         ..Default::default()
     };
     let mut layer_stats = LayerStats {
-        layers: peeled.layers.len() as u32,
-        layer_pixels: peeled.layers.iter().map(SolidLayer::covered).collect(),
+        layers: peeled.pixels.len() as u32,
+        layer_pixels: peeled.pixels.clone(),
         transparent,
+        composited_on_gpu: transparent.then_some(on_gpu),
+        readback_bytes: Some(peeled.readback_bytes),
         stream_layers: Some(peeled.stream_layers),
         csts: Some(peeled.csts),
         style: scene.appearance.style.name(),
@@ -334,6 +332,54 @@ fn render_layered_gpu(
         edges,
         layer_stats,
     })
+}
+
+/// The layers peeled stream by stream and merged on the CPU
+/// ([`gpu_layers::render`]), and the frame: the layers composited on the CPU
+/// when the scene is see-through (an assembly, the eye inside, or a device
+/// that cannot blend the GPU's accumulation target), else the opaque image
+/// `render` makes, unchanged (its stats in the frame's).
+fn cpu_composite(
+    gpu: &mut GpuRenderer,
+    scene: &Scene,
+    opts: &RenderOptions,
+    variant: Variant,
+    limit: StreamLimit,
+) -> Result<(GpuLayers, Frame), RenderError> {
+    let peeled = gpu_layers::render(gpu, scene, variant, limit)?;
+    let frame = if scene.appearance.is_transparent() {
+        let n = scene.render.width as usize * scene.render.height as usize;
+        let bg = scene.render.background;
+        let color = (0..n)
+            .map(|i| {
+                let hits = peeled.layers.iter().zip(&peeled.solid).map_while(|(l, s)| {
+                    let prim = l.images.prim[i];
+                    (prim != 0).then(|| {
+                        let alpha = scene.appearance.alpha_of(prim as u32 - 1, s[i]);
+                        (alpha, l.images.color[i])
+                    })
+                });
+                blend_colors(hits, bg)
+            })
+            .collect();
+        let first = peeled.layers.first();
+        Frame {
+            images: Images {
+                width: scene.render.width,
+                height: scene.render.height,
+                color,
+                depth: first.map_or_else(|| vec![f32::INFINITY; n], |l| l.images.depth.clone()),
+                prim: first.map_or_else(|| vec![0; n], |l| l.images.prim.clone()),
+            },
+            stats: FrameStats::default(),
+        }
+    } else {
+        // Opaque: the image `render` makes, unchanged.
+        let prep = Prepared::new(scene)?;
+        let plan = crate::plan::build_with(opts.algo, &prep, &opts.build)?;
+        gpu.frame(&plan)?
+    };
+    Ok((peeled, frame))
 }
 
 /// The reference's layered frame (exact).
@@ -490,6 +536,7 @@ fn highlight_gpu(
     }
     stats.highlighted_pixels = Some(shown);
     stats.highlighted_hidden_pixels = Some(hidden);
+    stats.readback_bytes = stats.readback_bytes.map(|b| b + again.readback_bytes);
     Ok(())
 }
 

@@ -8,6 +8,7 @@ use ash::vk;
 
 use super::error::{Check, VkError};
 use super::instance::Shared;
+use super::pipeline::{graphics_pipeline, shader_module, Graphics};
 use super::sync;
 use super::HostTargets;
 use crate::plan::usage::Usage;
@@ -194,81 +195,55 @@ impl Composite {
         c.set = unsafe { device.allocate_descriptor_sets(&ai) }
             .check("vkAllocateDescriptorSets")
             .inspect_err(|_| c.destroy(device))?[0];
-        c.pipeline = c.make_pipeline(device).inspect_err(|_| c.destroy(device))?;
+        c.pipeline = c.make_pipeline(shared).inspect_err(|_| c.destroy(device))?;
         Ok(c)
     }
 
-    fn make_pipeline(&self, device: &ash::Device) -> Result<vk::Pipeline, VkError> {
-        let module = |bytes: &[u8]| -> Result<vk::ShaderModule, VkError> {
-            let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes))
-                .map_err(|e| VkError::Plan(format!("embedded SPIR-V unreadable: {e}")))?;
-            let ci = vk::ShaderModuleCreateInfo::default().code(&words);
-            // SAFETY: SPIR-V produced and validated by naga in build.rs.
-            unsafe { device.create_shader_module(&ci, None) }.check("vkCreateShaderModule")
-        };
-        let (vert, frag) = (module(VERT)?, module(FRAG)?);
-        let stages = [
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::VERTEX)
-                .module(vert)
-                .name(c"main"),
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::FRAGMENT)
-                .module(frag)
-                .name(c"main"),
-        ];
-        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
-        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let viewport = vk::PipelineViewportStateCreateInfo::default()
-            .viewport_count(1)
-            .scissor_count(1);
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
-            .polygon_mode(vk::PolygonMode::FILL)
-            .cull_mode(vk::CullModeFlags::NONE)
-            .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-        let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_test_enable(true)
-            .depth_write_enable(true);
-        let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
-            .color_write_mask(vk::ColorComponentFlags::RGBA)];
-        let blend =
-            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
-        let dynamic_states = [
-            vk::DynamicState::VIEWPORT,
-            vk::DynamicState::SCISSOR,
-            vk::DynamicState::DEPTH_COMPARE_OP,
-        ];
-        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-        let color_formats = [self.formats.0];
-        let mut rendering = vk::PipelineRenderingCreateInfo::default()
-            .color_attachment_formats(&color_formats)
-            .depth_attachment_format(self.formats.1);
-        let ci = vk::GraphicsPipelineCreateInfo::default()
-            .stages(&stages)
-            .vertex_input_state(&vertex_input)
-            .input_assembly_state(&assembly)
-            .viewport_state(&viewport)
-            .rasterization_state(&raster)
-            .multisample_state(&multisample)
-            .depth_stencil_state(&depth_stencil)
-            .color_blend_state(&blend)
-            .dynamic_state(&dynamic)
-            .layout(self.layout)
-            .push_next(&mut rendering);
-        // SAFETY: the state structs live across the call; modules and layout are live.
-        let made =
-            unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) };
-        // SAFETY: modules are only needed while creating the pipeline.
-        unsafe { device.destroy_shader_module(vert, None) };
+    fn make_pipeline(&self, shared: &Shared) -> Result<vk::Pipeline, VkError> {
+        let vert = shader_module(shared, VERT)?;
+        let frag = shader_module(shared, FRAG);
+        let device = &shared.device;
+        let made = frag.and_then(|frag| {
+            let stages = [
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(vk::ShaderStageFlags::VERTEX)
+                    .module(vert)
+                    .name(c"main"),
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(vk::ShaderStageFlags::FRAGMENT)
+                    .module(frag)
+                    .name(c"main"),
+            ];
+            let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
+                .depth_test_enable(true)
+                .depth_write_enable(true);
+            let made = graphics_pipeline(
+                device,
+                &Graphics {
+                    stages: &stages,
+                    vertex_input: &vk::PipelineVertexInputStateCreateInfo::default(),
+                    cull: vk::CullModeFlags::NONE,
+                    depth_stencil: &depth_stencil,
+                    dynamic_states: &[
+                        vk::DynamicState::VIEWPORT,
+                        vk::DynamicState::SCISSOR,
+                        vk::DynamicState::DEPTH_COMPARE_OP,
+                    ],
+                    color_formats: &[self.formats.0],
+                    depth_format: self.formats.1,
+                    // Only the depth aspect is written: no stencil attachment.
+                    stencil_format: vk::Format::UNDEFINED,
+                    layout: self.layout,
+                    under: false,
+                },
+            );
+            // SAFETY: modules are only needed while creating the pipeline.
+            unsafe { device.destroy_shader_module(frag, None) };
+            made
+        });
         // SAFETY: as above.
-        unsafe { device.destroy_shader_module(frag, None) };
-        made.map(|p| p[0]).map_err(|(_, e)| VkError::Call {
-            call: "vkCreateGraphicsPipelines",
-            result: e,
-        })
+        unsafe { device.destroy_shader_module(vert, None) };
+        made
     }
 
     /// Points the set at the executor's current output images.

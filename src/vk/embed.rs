@@ -266,9 +266,9 @@ impl Embedder {
         let unrolled = self.exec.record_unrolled(cmd, plan, &layers)?;
         let slot = (self.frame % self.slots.len() as u64) as usize;
         self.frame += 1;
-        self.copy_counts(cmd, slot, unrolled.groups.len() as u32);
-        self.composite(cmd, targets, depth_compare)?;
-        let stats = unrolled.stats.clone();
+        let counted = self.copy_counts(cmd, slot, unrolled.groups.len() as u32);
+        let mut stats = unrolled.stats.clone();
+        self.composite(cmd, targets, depth_compare, counted, &mut stats)?;
         self.slots[slot].pending = Some((plan.clone(), unrolled));
         Ok(stats)
     }
@@ -299,8 +299,9 @@ impl Embedder {
         Ok(())
     }
 
-    /// Copies the frame's occlusion counts, with availability, into `slot`.
-    fn copy_counts(&mut self, cmd: vk::CommandBuffer, slot: usize, n: u32) {
+    /// Copies the frame's occlusion counts, with availability, into `slot`;
+    /// whether it did (the composite's barrier then makes them visible to the host).
+    fn copy_counts(&mut self, cmd: vk::CommandBuffer, slot: usize, n: u32) -> bool {
         let need = (n.max(1) as u64) * 16;
         if self.slots[slot].counts.size < need {
             // Grown outside any pending use: by the frames-in-flight contract this
@@ -313,17 +314,16 @@ impl Embedder {
                 MemoryLocation::GpuToCpu,
             ) {
                 Ok(b) => self.slots[slot].counts = b,
-                Err(_) => return,
+                Err(_) => return false,
             }
         }
         if n == 0 {
-            return;
+            return false;
         }
-        let device = &self.shared.device;
         // SAFETY: outside rendering; the first `n` queries were reset and written
         // by this recording; the buffer holds `n` pairs of u64.
         unsafe {
-            device.cmd_copy_query_pool_results(
+            self.shared.device.cmd_copy_query_pool_results(
                 cmd,
                 self.exec.occlusion_pool(),
                 0,
@@ -334,24 +334,22 @@ impl Embedder {
                 vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY,
             )
         };
-        submit::memory_barrier(
-            device,
-            cmd,
-            (
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            ),
-            (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
-        );
+        true
     }
 
     /// Draws peeltrim's colour and depth into the host's attachments, where the
-    /// CSG covers the pixel, with the host's depth test.
+    /// CSG covers the pixel, with the host's depth test, and adds its counts to
+    /// `stats`. One barrier before it orders everything it reads after what
+    /// wrote it (peeltrim's output images to sampled; the host's attachment
+    /// writes; with `counted`, the count copy for the host's read), one after
+    /// it returns the output images to `REST` for the next frame.
     fn composite(
         &mut self,
         cmd: vk::CommandBuffer,
         t: &HostTargets,
         depth_compare: vk::CompareOp,
+        counted: bool,
+        stats: &mut ExecStats,
     ) -> Result<(), VkError> {
         let formats = (t.color_format, t.depth_format);
         if self.composite.as_ref().map(|c| c.formats) != Some(formats) {
@@ -381,7 +379,7 @@ impl Embedder {
                 vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
             ),
         ];
-        let to_sampled = |from: Usage, to: Usage| {
+        let transition = |from: Usage, to: Usage| {
             let (src, dst) = sync::transition(from, to, false);
             let barriers: Vec<_> = images
                 .iter()
@@ -389,32 +387,42 @@ impl Embedder {
                 .collect();
             (src.stage, dst.stage, barriers)
         };
-        let (s, d, b) = to_sampled(REST, Usage::Sampled);
-        submit::image_barriers(device, cmd, s, d, &b);
+        let (mut src, mut dst, to_sampled) = transition(REST, Usage::Sampled);
         let att_stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
             | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
             | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
-        submit::memory_barrier(
-            device,
-            cmd,
-            (
-                att_stages,
+        let mut memory = vec![vk::MemoryBarrier::default()
+            .src_access_mask(
                 vk::AccessFlags::COLOR_ATTACHMENT_WRITE
                     | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
-            ),
-            (
-                att_stages,
+            )
+            .dst_access_mask(
                 vk::AccessFlags::COLOR_ATTACHMENT_READ
                     | vk::AccessFlags::COLOR_ATTACHMENT_WRITE
                     | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
                     | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
-            ),
-        );
+            )];
+        (src, dst) = (src | att_stages, dst | att_stages);
+        if counted {
+            memory.push(
+                vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::HOST_READ),
+            );
+            (src, dst) = (
+                src | vk::PipelineStageFlags::TRANSFER,
+                dst | vk::PipelineStageFlags::HOST,
+            );
+        }
+        submit::pipeline_barrier(device, cmd, (src, dst), &memory, &to_sampled);
         // Only where the CSG can be: its meshes' projected bounds.
-        let scissor = crate::vk::conv::rect2d(self.exec.output_rect());
-        c.draw(device, cmd, t, scissor, depth_compare);
-        let (s, d, b) = to_sampled(Usage::Sampled, REST);
+        let rect = self.exec.output_rect();
+        c.draw(device, cmd, t, crate::vk::conv::rect2d(rect), depth_compare);
+        let (s, d, b) = transition(Usage::Sampled, REST);
         submit::image_barriers(device, cmd, s, d, &b);
+        stats.counts.barriers += 2;
+        stats.counts.fullscreen_passes += 1;
+        stats.counts.fullscreen_pixels += rect.area();
         Ok(())
     }
 }

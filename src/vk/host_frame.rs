@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use ash::vk;
 
+use super::cpu_clock;
 use super::embed::{Embedder, HostTargets};
 use super::error::VkError;
 use super::exec::ExecStats;
@@ -44,25 +45,24 @@ pub(crate) struct HostAttachments<'a> {
     pub extent: vk::Extent2D,
 }
 
-/// Records the host's part of a frame into `cmd` and then `embedder`'s CSG:
-/// both attachments from `UNDEFINED` (after earlier frames' attachment writes)
-/// to attachment layouts, cleared to `background` and `far_depth` by the host's
-/// own pass, then [`Embedder::record`] — skipped (`None`) when the attachments
-/// are not the embedder's size. The colour image is left in [`COLOR_ATTACHMENT`].
+/// Records the host's part of a frame into `cmd`: both attachments from
+/// `UNDEFINED` (after earlier frames' attachment writes) to attachment layouts,
+/// cleared to `background` and `far_depth` by the host's own pass (an engine
+/// draws its scene there). The attachments are left in the layouts
+/// [`Embedder::record`] expects.
 ///
 /// # Safety
 ///
 /// `cmd` records outside rendering and is submitted to the context's queue;
 /// the attachments are live, not used by pending work other than earlier frames
-/// on that queue; `embedder`'s frames-in-flight contract holds for `cmd`.
-pub(crate) unsafe fn record_host_frame(
+/// on that queue.
+pub(crate) unsafe fn record_host_pass(
     device: &ash::Device,
     cmd: vk::CommandBuffer,
     att: &HostAttachments<'_>,
     background: [u8; 3],
     far_depth: f32,
-    embedder: &mut Embedder,
-) -> Result<Option<ExecStats>, VkError> {
+) {
     let stages = COLOR_ATTACHMENT.stage | TESTS;
     let undefined = |access| Access {
         stage: stages,
@@ -111,26 +111,51 @@ pub(crate) unsafe fn record_host_frame(
         .layer_count(1)
         .color_attachments(&colors)
         .depth_attachment(&depth);
-    // The host's own pass (an engine draws its scene here): the clears.
     // SAFETY: outside rendering (the caller's contract); both views are
     // attachments in the layouts the barrier above set.
     unsafe { device.cmd_begin_rendering(cmd, &ri) };
     // SAFETY: closes the block just begun.
     unsafe { device.cmd_end_rendering(cmd) };
-    let targets = HostTargets {
-        color_view: att.color.1,
-        color_format: att.color.2,
-        depth_view: att.depth.view,
-        depth_format: att.depth.desc.format,
-        extent: [att.extent.width, att.extent.height],
-    };
+}
+
+/// [`record_host_pass`], then `embedder`'s CSG ([`Embedder::record`]) — skipped
+/// (`None`) when the attachments are not the embedder's size. The colour image
+/// is left in [`COLOR_ATTACHMENT`].
+///
+/// # Safety
+///
+/// As [`record_host_pass`]; `embedder`'s frames-in-flight contract holds for `cmd`.
+pub(crate) unsafe fn record_host_frame(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    att: &HostAttachments<'_>,
+    background: [u8; 3],
+    far_depth: f32,
+    embedder: &mut Embedder,
+) -> Result<Option<ExecStats>, VkError> {
+    // SAFETY: the caller's contract.
+    unsafe { record_host_pass(device, cmd, att, background, far_depth) };
+    let targets = att.targets();
     let d = embedder.desc();
     if targets.extent != [d.width, d.height] {
         return Ok(None);
     }
     // SAFETY: the caller's contract is `record`'s; the attachments are in the
-    // layouts it names (barrier above).
+    // layouts it names (the host pass above).
     Ok(Some(unsafe { embedder.record(cmd, &targets) }?))
+}
+
+impl HostAttachments<'_> {
+    /// The attachments as [`Embedder::record`] takes them.
+    fn targets(&self) -> HostTargets {
+        HostTargets {
+            color_view: self.color.1,
+            color_format: self.color.2,
+            depth_view: self.depth.view,
+            depth_format: self.depth.desc.format,
+            extent: [self.extent.width, self.extent.height],
+        }
+    }
 }
 
 /// The host's depth format: a combined one, so that `vk::image` makes its
@@ -153,7 +178,10 @@ pub(crate) fn host_depth_format(shared: &Shared) -> vk::Format {
 }
 
 /// An off-screen host (the bench's `--embedded`): its own RGBA8 colour and
-/// depth attachments and command buffer, one frame in flight.
+/// depth attachments and command buffer, one frame in flight. Its own pass (the
+/// clear) is submitted apart ([`OffscreenHost::clear`]) so that a frame's timed
+/// submission ([`OffscreenHost::frame`]) holds peeltrim's commands alone, as the
+/// standalone path's does: the host's work is excluded from the comparison.
 pub struct OffscreenHost {
     // Field order is drop order: every submission was waited for.
     submit: Submitter,
@@ -187,37 +215,55 @@ impl OffscreenHost {
         })
     }
 
-    /// One frame recorded with `embedder` (made for one frame in flight),
-    /// submitted and waited for: its recording's stats with `record_ms` (CPU
-    /// time recording) and `frame_ms` (wall time from submission to completion,
-    /// as the standalone path measures it).
-    pub fn frame(
-        &mut self,
-        embedder: &mut Embedder,
-        background: [u8; 3],
-        far_depth: f32,
-    ) -> Result<ExecStats, VkError> {
-        let _layer = self.shared.layer_use();
-        let cmd = self.submit.cmd;
-        let record_start = Instant::now();
-        self.submit.begin(cmd, true)?;
+    fn attachments(&self) -> HostAttachments<'_> {
         let d = self.color.desc.extent;
-        let att = HostAttachments {
+        HostAttachments {
             color: (self.color.raw, self.color.view, self.color.desc.format),
             depth: &self.depth,
             extent: vk::Extent2D {
                 width: d[0],
                 height: d[1],
             },
-        };
-        let device = &self.shared.device;
+        }
+    }
+
+    /// The host's own pass of a frame (its clear), submitted and waited for.
+    pub fn clear(&mut self, background: [u8; 3], far_depth: f32) -> Result<(), VkError> {
+        let _layer = self.shared.layer_use();
+        let cmd = self.submit.cmd;
+        self.submit.begin(cmd, true)?;
         // SAFETY: `cmd` was just begun on the context's queue family and is
-        // submitted below and waited for, so no other frame is pending.
-        let stats =
-            unsafe { record_host_frame(device, cmd, &att, background, far_depth, embedder) }?
-                .ok_or_else(|| VkError::Plan("the embedder's size is not the host's".into()))?;
+        // submitted and waited for here, so no other frame is pending.
+        unsafe {
+            record_host_pass(
+                &self.shared.device,
+                cmd,
+                &self.attachments(),
+                background,
+                far_depth,
+            )
+        };
+        self.submit.finish(cmd)
+    }
+
+    /// `embedder`'s CSG (made for one frame in flight) recorded into the
+    /// attachments [`OffscreenHost::clear`] left, submitted and waited for: its
+    /// recording's stats with `record_ms` (CPU time recording), `frame_ms` (wall
+    /// time from submission to completion, as the standalone path measures it)
+    /// and `frame_cpu_ms` (the process's CPU time over that interval).
+    pub fn frame(&mut self, embedder: &mut Embedder) -> Result<ExecStats, VkError> {
+        let _layer = self.shared.layer_use();
+        let cmd = self.submit.cmd;
+        let record_start = Instant::now();
+        self.submit.begin(cmd, true)?;
+        let targets = self.attachments().targets();
+        // SAFETY: `cmd` was just begun on the context's queue family and is
+        // submitted below and waited for, so no other frame is pending; `clear`
+        // left the attachments in the layouts `record` names.
+        let stats = unsafe { embedder.record(cmd, &targets) }?;
         self.submit.end(cmd)?;
         let record_ms = record_start.elapsed().as_secs_f64() * 1e3;
+        let cpu = cpu_clock::process_ns();
         let t = Instant::now();
         self.submit.submit(cmd, &[], &[])?;
         self.submit.wait()?;
@@ -225,6 +271,7 @@ impl OffscreenHost {
         Ok(ExecStats {
             record_ms,
             frame_ms,
+            frame_cpu_ms: cpu_clock::ms_since(cpu),
             ..stats
         })
     }

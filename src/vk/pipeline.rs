@@ -33,6 +33,9 @@ pub enum FragmentKind {
     CopyDepth,
     /// The edge map from the normal buffer (set 0) and a depth buffer (set 1).
     Edges,
+    /// A peeled layer blended front to back into the accumulation target
+    /// (colour: set 0, ids: set 2, opacities: set 3; seed 000 §6).
+    Accumulate,
 }
 
 impl FragmentKind {
@@ -91,6 +94,7 @@ impl FragmentKind {
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
             FragmentKind::Edges => spv!("edges.frag"),
+            FragmentKind::Accumulate => spv!("accumulate.frag"),
         }
     }
 }
@@ -181,7 +185,7 @@ pub struct Pipelines {
     pub(crate) create_ms: f64,
 }
 
-fn shader_module(shared: &Shared, bytes: &[u8]) -> Result<vk::ShaderModule, VkError> {
+pub(crate) fn shader_module(shared: &Shared, bytes: &[u8]) -> Result<vk::ShaderModule, VkError> {
     let words = ash::util::read_spv(&mut Cursor::new(bytes))
         .map_err(|e| VkError::Plan(format!("embedded SPIR-V unreadable: {e}")))?;
     let ci = vk::ShaderModuleCreateInfo::default().code(&words);
@@ -242,9 +246,15 @@ impl Pipelines {
         // SAFETY: valid create info on a live device.
         p.camera_set_layout = unsafe { shared.device.create_descriptor_set_layout(&cci, None) }
             .check("vkCreateDescriptorSetLayout")?;
-        // Set 0: the image a program samples; set 1: the camera; set 2 (the same
-        // layout as set 0): the edge pass's second image.
-        let set_layouts = [p.set_layout, p.camera_set_layout, p.set_layout];
+        // Set 0: the image a program samples; set 1: the camera; sets 2 and 3
+        // (the same layout as set 0): the edge and accumulate passes' other
+        // images.
+        let set_layouts = [
+            p.set_layout,
+            p.camera_set_layout,
+            p.set_layout,
+            p.set_layout,
+        ];
         let lci = vk::PipelineLayoutCreateInfo::default()
             .set_layouts(&set_layouts)
             .push_constant_ranges(&ranges);
@@ -313,31 +323,10 @@ impl Pipelines {
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&vb)
             .vertex_attribute_descriptions(&va);
-        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let viewport = vk::PipelineViewportStateCreateInfo::default()
-            .viewport_count(1)
-            .scissor_count(1);
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
-            .polygon_mode(vk::PolygonMode::FILL)
-            .line_width(1.0);
-        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
         let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_bounds_test_enable(false)
             .min_depth_bounds(0.0)
             .max_depth_bounds(1.0);
-        let blend_attachments: Vec<_> = desc
-            .color_formats
-            .iter()
-            .map(|_| {
-                vk::PipelineColorBlendAttachmentState::default()
-                    .blend_enable(false)
-                    .color_write_mask(vk::ColorComponentFlags::RGBA)
-            })
-            .collect();
-        let blend =
-            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
         let dynamic_states = [
             vk::DynamicState::VIEWPORT,
             vk::DynamicState::SCISSOR,
@@ -352,37 +341,106 @@ impl Pipelines {
             vk::DynamicState::STENCIL_WRITE_MASK,
             vk::DynamicState::STENCIL_REFERENCE,
         ];
-        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
         let ds_format = desc.depth_stencil_format.unwrap_or(vk::Format::UNDEFINED);
-        let mut rendering = vk::PipelineRenderingCreateInfo::default()
-            .color_attachment_formats(&desc.color_formats)
-            .depth_attachment_format(ds_format)
-            .stencil_attachment_format(ds_format);
-        let ci = vk::GraphicsPipelineCreateInfo::default()
-            .stages(&stages)
-            .vertex_input_state(&vertex_input)
-            .input_assembly_state(&assembly)
-            .viewport_state(&viewport)
-            .rasterization_state(&raster)
-            .multisample_state(&multisample)
-            .depth_stencil_state(&depth_stencil)
-            .color_blend_state(&blend)
-            .dynamic_state(&dynamic)
-            .layout(self.layout)
-            .push_next(&mut rendering);
-        // SAFETY: all state structs above live across the call; modules and layout
-        // are live.
-        let pipelines = unsafe {
-            self.shared
-                .device
-                .create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None)
-        }
-        .map_err(|(_, e)| VkError::Call {
-            call: "vkCreateGraphicsPipelines",
-            result: e,
-        })?;
-        Ok(pipelines[0])
+        graphics_pipeline(
+            &self.shared.device,
+            &Graphics {
+                stages: &stages,
+                vertex_input: &vertex_input,
+                cull: vk::CullModeFlags::NONE,
+                depth_stencil: &depth_stencil,
+                dynamic_states: &dynamic_states,
+                color_formats: &desc.color_formats,
+                depth_format: ds_format,
+                stencil_format: ds_format,
+                layout: self.layout,
+                under: desc.fragment == FragmentKind::Accumulate,
+            },
+        )
     }
+}
+
+/// What differs between peeltrim's graphics pipelines (the executor's and the
+/// embedding's composite); [`graphics_pipeline`] fills in the fixed rest:
+/// triangle lists, one dynamic viewport and scissor, filled polygons, one
+/// sample, no blending unless `under`, dynamic rendering.
+pub(crate) struct Graphics<'a> {
+    pub stages: &'a [vk::PipelineShaderStageCreateInfo<'a>],
+    pub vertex_input: &'a vk::PipelineVertexInputStateCreateInfo<'a>,
+    /// Static cull mode (ignored where `CULL_MODE` is dynamic).
+    pub cull: vk::CullModeFlags,
+    pub depth_stencil: &'a vk::PipelineDepthStencilStateCreateInfo<'a>,
+    pub dynamic_states: &'a [vk::DynamicState],
+    pub color_formats: &'a [vk::Format],
+    pub depth_format: vk::Format,
+    pub stencil_format: vk::Format,
+    pub layout: vk::PipelineLayout,
+    /// Blend front to back ("under", the accumulate pass): `dst += (1 −
+    /// dst.a)·src` for colour (premultiplied by the shader) and coverage alike.
+    pub under: bool,
+}
+
+/// Creates the graphics pipeline `g` describes (see [`Graphics`]).
+pub(crate) fn graphics_pipeline(
+    device: &ash::Device,
+    g: &Graphics<'_>,
+) -> Result<vk::Pipeline, VkError> {
+    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let viewport = vk::PipelineViewportStateCreateInfo::default()
+        .viewport_count(1)
+        .scissor_count(1);
+    let raster = vk::PipelineRasterizationStateCreateInfo::default()
+        .polygon_mode(vk::PolygonMode::FILL)
+        .cull_mode(g.cull)
+        .line_width(1.0);
+    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    let blend_attachments: Vec<_> = g
+        .color_formats
+        .iter()
+        .map(|_| {
+            let a = vk::PipelineColorBlendAttachmentState::default()
+                .blend_enable(g.under)
+                .color_write_mask(vk::ColorComponentFlags::RGBA);
+            if !g.under {
+                return a;
+            }
+            a.src_color_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
+                .dst_color_blend_factor(vk::BlendFactor::ONE)
+                .color_blend_op(vk::BlendOp::ADD)
+                .src_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
+                .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+                .alpha_blend_op(vk::BlendOp::ADD)
+        })
+        .collect();
+    let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+    let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(g.dynamic_states);
+    let mut rendering = vk::PipelineRenderingCreateInfo::default()
+        .color_attachment_formats(g.color_formats)
+        .depth_attachment_format(g.depth_format)
+        .stencil_attachment_format(g.stencil_format);
+    let ci = vk::GraphicsPipelineCreateInfo::default()
+        .stages(g.stages)
+        .vertex_input_state(g.vertex_input)
+        .input_assembly_state(&assembly)
+        .viewport_state(&viewport)
+        .rasterization_state(&raster)
+        .multisample_state(&multisample)
+        .depth_stencil_state(g.depth_stencil)
+        .color_blend_state(&blend)
+        .dynamic_state(&dynamic)
+        .layout(g.layout)
+        .push_next(&mut rendering);
+    // SAFETY: all state structs above and in `g` live across the call; its
+    // modules and layout are live (the caller's).
+    let pipelines =
+        unsafe { device.create_graphics_pipelines(vk::PipelineCache::null(), &[ci], None) }
+            .map_err(|(_, e)| VkError::Call {
+                call: "vkCreateGraphicsPipelines",
+                result: e,
+            })?;
+    Ok(pipelines[0])
 }
 
 impl Drop for Pipelines {

@@ -153,18 +153,7 @@ pub fn memory_barrier(
     let barrier = [vk::MemoryBarrier::default()
         .src_access_mask(src.1)
         .dst_access_mask(dst.1)];
-    // SAFETY: recording state; outside a rendering block (callers end it first).
-    unsafe {
-        device.cmd_pipeline_barrier(
-            cmd,
-            src.0,
-            dst.0,
-            vk::DependencyFlags::empty(),
-            &barrier,
-            &[],
-            &[],
-        )
-    };
+    pipeline_barrier(device, cmd, (src.0, dst.0), &barrier, &[]);
 }
 
 /// Image barriers in one command, with the union of their stages.
@@ -175,17 +164,29 @@ pub fn image_barriers(
     dst_stage: vk::PipelineStageFlags,
     barriers: &[vk::ImageMemoryBarrier],
 ) {
-    // SAFETY: recording, outside rendering; the images are live and in the old
-    // layouts the barriers name.
+    pipeline_barrier(device, cmd, (src_stage, dst_stage), &[], barriers);
+}
+
+/// Global and image barriers in one command (`stages`: source and destination,
+/// the union of theirs).
+pub fn pipeline_barrier(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    stages: (vk::PipelineStageFlags, vk::PipelineStageFlags),
+    memory: &[vk::MemoryBarrier],
+    images: &[vk::ImageMemoryBarrier],
+) {
+    // SAFETY: recording, outside rendering (callers end it first); the images
+    // are live and in the old layouts the barriers name.
     unsafe {
         device.cmd_pipeline_barrier(
             cmd,
-            src_stage,
-            dst_stage,
+            stages.0,
+            stages.1,
             vk::DependencyFlags::empty(),
+            memory,
             &[],
-            &[],
-            barriers,
+            images,
         )
     };
 }

@@ -24,6 +24,13 @@ use super::{init_final, leaf_csts, record_jobs, Candidates, Job, Merge, Variant,
 /// The previous layer of the stream: the depth the peels start behind. Kept on
 /// the GPU between the plans of a stream (images persist between frames).
 pub const FLOOR: Tex = 2;
+/// The exit stream's floor when the two streams are peeled in turn (one solid
+/// seen from outside, composited on the GPU as its layers come:
+/// `render::gpu_layers::composite`).
+pub const EXIT_FLOOR: Tex = 3;
+/// Textures of every layer plan: both floors, so the executor's images stay the
+/// same (and keep both floors) whichever stream runs.
+const TEXTURES: u8 = EXIT_FLOOR + 1;
 
 /// Which boundary points a stream peels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -45,13 +52,19 @@ pub struct LayerPlan {
 /// The plan of the next layer of `side` of the prepared solid (one solid, no
 /// surfaces): `first` starts the stream at the near plane. The layer's shaded
 /// colour, primitive and depth are the plan's images; its exact depth is left in
-/// [`FLOOR`] for the stream's next plan.
+/// `floor` ([`FLOOR`], or [`EXIT_FLOOR`] for an exit stream peeled in turn with
+/// the entry stream) for the stream's next plan.
 pub fn layer_plan(
     prep: &Prepared,
     variant: Variant,
     side: Side,
     first: bool,
+    floor: Tex,
 ) -> Result<LayerPlan, PlanError> {
+    assert!(
+        floor == FLOOR || floor == EXIT_FLOOR,
+        "a stream's floor is FLOOR or EXIT_FLOOR"
+    );
     if !prep.has_solid() || prep.positive.literals().is_empty() {
         return Err(PlanError::NoSolid);
     }
@@ -85,17 +98,17 @@ pub fn layer_plan(
     let mut steps = init_final();
     if first {
         steps.push(Step::Clear(Clear::Texture {
-            tex: FLOOR,
+            tex: floor,
             depth: 0.0,
         }));
     }
-    let bits = record_jobs(prep, variant, &jobs, Some(FLOOR), &mut steps)?;
+    let bits = record_jobs(prep, variant, &jobs, Some(floor), &mut steps)?;
     // The merged candidates' rasterized depths, before the tie shading below
     // replaces them by plane depths: the next peel of this stream must reject
     // exactly the faces it kept here.
     steps.push(Step::CopyDepthToTexture {
         ds: FINAL,
-        dst: FLOOR,
+        dst: floor,
     });
     steps.extend(super::super::shade_near_depth(
         &prep.solid_meshes,
@@ -107,7 +120,7 @@ pub fn layer_plan(
         plan: Plan {
             algo: variant.algo().name().into(),
             depth_stencils: 2,
-            textures: 3,
+            textures: TEXTURES,
             stencil_bits: bits,
             output_ds: FINAL,
             steps,
@@ -124,7 +137,7 @@ pub fn coverage_plan() -> Plan {
     Plan {
         algo: "layer-coverage".into(),
         depth_stencils: 2,
-        textures: 3,
+        textures: TEXTURES,
         stencil_bits: 0,
         output_ds: FINAL,
         steps: vec![
@@ -181,8 +194,8 @@ mod tests {
     fn exit_layers_peel_back_faces_behind_the_floor() {
         let p = prepared("(P0 + P1) - P2", 3);
         for v in [Variant::Z, Variant::I, Variant::G] {
-            let entry = layer_plan(&p, v, Side::Entry, true).unwrap();
-            let exit = layer_plan(&p, v, Side::Exit, false).unwrap();
+            let entry = layer_plan(&p, v, Side::Entry, true, FLOOR).unwrap();
+            let exit = layer_plan(&p, v, Side::Exit, false, FLOOR).unwrap();
             // Every leaf is trimmed against its Z form: three CSTs each.
             assert_eq!((entry.csts, exit.csts), (3, 3));
             let (e, x) = (peels(&entry.plan), peels(&exit.plan));
@@ -228,7 +241,18 @@ mod tests {
                 .position(|s| matches!(s, Step::Pass(n) if n == "shade"))
                 .unwrap();
             assert!(save < shade);
-            assert_eq!(exit.plan.textures, 3);
+            assert_eq!(exit.plan.textures, 4);
+            // Peeled in turn, the exit stream keeps its own floor.
+            let own = layer_plan(&p, v, Side::Exit, true, EXIT_FLOOR).unwrap();
+            assert!(own.plan.steps.iter().any(|s| matches!(
+                s,
+                Step::CopyDepthToTexture { dst, .. } if *dst == EXIT_FLOOR
+            )));
+            assert!(!own.plan.steps.iter().any(|s| matches!(
+                s,
+                Step::Clear(Clear::Texture { tex, .. }) | Step::CopyTexture { src: tex, .. }
+                    if *tex == FLOOR
+            )));
         }
     }
 

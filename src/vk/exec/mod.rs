@@ -19,7 +19,8 @@
 //! buffer), `targets` (images and descriptor sets), `record` (steps to commands,
 //! barriers from `plan::usage` through `vk::sync`), `state` (dynamic state
 //! recorded only where it changes), `stats` (typed statistics), `normals` (the
-//! optional normal buffer and the edge pass on it, seed 001 §5).
+//! optional normal buffer and the edge pass on it, seed 001 §5), `transparency`
+//! (the accumulate pass compositing peeled layers on the GPU, seed 000 §6).
 
 mod camera;
 mod embed;
@@ -29,6 +30,7 @@ mod record;
 mod state;
 mod stats;
 mod targets;
+mod transparency;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -160,8 +162,20 @@ struct Recording {
 struct Clock {
     /// Wall clock: when the frame's first submission went out.
     first_submit: Option<Instant>,
+    /// The process's CPU time at the first submission (`vk::cpu_clock`).
+    first_submit_cpu: u64,
     /// The calling thread's CPU time recording, pipeline creation included.
     record_ms: f64,
+}
+
+impl Clock {
+    /// Notes the first submission of the frame (later ones change nothing).
+    fn submitting(&mut self) {
+        if self.first_submit.is_none() {
+            self.first_submit_cpu = crate::vk::cpu_clock::process_ns();
+            self.first_submit = Some(Instant::now());
+        }
+    }
 }
 
 /// Runs plans on one device at one image size.
@@ -194,6 +208,8 @@ pub struct Executor {
     rounding: Option<super::RoundingEmulation>,
     /// Write the normal buffer with the colour ([`Executor::set_normals`]).
     normals: bool,
+    /// Keep the accumulate pass's images ([`Executor::set_transparency`]).
+    transparency: bool,
 }
 
 impl Executor {
@@ -252,6 +268,7 @@ impl Executor {
             clears,
             rounding: None,
             normals: false,
+            transparency: false,
         })
     }
 
@@ -302,11 +319,11 @@ impl Executor {
     fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
         let n_ds = plan.depth_stencils.max(1) as usize;
         let n_tex = plan.textures as usize;
-        let normals = self.normals;
+        let (normals, transparency) = (self.normals, self.transparency);
         if self
             .targets
             .as_ref()
-            .is_some_and(|t| t.fits(n_ds, n_tex, normals))
+            .is_some_and(|t| t.fits(n_ds, n_tex, normals, transparency))
         {
             return Ok(());
         }
@@ -318,6 +335,7 @@ impl Executor {
             n_ds,
             n_tex,
             normals,
+            transparency,
         )?;
         // New images start in `REST`, where every recording expects them.
         let cmd = self.submit.cmd;
@@ -393,6 +411,9 @@ impl Executor {
             .first_submit
             .map(|t| t.elapsed().as_secs_f64() * 1e3)
             .unwrap_or(0.0);
+        if clock.first_submit.is_some() {
+            stats.frame_cpu_ms = crate::vk::cpu_clock::ms_since(clock.first_submit_cpu);
+        }
         // Pipelines first needed by this plan were created while recording; their
         // cost (the driver compiling shaders) is reported on its own.
         stats.pipeline_ms = self.pipelines.create_ms - pipeline_ms_before;
@@ -510,7 +531,7 @@ impl Executor {
             clock.record_ms += self.record_kept(plan, layers)?;
         }
         let rec = self.recording.as_ref().expect("recorded above");
-        clock.first_submit.get_or_insert_with(Instant::now);
+        clock.submitting();
         self.submit.submit(self.frame_cmd, &[], &[])?;
         self.submit.wait()?;
         let device = &self.shared.device;
@@ -665,7 +686,7 @@ impl Executor {
             rec.end();
             sub.end(cmd)?;
             clock.record_ms += t.elapsed_ms();
-            clock.first_submit.get_or_insert_with(Instant::now);
+            clock.submitting();
             sub.submit(cmd, &[], &[])?;
             sub.wait()?;
             rec.stats.counts.submits += 1;

@@ -69,7 +69,7 @@ impl Executor {
 
     /// Copies target `r` (`bpp` bytes a pixel, resting in `REST` after a frame)
     /// to the CPU; `None` when the targets lack it.
-    fn copy_out(&mut self, r: Resource, bpp: u64) -> Result<Option<Vec<u8>>, VkError> {
+    pub(super) fn copy_out(&mut self, r: Resource, bpp: u64) -> Result<Option<Vec<u8>>, VkError> {
         if self.last_output.is_none() {
             return Err(VkError::Plan("read-back before execute: no frame".into()));
         }

@@ -318,6 +318,74 @@ impl<'a> Recorder<'a> {
         Ok(())
     }
 
+    /// Seed 000 §6's front-to-back composite of one peeled layer, in one
+    /// full-screen draw (`shaders/accumulate.frag`) blended into the
+    /// accumulation target: where the layer's primitive id `p` is not 0,
+    /// `C += (1 − A)·a·c` and `A += (1 − A)·a` with `a` the opacity table's
+    /// entry for `p`. `table`: the first layer of a composite, which starts the
+    /// target from zero and uploads the opacity table (a staging buffer of
+    /// `ALPHA_TABLE_SIDE`² floats). Every image rests in `REST` after.
+    pub fn accumulate_pass(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        table: Option<&crate::vk::memory::Buffer>,
+    ) -> Result<(), VkError> {
+        self.begin_state(cmd);
+        if let Some(buf) = table {
+            self.transitions(&[(Resource::AlphaTable, Usage::CopyDst)], false);
+            let side = targets::ALPHA_TABLE_SIDE;
+            let region = super::whole_image_region(vk::ImageAspectFlags::COLOR, 0, side, side);
+            let img = self.b.targets.image(Resource::AlphaTable);
+            // SAFETY: outside rendering; the buffer holds side² f32 and lives
+            // until the caller's wait; the image is in the copy layout.
+            unsafe {
+                self.b.device.cmd_copy_buffer_to_image(
+                    cmd,
+                    buf.raw,
+                    img.raw,
+                    sync::access(Usage::CopyDst).layout,
+                    &[region],
+                )
+            };
+            self.pending_clear.insert(
+                Resource::Accum,
+                vk::ClearValue {
+                    color: vk::ClearColorValue { float32: [0.0; 4] },
+                },
+            );
+        }
+        let key = BlockKey::new(&[Resource::Accum], None);
+        let uses = [
+            (Resource::Accum, Usage::ColorTarget),
+            (Resource::Color, Usage::Sampled),
+            (Resource::Prim, Usage::Sampled),
+            (Resource::AlphaTable, Usage::Sampled),
+        ];
+        self.open(&key, &uses);
+        let t = self.b.targets;
+        let sets = [
+            t.sampling_set(Resource::Prim),
+            t.sampling_set(Resource::AlphaTable),
+        ];
+        // SAFETY: sets 2 and 3 of the pipeline layout have the sets' layout;
+        // inside a block.
+        unsafe {
+            self.b.device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.b.pipelines.layout,
+                2,
+                &sets,
+                &[],
+            )
+        };
+        let color_set = t.sampling_set(Resource::Color);
+        self.fullscreen_internal(&key, FragmentKind::Accumulate, color_set)?;
+        self.end_block();
+        self.rest_all();
+        Ok(())
+    }
+
     /// Every image to `REST`, where frames leave them.
     fn rest_all(&mut self) {
         let rest: Vec<_> = self

@@ -89,6 +89,10 @@ pub struct ExecStats {
     /// Wall time from the first submission of the frame until the GPU is idle,
     /// images left on the GPU.
     pub frame_ms: f64,
+    /// The process's CPU time, all threads (`vk::cpu_clock`), over the same
+    /// interval as `frame_ms`: on a CPU device the frame's cost unaffected by
+    /// other processes' load.
+    pub frame_cpu_ms: f64,
     /// CPU time of the calling thread recording command buffers (0 when a
     /// recording is replayed), without creating pipelines (`pipeline_ms`).
     pub record_ms: f64,
@@ -130,6 +134,7 @@ impl ExecStats {
         self.gpu_ms += other.gpu_ms;
         self.cpu_ms += other.cpu_ms;
         self.frame_ms += other.frame_ms;
+        self.frame_cpu_ms += other.frame_cpu_ms;
         self.record_ms += other.record_ms;
         self.pipeline_ms += other.pipeline_ms;
         for p in &other.per_pass {

@@ -27,6 +27,9 @@ pub(super) struct Targets {
     pub edges: Option<Image>,
     /// The descriptor set sampling the normal buffer.
     normal_set: Option<vk::DescriptorSet>,
+    /// The transparency accumulation target and the opacity table, when the
+    /// executor composites layers ([`Transparency`]).
+    pub transparency: Option<Transparency>,
     pub ds: Vec<Image>,
     pub tex: Vec<Image>,
 }
@@ -39,6 +42,21 @@ impl Drop for Targets {
     }
 }
 
+/// The images of the accumulate pass (seed 000 §6 on the GPU) and the sets
+/// that sample its inputs.
+pub(super) struct Transparency {
+    /// Premultiplied colour (rgb) and coverage (a), blended front to back.
+    pub accum: Image,
+    /// `ALPHA_TABLE_SIDE`² opacities, primitive id `p` at `(p % side, p / side)`.
+    pub alpha: Image,
+    pub color_set: vk::DescriptorSet,
+    pub prim_set: vk::DescriptorSet,
+    pub alpha_set: vk::DescriptorSet,
+}
+
+/// Side of the square opacity table: every 16-bit primitive id has a texel.
+pub(super) const ALPHA_TABLE_SIDE: u32 = 256;
+
 pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
     match r {
         Resource::Color => vk::Format::R8G8B8A8_UNORM,
@@ -47,6 +65,10 @@ pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
         Resource::Normal => vk::Format::R32G32B32A32_SFLOAT,
         // 255 on edges, 0 elsewhere.
         Resource::Edges => vk::Format::R8_UNORM,
+        // f32: the composite of many layers stays within rounding of the f64
+        // reference's (the device must blend it: `Executor::set_transparency`).
+        Resource::Accum => vk::Format::R32G32B32A32_SFLOAT,
+        Resource::AlphaTable => vk::Format::R32_SFLOAT,
         Resource::Texture(_) => vk::Format::R32_SFLOAT,
         Resource::DepthStencil(_) => desc.depth_format.vk(),
     }
@@ -54,8 +76,11 @@ pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
 
 impl Targets {
     /// Fits `n_ds` depth-stencil images and `n_tex` textures of `desc`'s size.
-    pub fn fits(&self, n_ds: usize, n_tex: usize, normals: bool) -> bool {
-        self.ds.len() >= n_ds && self.tex.len() >= n_tex && self.normal.is_some() == normals
+    pub fn fits(&self, n_ds: usize, n_tex: usize, normals: bool, transparency: bool) -> bool {
+        self.ds.len() >= n_ds
+            && self.tex.len() >= n_tex
+            && self.normal.is_some() == normals
+            && self.transparency.is_some() == transparency
     }
 
     pub fn new(
@@ -65,6 +90,7 @@ impl Targets {
         n_ds: usize,
         n_tex: usize,
         normals: bool,
+        transparency: bool,
     ) -> Result<Targets, VkError> {
         let (w, h) = (desc.width, desc.height);
         let sh = shared;
@@ -122,7 +148,30 @@ impl Targets {
                     .usage(color_usage | vk::ImageUsageFlags::SAMPLED),
             )?);
         }
-        let n_sets = (n_ds + n_tex + normals as usize) as u32;
+        let accum_images = if transparency {
+            let side = ALPHA_TABLE_SIDE;
+            Some((
+                Image::new(
+                    sh,
+                    "accum",
+                    ImageDesc::new_2d(format(Resource::Accum, desc), [w, h]).usage(color_usage),
+                )?,
+                Image::new(
+                    sh,
+                    "alpha table",
+                    ImageDesc::new_2d(format(Resource::AlphaTable, desc), [side, side]).usage(
+                        vk::ImageUsageFlags::SAMPLED
+                            | vk::ImageUsageFlags::TRANSFER_SRC
+                            | vk::ImageUsageFlags::TRANSFER_DST,
+                    ),
+                )?,
+            ))
+        } else {
+            None
+        };
+        // Colour, ids and the opacity table: the accumulate pass's inputs.
+        let n_accum_sets = if transparency { 3 } else { 0 };
+        let n_sets = (n_ds + n_tex + normals as usize + n_accum_sets) as u32;
         let sizes = [
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::SAMPLED_IMAGE,
@@ -149,6 +198,7 @@ impl Targets {
             normal,
             edges,
             normal_set: None,
+            transparency: None,
             ds,
             tex,
         };
@@ -164,6 +214,11 @@ impl Targets {
                 .map(|i| i.depth_view)
                 .chain(t.tex.iter().map(|i| i.view))
                 .chain(t.normal.iter().map(|i| i.view))
+                .chain(
+                    accum_images
+                        .iter()
+                        .flat_map(|(_, alpha)| [t.color.view, t.prim.view, alpha.view]),
+                )
                 .collect();
         let sampled = sync::access(crate::plan::usage::Usage::Sampled).layout;
         for (set, view) in sets.iter().zip(&views) {
@@ -194,7 +249,15 @@ impl Targets {
         }
         t.ds_sets = sets[..n_ds].to_vec();
         t.tex_sets = sets[n_ds..n_ds + n_tex].to_vec();
-        t.normal_set = sets.get(n_ds + n_tex).copied();
+        let extra = n_ds + n_tex + normals as usize;
+        t.normal_set = normals.then(|| sets[n_ds + n_tex]);
+        t.transparency = accum_images.map(|(accum, alpha)| Transparency {
+            accum,
+            alpha,
+            color_set: sets[extra],
+            prim_set: sets[extra + 1],
+            alpha_set: sets[extra + 2],
+        });
         Ok(t)
     }
 
@@ -210,9 +273,17 @@ impl Targets {
                 .edges
                 .as_ref()
                 .expect("the edge map is used only when the executor writes normals"),
+            Resource::Accum => &self.transparency().accum,
+            Resource::AlphaTable => &self.transparency().alpha,
             Resource::DepthStencil(d) => &self.ds[d as usize],
             Resource::Texture(t) => &self.tex[t as usize],
         }
+    }
+
+    pub fn transparency(&self) -> &Transparency {
+        self.transparency
+            .as_ref()
+            .expect("the accumulate pass's images exist only when the executor composites")
     }
 
     /// Every image, in a fixed order.
@@ -220,6 +291,9 @@ impl Targets {
         let mut v = vec![Resource::Color, Resource::Prim];
         v.extend(self.normal.as_ref().map(|_| Resource::Normal));
         v.extend(self.edges.as_ref().map(|_| Resource::Edges));
+        if self.transparency.is_some() {
+            v.extend([Resource::Accum, Resource::AlphaTable]);
+        }
         v.extend((0..self.ds.len() as u8).map(Resource::DepthStencil));
         v.extend((0..self.tex.len() as u8).map(Resource::Texture));
         v
@@ -233,8 +307,12 @@ impl Targets {
             Resource::Normal => self
                 .normal_set
                 .expect("the normal buffer is sampled only when the executor writes normals"),
-            Resource::Color | Resource::Prim | Resource::Edges => {
-                panic!("colour targets are never sampled (plan::usage says so)")
+            // Sampled only by the accumulate pass (plans never sample colour targets).
+            Resource::Color => self.transparency().color_set,
+            Resource::Prim => self.transparency().prim_set,
+            Resource::AlphaTable => self.transparency().alpha_set,
+            Resource::Edges | Resource::Accum => {
+                panic!("the edge map and the accumulation target are never sampled")
             }
         }
     }
