@@ -409,6 +409,17 @@ impl GpuRenderer {
         self.exec.forget_recording();
     }
 
+    /// CPU ms of each of `reps` recordings of `plan`'s kept frame, made anew
+    /// without submitting (see [`vk::Executor::time_recording`]); `None` until a
+    /// frame of `plan` has replayed.
+    pub fn time_recording(
+        &mut self,
+        plan: &plan::Plan,
+        reps: u32,
+    ) -> Result<Option<Vec<f64>>, RenderError> {
+        Ok(self.exec.time_recording(plan, reps)?)
+    }
+
     /// The images of the last executed frame.
     pub fn read_back(&mut self) -> Result<Images, RenderError> {
         Ok(self.exec.read_back()?)

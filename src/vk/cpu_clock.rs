@@ -5,6 +5,11 @@
 //! other processes competing for the cores (`bench --embedded`'s `cpu_ratio`).
 //! Where `/proc` is missing every reading is 0, and the figures derived are 0.
 
+//!
+//! Also the calling thread's CPU clock ([`CpuInstant`]), for what recording costs
+//! (issue 9 §3: `record_ms`, the bench's re-recording figure): drivers record
+//! in the calling thread, so its CPU time is a recording's whole cost.
+
 use std::fs;
 
 /// CPU time (user and system) the process's threads have run, in nanoseconds; 0
@@ -24,6 +29,45 @@ pub fn process_ns() -> u64 {
 /// Milliseconds of process CPU time since `start` (a [`process_ns`] reading).
 pub fn ms_since(start: u64) -> f64 {
     process_ns().saturating_sub(start) as f64 * 1e-6
+}
+
+/// A point on the calling thread's CPU clock.
+#[derive(Clone, Copy, Debug)]
+pub struct CpuInstant(f64);
+
+impl CpuInstant {
+    /// Now, on this thread's CPU clock.
+    pub fn now() -> CpuInstant {
+        CpuInstant(thread_cpu_ms())
+    }
+
+    /// This thread's CPU milliseconds since `self` (taken on this thread).
+    pub fn elapsed_ms(&self) -> f64 {
+        (thread_cpu_ms() - self.0).max(0.0)
+    }
+}
+
+/// CPU time of the calling thread, in milliseconds.
+#[cfg(unix)]
+fn thread_cpu_ms() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; the clock id is a constant that
+    // every supported Unix defines.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
+    ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6
+}
+
+/// Elsewhere: wall time since the first call (no per-thread clock in `std`).
+#[cfg(not(unix))]
+fn thread_cpu_ms() -> f64 {
+    use std::sync::OnceLock;
+    use std::time::Instant;
+    static START: OnceLock<Instant> = OnceLock::new();
+    START.get_or_init(Instant::now).elapsed().as_secs_f64() * 1e3
 }
 
 #[cfg(test)]
@@ -46,5 +90,24 @@ mod tests {
         // 30 ms of spinning ran at least partly on a CPU, and no more than wall
         // time times a generous thread count.
         assert!(ms > 1.0 && ms < 30.0 * 64.0 + 1000.0, "{ms} ms");
+    }
+
+    #[test]
+    fn busy_work_takes_cpu_time_and_sleeping_takes_none() {
+        let t = CpuInstant::now();
+        let mut x = 0u64;
+        for i in 0..20_000_000u64 {
+            x = x.wrapping_mul(6364136223846793005).wrapping_add(i);
+        }
+        std::hint::black_box(x);
+        let busy = t.elapsed_ms();
+        assert!(busy > 0.0, "{busy}");
+        let s = CpuInstant::now();
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        assert!(
+            s.elapsed_ms() < 25.0,
+            "sleeping used {} CPU ms",
+            s.elapsed_ms()
+        );
     }
 }

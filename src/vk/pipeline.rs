@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::cpu_clock::CpuInstant;
 use super::error::{Check, VkError};
 use super::instance::Shared;
 
@@ -178,6 +179,10 @@ pub struct Pipelines {
     pub(crate) camera_set_layout: vk::DescriptorSetLayout,
     pub(crate) layout: vk::PipelineLayout,
     cache: HashMap<PipelineDesc, vk::Pipeline>,
+    /// Pipelines created so far, and the calling thread's CPU time creating them
+    /// (drivers compile the shaders then: lavapipe runs LLVM, milliseconds each).
+    pub(crate) created: u32,
+    pub(crate) create_ms: f64,
 }
 
 pub(crate) fn shader_module(shared: &Shared, bytes: &[u8]) -> Result<vk::ShaderModule, VkError> {
@@ -199,6 +204,8 @@ impl Pipelines {
             camera_set_layout: vk::DescriptorSetLayout::null(),
             layout: vk::PipelineLayout::null(),
             cache: HashMap::new(),
+            created: 0,
+            create_ms: 0.0,
         };
         p.vertex = shader_module(shared, VERTEX_SPIRV)?;
         let sci = vk::SamplerCreateInfo::default()
@@ -262,6 +269,7 @@ impl Pipelines {
         if let Some(&p) = self.cache.get(desc) {
             return Ok(p);
         }
+        let t = CpuInstant::now();
         let key = (desc.fragment, desc.normals);
         let fragment = match self.fragments.get(&key) {
             Some(&m) => m,
@@ -273,6 +281,8 @@ impl Pipelines {
         };
         let pipeline = self.create(desc, fragment)?;
         self.cache.insert(desc.clone(), pipeline);
+        self.created += 1;
+        self.create_ms += t.elapsed_ms();
         Ok(pipeline)
     }
 

@@ -46,6 +46,7 @@ pub(crate) use normals::copy_to_host;
 pub(crate) use shadow::color_format;
 pub use stats::{Counts, ExecStats, PassStats, Recorded};
 
+use super::cpu_clock::CpuInstant;
 use super::error::VkError;
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
@@ -57,7 +58,7 @@ use crate::output::Images;
 use crate::plan::validate::validate;
 use crate::plan::{Plan, Step};
 use crate::scene::{Camera, Scene};
-use crate::vk::scissor::{bounds_rect, Rect};
+use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 use camera::CameraBuffer;
 use gpu_scene::{CameraState, GpuScene};
 pub use record::ClearMode;
@@ -160,12 +161,14 @@ struct Recording {
     marks: Vec<String>,
 }
 
-/// Wall-clock bookkeeping of one `execute`.
+/// Time bookkeeping of one `execute`.
 #[derive(Default)]
 struct Clock {
+    /// Wall clock: when the frame's first submission went out.
     first_submit: Option<Instant>,
     /// The process's CPU time at the first submission (`vk::cpu_clock`).
     first_submit_cpu: u64,
+    /// The calling thread's CPU time recording, pipeline creation included.
     record_ms: f64,
 }
 
@@ -399,6 +402,8 @@ impl Executor {
         };
         let still = self.last_cam == Some(cam);
         self.last_cam = Some(cam);
+        let (pipelines_before, pipeline_ms_before) =
+            (self.pipelines.created, self.pipelines.create_ms);
         let unrolled = match known {
             Some(layers) => self.run_unrolled(plan, &layers, exact.clone(), still, &mut clock)?,
             None => None,
@@ -419,7 +424,11 @@ impl Executor {
         if clock.first_submit.is_some() {
             stats.frame_cpu_ms = crate::vk::cpu_clock::ms_since(clock.first_submit_cpu);
         }
-        stats.record_ms = clock.record_ms;
+        // Pipelines first needed by this plan were created while recording; their
+        // cost (the driver compiling shaders) is reported on its own.
+        stats.pipeline_ms = self.pipelines.create_ms - pipeline_ms_before;
+        stats.counts.pipelines_created = (self.pipelines.created - pipelines_before) as u64;
+        stats.record_ms = (clock.record_ms - stats.pipeline_ms).max(0.0);
         stats.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         self.last_output = Some(plan.output_ds);
         Ok(stats)
@@ -486,7 +495,7 @@ impl Executor {
             snap,
             normals: self.normals,
             camera_set: self.camera.set,
-            mesh_rects: &self.rects.rects,
+            mesh_rects: RectUnions::new(&self.rects.rects),
         };
         (Recorder::new(b), &self.submit)
     }
@@ -545,24 +554,7 @@ impl Executor {
                 exact
             };
             self.recording = None;
-            let t = Instant::now();
-            let cmd = self.frame_cmd;
-            self.submit.begin(cmd, false)?;
-            let (mut stats, queries, marks) = self.record_frame(cmd, plan, layers)?;
-            stats.counts.submits = 1;
-            self.submit.end(cmd)?;
-            clock.record_ms += t.elapsed().as_secs_f64() * 1e3;
-            self.recording = Some(Recording {
-                key: RecordingKey {
-                    plan: plan.clone(),
-                    rects: self.rects.clone(),
-                    layers: layers.to_vec(),
-                    epoch: self.epoch,
-                },
-                stats,
-                queries,
-                marks,
-            });
+            clock.record_ms += self.record_kept(plan, layers)?;
         }
         let rec = self.recording.as_ref().expect("recorded above");
         clock.submitting();
@@ -588,6 +580,57 @@ impl Executor {
         let marks = rec.marks.clone();
         self.add_gpu_times(&mut stats, &marks)?;
         Ok(Some(stats))
+    }
+
+    /// Records `plan` unrolled to `layers` into the frame command buffer and keeps
+    /// the recording for replays (scissors from `self.rects`): the calling
+    /// thread's CPU ms, from resetting the buffer to ending it.
+    fn record_kept(&mut self, plan: &Plan, layers: &[u32]) -> Result<f64, VkError> {
+        let t = CpuInstant::now();
+        let cmd = self.frame_cmd;
+        self.submit.begin(cmd, false)?;
+        let (mut stats, queries, marks) = self.record_frame(cmd, plan, layers)?;
+        stats.counts.submits = 1;
+        self.submit.end(cmd)?;
+        let ms = t.elapsed_ms();
+        self.recording = Some(Recording {
+            key: RecordingKey {
+                plan: plan.clone(),
+                rects: self.rects.clone(),
+                layers: layers.to_vec(),
+                epoch: self.epoch,
+            },
+            stats,
+            queries,
+            marks,
+        });
+        Ok(ms)
+    }
+
+    /// Records the kept frame of `plan` anew `reps` times without submitting it:
+    /// what recording this plan costs the CPU (a new plan of its size, issue 9
+    /// §3), in the calling thread's CPU ms per recording, free of the GPU's
+    /// work and of waiting for a core. The recording stays kept (the same
+    /// commands). `None` when no recording of `plan` is kept: execute it until a
+    /// frame replays first.
+    pub fn time_recording(&mut self, plan: &Plan, reps: u32) -> Result<Option<Vec<f64>>, VkError> {
+        let _layer = self.shared.layer_use();
+        let layers = match &self.recording {
+            Some(r) if r.key.epoch == self.epoch && r.key.plan == *plan => r.key.layers.clone(),
+            _ => return Ok(None),
+        };
+        // The scissors it was made with, so that the recording stays what it was.
+        self.rects = self
+            .recording
+            .as_ref()
+            .expect("matched above")
+            .key
+            .rects
+            .clone();
+        (0..reps)
+            .map(|_| self.record_kept(plan, &layers))
+            .collect::<Result<Vec<f64>, VkError>>()
+            .map(Some)
     }
 
     /// Records `plan` with its loops unrolled to `layers` into `cmd` (begun by the
@@ -662,7 +705,7 @@ impl Executor {
                        finish: Option<u8>,
                        sub: &Submitter|
          -> Result<u64, VkError> {
-            let t = Instant::now();
+            let t = CpuInstant::now();
             sub.begin(cmd, true)?;
             rec.begin(cmd, occ_cap, ts_cap);
             for s in steps {
@@ -673,7 +716,7 @@ impl Executor {
             }
             rec.end();
             sub.end(cmd)?;
-            clock.record_ms += t.elapsed().as_secs_f64() * 1e3;
+            clock.record_ms += t.elapsed_ms();
             clock.submitting();
             sub.submit(cmd, &[], &[])?;
             sub.wait()?;

@@ -26,13 +26,13 @@ use clears::PendingClear;
 
 mod clears;
 use crate::plan::usage::{self, Resource, Usage};
-use crate::plan::{Draw, Fragment, Geometry, MeshId, Scissor, Step};
+use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{
     FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_MESH, PUSH_SIZE,
 };
-use crate::vk::scissor::Rect;
+use crate::vk::scissor::{Rect, RectUnions};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
 
@@ -110,9 +110,9 @@ pub(super) struct Bindings<'a> {
     /// The camera's uniform buffer (set 1 of every pipeline).
     pub camera_set: vk::DescriptorSet,
     /// Screen rectangle of each mesh's bounds (a `BoundsOf` scissor is their
-    /// union, exactly as `bounds_rect` of all the boxes); the executor may pass
-    /// larger ones (see `Executor::execute`).
-    pub mesh_rects: &'a [Rect],
+    /// union, exactly as `bounds_rect` of all the boxes), as a table of unions;
+    /// the executor may pass larger ones (see `Executor::execute`).
+    pub mesh_rects: RectUnions,
 }
 
 /// How a plan's clears of attachments are recorded.
@@ -734,20 +734,17 @@ impl<'a> Recorder<'a> {
         let (w, h) = (self.b.desc.width, self.b.desc.height);
         match s {
             Scissor::Full => Rect::full(w, h),
-            Scissor::BoundsOf(ms) => self.bounds(ms),
+            Scissor::BoundsOf(ms) => self.b.mesh_rects.of(ms),
             Scissor::Within { meshes, within } => {
-                self.bounds(meshes).intersect(&self.bounds(within))
+                let r = &self.b.mesh_rects;
+                r.of(meshes).intersect(&r.of(within))
             }
-            Scissor::Overlap { of, and } => and.iter().fold(self.bounds(of), |r, m| {
-                r.intersect(&self.b.mesh_rects[*m as usize])
-            }),
+            Scissor::Overlap { of, and } => {
+                let r = &self.b.mesh_rects;
+                and.iter()
+                    .fold(r.of(of), |acc, m| acc.intersect(&r.one(*m)))
+            }
         }
-    }
-
-    /// The union of the meshes' rectangles.
-    fn bounds(&self, ms: &[MeshId]) -> Rect {
-        ms.iter()
-            .fold(Rect::EMPTY, |r, m| r.union(&self.b.mesh_rects[*m as usize]))
     }
 
     fn draw(&mut self, draw: &Draw, step: &Step) -> Result<(), VkError> {

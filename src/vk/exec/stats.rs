@@ -63,6 +63,10 @@ pub struct Counts {
     pub timestamps: u64,
     /// Queue submissions of the frame.
     pub submits: u64,
+    /// Pipelines created for this frame: the first use of a fragment program
+    /// with a set of attachment formats on this executor (later frames and plans
+    /// reuse them).
+    pub pipelines_created: u64,
     /// Head executions of each loop, in execution order.
     pub loop_iterations: Vec<u32>,
     /// Samples passed by all `count_samples` draws.
@@ -107,8 +111,12 @@ pub struct ExecStats {
     /// interval as `frame_ms`: on a CPU device the frame's cost unaffected by
     /// other processes' load.
     pub frame_cpu_ms: f64,
-    /// CPU time spent recording command buffers (0 when a recording is replayed).
+    /// CPU time of the calling thread recording command buffers (0 when a
+    /// recording is replayed), without creating pipelines (`pipeline_ms`).
     pub record_ms: f64,
+    /// CPU time of the calling thread creating the pipelines this frame used
+    /// first (`pipelines_created`; the driver compiles their shaders then).
+    pub pipeline_ms: f64,
     /// Whether the frame replayed a recording or recorded, and why.
     pub recorded: Recorded,
     /// Per pass group, in order of first appearance.
@@ -146,6 +154,7 @@ impl ExecStats {
         self.frame_ms += other.frame_ms;
         self.frame_cpu_ms += other.frame_cpu_ms;
         self.record_ms += other.record_ms;
+        self.pipeline_ms += other.pipeline_ms;
         for p in &other.per_pass {
             if let Some(e) = self.pass_entry(&p.name) {
                 e.gpu_ms += p.gpu_ms;
@@ -167,7 +176,9 @@ impl ExecStats {
         c.cleared_pixels += o.cleared_pixels;
         c.copied_pixels += o.copied_pixels;
         c.timestamps += o.timestamps;
+        c.state_commands += o.state_commands;
         c.submits += o.submits;
+        c.pipelines_created += o.pipelines_created;
         c.loop_iterations.extend_from_slice(&o.loop_iterations);
         c.samples_counted += o.samples_counted;
     }
