@@ -168,13 +168,7 @@ impl Composite {
         formats: (vk::Format, vk::Format),
     ) -> Result<Composite, VkError> {
         let device = &shared.device;
-        let binding = |b: u32, ty| {
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(b)
-                .descriptor_type(ty)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT)
-        };
+        let binding = super::pipeline::fragment_binding;
         let bindings = [
             binding(0, vk::DescriptorType::SAMPLED_IMAGE),
             binding(1, vk::DescriptorType::SAMPLED_IMAGE),

@@ -185,6 +185,19 @@ pub struct Pipelines {
     pub(crate) create_ms: f64,
 }
 
+/// One descriptor of type `ty` at `binding`, read by the fragment shader (the
+/// full-screen passes' textures, sampler and uniforms).
+pub(crate) fn fragment_binding(
+    binding: u32,
+    ty: vk::DescriptorType,
+) -> vk::DescriptorSetLayoutBinding<'static> {
+    vk::DescriptorSetLayoutBinding::default()
+        .binding(binding)
+        .descriptor_type(ty)
+        .descriptor_count(1)
+        .stage_flags(vk::ShaderStageFlags::FRAGMENT)
+}
+
 pub(crate) fn shader_module(shared: &Shared, bytes: &[u8]) -> Result<vk::ShaderModule, VkError> {
     let words = ash::util::read_spv(&mut Cursor::new(bytes))
         .map_err(|e| VkError::Plan(format!("embedded SPIR-V unreadable: {e}")))?;
@@ -217,16 +230,8 @@ impl Pipelines {
         // SAFETY: valid create info on a live device.
         p.sampler = unsafe { shared.device.create_sampler(&sci, None) }.check("vkCreateSampler")?;
         let bindings = [
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(0)
-                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT),
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(1)
-                .descriptor_type(vk::DescriptorType::SAMPLER)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT),
+            fragment_binding(0, vk::DescriptorType::SAMPLED_IMAGE),
+            fragment_binding(1, vk::DescriptorType::SAMPLER),
         ];
         let dci = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
         // SAFETY: valid create info on a live device.

@@ -136,13 +136,7 @@ impl ShadowPass {
             views: None,
             ran: false,
         };
-        let binding = |b: u32, ty| {
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(b)
-                .descriptor_type(ty)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT)
-        };
+        let binding = super::pipeline::fragment_binding;
         let mut bindings: Vec<_> = (0..IMAGES)
             .map(|b| binding(b, vk::DescriptorType::SAMPLED_IMAGE))
             .collect();
