@@ -21,9 +21,13 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::composite::{check_host_formats, Composite};
+use serde::Serialize;
+
+use super::composite::{check_host_formats, is_srgb, Composite};
 use super::error::{Check, VkError};
-use super::exec::{ExecDesc, ExecStats, Executor, Unrolled};
+use super::exec::{
+    copy_counts, final_shade, host_barriers, ExecDesc, ExecStats, Executor, HostShade, Unrolled,
+};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::submit;
@@ -48,6 +52,26 @@ pub struct HostTargets {
     pub depth_format: vk::Format,
     /// Width and height of both images: the embedder's size.
     pub extent: [u32; 2],
+}
+
+/// How an embedded frame's final shading reached the host's attachments
+/// (`ExecStats::host_path` of [`Embedder::record`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HostPath {
+    /// The plan's final depth-equal shade drawn straight into the host's
+    /// attachments under the host's depth test (`vk::exec::record::host`): the
+    /// standalone frame's work, no composite. What every GPU algorithm but
+    /// `blister-paper` gets without shadows.
+    Direct,
+    /// The fallback, because shadows are on ([`Embedder::set_shadow`]): the
+    /// shadow pass reads peeltrim's own colour, ids, depth and normals, so the
+    /// frame is drawn into peeltrim's images, shadowed, and composited into the
+    /// host's attachments by one full-screen pass (`vk::composite`).
+    CompositeShadows,
+    /// The fallback, because the plan does not end in the depth-equal shade
+    /// (`blister-paper` takes its colour from the peel): composited as above.
+    CompositePlan,
 }
 
 /// One frame in flight: where its occlusion counts land and what they check.
@@ -277,19 +301,60 @@ impl Embedder {
                 "record before the loop counts are known: call set_loop_counts or prepare".into(),
             )
         })?;
-        let unrolled = self.exec.record_unrolled(cmd, plan, &layers)?;
         let slot = (self.frame % self.slots.len() as u64) as usize;
+        let path = self.host_path(plan);
+        let (unrolled, stats) = match path {
+            HostPath::Direct => {
+                let room = self.counts_room(slot, Executor::counted_draws(plan, &layers));
+                let host = HostShade {
+                    color: (targets.color_view, targets.color_format),
+                    depth: (targets.depth_view, targets.depth_format),
+                    srgb: is_srgb(targets.color_format),
+                    counts: room.then_some(self.slots[slot].counts.raw),
+                };
+                let shade = final_shade(plan).expect("host_path checked it");
+                let unrolled =
+                    self.exec
+                        .record_unrolled(cmd, plan, &layers, Some((&host, shade)))?;
+                let stats = unrolled.stats.clone();
+                (unrolled, stats)
+            }
+            HostPath::CompositeShadows | HostPath::CompositePlan => {
+                let unrolled = self.exec.record_unrolled(cmd, plan, &layers, None)?;
+                let n = unrolled.groups.len() as u32;
+                let counted = n > 0 && self.counts_room(slot, n);
+                if counted {
+                    let pool = self.exec.occlusion_pool();
+                    let buffer = self.slots[slot].counts.raw;
+                    copy_counts(&self.shared.device, cmd, pool, n, buffer);
+                }
+                if let Some(sh) = &mut self.shadow {
+                    let rect = self.exec.output_rect();
+                    sh.pass
+                        .record(cmd, &self.exec, &sh.map, &sh.params, rect, None)?;
+                }
+                let mut stats = unrolled.stats.clone();
+                self.composite(cmd, targets, depth_compare, counted, &mut stats)?;
+                (unrolled, stats)
+            }
+        };
         self.frame += 1;
-        let counted = self.copy_counts(cmd, slot, unrolled.groups.len() as u32);
-        if let Some(sh) = &mut self.shadow {
-            let rect = self.exec.output_rect();
-            sh.pass
-                .record(cmd, &self.exec, &sh.map, &sh.params, rect, None)?;
-        }
-        let mut stats = unrolled.stats.clone();
-        self.composite(cmd, targets, depth_compare, counted, &mut stats)?;
         self.slots[slot].pending = Some((plan.clone(), unrolled));
-        Ok(stats)
+        Ok(ExecStats {
+            host_path: Some(path),
+            ..stats
+        })
+    }
+
+    /// How `record` draws `plan` into the host's attachments.
+    fn host_path(&self, plan: &Plan) -> HostPath {
+        if self.shadow.is_some() {
+            HostPath::CompositeShadows
+        } else if final_shade(plan).is_none() {
+            HostPath::CompositePlan
+        } else {
+            HostPath::Direct
+        }
     }
 
     /// Checks the frame that last used the slot the next frame takes: by the
@@ -318,9 +383,10 @@ impl Embedder {
         Ok(())
     }
 
-    /// Copies the frame's occlusion counts, with availability, into `slot`;
-    /// whether it did (the composite's barrier then makes them visible to the host).
-    fn copy_counts(&mut self, cmd: vk::CommandBuffer, slot: usize, n: u32) -> bool {
+    /// Whether `slot`'s count buffer has room for `n` occlusion counts with
+    /// their availability (grown if need be; `false` for none or if it cannot
+    /// grow, when the frame's counts are simply not checked).
+    fn counts_room(&mut self, slot: usize, n: u32) -> bool {
         let need = (n.max(1) as u64) * 16;
         if self.slots[slot].counts.size < need {
             // Grown outside any pending use: by the frames-in-flight contract this
@@ -336,24 +402,7 @@ impl Embedder {
                 Err(_) => return false,
             }
         }
-        if n == 0 {
-            return false;
-        }
-        // SAFETY: outside rendering; the first `n` queries were reset and written
-        // by this recording; the buffer holds `n` pairs of u64.
-        unsafe {
-            self.shared.device.cmd_copy_query_pool_results(
-                cmd,
-                self.exec.occlusion_pool(),
-                0,
-                n,
-                self.slots[slot].counts.raw,
-                0,
-                16,
-                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY,
-            )
-        };
-        true
+        n > 0
     }
 
     /// Draws peeltrim's colour and depth into the host's attachments, where the
@@ -406,33 +455,9 @@ impl Embedder {
                 .collect();
             (src.stage, dst.stage, barriers)
         };
-        let (mut src, mut dst, to_sampled) = transition(REST, Usage::Sampled);
-        let att_stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
-            | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
-            | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
-        let mut memory = vec![vk::MemoryBarrier::default()
-            .src_access_mask(
-                vk::AccessFlags::COLOR_ATTACHMENT_WRITE
-                    | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
-            )
-            .dst_access_mask(
-                vk::AccessFlags::COLOR_ATTACHMENT_READ
-                    | vk::AccessFlags::COLOR_ATTACHMENT_WRITE
-                    | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
-                    | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
-            )];
-        (src, dst) = (src | att_stages, dst | att_stages);
-        if counted {
-            memory.push(
-                vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::HOST_READ),
-            );
-            (src, dst) = (
-                src | vk::PipelineStageFlags::TRANSFER,
-                dst | vk::PipelineStageFlags::HOST,
-            );
-        }
+        let (src, dst, to_sampled) = transition(REST, Usage::Sampled);
+        let ((hsrc, hdst), memory) = host_barriers(counted);
+        let (src, dst) = (src | hsrc, dst | hdst);
         submit::pipeline_barrier(device, cmd, (src, dst), &memory, &to_sampled);
         // Only where the CSG can be: its meshes' projected bounds.
         let rect = self.exec.output_rect();
