@@ -1,7 +1,10 @@
-//! Embedding: a plan's frame recorded into a host engine's command buffer and
-//! composited, depth-tested, into the host's own colour and depth attachments.
-//! Nothing here submits to a queue (see README "Embedding" for the full
-//! synchronization contract, repeated on [`Embedder::record`]).
+//! Embedding: a plan's frame recorded into a host engine's command buffer,
+//! depth-tested into the host's own colour and depth attachments: its final
+//! depth-equal shade drawn straight into them (`exec::record::host`), or, where
+//! that cannot be ([`HostPath`]), the frame composited into them by one
+//! full-screen pass (`vk::composite`). Nothing here submits to a queue (see
+//! README "Embedding" for the full synchronization contract, repeated on
+//! [`Embedder::record`]).
 //!
 //! The frame itself is the executor's unrolled recording (loops unrolled to
 //! counts, as in the standalone replay of the performance work): the counts
@@ -43,7 +46,7 @@ pub struct HostTargets {
     /// A colour view whose format is a float or UNORM/SRGB colour-attachment
     /// format (peeltrim writes RGBA in 0..1).
     pub color_view: vk::ImageView,
-    /// The format of the colour image (the composite pipeline is made for it).
+    /// The format of the colour image (peeltrim's pipelines are made for it).
     pub color_format: vk::Format,
     /// A view of the depth aspect of a depth or depth-stencil image (any depth
     /// format the device supports as an attachment); stencil is not touched.
@@ -88,11 +91,14 @@ pub struct Embedder {
     frame: u64,
     /// Loop counts to unroll to (learnt standalone, then adjusted by checks).
     layers: Option<(Plan, Vec<u32>)>,
+    /// The host formats last checked (`check_host_formats`).
+    host_formats: Option<(vk::Format, vk::Format)>,
     composite: Option<Composite>,
     sampler: vk::Sampler,
     /// What `record` draws.
     plan: Option<Plan>,
-    /// Shadows of a light, darkening each frame before the composite.
+    /// Shadows of a light, darkening each frame before the composite (the
+    /// fallback they need, [`HostPath::CompositeShadows`]).
     shadow: Option<super::shadow::EmbeddedShadow>,
 }
 
@@ -103,7 +109,10 @@ impl Embedder {
     pub fn new(ctx: &Context, desc: &ExecDesc, frames_in_flight: u32) -> Result<Embedder, VkError> {
         let _layer = ctx.shared.layer_use();
         let shared = ctx.shared.clone();
-        let exec = Executor::new(ctx, desc)?;
+        let mut exec = Executor::new(ctx, desc)?;
+        // Nobody reads an embedded frame's per-pass GPU times, and lavapipe
+        // ends its binned scene at each timestamp: only the frame's two.
+        exec.set_pass_timestamps(false);
         let sci = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::NEAREST)
             .min_filter(vk::Filter::NEAREST);
@@ -130,6 +139,7 @@ impl Embedder {
             slots,
             frame: 0,
             layers: None,
+            host_formats: None,
             composite: None,
             sampler,
             plan: None,
@@ -238,8 +248,12 @@ impl Embedder {
         }
     }
 
-    /// Records the plan's frame and its composite into `cmd`. Returns the
-    /// recording's counts (`submits` is 0: the host submits).
+    /// Records the plan's frame into `cmd`, its final depth-equal shade drawn
+    /// straight into the host's attachments under the host's depth test
+    /// ([`HostPath::Direct`]), or, as the fallback ([`HostPath`] says when),
+    /// into peeltrim's images and then composited by one full-screen pass.
+    /// Returns the recording's counts (`submits` is 0: the host submits) and
+    /// `host_path`.
     ///
     /// # Safety
     ///
@@ -248,12 +262,16 @@ impl Embedder {
     ///   queue family, and submitted (by the host) to a queue of that family.
     /// - On entry the host's colour image is in `COLOR_ATTACHMENT_OPTIMAL` and its
     ///   depth image in `DEPTH_STENCIL_ATTACHMENT_OPTIMAL`; they are left in these
-    ///   layouts. Earlier attachment writes of the host are made available by the
-    ///   barrier recorded here (`COLOR_ATTACHMENT_OUTPUT | LATE_FRAGMENT_TESTS` →
-    ///   the composite's `COLOR_ATTACHMENT_OUTPUT | EARLY/LATE_FRAGMENT_TESTS`); the
-    ///   composite's own writes are colour-attachment and depth-attachment writes
-    ///   in those stages, which the host's next use must synchronize with (as after
-    ///   any rendering of its own).
+    ///   layouts. The host's earlier colour and depth attachment writes are made
+    ///   available and visible by one barrier recorded here, from
+    ///   `COLOR_ATTACHMENT_OUTPUT | EARLY/LATE_FRAGMENT_TESTS` (attachment writes)
+    ///   to the same stages (attachment reads and writes). After it, one
+    ///   rendering block of the host's colour and depth attachments (depth
+    ///   aspect only; a stencil aspect is neither bound nor touched) reads and
+    ///   writes them: the last pass's mesh draws (direct) or the composite's
+    ///   full-screen draw, colour writes in `COLOR_ATTACHMENT_OUTPUT` and depth
+    ///   tests and writes in `EARLY/LATE_FRAGMENT_TESTS`, which the host's next
+    ///   use must synchronize with, as after any rendering of its own.
     /// - Peeltrim's internal images, its vertex buffer and its query pools are used
     ///   by this recording from the first command to the last (transfer, vertex,
     ///   fragment, attachment stages); the host must not touch them.
@@ -263,7 +281,7 @@ impl Embedder {
     /// - If the plan changed since the previous record ([`Embedder::set_plan`]
     ///   with another plan), those command buffers have completed: a new plan may
     ///   replace internal images. Likewise when the host's formats change.
-    /// - The host's colour and depth formats are checked first: one the composite
+    /// - The host's colour and depth formats are checked first: one peeltrim
     ///   cannot write is [`VkError::HostFormat`] with nothing recorded into `cmd`.
     /// - The views stay valid until the command buffer has completed.
     pub unsafe fn record(
@@ -292,8 +310,9 @@ impl Embedder {
         }
         // Before anything is recorded: an unsupported format leaves `cmd` untouched.
         let formats = (targets.color_format, targets.depth_format);
-        if self.composite.as_ref().map(|c| c.formats) != Some(formats) {
+        if self.host_formats != Some(formats) {
             check_host_formats(&self.shared, formats.0, formats.1)?;
+            self.host_formats = Some(formats);
         }
         self.check_finished_slot(plan)?;
         let layers = self.layers(plan).map(<[u32]>::to_vec).ok_or_else(|| {
