@@ -263,22 +263,11 @@ impl Recorder<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::{Cull, Scissor};
 
+    /// The plan builders' shade draw of mesh `m`.
     fn shade(m: u32, tex: Tex, ds: u8) -> Step {
-        Step::Draw(Draw {
-            geometry: Geometry::Mesh(m),
-            scissor: Scissor::BoundsOf(vec![m]),
-            cull: Cull::None,
-            ds,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: true,
-            },
-            stencil: None,
-            fragment: Fragment::ShadeNearDepth { tex, eps: 1e-6 },
-            count_samples: false,
-        })
+        let mut steps = crate::plan::shade_near_depth(&[m], ds, tex, None);
+        steps.pop().expect("a pass, a copy and the draw")
     }
 
     fn plan(steps: Vec<Step>) -> Plan {
