@@ -65,7 +65,7 @@ pub enum HostPath {
     /// The plan's final depth-equal shade drawn straight into the host's
     /// attachments under the host's depth test (`vk::exec::record::host`): the
     /// standalone frame's work, no composite. What every GPU algorithm but
-    /// `blister-paper` gets without shadows.
+    /// `blister-paper` gets without shadows and trimmed surfaces.
     Direct,
     /// The fallback, because shadows are on ([`Embedder::set_shadow`]): the
     /// shadow pass reads peeltrim's own colour, ids, depth and normals, so the
@@ -73,7 +73,8 @@ pub enum HostPath {
     /// host's attachments by one full-screen pass (`vk::composite`).
     CompositeShadows,
     /// The fallback, because the plan does not end in the depth-equal shade
-    /// (`blister-paper` takes its colour from the peel): composited as above.
+    /// (`blister-paper` takes its colour from the peel; CST with trimmed
+    /// surfaces ends in their merge): composited as above.
     CompositePlan,
 }
 
