@@ -162,3 +162,37 @@ expr = "Block - K1 - K2 - Flush"
     let loops = check(&scene);
     assert_eq!(loops, vec![2], "K2 then K1 through their shared face");
 }
+
+/// The eye inside a subtracted sphere (perspective): its parity counted from the
+/// near plane is inverted, which the eye correction turns back into membership,
+/// so SCS still draws the product (the block's near part scooped out, the
+/// sphere's far side showing).
+#[test]
+fn the_eye_inside_a_subtracted_primitive() {
+    let scene = load(
+        r##"
+[camera]
+eye = [0.3, 0.4, 3.0]
+target = [0.0, 0.0, 0.0]
+fov_y_deg = 60
+[[primitive]]
+name = "Block"
+shape = "box"
+size = [2.0, 2.0, 2.0]
+[[primitive]]
+name = "Bubble"
+shape = "sphere"
+radius = 2.5
+translate = [0.0, 0.0, 3.0]
+color = "#d04040"
+[csg]
+expr = "Block - Bubble"
+"##,
+    );
+    let prep = Prepared::new(&scene).unwrap();
+    assert_eq!(prep.eye_inside[..2], [false, true]);
+    assert!(all_scs(&scene));
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    assert!(reference.prim.iter().any(|&p| p == 2), "the bubble shows");
+    check(&scene);
+}
