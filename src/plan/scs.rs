@@ -334,15 +334,121 @@ fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::goldfeather::tests::block_minus_spheres;
+    use crate::plan::goldfeather::{tests::block_minus_spheres, CLIP_EPS};
     use crate::plan::print::count;
+
+    /// Boxes along x: 1–2 overlap, 2–3 touch, 4 and 5 stand alone; 6–7 overlap.
+    fn row_of_boxes() -> Prepared {
+        use crate::reference::fixtures::ExprBuilder;
+        use crate::scene::Aabb;
+        use glam::DVec3;
+        let spans = [
+            (-10.0, 10.0),
+            (0.0, 1.5),
+            (1.0, 2.0),
+            (2.0, 3.0),
+            (4.0, 5.0),
+            (6.0, 7.0),
+            (8.0, 9.0),
+            (8.5, 9.5),
+        ];
+        let bounds = spans
+            .iter()
+            .map(|&(a, b)| Aabb {
+                min: DVec3::new(a, -1.0, -1.0),
+                max: DVec3::new(b, 1.0, 1.0),
+            })
+            .collect();
+        let mut e = ExprBuilder::default();
+        let mut acc = e.leaf(0);
+        for i in 1..spans.len() as u32 {
+            let l = e.leaf(i);
+            acc = e.diff(acc, l);
+        }
+        let mut prep = Prepared::from_parts(e.build(acc), vec![12; spans.len()], bounds);
+        prep.mesh_convex = vec![true; spans.len()];
+        prep
+    }
+
+    #[test]
+    fn sequence_repeats_only_overlapping_cutters() {
+        let prep = row_of_boxes();
+        let lit = |prim| Lit {
+            prim,
+            negated: true,
+        };
+        let ys: Vec<Lit> = (1..8).map(lit).collect();
+        let seq = sequence(&ys, &prep);
+        assert_eq!(seq.once, vec![lit(4), lit(5)]);
+        // Groups {1, 2, 3} and {6, 7}, interleaved, three rounds.
+        assert_eq!(seq.max_rounds, 3);
+        let mut rounds = seq.rounds.clone();
+        rounds.sort_by_key(|l| l.prim);
+        assert_eq!(rounds, vec![lit(1), lit(2), lit(3), lit(6), lit(7)]);
+        // A batch never holds two overlapping cutters: the round 1, 6, 2, 7, 3 is
+        // cut wherever the next one meets one already in the batch.
+        let steps = subtract(&seq.rounds, &[0], CLIP_EPS, &prep, true);
+        let mut batch: Vec<MeshId> = Vec::new();
+        for s in &steps {
+            let Step::Draw(d) = s else { continue };
+            let Geometry::Mesh(m) = d.geometry else {
+                panic!("mesh draws only")
+            };
+            if d.cull == Cull::None {
+                if batch
+                    .last()
+                    .is_some_and(|_| d.stencil.unwrap().write_mask == 1)
+                {
+                    batch.clear();
+                }
+                for &b in &batch {
+                    let (x, y) = (&prep.mesh_bounds[b as usize], &prep.mesh_bounds[m as usize]);
+                    assert!(
+                        crate::plan::cst::disjoint(x, y),
+                        "{b} and {m} share a batch"
+                    );
+                }
+                batch.push(m);
+            } else {
+                assert!(d.count_samples, "the rounds' exits are counted");
+            }
+        }
+    }
+
+    #[test]
+    fn the_plan_repeats_the_groups_in_a_bounded_loop() {
+        let prep = row_of_boxes();
+        let built = plan(&prep, &ProductOptions::default()).unwrap();
+        let loops: Vec<&Loop> = built
+            .steps
+            .iter()
+            .filter_map(|s| match s {
+                Step::Loop(l) => Some(l),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(loops.len(), 1);
+        assert_eq!(loops[0].max_iterations, 3);
+        assert!(loops[0].tail.is_empty());
+        assert_eq!(fallback_warning(&prep), None);
+        // A non-convex cutter sends the product to Goldfeather's steps, said once.
+        let mut nc = prep.clone();
+        nc.mesh_convex[3] = false;
+        let w = fallback_warning(&nc).expect("a warning");
+        assert!(w.contains("non-convex primitive(s) 4"), "{w}");
+        let built = plan(&nc, &ProductOptions::default()).unwrap();
+        assert!(!built
+            .steps
+            .iter()
+            .any(|s| matches!(s, Step::Pass(p) if p == "scs-front")));
+    }
 
     #[test]
     fn block_minus_disjoint_spheres_subtracts_each_once() {
         let prep = Prepared::new(&block_minus_spheres(16)).unwrap();
-        let plan = plan(&prep, &ProductOptions::default()).unwrap();
-        assert!(!plan.steps.iter().any(|s| matches!(s, Step::Loop(_))));
-        let c = count(&plan.steps, &prep);
+        let built = plan(&prep, &ProductOptions::default()).unwrap();
+        assert!(!built.steps.iter().any(|s| matches!(s, Step::Loop(_))));
+        let c = count(&built.steps, &prep);
         let g = goldfeather::plan(&prep, &ProductOptions::default()).unwrap();
         let gc = count(&g.steps, &prep);
         // 1 front, 16 parity + 16 exits, 1 clip parity draw; then 17 shading draws.
