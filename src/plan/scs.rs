@@ -13,10 +13,7 @@
 //!    `Greater` into a surface image cleared to near): the entry into their
 //!    intersection, if it is not empty along the ray.
 //! 2. **Subtraction.** For each `Yj` in a *subtraction sequence*: where the point
-//!    just behind `z` is inside `Yj`, `z` := `Yj`'s back face (the exit from `Yj`):
-//!    a parity draw of `Yj`'s front faces (at or in front of `z`, the tie rule)
-//!    sets a stencil bit, and `Yj`'s back faces behind `z` (depth test against
-//!    the surface image, which holds `z` as well) replace `z` where it is set.
+//!    just behind `z` is inside `Yj`, `z` := `Yj`'s back face (the exit from `Yj`).
 //!    `z` only moves back, and never into a `Yj` it left, so a sequence in which
 //!    every chain of overlapping `Yj` appears in order leaves `z` outside all of
 //!    them. `Yj` whose world boxes meet no other `Yj` need one application each;
@@ -31,19 +28,16 @@
 //!    depth by a less-than test, and the image is shaded by depth as for
 //!    Goldfeather.
 //!
-//! **Ties** (where OpenCSG's fixed-function depth tests z-fight): "`Yj`'s front
-//! face is at or in front of `z`" and "inside `Xi`" are Goldfeather's tolerant
-//! parity draws ([`Fragment::NearerThan`]): a face within the tie rule of `z`
-//! counts as in front of it ([`super::tie`]), so the point classified is the one
-//! just behind `z`. A flush cutter (front faces of `Xi` and `Yj` coincident)
-//! therefore subtracts, and an exit onto another cutter's coincident front face
+//! **Ties** (where OpenCSG's fixed-function depth tests z-fight): "inside `Yj`"
+//! and "inside `Xi`" are Goldfeather's tolerant parity draws
+//! ([`Fragment::NearerThan`]): a face within the tie rule of `z` counts as in
+//! front of it ([`super::tie`]), so the point classified is the one just behind
+//! `z`. A flush cutter (front faces of `Xi` and `Yj` coincident) therefore
+//! subtracts, a cutter that only touches `Xi` from outside (its back face at
+//! `z`) does not, and an exit onto another cutter's coincident front face
 //! continues into it — whichever of the two coplanar triangles rasterizes
-//! nearer. "`Yj`'s back face is behind `z`" is a plain depth test: where the
-//! back face is within rounding of `z` (a cutter touching from outside) moving
-//! `z` onto it or not leaves `z` in the same place up to the tie band, which
-//! the clip and the shading classify alike. `z` itself is always a rasterized
-//! fragment depth kept in a float texture (and in the surface image for the
-//! exits' depth test); the clip and the merge read the texture.
+//! nearer. `z` itself is always a rasterized fragment depth kept in a float
+//! texture, never a depth-buffer round trip.
 //!
 //! **Where SCS does not apply**, the product is drawn with Goldfeather's steps
 //! ([`goldfeather::product_steps`]) in the same plan, and `scs` says so in its
@@ -288,44 +282,31 @@ fn subtract(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: boo
 }
 
 fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
-    let flag = |v: &[bool], m: MeshId| v.get(m as usize).copied().unwrap_or(false);
-    // Rays that may start inside Y (the eye inside it, or the orthographic near
-    // plane cutting it) cross no front face of Y on the way in.
-    let starts_inside = |y: &Lit| flag(&prep.eye_inside, y.prim) || flag(&prep.near_cut, y.prim);
-    let draw = |y: &Lit, cull, depth, stencil, fragment, count_samples| {
+    let scissor = |y: &Lit| Scissor::Within {
+        meshes: vec![y.prim],
+        within: region.to_vec(),
+    };
+    let draw = |y: &Lit, cull, stencil, fragment, count_samples| {
         Step::Draw(Draw {
             geometry: Geometry::Mesh(y.prim),
-            scissor: Scissor::Within {
-                meshes: vec![y.prim],
-                within: region.to_vec(),
-            },
+            scissor: scissor(y),
             cull,
             ds: SURFACE,
-            depth,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: false,
+            },
             stencil: Some(stencil),
             fragment,
             count_samples,
         })
     };
-    let off = DepthState {
-        compare: CompareOp::Always,
-        write: false,
-    };
     let mut parity = Vec::new();
     for (k, y) in ys.iter().enumerate() {
         let bit = 1u8 << k;
-        // Usually the front face alone: the point just behind `z` is inside Y
-        // when Y's front face is at or in front of `z` (the tie rule) and its
-        // back face behind `z`, which the exit's depth test decides.
-        let cull = if starts_inside(y) {
-            Cull::None
-        } else {
-            Cull::Back
-        };
         parity.push(draw(
             y,
-            cull,
-            off,
+            Cull::None,
             super::stencil::both(CompareOp::Always, StencilOp::Invert, 0, bit, 0),
             Fragment::NearerThan { tex: SURF, eps },
             false,
@@ -333,48 +314,16 @@ fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: 
     }
     // A primitive containing a perspective eye has its parity counted from the
     // near plane inverted; the eye correction (all its faces once more) turns the
-    // bit into membership, as the global correction does for a cut primitive.
+    // bit into membership, so "inside" is "bit set" for every primitive and each
+    // exit draw clears what its parity draw set (a closed convex mesh has a back
+    // face wherever the bit is set).
     let mut steps = eye::correct(parity, &prep.eye_inside);
     for (k, y) in ys.iter().enumerate() {
         let bit = 1u8 << k;
-        let (depth, stencil) = if starts_inside(y) {
-            // Full parity said "inside": Y's back face is behind `z`. The
-            // depth image keeps `z` too, for the other exits' depth tests.
-            let s = super::stencil::both(CompareOp::Equal, StencilOp::Zero, bit, bit, bit);
-            let d = DepthState {
-                compare: CompareOp::Always,
-                write: true,
-            };
-            (d, s)
-        } else {
-            // Only behind `z` (fixed function: where the back face is within a
-            // depth quantum of `z` either outcome leaves `z` in the same tie
-            // band); the bit is cleared whether or not the depth test passes (a
-            // closed convex mesh has a back face wherever it has a front face).
-            let face = StencilFace {
-                compare: CompareOp::Equal,
-                fail: StencilOp::Keep,
-                pass: StencilOp::Zero,
-                depth_fail: StencilOp::Zero,
-            };
-            let s = StencilState {
-                front: face,
-                back: face,
-                compare_mask: bit,
-                write_mask: bit,
-                reference: bit,
-            };
-            let d = DepthState {
-                compare: CompareOp::Greater,
-                write: true,
-            };
-            (d, s)
-        };
         steps.push(draw(
             y,
             Cull::Front,
-            depth,
-            stencil,
+            super::stencil::both(CompareOp::Equal, StencilOp::Zero, bit, bit, bit),
             Fragment::WriteDepth { out: SURF },
             count,
         ));
@@ -445,7 +394,7 @@ mod tests {
             let Geometry::Mesh(m) = d.geometry else {
                 panic!("mesh draws only")
             };
-            if d.stencil.unwrap().front.pass == StencilOp::Invert {
+            if d.cull == Cull::None {
                 if batch
                     .last()
                     .is_some_and(|_| d.stencil.unwrap().write_mask == 1)
