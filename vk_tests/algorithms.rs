@@ -171,6 +171,13 @@ fn cst_g_matches_reference_on_shipped_scenes() {
     check_algo(Algo::CstG, &DepthSetup::ALL, 0.0005, 0.0001);
 }
 
+/// SCS on every shipped scene (its products of convex primitives by SCS, the
+/// others by Goldfeather's steps), with CST's bars.
+#[test]
+fn scs_matches_reference_on_shipped_scenes() {
+    check_algo(Algo::Scs, &DepthSetup::ALL, 0.0005, 0.0001);
+}
+
 /// The paper's Blister (depth-test parity, colour and id from the peel) on every
 /// shipped scene: its speckles are counted and reported, not hidden, next to the
 /// tolerant `blister`, which must never be worse.
@@ -266,11 +273,16 @@ expr = "Room - Pillar"
         Algo::GoldfeatherLayered,
         Algo::Trickle,
         Algo::Kirsch,
+        Algo::Scs,
     ];
     for algo in algos {
         // The issues' bars: Blister and CST 0.05%, Goldfeather 0.1%.
         let cov = match algo {
-            Algo::Goldfeather | Algo::GoldfeatherLayered | Algo::Trickle | Algo::Kirsch => 0.001,
+            Algo::Goldfeather
+            | Algo::GoldfeatherLayered
+            | Algo::Trickle
+            | Algo::Kirsch
+            | Algo::Scs => 0.001,
             _ => 0.0005,
         };
         for depth in [DepthSetup::D32S8, DepthSetup::D32S8Reversed] {
@@ -350,6 +362,7 @@ expr = "(Ball - Pin) + Block"
         Algo::GoldfeatherLayered,
         Algo::Trickle,
         Algo::Kirsch,
+        Algo::Scs,
     ];
     for algo in algos {
         for depth in [DepthSetup::D32S8, DepthSetup::D32S8Reversed] {

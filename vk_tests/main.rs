@@ -18,6 +18,7 @@ mod openscad;
 mod replay;
 mod rounding;
 mod scad_models;
+mod scs;
 mod see_inside;
 mod setup;
 mod shadow;

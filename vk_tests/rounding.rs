@@ -130,6 +130,11 @@ fn kirsch_with_coarse_rounding() {
 }
 
 #[test]
+fn scs_with_coarse_rounding() {
+    check(Algo::Scs);
+}
+
+#[test]
 fn trickle_with_coarse_rounding() {
     check(Algo::Trickle);
 }

@@ -32,7 +32,7 @@ fn err(path: &Path, e: impl std::fmt::Display) -> BenchError {
     BenchError::Other(format!("plotting {}: {e}", path.display()))
 }
 
-const PALETTE: [RGBColor; 9] = [
+const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -42,6 +42,7 @@ const PALETTE: [RGBColor; 9] = [
     RGBColor(227, 119, 194),
     RGBColor(127, 127, 127),
     RGBColor(23, 190, 207),
+    RGBColor(188, 189, 34),
 ];
 
 fn algo_color(algo: &str) -> RGBColor {
@@ -55,6 +56,7 @@ fn algo_color(algo: &str) -> RGBColor {
         "trickle",
         "reference",
         "kirsch",
+        "scs",
     ];
     PALETTE[order.iter().position(|a| *a == algo).unwrap_or(7)]
 }

@@ -17,6 +17,7 @@ pub mod eye;
 pub mod goldfeather;
 pub mod kirsch;
 pub mod print;
+pub mod scs;
 pub mod stencil;
 pub mod step;
 pub mod tie;
@@ -55,10 +56,13 @@ pub enum Algo {
     /// Kirsch, Nienhaus & Döllner's CSG depth peeling of products (seed 001 §4);
     /// its opaque render is the first layer.
     Kirsch,
+    /// Sequenced convex subtraction (Stewart, Leach & John; OpenCSG's SCS) for
+    /// products of convex primitives, tie-correct; other products as Goldfeather.
+    Scs,
 }
 
 impl Algo {
-    pub const ALL: [Algo; 10] = [
+    pub const ALL: [Algo; 11] = [
         Algo::Reference,
         Algo::Goldfeather,
         Algo::GoldfeatherLayered,
@@ -69,6 +73,7 @@ impl Algo {
         Algo::CstG,
         Algo::BlisterPaper,
         Algo::Kirsch,
+        Algo::Scs,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -82,6 +87,7 @@ impl Algo {
             Algo::CstG => "cst-g",
             Algo::BlisterPaper => "blister-paper",
             Algo::Kirsch => "kirsch",
+            Algo::Scs => "scs",
         }
     }
     pub fn parse(s: &str) -> Option<Algo> {
@@ -271,6 +277,9 @@ impl Prepared {
                 self.surfaces.len()
             ));
         }
+        if algo == Algo::Scs && self.has_solid() {
+            w.extend(scs::fallback_warning(self));
+        }
         w
     }
 
@@ -362,6 +371,7 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
         Algo::Goldfeather => goldfeather::plan(prep, &opts.products),
         Algo::GoldfeatherLayered => goldfeather::layered::plan(prep, &opts.products),
         Algo::Kirsch => kirsch::plan(prep, &opts.products),
+        Algo::Scs => scs::plan(prep, &opts.products),
         Algo::Trickle => trickle::plan(
             prep,
             &trickle::TrickleOptions {

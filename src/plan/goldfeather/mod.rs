@@ -154,49 +154,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             steps.extend(direct);
             continue;
         }
-        for (i, &a) in p.iter().enumerate() {
-            let others: Vec<Lit> = p
-                .iter()
-                .enumerate()
-                .filter(|&(j, _)| j != i)
-                .map(|(_, &l)| l)
-                .collect();
-            let mut clip_merge = clip_steps(&others, &[a.prim], opts.eps, &prep.eye_inside);
-            clip_merge.extend(merge_steps(&[a.prim]));
-            if prep
-                .mesh_convex
-                .get(a.prim as usize)
-                .copied()
-                .unwrap_or(false)
-            {
-                steps.push(Step::Pass("surface".into()));
-                steps.push(clear_surface());
-                steps.push(Step::Clear(Clear::Texture {
-                    tex: SURF,
-                    depth: FAR,
-                }));
-                steps.push(surface_draw(a, Fragment::WriteDepth { out: SURF }, false));
-                steps.extend(clip_merge);
-            } else {
-                // Goldfeather's layers (§3.5): peel the literal's visible faces.
-                loops = true;
-                steps.push(Step::Pass("surface".into()));
-                steps.push(Step::Clear(Clear::Texture {
-                    tex: PREV,
-                    depth: 0.0,
-                }));
-                let peel = Fragment::Peel {
-                    prev: PREV,
-                    out: CUR,
-                    shade: false,
-                };
-                steps.push(literal_peel_loop(
-                    surface_draw(a, peel, true),
-                    clip_merge,
-                    prep.triangles_in(&[a.prim]),
-                ));
-            }
-        }
+        loops |= product_steps(p, prep, opts.eps, &mut steps);
     }
     steps.extend(shade_steps(prep, SURF));
     Ok(Plan {
@@ -207,6 +165,58 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         output_ds: OUTPUT,
         steps,
     })
+}
+
+/// One product's Goldfeather steps (§3.3–3.5), appended to `steps`: per literal
+/// its visible faces clipped by parity against the others and merged; a
+/// non-convex literal peeled in a loop. Returns whether it peels (the plan then
+/// needs the peel textures).
+pub(crate) fn product_steps(p: &[Lit], prep: &Prepared, eps: f32, steps: &mut Vec<Step>) -> bool {
+    let mut loops = false;
+    for (i, &a) in p.iter().enumerate() {
+        let others: Vec<Lit> = p
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .map(|(_, &l)| l)
+            .collect();
+        let mut clip_merge = clip_steps(&others, &[a.prim], eps, &prep.eye_inside);
+        clip_merge.extend(merge_steps(&[a.prim]));
+        if prep
+            .mesh_convex
+            .get(a.prim as usize)
+            .copied()
+            .unwrap_or(false)
+        {
+            steps.push(Step::Pass("surface".into()));
+            steps.push(clear_surface());
+            steps.push(Step::Clear(Clear::Texture {
+                tex: SURF,
+                depth: FAR,
+            }));
+            steps.push(surface_draw(a, Fragment::WriteDepth { out: SURF }, false));
+            steps.extend(clip_merge);
+        } else {
+            // Goldfeather's layers (§3.5): peel the literal's visible faces.
+            loops = true;
+            steps.push(Step::Pass("surface".into()));
+            steps.push(Step::Clear(Clear::Texture {
+                tex: PREV,
+                depth: 0.0,
+            }));
+            let peel = Fragment::Peel {
+                prev: PREV,
+                out: CUR,
+                shade: false,
+            };
+            steps.push(literal_peel_loop(
+                surface_draw(a, peel, true),
+                clip_merge,
+                prep.triangles_in(&[a.prim]),
+            ));
+        }
+    }
+    loops
 }
 
 /// Goldfeather's layers of a non-convex literal (§3.5): `peel` (a counted

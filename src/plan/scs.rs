@@ -1,0 +1,460 @@
+//! Sequenced convex subtraction (Stewart, Leach & John, "Sequenced convex
+//! subtraction", 2000/2002, the successor of seed 004 by the same authors; the
+//! algorithm behind OpenCSG's `SCS`), made tie-correct with the tie rule of the
+//! other algorithms.
+//!
+//! The positive form becomes a sum of products as for Goldfeather (seed 004
+//! §3.2, bounding-box pruned). A product `X1 ∩ … ∩ Xa − Y1 − … − Yb` of *convex*
+//! primitives is one interval per primitive along each ray, so instead of
+//! clipping every literal's surface against every other (O(k²) rasterizations)
+//! a single candidate depth `z` per pixel walks front to back (O(k)):
+//!
+//! 1. **Intersection.** `z` := the farthest front face of the `Xi` (depth test
+//!    `Greater` into a surface image cleared to near): the entry into their
+//!    intersection, if it is not empty along the ray.
+//! 2. **Subtraction.** For each `Yj` in a *subtraction sequence*: where the point
+//!    just behind `z` is inside `Yj`, `z` := `Yj`'s back face (the exit from `Yj`).
+//!    `z` only moves back, and never into a `Yj` it left, so a sequence in which
+//!    every chain of overlapping `Yj` appears in order leaves `z` outside all of
+//!    them. `Yj` whose world boxes meet no other `Yj` need one application each;
+//!    the overlapping ones are repeated in rounds, at most as many as a group has
+//!    members, and a round whose exits moved no pixel (an occlusion query over
+//!    the exit draws, resolved as the executor resolves every [`Loop`]: replayed
+//!    from the previous frame's count and checked on the GPU's results, no CPU
+//!    wait inside the frame) ends them early.
+//! 3. **Clip.** `z` is kept where the point just behind it is inside every `Xi`
+//!    (`z` only moved back, and each `Xi` is one interval along the ray, so this
+//!    also rejects rays that miss the intersection), then merged into the output
+//!    depth by a less-than test, and the image is shaded by depth as for
+//!    Goldfeather.
+//!
+//! **Ties** (where OpenCSG's fixed-function depth tests z-fight): "inside `Yj`"
+//! and "inside `Xi`" are Goldfeather's tolerant parity draws
+//! ([`Fragment::NearerThan`]): a face within the tie rule of `z` counts as in
+//! front of it ([`super::tie`]), so the point classified is the one just behind
+//! `z`. A flush cutter (front faces of `Xi` and `Yj` coincident) therefore
+//! subtracts, a cutter that only touches `Xi` from outside (its back face at
+//! `z`) does not, and an exit onto another cutter's coincident front face
+//! continues into it — whichever of the two coplanar triangles rasterizes
+//! nearer. `z` itself is always a rasterized fragment depth kept in a float
+//! texture, never a depth-buffer round trip.
+//!
+//! **Where SCS does not apply**, the product is drawn with Goldfeather's steps
+//! ([`goldfeather::product_steps`]) in the same plan, and `scs` says so in its
+//! pass names (`surface`, not `scs-front`): a product with a non-convex
+//! primitive (its faces are not one interval per ray; Goldfeather peels it in
+//! layers), and a product whose ray may start inside a positive primitive (the
+//! eye inside it, or an orthographic near plane cutting it: its nearest front
+//! face is then not where the ray enters the product). A product of one
+//! positive primitive is one draw ([`goldfeather::direct_steps`]).
+#![deny(unsafe_code)]
+
+use super::goldfeather::{self, Lit, ProductOptions, CLIP_BITS, OUTPUT, SURF, SURFACE};
+use super::step::*;
+use super::{eye, PlanError, Prepared};
+
+/// Stencil bits of the surface image that one batch of subtractions uses: one
+/// per subtracted primitive, eight primitives whose boxes are disjoint per batch.
+const SUB_BITS: usize = CLIP_BITS as usize;
+
+/// Builds the SCS plan.
+pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
+    let prods = goldfeather::products(prep, opts.limit)?;
+    let mut steps = goldfeather::init_steps();
+    let mut loops = false;
+    for p in &prods {
+        if let Some(direct) = goldfeather::direct_steps(p, prep) {
+            steps.extend(direct);
+        } else if applies(p, prep) {
+            steps.extend(product_steps(p, prep, opts.eps));
+        } else {
+            loops |= goldfeather::product_steps(p, prep, opts.eps, &mut steps);
+        }
+    }
+    steps.extend(goldfeather::shade_steps(prep, SURF));
+    Ok(Plan {
+        algo: super::Algo::Scs.name().into(),
+        depth_stencils: 2,
+        // Goldfeather's peel textures only for a fallback product that peels.
+        textures: if loops { 3 } else { 1 },
+        stencil_bits: CLIP_BITS,
+        output_ds: OUTPUT,
+        steps,
+    })
+}
+
+/// Whether SCS draws product `p`: every primitive convex, and no ray starts
+/// inside a positive one (see the module documentation).
+pub fn applies(p: &[Lit], prep: &Prepared) -> bool {
+    let flag = |v: &[bool], m: MeshId| v.get(m as usize).copied().unwrap_or(false);
+    p.iter().all(|l| flag(&prep.mesh_convex, l.prim))
+        && !p
+            .iter()
+            .any(|l| !l.negated && (flag(&prep.eye_inside, l.prim) || flag(&prep.near_cut, l.prim)))
+}
+
+/// Which products `scs` draws with Goldfeather's steps and why, for the command
+/// line (`None` when SCS draws them all, or when the products cannot be formed:
+/// the plan then fails with that error).
+pub fn fallback_warning(prep: &Prepared) -> Option<String> {
+    let prods = goldfeather::products(prep, goldfeather::DEFAULT_PRODUCT_LIMIT).ok()?;
+    let flag = |v: &[bool], m: MeshId| v.get(m as usize).copied().unwrap_or(false);
+    let (mut fallback, mut nonconvex, mut start_inside) = (0, Vec::new(), Vec::new());
+    for p in prods.iter().filter(|p| p.len() > 1 && !applies(p, prep)) {
+        fallback += 1;
+        for l in p {
+            if !flag(&prep.mesh_convex, l.prim) {
+                nonconvex.push(l.prim + 1);
+            } else if !l.negated && (flag(&prep.eye_inside, l.prim) || flag(&prep.near_cut, l.prim))
+            {
+                start_inside.push(l.prim + 1);
+            }
+        }
+    }
+    if fallback == 0 {
+        return None;
+    }
+    let list = |v: &mut Vec<u32>| {
+        v.sort_unstable();
+        v.dedup();
+        v.iter().map(u32::to_string).collect::<Vec<_>>().join(", ")
+    };
+    let mut why = Vec::new();
+    if !nonconvex.is_empty() {
+        why.push(format!(
+            "non-convex primitive(s) {} (SCS needs one front and one back face per ray)",
+            list(&mut nonconvex)
+        ));
+    }
+    if !start_inside.is_empty() {
+        why.push(format!(
+            "rays starting inside positive primitive(s) {} (eye inside, or the orthographic near plane cuts them)",
+            list(&mut start_inside)
+        ));
+    }
+    Some(format!(
+        "scs draws {fallback} of {} products with goldfeather's steps: {} (primitives by 1-based index in file order); \
+         the image is exact either way",
+        prods.len(),
+        why.join("; ")
+    ))
+}
+
+/// The steps of one product of convex primitives (module documentation, 1–3).
+fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
+    let (xs, ys): (Vec<Lit>, Vec<Lit>) = p.iter().partition(|l| !l.negated);
+    // Where the product can be: inside the intersection of its positive boxes;
+    // the clip's sweeps and the merge cover this region (their union's rectangle).
+    let region: Vec<MeshId> = xs.iter().map(|l| l.prim).collect();
+    let mut steps = vec![
+        Step::Pass("scs-front".into()),
+        Step::Clear(Clear::DepthStencil {
+            ds: SURFACE,
+            depth: 0.0,
+            stencil: 0,
+        }),
+        Step::Clear(Clear::Texture {
+            tex: SURF,
+            depth: goldfeather::FAR,
+        }),
+    ];
+    // The farthest front face; where no front face is drawn `z` stays far, which
+    // no subtraction moves and the clip rejects.
+    for x in &xs {
+        steps.push(Step::Draw(Draw {
+            geometry: Geometry::Mesh(x.prim),
+            scissor: Scissor::BoundsOf(vec![x.prim]),
+            cull: x.visible_cull(),
+            ds: SURFACE,
+            depth: DepthState {
+                compare: CompareOp::Greater,
+                write: true,
+            },
+            stencil: None,
+            fragment: Fragment::WriteDepth { out: SURF },
+            count_samples: false,
+        }));
+    }
+    let seq = sequence(&ys, prep);
+    if !seq.once.is_empty() {
+        steps.push(Step::Pass("subtract".into()));
+        steps.extend(subtract(&seq.once, &region, eps, prep, false));
+    }
+    if !seq.rounds.is_empty() {
+        let mut head = vec![Step::Pass("subtract".into())];
+        head.extend(subtract(&seq.rounds, &region, eps, prep, true));
+        steps.push(Step::Loop(Loop {
+            head,
+            tail: Vec::new(),
+            max_iterations: seq.max_rounds,
+        }));
+    }
+    steps.extend(goldfeather::clip_steps(&xs, &region, eps, &prep.eye_inside));
+    steps.extend(goldfeather::merge_steps(&region));
+    steps
+}
+
+/// A product's subtraction sequence (module documentation, 2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sequence {
+    /// Subtracted primitives whose boxes meet no other's: each applied once.
+    pub once: Vec<Lit>,
+    /// One round over every group of overlapping subtracted primitives (the
+    /// groups interleaved, so that batches of disjoint boxes fill up).
+    pub rounds: Vec<Lit>,
+    /// Rounds that suffice: the largest group's size.
+    pub max_rounds: u32,
+}
+
+/// Groups `ys` by overlapping world boxes (connected components: an exit from
+/// one `Yj` can only land inside a `Yk` whose box meets its own).
+pub fn sequence(ys: &[Lit], prep: &Prepared) -> Sequence {
+    let boxes = &prep.mesh_bounds;
+    let mut group: Vec<usize> = (0..ys.len()).collect();
+    fn root(g: &mut [usize], mut i: usize) -> usize {
+        while g[i] != i {
+            g[i] = g[g[i]];
+            i = g[i];
+        }
+        i
+    }
+    for i in 0..ys.len() {
+        for j in i + 1..ys.len() {
+            let (a, b) = (&boxes[ys[i].prim as usize], &boxes[ys[j].prim as usize]);
+            if !super::cst::disjoint(a, b) {
+                let (ri, rj) = (root(&mut group, i), root(&mut group, j));
+                group[ri] = rj;
+            }
+        }
+    }
+    let mut members: Vec<Vec<Lit>> = vec![Vec::new(); ys.len()];
+    for (i, &y) in ys.iter().enumerate() {
+        let r = root(&mut group, i);
+        members[r].push(y);
+    }
+    let (mut once, mut groups) = (Vec::new(), Vec::new());
+    for m in members.into_iter().filter(|m| !m.is_empty()) {
+        if m.len() == 1 {
+            once.push(m[0]);
+        } else {
+            groups.push(m);
+        }
+    }
+    let max_rounds = groups.iter().map(Vec::len).max().unwrap_or(0) as u32;
+    let mut rounds = Vec::new();
+    for k in 0..max_rounds as usize {
+        rounds.extend(groups.iter().filter_map(|g| g.get(k)));
+    }
+    Sequence {
+        once,
+        rounds,
+        max_rounds,
+    }
+}
+
+/// Subtracts `ys` in order, in batches of up to [`SUB_BITS`] primitives whose
+/// boxes are pairwise disjoint (at most one of them holds a pixel's `z`, and no
+/// exit lands in another, so the batch equals its sequence): per primitive a
+/// parity draw into its bit (inside: odd), then per primitive its back faces
+/// written into `z` where its bit is set, clearing the bit. With `count`, the
+/// exits count samples (the rounds' early out).
+fn subtract(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
+    let mut steps = Vec::new();
+    let mut batch: Vec<Lit> = Vec::new();
+    let flush = |batch: &mut Vec<Lit>, steps: &mut Vec<Step>| {
+        steps.extend(batch_steps(batch, region, eps, prep, count));
+        batch.clear();
+    };
+    for &y in ys {
+        let meets = |b: &Lit| {
+            !super::cst::disjoint(
+                &prep.mesh_bounds[b.prim as usize],
+                &prep.mesh_bounds[y.prim as usize],
+            )
+        };
+        if batch.len() == SUB_BITS || batch.iter().any(meets) {
+            flush(&mut batch, &mut steps);
+        }
+        batch.push(y);
+    }
+    flush(&mut batch, &mut steps);
+    steps
+}
+
+fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
+    let scissor = |y: &Lit| Scissor::Within {
+        meshes: vec![y.prim],
+        within: region.to_vec(),
+    };
+    let draw = |y: &Lit, cull, stencil, fragment, count_samples| {
+        Step::Draw(Draw {
+            geometry: Geometry::Mesh(y.prim),
+            scissor: scissor(y),
+            cull,
+            ds: SURFACE,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: false,
+            },
+            stencil: Some(stencil),
+            fragment,
+            count_samples,
+        })
+    };
+    let mut parity = Vec::new();
+    for (k, y) in ys.iter().enumerate() {
+        let bit = 1u8 << k;
+        parity.push(draw(
+            y,
+            Cull::None,
+            super::stencil::both(CompareOp::Always, StencilOp::Invert, 0, bit, 0),
+            Fragment::NearerThan { tex: SURF, eps },
+            false,
+        ));
+    }
+    // A primitive containing a perspective eye has its parity counted from the
+    // near plane inverted; the eye correction (all its faces once more) turns the
+    // bit into membership, so "inside" is "bit set" for every primitive and each
+    // exit draw clears what its parity draw set (a closed convex mesh has a back
+    // face wherever the bit is set).
+    let mut steps = eye::correct(parity, &prep.eye_inside);
+    for (k, y) in ys.iter().enumerate() {
+        let bit = 1u8 << k;
+        steps.push(draw(
+            y,
+            Cull::Front,
+            super::stencil::both(CompareOp::Equal, StencilOp::Zero, bit, bit, bit),
+            Fragment::WriteDepth { out: SURF },
+            count,
+        ));
+    }
+    steps
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::goldfeather::{tests::block_minus_spheres, CLIP_EPS};
+    use crate::plan::print::count;
+
+    /// Boxes along x: 1–2 overlap, 2–3 touch, 4 and 5 stand alone; 6–7 overlap.
+    fn row_of_boxes() -> Prepared {
+        use crate::reference::fixtures::ExprBuilder;
+        use crate::scene::Aabb;
+        use glam::DVec3;
+        let spans = [
+            (-10.0, 10.0),
+            (0.0, 1.5),
+            (1.0, 2.0),
+            (2.0, 3.0),
+            (4.0, 5.0),
+            (6.0, 7.0),
+            (8.0, 9.0),
+            (8.5, 9.5),
+        ];
+        let bounds = spans
+            .iter()
+            .map(|&(a, b)| Aabb {
+                min: DVec3::new(a, -1.0, -1.0),
+                max: DVec3::new(b, 1.0, 1.0),
+            })
+            .collect();
+        let mut e = ExprBuilder::default();
+        let mut acc = e.leaf(0);
+        for i in 1..spans.len() as u32 {
+            let l = e.leaf(i);
+            acc = e.diff(acc, l);
+        }
+        let mut prep = Prepared::from_parts(e.build(acc), vec![12; spans.len()], bounds);
+        prep.mesh_convex = vec![true; spans.len()];
+        prep
+    }
+
+    #[test]
+    fn sequence_repeats_only_overlapping_cutters() {
+        let prep = row_of_boxes();
+        let lit = |prim| Lit {
+            prim,
+            negated: true,
+        };
+        let ys: Vec<Lit> = (1..8).map(lit).collect();
+        let seq = sequence(&ys, &prep);
+        assert_eq!(seq.once, vec![lit(4), lit(5)]);
+        // Groups {1, 2, 3} and {6, 7}, interleaved, three rounds.
+        assert_eq!(seq.max_rounds, 3);
+        let mut rounds = seq.rounds.clone();
+        rounds.sort_by_key(|l| l.prim);
+        assert_eq!(rounds, vec![lit(1), lit(2), lit(3), lit(6), lit(7)]);
+        // A batch never holds two overlapping cutters: the round 1, 6, 2, 7, 3 is
+        // cut wherever the next one meets one already in the batch.
+        let steps = subtract(&seq.rounds, &[0], CLIP_EPS, &prep, true);
+        let mut batch: Vec<MeshId> = Vec::new();
+        for s in &steps {
+            let Step::Draw(d) = s else { continue };
+            let Geometry::Mesh(m) = d.geometry else {
+                panic!("mesh draws only")
+            };
+            if d.cull == Cull::None {
+                if batch
+                    .last()
+                    .is_some_and(|_| d.stencil.unwrap().write_mask == 1)
+                {
+                    batch.clear();
+                }
+                for &b in &batch {
+                    let (x, y) = (&prep.mesh_bounds[b as usize], &prep.mesh_bounds[m as usize]);
+                    assert!(
+                        crate::plan::cst::disjoint(x, y),
+                        "{b} and {m} share a batch"
+                    );
+                }
+                batch.push(m);
+            } else {
+                assert!(d.count_samples, "the rounds' exits are counted");
+            }
+        }
+    }
+
+    #[test]
+    fn the_plan_repeats_the_groups_in_a_bounded_loop() {
+        let prep = row_of_boxes();
+        let built = plan(&prep, &ProductOptions::default()).unwrap();
+        let loops: Vec<&Loop> = built
+            .steps
+            .iter()
+            .filter_map(|s| match s {
+                Step::Loop(l) => Some(l),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(loops.len(), 1);
+        assert_eq!(loops[0].max_iterations, 3);
+        assert!(loops[0].tail.is_empty());
+        assert_eq!(fallback_warning(&prep), None);
+        // A non-convex cutter sends the product to Goldfeather's steps, said once.
+        let mut nc = prep.clone();
+        nc.mesh_convex[3] = false;
+        let w = fallback_warning(&nc).expect("a warning");
+        assert!(w.contains("non-convex primitive(s) 4"), "{w}");
+        let built = plan(&nc, &ProductOptions::default()).unwrap();
+        assert!(!built
+            .steps
+            .iter()
+            .any(|s| matches!(s, Step::Pass(p) if p == "scs-front")));
+    }
+
+    #[test]
+    fn block_minus_disjoint_spheres_subtracts_each_once() {
+        let prep = Prepared::new(&block_minus_spheres(16)).unwrap();
+        let built = plan(&prep, &ProductOptions::default()).unwrap();
+        assert!(!built.steps.iter().any(|s| matches!(s, Step::Loop(_))));
+        let c = count(&built.steps, &prep);
+        let g = goldfeather::plan(&prep, &ProductOptions::default()).unwrap();
+        let gc = count(&g.steps, &prep);
+        // 1 front, 16 parity + 16 exits, 1 clip parity draw; then 17 shading draws.
+        assert_eq!(c.mesh_draws, 1 + 32 + 1 + 17);
+        // Two subtraction batches of 8 bits, one clip sweep, one merge.
+        assert_eq!(c.fullscreen_passes, 2);
+        assert!(c.draws * 5 < gc.draws, "scs {c:?} goldfeather {gc:?}");
+    }
+}
