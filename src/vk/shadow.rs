@@ -5,7 +5,8 @@
 //! map's depth and ids as textures, darkens the shadowed pixels of the eye's
 //! colour image in place (by blending, so the pass never reads the image it
 //! writes) and marks them in a mask image of its own. Both frames' images stay
-//! on the GPU: nothing is read back between them. One submission per pass.
+//! on the GPU: nothing is read back between them. The pass goes in one
+//! submission with the frames it reads when they replay (`submit_after`).
 
 use std::sync::Arc;
 
@@ -316,19 +317,50 @@ impl ShadowPass {
         params: &ShadowParams,
         scissor: Rect,
     ) -> Result<ShadowRun, VkError> {
+        self.record_own(eye, map, params, scissor)?;
+        self.submit_after(&[])?;
+        self.result(scissor)
+    }
+
+    /// Records the pass into its own command buffer for [`Self::submit_after`]:
+    /// `eye` and `map` are idle or their frames go in that submission first
+    /// (their images' views are the last frames').
+    pub fn record_own(
+        &mut self,
+        eye: &Executor,
+        map: &Executor,
+        params: &ShadowParams,
+        scissor: Rect,
+    ) -> Result<(), VkError> {
         let _layer = self.shared.layer_use();
         let cmd = self.submit.cmd;
         self.submit.begin(cmd, true)?;
         let ts = (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool);
         self.record(cmd, eye, map, params, scissor, ts)?;
-        self.submit.finish(cmd)?;
+        self.submit.end(cmd)
+    }
+
+    /// Submits the executable `before` (frames whose images the pass reads,
+    /// in order) and then the pass recorded by [`Self::record_own`], in one
+    /// submission, and waits for it: a shadowed frame is one submission.
+    pub fn submit_after(&self, before: &[vk::CommandBuffer]) -> Result<(), VkError> {
+        let _layer = self.shared.layer_use();
+        let mut cmds = before.to_vec();
+        cmds.push(self.submit.cmd);
+        self.submit.submit_all(&cmds, &[], &[])?;
+        self.submit.wait()
+    }
+
+    /// What the last submitted pass over `scissor` cost.
+    pub fn result(&self, scissor: Rect) -> Result<ShadowRun, VkError> {
+        let _layer = self.shared.layer_use();
         let device = &self.shared.device;
-        let gpu_ms = match ts {
-            Some(pool) => {
-                let t = submit::query_results(device, pool, 2)?;
+        let gpu_ms = match self.shared.timestamp_valid_bits > 0 {
+            true => {
+                let t = submit::query_results(device, self.timestamps.pool, 2)?;
                 t[1].saturating_sub(t[0]) as f64 * self.shared.limits.timestamp_period as f64 * 1e-6
             }
-            None => 0.0,
+            false => 0.0,
         };
         Ok(ShadowRun {
             gpu_ms,
