@@ -4,7 +4,8 @@
 //! before the image is cleared or replaced again ([`clear_regions`], pure): the
 //! union of the scissors of the draws that use it, grown by [`READ_MARGIN`], or
 //! the whole image when it is copied, sampled by a full-screen copy or read back.
-//! A clear nobody reads is dropped.
+//! A clear nobody reads is dropped; so is one to the value an earlier clear
+//! left with no write since ([`ClearNeed::Held`]).
 //!
 //! How a clear is recorded depends on [`ClearMode`] and the next use:
 //! - the next use renders into the image: the new block's load op (`LoadOp`), or
