@@ -416,12 +416,6 @@ impl ShadowPass {
         // SAFETY: outside rendering; the buffer allows transfer dst and holds
         // the block (a multiple of 4 bytes, under 64 KiB).
         unsafe { device.cmd_update_buffer(cmd, self.uniform.raw, 0, &params.bytes()) };
-        submit::memory_barrier(
-            device,
-            cmd,
-            (transfer, vk::AccessFlags::TRANSFER_WRITE),
-            (frag, vk::AccessFlags::UNIFORM_READ),
-        );
         let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
         let col = vk::ImageAspectFlags::COLOR;
         let sampled = [
@@ -431,33 +425,36 @@ impl ShadowPass {
             (m.depth.0, ds),
             (m.prim.0, col),
         ];
-        let barriers = |from: Usage, to: Usage| {
-            let (src, dst) = sync::transition(from, to, false);
-            let b: Vec<_> = sampled
+        // The five sampled images, the colour and the mask change layout
+        // together: one barrier before the draw (with the uniform block's
+        // write) and one after. The mask is cleared by its load op: its old
+        // contents need not be kept.
+        let transitions = |sampled_to: (Usage, Usage),
+                           targets_to: (Usage, Usage),
+                           uniform: &[vk::MemoryBarrier]| {
+            let (s_src, s_dst) = sync::transition(sampled_to.0, sampled_to.1, false);
+            let (t_src, t_dst) = sync::transition(targets_to.0, targets_to.1, false);
+            let discard = targets_to.1 == Usage::ColorTarget;
+            let (m_src, m_dst) = sync::transition(targets_to.0, targets_to.1, discard);
+            let mut b: Vec<_> = sampled
                 .iter()
-                .map(|&(img, aspect)| sync::image_barrier(src, dst, img, aspect))
+                .map(|&(img, aspect)| sync::image_barrier(s_src, s_dst, img, aspect))
                 .collect();
-            (src.stage, dst.stage, b)
+            b.push(sync::image_barrier(t_src, t_dst, e.color.0, col));
+            b.push(sync::image_barrier(m_src, m_dst, self.mask.raw, col));
+            let (src, dst) = match uniform.is_empty() {
+                true => (s_src.stage | t_src.stage, s_dst.stage | t_dst.stage),
+                false => (
+                    s_src.stage | t_src.stage | transfer,
+                    s_dst.stage | t_dst.stage | frag,
+                ),
+            };
+            submit::pipeline_barrier(device, cmd, (src, dst), uniform, &b);
         };
-        let (s, dst, b) = barriers(REST, Usage::Sampled);
-        submit::image_barriers(device, cmd, s, dst, &b);
-        // The colour and the mask as targets and back; the mask is cleared,
-        // its old contents need not be kept.
-        let targets = |from: Usage, to: Usage| {
-            let (src, dst) = sync::transition(from, to, false);
-            let (mask_src, mask_dst) = sync::transition(from, to, to == Usage::ColorTarget);
-            submit::image_barriers(
-                device,
-                cmd,
-                src.stage,
-                dst.stage,
-                &[
-                    sync::image_barrier(src, dst, e.color.0, col),
-                    sync::image_barrier(mask_src, mask_dst, self.mask.raw, col),
-                ],
-            );
-        };
-        targets(REST, Usage::ColorTarget);
+        let uniform = [vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::UNIFORM_READ)];
+        transitions((REST, Usage::Sampled), (REST, Usage::ColorTarget), &uniform);
         if let Some(pool) = ts {
             // SAFETY: recording, outside rendering; query 0 was reset above.
             unsafe {
@@ -471,9 +468,7 @@ impl ShadowPass {
                 device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1)
             };
         }
-        let (s, dst, b) = barriers(Usage::Sampled, REST);
-        submit::image_barriers(device, cmd, s, dst, &b);
-        targets(Usage::ColorTarget, REST);
+        transitions((Usage::Sampled, REST), (Usage::ColorTarget, REST), &[]);
         self.ran = true;
         Ok(())
     }
