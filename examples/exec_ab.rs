@@ -6,7 +6,8 @@
 //! `cargo run --release --example exec_ab -- SIZE FRAMES ALGOS SCENE...`
 //! with ALGOS comma-separated (e.g. `400x400 15 cst-i,goldfeather scenes/complex.toml`).
 //! Variants: whole-image or scissored clears (`Executor::set_scissored_clears`),
-//! per-pass timestamps on or off (`Executor::set_pass_timestamps`). README,
+//! per-pass timestamps on or off (`Executor::set_pass_timestamps`), clear
+//! commands or load ops (`Executor::set_clear_mode`). README,
 //! "Executor fixed costs on lavapipe".
 
 use std::path::Path;
@@ -37,6 +38,8 @@ fn main() {
         ("scissored", ClearMode::Command, true, true),
         ("whole-nots", ClearMode::Command, false, false),
         ("scissored-nots", ClearMode::Command, true, false),
+        // Load-op clears (whole images, lavapipe's binned clear) re-checked.
+        ("loadop-nots", ClearMode::LoadOp, true, false),
     ];
     let ctx = Context::new(&ContextDesc {
         device: DeviceChoice::Cpu,

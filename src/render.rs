@@ -329,8 +329,19 @@ impl GpuRenderer {
     /// Executes a plan once; the images stay on the GPU (see [`Self::read_back`]).
     pub fn execute(&mut self, plan: &plan::Plan) -> Result<FrameStats, RenderError> {
         let exec = self.exec.execute(plan)?;
+        Ok(self.frame_stats(plan, exec))
+    }
+
+    /// The executor of the frames, for a frame submitted with others
+    /// (`vk::Executor::prepare`, see [`shadow::GpuShadows::frame`]).
+    pub(crate) fn executor_mut(&mut self) -> &mut vk::Executor {
+        &mut self.exec
+    }
+
+    /// The statistics of a frame of `plan` whose executor's figures are `exec`.
+    pub(crate) fn frame_stats(&self, plan: &plan::Plan, exec: vk::ExecStats) -> FrameStats {
         let d = self.exec.desc();
-        Ok(FrameStats {
+        FrameStats {
             algo: plan.algo.clone(),
             width: d.width,
             height: d.height,
@@ -343,7 +354,7 @@ impl GpuRenderer {
             exec,
             layers: None,
             shadow: None,
-        })
+        }
     }
 
     /// Whether later frames also write the normal buffer (seed 001 §5.2), read

@@ -142,6 +142,36 @@ fn shadows_change_only_shadowed_pixels() {
     }
 }
 
+/// A shadowed frame whose light map and eye frame replay their recordings is
+/// one queue submission (map, eye and shadow pass together) and gives the
+/// image and shadow mask of the plan's first frame, which ran frame by frame.
+#[test]
+fn replayed_shadowed_frames_are_one_submission_with_the_same_images() {
+    let s = load("shadow_block.toml");
+    let light = s.appearance.light.expect("a light");
+    let o = options(Algo::CstI);
+    let prep = peeltrim::plan::Prepared::new(&s).unwrap();
+    let plan = peeltrim::plan::build_with(Algo::CstI, &prep, &o.build).unwrap();
+    let mut gpu = render::GpuRenderer::for_options(&s, &o).unwrap_or_else(|e| panic!("{e}"));
+    let mut sh = shadow::GpuShadows::for_renderer(&mut gpu, &s, &light, Algo::CstI, &o.build)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let (_, first) = sh.frame(&mut gpu, &plan, &s.camera, false).unwrap();
+    assert!(first.submits >= 3, "map, eye and pass: {first:?}");
+    let want = (gpu.read_back().unwrap(), sh.mask().unwrap());
+    assert!(want.1.iter().filter(|&&m| m).count() > 500);
+    for new_map in [true, false] {
+        let (eye, cost) = sh.frame(&mut gpu, &plan, &s.camera, new_map).unwrap();
+        assert_eq!(cost.submits, 1, "{cost:?}");
+        assert_eq!(cost.map.is_some(), new_map);
+        assert_ne!(eye.exec.recorded, peeltrim::vk::Recorded::Stepwise);
+        let got = (gpu.read_back().unwrap(), sh.mask().unwrap());
+        assert!(got.0.color == want.0.color && got.0.prim == want.0.prim);
+        assert!(got.1 == want.1, "shadow masks differ");
+    }
+    let msgs = gpu.validation_messages();
+    assert!(msgs.is_empty(), "{msgs:?}");
+}
+
 /// Shadows in an embedded frame (`view`'s path: the map rendered once, the
 /// pass recorded into the host's command buffer after the frame) give the same
 /// image as `render`'s standalone frames, with validation on.

@@ -103,7 +103,8 @@ fn bench_times_shadows_and_interference() {
         sh["light_map_gpu_ms_median"].as_f64().unwrap() > 0.0,
         "{sh}"
     );
-    // One frame is the map, the eye and the shadow pass.
+    // One frame is the map, the eye and the shadow pass, in one submission.
+    assert_eq!(sh["submits_max"], 1, "{sh}");
     let ms = |k: &str| sh[k].as_f64().unwrap_or_else(|| panic!("{k}: {sh}"));
     assert!(ms("shadow_pass_gpu_ms_median") > 0.0, "{sh}");
     assert!(ms("frame_ms_median") > 0.0, "{sh}");

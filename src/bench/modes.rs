@@ -35,6 +35,9 @@ pub struct ShadowBench {
     pub frame_gpu_ms_median: f64,
     /// Median wall time of map + eye + pass (first submission to GPU idle).
     pub frame_ms_median: f64,
+    /// Most queue submissions of a timed frame (map, eye and pass): 1 when
+    /// both frames replayed and went in one submission with the pass.
+    pub submits_max: u64,
     pub lit_pixels: u64,
     pub shadowed_pixels: u64,
 }
@@ -110,13 +113,15 @@ fn shadow_frames(
     let err = |e: crate::render::RenderError| e.to_string();
     let mut sh =
         shadow::GpuShadows::for_renderer(gpu, scene, light, algo, &cfg.build).map_err(err)?;
-    // (map, eye, pass, wall) per frame; warm-up frames learn both plans' loops.
-    let mut frame = |gpu: &mut GpuRenderer| -> Result<[f64; 4], String> {
+    // (map, eye, pass, wall, submits) per frame; warm-up frames learn both
+    // plans' loops, so that timed frames are one submission each.
+    let mut frame = |gpu: &mut GpuRenderer| -> Result<[f64; 5], String> {
         let t = Instant::now();
-        let map = sh.render_map().map_err(err)?.gpu_ms;
-        let eye = gpu.execute(plan).map_err(err)?.exec.gpu_ms;
-        let pass = sh.shade(gpu, &scene.camera).map_err(err)?.pass.gpu_ms;
-        Ok([map, eye, pass, t.elapsed().as_secs_f64() * 1e3])
+        let (eye, cost) = sh.frame(gpu, plan, &scene.camera, true).map_err(err)?;
+        let map = cost.map.map_or(0.0, |m| m.gpu_ms);
+        let wall = t.elapsed().as_secs_f64() * 1e3;
+        let submits = cost.submits as f64;
+        Ok([map, eye.exec.gpu_ms, cost.pass.gpu_ms, wall, submits])
     };
     for _ in 0..cfg.warmup.max(2) {
         frame(gpu)?;
@@ -131,7 +136,7 @@ fn shadow_frames(
         return Err(format!("validation: {m}"));
     }
     let med =
-        |f: &dyn Fn(&[f64; 4]) -> f64| median_iqr(&mut runs.iter().map(f).collect::<Vec<_>>()).0;
+        |f: &dyn Fn(&[f64; 5]) -> f64| median_iqr(&mut runs.iter().map(f).collect::<Vec<_>>()).0;
     Ok((
         ShadowBench {
             map_size: sh.map_size(),
@@ -141,6 +146,7 @@ fn shadow_frames(
             shadow_pass_gpu_ms_median: med(&|r| r[2]),
             frame_gpu_ms_median: med(&|r| r[0] + r[1] + r[2]),
             frame_ms_median: med(&|r| r[3]),
+            submits_max: runs.iter().map(|r| r[4] as u64).max().unwrap_or(0),
             lit_pixels: st.lit_pixels,
             shadowed_pixels: st.shadowed_pixels,
         },

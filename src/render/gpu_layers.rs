@@ -239,6 +239,8 @@ pub fn composite(
             break;
         }
         gpu.accumulate((m == 0).then_some(&table[..]))?;
+        // The accumulate pass is a submission of its own.
+        out.stats.counts.submits += 1;
         out.pixels.push(covered);
         if images || m == 0 {
             let layer = SolidLayer {

@@ -48,12 +48,14 @@ pub(super) fn render_layered(
     let mut stats = None;
     // GPU and frame time of every layer's plan, the one that finds none included.
     let (mut gpu_ms, mut frame_ms, mut record_ms) = (0.0, 0.0, 0.0);
+    let mut submits = 0;
     for k in 1..=max {
         let p = plan::build_kirsch_layer(&prep, &opts.build, k)?;
         let s = gpu.execute(&p)?;
         gpu_ms += s.exec.gpu_ms;
         frame_ms += s.exec.frame_ms;
         record_ms += s.exec.record_ms;
+        submits += s.exec.counts.submits;
         let covered = s.exec.counts.final_samples;
         if covered == 0 || covered < lopts.threshold {
             break;
@@ -76,12 +78,18 @@ pub(super) fn render_layered(
     let mut stats = match stats {
         Some(s) => s,
         // Nothing covers a pixel: the (empty) first layer is the image.
-        None => gpu.execute(&plan::build_kirsch_layer(&prep, &opts.build, 1)?)?,
+        None => {
+            let s = gpu.execute(&plan::build_kirsch_layer(&prep, &opts.build, 1)?)?;
+            submits += s.exec.counts.submits;
+            s
+        }
     };
     stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
     stats.exec.gpu_ms = gpu_ms;
     stats.exec.frame_ms = frame_ms;
     stats.exec.record_ms = record_ms;
+    // Every layer's plan is a frame of its own.
+    stats.exec.counts.submits = submits;
     let transparent = scene.appearance.is_transparent();
     let mut images = match layers.first() {
         Some(first) => first.clone(),

@@ -57,6 +57,10 @@ pub struct ShadowStats {
     /// GPU: the shadow pass (GPU time).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shadow_pass_gpu_ms: Option<f64>,
+    /// GPU: queue submissions of the shadowed frame (map, eye, pass; 1 when
+    /// both frames replay, see `GpuShadows::frame`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadow_submits: Option<u64>,
 }
 
 /// The shadow map's side for a `width × height` eye image.
@@ -211,6 +215,9 @@ pub struct ShadowCost {
     pub map: Option<vk::ExecStats>,
     /// The shadow pass.
     pub pass: vk::shadow::ShadowRun,
+    /// Queue submissions of the whole shadowed frame (map, eye and pass): 1
+    /// when both frames replay ([`GpuShadows::frame`]).
+    pub submits: u64,
 }
 
 impl GpuShadows {
@@ -292,12 +299,6 @@ impl GpuShadows {
         Ok(Some(st))
     }
 
-    /// Renders the light's map again (the bench times it).
-    pub fn render_map(&mut self) -> Result<vk::ExecStats, RenderError> {
-        self.map_done = false;
-        Ok(self.ensure_map()?.expect("just forgotten"))
-    }
-
     /// Darkens the shadowed pixels of `gpu`'s last frame (seen by `eye`), the
     /// map rendered first if it needs to be.
     pub fn shade(&mut self, gpu: &GpuRenderer, eye: &Camera) -> Result<ShadowCost, RenderError> {
@@ -308,7 +309,71 @@ impl GpuShadows {
         let pass = self
             .pass
             .run(exec, &self.map, &params, exec.output_rect())?;
-        Ok(ShadowCost { map, pass })
+        let submits = map.as_ref().map_or(0, |m| m.counts.submits) + 1;
+        Ok(ShadowCost { map, pass, submits })
+    }
+
+    /// One shadowed frame of `plan` on `gpu`, seen by `eye`: the light's map
+    /// (again when `new_map`, as the bench times it; otherwise only when it
+    /// does not hold this plan's), the eye's frame and the shadow pass. When
+    /// both frames replay their recordings (their loop counts are known) they
+    /// and the pass go in one submission with one wait (issue 9 §2); a frame
+    /// whose counts then fail the GPU's check runs again loop by loop and the
+    /// pass after it. Otherwise (a plan's first frame) frame by frame.
+    pub fn frame(
+        &mut self,
+        gpu: &mut GpuRenderer,
+        plan: &Plan,
+        eye: &Camera,
+        new_map: bool,
+    ) -> Result<(crate::render::FrameStats, ShadowCost), RenderError> {
+        if new_map {
+            self.map_done = false;
+        }
+        let batched = gpu.executor().knows_loops(plan)
+            && (self.map_done || self.map.knows_loops(&self.map_plan));
+        if !batched {
+            let stats = gpu.execute(plan)?;
+            let mut cost = self.shade(gpu, eye)?;
+            cost.submits += stats.exec.counts.submits;
+            return Ok((stats, cost));
+        }
+        let map_frame = match self.map_done {
+            true => None,
+            false => Some(self.map.prepare(&self.map_plan)?.expect("counts known")),
+        };
+        let eye_frame = gpu.executor_mut().prepare(plan)?.expect("counts known");
+        let exec = gpu.executor();
+        let d = exec.desc();
+        let params = self.view.params(eye, (d.width, d.height));
+        let scissor = exec.output_rect();
+        self.pass.record_own(exec, &self.map, &params, scissor)?;
+        let frames: Vec<_> = map_frame
+            .iter()
+            .map(|f| f.cmd)
+            .chain([eye_frame.cmd])
+            .collect();
+        self.pass.submit_after(&frames)?;
+        let map = match map_frame {
+            Some(f) => Some(self.map.complete(&self.map_plan, f)?),
+            None => None,
+        };
+        self.map_done = true;
+        let exec = gpu.executor_mut().complete(plan, eye_frame)?;
+        // Frames run again loop by loop: their images are new, so is the pass.
+        let rerun: Vec<u64> = map
+            .iter()
+            .chain([&exec])
+            .filter(|s| s.recorded == vk::Recorded::Stepwise)
+            .map(|s| s.counts.submits)
+            .collect();
+        let pass = match rerun.is_empty() {
+            true => self.pass.result(scissor)?,
+            false => self.pass.run(gpu.executor(), &self.map, &params, scissor)?,
+        };
+        let submits = 1 + rerun.iter().sum::<u64>() + u64::from(!rerun.is_empty());
+        let stats = gpu.frame_stats(plan, exec);
+        Ok((stats, ShadowCost { map, pass, submits }))
     }
 
     /// The map rendered, and the pass, handed to an embedder
@@ -407,13 +472,13 @@ pub fn gpu_shadowed(
     let plan = crate::plan::build_with(opts.algo, &prep, &opts.build)?;
     let mut gpu = GpuRenderer::for_options(scene, opts)?;
     let mut shadows = GpuShadows::for_renderer(&mut gpu, scene, light, opts.algo, &opts.build)?;
-    let mut stats = gpu.execute(&plan)?;
-    let cost = shadows.shade(&gpu, &scene.camera)?;
+    let (mut stats, cost) = shadows.frame(&mut gpu, &plan, &scene.camera, false)?;
     let images = gpu.read_back()?;
     let mask = shadows.mask()?;
     let mut st = shadows.stats(&images.prim)?;
     st.shadow_map_gpu_ms = cost.map.map(|m| m.gpu_ms);
     st.shadow_pass_gpu_ms = Some(cost.pass.gpu_ms);
+    st.shadow_submits = Some(cost.submits);
     stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
     stats.shadow = Some(st);
     drop(shadows);

@@ -5,7 +5,8 @@
 //! map's depth and ids as textures, darkens the shadowed pixels of the eye's
 //! colour image in place (by blending, so the pass never reads the image it
 //! writes) and marks them in a mask image of its own. Both frames' images stay
-//! on the GPU: nothing is read back between them. One submission per pass.
+//! on the GPU: nothing is read back between them. The pass goes in one
+//! submission with the frames it reads when they replay (`submit_after`).
 
 use std::sync::Arc;
 
@@ -316,19 +317,50 @@ impl ShadowPass {
         params: &ShadowParams,
         scissor: Rect,
     ) -> Result<ShadowRun, VkError> {
+        self.record_own(eye, map, params, scissor)?;
+        self.submit_after(&[])?;
+        self.result(scissor)
+    }
+
+    /// Records the pass into its own command buffer for [`Self::submit_after`]:
+    /// `eye` and `map` are idle or their frames go in that submission first
+    /// (their images' views are the last frames').
+    pub fn record_own(
+        &mut self,
+        eye: &Executor,
+        map: &Executor,
+        params: &ShadowParams,
+        scissor: Rect,
+    ) -> Result<(), VkError> {
         let _layer = self.shared.layer_use();
         let cmd = self.submit.cmd;
         self.submit.begin(cmd, true)?;
         let ts = (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool);
         self.record(cmd, eye, map, params, scissor, ts)?;
-        self.submit.finish(cmd)?;
+        self.submit.end(cmd)
+    }
+
+    /// Submits the executable `before` (frames whose images the pass reads,
+    /// in order) and then the pass recorded by [`Self::record_own`], in one
+    /// submission, and waits for it: a shadowed frame is one submission.
+    pub fn submit_after(&self, before: &[vk::CommandBuffer]) -> Result<(), VkError> {
+        let _layer = self.shared.layer_use();
+        let mut cmds = before.to_vec();
+        cmds.push(self.submit.cmd);
+        self.submit.submit_all(&cmds, &[], &[])?;
+        self.submit.wait()
+    }
+
+    /// What the last submitted pass over `scissor` cost.
+    pub fn result(&self, scissor: Rect) -> Result<ShadowRun, VkError> {
+        let _layer = self.shared.layer_use();
         let device = &self.shared.device;
-        let gpu_ms = match ts {
-            Some(pool) => {
-                let t = submit::query_results(device, pool, 2)?;
+        let gpu_ms = match self.shared.timestamp_valid_bits > 0 {
+            true => {
+                let t = submit::query_results(device, self.timestamps.pool, 2)?;
                 t[1].saturating_sub(t[0]) as f64 * self.shared.limits.timestamp_period as f64 * 1e-6
             }
-            None => 0.0,
+            false => 0.0,
         };
         Ok(ShadowRun {
             gpu_ms,
@@ -384,12 +416,6 @@ impl ShadowPass {
         // SAFETY: outside rendering; the buffer allows transfer dst and holds
         // the block (a multiple of 4 bytes, under 64 KiB).
         unsafe { device.cmd_update_buffer(cmd, self.uniform.raw, 0, &params.bytes()) };
-        submit::memory_barrier(
-            device,
-            cmd,
-            (transfer, vk::AccessFlags::TRANSFER_WRITE),
-            (frag, vk::AccessFlags::UNIFORM_READ),
-        );
         let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
         let col = vk::ImageAspectFlags::COLOR;
         let sampled = [
@@ -399,33 +425,36 @@ impl ShadowPass {
             (m.depth.0, ds),
             (m.prim.0, col),
         ];
-        let barriers = |from: Usage, to: Usage| {
-            let (src, dst) = sync::transition(from, to, false);
-            let b: Vec<_> = sampled
+        // The five sampled images, the colour and the mask change layout
+        // together: one barrier before the draw (with the uniform block's
+        // write) and one after. The mask is cleared by its load op: its old
+        // contents need not be kept.
+        let transitions = |sampled_to: (Usage, Usage),
+                           targets_to: (Usage, Usage),
+                           uniform: &[vk::MemoryBarrier]| {
+            let (s_src, s_dst) = sync::transition(sampled_to.0, sampled_to.1, false);
+            let (t_src, t_dst) = sync::transition(targets_to.0, targets_to.1, false);
+            let discard = targets_to.1 == Usage::ColorTarget;
+            let (m_src, m_dst) = sync::transition(targets_to.0, targets_to.1, discard);
+            let mut b: Vec<_> = sampled
                 .iter()
-                .map(|&(img, aspect)| sync::image_barrier(src, dst, img, aspect))
+                .map(|&(img, aspect)| sync::image_barrier(s_src, s_dst, img, aspect))
                 .collect();
-            (src.stage, dst.stage, b)
+            b.push(sync::image_barrier(t_src, t_dst, e.color.0, col));
+            b.push(sync::image_barrier(m_src, m_dst, self.mask.raw, col));
+            let (src, dst) = match uniform.is_empty() {
+                true => (s_src.stage | t_src.stage, s_dst.stage | t_dst.stage),
+                false => (
+                    s_src.stage | t_src.stage | transfer,
+                    s_dst.stage | t_dst.stage | frag,
+                ),
+            };
+            submit::pipeline_barrier(device, cmd, (src, dst), uniform, &b);
         };
-        let (s, dst, b) = barriers(REST, Usage::Sampled);
-        submit::image_barriers(device, cmd, s, dst, &b);
-        // The colour and the mask as targets and back; the mask is cleared,
-        // its old contents need not be kept.
-        let targets = |from: Usage, to: Usage| {
-            let (src, dst) = sync::transition(from, to, false);
-            let (mask_src, mask_dst) = sync::transition(from, to, to == Usage::ColorTarget);
-            submit::image_barriers(
-                device,
-                cmd,
-                src.stage,
-                dst.stage,
-                &[
-                    sync::image_barrier(src, dst, e.color.0, col),
-                    sync::image_barrier(mask_src, mask_dst, self.mask.raw, col),
-                ],
-            );
-        };
-        targets(REST, Usage::ColorTarget);
+        let uniform = [vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::UNIFORM_READ)];
+        transitions((REST, Usage::Sampled), (REST, Usage::ColorTarget), &uniform);
         if let Some(pool) = ts {
             // SAFETY: recording, outside rendering; query 0 was reset above.
             unsafe {
@@ -439,9 +468,7 @@ impl ShadowPass {
                 device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1)
             };
         }
-        let (s, dst, b) = barriers(Usage::Sampled, REST);
-        submit::image_barriers(device, cmd, s, dst, &b);
-        targets(Usage::ColorTarget, REST);
+        transitions((Usage::Sampled, REST), (Usage::ColorTarget, REST), &[]);
         self.ran = true;
         Ok(())
     }

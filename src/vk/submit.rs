@@ -80,16 +80,27 @@ impl Submitter {
         wait: &[(vk::Semaphore, vk::PipelineStageFlags)],
         signal: &[vk::Semaphore],
     ) -> Result<(), VkError> {
-        let cmds = [cmd];
+        self.submit_all(&[cmd], wait, signal)
+    }
+
+    /// Submits the executable `cmds` in one submission, in order, with the
+    /// given semaphores, signalling the fence (several executors' frames at
+    /// once: `vk::exec::PreparedFrame`).
+    pub fn submit_all(
+        &self,
+        cmds: &[vk::CommandBuffer],
+        wait: &[(vk::Semaphore, vk::PipelineStageFlags)],
+        signal: &[vk::Semaphore],
+    ) -> Result<(), VkError> {
         let sems: Vec<_> = wait.iter().map(|w| w.0).collect();
         let stages: Vec<_> = wait.iter().map(|w| w.1).collect();
         let si = [vk::SubmitInfo::default()
-            .command_buffers(&cmds)
+            .command_buffers(cmds)
             .wait_semaphores(&sems)
             .wait_dst_stage_mask(&stages)
             .signal_semaphores(signal)];
         let _queue = self.shared.queue_lock.lock();
-        // SAFETY: the command buffer is executable; the fence is unsignaled; the lock
+        // SAFETY: the command buffers are executable; the fence is unsignaled; the lock
         // serializes our submissions (an embedding host synchronizes its own, see
         // Context::from_raw).
         unsafe {

@@ -1,7 +1,7 @@
 //! The executor's side of embedding (`vk::embed`): a frame recorded, unrolled to
 //! learnt loop counts, into a command buffer someone else submits, and the check
 //! of its occlusion counts read later without waiting. Same recording as the
-//! standalone replay (`run_unrolled`), minus the submission.
+//! standalone replay (`ready_unrolled`, `check_unrolled`), minus the submission.
 
 use ash::vk;
 

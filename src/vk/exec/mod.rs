@@ -23,6 +23,7 @@
 //! (the accumulate pass compositing peeled layers on the GPU, seed 000 §6),
 //! `shadow` (what the shadow pass, `vk::shadow`, reads of an executor).
 
+mod batch;
 mod camera;
 mod embed;
 mod gpu_scene;
@@ -41,6 +42,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 pub use super::conv::DepthFormat;
+pub use batch::PreparedFrame;
 pub(crate) use embed::{Output, Unrolled};
 pub(crate) use normals::copy_to_host;
 pub(crate) use shadow::color_format;
@@ -171,6 +173,20 @@ struct Clock {
     first_submit_cpu: u64,
     /// The calling thread's CPU time recording, pipeline creation included.
     record_ms: f64,
+}
+
+/// A frame between [`Executor::begin_frame`] and [`Executor::end_frame`].
+struct FrameStart {
+    start: Instant,
+    clock: Clock,
+    /// The loop counts the last frame of the plan needed (`None`: a new plan).
+    known: Option<Vec<u32>>,
+    /// Each mesh's exact screen rectangle under the frame's camera.
+    exact: Scissors,
+    /// The camera is the last frame's.
+    still: bool,
+    /// Pipelines created, and their CPU ms, before the frame.
+    pipelines_before: (u32, f64),
 }
 
 impl Clock {
@@ -382,6 +398,24 @@ impl Executor {
     /// Executes `plan` on the uploaded scene; the images stay on the GPU.
     pub fn execute(&mut self, plan: &Plan) -> Result<ExecStats, VkError> {
         let _layer = self.shared.layer_use();
+        let mut f = self.begin_frame(plan)?;
+        let unrolled = match f.known.clone() {
+            Some(layers) => {
+                let kind = self.ready_unrolled(plan, &layers, &mut f)?;
+                f.clock.submitting();
+                self.submit.submit(self.frame_cmd, &[], &[])?;
+                self.submit.wait()?;
+                self.check_unrolled(plan, &layers, kind)?
+            }
+            None => None,
+        };
+        self.end_frame(plan, f, unrolled)
+    }
+
+    /// What every frame does before recording: checks `plan`, makes its
+    /// images, writes the camera (no frame is in flight) and looks up the loop
+    /// counts the last frame of `plan` needed.
+    fn begin_frame(&mut self, plan: &Plan) -> Result<FrameStart, VkError> {
         let start = Instant::now();
         let meshes = self
             .scene
@@ -394,30 +428,42 @@ impl Executor {
         let scene = self.scene.as_ref().expect("checked above");
         let cam = scene.cam;
         let exact = Scissors::exact(scene, &self.desc);
-        // No frame is in flight: the host may write the camera.
         self.camera.write(&cam)?;
-        let mut clock = Clock::default();
         let known = match &self.layers {
             Some((p, n)) if p == plan => Some(n.clone()),
             _ => None,
         };
         let still = self.last_cam == Some(cam);
         self.last_cam = Some(cam);
-        let (pipelines_before, pipeline_ms_before) =
-            (self.pipelines.created, self.pipelines.create_ms);
-        let unrolled = match known {
-            Some(layers) => self.run_unrolled(plan, &layers, exact.clone(), still, &mut clock)?,
-            None => None,
-        };
+        Ok(FrameStart {
+            start,
+            clock: Clock::default(),
+            known,
+            exact,
+            still,
+            pipelines_before: (self.pipelines.created, self.pipelines.create_ms),
+        })
+    }
+
+    /// Finishes a frame begun by [`Self::begin_frame`]: `unrolled` is the
+    /// unrolled frame's stats, `None` when it did not run or its loop counts
+    /// did not fit (then the frame runs loop by loop now).
+    fn end_frame(
+        &mut self,
+        plan: &Plan,
+        mut f: FrameStart,
+        unrolled: Option<ExecStats>,
+    ) -> Result<ExecStats, VkError> {
         let mut stats = match unrolled {
             Some(s) => s,
             None => {
-                self.rects = exact;
-                let s = self.run_stepwise(plan, &mut clock)?;
+                self.rects = f.exact;
+                let s = self.run_stepwise(plan, &mut f.clock)?;
                 self.layers = Some((plan.clone(), s.counts.loop_iterations.clone()));
                 s
             }
         };
+        let clock = f.clock;
         stats.frame_ms = clock
             .first_submit
             .map(|t| t.elapsed().as_secs_f64() * 1e3)
@@ -427,10 +473,11 @@ impl Executor {
         }
         // Pipelines first needed by this plan were created while recording; their
         // cost (the driver compiling shaders) is reported on its own.
+        let (pipelines_before, pipeline_ms_before) = f.pipelines_before;
         stats.pipeline_ms = self.pipelines.create_ms - pipeline_ms_before;
         stats.counts.pipelines_created = (self.pipelines.created - pipelines_before) as u64;
         stats.record_ms = (clock.record_ms - stats.pipeline_ms).max(0.0);
-        stats.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+        stats.cpu_ms = f.start.elapsed().as_secs_f64() * 1e3;
         self.last_output = Some(plan.output_ds);
         Ok(stats)
     }
@@ -519,18 +566,16 @@ impl Executor {
         Ok(())
     }
 
-    /// The frame with its loops unrolled to `layers`, recorded once and replayed:
-    /// `None` when the GPU's counts show that `layers` no longer fit.
-    /// `exact`: the meshes' rectangles under the current camera; `still`: the
-    /// camera is the last frame's.
-    fn run_unrolled(
+    /// Makes the frame command buffer hold `plan` with its loops unrolled to
+    /// `layers` for the current camera: the kept recording when it fits (see
+    /// "Executor" in the README), otherwise a new one. Returns how it came to be.
+    fn ready_unrolled(
         &mut self,
         plan: &Plan,
         layers: &[u32],
-        exact: Scissors,
-        still: bool,
-        clock: &mut Clock,
-    ) -> Result<Option<ExecStats>, VkError> {
+        f: &mut FrameStart,
+    ) -> Result<Recorded, VkError> {
+        let (exact, still) = (&f.exact, f.still);
         // A recording of this plan, objects and loop counts, made for some camera.
         let same = self
             .recording
@@ -538,7 +583,7 @@ impl Executor {
             .filter(|r| r.key.epoch == self.epoch && r.key.layers == layers && r.key.plan == *plan);
         let kind = match same {
             // Scissors grown for a moving camera are made exact once it stops.
-            Some(r) if r.key.rects.covers(&exact) && !(still && r.key.rects.grown) => {
+            Some(r) if r.key.rects.covers(exact) && !(still && r.key.rects.grown) => {
                 if r.key.rects.rects == exact.rects || still {
                     Recorded::Replayed
                 } else {
@@ -552,15 +597,23 @@ impl Executor {
             self.rects = if kind == Recorded::Camera && !still {
                 exact.grown(&self.desc)
             } else {
-                exact
+                exact.clone()
             };
             self.recording = None;
-            clock.record_ms += self.record_kept(plan, layers)?;
+            f.clock.record_ms += self.record_kept(plan, layers)?;
         }
-        let rec = self.recording.as_ref().expect("recorded above");
-        clock.submitting();
-        self.submit.submit(self.frame_cmd, &[], &[])?;
-        self.submit.wait()?;
+        Ok(kind)
+    }
+
+    /// The stats of the unrolled frame just executed, from the GPU's counts:
+    /// `None` when they show that `layers` no longer fit.
+    fn check_unrolled(
+        &mut self,
+        plan: &Plan,
+        layers: &[u32],
+        kind: Recorded,
+    ) -> Result<Option<ExecStats>, VkError> {
+        let rec = self.recording.as_ref().expect("recorded before submission");
         let device = &self.shared.device;
         let samples = submit::query_results(device, self.occlusion.pool, rec.queries.len())?;
         if !layers_fit(plan, layers, &rec.queries, &samples) {

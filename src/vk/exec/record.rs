@@ -22,7 +22,7 @@ use super::state::{self, DynState};
 use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
-use clears::PendingClear;
+use clears::{ClearNeed, PendingClear};
 
 mod clears;
 mod host;
@@ -147,7 +147,7 @@ pub(super) struct Recorder<'a> {
     state: BTreeMap<Resource, Usage>,
     pending_clear: BTreeMap<Resource, PendingClear>,
     /// Regions of the clears recorded next, in order (`clears::clear_regions`).
-    clear_regions: VecDeque<Rect>,
+    clear_regions: VecDeque<ClearNeed>,
     /// Group of each occlusion query of the current command buffer.
     pub queries: Vec<Group>,
     /// Group of the counted draws recorded next.

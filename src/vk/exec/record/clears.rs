@@ -4,7 +4,8 @@
 //! before the image is cleared or replaced again ([`clear_regions`], pure): the
 //! union of the scissors of the draws that use it, grown by [`READ_MARGIN`], or
 //! the whole image when it is copied, sampled by a full-screen copy or read back.
-//! A clear nobody reads is dropped.
+//! A clear nobody reads is dropped; so is one to the value an earlier clear
+//! left with no write since ([`ClearNeed::Held`]).
 //!
 //! How a clear is recorded depends on [`ClearMode`] and the next use:
 //! - the next use renders into the image: the new block's load op (`LoadOp`), or
@@ -58,24 +59,55 @@ pub fn cleared(clear: &Clear, normals: bool) -> Vec<Resource> {
     }
 }
 
-/// For every image every `Clear` of `steps` clears, in order ([`cleared`]): the
-/// region of the `width × height` image that the steps after it can read before
-/// the image is cleared or wholly replaced again. `scissor` resolves a draw's
-/// scissor (an empty one: the draw is skipped); `outputs` are read whole after
-/// the frame.
+/// What one image's clear must do ([`clear_regions`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClearNeed {
+    /// Clear this region (empty: nobody reads the value, drop the clear).
+    Reach(Rect),
+    /// Nothing: an earlier clear of the image to the same value, with no write
+    /// since, already reaches everything read after this one.
+    Held,
+}
+
+/// Whether `step` may write `r` (a target of a draw or depth copy, or a copy's
+/// destination); clears are not counted.
+fn may_write(step: &Step, r: Resource, normals: bool) -> bool {
+    let uses = step.usage();
+    let color = uses
+        .iter()
+        .any(|u| u.0 == Resource::Color && u.1 == Usage::ColorTarget);
+    uses.iter()
+        .any(|&(res, u)| res == r && u.writes() && u != Usage::Clear)
+        || (normals && color && r == Resource::Normal)
+}
+
+/// For every image every `Clear` of `steps` clears, in order ([`cleared`]):
+/// what the clear must do. A clear reaches the region of the `width × height`
+/// image that the steps after it can read before the image is wholly replaced,
+/// or cleared again after a write or to another value; a clear to the value an
+/// earlier clear left, with no write since, is [`ClearNeed::Held`] and the
+/// earlier clear reaches what is read after it (CST clears its floor texture
+/// to the same depth for every product and only samples it). `scissor`
+/// resolves a draw's scissor (an empty one: the draw is skipped); `outputs`
+/// are read whole after the frame.
 pub fn clear_regions(
     steps: &[&Step],
     scissor: impl Fn(&Scissor) -> Rect,
     outputs: &[Resource],
     normals: bool,
     (width, height): (u32, u32),
-) -> Vec<Rect> {
+) -> Vec<ClearNeed> {
     let full = Rect::full(width, height);
-    let region = |after: &[&Step], r: Resource| -> Rect {
+    let region = |value: &Clear, after: &[&Step], r: Resource| -> Rect {
         let mut region = Rect::EMPTY;
+        let mut written = false;
         for s in after {
             match s {
-                Step::Clear(c) if cleared(c, normals).contains(&r) => return region,
+                Step::Clear(c) if cleared(c, normals).contains(&r) => {
+                    if written || c != value {
+                        return region;
+                    }
+                }
                 Step::CopyTexture { src, dst } if src != dst => {
                     if r == Resource::Texture(*src) {
                         return full;
@@ -98,10 +130,10 @@ pub fn clear_regions(
                     let color = uses.iter().any(|u| u.0 == Resource::Color);
                     let used = uses.iter().any(|u| u.0 == r)
                         || (normals && color && r == Resource::Normal);
-                    if used {
-                        let rect =
-                            scissor(&d.scissor).grown(READ_MARGIN, READ_MARGIN, width, height);
-                        region = region.union(&rect);
+                    let rect = scissor(&d.scissor);
+                    if used && !rect.is_empty() {
+                        region = region.union(&rect.grown(READ_MARGIN, READ_MARGIN, width, height));
+                        written |= may_write(s, r, normals);
                     }
                 }
                 _ => {}
@@ -113,11 +145,24 @@ pub fn clear_regions(
             region
         }
     };
+    // The clear each image holds unchanged since (no write after it).
+    let mut held: Vec<(Resource, Clear)> = Vec::new();
     let mut out = Vec::new();
     for (i, s) in steps.iter().enumerate() {
         if let Step::Clear(c) = s {
             for r in cleared(c, normals) {
-                out.push(region(&steps[i + 1..], r));
+                if held.contains(&(r, *c)) {
+                    out.push(ClearNeed::Held);
+                    continue;
+                }
+                held.retain(|h| h.0 != r);
+                held.push((r, *c));
+                out.push(ClearNeed::Reach(region(c, &steps[i + 1..], r)));
+            }
+        } else {
+            let skipped = matches!(s, Step::Draw(d) if scissor(&d.scissor).is_empty());
+            if !skipped {
+                held.retain(|&(r, _)| !may_write(s, r, normals));
             }
         }
     }
@@ -145,7 +190,13 @@ impl Recorder<'_> {
     pub(super) fn clear(&mut self, clear: &Clear) {
         for r in cleared(clear, self.b.normals) {
             let full = Rect::full(self.b.desc.width, self.b.desc.height);
-            let rect = self.clear_regions.pop_front().unwrap_or(full);
+            let rect = match self.clear_regions.pop_front() {
+                None => full,
+                Some(ClearNeed::Reach(rect)) => rect,
+                // The image holds the value wherever it is read: no command,
+                // no barrier, its block goes on.
+                Some(ClearNeed::Held) => continue,
+            };
             let attached = self.block.as_ref().is_some_and(|b| {
                 b.colors().contains(&r) || b.ds.map(Resource::DepthStencil) == Some(r)
             });
@@ -367,9 +418,20 @@ mod tests {
         scissor(&Scissor::BoundsOf(vec![m])).grown(READ_MARGIN, READ_MARGIN, W, H)
     }
 
-    fn regions(steps: &[Step], outputs: &[Resource]) -> Vec<Rect> {
+    fn needs(steps: &[Step], outputs: &[Resource]) -> Vec<ClearNeed> {
         let refs: Vec<&Step> = steps.iter().collect();
         clear_regions(&refs, scissor, outputs, false, (W, H))
+    }
+
+    /// The regions of clears that all reach something.
+    fn regions(steps: &[Step], outputs: &[Resource]) -> Vec<Rect> {
+        needs(steps, outputs)
+            .into_iter()
+            .map(|n| match n {
+                ClearNeed::Reach(r) => r,
+                ClearNeed::Held => panic!("no clear of these tests is held"),
+            })
+            .collect()
     }
 
     #[test]
@@ -463,6 +525,53 @@ mod tests {
         let steps = vec![Step::Clear(Clear::Color), draw(Fragment::Shade, 0, 2)];
         let refs: Vec<&Step> = steps.iter().collect();
         let r = clear_regions(&refs, scissor, &[], true, (W, H));
-        assert_eq!(r, vec![square(2); 3]);
+        assert_eq!(r, vec![ClearNeed::Reach(square(2)); 3]);
+    }
+
+    /// CST's floor: cleared to one value per product, only ever sampled. The
+    /// first clear reaches every product's reads; the others need nothing.
+    #[test]
+    fn a_clear_to_the_value_the_image_holds_is_held() {
+        let floor = Step::Clear(Clear::Texture { tex: 0, depth: 0.0 });
+        let peel = |mesh| {
+            draw(
+                Fragment::Peel {
+                    prev: 0,
+                    out: 1,
+                    shade: false,
+                },
+                0,
+                mesh,
+            )
+        };
+        let steps = vec![floor.clone(), peel(1), floor.clone(), peel(3)];
+        assert_eq!(
+            needs(&steps, &[]),
+            vec![
+                ClearNeed::Reach(square(1).union(&square(3))),
+                ClearNeed::Held
+            ]
+        );
+        // Another value, or a write in between: the second clear is needed and
+        // ends the first one's reach.
+        let other = Step::Clear(Clear::Texture { tex: 0, depth: 1.0 });
+        let steps = vec![floor.clone(), peel(1), other, peel(3)];
+        assert_eq!(regions(&steps, &[]), vec![square(1), square(3)]);
+        let write = draw(Fragment::WriteDepth { out: 0 }, 0, 2);
+        let steps = vec![floor.clone(), peel(1), write, floor.clone(), peel(3)];
+        assert_eq!(
+            regions(&steps, &[]),
+            vec![square(1).union(&square(2)), square(3)]
+        );
+        // A write that is skipped (empty scissor) writes nothing.
+        let Step::Draw(mut skipped) = draw(Fragment::WriteDepth { out: 0 }, 0, 2) else {
+            unreachable!()
+        };
+        skipped.scissor = Scissor::BoundsOf(vec![]);
+        let steps = vec![floor.clone(), Step::Draw(skipped), floor, peel(3)];
+        assert_eq!(
+            needs(&steps, &[]),
+            vec![ClearNeed::Reach(square(3)), ClearNeed::Held]
+        );
     }
 }
