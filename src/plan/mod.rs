@@ -20,6 +20,7 @@ pub mod print;
 pub mod stencil;
 pub mod step;
 pub mod tie;
+pub mod tie_free;
 pub mod trickle;
 pub mod usage;
 pub mod validate;
