@@ -1,0 +1,89 @@
+//! Interleaved A/B of the tie-free fast path (`plan::tie_free`,
+//! `Executor::set_tie_free`) in one process: for each scene and algorithm, a
+//! frame with every parity and peel draw running its tie-rule shader alternates
+//! with a frame where those that cannot tie run as plain depth tests, so a shared
+//! machine's load falls on both alike. Prints the median process CPU time per
+//! frame (every thread; with `LP_NUM_THREADS=0` lavapipe rasterizes in the
+//! calling thread), the ratio, and the executed tie-free and tie-rule draws.
+//!
+//! `cargo run --release --example tie_ab -- SIZE FRAMES ALGOS SCENE...`
+//! with ALGOS comma-separated (e.g. `800x800 7 cst-g,cst-i scenes/complex.toml`).
+//! README, "Per-fragment work".
+
+use std::path::Path;
+
+use peeltrim::plan::{self, Algo, Prepared};
+use peeltrim::scene::load::{load, LoadOptions};
+use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (w, h) = args[0].split_once('x').expect("SIZE is WxH");
+    let size = (w.parse().unwrap(), h.parse().unwrap());
+    let frames: usize = args[1].parse().expect("FRAMES");
+    let algos: Vec<Algo> = args[2]
+        .split(',')
+        .map(|a| Algo::parse(a).expect("algo"))
+        .collect();
+    let ctx = Context::new(&ContextDesc {
+        device: DeviceChoice::Cpu,
+        validation: false,
+    })
+    .expect("lavapipe");
+    println!("scene            algo          tie-rule CPU ms  tie-free CPU ms  ratio  | tie-free draws, tie-rule draws left");
+    for path in &args[3..] {
+        let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
+        let prep = Prepared::new(&scene).expect("prepared");
+        for &algo in &algos {
+            let plan = plan::build(algo, &prep).expect("plan");
+            let desc = ExecDesc {
+                width: size.0,
+                height: size.1,
+                depth_format: DepthFormat::D32S8,
+                reversed_z: true,
+            };
+            let mut exs: Vec<Executor> = [false, true]
+                .iter()
+                .map(|&on| {
+                    let mut e = Executor::new(&ctx, &desc).expect("executor");
+                    e.set_tie_free(on);
+                    e.upload(&scene).expect("upload");
+                    for _ in 0..2 {
+                        e.execute(&plan).expect("warm-up");
+                    }
+                    e
+                })
+                .collect();
+            let mut cpu = [Vec::new(), Vec::new()];
+            for _ in 0..frames {
+                for (i, e) in exs.iter_mut().enumerate() {
+                    cpu[i].push(e.execute(&plan).expect("frame").frame_cpu_ms);
+                }
+            }
+            let c = exs[1].execute(&plan).expect("frame").counts;
+            let (a, b) = (median(cpu[0].clone()), median(cpu[1].clone()));
+            println!(
+                "{:16} {:12} {:15.1} {:16.1} {:6.2}  | {}, {}",
+                scene_name(path),
+                algo.name(),
+                a,
+                b,
+                b / a,
+                c.tie_free_draws,
+                c.tie_rule_draws
+            );
+        }
+    }
+}
+
+fn scene_name(p: &str) -> &str {
+    Path::new(p)
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or(p)
+}
