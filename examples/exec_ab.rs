@@ -9,28 +9,26 @@
 //! per-pass timestamps on or off (`Executor::set_pass_timestamps`). README,
 //! "Executor fixed costs on lavapipe".
 
+#[path = "common/ab.rs"]
+mod ab;
+
 use std::path::Path;
 
-use peeltrim::plan::{self, Algo, Prepared};
+use ab::{median, scene_name, Args};
+
+use peeltrim::plan::{self, Prepared};
 use peeltrim::scene::load::{load, LoadOptions};
 use peeltrim::vk::{
     ClearMode, Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor,
 };
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let (w, h) = args[0].split_once('x').expect("SIZE is WxH");
-    let size = (w.parse().unwrap(), h.parse().unwrap());
-    let frames: usize = args[1].parse().expect("FRAMES");
-    let algos: Vec<Algo> = args[2]
-        .split(',')
-        .map(|a| Algo::parse(a).expect("algo"))
-        .collect();
+    let Args {
+        size,
+        frames,
+        algos,
+        scenes,
+    } = ab::args();
     // (name, clear mode, scissored clears, per-pass timestamps)
     let variants: Vec<(&str, ClearMode, bool, bool)> = vec![
         ("whole", ClearMode::Command, false, true),
@@ -43,7 +41,7 @@ fn main() {
         validation: false,
     })
     .expect("lavapipe");
-    for path in &args[3..] {
+    for path in &scenes {
         let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
         let prep = Prepared::new(&scene).expect("prepared");
         for &algo in &algos {
@@ -96,11 +94,4 @@ fn main() {
             );
         }
     }
-}
-
-fn scene_name(p: &str) -> &str {
-    Path::new(p)
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or(p)
 }
