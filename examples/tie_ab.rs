@@ -37,6 +37,21 @@ fn main() {
     for path in &scenes {
         let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
         let prep = Prepared::new(&scene).expect("prepared");
+        let meshes: Vec<&peeltrim::scene::Mesh> = scene
+            .primitives
+            .iter()
+            .map(|p| &p.mesh)
+            .chain(scene.surfaces.iter().map(|s| &s.mesh))
+            .collect();
+        let t = std::time::Instant::now();
+        let gaps = peeltrim::geom::ties::TieGaps::new(&meshes);
+        println!(
+            "{}: tie analysis of {} triangles {:.1} ms, {} mesh pairs within the cap",
+            scene_name(path),
+            meshes.iter().map(|m| m.triangles.len()).sum::<usize>(),
+            t.elapsed().as_secs_f64() * 1e3,
+            gaps.pairs.len()
+        );
         for &algo in &algos {
             let plan = plan::build(algo, &prep).expect("plan");
             let desc = ExecDesc {
