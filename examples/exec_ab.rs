@@ -18,9 +18,7 @@ use ab::{median, scene_name, Args};
 
 use peeltrim::plan::{self, Prepared};
 use peeltrim::scene::load::{load, LoadOptions};
-use peeltrim::vk::{
-    ClearMode, Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor,
-};
+use peeltrim::vk::{ClearMode, Executor};
 
 fn main() {
     let Args {
@@ -36,22 +34,13 @@ fn main() {
         ("whole-nots", ClearMode::Command, false, false),
         ("scissored-nots", ClearMode::Command, true, false),
     ];
-    let ctx = Context::new(&ContextDesc {
-        device: DeviceChoice::Cpu,
-        validation: false,
-    })
-    .expect("lavapipe");
+    let ctx = ab::lavapipe();
     for path in &scenes {
         let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
         let prep = Prepared::new(&scene).expect("prepared");
         for &algo in &algos {
             let plan = plan::build(algo, &prep).expect("plan");
-            let desc = ExecDesc {
-                width: size.0,
-                height: size.1,
-                depth_format: DepthFormat::D32S8,
-                reversed_z: true,
-            };
+            let desc = ab::desc(size);
             let mut exs: Vec<Executor> = variants
                 .iter()
                 .map(|&(_, clears, scissored, ts)| {

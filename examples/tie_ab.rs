@@ -19,7 +19,7 @@ use ab::{median, scene_name, Args};
 
 use peeltrim::plan::{self, Prepared};
 use peeltrim::scene::load::{load, LoadOptions};
-use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor};
+use peeltrim::vk::Executor;
 
 fn main() {
     let Args {
@@ -28,11 +28,7 @@ fn main() {
         algos,
         scenes,
     } = ab::args();
-    let ctx = Context::new(&ContextDesc {
-        device: DeviceChoice::Cpu,
-        validation: false,
-    })
-    .expect("lavapipe");
+    let ctx = ab::lavapipe();
     println!("scene            algo          tie-rule CPU ms  tie-free CPU ms  ratio  | tie-free draws, tie-rule draws left");
     for path in &scenes {
         let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
@@ -54,12 +50,7 @@ fn main() {
         );
         for &algo in &algos {
             let plan = plan::build(algo, &prep).expect("plan");
-            let desc = ExecDesc {
-                width: size.0,
-                height: size.1,
-                depth_format: DepthFormat::D32S8,
-                reversed_z: true,
-            };
+            let desc = ab::desc(size);
             let mut exs: Vec<Executor> = [false, true]
                 .iter()
                 .map(|&on| {

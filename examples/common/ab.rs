@@ -37,3 +37,22 @@ pub fn scene_name(p: &str) -> &str {
         .and_then(|s| s.to_str())
         .unwrap_or(p)
 }
+
+/// Lavapipe without validation.
+pub fn lavapipe() -> peeltrim::vk::Context {
+    peeltrim::vk::Context::new(&peeltrim::vk::ContextDesc {
+        device: peeltrim::vk::DeviceChoice::Cpu,
+        validation: false,
+    })
+    .expect("lavapipe")
+}
+
+/// The default depth set-up (D32S8, reversed Z) at `size`.
+pub fn desc(size: (u32, u32)) -> peeltrim::vk::ExecDesc {
+    peeltrim::vk::ExecDesc {
+        width: size.0,
+        height: size.1,
+        depth_format: peeltrim::vk::DepthFormat::D32S8,
+        reversed_z: true,
+    }
+}
