@@ -5,7 +5,9 @@
 //! end has no includes), so shared shader code is written once. A shader that
 //! mentions `#ifdef NORMALS` is also compiled with `NORMALS` defined, into
 //! `OUT_DIR/<name>.<stage>.normals.spv`: the variant that writes the normal buffer
-//! (seed 001 §5.2) for executors that ask for one.
+//! (seed 001 §5.2) for executors that ask for one. Likewise `#ifdef HOST` gives
+//! `<name>.<stage>.host.spv`: the variant drawing into an embedding host's
+//! attachments (`vk::exec::record::host`).
 
 use std::path::Path;
 
@@ -34,9 +36,11 @@ fn main() {
             None,
             &Path::new(&out_dir).join(format!("{name}.spv")),
         );
-        if source.contains("#ifdef NORMALS") {
-            let out = Path::new(&out_dir).join(format!("{name}.normals.spv"));
-            compile(&path, stage, &source, Some("NORMALS"), &out);
+        for (define, suffix) in [("NORMALS", "normals"), ("HOST", "host")] {
+            if source.contains(&format!("#ifdef {define}")) {
+                let out = Path::new(&out_dir).join(format!("{name}.{suffix}.spv"));
+                compile(&path, stage, &source, Some(define), &out);
+            }
         }
     }
 }

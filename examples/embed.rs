@@ -19,6 +19,7 @@ use glam::{DVec3, Mat4};
 use peeltrim::embed::{CsgExpr, CsgScene, EmbedDesc, LoopCounts, MeshInput};
 use peeltrim::scene::shapes::{make_box, make_sphere};
 use peeltrim::scene::{Camera, Mesh, Projection};
+use peeltrim::vk::embed::HostPath;
 use peeltrim::vk::{Context, HostTargets};
 use peeltrim::Algo;
 
@@ -46,6 +47,8 @@ pub struct Report {
     /// Loop counts of the first and the last frame's recordings.
     pub first_counts: Vec<u32>,
     pub last_counts: Vec<u32>,
+    /// How each frame's final shading reached the host's targets.
+    pub host_paths: Vec<Option<HostPath>>,
     pub validation: Vec<String>,
 }
 
@@ -664,6 +667,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
     );
     let mut counts = Vec::new();
+    let mut paths = Vec::new();
     for k in 0..setup.frames.max(1) {
         let slot = (k % inflight) as usize;
         let (cmd, fence) = (cmds[slot], fences[slot]);
@@ -738,6 +742,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         // frames are pending (the fence wait above), submitted in recording order.
         let stats = unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
         counts.push(stats.counts.loop_iterations.clone());
+        paths.push(stats.host_path);
         // SAFETY: as above.
         unsafe {
             if last {
@@ -772,6 +777,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     let mut report = compare(&csg, extent, &pixels);
     report.first_counts = counts.first().cloned().unwrap_or_default();
     report.last_counts = counts.last().cloned().unwrap_or_default();
+    report.host_paths = paths;
     drop(csg);
     drop(ctx);
     // SAFETY: every frame completed; nothing uses these objects any more.

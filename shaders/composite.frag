@@ -13,11 +13,7 @@ layout(push_constant) uniform Push {
 } pc;
 layout(location = 0) out vec4 o_color;
 
-vec3 srgb_to_linear(vec3 c) {
-    vec3 lo = c / 12.92;
-    vec3 hi = pow((c + 0.055) / 1.055, vec3(2.4));
-    return mix(lo, hi, step(vec3(0.04045), c));
-}
+#include "srgb.glsl"
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);

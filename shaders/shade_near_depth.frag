@@ -3,7 +3,8 @@
 // fragment depth is within color.a (normalized depth) plus TIE_SLOPE pixels' worth
 // of this face's depth slope of the texture; writes the face's depth at the pixel
 // centre, independent of how the device snapped the vertices (plan::tie, README
-// "Precision").
+// "Precision"). With HOST: the embedding's final pass drawn straight into a
+// host's attachments (vk::exec::record::host), colour only.
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -21,7 +22,9 @@ layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) in vec3 v_world;
 layout(location = 1) flat in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
+#ifndef HOST
 layout(location = 1) out uint o_prim;
+#endif
 #ifdef NORMALS
 #define NORMAL_LOCATION 2
 #include "seen_normal.glsl"
@@ -29,6 +32,9 @@ layout(location = 1) out uint o_prim;
 
 
 #include "tie.glsl"
+#ifdef HOST
+#include "srgb.glsl"
+#endif
 
 // Whether this fragment's face passes through the visible point: its own raster
 // depth within eps of the visible depth (the visible face itself, and coplanar
@@ -76,9 +82,26 @@ void main() {
     if (!near_depth(z, t, dz)) {
         discard;
     }
+#ifdef HOST
+    // Nothing visible here (the far clear value); this also stands in for a
+    // stencil test of the plan's, which the host's depth attachment cannot
+    // hold: Blister's unlocked pixels are pushed back to far.
+    if (t.d == ((pc.flags & 1u) != 0u ? 0.0 : 1.0)) {
+        discard;
+    }
+    // Every face drawn here writes the same depth, the visible one, so that the
+    // host's strict depth test keeps the first writer: the lowest index, drawn
+    // first (the host's geometry wins exact ties).
+    gl_FragDepth = t.d;
+    vec3 c = pc.color.rgb * shade_factor();
+    // flags bit 2: an _SRGB host format, whose hardware encoding would encode
+    // these (already sRGB-encoded) values a second time.
+    o_color = vec4((pc.flags & 4u) != 0u ? srgb_to_linear(c) : c, 1.0);
+#else
     gl_FragDepth = z;
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
+#endif
 #ifdef NORMALS
     o_normal = vec4(seen_normal(), 0.0);
 #endif

@@ -179,7 +179,10 @@ fn embedded_frames_have_the_same_shadows() {
     let far = if reversed_z { 0.0 } else { 1.0 };
     for _ in 0..2 {
         host.clear(s.render.background, far).unwrap();
-        host.frame(csg.recorder()).unwrap_or_else(|e| panic!("{e}"));
+        let st = host.frame(csg.recorder()).unwrap_or_else(|e| panic!("{e}"));
+        // The shadow pass reads peeltrim's images: the composite fallback.
+        let composite = Some(vk::embed::HostPath::CompositeShadows);
+        assert_eq!(st.host_path, composite);
     }
     let got = csg.recorder().executor().read_back().unwrap();
     assert!(

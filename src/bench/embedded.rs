@@ -15,6 +15,7 @@ use crate::embed::{CsgScene, EmbedDesc, LoopCounts};
 use crate::plan::{Algo, Plan};
 use crate::render::GpuRenderer;
 use crate::scene::Scene;
+use crate::vk::embed::HostPath;
 use crate::vk::{ExecStats, OffscreenHost};
 
 /// The fewest frame pairs the medians are taken over.
@@ -42,13 +43,17 @@ pub struct EmbeddedTimes {
     /// Median over the pairs of embedded over standalone `frame_cpu_ms` (0
     /// where the CPU time cannot be read).
     pub cpu_ratio: f64,
-    /// Draws of the last embedded frame (the standalone frame's: the composite
-    /// is a full-screen pass, counted in `fullscreen_passes`).
+    /// How the last embedded frame's final shading reached the host's targets
+    /// (`direct`, or a composite fallback and why).
+    pub host_path: Option<HostPath>,
+    /// Draws of the last embedded frame (the standalone frame's).
     pub draws: u64,
-    /// Full-screen passes of the last embedded frame (the standalone frame's
-    /// plus the composite).
+    /// Triangles of the last embedded frame (the standalone frame's).
+    pub triangles: u64,
+    /// Full-screen passes of the last embedded frame (the standalone frame's;
+    /// plus one for a composite fallback).
     pub fullscreen_passes: u64,
-    /// Pipeline barriers of the last embedded frame, the composite's included.
+    /// Pipeline barriers of the last embedded frame.
     pub barriers: u64,
 }
 
@@ -124,7 +129,9 @@ pub fn measure(
         standalone_frame_cpu_ms_median: median(series(&alone, |s| s.frame_cpu_ms)),
         frame_cpu_ms_median: median(series(&embedded, |s| s.frame_cpu_ms)),
         cpu_ratio: ratios(|s| s.frame_cpu_ms),
+        host_path: last.host_path,
         draws: last.counts.draws,
+        triangles: last.counts.triangles,
         fullscreen_passes: last.counts.fullscreen_passes,
         barriers: last.counts.barriers,
     })

@@ -1,8 +1,10 @@
-//! The embedding's composite pass (`vk::embed`): one full-screen draw, inside the
-//! host's own dynamic rendering of its colour and depth attachments, that writes
-//! peeltrim's colour and depth where the CSG covers the pixel, under the host's
-//! depth test. Also the host formats it supports ([`COLOR_FORMATS`],
-//! [`DEPTH_FORMATS`]) and the typed error for the others.
+//! The embedding's composite pass (`vk::embed`), the fallback of the direct
+//! final shade (`vk::exec::record::host`; `vk::embed::HostPath` says when it is
+//! used): one full-screen draw, inside the host's own dynamic rendering of its
+//! colour and depth attachments, that writes peeltrim's colour and depth where
+//! the CSG covers the pixel, under the host's depth test. Also the host formats
+//! both paths support ([`COLOR_FORMATS`], [`DEPTH_FORMATS`]) and the typed error
+//! for the others.
 
 use ash::vk;
 
@@ -16,10 +18,10 @@ use crate::plan::usage::Usage;
 const VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fullscreen.vert.spv"));
 const FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/composite.frag.spv"));
 
-/// Host colour formats the composite writes into. peeltrim's colour is
-/// sRGB-encoded 8-bit RGBA; it is written as those values into UNORM and float
-/// formats, and decoded to linear for the `_SRGB` formats (whose hardware
-/// encoding then stores the same bytes). Other formats (integer, fewer than three
+/// Host colour formats peeltrim writes into (directly or by the composite).
+/// peeltrim's colour is sRGB-encoded; it is written as those values into UNORM
+/// and float formats, and decoded to linear for the `_SRGB` formats (whose
+/// hardware encoding then stores the same bytes). Other formats (integer, fewer than three
 /// channels, compressed) give [`VkError::HostFormat`].
 pub const COLOR_FORMATS: &[vk::Format] = &[
     vk::Format::R8G8B8A8_UNORM,
@@ -36,7 +38,7 @@ pub const COLOR_FORMATS: &[vk::Format] = &[
     vk::Format::B10G11R11_UFLOAT_PACK32,
 ];
 
-/// Host depth formats the composite writes into (its depth aspect; a stencil
+/// Host depth formats peeltrim writes into (their depth aspect; a stencil
 /// aspect is left untouched). peeltrim's depth is 32-bit float; a UNORM host
 /// buffer stores it rounded to its precision, as it does the host's own depths.
 pub const DEPTH_FORMATS: &[vk::Format] = &[
@@ -86,7 +88,7 @@ pub(crate) fn check_host_formats(
     for (attachment, format, list, feature) in checks {
         let problem = if !list.contains(&format) {
             format!(
-                "not a {attachment} format the composite writes: use one of {}",
+                "not a {attachment} format peeltrim writes: use one of {}",
                 names(list)
             )
         } else {

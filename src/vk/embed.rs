@@ -1,7 +1,10 @@
-//! Embedding: a plan's frame recorded into a host engine's command buffer and
-//! composited, depth-tested, into the host's own colour and depth attachments.
-//! Nothing here submits to a queue (see README "Embedding" for the full
-//! synchronization contract, repeated on [`Embedder::record`]).
+//! Embedding: a plan's frame recorded into a host engine's command buffer,
+//! depth-tested into the host's own colour and depth attachments: its final
+//! depth-equal shade drawn straight into them (`exec::record::host`), or, where
+//! that cannot be ([`HostPath`]), the frame composited into them by one
+//! full-screen pass (`vk::composite`). Nothing here submits to a queue (see
+//! README "Embedding" for the full synchronization contract, repeated on
+//! [`Embedder::record`]).
 //!
 //! The frame itself is the executor's unrolled recording (loops unrolled to
 //! counts, as in the standalone replay of the performance work): the counts
@@ -21,9 +24,13 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::composite::{check_host_formats, Composite};
+use serde::Serialize;
+
+use super::composite::{check_host_formats, is_srgb, Composite};
 use super::error::{Check, VkError};
-use super::exec::{ExecDesc, ExecStats, Executor, Unrolled};
+use super::exec::{
+    copy_counts, final_shade, host_barriers, ExecDesc, ExecStats, Executor, HostShade, Unrolled,
+};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::submit;
@@ -39,7 +46,7 @@ pub struct HostTargets {
     /// A colour view whose format is a float or UNORM/SRGB colour-attachment
     /// format (peeltrim writes RGBA in 0..1).
     pub color_view: vk::ImageView,
-    /// The format of the colour image (the composite pipeline is made for it).
+    /// The format of the colour image (peeltrim's pipelines are made for it).
     pub color_format: vk::Format,
     /// A view of the depth aspect of a depth or depth-stencil image (any depth
     /// format the device supports as an attachment); stencil is not touched.
@@ -48,6 +55,27 @@ pub struct HostTargets {
     pub depth_format: vk::Format,
     /// Width and height of both images: the embedder's size.
     pub extent: [u32; 2],
+}
+
+/// How an embedded frame's final shading reached the host's attachments
+/// (`ExecStats::host_path` of [`Embedder::record`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HostPath {
+    /// The plan's final depth-equal shade drawn straight into the host's
+    /// attachments under the host's depth test (`vk::exec::record::host`): the
+    /// standalone frame's work, no composite. What every GPU algorithm but
+    /// `blister-paper` gets without shadows and trimmed surfaces.
+    Direct,
+    /// The fallback, because shadows are on ([`Embedder::set_shadow`]): the
+    /// shadow pass reads peeltrim's own colour, ids, depth and normals, so the
+    /// frame is drawn into peeltrim's images, shadowed, and composited into the
+    /// host's attachments by one full-screen pass (`vk::composite`).
+    CompositeShadows,
+    /// The fallback, because the plan does not end in the depth-equal shade
+    /// (`blister-paper` takes its colour from the peel; CST with trimmed
+    /// surfaces ends in their merge): composited as above.
+    CompositePlan,
 }
 
 /// One frame in flight: where its occlusion counts land and what they check.
@@ -64,11 +92,14 @@ pub struct Embedder {
     frame: u64,
     /// Loop counts to unroll to (learnt standalone, then adjusted by checks).
     layers: Option<(Plan, Vec<u32>)>,
+    /// The host formats last checked (`check_host_formats`).
+    host_formats: Option<(vk::Format, vk::Format)>,
     composite: Option<Composite>,
     sampler: vk::Sampler,
     /// What `record` draws.
     plan: Option<Plan>,
-    /// Shadows of a light, darkening each frame before the composite.
+    /// Shadows of a light, darkening each frame before the composite (the
+    /// fallback they need, [`HostPath::CompositeShadows`]).
     shadow: Option<super::shadow::EmbeddedShadow>,
 }
 
@@ -79,7 +110,10 @@ impl Embedder {
     pub fn new(ctx: &Context, desc: &ExecDesc, frames_in_flight: u32) -> Result<Embedder, VkError> {
         let _layer = ctx.shared.layer_use();
         let shared = ctx.shared.clone();
-        let exec = Executor::new(ctx, desc)?;
+        let mut exec = Executor::new(ctx, desc)?;
+        // Nobody reads an embedded frame's per-pass GPU times, and lavapipe
+        // ends its binned scene at each timestamp: only the frame's two.
+        exec.set_pass_timestamps(false);
         let sci = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::NEAREST)
             .min_filter(vk::Filter::NEAREST);
@@ -106,6 +140,7 @@ impl Embedder {
             slots,
             frame: 0,
             layers: None,
+            host_formats: None,
             composite: None,
             sampler,
             plan: None,
@@ -214,8 +249,12 @@ impl Embedder {
         }
     }
 
-    /// Records the plan's frame and its composite into `cmd`. Returns the
-    /// recording's counts (`submits` is 0: the host submits).
+    /// Records the plan's frame into `cmd`, its final depth-equal shade drawn
+    /// straight into the host's attachments under the host's depth test
+    /// ([`HostPath::Direct`]), or, as the fallback ([`HostPath`] says when),
+    /// into peeltrim's images and then composited by one full-screen pass.
+    /// Returns the recording's counts (`submits` is 0: the host submits) and
+    /// `host_path`.
     ///
     /// # Safety
     ///
@@ -224,12 +263,16 @@ impl Embedder {
     ///   queue family, and submitted (by the host) to a queue of that family.
     /// - On entry the host's colour image is in `COLOR_ATTACHMENT_OPTIMAL` and its
     ///   depth image in `DEPTH_STENCIL_ATTACHMENT_OPTIMAL`; they are left in these
-    ///   layouts. Earlier attachment writes of the host are made available by the
-    ///   barrier recorded here (`COLOR_ATTACHMENT_OUTPUT | LATE_FRAGMENT_TESTS` →
-    ///   the composite's `COLOR_ATTACHMENT_OUTPUT | EARLY/LATE_FRAGMENT_TESTS`); the
-    ///   composite's own writes are colour-attachment and depth-attachment writes
-    ///   in those stages, which the host's next use must synchronize with (as after
-    ///   any rendering of its own).
+    ///   layouts. The host's earlier colour and depth attachment writes are made
+    ///   available and visible by one barrier recorded here, from
+    ///   `COLOR_ATTACHMENT_OUTPUT | EARLY/LATE_FRAGMENT_TESTS` (attachment writes)
+    ///   to the same stages (attachment reads and writes). After it, one
+    ///   rendering block of the host's colour and depth attachments (depth
+    ///   aspect only; a stencil aspect is neither bound nor touched) reads and
+    ///   writes them: the last pass's mesh draws (direct) or the composite's
+    ///   full-screen draw, colour writes in `COLOR_ATTACHMENT_OUTPUT` and depth
+    ///   tests and writes in `EARLY/LATE_FRAGMENT_TESTS`, which the host's next
+    ///   use must synchronize with, as after any rendering of its own.
     /// - Peeltrim's internal images, its vertex buffer and its query pools are used
     ///   by this recording from the first command to the last (transfer, vertex,
     ///   fragment, attachment stages); the host must not touch them.
@@ -239,7 +282,7 @@ impl Embedder {
     /// - If the plan changed since the previous record ([`Embedder::set_plan`]
     ///   with another plan), those command buffers have completed: a new plan may
     ///   replace internal images. Likewise when the host's formats change.
-    /// - The host's colour and depth formats are checked first: one the composite
+    /// - The host's colour and depth formats are checked first: one peeltrim
     ///   cannot write is [`VkError::HostFormat`] with nothing recorded into `cmd`.
     /// - The views stay valid until the command buffer has completed.
     pub unsafe fn record(
@@ -268,8 +311,9 @@ impl Embedder {
         }
         // Before anything is recorded: an unsupported format leaves `cmd` untouched.
         let formats = (targets.color_format, targets.depth_format);
-        if self.composite.as_ref().map(|c| c.formats) != Some(formats) {
+        if self.host_formats != Some(formats) {
             check_host_formats(&self.shared, formats.0, formats.1)?;
+            self.host_formats = Some(formats);
         }
         self.check_finished_slot(plan)?;
         let layers = self.layers(plan).map(<[u32]>::to_vec).ok_or_else(|| {
@@ -277,19 +321,60 @@ impl Embedder {
                 "record before the loop counts are known: call set_loop_counts or prepare".into(),
             )
         })?;
-        let unrolled = self.exec.record_unrolled(cmd, plan, &layers)?;
         let slot = (self.frame % self.slots.len() as u64) as usize;
+        let path = self.host_path(plan);
+        let (unrolled, stats) = match path {
+            HostPath::Direct => {
+                let room = self.counts_room(slot, Executor::counted_draws(plan, &layers));
+                let host = HostShade {
+                    color: (targets.color_view, targets.color_format),
+                    depth: (targets.depth_view, targets.depth_format),
+                    srgb: is_srgb(targets.color_format),
+                    counts: room.then_some(self.slots[slot].counts.raw),
+                };
+                let shade = final_shade(plan).expect("host_path checked it");
+                let unrolled =
+                    self.exec
+                        .record_unrolled(cmd, plan, &layers, Some((&host, shade)))?;
+                let stats = unrolled.stats.clone();
+                (unrolled, stats)
+            }
+            HostPath::CompositeShadows | HostPath::CompositePlan => {
+                let unrolled = self.exec.record_unrolled(cmd, plan, &layers, None)?;
+                let n = unrolled.groups.len() as u32;
+                let counted = n > 0 && self.counts_room(slot, n);
+                if counted {
+                    let pool = self.exec.occlusion_pool();
+                    let buffer = self.slots[slot].counts.raw;
+                    copy_counts(&self.shared.device, cmd, pool, n, buffer);
+                }
+                if let Some(sh) = &mut self.shadow {
+                    let rect = self.exec.output_rect();
+                    sh.pass
+                        .record(cmd, &self.exec, &sh.map, &sh.params, rect, None)?;
+                }
+                let mut stats = unrolled.stats.clone();
+                self.composite(cmd, targets, depth_compare, counted, &mut stats)?;
+                (unrolled, stats)
+            }
+        };
         self.frame += 1;
-        let counted = self.copy_counts(cmd, slot, unrolled.groups.len() as u32);
-        if let Some(sh) = &mut self.shadow {
-            let rect = self.exec.output_rect();
-            sh.pass
-                .record(cmd, &self.exec, &sh.map, &sh.params, rect, None)?;
-        }
-        let mut stats = unrolled.stats.clone();
-        self.composite(cmd, targets, depth_compare, counted, &mut stats)?;
         self.slots[slot].pending = Some((plan.clone(), unrolled));
-        Ok(stats)
+        Ok(ExecStats {
+            host_path: Some(path),
+            ..stats
+        })
+    }
+
+    /// How `record` draws `plan` into the host's attachments.
+    fn host_path(&self, plan: &Plan) -> HostPath {
+        if self.shadow.is_some() {
+            HostPath::CompositeShadows
+        } else if final_shade(plan).is_none() {
+            HostPath::CompositePlan
+        } else {
+            HostPath::Direct
+        }
     }
 
     /// Checks the frame that last used the slot the next frame takes: by the
@@ -318,9 +403,10 @@ impl Embedder {
         Ok(())
     }
 
-    /// Copies the frame's occlusion counts, with availability, into `slot`;
-    /// whether it did (the composite's barrier then makes them visible to the host).
-    fn copy_counts(&mut self, cmd: vk::CommandBuffer, slot: usize, n: u32) -> bool {
+    /// Whether `slot`'s count buffer has room for `n` occlusion counts with
+    /// their availability (grown if need be; `false` for none or if it cannot
+    /// grow, when the frame's counts are simply not checked).
+    fn counts_room(&mut self, slot: usize, n: u32) -> bool {
         let need = (n.max(1) as u64) * 16;
         if self.slots[slot].counts.size < need {
             // Grown outside any pending use: by the frames-in-flight contract this
@@ -336,24 +422,7 @@ impl Embedder {
                 Err(_) => return false,
             }
         }
-        if n == 0 {
-            return false;
-        }
-        // SAFETY: outside rendering; the first `n` queries were reset and written
-        // by this recording; the buffer holds `n` pairs of u64.
-        unsafe {
-            self.shared.device.cmd_copy_query_pool_results(
-                cmd,
-                self.exec.occlusion_pool(),
-                0,
-                n,
-                self.slots[slot].counts.raw,
-                0,
-                16,
-                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY,
-            )
-        };
-        true
+        n > 0
     }
 
     /// Draws peeltrim's colour and depth into the host's attachments, where the
@@ -406,33 +475,9 @@ impl Embedder {
                 .collect();
             (src.stage, dst.stage, barriers)
         };
-        let (mut src, mut dst, to_sampled) = transition(REST, Usage::Sampled);
-        let att_stages = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
-            | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
-            | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
-        let mut memory = vec![vk::MemoryBarrier::default()
-            .src_access_mask(
-                vk::AccessFlags::COLOR_ATTACHMENT_WRITE
-                    | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
-            )
-            .dst_access_mask(
-                vk::AccessFlags::COLOR_ATTACHMENT_READ
-                    | vk::AccessFlags::COLOR_ATTACHMENT_WRITE
-                    | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
-                    | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
-            )];
-        (src, dst) = (src | att_stages, dst | att_stages);
-        if counted {
-            memory.push(
-                vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::HOST_READ),
-            );
-            (src, dst) = (
-                src | vk::PipelineStageFlags::TRANSFER,
-                dst | vk::PipelineStageFlags::HOST,
-            );
-        }
+        let (src, dst, to_sampled) = transition(REST, Usage::Sampled);
+        let ((hsrc, hdst), memory) = host_barriers(counted);
+        let (src, dst) = (src | hsrc, dst | hdst);
         submit::pipeline_barrier(device, cmd, (src, dst), &memory, &to_sampled);
         // Only where the CSG can be: its meshes' projected bounds.
         let rect = self.exec.output_rect();

@@ -27,6 +27,10 @@ pub enum FragmentKind {
     WriteDepth,
     DepthFromTexture,
     ShadeNearDepth,
+    /// `ShadeNearDepth` drawn into an embedding host's colour and depth
+    /// attachments (`vk::exec::record::host`): colour only, the visible depth
+    /// written, the depth attachment bound without its stencil aspect.
+    ShadeNearDepthHost,
     NearerThan,
     ShadeAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
@@ -90,6 +94,7 @@ impl FragmentKind {
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
             FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
+            FragmentKind::ShadeNearDepthHost => spv!("shade_near_depth.frag.host"),
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
@@ -136,6 +141,9 @@ pub const FLAG_REVERSED_Z: u32 = 1;
 /// from the uniform buffer (set 1); without it the push constants' `mvp` (the
 /// full-screen rectangle's).
 pub const FLAG_MESH: u32 = 2;
+/// `PushConstants::flags` bit: the host's colour format is `_SRGB` (the
+/// embedding's direct final pass decodes peeltrim's sRGB-encoded colour).
+pub const FLAG_HOST_SRGB: u32 = 4;
 /// `PushConstants::flags` bits 8..16: the device's subpixel precision bits, from
 /// which the shaders' tie tolerance derives its slope term (`plan::tie`).
 pub const FLAG_SUBPIXEL_SHIFT: u32 = 8;
@@ -347,6 +355,11 @@ impl Pipelines {
             vk::DynamicState::STENCIL_REFERENCE,
         ];
         let ds_format = desc.depth_stencil_format.unwrap_or(vk::Format::UNDEFINED);
+        // A host's depth attachment is bound without its stencil (untouched).
+        let stencil_format = match desc.fragment {
+            FragmentKind::ShadeNearDepthHost => vk::Format::UNDEFINED,
+            _ => ds_format,
+        };
         graphics_pipeline(
             &self.shared.device,
             &Graphics {
@@ -357,7 +370,7 @@ impl Pipelines {
                 dynamic_states: &dynamic_states,
                 color_formats: &desc.color_formats,
                 depth_format: ds_format,
-                stencil_format: ds_format,
+                stencil_format,
                 layout: self.layout,
                 blend: (desc.fragment == FragmentKind::Accumulate).then(under_blend),
             },

@@ -6,10 +6,10 @@
 use ash::vk;
 
 use super::gpu_scene::GpuScene;
-use super::record::Group;
+use super::record::{Group, HostShade};
 use super::{layers_fit, ExecStats, Executor};
 use crate::plan::usage::Resource;
-use crate::plan::Plan;
+use crate::plan::{Plan, Step};
 use crate::scene::Mesh;
 use crate::vk::error::VkError;
 use crate::vk::scissor::{bounds_rect, Rect};
@@ -45,12 +45,15 @@ impl Executor {
 
     /// Records `plan`'s frame with its loops unrolled to `layers` into `cmd`
     /// (begun by the caller, outside any rendering); every image starts and ends
-    /// in `sync::REST`. Submits nothing.
+    /// in `sync::REST`. Submits nothing. With `host`, the plan's final shade
+    /// (its last `host.1` steps, `final_shade`) is drawn into the host's
+    /// attachments (`record::host`).
     pub(crate) fn record_unrolled(
         &mut self,
         cmd: vk::CommandBuffer,
         plan: &Plan,
         layers: &[u32],
+        host: Option<(&HostShade, usize)>,
     ) -> Result<Unrolled, VkError> {
         let _layer = self.shared.layer_use();
         let meshes = self.scene_ref()?.ranges.len() as u32;
@@ -62,7 +65,7 @@ impl Executor {
         self.rects = super::Scissors::exact(scene, &self.desc);
         // Earlier frames may be in flight: the camera is written in the stream.
         self.camera.record_update(cmd, &cam);
-        let (mut stats, groups, _marks) = self.record_frame(cmd, plan, layers)?;
+        let (mut stats, groups, _marks) = self.record_frame(cmd, plan, layers, host)?;
         stats.counts.submits = 0;
         stats.counts.loop_iterations = layers.to_vec();
         self.last_output = Some(plan.output_ds);
@@ -71,6 +74,15 @@ impl Executor {
             groups,
             stats,
         })
+    }
+
+    /// The most occlusion queries a recording of `plan` unrolled to `layers`
+    /// holds (draws skipped off screen hold none).
+    pub(crate) fn counted_draws(plan: &Plan, layers: &[u32]) -> u32 {
+        super::unroll(plan, layers)
+            .iter()
+            .filter(|(s, _)| matches!(s, Step::Draw(d) if d.count_samples))
+            .count() as u32
     }
 
     /// Whether an embedded frame's counts show its unrolling was right.

@@ -63,6 +63,7 @@ use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 use camera::CameraBuffer;
 use gpu_scene::{CameraState, GpuScene};
 pub use record::ClearMode;
+pub(crate) use record::{copy_counts, final_shade, host_barriers, HostShade};
 use record::{Bindings, Group, Recorder};
 use targets::Targets;
 
@@ -641,7 +642,7 @@ impl Executor {
         let t = CpuInstant::now();
         let cmd = self.frame_cmd;
         self.submit.begin(cmd, false)?;
-        let (mut stats, queries, marks) = self.record_frame(cmd, plan, layers)?;
+        let (mut stats, queries, marks) = self.record_frame(cmd, plan, layers, None)?;
         stats.counts.submits = 1;
         self.submit.end(cmd)?;
         let ms = t.elapsed_ms();
@@ -684,12 +685,15 @@ impl Executor {
 
     /// Records `plan` with its loops unrolled to `layers` into `cmd` (begun by the
     /// caller): the stats, the loop group of each occlusion query, the pass at
-    /// each timestamp. Every image starts and ends in `REST`.
+    /// each timestamp. Every image starts and ends in `REST`. With `host`, the
+    /// plan's last `host.1` steps (its final shade, `record::final_shade`) are
+    /// drawn into an embedding host's attachments instead (`record::host`).
     fn record_frame(
         &mut self,
         cmd: vk::CommandBuffer,
         plan: &Plan,
         layers: &[u32],
+        host: Option<(&HostShade, usize)>,
     ) -> Result<(ExecStats, Vec<Group>, Vec<String>), VkError> {
         let flat = unroll(plan, layers);
         self.ensure_queries(&flat)?;
@@ -697,15 +701,19 @@ impl Executor {
         let scissored_clears = self.scissored_clears;
         let mut rec = self.recorder();
         let steps: Vec<&Step> = flat.iter().map(|(s, _)| *s).collect();
+        let (body, shade) = steps.split_at(steps.len() - host.map_or(0, |h| h.1));
         if scissored_clears {
-            rec.plan_clears(&steps, plan.output_ds);
+            rec.plan_clears(body, plan.output_ds);
         }
         rec.begin(cmd, occ_cap, ts_cap);
-        for (s, g) in &flat {
+        for (s, g) in flat.iter().take(body.len()) {
             rec.group = *g;
             rec.step(s)?;
         }
-        rec.finish_frame(plan.output_ds);
+        match host {
+            Some((h, _)) => rec.host_shade(h, shade)?,
+            None => rec.finish_frame(plan.output_ds),
+        }
         rec.end();
         Ok((rec.stats, rec.queries, rec.marks))
     }

@@ -25,6 +25,7 @@ use super::ExecDesc;
 use clears::PendingClear;
 
 mod clears;
+mod host;
 use crate::plan::tie_free::TieFree;
 use crate::plan::usage::{self, Resource, Usage};
 use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
@@ -36,6 +37,7 @@ use crate::vk::pipeline::{
 use crate::vk::scissor::{Rect, RectUnions};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
+pub(crate) use host::{copy_counts, final_shade, host_barriers, HostShade};
 
 /// Attachments of a rendering block: plain data (no allocation per draw).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -452,6 +454,28 @@ impl<'a> Recorder<'a> {
         same_block: bool,
         load_clear: &[Resource],
     ) -> bool {
+        let (stages, barriers) = self.image_transitions(uses, same_block, load_clear);
+        if barriers.is_empty() {
+            return false;
+        }
+        self.end_block();
+        submit::image_barriers(self.b.device, self.cmd, stages.0, stages.1, &barriers);
+        self.stats.counts.barriers += 1;
+        true
+    }
+
+    /// The image barriers (and their source and destination stages) that bring
+    /// each `(resource, usage)` from its last usage, now noted as its usage;
+    /// the caller records them.
+    fn image_transitions(
+        &mut self,
+        uses: &[(Resource, Usage)],
+        same_block: bool,
+        load_clear: &[Resource],
+    ) -> (
+        (vk::PipelineStageFlags, vk::PipelineStageFlags),
+        Vec<vk::ImageMemoryBarrier<'static>>,
+    ) {
         let mut barriers = Vec::new();
         let (mut src_stage, mut dst_stage) = (
             vk::PipelineStageFlags::empty(),
@@ -472,13 +496,7 @@ impl<'a> Recorder<'a> {
         for &(r, u) in uses {
             self.state.insert(r, u);
         }
-        if barriers.is_empty() {
-            return false;
-        }
-        self.end_block();
-        submit::image_barriers(self.b.device, self.cmd, src_stage, dst_stage, &barriers);
-        self.stats.counts.barriers += 1;
-        true
+        ((src_stage, dst_stage), barriers)
     }
 
     pub fn step(&mut self, step: &Step) -> Result<(), VkError> {

@@ -128,6 +128,11 @@ pub struct ExecStats {
     pub recorded: Recorded,
     /// Per pass group, in order of first appearance.
     pub per_pass: Vec<PassStats>,
+    /// Embedded frames ([`crate::vk::Embedder::record`]) only: how the final
+    /// shading reached the host's attachments (directly, or by the composite
+    /// fallback and why).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub host_path: Option<crate::vk::embed::HostPath>,
     /// Deterministic counts.
     #[serde(flatten)]
     pub counts: Counts,

@@ -1,0 +1,315 @@
+//! The embedding's direct final pass (README "Embedding"): the plan's last
+//! pass, the depth-equal shade of `plan::tie` (README "Precision and ties"),
+//! drawn straight into the host's colour and depth attachments under the
+//! host's depth test, so that an embedded frame does the standalone frame's
+//! work and no composite pass (`vk::composite`, the fallback) remains.
+//!
+//! The standalone pass draws the solid's meshes in descending index order with
+//! depth test `Always`, each writing its own plane depth, the last writer (the
+//! lowest index) winning ties. Under the host's test that order cannot work:
+//! coincident faces write slightly different depths. Here every face that
+//! passes the tie test at a pixel writes the same depth, the visible one read
+//! from the pass's texture (`shaders/shade_near_depth.frag`, `HOST`), and the
+//! meshes are drawn in ascending index order under the host's strict test
+//! (`LESS`, reversed `GREATER`): the first writer — the lowest index — stays,
+//! and the host's own geometry keeps exact ties, as with the composite.
+
+use ash::vk;
+
+use super::Recorder;
+use crate::plan::usage::{Resource, Usage};
+use crate::plan::{CompareOp, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
+use crate::vk::conv;
+use crate::vk::error::VkError;
+use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants, FLAG_HOST_SRGB, FLAG_MESH};
+use crate::vk::scissor::Rect;
+use crate::vk::submit;
+
+/// The host's side of a direct final pass.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct HostShade {
+    /// The host's colour attachment view and format (in `COLOR_ATTACHMENT_OPTIMAL`).
+    pub color: (vk::ImageView, vk::Format),
+    /// The host's depth attachment view and format (in
+    /// `DEPTH_STENCIL_ATTACHMENT_OPTIMAL`); its stencil is not bound.
+    pub depth: (vk::ImageView, vk::Format),
+    /// The host's colour format is `_SRGB` (the shader decodes).
+    pub srgb: bool,
+    /// Where the frame's occlusion counts are copied (pairs of `u64` with
+    /// availability, room for every counted draw), before the pass's barrier
+    /// makes them visible to the host.
+    pub counts: Option<vk::Buffer>,
+}
+
+/// How many steps at the end of `plan` are its final depth-equal shade as the
+/// direct pass draws it: one `ShadeNearDepth` draw per mesh into the output
+/// depth-stencil, after the copy of its depth into their texture. `None` when
+/// the plan ends otherwise (`blister-paper` has no such pass). A stencil test of
+/// these draws is dropped: plans use it only to keep them to pixels where the
+/// loop left a visible depth (Blister's locked pixels; the others are pushed
+/// back to far), and the `HOST` shader discards far pixels itself.
+pub(crate) fn final_shade(plan: &Plan) -> Option<usize> {
+    let mut tex: Option<Tex> = None;
+    for (n, s) in plan.steps.iter().rev().enumerate() {
+        match s {
+            Step::Draw(Draw {
+                geometry: Geometry::Mesh(_),
+                fragment: Fragment::ShadeNearDepth { tex: t, .. },
+                ds,
+                count_samples: false,
+                ..
+            }) if *ds == plan.output_ds && tex.is_none_or(|x| x == *t) => tex = Some(*t),
+            Step::CopyDepthToTexture { ds, dst } if *ds == plan.output_ds && tex == Some(*dst) => {
+                return Some(n)
+            }
+            _ => return None,
+        }
+    }
+    None
+}
+
+/// Copies the first `n` occlusion queries of `pool`, each with its availability
+/// (two `u64`), into `buffer` (room for `n` pairs). Outside rendering; the
+/// queries were reset and ended in this command buffer.
+pub(crate) fn copy_counts(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    pool: vk::QueryPool,
+    n: u32,
+    buffer: vk::Buffer,
+) {
+    // SAFETY: the caller's contract: outside rendering, `n` queries of this
+    // recording, a buffer of at least `n` pairs of u64.
+    unsafe {
+        device.cmd_copy_query_pool_results(
+            cmd,
+            pool,
+            0,
+            n,
+            buffer,
+            0,
+            16,
+            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY,
+        )
+    };
+}
+
+/// The memory barriers before peeltrim draws into a host's attachments: the
+/// host's earlier attachment writes before this pass's attachment reads and
+/// writes, and with `counted` the count copy before the host's reads. Their
+/// source and destination stages.
+pub(crate) fn host_barriers(
+    counted: bool,
+) -> (
+    (vk::PipelineStageFlags, vk::PipelineStageFlags),
+    Vec<vk::MemoryBarrier<'static>>,
+) {
+    let att = vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT
+        | vk::PipelineStageFlags::EARLY_FRAGMENT_TESTS
+        | vk::PipelineStageFlags::LATE_FRAGMENT_TESTS;
+    let mut memory = vec![vk::MemoryBarrier::default()
+        .src_access_mask(
+            vk::AccessFlags::COLOR_ATTACHMENT_WRITE
+                | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+        )
+        .dst_access_mask(
+            vk::AccessFlags::COLOR_ATTACHMENT_READ
+                | vk::AccessFlags::COLOR_ATTACHMENT_WRITE
+                | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_READ
+                | vk::AccessFlags::DEPTH_STENCIL_ATTACHMENT_WRITE,
+        )];
+    let (mut src, mut dst) = (att, att);
+    if counted {
+        memory.push(
+            vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ),
+        );
+        src |= vk::PipelineStageFlags::TRANSFER;
+        dst |= vk::PipelineStageFlags::HOST;
+    }
+    ((src, dst), memory)
+}
+
+impl Recorder<'_> {
+    /// Records `shade` (the plan's last steps, [`final_shade`]'s draws, in plan
+    /// order) into the host's attachments, after the rest of the frame: the
+    /// occlusion counts copied to `h.counts`, one barrier (the shade's texture to
+    /// sampled, the host's attachment writes, the counts for the host), one
+    /// rendering block, then every image back to `REST`.
+    pub fn host_shade(&mut self, h: &HostShade, shade: &[&Step]) -> Result<(), VkError> {
+        self.end_block();
+        let device = self.b.device;
+        let n = self.queries.len() as u32;
+        let counted = n > 0 && h.counts.is_some();
+        if let (true, Some(buffer)) = (counted, h.counts) {
+            copy_counts(device, self.cmd, self.b.occlusion, n, buffer);
+        }
+        let draws: Vec<&Draw> = shade
+            .iter()
+            .map(|s| match s {
+                Step::Draw(d) => d,
+                _ => panic!("final_shade selects draws only"),
+            })
+            .collect();
+        let tex = match draws.first().map(|d| &d.fragment) {
+            Some(&Fragment::ShadeNearDepth { tex, .. }) => tex,
+            _ => panic!("final_shade selects at least one ShadeNearDepth draw"),
+        };
+        let uses = [(Resource::Texture(tex), Usage::Sampled)];
+        self.settle_clears(&uses);
+        let ((src, dst), images) = self.image_transitions(&uses, false, &[]);
+        let ((hsrc, hdst), memory) = host_barriers(counted);
+        submit::pipeline_barrier(device, self.cmd, (src | hsrc, dst | hdst), &memory, &images);
+        self.stats.counts.barriers += 1;
+
+        let pipeline = self.b.pipelines.get(&PipelineDesc {
+            fragment: FragmentKind::ShadeNearDepthHost,
+            color_formats: vec![h.color.1],
+            depth_stencil_format: Some(h.depth.1),
+            normals: false,
+        })?;
+        self.begin_host_block(h);
+        let set = self.b.targets.sampling_set(Resource::Texture(tex));
+        self.bind(pipeline, Some(set));
+        let flags = self.flags() | FLAG_MESH | if h.srgb { FLAG_HOST_SRGB } else { 0 };
+        // Ascending index: the first writer of a pixel stays (module doc).
+        for draw in draws.iter().rev() {
+            self.host_draw(draw, flags);
+        }
+        // SAFETY: closes the block `begin_host_block` opened.
+        unsafe { device.cmd_end_rendering(self.cmd) };
+        self.rest_all();
+        Ok(())
+    }
+
+    /// Opens a rendering block on the host's attachments, keeping their contents.
+    fn begin_host_block(&mut self, h: &HostShade) {
+        let color = [vk::RenderingAttachmentInfo::default()
+            .image_view(h.color.0)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::LOAD)
+            .store_op(vk::AttachmentStoreOp::STORE)];
+        let depth = vk::RenderingAttachmentInfo::default()
+            .image_view(h.depth.0)
+            .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::LOAD)
+            .store_op(vk::AttachmentStoreOp::STORE);
+        let ri = vk::RenderingInfo::default()
+            .render_area(conv::rect2d(Rect::full(
+                self.b.desc.width,
+                self.b.desc.height,
+            )))
+            .layer_count(1)
+            .color_attachments(&color)
+            .depth_attachment(&depth);
+        // SAFETY: outside rendering (ended above); the host's views are of the
+        // embedder's size, in the layouts `Embedder::record`'s contract names.
+        unsafe { self.b.device.cmd_begin_rendering(self.cmd, &ri) };
+        self.stats.counts.render_passes += 1;
+    }
+
+    /// One shade draw of one mesh under the host's strict depth test.
+    fn host_draw(&mut self, draw: &Draw, flags: u32) {
+        let (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) =
+            (&draw.geometry, &draw.fragment)
+        else {
+            panic!("final_shade selects ShadeNearDepth draws of one mesh");
+        };
+        let scissor = self.scissor(&draw.scissor);
+        if scissor.is_empty() {
+            self.stats.counts.skipped_steps += 1;
+            return;
+        }
+        // Nearer than what the host's depth holds (mirrored for reversed Z);
+        // no stencil, no culling (the plan's draw culls nothing either).
+        let host = Draw {
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: None,
+            ..draw.clone()
+        };
+        self.set_state(Some(&host), scissor);
+        let scene = self.b.scene;
+        let c = scene.colors[*m as usize].map(|v| v as f32 / 255.0);
+        self.push(&PushConstants {
+            // The tolerance travels in the colour's alpha, as in the plan's draw.
+            color: [c[0], c[1], c[2], *eps],
+            prim: m + 1,
+            flags,
+            snap: self.b.snap,
+            ..Default::default()
+        });
+        let (first, count) = scene.ranges[*m as usize];
+        if count > 0 {
+            // SAFETY: inside the host block with the pipeline bound; the range
+            // lies in the vertex buffer.
+            unsafe { self.b.device.cmd_draw(self.cmd, count, 1, first, 0) };
+            self.stats.counts.draw_calls += 1;
+        }
+        let c = &mut self.stats.counts;
+        c.draws += 1;
+        c.mesh_draws += 1;
+        c.mesh_pixels += scissor.area();
+        c.triangles += count as u64 / 3;
+        if let Some(i) = self.pass {
+            self.stats.per_pass[i].draws += 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plan builders' shade draw of mesh `m`.
+    fn shade(m: u32, tex: Tex, ds: u8) -> Step {
+        let mut steps = crate::plan::shade_near_depth(&[m], ds, tex, None);
+        steps.pop().expect("a pass, a copy and the draw")
+    }
+
+    fn plan(steps: Vec<Step>) -> Plan {
+        Plan {
+            algo: "t".into(),
+            depth_stencils: 2,
+            textures: 2,
+            stencil_bits: 0,
+            output_ds: 1,
+            steps,
+        }
+    }
+
+    #[test]
+    fn the_final_shade_is_the_copy_and_the_shade_draws_after_it() {
+        let copy = Step::CopyDepthToTexture { ds: 1, dst: 1 };
+        let p = plan(vec![
+            Step::Pass("shade".into()),
+            copy.clone(),
+            shade(2, 1, 1),
+            shade(1, 1, 1),
+            shade(0, 1, 1),
+        ]);
+        assert_eq!(final_shade(&p), Some(3));
+        // Built by the plan builders: every GPU algorithm but blister-paper.
+        let p = plan(crate::plan::shade_near_depth(&[0, 1], 1, 1, None));
+        assert_eq!(final_shade(&p), Some(2));
+    }
+
+    #[test]
+    fn plans_ending_otherwise_have_no_final_shade() {
+        let copy = Step::CopyDepthToTexture { ds: 1, dst: 1 };
+        // Another depth-stencil, another texture, a step after, no copy.
+        for steps in [
+            vec![copy.clone(), shade(0, 1, 0)],
+            vec![copy.clone(), shade(1, 0, 1)],
+            vec![copy.clone(), shade(0, 1, 1), Step::Pass("x".into())],
+            vec![shade(0, 1, 1)],
+            vec![copy.clone()],
+            vec![],
+        ] {
+            assert_eq!(final_shade(&plan(steps.clone())), None, "{steps:?}");
+        }
+    }
+}
