@@ -10,28 +10,24 @@
 //! commands or load ops (`Executor::set_clear_mode`). README,
 //! "Executor fixed costs on lavapipe".
 
+#[path = "common/ab.rs"]
+mod ab;
+
 use std::path::Path;
 
-use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim::scene::load::{load, LoadOptions};
-use peeltrim::vk::{
-    ClearMode, Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor,
-};
+use ab::{median, scene_name, Args};
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use peeltrim::plan::{self, Prepared};
+use peeltrim::scene::load::{load, LoadOptions};
+use peeltrim::vk::{ClearMode, Executor};
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let (w, h) = args[0].split_once('x').expect("SIZE is WxH");
-    let size = (w.parse().unwrap(), h.parse().unwrap());
-    let frames: usize = args[1].parse().expect("FRAMES");
-    let algos: Vec<Algo> = args[2]
-        .split(',')
-        .map(|a| Algo::parse(a).expect("algo"))
-        .collect();
+    let Args {
+        size,
+        frames,
+        algos,
+        scenes,
+    } = ab::args();
     // (name, clear mode, scissored clears, per-pass timestamps)
     let variants: Vec<(&str, ClearMode, bool, bool)> = vec![
         ("whole", ClearMode::Command, false, true),
@@ -41,22 +37,13 @@ fn main() {
         // Load-op clears (whole images, lavapipe's binned clear) re-checked.
         ("loadop-nots", ClearMode::LoadOp, true, false),
     ];
-    let ctx = Context::new(&ContextDesc {
-        device: DeviceChoice::Cpu,
-        validation: false,
-    })
-    .expect("lavapipe");
-    for path in &args[3..] {
+    let ctx = ab::lavapipe();
+    for path in &scenes {
         let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
         let prep = Prepared::new(&scene).expect("prepared");
         for &algo in &algos {
             let plan = plan::build(algo, &prep).expect("plan");
-            let desc = ExecDesc {
-                width: size.0,
-                height: size.1,
-                depth_format: DepthFormat::D32S8,
-                reversed_z: true,
-            };
+            let desc = ab::desc(size);
             let mut exs: Vec<Executor> = variants
                 .iter()
                 .map(|&(_, clears, scissored, ts)| {
@@ -99,11 +86,4 @@ fn main() {
             );
         }
     }
-}
-
-fn scene_name(p: &str) -> &str {
-    Path::new(p)
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or(p)
 }

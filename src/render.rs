@@ -307,6 +307,12 @@ impl GpuRenderer {
         self.exec.set_rounding_emulation(rounding);
     }
 
+    /// Whether parity and peel draws that cannot tie run as plain depth tests
+    /// (the default; see `vk::Executor::set_tie_free`).
+    pub fn set_tie_free(&mut self, on: bool) {
+        self.exec.set_tie_free(on);
+    }
+
     pub fn device_name(&self) -> String {
         self.ctx.device_name().to_string()
     }

@@ -23,6 +23,7 @@ mod see_inside;
 mod setup;
 mod shadow;
 mod stability;
+mod tie_free;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

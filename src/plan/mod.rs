@@ -21,6 +21,7 @@ pub mod scs;
 pub mod stencil;
 pub mod step;
 pub mod tie;
+pub mod tie_free;
 pub mod trickle;
 pub mod usage;
 pub mod validate;

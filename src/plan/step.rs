@@ -146,6 +146,11 @@ pub enum Fragment {
     /// the one just behind all of them — regularized, whatever the rounding.
     /// `eps` is signed: a negative one keeps only fragments more than `-eps` in
     /// front of `tex` (CST's `Less` tie rule, seed 000 §5).
+    ///
+    /// Every plan draws it with the depth test off into a depth-stencil image
+    /// that holds `tex`'s depth wherever the draw's result is read, so where no
+    /// face can tie ([`super::tie_free`]) the executor runs it as a plain
+    /// `LessOrEqual` (`Less` for a negative `eps`) depth test instead.
     NearerThan { tex: Tex, eps: f32 },
     /// Shade and write the primitive id only where the fragment's depth is within
     /// `eps` (normalized depth) of texture `tex` at this pixel: depth-equal shading

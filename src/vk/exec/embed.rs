@@ -59,6 +59,7 @@ impl Executor {
         let meshes = self.scene_ref()?.ranges.len() as u32;
         crate::plan::validate::validate(plan, meshes)?;
         self.ensure_targets(plan)?;
+        self.ties = self.decide_ties(plan);
         let scene = self.scene_ref()?;
         let cam = scene.cam;
         self.rects = super::Scissors::exact(scene, &self.desc);

@@ -9,6 +9,7 @@ use glam::{DMat4, DVec3};
 use gpu_allocator::MemoryLocation;
 
 use super::ExecDesc;
+use crate::geom::ties::TieGaps;
 use crate::scene::camera::DepthConvention;
 use crate::scene::{Aabb, Camera, Projection, Scene};
 use crate::vk::error::VkError;
@@ -30,6 +31,9 @@ pub(super) struct GpuScene {
     pub cam: CameraState,
     /// First vertex of the full-screen quad (6 vertices).
     pub quad_first: u32,
+    /// Which meshes' faces could meet the tie rule (`geom::ties`); unknown
+    /// (every mesh possibly tied) once a mesh was moved.
+    pub ties: TieGaps,
 }
 
 /// What the shaders and scissors derive from the camera.
@@ -132,6 +136,7 @@ impl GpuScene {
             origin,
             cam: camera_state(&scene.camera, desc, origin),
             quad_first,
+            ties: TieGaps::new(&meshes.iter().map(|(m, _)| *m).collect::<Vec<_>>()),
         })
     }
 }
@@ -185,6 +190,8 @@ impl GpuScene {
         let at = first as usize * 24;
         scene.vertices.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
         scene.bounds[i] = mesh_bounds(mesh);
+        // The gaps were the old geometry's: no draw is taken as tie-free now.
+        scene.ties = TieGaps::unknown(scene.ranges.len());
         Ok(())
     }
 }

@@ -57,9 +57,10 @@ use super::readback::{decode, Raw};
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::output::Images;
+use crate::plan::tie_free::{TieBand, TieFree};
 use crate::plan::validate::validate;
 use crate::plan::{Plan, Step};
-use crate::scene::{Camera, Scene};
+use crate::scene::{Aabb, Camera, Scene};
 use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 use camera::CameraBuffer;
 use gpu_scene::{CameraState, GpuScene};
@@ -91,6 +92,8 @@ struct RecordingKey {
     rects: Scissors,
     layers: Vec<u32>,
     epoch: u64,
+    /// The tie-free decisions its draws were recorded with.
+    ties: TieFree,
 }
 
 /// The per-mesh screen rectangles a recording's scissors come from: exact for a
@@ -233,6 +236,10 @@ pub struct Executor {
     rounding: Option<super::RoundingEmulation>,
     /// Write the normal buffer with the colour ([`Executor::set_normals`]).
     normals: bool,
+    /// Plain depth tests where no tie is possible ([`Executor::set_tie_free`]).
+    tie_free: bool,
+    /// The tie-free decisions for the current plan and camera.
+    ties: TieFree,
     /// Keep the accumulate pass's images ([`Executor::set_transparency`]).
     transparency: bool,
 }
@@ -295,6 +302,8 @@ impl Executor {
             scissored_clears: true,
             rounding: None,
             normals: false,
+            tie_free: true,
+            ties: TieFree::none(),
             transparency: false,
         })
     }
@@ -334,13 +343,50 @@ impl Executor {
     }
 
     /// The push constants' flags: reversed Z, and the subpixel precision the tie
-    /// tolerance assumes (the device's, or the emulated device's).
+    /// tolerance assumes ([`Self::subpixel_bits`]).
     fn flags(&self) -> u32 {
-        let bits = match self.rounding {
+        pipeline_flags(self.desc.reversed_z, self.subpixel_bits())
+    }
+
+    /// The vertex snapping the tie rule allows for: the device's, or the
+    /// emulated device's.
+    fn subpixel_bits(&self) -> u32 {
+        match self.rounding {
             Some(r) => r.subpixel_bits,
             None => self.shared.limits.sub_pixel_precision_bits,
+        }
+    }
+
+    /// Whether tolerant parity and peel draws whose meshes cannot tie under the
+    /// current camera run as plain depth tests (`plan::tie_free`; the default).
+    /// Off: every one runs its tie-rule shader (A/B measurements). Both give the
+    /// same images up to crossings of faces within a depth quantum.
+    pub fn set_tie_free(&mut self, on: bool) {
+        self.tie_free = on;
+        self.recording = None;
+    }
+
+    /// The tie-free decisions for `plan` under the scene's current camera.
+    fn decide_ties(&self, plan: &Plan) -> TieFree {
+        let Some(scene) = self.scene.as_ref().filter(|_| self.tie_free) else {
+            return TieFree::none();
         };
-        pipeline_flags(self.desc.reversed_z, bits)
+        let bounds = scene
+            .bounds
+            .iter()
+            .fold(crate::geom::bounds(&[]), |a, b| Aabb {
+                min: a.min.min(b.min),
+                max: a.max.max(b.max),
+            });
+        let band = TieBand::new(
+            &scene.camera,
+            self.desc.width,
+            self.desc.height,
+            self.subpixel_bits(),
+            self.desc.reversed_z,
+            &bounds,
+        );
+        TieFree::new(&scene.ties, &band, plan)
     }
 
     fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
@@ -425,6 +471,7 @@ impl Executor {
             .len() as u32;
         validate(plan, meshes)?;
         self.ensure_targets(plan)?;
+        self.ties = self.decide_ties(plan);
         let scene = self.scene.as_ref().expect("checked above");
         let cam = scene.cam;
         let exact = Scissors::exact(scene, &self.desc);
@@ -543,6 +590,7 @@ impl Executor {
             snap,
             normals: self.normals,
             camera_set: self.camera.set,
+            ties: &self.ties,
             mesh_rects: RectUnions::new(&self.rects.rects),
         };
         (Recorder::new(b), &self.submit)
@@ -583,7 +631,11 @@ impl Executor {
             .filter(|r| r.key.epoch == self.epoch && r.key.layers == layers && r.key.plan == *plan);
         let kind = match same {
             // Scissors grown for a moving camera are made exact once it stops.
-            Some(r) if r.key.rects.covers(exact) && !(still && r.key.rects.grown) => {
+            Some(r)
+                if r.key.rects.covers(exact)
+                    && r.key.ties == self.ties
+                    && !(still && r.key.rects.grown) =>
+            {
                 if r.key.rects.rects == exact.rects || still {
                     Recorded::Replayed
                 } else {
@@ -653,6 +705,7 @@ impl Executor {
                 rects: self.rects.clone(),
                 layers: layers.to_vec(),
                 epoch: self.epoch,
+                ties: self.ties.clone(),
             },
             stats,
             queries,
@@ -673,14 +726,10 @@ impl Executor {
             Some(r) if r.key.epoch == self.epoch && r.key.plan == *plan => r.key.layers.clone(),
             _ => return Ok(None),
         };
-        // The scissors it was made with, so that the recording stays what it was.
-        self.rects = self
-            .recording
-            .as_ref()
-            .expect("matched above")
-            .key
-            .rects
-            .clone();
+        // The scissors and tie decisions it was made with, so that the
+        // recording stays what it was.
+        let key = &self.recording.as_ref().expect("matched above").key;
+        (self.rects, self.ties) = (key.rects.clone(), key.ties.clone());
         (0..reps)
             .map(|_| self.record_kept(plan, &layers))
             .collect::<Result<Vec<f64>, VkError>>()

@@ -26,6 +26,7 @@ use clears::{ClearNeed, PendingClear};
 
 mod clears;
 mod host;
+use crate::plan::tie_free::TieFree;
 use crate::plan::usage::{self, Resource, Usage};
 use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
@@ -111,6 +112,9 @@ pub(super) struct Bindings<'a> {
     pub normals: bool,
     /// The camera's uniform buffer (set 1 of every pipeline).
     pub camera_set: vk::DescriptorSet,
+    /// Which tolerant parity and peel draws run as plain depth tests under the
+    /// recorded camera (`plan::tie_free`).
+    pub ties: &'a TieFree,
     /// Screen rectangle of each mesh's bounds (a `BoundsOf` scissor is their
     /// union, exactly as `bounds_rect` of all the boxes), as a table of unions;
     /// the executor may pass larger ones (see `Executor::execute`).
@@ -772,6 +776,23 @@ impl<'a> Recorder<'a> {
             self.stats.counts.skipped_steps += 1;
             return Ok(());
         }
+        // Plain depth tests where the tie rule cannot change the result.
+        let fast = self.b.ties.fixed_function(draw).map(Step::Draw);
+        let (draw, step) = match &fast {
+            Some(s @ Step::Draw(d)) => {
+                self.stats.counts.tie_free_draws += 1;
+                (d, s)
+            }
+            _ => {
+                if matches!(
+                    draw.fragment,
+                    Fragment::NearerThan { .. } | Fragment::PeelTolerant { .. }
+                ) {
+                    self.stats.counts.tie_rule_draws += 1;
+                }
+                (draw, step)
+            }
+        };
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
             .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));

@@ -37,6 +37,13 @@ pub struct Counts {
     pub mesh_pixels: u64,
     /// Plan steps not recorded because their scissor is empty on screen.
     pub skipped_steps: u64,
+    /// Tolerant parity and peel draws run as plain depth tests because no face
+    /// they draw can tie under this camera (`plan::tie_free`): a depth-stencil
+    /// draw without a shader, or the exact peel.
+    pub tie_free_draws: u64,
+    /// Parity and peel draws that still run a tie-rule shader (`nearer_than`,
+    /// `peel_tolerant`).
+    pub tie_rule_draws: u64,
     /// Pipeline barriers recorded (each may carry several image barriers). A
     /// plan's first frame, run loop by loop, records more: each of its
     /// submissions starts a new rendering block.
@@ -174,6 +181,8 @@ impl ExecStats {
         c.triangles += o.triangles;
         c.fullscreen_pixels += o.fullscreen_pixels;
         c.skipped_steps += o.skipped_steps;
+        c.tie_free_draws += o.tie_free_draws;
+        c.tie_rule_draws += o.tie_rule_draws;
         c.barriers += o.barriers;
         c.render_passes += o.render_passes;
         c.clear_commands += o.clear_commands;

@@ -1,0 +1,86 @@
+//! Interleaved A/B of the tie-free fast path (`plan::tie_free`,
+//! `Executor::set_tie_free`) in one process: for each scene and algorithm, a
+//! frame with every parity and peel draw running its tie-rule shader alternates
+//! with a frame where those that cannot tie run as plain depth tests, so a shared
+//! machine's load falls on both alike. Prints the median process CPU time per
+//! frame (every thread; with `LP_NUM_THREADS=0` lavapipe rasterizes in the
+//! calling thread), the ratio, and the executed tie-free and tie-rule draws.
+//!
+//! `cargo run --release --example tie_ab -- SIZE FRAMES ALGOS SCENE...`
+//! with ALGOS comma-separated (e.g. `800x800 7 cst-g,cst-i scenes/complex.toml`).
+//! README, "Per-fragment work".
+
+#[path = "common/ab.rs"]
+mod ab;
+
+use std::path::Path;
+
+use ab::{median, scene_name, Args};
+
+use peeltrim::plan::{self, Prepared};
+use peeltrim::scene::load::{load, LoadOptions};
+use peeltrim::vk::Executor;
+
+fn main() {
+    let Args {
+        size,
+        frames,
+        algos,
+        scenes,
+    } = ab::args();
+    let ctx = ab::lavapipe();
+    println!("scene            algo          tie-rule CPU ms  tie-free CPU ms  ratio  | tie-free draws, tie-rule draws left");
+    for path in &scenes {
+        let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
+        let prep = Prepared::new(&scene).expect("prepared");
+        let meshes: Vec<&peeltrim::scene::Mesh> = scene
+            .primitives
+            .iter()
+            .map(|p| &p.mesh)
+            .chain(scene.surfaces.iter().map(|s| &s.mesh))
+            .collect();
+        let t = std::time::Instant::now();
+        let gaps = peeltrim::geom::ties::TieGaps::new(&meshes);
+        println!(
+            "{}: tie analysis of {} triangles {:.1} ms, {} mesh pairs within the cap",
+            scene_name(path),
+            meshes.iter().map(|m| m.triangles.len()).sum::<usize>(),
+            t.elapsed().as_secs_f64() * 1e3,
+            gaps.pairs.len()
+        );
+        for &algo in &algos {
+            let plan = plan::build(algo, &prep).expect("plan");
+            let desc = ab::desc(size);
+            let mut exs: Vec<Executor> = [false, true]
+                .iter()
+                .map(|&on| {
+                    let mut e = Executor::new(&ctx, &desc).expect("executor");
+                    e.set_tie_free(on);
+                    e.upload(&scene).expect("upload");
+                    for _ in 0..2 {
+                        e.execute(&plan).expect("warm-up");
+                    }
+                    e
+                })
+                .collect();
+            let mut cpu = [Vec::new(), Vec::new()];
+            for _ in 0..frames {
+                for (i, e) in exs.iter_mut().enumerate() {
+                    cpu[i].push(e.execute(&plan).expect("frame").frame_cpu_ms);
+                }
+            }
+            let c = exs[1].execute(&plan).expect("frame").counts;
+            let (a, b) = (median(cpu[0].clone()), median(cpu[1].clone()));
+            println!(
+                "{:16} {:12} {:15.1} {:16.1} {:6.2}  | {}, {}",
+                scene_name(path),
+                algo.name(),
+                a,
+                b,
+                b / a,
+                c.tie_free_draws,
+                c.tie_rule_draws
+            );
+        }
+    }
+}

@@ -1,0 +1,380 @@
+//! Which meshes could meet the tie rule at all: the camera-independent half of
+//! the fixed-function fast path (README "Per-fragment work"; the rule itself is
+//! `plan::tie`, CONTRACT §4).
+//!
+//! The tolerant parity and peel shaders differ from a plain depth test only
+//! where a face of the drawn mesh lies within the tie band of the face recorded
+//! in the depth texture at the same pixel: `eps'` (a few depth quanta) plus, for
+//! faces whose depth gradients agree, `2^-bits · fwidth(z)`. Two faces come that
+//! close on one view ray only when they
+//!
+//! - are (nearly) parallel: a face crossing another one is within `eps'` of it
+//!   only on a band of `eps' / |Δ∇z|` pixels around the crossing line — a
+//!   fraction of a pixel, on an edge of the image, where the tolerant answer is
+//!   no more right than the plain one — and the slope part of the band applies
+//!   only to faces with agreeing gradients;
+//! - lie within a small world distance of each other (the band, converted for a
+//!   camera by `plan::tie_free`): two points on one ray are at least as far apart
+//!   as the faces;
+//! - and overlap (their boxes, grown by that distance).
+//!
+//! Faces of one mesh that face the same way never tie: where a ray crosses two
+//! of them it crosses an opposite face in between, and adjacent faces of a
+//! tessellated curve cover each pixel centre once (the raster rules). Opposite
+//! faces of one mesh do (a wall thinner than the band).
+//!
+//! [`TieGaps::new`] records, per mesh, the smallest such distance to any
+//! partner face, up to a cap ([`CAP_FRACTION`] of the scene's size): one pass
+//! over the triangles into a uniform grid sorted by cell (`O(F log F)`), pairs
+//! tested only within a cell. The camera decides later which of those gaps the
+//! band reaches. Conservative throughout: a gap is a lower bound of the true
+//! distance between the two triangles; a search past its work budget reports
+//! every mesh as possibly tied.
+#![deny(unsafe_code)]
+
+use glam::DVec3;
+
+use crate::scene::Mesh;
+
+/// Faces count as parallel when their normals are within this angle (radians,
+/// either orientation): sixteen times the tie rule's gradient agreement of 1/32
+/// seen at its most favourable orientation (about 1/64 rad).
+pub const PARALLEL_ANGLE: f64 = 1.0 / 16.0;
+
+/// Gaps are looked for up to this fraction of the scene's bounding-box diagonal.
+/// A band wider than that (a scene a few dozen pixels wide, or standard Z with a
+/// near plane very close to the eye) makes every mesh possibly tied.
+pub const CAP_FRACTION: f64 = 1.0 / 128.0;
+
+/// The most candidate pairs tested before the search gives up (then every mesh
+/// counts as possibly tied: correct, only slower).
+pub const MAX_PAIR_TESTS: u64 = 50_000_000;
+
+/// Per mesh, the smallest world distance between one of its faces and a
+/// parallel, overlapping face that could tie with it ([module doc](self)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TieGaps {
+    /// Per mesh: the smallest gap found, `f64::INFINITY` when none is at most `cap`.
+    pub min_gap: Vec<f64>,
+    /// The gaps are complete up to this distance; larger bands are not covered.
+    pub cap: f64,
+    /// The mesh pairs `(a, b)`, `a <= b`, with a gap of at most `cap`, and that
+    /// gap (`a == b`: opposite faces of one mesh), sorted.
+    pub pairs: Vec<(u32, u32, f64)>,
+}
+
+/// One triangle as the search needs it.
+struct Tri {
+    mesh: u32,
+    normal: DVec3,
+    offset: f64,
+    v: [DVec3; 3],
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Tri {
+    /// The distance from `self`'s vertices to `other`'s plane (0 when they lie
+    /// on both sides): a lower bound of the distance between the triangles.
+    fn gap_to_plane_of(&self, other: &Tri) -> f64 {
+        let d = self.v.map(|p| other.normal.dot(p) - other.offset);
+        let (lo, hi) = (d[0].min(d[1]).min(d[2]), d[0].max(d[1]).max(d[2]));
+        if lo > 0.0 {
+            lo
+        } else if hi < 0.0 {
+            -hi
+        } else {
+            0.0
+        }
+    }
+}
+
+impl TieGaps {
+    /// The gaps of `meshes` (indexed by mesh id).
+    pub fn new(meshes: &[&Mesh]) -> TieGaps {
+        let tris = triangles(meshes);
+        let n = meshes.len();
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for t in &tris {
+            lo = lo.min(t.lo);
+            hi = hi.max(t.hi);
+        }
+        let diag = if tris.is_empty() {
+            0.0
+        } else {
+            (hi - lo).length()
+        };
+        let cap = diag * CAP_FRACTION;
+        let mut out = TieGaps {
+            min_gap: vec![f64::INFINITY; n],
+            cap,
+            pairs: Vec::new(),
+        };
+        if !(cap > 0.0 && cap.is_finite()) {
+            return out;
+        }
+        match pairs_within(&tris, cap) {
+            Some(mut pairs) => {
+                pairs.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)).then(a.2.total_cmp(&b.2)));
+                pairs.dedup_by(|later, first| (later.0, later.1) == (first.0, first.1));
+                for &(a, b, g) in &pairs {
+                    for m in [a, b] {
+                        let slot = &mut out.min_gap[m as usize];
+                        *slot = slot.min(g);
+                    }
+                }
+                out.pairs = pairs;
+            }
+            None => out.min_gap = vec![0.0; n],
+        }
+        out
+    }
+
+    /// No analysis: every mesh possibly tied (e.g. after a mesh moved).
+    pub fn unknown(meshes: usize) -> TieGaps {
+        TieGaps {
+            min_gap: vec![0.0; meshes],
+            cap: 0.0,
+            pairs: Vec::new(),
+        }
+    }
+
+    /// The gap between meshes `a` and `b` (either order), if at most `cap`.
+    pub fn gap(&self, a: u32, b: u32) -> Option<f64> {
+        let key = (a.min(b), a.max(b));
+        self.pairs
+            .binary_search_by(|p| (p.0, p.1).cmp(&key))
+            .ok()
+            .map(|i| self.pairs[i].2)
+    }
+}
+
+/// The non-degenerate triangles of `meshes` with unit normals and bounds.
+fn triangles(meshes: &[&Mesh]) -> Vec<Tri> {
+    let mut out = Vec::new();
+    for (m, mesh) in meshes.iter().enumerate() {
+        for t in &mesh.triangles {
+            let v = t.map(|i| mesh.positions[i as usize]);
+            let n = (v[1] - v[0]).cross(v[2] - v[0]);
+            let len = n.length();
+            if !(len > 0.0 && len.is_finite()) {
+                continue;
+            }
+            let normal = n / len;
+            out.push(Tri {
+                mesh: m as u32,
+                normal,
+                offset: normal.dot(v[0]),
+                v,
+                lo: v[0].min(v[1]).min(v[2]),
+                hi: v[0].max(v[1]).max(v[2]),
+            });
+        }
+    }
+    out
+}
+
+/// The gap of triangles `a` and `b` if they could tie within `cap`.
+fn tie_gap(a: &Tri, b: &Tri, cap: f64) -> Option<f64> {
+    let dot = a.normal.dot(b.normal);
+    // Same-facing faces of one mesh never tie (module doc).
+    if a.mesh == b.mesh && dot >= 0.0 {
+        return None;
+    }
+    if dot.abs() < PARALLEL_ANGLE.cos() {
+        return None;
+    }
+    let grow = DVec3::splat(cap);
+    if (a.lo - grow).cmpgt(b.hi).any() || (b.lo - grow).cmpgt(a.hi).any() {
+        return None;
+    }
+    let gap = a.gap_to_plane_of(b).max(b.gap_to_plane_of(a));
+    (gap <= cap).then_some(gap)
+}
+
+/// Cell of a point in a grid of cell size `size` anchored at `origin`.
+fn cell(p: DVec3, origin: DVec3, size: f64) -> [i64; 3] {
+    let c = ((p - origin) / size).floor();
+    [c.x as i64, c.y as i64, c.z as i64]
+}
+
+/// Every mesh pair with a triangle pair of [`tie_gap`] at most `cap`, with that
+/// gap (not deduplicated); `None` past [`MAX_PAIR_TESTS`].
+fn pairs_within(tris: &[Tri], cap: f64) -> Option<Vec<(u32, u32, f64)>> {
+    // Boxes grown by half the cap meet when the triangles' boxes are within it.
+    let half = DVec3::splat(cap * 0.5);
+    let origin = tris
+        .iter()
+        .fold(DVec3::splat(f64::INFINITY), |o, t| o.min(t.lo))
+        - half;
+    let size = cell_size(tris, half, origin);
+    let range = |t: &Tri| {
+        (
+            cell(t.lo - half, origin, size),
+            cell(t.hi + half, origin, size),
+        )
+    };
+    let mut entries: Vec<([i64; 3], u32)> = Vec::new();
+    for (i, t) in tris.iter().enumerate() {
+        let (a, b) = range(t);
+        for x in a[0]..=b[0] {
+            for y in a[1]..=b[1] {
+                for z in a[2]..=b[2] {
+                    entries.push(([x, y, z], i as u32));
+                }
+            }
+        }
+    }
+    entries.sort_unstable();
+    let mut pairs = Vec::new();
+    let mut tests = 0u64;
+    for run in entries.chunk_by(|a, b| a.0 == b.0) {
+        let here = run[0].0;
+        for (k, &(_, i)) in run.iter().enumerate() {
+            for &(_, j) in &run[k + 1..] {
+                tests += 1;
+                if tests > MAX_PAIR_TESTS {
+                    return None;
+                }
+                let (a, b) = (&tris[i as usize], &tris[j as usize]);
+                // Each pair once: in the cell holding the corner where their
+                // grown boxes start to overlap (a cell both cover).
+                if cell((a.lo - half).max(b.lo - half), origin, size) != here {
+                    continue;
+                }
+                if let Some(g) = tie_gap(a, b, cap) {
+                    pairs.push((a.mesh.min(b.mesh), a.mesh.max(b.mesh), g));
+                }
+            }
+        }
+    }
+    Some(pairs)
+}
+
+/// A cell size near the typical triangle's extent, doubled until the grid holds
+/// at most 16 entries per triangle (large faces among small ones).
+fn cell_size(tris: &[Tri], half: DVec3, origin: DVec3) -> f64 {
+    let mut extents: Vec<f64> = tris
+        .iter()
+        .map(|t| (t.hi - t.lo + 2.0 * half).max_element())
+        .collect();
+    let mid = extents.len() / 2;
+    let (_, median, _) = extents.select_nth_unstable_by(mid, f64::total_cmp);
+    let mut size = median.max(half.x * 4.0);
+    loop {
+        let entries: u64 = tris
+            .iter()
+            .map(|t| {
+                let (a, b) = (
+                    cell(t.lo - half, origin, size),
+                    cell(t.hi + half, origin, size),
+                );
+                (0..3).map(|k| (b[k] - a[k] + 1) as u64).product::<u64>()
+            })
+            .sum();
+        if entries <= 16 * tris.len() as u64 {
+            return size;
+        }
+        size *= 2.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::shapes;
+
+    fn cube(center: DVec3, half: DVec3) -> Mesh {
+        let mut m = shapes::make_box(half * 2.0);
+        for p in &mut m.positions {
+            *p += center;
+        }
+        m
+    }
+
+    fn gaps(meshes: &[Mesh]) -> TieGaps {
+        let refs: Vec<&Mesh> = meshes.iter().collect();
+        TieGaps::new(&refs)
+    }
+
+    #[test]
+    fn coplanar_overlapping_faces_tie() {
+        // Two unit boxes whose top faces share the plane z = 1 and overlap.
+        let a = cube(DVec3::new(0.0, 0.0, 0.5), DVec3::splat(0.5));
+        let b = cube(DVec3::new(0.3, 0.2, 0.6), DVec3::new(0.5, 0.5, 0.4));
+        let g = gaps(&[a, b]);
+        assert_eq!(g.gap(0, 1), Some(0.0));
+        assert_eq!(g.min_gap, vec![0.0, 0.0]);
+    }
+
+    #[test]
+    fn coplanar_disjoint_faces_do_not_tie() {
+        // Same top plane, boxes two units apart.
+        let a = cube(DVec3::new(0.0, 0.0, 0.5), DVec3::splat(0.5));
+        let b = cube(DVec3::new(3.0, 0.0, 0.5), DVec3::splat(0.5));
+        let g = gaps(&[a, b]);
+        assert_eq!(g.gap(0, 1), None);
+        assert!(g.min_gap.iter().all(|x| x.is_infinite()), "{:?}", g.min_gap);
+    }
+
+    #[test]
+    fn parallel_faces_keep_their_distance() {
+        // b's top and bottom faces 1e-3 above a's, overlapping (its other faces
+        // are 0.1 or more from a's): a gap of 1e-3, within the cap (the scene is
+        // about 2 wide: cap ≈ 0.016), so a camera decides.
+        let a = cube(DVec3::new(0.0, 0.0, 0.5), DVec3::splat(0.5));
+        let b = cube(DVec3::new(0.2, 0.0, 0.501), DVec3::new(0.5, 0.4, 0.5));
+        let g = gaps(&[a, b]);
+        let gap = g.gap(0, 1).expect("within the cap");
+        assert!((gap - 1e-3).abs() < 1e-9, "{gap}");
+        // Offset far beyond the cap: no pair at all.
+        let c = cube(DVec3::new(0.2, 0.0, 0.8), DVec3::new(0.5, 0.4, 0.5));
+        let a = cube(DVec3::new(0.0, 0.0, 0.5), DVec3::splat(0.5));
+        let g = gaps(&[a, c]);
+        assert!(g.gap(0, 1).is_none(), "{:?}", g.pairs);
+    }
+
+    #[test]
+    fn crossing_faces_do_not_tie() {
+        // b rotated 45° about z: its faces cross a's, none is parallel to a side
+        // face... except top and bottom, which lie 0.3 away from a's.
+        let a = cube(DVec3::ZERO, DVec3::splat(0.5));
+        let mut b = cube(DVec3::ZERO, DVec3::new(0.5, 0.5, 0.2));
+        let r = glam::DQuat::from_rotation_z(std::f64::consts::FRAC_PI_4);
+        for p in &mut b.positions {
+            *p = r * *p;
+        }
+        let g = gaps(&[a, b]);
+        assert!(g.pairs.is_empty(), "{:?}", g.pairs);
+    }
+
+    #[test]
+    fn thin_walls_tie_within_one_mesh() {
+        // A slab 1e-3 thick: its top and bottom faces face away from each other.
+        let slab = cube(DVec3::ZERO, DVec3::new(0.5, 0.5, 0.5e-3));
+        let g = gaps(&[slab]);
+        let gap = g.gap(0, 0).expect("thin wall");
+        assert!((gap - 1e-3).abs() < 1e-12, "{gap}");
+        // A 0.1-thick slab's faces are 10 caps apart; its side faces touch only
+        // faces facing the same way or crossing ones.
+        let slab = cube(DVec3::ZERO, DVec3::new(0.5, 0.5, 0.05));
+        assert!(gaps(&[slab]).pairs.is_empty());
+    }
+
+    #[test]
+    fn finely_tessellated_curves_do_not_tie_with_themselves() {
+        let s = shapes::make_sphere(1.0, 128, 64);
+        let g = gaps(&[s]);
+        assert!(g.pairs.is_empty(), "{:?}", g.pairs);
+    }
+
+    #[test]
+    fn degenerate_input_gives_no_gaps() {
+        let empty = Mesh {
+            positions: vec![],
+            triangles: vec![],
+        };
+        assert_eq!(gaps(&[empty]).min_gap, vec![f64::INFINITY]);
+        assert_eq!(TieGaps::unknown(2).min_gap, vec![0.0, 0.0]);
+    }
+}

@@ -1,0 +1,479 @@
+//! Plain depth tests where the tie rule cannot change a draw's result (issue 9
+//! §5; README "Per-fragment work"). The tolerant parity and peel shaders
+//! (`nearer_than`, `peel_tolerant`, [`super::tie`]) decide per fragment whether a
+//! face is coincident with the depth in a texture; they `discard` and write
+//! stencil, so llvmpipe runs every fragment of the draw through them before its
+//! depth and stencil tests. Where no face of the drawn meshes can come within
+//! the tie band of any other face, their answer is the plain comparison's:
+//!
+//! - a parity draw [`Fragment::NearerThan`] (depth test off) becomes a
+//!   depth-stencil-only draw ([`Fragment::None`], `shaders/none.frag`) tested
+//!   `LessOrEqual` (`eps > 0`: faces at or in front of the candidate count) or
+//!   `Less` (`eps < 0`: only faces strictly in front) against its depth-stencil
+//!   image, which holds the texture's depth wherever the draw's result is read
+//!   (the plans' invariant, documented at [`Fragment::NearerThan`]); llvmpipe then
+//!   tests depth and stencil before an empty shader, as OpenCSG's parity passes;
+//! - a tolerant peel [`Fragment::PeelTolerant`] becomes the exact peel
+//!   ([`Fragment::Peel`], one texel fetch instead of three and no derivatives).
+//!
+//! Which meshes are tie-free comes from [`TieGaps`] (camera-independent: the
+//! smallest distance between a mesh's faces and a parallel, overlapping face)
+//! and [`TieBand`] (the band's width in world units for one camera, image size
+//! and vertex snapping): a mesh is tie-free for a tolerance when its smallest gap
+//! is wider than the band. The texture's faces come from meshes of the same scene,
+//! so a mesh with no partner at all within the band cannot tie whatever the
+//! texture holds. [`TieFree`] is those decisions, per tolerance of the plan; the
+//! executor keeps its recording while a moving camera leaves them unchanged.
+
+use super::step::*;
+use super::tie::REVERSED_SCALE;
+use crate::geom::ties::TieGaps;
+use crate::scene::{Aabb, Camera, Projection};
+
+/// Depth quantum of a 24-bit buffer (and the largest ulp of standard-Z floats
+/// below 1).
+const QUANTUM_STANDARD: f64 = 1.0 / (1u64 << 24) as f64;
+/// Relative ulp bound of a reversed-Z float depth.
+const QUANTUM_REVERSED: f64 = 1.0 / (1u64 << 23) as f64;
+/// Relative f32 rounding of vertices and transforms allowed for (2⁻¹⁸ of the
+/// distance from the eye: four times the 2⁻²⁰ of README "Precision and ties").
+const ROUNDING: f64 = 1.0 / (1u64 << 18) as f64;
+/// Every bound below is doubled (the depth slope is taken as constant over the
+/// band; the band is a tiny fraction of the view depth).
+const SAFETY: f64 = 2.0;
+
+/// The tie band as a world distance between two faces, under one camera: two
+/// faces farther apart than [`TieBand::world`] are never within the tie rule's
+/// tolerance of each other at any pixel.
+///
+/// Along a view ray at angle β to the view axis, faces a distance `h` apart
+/// differ in view depth by at least `h cos β`. The rule's tolerance in
+/// normalized depth, `eps' + 2^-bits · fwidth(z)`, is in view depth `eps' /
+/// |dz/dw| + 2^-bits (|∂w/∂x| + |∂w/∂y|)`; for parallel planes the second term
+/// is at most `2^(2-bits)` pixel footprints in perspective (`2^(1-bits)`
+/// orthographic) whatever their angle to the ray, because the separation along
+/// the ray grows with the same `1/cos` as the slope. With the depth-format
+/// quantum, f32 rounding and a factor of two for safety, the band in world units
+/// is `SAFETY · (per_eps · |eps| + fixed) + rounding`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TieBand {
+    /// World units per unit of the draw's `|eps|`.
+    per_eps: f64,
+    /// The part independent of `eps`: quantum and vertex snapping, before
+    /// [`SAFETY`].
+    fixed: f64,
+    /// f32 rounding of positions, world units.
+    rounding: f64,
+}
+
+impl TieBand {
+    /// The band for `camera` on a `width × height` image of a device that snaps
+    /// vertices to `2^-subpixel_bits` pixel, with reversed or standard Z, for
+    /// faces inside `bounds`.
+    pub fn new(
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        subpixel_bits: u32,
+        reversed_z: bool,
+        bounds: &Aabb,
+    ) -> TieBand {
+        let (n, f) = (camera.near, camera.far);
+        let mut w_max = n;
+        let mut t_max: f64 = 0.0;
+        for k in 0..8 {
+            let p = glam::DVec3::new(
+                if k & 1 == 0 {
+                    bounds.min.x
+                } else {
+                    bounds.max.x
+                },
+                if k & 2 == 0 {
+                    bounds.min.y
+                } else {
+                    bounds.max.y
+                },
+                if k & 4 == 0 {
+                    bounds.min.z
+                } else {
+                    bounds.max.z
+                },
+            );
+            w_max = w_max.max(camera.view_depth(p));
+            t_max = t_max.max((p - camera.eye).length());
+        }
+        // Nothing beyond the far plane is drawn (and an empty box gives -inf).
+        let w_max = if w_max.is_finite() { w_max.min(f) } else { f };
+        let t_max = if t_max.is_finite() { t_max } else { f };
+        let snap = 0.5f64.powi(subpixel_bits.min(30) as i32);
+        let (depth_per_z, slope, cos_beta) = match camera.projection {
+            Projection::Perspective { fov_y_deg } => {
+                let tan_half = (fov_y_deg.to_radians() * 0.5).tan();
+                let aspect = width as f64 / height as f64;
+                let cos_beta = 1.0 / (1.0 + tan_half * tan_half * (1.0 + aspect * aspect)).sqrt();
+                // World size of a pixel at distance t: at most t · ρ.
+                let rho = 2.0 * tan_half / height as f64;
+                // View depth per unit of (reversed: relative) normalized depth.
+                let per_z = if reversed_z {
+                    w_max
+                } else {
+                    (f - n) * w_max * w_max / (f * n)
+                };
+                (per_z, 4.0 * snap * t_max * rho, cos_beta)
+            }
+            Projection::Orthographic { height: view_h } => {
+                (f - n, 2.0 * snap * view_h / height as f64, 1.0)
+            }
+        };
+        let (per_eps, quantum) = if reversed_z {
+            (
+                REVERSED_SCALE as f64 * depth_per_z,
+                QUANTUM_REVERSED * depth_per_z,
+            )
+        } else {
+            (depth_per_z, QUANTUM_STANDARD * depth_per_z)
+        };
+        TieBand {
+            per_eps: per_eps / cos_beta,
+            fixed: (quantum + slope) / cos_beta,
+            rounding: ROUNDING * t_max,
+        }
+    }
+
+    /// The band of a draw with tolerance `eps` (normalized depth), world units.
+    pub fn world(&self, eps: f32) -> f64 {
+        SAFETY * (self.per_eps * eps.abs() as f64 + self.fixed) + self.rounding
+    }
+}
+
+/// Which meshes are tie-free under one camera, per tolerance a plan uses.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TieFree {
+    /// `|eps|` (its bits), then per mesh: no face within that band of a
+    /// parallel face.
+    by_eps: Vec<(u32, Vec<bool>)>,
+}
+
+impl TieFree {
+    /// Nothing tie-free: every tolerant draw keeps its shader.
+    pub fn none() -> TieFree {
+        TieFree::default()
+    }
+
+    /// The decisions for the tolerances of `plan`'s tolerant draws.
+    pub fn new(gaps: &TieGaps, band: &TieBand, plan: &Plan) -> TieFree {
+        let mut eps: Vec<u32> = Vec::new();
+        tolerances(&plan.steps, &mut eps);
+        eps.sort_unstable();
+        eps.dedup();
+        let by_eps = eps
+            .into_iter()
+            .map(|bits| {
+                let b = band.world(f32::from_bits(bits));
+                let free = gaps
+                    .min_gap
+                    .iter()
+                    .map(|&g| b.is_finite() && b <= gaps.cap && g > b)
+                    .collect();
+                (bits, free)
+            })
+            .collect();
+        TieFree { by_eps }
+    }
+
+    /// Whether every mesh of `meshes` is tie-free at tolerance `eps`.
+    pub fn meshes_free(&self, meshes: &[MeshId], eps: f32) -> bool {
+        let key = eps.abs().to_bits();
+        let Some((_, free)) = self.by_eps.iter().find(|(k, _)| *k == key) else {
+            return false;
+        };
+        !meshes.is_empty()
+            && meshes
+                .iter()
+                .all(|&m| free.get(m as usize).copied().unwrap_or(false))
+    }
+
+    /// The draw with plain tests in place of the tie rule, when the rule cannot
+    /// change its result ([module doc](self)); `None` otherwise.
+    pub fn fixed_function(&self, draw: &Draw) -> Option<Draw> {
+        let meshes: &[MeshId] = match &draw.geometry {
+            Geometry::Mesh(m) => std::slice::from_ref(m),
+            Geometry::Meshes(ms) => ms,
+            Geometry::FullScreen { .. } => return None,
+        };
+        match draw.fragment {
+            Fragment::NearerThan { eps, .. } => {
+                let off = DepthState {
+                    compare: CompareOp::Always,
+                    write: false,
+                };
+                // One depth test: the shader's compare can replace it only when
+                // the draw has none of its own.
+                if draw.depth != off || !self.meshes_free(meshes, eps) {
+                    return None;
+                }
+                let compare = if eps < 0.0 {
+                    CompareOp::Less
+                } else {
+                    CompareOp::LessOrEqual
+                };
+                Some(Draw {
+                    depth: DepthState {
+                        compare,
+                        write: false,
+                    },
+                    fragment: Fragment::None,
+                    ..draw.clone()
+                })
+            }
+            Fragment::PeelTolerant { prev, out, eps } if self.meshes_free(meshes, eps) => {
+                Some(Draw {
+                    fragment: Fragment::Peel {
+                        prev,
+                        out,
+                        shade: false,
+                    },
+                    ..draw.clone()
+                })
+            }
+            _ => None,
+        }
+    }
+}
+
+/// The `|eps|` bits of every tolerant parity or peel draw in `steps`.
+fn tolerances(steps: &[Step], out: &mut Vec<u32>) {
+    for s in steps {
+        match s {
+            Step::Draw(d) => match d.fragment {
+                Fragment::NearerThan { eps, .. } | Fragment::PeelTolerant { eps, .. } => {
+                    out.push(eps.abs().to_bits())
+                }
+                _ => {}
+            },
+            Step::Loop(l) => {
+                tolerances(&l.head, out);
+                tolerances(&l.tail, out);
+            }
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::SHADE_EPS;
+    use super::*;
+    use crate::scene::{shapes, Mesh};
+    use glam::DVec3;
+
+    fn camera(eye: DVec3, projection: Projection) -> Camera {
+        Camera {
+            eye,
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            projection,
+            near: 3.0,
+            far: 7.0,
+        }
+    }
+
+    const PERSPECTIVE: Projection = Projection::Perspective { fov_y_deg: 45.0 };
+
+    fn unit() -> Aabb {
+        Aabb {
+            min: DVec3::splat(-1.0),
+            max: DVec3::splat(1.0),
+        }
+    }
+
+    fn band(size: u32, bits: u32, reversed: bool) -> TieBand {
+        let cam = camera(DVec3::new(0.0, 0.0, 5.0), PERSPECTIVE);
+        TieBand::new(&cam, size, size, bits, reversed, &unit())
+    }
+
+    #[test]
+    fn the_band_scales_with_the_pixel_and_the_snapping() {
+        // The snapping part is proportional to the pixel's size: 8× at 1/8 the size.
+        let (fine, coarse) = (band(800, 8, true), band(100, 8, true));
+        assert!((coarse.fixed - 8.0 * fine.fixed).abs() < 1e-2 * coarse.fixed);
+        // 4 bits (the coarsest conformant device) snap 16× coarser than 8.
+        assert!(band(800, 4, true).world(0.0) > 10.0 * band(800, 8, true).world(0.0));
+        // At 800 px a pixel is ~6e-3 wide at the far corner (6 units away);
+        // 2^-6 of it (snapping 2^-8, two faces, perspective, safety) over cos β,
+        // plus rounding: ~2.6e-4. A 1e-3 thin wall is outside the band.
+        let w = fine.world(SHADE_EPS);
+        assert!(w > 1e-4 && w < 5e-4, "{w}");
+    }
+
+    #[test]
+    fn reversed_z_tolerances_are_narrower_than_standard_ones() {
+        // Standard Z: (f - n) w² / (f n) = 6.9 view units per unit of eps at the
+        // far corner; reversed Z: REVERSED_SCALE · w = 0.75.
+        let (std, rev) = (band(800, 8, false), band(800, 8, true));
+        assert!((std.per_eps / rev.per_eps - 6.0 * 6.0 * 4.0 / 21.0 / 0.75).abs() < 1e-9);
+        let ortho = camera(
+            DVec3::new(0.0, 0.0, 5.0),
+            Projection::Orthographic { height: 3.0 },
+        );
+        let o = TieBand::new(&ortho, 800, 800, 8, false, &unit());
+        // Orthographic standard Z: (f - n) per unit of eps; snapping 2^-7 of 3/800.
+        assert!((o.per_eps - 4.0).abs() < 1e-12);
+        assert!((o.fixed - (4.0 / (1u64 << 24) as f64 + 2.0 / 256.0 * 3.0 / 800.0)).abs() < 1e-12);
+    }
+
+    fn cube(center: DVec3, half: DVec3) -> Mesh {
+        let mut m = shapes::make_box(half * 2.0);
+        for p in &mut m.positions {
+            *p += center;
+        }
+        m
+    }
+
+    /// Tie-free decisions for the meshes 0 and 1 of a two-box scene under a
+    /// 5-unit-away camera at `size` pixels.
+    fn decide(b: Mesh, size: u32) -> Vec<bool> {
+        let a = cube(DVec3::ZERO, DVec3::splat(0.5));
+        let gaps = TieGaps::new(&[&a, &b]);
+        let plan = plan_of(vec![parity(0, SHADE_EPS), parity(1, SHADE_EPS)]);
+        let free = TieFree::new(&gaps, &band(size, 8, true), &plan);
+        (0..2).map(|m| free.meshes_free(&[m], SHADE_EPS)).collect()
+    }
+
+    #[test]
+    fn ties_are_decided_by_distance_overlap_and_image_size() {
+        // Coplanar and overlapping (top faces at y = 0.5): never tie-free.
+        let flush = cube(DVec3::new(0.2, 0.3, 0.0), DVec3::new(0.5, 0.2, 0.4));
+        assert_eq!(decide(flush.clone(), 800), vec![false, false]);
+        assert_eq!(decide(flush, 4000), vec![false, false]);
+        // Coplanar but disjoint: tie-free.
+        let apart = cube(DVec3::new(1.5, 0.3, 0.0), DVec3::new(0.5, 0.2, 0.4));
+        assert_eq!(decide(apart, 800), vec![true, true]);
+        // Parallel faces 1e-3 apart (a thin wall between two solids): beyond the
+        // band at 800 pixels, inside it at 32 pixels, where a pixel is 0.2 wide.
+        let wall = cube(DVec3::new(0.2, 0.301, 0.0), DVec3::new(0.5, 0.2, 0.4));
+        assert_eq!(decide(wall.clone(), 800), vec![true, true]);
+        assert_eq!(decide(wall, 32), vec![false, false]);
+    }
+
+    fn parity(mesh: MeshId, eps: f32) -> Step {
+        Step::Draw(Draw {
+            geometry: Geometry::Mesh(mesh),
+            scissor: Scissor::BoundsOf(vec![mesh]),
+            cull: Cull::None,
+            ds: 0,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: false,
+            },
+            stencil: None,
+            fragment: Fragment::NearerThan { tex: 1, eps },
+            count_samples: false,
+        })
+    }
+
+    fn plan_of(steps: Vec<Step>) -> Plan {
+        Plan {
+            algo: "t".into(),
+            depth_stencils: 1,
+            textures: 2,
+            stencil_bits: 1,
+            output_ds: 0,
+            steps,
+        }
+    }
+
+    fn draw(s: Step) -> Draw {
+        match s {
+            Step::Draw(d) => d,
+            _ => unreachable!(),
+        }
+    }
+
+    /// Mesh 0 tie-free, mesh 1 not, at every tolerance of the plan.
+    fn half_free(plan: &Plan) -> TieFree {
+        let gaps = TieGaps {
+            min_gap: vec![f64::INFINITY, 0.0],
+            cap: 1.0,
+            pairs: vec![(1, 1, 0.0)],
+        };
+        TieFree::new(&gaps, &band(800, 8, true), plan)
+    }
+
+    #[test]
+    fn tie_free_parity_draws_become_plain_depth_tests() {
+        let steps = vec![
+            parity(0, SHADE_EPS),
+            parity(0, -SHADE_EPS),
+            parity(1, SHADE_EPS),
+        ];
+        let free = half_free(&plan_of(steps.clone()));
+        let fast: Vec<Option<Draw>> = steps
+            .into_iter()
+            .map(|s| free.fixed_function(&draw(s)))
+            .collect();
+        let compare = |d: &Option<Draw>| {
+            let d = d.as_ref().expect("rewritten");
+            assert_eq!(d.fragment, Fragment::None);
+            assert!(!d.depth.write);
+            d.depth.compare
+        };
+        assert_eq!(compare(&fast[0]), CompareOp::LessOrEqual);
+        assert_eq!(compare(&fast[1]), CompareOp::Less);
+        // The possibly tied mesh keeps the tie rule.
+        assert_eq!(fast[2], None);
+    }
+
+    #[test]
+    fn only_draws_without_a_depth_test_and_known_tolerances_are_rewritten() {
+        let free = half_free(&plan_of(vec![parity(0, SHADE_EPS)]));
+        let mut d = draw(parity(0, SHADE_EPS));
+        d.depth.compare = CompareOp::Less;
+        assert_eq!(free.fixed_function(&d), None);
+        // A tolerance the plan did not have was never decided.
+        assert_eq!(free.fixed_function(&draw(parity(0, 1e-3))), None);
+        assert_eq!(
+            TieFree::none().fixed_function(&draw(parity(0, SHADE_EPS))),
+            None
+        );
+        // Several meshes: all must be tie-free.
+        let mut d = draw(parity(0, SHADE_EPS));
+        d.geometry = Geometry::Meshes(vec![0, 1]);
+        assert_eq!(free.fixed_function(&d), None);
+    }
+
+    #[test]
+    fn tie_free_tolerant_peels_become_exact_peels() {
+        let peel = |mesh| {
+            Step::Draw(Draw {
+                fragment: Fragment::PeelTolerant {
+                    prev: 0,
+                    out: 1,
+                    eps: SHADE_EPS,
+                },
+                depth: DepthState {
+                    compare: CompareOp::Less,
+                    write: true,
+                },
+                ..draw(parity(mesh, SHADE_EPS))
+            })
+        };
+        let plan = plan_of(vec![Step::Loop(Loop {
+            head: vec![peel(0), peel(1)],
+            tail: vec![],
+            max_iterations: 3,
+        })]);
+        let free = half_free(&plan);
+        let fast = free.fixed_function(&draw(peel(0))).expect("tie-free");
+        assert_eq!(
+            fast.fragment,
+            Fragment::Peel {
+                prev: 0,
+                out: 1,
+                shade: false
+            }
+        );
+        assert_eq!(fast.depth, draw(peel(0)).depth);
+        assert_eq!(free.fixed_function(&draw(peel(1))), None);
+    }
+}
