@@ -3,7 +3,9 @@
 // fragment depth is within color.a (normalized depth) plus TIE_SLOPE pixels' worth
 // of this face's depth slope of the texture; writes the face's depth at the pixel
 // centre, independent of how the device snapped the vertices (plan::tie, README
-// "Precision").
+// "Precision"), into a colour target: without a gl_FragDepth write the depth
+// test against shade_bound.frag's bound culls hidden fragments before this
+// shader runs.
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -22,8 +24,9 @@ layout(location = 0) in vec3 v_world;
 layout(location = 1) flat in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
+layout(location = 2) out float o_depth;
 #ifdef NORMALS
-#define NORMAL_LOCATION 2
+#define NORMAL_LOCATION 3
 #include "seen_normal.glsl"
 #endif
 
@@ -76,7 +79,7 @@ void main() {
     if (!near_depth(z, t, dz)) {
         discard;
     }
-    gl_FragDepth = z;
+    o_depth = z;
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
 #ifdef NORMALS
