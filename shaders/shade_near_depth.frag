@@ -3,9 +3,7 @@
 // fragment depth is within color.a (normalized depth) plus TIE_SLOPE pixels' worth
 // of this face's depth slope of the texture; writes the face's depth at the pixel
 // centre, independent of how the device snapped the vertices (plan::tie, README
-// "Precision"), into a colour target: without a gl_FragDepth write the depth
-// test against shade_bound.frag's bound culls hidden fragments before this
-// shader runs.
+// "Precision").
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -24,9 +22,8 @@ layout(location = 0) in vec3 v_world;
 layout(location = 1) flat in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
-layout(location = 2) out float o_depth;
 #ifdef NORMALS
-#define NORMAL_LOCATION 3
+#define NORMAL_LOCATION 2
 #include "seen_normal.glsl"
 #endif
 
@@ -79,7 +76,7 @@ void main() {
     if (!near_depth(z, t, dz)) {
         discard;
     }
-    o_depth = z;
+    gl_FragDepth = z;
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
 #ifdef NORMALS

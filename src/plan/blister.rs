@@ -202,7 +202,6 @@ pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
             &all,
             0,
             PREV,
-            CUR,
             Some(stencil::test_equal(locked, label_mask)),
         ));
     }

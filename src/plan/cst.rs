@@ -256,7 +256,6 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
             &prep.solid_meshes,
             FINAL,
             CUR,
-            PREV,
             stencil,
         ));
     }

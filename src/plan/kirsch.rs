@@ -123,7 +123,7 @@ pub fn plan_layer(
         b.steps.push(Step::Pass("count".into()));
         b.steps.push(count_pass(prep));
     }
-    b.steps.extend(shade_steps(prep, SURF, PREV));
+    b.steps.extend(shade_steps(prep, SURF));
     Ok(Plan {
         algo: super::Algo::Kirsch.name().into(),
         depth_stencils: 2,
@@ -132,7 +132,7 @@ pub fn plan_layer(
         } else if b.loops {
             3
         } else {
-            2
+            1
         },
         stencil_bits: CLIP_BITS,
         output_ds: OUTPUT,

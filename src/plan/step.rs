@@ -151,22 +151,10 @@ pub enum Fragment {
     /// `eps` (normalized depth) of texture `tex` at this pixel: depth-equal shading
     /// with a documented tolerance, so coincident faces of several primitives all
     /// qualify and the draw order decides which id stays (the last drawn wins).
-    /// The face's plane depth at the pixel centre goes to texture `out` (a colour
-    /// target, not `gl_FragDepth`, so that the depth test can run before the
-    /// shader against [`Fragment::ShadeBound`]'s bound).
-    ShadeNearDepth { tex: Tex, eps: f32, out: Tex },
-    /// Full-screen, before [`Fragment::ShadeNearDepth`] draws with the same `tex`
-    /// and `eps`: copies `tex` into `out` and writes as fragment depth the
-    /// farthest depth a face they accept can have at the pixel (the near value
-    /// where `tex` is far: none is accepted there), so a `LessOrEqual` depth test
-    /// culls the hidden fragments before the shader.
-    ShadeBound { tex: Tex, eps: f32, out: Tex },
+    ShadeNearDepth { tex: Tex, eps: f32 },
     /// Full-screen copy of texture `src` into the fragment depth (`gl_FragDepth`),
     /// discarding pixels where `src` holds the far value 1.0 (nothing there).
     DepthFromTexture { src: Tex },
-    /// Full-screen copy of texture `src` into the fragment depth everywhere, far
-    /// values included: the shade pass's resolve of its depth output.
-    ResolveDepth { src: Tex },
     /// Tolerant depth peeling: discard fragments not behind texture `prev` by more
     /// than `eps` (normalized depth; kept: `z - eps > prev`); write the fragment's
     /// depth into texture `out`. Depth-stencil ops apply to the kept fragments only.

@@ -76,46 +76,15 @@ pub const REVERSED_SCALE: f32 = 0.125;
 /// [`SHADE_EPS`] (+ slope term) of the visible depth (held in `tex`) writes colour,
 /// id and its plane's depth at the pixel centre, the lowest index last so that it
 /// wins.
-///
-/// The plane depth goes to texture `out`, not to `gl_FragDepth`: a shader that
-/// writes the fragment depth is depth-tested after it runs (llvmpipe; most
-/// GPUs), so every fragment of every mesh paid for the tie test. Instead one
-/// full-screen pass ([`Fragment::ShadeBound`]) puts into `ds` the farthest depth
-/// an accepted face can have at each pixel (and `tex` into `out`), the mesh
-/// draws test `LessOrEqual` against it without writing depth (the shader's test
-/// decides; the depth test only culls fragments it would reject), and one
-/// full-screen pass ([`Fragment::ResolveDepth`]) writes `out` back as the
-/// output depth. Both full-screen passes cover the meshes' rectangle only.
 pub fn shade_near_depth(
     meshes: &[MeshId],
     ds: Ds,
     tex: Tex,
-    out: Tex,
     stencil: Option<StencilState>,
 ) -> Vec<Step> {
-    let fullscreen = |fragment| {
-        Step::Draw(Draw {
-            geometry: Geometry::FullScreen { depth: 0.0 },
-            scissor: Scissor::BoundsOf(meshes.to_vec()),
-            cull: Cull::None,
-            ds,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: true,
-            },
-            stencil: None,
-            fragment,
-            count_samples: false,
-        })
-    };
     let mut steps = vec![
         Step::Pass("shade".into()),
         Step::CopyDepthToTexture { ds, dst: tex },
-        fullscreen(Fragment::ShadeBound {
-            tex,
-            eps: SHADE_EPS,
-            out,
-        }),
     ];
     let mut order = meshes.to_vec();
     order.sort_unstable_by(|a, b| b.cmp(a));
@@ -125,22 +94,20 @@ pub fn shade_near_depth(
             scissor: Scissor::BoundsOf(vec![m]),
             cull: Cull::None,
             ds,
-            // The comparison is the shader's (against `tex`); the depth test
-            // against ShadeBound's bound only culls what the shader would reject.
+            // The comparison is the shader's (against `tex`); the depth written is
+            // the winner's plane depth, the output.
             depth: DepthState {
-                compare: CompareOp::LessOrEqual,
-                write: false,
+                compare: CompareOp::Always,
+                write: true,
             },
             stencil,
             fragment: Fragment::ShadeNearDepth {
                 tex,
                 eps: SHADE_EPS,
-                out,
             },
             count_samples: false,
         })
     }));
-    steps.push(fullscreen(Fragment::ResolveDepth { src: out }));
     steps
 }
 
@@ -172,10 +139,6 @@ mod tests {
                 "peel_tolerant",
                 include_str!("../../shaders/peel_tolerant.frag"),
             ),
-            (
-                "shade_bound",
-                include_str!("../../shaders/shade_bound.frag"),
-            ),
         ] {
             assert!(
                 src.contains("#include \"tie.glsl\""),
@@ -185,53 +148,21 @@ mod tests {
     }
 
     #[test]
-    fn lowest_index_is_drawn_last_and_its_depth_is_resolved() {
-        let steps = shade_near_depth(&[3, 0, 7], 1, 2, 0, None);
-        let draws: Vec<&Draw> = steps
+    fn lowest_index_is_drawn_last_and_writes_depth() {
+        let steps = shade_near_depth(&[3, 0, 7], 1, 2, None);
+        let order: Vec<MeshId> = steps
             .iter()
             .filter_map(|s| match s {
-                Step::Draw(d) => Some(d),
-                _ => None,
-            })
-            .collect();
-        let order: Vec<MeshId> = draws
-            .iter()
-            .filter_map(|d| match d.geometry {
-                Geometry::Mesh(m) => {
-                    // Tested early against the bound, never written by the mesh.
-                    assert_eq!(
-                        d.depth,
-                        DepthState {
-                            compare: CompareOp::LessOrEqual,
-                            write: false
-                        }
-                    );
-                    assert_eq!(
-                        d.fragment,
-                        Fragment::ShadeNearDepth {
-                            tex: 2,
-                            eps: SHADE_EPS,
-                            out: 0
-                        }
-                    );
-                    Some(m)
+                Step::Draw(d) => {
+                    assert!(d.depth.write && d.depth.compare == CompareOp::Always);
+                    match d.geometry {
+                        Geometry::Mesh(m) => Some(m),
+                        _ => None,
+                    }
                 }
                 _ => None,
             })
             .collect();
         assert_eq!(order, vec![7, 3, 0]);
-        // The bound comes first and the resolve last, both over all the meshes'
-        // rectangle, writing depth unconditionally.
-        let (first, last) = (draws[0], draws[draws.len() - 1]);
-        assert!(matches!(
-            first.fragment,
-            Fragment::ShadeBound { tex: 2, out: 0, .. }
-        ));
-        assert_eq!(last.fragment, Fragment::ResolveDepth { src: 0 });
-        for d in [first, last] {
-            assert_eq!(d.scissor, Scissor::BoundsOf(vec![3, 0, 7]));
-            assert!(d.depth.write && d.depth.compare == CompareOp::Always);
-            assert!(d.stencil.is_none());
-        }
     }
 }

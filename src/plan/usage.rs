@@ -60,24 +60,18 @@ impl Usage {
 /// Colour targets of a fragment program, in attachment order.
 pub fn color_targets(f: &Fragment) -> Vec<Resource> {
     match *f {
-        Fragment::None
-        | Fragment::DepthFromTexture { .. }
-        | Fragment::ResolveDepth { .. }
-        | Fragment::NearerThan { .. } => vec![],
+        Fragment::None | Fragment::DepthFromTexture { .. } | Fragment::NearerThan { .. } => vec![],
         Fragment::Shade
         | Fragment::Paint { .. }
         | Fragment::Background
-        | Fragment::ShadeAtDepth { .. } => vec![Resource::Color, Resource::Prim],
+        | Fragment::ShadeAtDepth { .. }
+        | Fragment::ShadeNearDepth { .. } => vec![Resource::Color, Resource::Prim],
         Fragment::Peel {
             out, shade: true, ..
-        }
-        | Fragment::ShadeNearDepth { out, .. } => {
-            vec![Resource::Color, Resource::Prim, Resource::Texture(out)]
-        }
+        } => vec![Resource::Color, Resource::Prim, Resource::Texture(out)],
         Fragment::Peel { out, .. }
         | Fragment::WriteDepth { out }
         | Fragment::PeelTolerant { out, .. }
-        | Fragment::ShadeBound { out, .. }
         | Fragment::CopyTexel { out, .. } => vec![Resource::Texture(out)],
     }
 }
@@ -86,11 +80,8 @@ pub fn color_targets(f: &Fragment) -> Vec<Resource> {
 pub fn sampled_texture(f: &Fragment) -> Option<Tex> {
     match *f {
         Fragment::Peel { prev, .. } | Fragment::PeelTolerant { prev, .. } => Some(prev),
-        Fragment::DepthFromTexture { src }
-        | Fragment::ResolveDepth { src }
-        | Fragment::CopyTexel { src, .. } => Some(src),
+        Fragment::DepthFromTexture { src } | Fragment::CopyTexel { src, .. } => Some(src),
         Fragment::ShadeNearDepth { tex, .. }
-        | Fragment::ShadeBound { tex, .. }
         | Fragment::NearerThan { tex, .. }
         | Fragment::ShadeAtDepth { tex } => Some(tex),
         Fragment::None

@@ -73,16 +73,12 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
                     Fragment::Peel { prev, out, .. } | Fragment::PeelTolerant { prev, out, .. } => {
                         distinct(prev, out)?
                     }
-                    Fragment::CopyTexel { src, out }
-                    | Fragment::ShadeNearDepth { tex: src, out, .. }
-                    | Fragment::ShadeBound { tex: src, out, .. } => distinct(src, out)?,
+                    Fragment::CopyTexel { src, out } => distinct(src, out)?,
                     Fragment::WriteDepth { out } => tex(out)?,
-                    Fragment::DepthFromTexture { src } | Fragment::ResolveDepth { src } => {
-                        tex(src)?
-                    }
-                    Fragment::NearerThan { tex: t, .. } | Fragment::ShadeAtDepth { tex: t } => {
-                        tex(t)?
-                    }
+                    Fragment::DepthFromTexture { src } => tex(src)?,
+                    Fragment::ShadeNearDepth { tex: t, .. }
+                    | Fragment::NearerThan { tex: t, .. }
+                    | Fragment::ShadeAtDepth { tex: t } => tex(t)?,
                     Fragment::None
                     | Fragment::Shade
                     | Fragment::Paint { .. }

@@ -26,11 +26,7 @@ pub enum FragmentKind {
     PeelTolerant,
     WriteDepth,
     DepthFromTexture,
-    /// Full-screen: the shade pass's depth output back into the depth buffer.
-    ResolveDepth,
     ShadeNearDepth,
-    /// Full-screen: the shade pass's early-cull bound (`plan::tie`).
-    ShadeBound,
     NearerThan,
     ShadeAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
@@ -94,8 +90,6 @@ impl FragmentKind {
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
             FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
-            FragmentKind::ShadeBound => spv!("shade_bound.frag"),
-            FragmentKind::ResolveDepth => spv!("resolve_depth.frag"),
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),

@@ -19,9 +19,7 @@
 
 use super::super::step::*;
 use super::super::{PlanError, Prepared};
-use super::{
-    init_final, leaf_csts, record_jobs, Candidates, Job, Merge, Variant, CUR, FINAL, PREV,
-};
+use super::{init_final, leaf_csts, record_jobs, Candidates, Job, Merge, Variant, CUR, FINAL};
 
 /// The previous layer of the stream: the depth the peels start behind. Kept on
 /// the GPU between the plans of a stream (images persist between frames).
@@ -116,7 +114,6 @@ pub fn layer_plan(
         &prep.solid_meshes,
         FINAL,
         CUR,
-        PREV,
         None,
     ));
     Ok(LayerPlan {

@@ -82,7 +82,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             max_iterations,
         }));
     }
-    steps.extend(shade_steps(prep, SURF, PREV));
+    steps.extend(shade_steps(prep, SURF));
     Ok(Plan {
         algo: "goldfeather-layered".into(),
         depth_stencils: 2,

@@ -198,11 +198,11 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             }
         }
     }
-    steps.extend(shade_steps(prep, SURF, PREV));
+    steps.extend(shade_steps(prep, SURF));
     Ok(Plan {
         algo: "goldfeather".into(),
         depth_stencils: 2,
-        textures: if loops { 3 } else { 2 },
+        textures: if loops { 3 } else { 1 },
         stencil_bits: CLIP_BITS,
         output_ds: OUTPUT,
         steps,
@@ -441,15 +441,14 @@ pub(crate) fn merge_steps(surface: &[MeshId]) -> Vec<Step> {
     ]
 }
 
-/// Shading of the output depth (copied into texture `tex`; `out`, another
-/// texture, takes the depth output on its way: see `plan::tie`): every solid
+/// Shading of the output depth (copied into texture `tex`): every solid
 /// primitive's faces (both orientations: complemented primitives show their back
 /// faces) within [`super::SHADE_EPS`] of it, in descending index order, so that on
 /// coincident faces the lowest index is written last and wins. A tolerance rather
 /// than depth-equal, because coincident faces of different triangles rasterize to
 /// depths an ulp or two apart.
-pub(crate) fn shade_steps(prep: &Prepared, tex: Tex, out: Tex) -> Vec<Step> {
-    super::shade_near_depth(&prep.solid_meshes, OUTPUT, tex, out, None)
+pub(crate) fn shade_steps(prep: &Prepared, tex: Tex) -> Vec<Step> {
+    super::shade_near_depth(&prep.solid_meshes, OUTPUT, tex, None)
 }
 
 #[cfg(test)]

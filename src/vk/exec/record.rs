@@ -803,8 +803,6 @@ impl<'a> Recorder<'a> {
             Geometry::FullScreen { depth } => {
                 let color = match draw.fragment {
                     Fragment::Paint { rgb: c } => rgb(c),
-                    // The tolerance travels in the colour's alpha.
-                    Fragment::ShadeBound { eps, .. } => [0.0, 0.0, 0.0, eps],
                     _ => rgb(scene.background),
                 };
                 let pc = PushConstants {
@@ -901,8 +899,6 @@ fn per_mesh_constants(f: &Fragment) -> bool {
         | Fragment::PeelTolerant { .. }
         | Fragment::NearerThan { .. }
         | Fragment::DepthFromTexture { .. }
-        | Fragment::ResolveDepth { .. }
-        | Fragment::ShadeBound { .. }
         | Fragment::CopyTexel { .. } => false,
         Fragment::Shade
         | Fragment::Paint { .. }
@@ -929,7 +925,5 @@ fn fragment_kind(f: &Fragment) -> FragmentKind {
         Fragment::CopyTexel { .. } => FragmentKind::CopyDepth,
         Fragment::NearerThan { .. } => FragmentKind::NearerThan,
         Fragment::ShadeNearDepth { .. } => FragmentKind::ShadeNearDepth,
-        Fragment::ShadeBound { .. } => FragmentKind::ShadeBound,
-        Fragment::ResolveDepth { .. } => FragmentKind::ResolveDepth,
     }
 }
