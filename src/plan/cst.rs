@@ -7,7 +7,9 @@
 //! (label reset, far depth) and stop when an occlusion query says the peel reached no
 //! pixel. Render(S) then merges the kept points into the final image by the depth
 //! test, shading only where a fragment's depth equals the kept depth bit-exactly
-//! ([`Fragment::ShadeAtDepth`]).
+//! ([`Fragment::ShadeAtDepth`]; a solid's leaves merge their depth alone,
+//! [`Fragment::DepthAtDepth`], since the final depth-equal shading colours every
+//! pixel they win).
 //!
 //! Variants (seed 000 §7, §8):
 //! - `cst-z`: trim against the Z form (i-nodes and complemented u-nodes);

@@ -1,0 +1,123 @@
+//! Interleaved A/B timing of the shade and merge passes in one process: for
+//! each scene and algorithm, frames of every variant of the plan alternate, so
+//! that a shared machine's load falls on all of them alike. Prints the median
+//! process CPU time per frame (every thread: lavapipe's rasterizer work; run
+//! with `LP_NUM_THREADS=0` to rasterize in this thread).
+//!
+//! `cargo run --release --example shade_ab -- SIZE FRAMES ALGOS SCENE...`
+//!
+//! Variants: `plan` (as built); `shaded-merge` (a solid's CST merge shading
+//! colour and id, `ShadeAtDepth`, as before `DepthAtDepth`); `no-shade` (the
+//! final shade pass left out: a wrong image, the rest of the frame's cost).
+//! `SHADE_AB=plan,no-shade` picks variants (e.g. one under `perf record`).
+//! README, "Per-fragment work".
+
+use std::path::Path;
+
+use peeltrim::plan::{self, Algo, Fragment, Plan, Prepared, Step};
+use peeltrim::scene::load::{load, LoadOptions};
+use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn shaded_merge(plan: &Plan) -> Plan {
+    let mut p = plan.clone();
+    let visit = |s: &mut Step| {
+        if let Step::Draw(d) = s {
+            if let Fragment::DepthAtDepth { tex } = d.fragment {
+                d.fragment = Fragment::ShadeAtDepth { tex };
+            }
+        }
+    };
+    for s in &mut p.steps {
+        if let Step::Loop(l) = s {
+            l.head.iter_mut().chain(l.tail.iter_mut()).for_each(visit);
+        } else {
+            visit(s);
+        }
+    }
+    p
+}
+
+fn no_shade(plan: &Plan) -> Plan {
+    let mut p = plan.clone();
+    let at = p
+        .steps
+        .iter()
+        .rposition(|s| matches!(s, Step::Pass(n) if n == "shade"))
+        .expect("a shade pass");
+    p.steps.truncate(at);
+    p
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (w, h) = args[0].split_once('x').expect("SIZE is WxH");
+    let size = (w.parse().unwrap(), h.parse().unwrap());
+    let frames: usize = args[1].parse().expect("FRAMES");
+    let algos: Vec<Algo> = args[2]
+        .split(',')
+        .map(|a| Algo::parse(a).expect("algo"))
+        .collect();
+    let all: [(&str, fn(&Plan) -> Plan); 3] = [
+        ("plan", |p| p.clone()),
+        ("shaded-merge", shaded_merge),
+        ("no-shade", no_shade),
+    ];
+    let pick = std::env::var("SHADE_AB").unwrap_or_default();
+    let variants: Vec<_> = all
+        .into_iter()
+        .filter(|v| pick.is_empty() || pick.split(',').any(|p| p == v.0))
+        .collect();
+    let ctx = Context::new(&ContextDesc {
+        device: DeviceChoice::Cpu,
+        validation: false,
+    })
+    .expect("lavapipe");
+    for path in &args[3..] {
+        let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
+        let prep = Prepared::new(&scene).expect("prepared");
+        for &algo in &algos {
+            let built = plan::build(algo, &prep).expect("plan");
+            let desc = ExecDesc {
+                width: size.0,
+                height: size.1,
+                depth_format: DepthFormat::D32S8,
+                reversed_z: true,
+            };
+            let plans: Vec<Plan> = variants.iter().map(|v| (v.1)(&built)).collect();
+            let mut exs: Vec<Executor> = plans
+                .iter()
+                .map(|p| {
+                    let mut e = Executor::new(&ctx, &desc).expect("executor");
+                    e.upload(&scene).expect("upload");
+                    for _ in 0..2 {
+                        e.execute(p).expect("warm-up");
+                    }
+                    e
+                })
+                .collect();
+            let mut cpu = vec![Vec::new(); variants.len()];
+            for _ in 0..frames {
+                for (i, e) in exs.iter_mut().enumerate() {
+                    cpu[i].push(e.execute(&plans[i]).expect("frame").frame_cpu_ms);
+                }
+            }
+            print!("{:16} {:12}", scene_name(path), algo.name());
+            for (i, v) in variants.iter().enumerate() {
+                print!("  {}: {:7.2}", v.0, median(cpu[i].clone()));
+            }
+            println!();
+        }
+    }
+}
+
+fn scene_name(p: &str) -> &str {
+    Path::new(p)
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or(p)
+}
