@@ -8,7 +8,9 @@
 //!
 //! Variants: `plan` (as built); `shaded-merge` (a solid's CST merge shading
 //! colour and id, `ShadeAtDepth`, as before `DepthAtDepth`); `no-shade` (the
-//! final shade pass left out: a wrong image, the rest of the frame's cost).
+//! final shade pass left out: a wrong image, the rest of the frame's cost);
+//! `plain-shade` (its draws without the tie test: a wrong image, the cost of
+//! rasterizing them).
 //! `SHADE_AB=plan,no-shade` picks variants (e.g. one under `perf record`).
 //! README, "Per-fragment work".
 
@@ -42,6 +44,18 @@ fn shaded_merge(plan: &Plan) -> Plan {
     p
 }
 
+fn plain_shade(plan: &Plan) -> Plan {
+    let mut p = plan.clone();
+    for s in &mut p.steps {
+        if let Step::Draw(d) = s {
+            if let Fragment::ShadeNearDepth { .. } = d.fragment {
+                d.fragment = Fragment::Shade;
+            }
+        }
+    }
+    p
+}
+
 fn no_shade(plan: &Plan) -> Plan {
     let mut p = plan.clone();
     let at = p
@@ -62,9 +76,10 @@ fn main() {
         .split(',')
         .map(|a| Algo::parse(a).expect("algo"))
         .collect();
-    let all: [(&str, fn(&Plan) -> Plan); 3] = [
+    let all: [(&str, fn(&Plan) -> Plan); 4] = [
         ("plan", |p| p.clone()),
         ("shaded-merge", shaded_merge),
+        ("plain-shade", plain_shade),
         ("no-shade", no_shade),
     ];
     let pick = std::env::var("SHADE_AB").unwrap_or_default();
