@@ -10,13 +10,14 @@
 //! colour and id, `ShadeAtDepth`, as before `DepthAtDepth`); `no-shade` (the
 //! final shade pass left out: a wrong image, the rest of the frame's cost);
 //! `plain-shade` (its draws without the tie test: a wrong image, the cost of
-//! rasterizing them).
+//! rasterizing them); `mesh-merge` (Goldfeather's full-screen merges of the
+//! surface texture as redraws of the surface at that depth).
 //! `SHADE_AB=plan,no-shade` picks variants (e.g. one under `perf record`).
 //! README, "Per-fragment work".
 
 use std::path::Path;
 
-use peeltrim::plan::{self, Algo, Fragment, Plan, Prepared, Step};
+use peeltrim::plan::{self, Algo, Cull, Fragment, Geometry, Plan, Prepared, Scissor, Step};
 use peeltrim::scene::load::{load, LoadOptions};
 use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor};
 
@@ -41,6 +42,35 @@ fn shaded_merge(plan: &Plan) -> Plan {
             visit(s);
         }
     }
+    p
+}
+
+/// Goldfeather's merges (full-screen `DepthFromTexture` of the surface texture
+/// after a `merge` pass) as a redraw of the surface's meshes at that depth.
+fn mesh_merge(plan: &Plan) -> Plan {
+    fn visit(steps: &mut [Step], pass: &mut String) {
+        for s in steps {
+            match s {
+                Step::Pass(n) => *pass = n.clone(),
+                Step::Loop(l) => {
+                    visit(&mut l.head, pass);
+                    visit(&mut l.tail, pass);
+                }
+                Step::Draw(d) if pass == "merge" => {
+                    if let (Fragment::DepthFromTexture { src }, Scissor::BoundsOf(ms)) =
+                        (&d.fragment, &d.scissor)
+                    {
+                        d.geometry = Geometry::Meshes(ms.clone());
+                        d.fragment = Fragment::DepthAtDepth { tex: *src };
+                        d.cull = Cull::None;
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    let mut p = plan.clone();
+    visit(&mut p.steps, &mut String::new());
     p
 }
 
@@ -76,10 +106,11 @@ fn main() {
         .split(',')
         .map(|a| Algo::parse(a).expect("algo"))
         .collect();
-    let all: [(&str, fn(&Plan) -> Plan); 4] = [
+    let all: [(&str, fn(&Plan) -> Plan); 5] = [
         ("plan", |p| p.clone()),
         ("shaded-merge", shaded_merge),
         ("plain-shade", plain_shade),
+        ("mesh-merge", mesh_merge),
         ("no-shade", no_shade),
     ];
     let pick = std::env::var("SHADE_AB").unwrap_or_default();
