@@ -9,28 +9,13 @@
 //! per-pass timestamps on or off (`Executor::set_pass_timestamps`). README,
 //! "Executor fixed costs on lavapipe".
 
-use std::path::Path;
+#[path = "ab_common/mod.rs"]
+mod ab_common;
 
-use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim::scene::load::{load, LoadOptions};
-use peeltrim::vk::{
-    ClearMode, Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor,
-};
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use ab_common::{for_each_run, median};
+use peeltrim::vk::{ClearMode, Executor};
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let (w, h) = args[0].split_once('x').expect("SIZE is WxH");
-    let size = (w.parse().unwrap(), h.parse().unwrap());
-    let frames: usize = args[1].parse().expect("FRAMES");
-    let algos: Vec<Algo> = args[2]
-        .split(',')
-        .map(|a| Algo::parse(a).expect("algo"))
-        .collect();
     // (name, clear mode, scissored clears, per-pass timestamps)
     let variants: Vec<(&str, ClearMode, bool, bool)> = vec![
         ("whole", ClearMode::Command, false, true),
@@ -38,69 +23,46 @@ fn main() {
         ("whole-nots", ClearMode::Command, false, false),
         ("scissored-nots", ClearMode::Command, true, false),
     ];
-    let ctx = Context::new(&ContextDesc {
-        device: DeviceChoice::Cpu,
-        validation: false,
-    })
-    .expect("lavapipe");
-    for path in &args[3..] {
-        let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
-        let prep = Prepared::new(&scene).expect("prepared");
-        for &algo in &algos {
-            let plan = plan::build(algo, &prep).expect("plan");
-            let desc = ExecDesc {
-                width: size.0,
-                height: size.1,
-                depth_format: DepthFormat::D32S8,
-                reversed_z: true,
-            };
-            let mut exs: Vec<Executor> = variants
-                .iter()
-                .map(|&(_, clears, scissored, ts)| {
-                    let mut e = Executor::new(&ctx, &desc).expect("executor");
-                    e.set_clear_mode(clears);
-                    e.set_scissored_clears(scissored);
-                    e.set_pass_timestamps(ts);
-                    e.upload(&scene).expect("upload");
-                    for _ in 0..3 {
-                        e.execute(&plan).expect("warm-up");
-                    }
-                    e
-                })
-                .collect();
-            let mut cpu = vec![Vec::new(); variants.len()];
-            let mut wall = vec![Vec::new(); variants.len()];
-            for _ in 0..frames {
-                for (i, e) in exs.iter_mut().enumerate() {
-                    let s = e.execute(&plan).expect("frame");
-                    cpu[i].push(s.frame_cpu_ms);
-                    wall[i].push(s.frame_ms);
+    for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
+        let mut exs: Vec<Executor> = variants
+            .iter()
+            .map(|&(_, clears, scissored, ts)| {
+                let mut e = Executor::new(ctx, desc).expect("executor");
+                e.set_clear_mode(clears);
+                e.set_scissored_clears(scissored);
+                e.set_pass_timestamps(ts);
+                e.upload(scene).expect("upload");
+                for _ in 0..3 {
+                    e.execute(&plan).expect("warm-up");
                 }
+                e
+            })
+            .collect();
+        let mut cpu = vec![Vec::new(); variants.len()];
+        let mut wall = vec![Vec::new(); variants.len()];
+        for _ in 0..frames {
+            for (i, e) in exs.iter_mut().enumerate() {
+                let s = e.execute(&plan).expect("frame");
+                cpu[i].push(s.frame_cpu_ms);
+                wall[i].push(s.frame_ms);
             }
-            let c = exs[1].execute(&plan).expect("frame").counts;
-            print!("{:16} {:12}", scene_name(path), algo.name());
-            for (i, v) in variants.iter().enumerate() {
-                print!(
-                    "  {}: {:7.2} cpu {:7.2} wall",
-                    v.0,
-                    median(cpu[i].clone()),
-                    median(wall[i].clone())
-                );
-            }
-            println!(
-                "  | barriers {} passes {} clears {} cleared {:.2} Mpx",
-                c.barriers,
-                c.render_passes,
-                c.clear_commands,
-                c.cleared_pixels as f64 * 1e-6
+        }
+        let c = exs[1].execute(&plan).expect("frame").counts;
+        print!("{:16} {:12}", name, algo.name());
+        for (i, v) in variants.iter().enumerate() {
+            print!(
+                "  {}: {:7.2} cpu {:7.2} wall",
+                v.0,
+                median(cpu[i].clone()),
+                median(wall[i].clone())
             );
         }
-    }
-}
-
-fn scene_name(p: &str) -> &str {
-    Path::new(p)
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or(p)
+        println!(
+            "  | barriers {} passes {} clears {} cleared {:.2} Mpx",
+            c.barriers,
+            c.render_passes,
+            c.clear_commands,
+            c.cleared_pixels as f64 * 1e-6
+        );
+    });
 }

@@ -13,18 +13,14 @@
 //! rasterizing them); `mesh-merge` (Goldfeather's full-screen merges of the
 //! surface texture as redraws of the surface at that depth).
 //! `SHADE_AB=plan,no-shade` picks variants (e.g. one under `perf record`).
-//! README, "Per-fragment work".
+//! README, "The shade and merge passes on lavapipe".
 
-use std::path::Path;
+#[path = "ab_common/mod.rs"]
+mod ab_common;
 
-use peeltrim::plan::{self, Algo, Cull, Fragment, Geometry, Plan, Prepared, Scissor, Step};
-use peeltrim::scene::load::{load, LoadOptions};
-use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc, Executor};
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+use ab_common::{for_each_run, median};
+use peeltrim::plan::{Cull, Fragment, Geometry, Plan, Scissor, Step};
+use peeltrim::vk::Executor;
 
 fn shaded_merge(plan: &Plan) -> Plan {
     let mut p = plan.clone();
@@ -98,14 +94,6 @@ fn no_shade(plan: &Plan) -> Plan {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let (w, h) = args[0].split_once('x').expect("SIZE is WxH");
-    let size = (w.parse().unwrap(), h.parse().unwrap());
-    let frames: usize = args[1].parse().expect("FRAMES");
-    let algos: Vec<Algo> = args[2]
-        .split(',')
-        .map(|a| Algo::parse(a).expect("algo"))
-        .collect();
     let all: [(&str, fn(&Plan) -> Plan); 5] = [
         ("plan", |p| p.clone()),
         ("shaded-merge", shaded_merge),
@@ -118,52 +106,29 @@ fn main() {
         .into_iter()
         .filter(|v| pick.is_empty() || pick.split(',').any(|p| p == v.0))
         .collect();
-    let ctx = Context::new(&ContextDesc {
-        device: DeviceChoice::Cpu,
-        validation: false,
-    })
-    .expect("lavapipe");
-    for path in &args[3..] {
-        let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
-        let prep = Prepared::new(&scene).expect("prepared");
-        for &algo in &algos {
-            let built = plan::build(algo, &prep).expect("plan");
-            let desc = ExecDesc {
-                width: size.0,
-                height: size.1,
-                depth_format: DepthFormat::D32S8,
-                reversed_z: true,
-            };
-            let plans: Vec<Plan> = variants.iter().map(|v| (v.1)(&built)).collect();
-            let mut exs: Vec<Executor> = plans
-                .iter()
-                .map(|p| {
-                    let mut e = Executor::new(&ctx, &desc).expect("executor");
-                    e.upload(&scene).expect("upload");
-                    for _ in 0..2 {
-                        e.execute(p).expect("warm-up");
-                    }
-                    e
-                })
-                .collect();
-            let mut cpu = vec![Vec::new(); variants.len()];
-            for _ in 0..frames {
-                for (i, e) in exs.iter_mut().enumerate() {
-                    cpu[i].push(e.execute(&plans[i]).expect("frame").frame_cpu_ms);
+    for_each_run(|ctx, scene, name, algo, built, desc, frames| {
+        let plans: Vec<Plan> = variants.iter().map(|v| (v.1)(&built)).collect();
+        let mut exs: Vec<Executor> = plans
+            .iter()
+            .map(|p| {
+                let mut e = Executor::new(ctx, desc).expect("executor");
+                e.upload(scene).expect("upload");
+                for _ in 0..2 {
+                    e.execute(p).expect("warm-up");
                 }
+                e
+            })
+            .collect();
+        let mut cpu = vec![Vec::new(); variants.len()];
+        for _ in 0..frames {
+            for (i, e) in exs.iter_mut().enumerate() {
+                cpu[i].push(e.execute(&plans[i]).expect("frame").frame_cpu_ms);
             }
-            print!("{:16} {:12}", scene_name(path), algo.name());
-            for (i, v) in variants.iter().enumerate() {
-                print!("  {}: {:7.2}", v.0, median(cpu[i].clone()));
-            }
-            println!();
         }
-    }
-}
-
-fn scene_name(p: &str) -> &str {
-    Path::new(p)
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or(p)
+        print!("{:16} {:12}", name, algo.name());
+        for (i, v) in variants.iter().enumerate() {
+            print!("  {}: {:7.2}", v.0, median(cpu[i].clone()));
+        }
+        println!();
+    });
 }
