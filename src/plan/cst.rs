@@ -333,6 +333,49 @@ pub(crate) mod tests {
         assert_eq!(g.triangles, i.triangles);
     }
 
+    /// A solid's leaves merge depth alone; the final shading, the only step
+    /// after the merges, colours every solid pixel (`Merge::at_depth`).
+    #[test]
+    fn solid_merges_write_depth_and_the_shade_pass_colours() {
+        let p = gear();
+        for variant in [Variant::Z, Variant::I, Variant::G] {
+            let steps = plan(&p, variant).unwrap().steps;
+            let draws: Vec<&Draw> = steps
+                .iter()
+                .filter_map(|s| match s {
+                    Step::Draw(d) => Some(d),
+                    _ => None,
+                })
+                .collect();
+            let merges = draws
+                .iter()
+                .filter(|d| matches!(d.fragment, Fragment::DepthAtDepth { tex: CUR }))
+                .count();
+            assert_eq!(merges, 14, "{variant:?}: one merge per leaf");
+            assert!(draws
+                .iter()
+                .all(|d| !matches!(d.fragment, Fragment::ShadeAtDepth { .. })));
+            let shade = steps
+                .iter()
+                .position(|s| matches!(s, Step::Pass(n) if n == "shade"))
+                .expect("a shade pass");
+            let last_merge = steps
+                .iter()
+                .rposition(|s| {
+                    matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::DepthAtDepth { .. }))
+                })
+                .unwrap();
+            assert!(last_merge < shade);
+        }
+        // Surfaces keep their shaded merge: the final shading skips their pixels.
+        let surface = Merge {
+            mark: true,
+            paint: None,
+        };
+        assert_eq!(surface.at_depth(), Fragment::ShadeAtDepth { tex: CUR });
+        assert_eq!(Merge::SOLID.at_depth(), Fragment::DepthAtDepth { tex: CUR });
+    }
+
     #[test]
     fn layouts_are_small_and_checked() {
         let p = gear();

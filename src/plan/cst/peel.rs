@@ -266,7 +266,7 @@ impl Merge {
     /// merge wins (the face rasterizes to the depth it left there, within the
     /// shading's tolerance), so its merge writes depth alone: no colour targets,
     /// no shading per fragment. Surfaces keep theirs (that shading skips them).
-    fn at_depth(&self) -> Fragment {
+    pub(crate) fn at_depth(&self) -> Fragment {
         if *self == Merge::SOLID {
             Fragment::DepthAtDepth { tex: CUR }
         } else {
