@@ -7,7 +7,9 @@
 //! (label reset, far depth) and stop when an occlusion query says the peel reached no
 //! pixel. Render(S) then merges the kept points into the final image by the depth
 //! test, shading only where a fragment's depth equals the kept depth bit-exactly
-//! ([`Fragment::ShadeAtDepth`]).
+//! ([`Fragment::ShadeAtDepth`]; a solid's leaves merge their depth alone,
+//! [`Fragment::DepthAtDepth`], since the final depth-equal shading colours every
+//! pixel they win).
 //!
 //! Variants (seed 000 §7, §8):
 //! - `cst-z`: trim against the Z form (i-nodes and complemented u-nodes);
@@ -329,6 +331,49 @@ pub(crate) mod tests {
         let g = count(&plan(&p, Variant::G).unwrap().steps, &p);
         assert!(g.fullscreen_passes < i.fullscreen_passes, "{g:?} vs {i:?}");
         assert_eq!(g.triangles, i.triangles);
+    }
+
+    /// A solid's leaves merge depth alone; the final shading, the only step
+    /// after the merges, colours every solid pixel (`Merge::at_depth`).
+    #[test]
+    fn solid_merges_write_depth_and_the_shade_pass_colours() {
+        let p = gear();
+        for variant in [Variant::Z, Variant::I, Variant::G] {
+            let steps = plan(&p, variant).unwrap().steps;
+            let draws: Vec<&Draw> = steps
+                .iter()
+                .filter_map(|s| match s {
+                    Step::Draw(d) => Some(d),
+                    _ => None,
+                })
+                .collect();
+            let merges = draws
+                .iter()
+                .filter(|d| matches!(d.fragment, Fragment::DepthAtDepth { tex: CUR }))
+                .count();
+            assert_eq!(merges, 14, "{variant:?}: one merge per leaf");
+            assert!(draws
+                .iter()
+                .all(|d| !matches!(d.fragment, Fragment::ShadeAtDepth { .. })));
+            let shade = steps
+                .iter()
+                .position(|s| matches!(s, Step::Pass(n) if n == "shade"))
+                .expect("a shade pass");
+            let last_merge = steps
+                .iter()
+                .rposition(|s| {
+                    matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::DepthAtDepth { .. }))
+                })
+                .unwrap();
+            assert!(last_merge < shade);
+        }
+        // Surfaces keep their shaded merge: the final shading skips their pixels.
+        let surface = Merge {
+            mark: true,
+            paint: None,
+        };
+        assert_eq!(surface.at_depth(), Fragment::ShadeAtDepth { tex: CUR });
+        assert_eq!(Merge::SOLID.at_depth(), Fragment::DepthAtDepth { tex: CUR });
     }
 
     #[test]

@@ -173,6 +173,11 @@ pub enum Fragment {
     /// redrawn with the same transform reproduces the depths a `Peel` recorded. CST
     /// merges a trimmed surface into the final image with it (seed 000 §4, Render(S)).
     ShadeAtDepth { tex: Tex },
+    /// [`Fragment::ShadeAtDepth`] without colour targets: the depth only, where
+    /// the fragment depth equals texture `tex` bit-exactly. A solid's CST merge,
+    /// whose colour and id the final depth-equal shading
+    /// ([`Fragment::ShadeNearDepth`]) overwrites at every pixel it wins.
+    DepthAtDepth { tex: Tex },
 }
 
 /// One rasterization.

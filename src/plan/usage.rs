@@ -60,7 +60,10 @@ impl Usage {
 /// Colour targets of a fragment program, in attachment order.
 pub fn color_targets(f: &Fragment) -> Vec<Resource> {
     match *f {
-        Fragment::None | Fragment::DepthFromTexture { .. } | Fragment::NearerThan { .. } => vec![],
+        Fragment::None
+        | Fragment::DepthFromTexture { .. }
+        | Fragment::NearerThan { .. }
+        | Fragment::DepthAtDepth { .. } => vec![],
         Fragment::Shade
         | Fragment::Paint { .. }
         | Fragment::Background
@@ -83,7 +86,8 @@ pub fn sampled_texture(f: &Fragment) -> Option<Tex> {
         Fragment::DepthFromTexture { src } | Fragment::CopyTexel { src, .. } => Some(src),
         Fragment::ShadeNearDepth { tex, .. }
         | Fragment::NearerThan { tex, .. }
-        | Fragment::ShadeAtDepth { tex } => Some(tex),
+        | Fragment::ShadeAtDepth { tex }
+        | Fragment::DepthAtDepth { tex } => Some(tex),
         Fragment::None
         | Fragment::Shade
         | Fragment::Paint { .. }

@@ -78,7 +78,8 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
                     Fragment::DepthFromTexture { src } => tex(src)?,
                     Fragment::ShadeNearDepth { tex: t, .. }
                     | Fragment::NearerThan { tex: t, .. }
-                    | Fragment::ShadeAtDepth { tex: t } => tex(t)?,
+                    | Fragment::ShadeAtDepth { tex: t }
+                    | Fragment::DepthAtDepth { tex: t } => tex(t)?,
                     Fragment::None
                     | Fragment::Shade
                     | Fragment::Paint { .. }

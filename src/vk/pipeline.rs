@@ -33,6 +33,8 @@ pub enum FragmentKind {
     ShadeNearDepthHost,
     NearerThan,
     ShadeAtDepth,
+    /// `ShadeAtDepth` without colour: depth only.
+    DepthAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
     CopyDepth,
     /// The edge map from the normal buffer (set 0) and a depth buffer (set 1).
@@ -98,6 +100,7 @@ impl FragmentKind {
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
+            FragmentKind::DepthAtDepth => spv!("depth_at_depth.frag"),
             FragmentKind::Edges => spv!("edges.frag"),
             FragmentKind::Accumulate => spv!("accumulate.frag"),
         }

@@ -198,12 +198,7 @@ pub fn cst(
     }
     steps.push(Step::Pass("merge".into()));
     steps.push(knock);
-    steps.push(render_draw(
-        surface,
-        peel_cull,
-        merge,
-        Fragment::ShadeAtDepth { tex: CUR },
-    ));
+    steps.push(render_draw(surface, peel_cull, merge, merge.at_depth()));
     merge.paint(surface, peel_cull, steps);
 }
 
@@ -265,6 +260,19 @@ impl Merge {
         mark: false,
         paint: None,
     };
+
+    /// Render(S)'s fragment program at the kept depth. A solid's colour and id
+    /// are written by the plan's final depth-equal shading at every pixel the
+    /// merge wins (the face rasterizes to the depth it left there, within the
+    /// shading's tolerance), so its merge writes depth alone: no colour targets,
+    /// no shading per fragment. Surfaces keep theirs (that shading skips them).
+    pub(crate) fn at_depth(&self) -> Fragment {
+        if *self == Merge::SOLID {
+            Fragment::DepthAtDepth { tex: CUR }
+        } else {
+            Fragment::ShadeAtDepth { tex: CUR }
+        }
+    }
 
     fn stencil(&self) -> Option<StencilState> {
         let bits = match (self.mark, self.paint.is_some()) {

@@ -938,6 +938,7 @@ fn per_mesh_constants(f: &Fragment) -> bool {
         | Fragment::PeelTolerant { .. }
         | Fragment::NearerThan { .. }
         | Fragment::DepthFromTexture { .. }
+        | Fragment::DepthAtDepth { .. }
         | Fragment::CopyTexel { .. } => false,
         Fragment::Shade
         | Fragment::Paint { .. }
@@ -964,5 +965,6 @@ fn fragment_kind(f: &Fragment) -> FragmentKind {
         Fragment::CopyTexel { .. } => FragmentKind::CopyDepth,
         Fragment::NearerThan { .. } => FragmentKind::NearerThan,
         Fragment::ShadeNearDepth { .. } => FragmentKind::ShadeNearDepth,
+        Fragment::DepthAtDepth { .. } => FragmentKind::DepthAtDepth,
     }
 }
