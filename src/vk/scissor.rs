@@ -168,6 +168,7 @@ impl RectUnions {
         match s {
             Scissor::Full => Rect::full(width, height),
             Scissor::BoundsOf(ms) => self.of(ms),
+            Scissor::Run { first, end } => self.run(*first as usize, *end as usize),
             Scissor::Within { meshes, within } => self.of(meshes).intersect(&self.of(within)),
             Scissor::Overlap { of, and } => and
                 .iter()
