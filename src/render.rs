@@ -377,7 +377,21 @@ impl GpuRenderer {
 
     /// Whether later frames keep the GPU composite's images; `false` when the
     /// device cannot (see [`vk::Executor::set_transparency`]).
+    /// Refused when its float target would not fit the memory budget or the
+    /// device.
     pub fn set_transparency(&mut self, on: bool) -> Result<bool, RenderError> {
+        if on {
+            let d = self.exec.desc();
+            let m = FrameMemory {
+                gpu: true,
+                normals: self.exec.normals(),
+                accumulate: true,
+                ..Default::default()
+            };
+            m.check(d.width, d.height)?;
+            self.ctx
+                .check_frame_size(d.width, d.height, m.device_bytes_per_pixel())?;
+        }
         Ok(self.exec.set_transparency(on)?)
     }
 

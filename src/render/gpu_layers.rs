@@ -139,6 +139,7 @@ pub fn render(
                     normals: gpu.normals(),
                     layers: peeled.len() as u64 + 1,
                     shadow_map: None,
+                    accumulate: false,
                 }
                 .check(scene.render.width, scene.render.height)?;
                 let p = Peeled {

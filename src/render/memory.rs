@@ -23,6 +23,10 @@ pub const NORMAL_DEVICE_BYTES_PER_PIXEL: u64 = 16;
 /// The normal buffer on the host: the target on a software device, its
 /// read-back copy and the decoded view-space normals (16 + 16 + 12).
 pub const NORMAL_HOST_BYTES_PER_PIXEL: u64 = 44;
+/// The GPU transparency composite's RGBA32F accumulation target
+/// (`vk::exec::transparency`), on the device and, on a software device, in host
+/// memory.
+pub const ACCUMULATE_BYTES_PER_PIXEL: u64 = 16;
 /// One layer kept on the host: its images (colour, depth, primitive: 10), its
 /// normals (12), and the merged copy with the solid index (10 + 12 + 4), rounded up.
 pub const LAYER_HOST_BYTES_PER_PIXEL: u64 = 48;
@@ -39,6 +43,8 @@ pub struct FrameMemory {
     /// The side of a square shadow map rendered beside the frame (a GPU frame
     /// of its own).
     pub shadow_map: Option<u32>,
+    /// The GPU transparency composite's float target is allocated.
+    pub accumulate: bool,
 }
 
 impl FrameMemory {
@@ -51,6 +57,10 @@ impl FrameMemory {
             REFERENCE_BYTES_PER_PIXEL
         } + if self.normals {
             NORMAL_HOST_BYTES_PER_PIXEL
+        } else {
+            0
+        } + if self.accumulate {
+            ACCUMULATE_BYTES_PER_PIXEL
         } else {
             0
         };
@@ -71,6 +81,11 @@ impl FrameMemory {
             } else {
                 0
             }
+            + if self.accumulate {
+                ACCUMULATE_BYTES_PER_PIXEL
+            } else {
+                0
+            }
     }
 
     /// Refuses the frame when it would exceed the memory budget.
@@ -79,6 +94,9 @@ impl FrameMemory {
         let mut fix = vec!["use a smaller --size"];
         if self.normals {
             what.push_str(" with its normal buffer");
+        }
+        if self.accumulate {
+            what.push_str(" with its transparency target");
         }
         if self.layers > 0 {
             what.push_str(&format!(" holding {} layers", self.layers));
@@ -118,6 +136,18 @@ mod tests {
         );
         assert_eq!(normals.device_bytes_per_pixel(), 64);
         assert_eq!(plain.device_bytes_per_pixel(), DEVICE_BYTES_PER_PIXEL);
+        let accumulate = FrameMemory {
+            accumulate: true,
+            ..plain
+        };
+        assert_eq!(
+            accumulate.host_bytes(w, h) - plain.host_bytes(w, h),
+            px * ACCUMULATE_BYTES_PER_PIXEL
+        );
+        assert_eq!(
+            accumulate.device_bytes_per_pixel(),
+            DEVICE_BYTES_PER_PIXEL + ACCUMULATE_BYTES_PER_PIXEL
+        );
         let layers = FrameMemory { layers: 6, ..plain };
         assert_eq!(
             layers.host_bytes(w, h) - plain.host_bytes(w, h),

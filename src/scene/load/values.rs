@@ -34,9 +34,10 @@ impl Loader<'_> {
             line,
             key,
             format!(
-                "\"{src}\" is unbounded (it contains every point far from all primitives, as `!A` or `!A + B` do); \
+                "{} is unbounded (it contains every point far from all primitives, as `!A` or `!A + B` do); \
                  a solid must be bounded: use a complement only where it is intersected with a bounded term, \
-                 e.g. `B !A` (= `B - A`)"
+                 e.g. `B !A` (= `B - A`)",
+                excerpt(src, 80)
             ),
         ))
     }
@@ -112,5 +113,33 @@ impl Loader<'_> {
             return Err(self.invalid(line, key, format!("{v} must be a positive finite number")));
         }
         Ok(v)
+    }
+}
+
+/// `src`, quoted, if it has at most `max` characters, else its first and last characters
+/// around an ellipsis and its length: an error about a generated 10⁵-term
+/// expression names it without repeating it.
+pub(super) fn excerpt(src: &str, max: usize) -> String {
+    let n = src.chars().count();
+    if n <= max {
+        return format!("\"{src}\"");
+    }
+    let head: String = src.chars().take(max * 3 / 4).collect();
+    let tail: String = src.chars().skip(n - max / 4).collect();
+    format!("\"{head} … {tail}\" ({n} characters)")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::excerpt;
+
+    #[test]
+    fn excerpt_keeps_short_text_and_cuts_long_text_at_char_boundaries() {
+        assert_eq!(excerpt("!A + B", 80), "\"!A + B\"");
+        let long = "é".repeat(1000);
+        let e = excerpt(&long, 80);
+        assert!(e.starts_with(&format!("\"{}", "é".repeat(60))), "{e}");
+        assert!(e.contains("(1000 characters)"), "{e}");
+        assert!(e.chars().count() < 110, "{e}");
     }
 }
