@@ -42,13 +42,16 @@ pub struct CostModel {
 
 impl CostModel {
     /// Lavapipe with two rasterizer threads (`LP_NUM_THREADS=2`) on this
-    /// project's 2-core machine under load, fitted on block-spheres 64 and 256
-    /// and deep-tree-311 at 800×800 (README "Results on lavapipe").
+    /// project's 2-core machine under load (15–19). First guessed at 40 µs
+    /// a draw, 0.25 µs a triangle and 2 ns a pixel; the scaling run of
+    /// README "Results on lavapipe" then measured 1.7–20× the estimate
+    /// (median about 8×: block-spheres 1024 blister 5.4 s against 0.71 s,
+    /// deep-tree-311 cst-g 37.5 s against 3.6 s), so every cost is 10× that.
     pub const LAVAPIPE: CostModel = CostModel {
-        per_draw_s: 40e-6,
-        per_triangle_s: 0.25e-6,
-        per_mesh_pixel_s: 2e-9,
-        per_sweep_pixel_s: 2e-9,
+        per_draw_s: 400e-6,
+        per_triangle_s: 2.5e-6,
+        per_mesh_pixel_s: 20e-9,
+        per_sweep_pixel_s: 20e-9,
     };
 
     pub fn seconds(&self, c: &EstimatedCounts) -> f64 {
