@@ -45,6 +45,7 @@ fn main() {
         frames,
         warmup: 1,
         budget_ms: 60_000.0,
+        max_est_s: peeltrim::bench::estimate::DEFAULT_MAX_EST_S,
         device: DeviceChoice::Auto,
         validation: false,
         build: Default::default(),

@@ -10,12 +10,14 @@
 
 pub mod checks;
 pub mod embedded;
+pub mod estimate;
 pub mod families;
 pub mod layer_modes;
 pub mod modes;
 pub mod opencsg;
 pub mod plot;
 pub mod report;
+pub mod scaling;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -45,6 +47,9 @@ pub struct BenchConfig {
     /// A run whose warm-up frame takes longer than this (ms, wall clock) is
     /// timed on that one frame only, so scaling families reach large n.
     pub budget_ms: f64,
+    /// A run whose frame is estimated from its plan ([`estimate`]) to take
+    /// longer than this many seconds is skipped (and reported so); 0 runs all.
+    pub max_est_s: f64,
     pub device: DeviceChoice,
     pub validation: bool,
     /// Algorithm options (`--trickle-eps`, `--max-products`).
@@ -108,7 +113,7 @@ pub struct Record {
     pub overhead: Option<checks::Overhead>,
     /// For a scaling family: the fit of this algorithm's `frame_ms` over the
     /// family's sizes.
-    pub scaling: Option<checks::ScalingFit>,
+    pub scaling: Option<scaling::ScalingFit>,
     /// Deterministic counts of the last frame (identical across frames and runs).
     pub counts: Value,
     /// Per-pass GPU time of the median frame.
@@ -118,6 +123,11 @@ pub struct Record {
     /// Set when the run could not be made (e.g. too many products); other
     /// figures are then zero.
     pub failure: Option<String>,
+    /// The plan's estimated frame ([`estimate`]), made before running it.
+    pub estimate: Option<estimate::FrameEstimate>,
+    /// Set when the run was skipped for its estimate (over `--max-est-s`): why,
+    /// with the estimate; other figures are then zero. Not a failure.
+    pub skipped: Option<String>,
     /// With `--embedded`: the same frames through the embedding path.
     pub embedded: Option<embedded::EmbeddedTimes>,
     /// With a `[light]`: the light map's and the shadow test's times.
@@ -126,6 +136,56 @@ pub struct Record {
     /// With `interference = true` (CST variants): the pair frames' time.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference: Option<modes::InterferenceBench>,
+}
+
+impl Record {
+    /// A record of no run: the given algorithm and depth set-up, every figure
+    /// zero or absent.
+    pub fn blank(algo: &str, depth: &str) -> Record {
+        Record {
+            scene: String::new(),
+            family: None,
+            n: None,
+            prims: 0,
+            width: 0,
+            height: 0,
+            algo: algo.to_string(),
+            depth_setup: depth.to_string(),
+            depth_setup_fallback: None,
+            device: String::new(),
+            frames: 0,
+            gpu_ms_median: 0.0,
+            gpu_ms_min: 0.0,
+            gpu_ms_max: 0.0,
+            gpu_ms_iqr: 0.0,
+            cpu_ms_median: 0.0,
+            cpu_ms_iqr: 0.0,
+            frame_ms_median: 0.0,
+            frame_ms_iqr: 0.0,
+            frame_cpu_ms_median: 0.0,
+            record_ms_median: 0.0,
+            rerecord_ms: 0.0,
+            rerecord_us_per_draw: 0.0,
+            camera_move_record_ms: 0.0,
+            camera_move: None,
+            overhead: None,
+            scaling: None,
+            counts: Value::Null,
+            per_pass: Value::Null,
+            error: Value::Null,
+            failure: None,
+            estimate: None,
+            skipped: None,
+            embedded: None,
+            shadow: None,
+            interference: None,
+        }
+    }
+
+    /// Whether the run was made: neither failed nor skipped for its estimate.
+    pub fn ran(&self) -> bool {
+        self.failure.is_none() && self.skipped.is_none()
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -221,34 +281,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 prims: scene.primitives.iter().filter(|p| p.used).count(),
                 width: w,
                 height: h,
-                algo: algo.to_string(),
-                depth_setup: depth.to_string(),
-                depth_setup_fallback: None,
-                device: String::new(),
-                frames: 0,
-                gpu_ms_median: 0.0,
-                gpu_ms_min: 0.0,
-                gpu_ms_max: 0.0,
-                gpu_ms_iqr: 0.0,
-                cpu_ms_median: 0.0,
-                cpu_ms_iqr: 0.0,
-                frame_ms_median: 0.0,
-                frame_ms_iqr: 0.0,
-                frame_cpu_ms_median: 0.0,
-                record_ms_median: 0.0,
-                rerecord_ms: 0.0,
-                rerecord_us_per_draw: 0.0,
-                camera_move_record_ms: 0.0,
-                camera_move: None,
-                overhead: None,
-                scaling: None,
-                counts: Value::Null,
-                per_pass: Value::Null,
-                error: Value::Null,
-                failure: None,
-                embedded: None,
-                shadow: None,
-                interference: None,
+                ..Record::blank(algo, depth)
             };
             if cfg.algos.contains(&Algo::Reference) {
                 let mut r = base("reference", "f64");
@@ -267,12 +300,25 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 records.push(r);
             }
             let prep = Prepared::new(&scene);
+            let costs = match (&prep, cfg.max_est_s > 0.0 && !gpu_algos.is_empty()) {
+                (Ok(p), true) => {
+                    bar.set_message(format!("{label} {w}x{h}: estimating"));
+                    Some(estimate::SceneCosts::new(&scene, p, w, h))
+                }
+                _ => None,
+            };
             for &depth in &cfg.depth_setups {
                 let mut gpu: Option<GpuRenderer> = None;
                 for &algo in &gpu_algos {
                     bar.set_message(format!("{label} {w}x{h}: {algo} {}", depth.name()));
                     let mut rec = base(algo.name(), depth.name());
-                    match run_one(cfg, &scene, &prep, algo, depth, &mut gpu, &reference) {
+                    let setup = RunSetup {
+                        scene: &scene,
+                        prep: &prep,
+                        costs: costs.as_ref(),
+                        reference: &reference,
+                    };
+                    match run_one(cfg, &setup, algo, depth, &mut gpu) {
                         Ok((r, images)) => {
                             rec = Record {
                                 scene: rec.scene,
@@ -285,7 +331,14 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                                 save(cfg, &label, w, h, algo.name(), &rec.depth_setup, &images)?;
                             }
                         }
-                        Err(e) => rec.failure = Some(e),
+                        Err(RunError::Failed(e)) => rec.failure = Some(e),
+                        Err(RunError::Skipped(est)) => {
+                            rec.skipped = Some(format!(
+                                "skipped: {est}, over --max-est-s {}",
+                                cfg.max_est_s
+                            ));
+                            rec.estimate = Some(est);
+                        }
                     }
                     records.push(rec);
                     bar.inc(1);
@@ -308,7 +361,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
         }
     }
     bar.finish_with_message("done");
-    checks::fit_families(&mut records);
+    scaling::fit_families(&mut records);
     Ok(records)
 }
 
@@ -330,18 +383,48 @@ fn save(
         .map_err(|e| BenchError::Other(format!("{}: {e}", dir.display())))
 }
 
+/// What every run on one scene and size shares.
+struct RunSetup<'a> {
+    scene: &'a Scene,
+    prep: &'a Result<Prepared, plan::PlanError>,
+    /// For the estimate (`None`: `--max-est-s 0`, nothing estimated).
+    costs: Option<&'a estimate::SceneCosts>,
+    reference: &'a Images,
+}
+
+/// Why a run has no figures.
+enum RunError {
+    Failed(String),
+    /// Its plan's estimate is over `--max-est-s`.
+    Skipped(estimate::FrameEstimate),
+}
+
+impl From<String> for RunError {
+    fn from(e: String) -> Self {
+        RunError::Failed(e)
+    }
+}
+
 /// Warm-up and timed frames of one algorithm; the error of the last image.
 fn run_one(
     cfg: &BenchConfig,
-    scene: &Scene,
-    prep: &Result<Prepared, plan::PlanError>,
+    setup: &RunSetup,
     algo: Algo,
     depth: DepthSetup,
     gpu: &mut Option<GpuRenderer>,
-    reference: &Images,
-) -> Result<(Record, Images), String> {
-    let prep = prep.as_ref().map_err(|e| e.to_string())?;
+) -> Result<(Record, Images), RunError> {
+    let (scene, reference) = (setup.scene, setup.reference);
+    let prep = setup.prep.as_ref().map_err(|e| e.to_string())?;
     let plan = plan::build_with(algo, prep, &cfg.build).map_err(|e| e.to_string())?;
+    let est = setup
+        .costs
+        .map(|c| c.estimate(&plan, prep, &estimate::CostModel::LAVAPIPE));
+    if let Some(e) = est
+        .as_ref()
+        .filter(|e| estimate::over_budget(e, cfg.max_est_s))
+    {
+        return Err(RunError::Skipped(e.clone()));
+    }
     if gpu.is_none() {
         *gpu = Some(
             GpuRenderer::with_fallback(
@@ -416,7 +499,7 @@ fn run_one(
     };
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {
-        return Err(format!("validation: {}", msgs[0]));
+        return Err(RunError::Failed(format!("validation: {}", msgs[0])));
     }
     let series = |f: fn(&FrameStats) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
     let gpu_ms = series(|s| s.exec.gpu_ms);
@@ -471,6 +554,8 @@ fn run_one(
         per_pass: serde_json::to_value(&mid.exec.per_pass).unwrap_or(Value::Null),
         error,
         failure: None,
+        estimate: est,
+        skipped: None,
         embedded,
         shadow: shadowed.as_ref().map(|(b, _)| b.clone()),
         interference: modes::interference(cfg, scene, algo, depth)?,
@@ -516,4 +601,26 @@ pub fn run_and_report(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Re
         eprintln!("peeltrim: warning: no plots: {e}");
     }
     Ok(records)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::Record;
+
+    /// A run of `algo` on a scaling family's scene of size `n`, correct (no
+    /// mismatch), every time zero.
+    pub(crate) fn record(algo: &str, n: Option<u32>) -> Record {
+        Record {
+            scene: format!("fam-{}", n.unwrap_or(0)),
+            family: n.map(|_| "fam".to_string()),
+            n,
+            width: 800,
+            height: 800,
+            error: serde_json::json!({
+                "coverage_mismatch_interior_frac": 0.0,
+                "prim_mismatch_interior_frac": 0.0,
+            }),
+            ..Record::blank(algo, "d32s8")
+        }
+    }
 }

@@ -405,7 +405,7 @@ pub fn wall_ms(r: &Record) -> f64 {
 /// A run within [`CORRECT_FRAC`] interior coverage and primitive mismatches.
 pub fn is_correct(r: &Record) -> bool {
     let (cov, prim, _) = error_figures(r);
-    r.failure.is_none() && cov <= CORRECT_FRAC && prim <= CORRECT_FRAC
+    r.ran() && cov <= CORRECT_FRAC && prim <= CORRECT_FRAC
 }
 
 fn best<'a>(rows: impl Iterator<Item = &'a Record>) -> Option<&'a Record> {

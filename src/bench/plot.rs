@@ -83,7 +83,7 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
                 r.scene == scene
                     && r.width == w
                     && r.height == h
-                    && r.failure.is_none()
+                    && r.ran()
                     && r.algo != "reference"
             })
             .collect();
@@ -103,9 +103,7 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
     for fam in families {
         let rows: Vec<&Record> = records
             .iter()
-            .filter(|r| {
-                r.family.as_deref() == Some(&fam) && r.failure.is_none() && r.algo != "reference"
-            })
+            .filter(|r| r.family.as_deref() == Some(&fam) && r.ran() && r.algo != "reference")
             .collect();
         if rows.is_empty() {
             continue;

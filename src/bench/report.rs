@@ -65,7 +65,7 @@ pub fn csv(records: &[Record]) -> String {
     for c in CSV_COUNTS {
         let _ = write!(s, ",{c}");
     }
-    s.push_str(",coverage_mismatch_frac,prim_mismatch_frac,coverage_mismatch_interior_frac,prim_mismatch_interior_frac,depth_abs_err_max,depth_abs_err_p99,depth_abs_err_mean,failure,embedded_frame_ms_median,embedded_ratio,embedded_cpu_ratio\n");
+    s.push_str(",coverage_mismatch_frac,prim_mismatch_frac,coverage_mismatch_interior_frac,prim_mismatch_interior_frac,depth_abs_err_max,depth_abs_err_p99,depth_abs_err_mean,failure,embedded_frame_ms_median,embedded_ratio,embedded_cpu_ratio,est_s,skipped\n");
     for r in records {
         let _ = write!(
             s,
@@ -118,10 +118,16 @@ pub fn csv(records: &[Record]) -> String {
             ),
             None => Default::default(),
         };
+        let est = r
+            .estimate
+            .as_ref()
+            .map(|e| format!("{:.4}", e.seconds))
+            .unwrap_or_default();
         let _ = writeln!(
             s,
-            ",\"{}\",{e_ms},{e_ratio},{e_cpu}",
-            r.failure.as_deref().unwrap_or("").replace('"', "'")
+            ",\"{}\",{e_ms},{e_ratio},{e_cpu},{est},\"{}\"",
+            r.failure.as_deref().unwrap_or("").replace('"', "'"),
+            r.skipped.as_deref().unwrap_or("").replace('"', "'")
         );
     }
     s
@@ -185,6 +191,16 @@ pub fn summary(records: &[Record]) -> String {
         s.push_str("| algo | depth | GPU ms (median ± IQR) | frame ms | record ms | CPU ms | draws | triangles | full-screen passes | cov. mism. % | prim mism. % | depth p99 |\n");
         s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for r in rows {
+            if let Some(why) = &r.skipped {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | | | | | | | | | |",
+                    r.algo,
+                    r.depth_setup,
+                    why.replace('|', "/")
+                );
+                continue;
+            }
             if let Some(f) = &r.failure {
                 let _ = writeln!(
                     s,
@@ -250,7 +266,7 @@ pub fn paper_table(records: &[Record]) -> String {
         );
         let ours: Vec<&Record> = records
             .iter()
-            .filter(|r| r.scene == name && r.failure.is_none())
+            .filter(|r| r.scene == name && r.ran())
             .collect();
         let mut setups: Vec<(&str, u32, u32)> = ours
             .iter()

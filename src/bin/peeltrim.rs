@@ -213,6 +213,11 @@ enum Cmd {
         /// on one frame only
         #[arg(long, default_value_t = 20.0)]
         budget_s: f64,
+        /// Skip a run whose frame the plan estimates (counts × lavapipe's costs) at
+        /// more than this many seconds; reported as skipped with the estimate.
+        /// 0 runs everything
+        #[arg(long, default_value_t = bench::estimate::DEFAULT_MAX_EST_S)]
+        max_est_s: f64,
         #[arg(long, default_value = "out")]
         out: PathBuf,
         /// Run every depth set-up (d24s8, d32s8, d32s8 reversed) instead of the one the flags pick
@@ -527,6 +532,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             frames,
             warmup,
             budget_s,
+            max_est_s,
             out,
             all_depths,
             families,
@@ -573,6 +579,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 frames,
                 warmup,
                 budget_ms: budget_s * 1e3,
+                max_est_s,
                 device: opts.device,
                 validation: opts.validation,
                 build: opts.build.clone(),

@@ -60,6 +60,8 @@ pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
         None => return Err(PlanError::NoSolid),
     };
     let all = prep.solid_meshes.clone();
+    // One scissor of every solid, cloned per sweep in O(1) (a run of ids).
+    let all_rect = Scissor::bounds_of_all(&all);
     let label_mask = layout.label_mask();
     let all_mask = layout.all_mask();
     let locked = layout.value(Next::True);
@@ -148,7 +150,7 @@ pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
         if layout.value(on_outside) != here {
             tail.push(sweep(
                 0,
-                Scissor::BoundsOf(all.clone()),
+                all_rect.clone(),
                 stencil::change_stencil_state(here, layout.value(on_outside), all_mask),
             ));
         }
@@ -168,7 +170,7 @@ pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
     tail.push(Step::Pass("push".into()));
     tail.push(Step::Draw(Draw {
         geometry: Geometry::FullScreen { depth: far },
-        scissor: Scissor::BoundsOf(all.clone()),
+        scissor: all_rect.clone(),
         cull: Cull::None,
         ds: 0,
         depth: DepthState {
@@ -308,6 +310,54 @@ mod tests {
             .count();
         // 4 parity-set sweeps (or fewer parity-clear ones) and the push: not 2 per entry.
         assert!(sweeps < 2 * 4 + 1, "{sweeps}");
+    }
+
+    /// Mesh ids a plan stores in its steps' geometry and scissors: its size.
+    fn stored_ids(steps: &[Step]) -> usize {
+        steps
+            .iter()
+            .map(|s| match s {
+                Step::Draw(d) => {
+                    let geo = match &d.geometry {
+                        Geometry::Meshes(ms) => ms.len(),
+                        _ => 1,
+                    };
+                    let sc = match &d.scissor {
+                        Scissor::BoundsOf(ms) => ms.len(),
+                        Scissor::Overlap { of, and } => of.len() + and.len(),
+                        Scissor::Within { meshes, within } => meshes.len() + within.len(),
+                        Scissor::Full | Scissor::Run { .. } => 1,
+                    };
+                    geo + sc
+                }
+                Step::Loop(l) => stored_ids(&l.head) + stored_ids(&l.tail),
+                _ => 1,
+            })
+            .sum()
+    }
+
+    #[test]
+    fn the_plan_of_nested_differences_is_linear_in_their_depth() {
+        // A0 - (A1 - (A2 - … - An)): one Blist entry and sweep(s) per leaf,
+        // each sweep over every solid's bounds.
+        for n in [500u32, 4000] {
+            let mut nodes: Vec<Node> = (0..=n).map(|prim| Node::Leaf { prim }).collect();
+            let mut acc = n;
+            for i in (0..n).rev() {
+                nodes.push(Node::Diff(i, acc));
+                acc = nodes.len() as u32 - 1;
+            }
+            let e = Expr { nodes, root: acc };
+            let unit = Aabb {
+                min: DVec3::ZERO,
+                max: DVec3::ONE,
+            };
+            let k = n as usize + 1;
+            let prep = Prepared::from_parts(e, vec![12; k], vec![unit; k]);
+            let pl = plan(&prep).unwrap();
+            let ids = stored_ids(&pl.steps);
+            assert!(ids < 12 * k, "n = {n}: {ids} mesh ids stored");
+        }
     }
 
     /// The recorded stencil program equals the tree for random expressions and

@@ -593,7 +593,7 @@ pub(crate) mod tests {
                             Scissor::Overlap { of, and } => {
                                 assert!(of.contains(&me) || and.contains(&me), "{v:?}")
                             }
-                            Scissor::Full | Scissor::Within { .. } => {
+                            Scissor::Full | Scissor::Within { .. } | Scissor::Run { .. } => {
                                 panic!("{v:?}: not cut to the peeled leaf")
                             }
                         }
@@ -615,6 +615,7 @@ pub(crate) mod tests {
         let rect = |s: &Scissor| match s {
             Scissor::Full => true,
             Scissor::BoundsOf(ms) => ms.iter().any(|m| in_rect[*m as usize]),
+            Scissor::Run { first, end } => (*first..*end).any(|m| in_rect[m as usize]),
             Scissor::Overlap { of, and } => {
                 of.iter().any(|m| in_rect[*m as usize]) && and.iter().all(|m| in_rect[*m as usize])
             }

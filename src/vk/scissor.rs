@@ -3,6 +3,7 @@
 
 use glam::{DMat4, DVec3};
 
+use crate::plan::step::Scissor;
 use crate::scene::Aabb;
 
 /// A pixel rectangle `[x0, x1) × [y0, y1)`, y downward.
@@ -158,6 +159,21 @@ impl RectUnions {
             }
         }
         rect
+    }
+
+    /// The rectangle of a plan's scissor on a `width × height` image (empty when
+    /// the step can change no pixel): what the executor sets, and what a cost
+    /// estimate charges a draw.
+    pub fn scissor(&self, s: &Scissor, width: u32, height: u32) -> Rect {
+        match s {
+            Scissor::Full => Rect::full(width, height),
+            Scissor::BoundsOf(ms) => self.of(ms),
+            Scissor::Run { first, end } => self.run(*first as usize, *end as usize),
+            Scissor::Within { meshes, within } => self.of(meshes).intersect(&self.of(within)),
+            Scissor::Overlap { of, and } => and
+                .iter()
+                .fold(self.of(of), |acc, m| acc.intersect(&self.one(*m))),
+        }
     }
 }
 

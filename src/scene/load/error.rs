@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use super::{line_col, Loader};
+use super::Loader;
 
 /// A user mistake in a scene file (or a file it names).
 #[derive(Debug, thiserror::Error)]
@@ -54,7 +54,7 @@ impl Loader<'_> {
     pub(super) fn syntax(&self, e: toml::de::Error) -> SceneError {
         let (line, column, snippet) = match e.span() {
             Some(span) => {
-                let (l, c) = line_col(self.text, span.start);
+                let (l, c) = self.line_col(span.start);
                 let src = self.text.lines().nth(l - 1).unwrap_or("");
                 let width = self.text[span.start..span.end.min(self.text.len())]
                     .lines()

@@ -33,11 +33,13 @@
 //! scene: names, primitives, solids, surfaces, `[render]`, `[light]`,
 //! appearance, the OpenSCAD hand-off), `shape` (one shape table to a mesh),
 //! `camera` (`[camera]` and `fit`), `values` (checked numbers, vectors,
-//! expressions, the mesh memory charge), `error` ([`SceneError`]).
+//! expressions, the mesh memory charge), `error` ([`SceneError`]), `line_index`
+//! (lines and columns of byte offsets, for errors).
 
 mod assemble;
 mod camera;
 mod error;
+mod line_index;
 mod shape;
 mod toml_model;
 mod values;
@@ -118,9 +120,11 @@ fn load_str_with(
         )),
         _ => None,
     };
+    let text = virtual_toml.as_deref().unwrap_or(text);
     Loader {
         path,
-        text: virtual_toml.as_deref().unwrap_or(text),
+        text,
+        lines: line_index::LineIndex::new(text),
         dir: path.parent().unwrap_or(Path::new(".")).to_path_buf(),
         warnings: Vec::new(),
         mesh_bytes: std::cell::Cell::new(0),
@@ -133,6 +137,8 @@ fn load_str_with(
 struct Loader<'a> {
     path: &'a Path,
     text: &'a str,
+    /// Line starts of `text`, for the lines and columns of error messages.
+    lines: line_index::LineIndex,
     dir: PathBuf,
     warnings: Vec<String>,
     /// Estimated bytes of the meshes so far ([`super::cost`]), against the budget.
@@ -144,14 +150,6 @@ struct Loader<'a> {
     inline_csg: Option<&'a str>,
 }
 
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let offset = offset.min(text.len());
-    let before = &text[..offset];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
-    (line, col)
-}
-
 fn valid_name(s: &str) -> bool {
     let mut c = s.chars();
     matches!(c.next(), Some(f) if f.is_ascii_alphabetic() || f == '_')
@@ -160,7 +158,12 @@ fn valid_name(s: &str) -> bool {
 
 impl Loader<'_> {
     fn line(&self, span: std::ops::Range<usize>) -> Option<usize> {
-        Some(line_col(self.text, span.start).0)
+        Some(self.line_col(span.start).0)
+    }
+
+    /// 1-based line and column of byte `offset` of the file.
+    fn line_col(&self, offset: usize) -> (usize, usize) {
+        self.lines.line_col(self.text, offset)
     }
 }
 

@@ -754,19 +754,7 @@ impl<'a> Recorder<'a> {
 
     fn scissor(&self, s: &Scissor) -> Rect {
         let (w, h) = (self.b.desc.width, self.b.desc.height);
-        match s {
-            Scissor::Full => Rect::full(w, h),
-            Scissor::BoundsOf(ms) => self.b.mesh_rects.of(ms),
-            Scissor::Within { meshes, within } => {
-                let r = &self.b.mesh_rects;
-                r.of(meshes).intersect(&r.of(within))
-            }
-            Scissor::Overlap { of, and } => {
-                let r = &self.b.mesh_rects;
-                and.iter()
-                    .fold(r.of(of), |acc, m| acc.intersect(&r.one(*m)))
-            }
-        }
+        self.b.mesh_rects.scissor(s, w, h)
     }
 
     fn draw(&mut self, draw: &Draw, step: &Step) -> Result<(), VkError> {

@@ -399,7 +399,7 @@ mod tests {
                     y1: o + 10,
                 })
             }),
-            Scissor::Within { .. } | Scissor::Overlap { .. } => {
+            Scissor::Within { .. } | Scissor::Overlap { .. } | Scissor::Run { .. } => {
                 unreachable!("these tests draw with full and BoundsOf scissors")
             }
         }
