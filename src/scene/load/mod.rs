@@ -120,7 +120,9 @@ fn load_str_with(
         )),
         _ => None,
     };
-    let text = virtual_toml.as_deref().unwrap_or(text);
+    // The `.csg` file's own text stays `inline_csg`; the scene text is the virtual TOML.
+    let csg_text = text;
+    let text = virtual_toml.as_deref().unwrap_or(csg_text);
     Loader {
         path,
         text,
@@ -129,7 +131,7 @@ fn load_str_with(
         warnings: Vec::new(),
         mesh_bytes: std::cell::Cell::new(0),
         skip_unsupported,
-        inline_csg: virtual_toml.is_some().then_some(text),
+        inline_csg: virtual_toml.is_some().then_some(csg_text),
     }
     .run(opts)
 }
