@@ -10,77 +10,62 @@
 //! with ALGOS comma-separated (e.g. `800x800 7 cst-g,cst-i scenes/complex.toml`).
 //! README, "Per-fragment work".
 
-#[path = "common/ab.rs"]
-mod ab;
+#[path = "ab_common/mod.rs"]
+mod ab_common;
 
-use std::path::Path;
-
-use ab::{median, scene_name, Args};
-
-use peeltrim::plan::{self, Prepared};
-use peeltrim::scene::load::{load, LoadOptions};
+use ab_common::{for_each_run, median};
 use peeltrim::vk::Executor;
 
 fn main() {
-    let Args {
-        size,
-        frames,
-        algos,
-        scenes,
-    } = ab::args();
-    let ctx = ab::lavapipe();
     println!("scene            algo          tie-rule CPU ms  tie-free CPU ms  ratio  | tie-free draws, tie-rule draws left");
-    for path in &scenes {
-        let scene = load(Path::new(path), &LoadOptions { size: Some(size) }).expect("scene");
-        let prep = Prepared::new(&scene).expect("prepared");
-        let meshes: Vec<&peeltrim::scene::Mesh> = scene
-            .primitives
-            .iter()
-            .map(|p| &p.mesh)
-            .chain(scene.surfaces.iter().map(|s| &s.mesh))
-            .collect();
-        let t = std::time::Instant::now();
-        let gaps = peeltrim::geom::ties::TieGaps::new(&meshes);
-        println!(
-            "{}: tie analysis of {} triangles {:.1} ms, {} mesh pairs within the cap",
-            scene_name(path),
-            meshes.iter().map(|m| m.triangles.len()).sum::<usize>(),
-            t.elapsed().as_secs_f64() * 1e3,
-            gaps.pairs.len()
-        );
-        for &algo in &algos {
-            let plan = plan::build(algo, &prep).expect("plan");
-            let desc = ab::desc(size);
-            let mut exs: Vec<Executor> = [false, true]
+    let mut analysed = String::new();
+    for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
+        if analysed != name {
+            analysed = name.to_string();
+            let meshes: Vec<&peeltrim::scene::Mesh> = scene
+                .primitives
                 .iter()
-                .map(|&on| {
-                    let mut e = Executor::new(&ctx, &desc).expect("executor");
-                    e.set_tie_free(on);
-                    e.upload(&scene).expect("upload");
-                    for _ in 0..2 {
-                        e.execute(&plan).expect("warm-up");
-                    }
-                    e
-                })
+                .map(|p| &p.mesh)
+                .chain(scene.surfaces.iter().map(|s| &s.mesh))
                 .collect();
-            let mut cpu = [Vec::new(), Vec::new()];
-            for _ in 0..frames {
-                for (i, e) in exs.iter_mut().enumerate() {
-                    cpu[i].push(e.execute(&plan).expect("frame").frame_cpu_ms);
-                }
-            }
-            let c = exs[1].execute(&plan).expect("frame").counts;
-            let (a, b) = (median(cpu[0].clone()), median(cpu[1].clone()));
+            let t = std::time::Instant::now();
+            let gaps = peeltrim::geom::ties::TieGaps::new(&meshes);
             println!(
-                "{:16} {:12} {:15.1} {:16.1} {:6.2}  | {}, {}",
-                scene_name(path),
-                algo.name(),
-                a,
-                b,
-                b / a,
-                c.tie_free_draws,
-                c.tie_rule_draws
+                "{name}: tie analysis of {} triangles {:.1} ms, {} mesh pairs within the cap",
+                meshes.iter().map(|m| m.triangles.len()).sum::<usize>(),
+                t.elapsed().as_secs_f64() * 1e3,
+                gaps.pairs.len()
             );
         }
-    }
+        let mut exs: Vec<Executor> = [false, true]
+            .iter()
+            .map(|&on| {
+                let mut e = Executor::new(ctx, desc).expect("executor");
+                e.set_tie_free(on);
+                e.upload(scene).expect("upload");
+                for _ in 0..2 {
+                    e.execute(&plan).expect("warm-up");
+                }
+                e
+            })
+            .collect();
+        let mut cpu = [Vec::new(), Vec::new()];
+        for _ in 0..frames {
+            for (i, e) in exs.iter_mut().enumerate() {
+                cpu[i].push(e.execute(&plan).expect("frame").frame_cpu_ms);
+            }
+        }
+        let c = exs[1].execute(&plan).expect("frame").counts;
+        let (a, b) = (median(cpu[0].clone()), median(cpu[1].clone()));
+        println!(
+            "{:16} {:12} {:15.1} {:16.1} {:6.2}  | {}, {}",
+            name,
+            algo.name(),
+            a,
+            b,
+            b / a,
+            c.tie_free_draws,
+            c.tie_rule_draws
+        );
+    });
 }

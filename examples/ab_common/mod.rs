@@ -1,4 +1,4 @@
-//! Shared by the interleaved A/B examples (`exec_ab`, `shade_ab`): their
+//! Shared by the interleaved A/B examples (`exec_ab`, `shade_ab`, `tie_ab`): their
 //! arguments (`SIZE FRAMES ALGOS SCENE...`), the lavapipe context and the loop
 //! over scenes and algorithms on the default depth set-up (D32S8, reversed Z).
 
