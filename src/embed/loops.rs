@@ -20,14 +20,7 @@ pub const GRID: u32 = 48;
 /// One count per loop of `plan`, in plan order, each within
 /// `1..=max_iterations`.
 pub fn estimate(plan: &Plan, scene: &Scene, grid: u32) -> Vec<u32> {
-    let loops: Vec<&Loop> = plan
-        .steps
-        .iter()
-        .filter_map(|s| match s {
-            Step::Loop(l) => Some(l),
-            _ => None,
-        })
-        .collect();
+    let loops: Vec<&Loop> = plan.loops().collect();
     if loops.is_empty() {
         return Vec::new();
     }

@@ -419,14 +419,7 @@ mod tests {
     fn the_plan_repeats_the_groups_in_a_bounded_loop() {
         let prep = row_of_boxes();
         let built = plan(&prep, &ProductOptions::default()).unwrap();
-        let loops: Vec<&Loop> = built
-            .steps
-            .iter()
-            .filter_map(|s| match s {
-                Step::Loop(l) => Some(l),
-                _ => None,
-            })
-            .collect();
+        let loops: Vec<&Loop> = built.loops().collect();
         assert_eq!(loops.len(), 1);
         assert_eq!(loops[0].max_iterations, 3);
         assert!(loops[0].tail.is_empty());

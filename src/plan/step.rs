@@ -299,3 +299,13 @@ pub struct Plan {
     pub output_ds: Ds,
     pub steps: Vec<Step>,
 }
+
+impl Plan {
+    /// The plan's top-level peel loops, in plan order.
+    pub fn loops(&self) -> impl Iterator<Item = &Loop> {
+        self.steps.iter().filter_map(|s| match s {
+            Step::Loop(l) => Some(l),
+            _ => None,
+        })
+    }
+}
