@@ -63,7 +63,7 @@ pub use trim::Trimmer;
 pub(crate) use zones::disjoint;
 pub use zones::{leaf_csts, LeafCst, TrimVolume};
 
-use super::stencil::{self, LabelLayout, Next};
+use super::stencil;
 use super::step::*;
 use super::{Algo, PlanError, Prepared};
 use crate::csg::{Blist, PositiveExpr};
@@ -187,17 +187,7 @@ fn record_jobs(
             Some(vol) => {
                 let groups = variant == Variant::G && !vol.relation.contains(&Relation::Union);
                 let trimmer: Box<dyn Trimmer + '_> = if !groups {
-                    let layout =
-                        LabelLayout::new(vol.blist.num_labels).ok_or(PlanError::TooManyLabels {
-                            labels: vol.blist.num_labels,
-                        })?;
-                    let start = layout.value(Next::Label(vol.blist.entries[0].label));
-                    Box::new(BlistTrimmer {
-                        peeled: c.peeled,
-                        vol,
-                        layout,
-                        start,
-                    })
+                    Box::new(BlistTrimmer::new(c.peeled, vol)?)
                 } else {
                     let mut g = group::GroupTrimmer::new(prep, c)?;
                     if *surface {
@@ -677,14 +667,7 @@ pub(crate) mod tests {
                             kept[(g.blist().num_groups() > 0) as usize] += 1;
                             Box::new(g)
                         } else {
-                            let layout = LabelLayout::new(vol.blist.num_labels).unwrap();
-                            let start = layout.value(Next::Label(vol.blist.entries[0].label));
-                            Box::new(BlistTrimmer {
-                                peeled: c.peeled,
-                                vol,
-                                layout,
-                                start,
-                            })
+                            Box::new(BlistTrimmer::new(c.peeled, vol).unwrap())
                         };
                     let mut steps = Vec::new();
                     trimmer.trim(&mut steps);

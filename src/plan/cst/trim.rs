@@ -8,6 +8,7 @@ use super::super::stencil::{self, LabelLayout, Next};
 use super::super::step::*;
 use super::{parity_draw, tie_draws, Peeled, TrimVolume, WORK};
 use crate::csg::BlistEntry;
+use crate::plan::PlanError;
 
 /// Trim(V) against a plain Blist (seed 000 §4): per entry, its parity draw(s) and two
 /// ChangeStencilState sweeps (parity set → the literal's "in" target, clear → "out").
@@ -105,6 +106,23 @@ pub(crate) struct BlistTrimmer<'a> {
     pub(crate) vol: &'a TrimVolume,
     pub(crate) layout: LabelLayout,
     pub(crate) start: u8,
+}
+
+impl<'a> BlistTrimmer<'a> {
+    /// The trimmer of `peeled` against `vol`'s Blist, its labels in the fewest
+    /// stencil bits, starting at the first entry's label.
+    pub(crate) fn new(peeled: Peeled, vol: &'a TrimVolume) -> Result<Self, PlanError> {
+        let layout = LabelLayout::new(vol.blist.num_labels).ok_or(PlanError::TooManyLabels {
+            labels: vol.blist.num_labels,
+        })?;
+        let start = layout.value(Next::Label(vol.blist.entries[0].label));
+        Ok(BlistTrimmer {
+            peeled,
+            vol,
+            layout,
+            start,
+        })
+    }
 }
 
 impl Trimmer for BlistTrimmer<'_> {
