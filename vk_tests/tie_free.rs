@@ -13,11 +13,10 @@ use crate::algorithms::{load, SIZE};
 
 /// The GPU algorithms with tolerant parity or peel draws (all but the
 /// reference and the paper's depth-test Blister).
-/// (SCS keeps the tie rule everywhere: `plan::tie_free`.)
 fn tolerant() -> impl Iterator<Item = Algo> {
     Algo::ALL
         .into_iter()
-        .filter(|a| !matches!(a, Algo::Reference | Algo::BlisterPaper | Algo::Scs))
+        .filter(|a| !matches!(a, Algo::Reference | Algo::BlisterPaper))
 }
 
 /// One frame of `algo` on the shipped scene `name`, with the fast path on or off.

@@ -49,7 +49,7 @@
 //! positive primitive is one draw ([`goldfeather::direct_steps`]).
 #![deny(unsafe_code)]
 
-use super::goldfeather::{self, Lit, ProductOptions, CLIP_BITS, OUTPUT, SURF, SURFACE};
+use super::goldfeather::{self, Lit, ProductOptions, Region, CLIP_BITS, OUTPUT, SURF, SURFACE};
 use super::step::*;
 use super::{eye, PlanError, Prepared};
 
@@ -143,9 +143,10 @@ pub fn fallback_warning(prep: &Prepared) -> Option<String> {
 /// The steps of one product of convex primitives (module documentation, 1–3).
 fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
     let (xs, ys): (Vec<Lit>, Vec<Lit>) = p.iter().partition(|l| !l.negated);
-    // Where the product can be: inside the intersection of its positive boxes;
-    // the clip's sweeps and the merge cover this region (their union's rectangle).
-    let region: Vec<MeshId> = xs.iter().map(|l| l.prim).collect();
+    // Where the product can be: inside every positive primitive, so inside the
+    // intersection of their rectangles. Only the clip and the merge read `z`,
+    // and both are cut to it, so every draw is.
+    let region = Region::Intersection(xs.iter().map(|l| l.prim).collect());
     let mut steps = vec![
         Step::Pass("scs-front".into()),
         Step::Clear(Clear::DepthStencil {
@@ -163,7 +164,7 @@ fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
     for x in &xs {
         steps.push(Step::Draw(Draw {
             geometry: Geometry::Mesh(x.prim),
-            scissor: Scissor::BoundsOf(vec![x.prim]),
+            scissor: region.cut(x.prim),
             cull: x.visible_cull(),
             ds: SURFACE,
             depth: DepthState {
@@ -189,8 +190,13 @@ fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
             max_iterations: seq.max_rounds,
         }));
     }
-    steps.extend(goldfeather::clip_steps(&xs, &region, eps, &prep.eye_inside));
-    steps.extend(goldfeather::merge_steps(&region));
+    steps.extend(goldfeather::clip_steps_in(
+        &xs,
+        &region,
+        eps,
+        &prep.eye_inside,
+    ));
+    steps.extend(goldfeather::merge_steps_in(&region));
     steps
 }
 
@@ -258,7 +264,7 @@ pub fn sequence(ys: &[Lit], prep: &Prepared) -> Sequence {
 /// parity draw into its bit (inside: odd), then per primitive its back faces
 /// written into `z` where its bit is set, clearing the bit. With `count`, the
 /// exits count samples (the rounds' early out).
-fn subtract(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
+fn subtract(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
     let mut steps = Vec::new();
     let mut batch: Vec<Lit> = Vec::new();
     let flush = |batch: &mut Vec<Lit>, steps: &mut Vec<Step>| {
@@ -281,20 +287,16 @@ fn subtract(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: boo
     steps
 }
 
-fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
-    let scissor = |y: &Lit| Scissor::Within {
-        meshes: vec![y.prim],
-        within: region.to_vec(),
-    };
-    let draw = |y: &Lit, cull, stencil, fragment, count_samples| {
+fn batch_steps(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
+    let draw = |y: &Lit, cull, write, stencil, fragment, count_samples| {
         Step::Draw(Draw {
             geometry: Geometry::Mesh(y.prim),
-            scissor: scissor(y),
+            scissor: region.cut(y.prim),
             cull,
             ds: SURFACE,
             depth: DepthState {
                 compare: CompareOp::Always,
-                write: false,
+                write,
             },
             stencil: Some(stencil),
             fragment,
@@ -307,6 +309,7 @@ fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: 
         parity.push(draw(
             y,
             Cull::None,
+            false,
             super::stencil::both(CompareOp::Always, StencilOp::Invert, 0, bit, 0),
             Fragment::NearerThan { tex: SURF, eps },
             false,
@@ -320,9 +323,14 @@ fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: 
     let mut steps = eye::correct(parity, &prep.eye_inside);
     for (k, y) in ys.iter().enumerate() {
         let bit = 1u8 << k;
+        // The exit moves `z` in the depth-stencil image as in the texture, so the
+        // image holds `z` wherever a later parity draw reads it, and a tie-free
+        // parity draw can test it with the fixed-function depth test
+        // ([`super::tie_free`]).
         steps.push(draw(
             y,
             Cull::Front,
+            true,
             super::stencil::both(CompareOp::Equal, StencilOp::Zero, bit, bit, bit),
             Fragment::WriteDepth { out: SURF },
             count,
@@ -387,7 +395,13 @@ mod tests {
         assert_eq!(rounds, vec![lit(1), lit(2), lit(3), lit(6), lit(7)]);
         // A batch never holds two overlapping cutters: the round 1, 6, 2, 7, 3 is
         // cut wherever the next one meets one already in the batch.
-        let steps = subtract(&seq.rounds, &[0], CLIP_EPS, &prep, true);
+        let steps = subtract(
+            &seq.rounds,
+            &Region::Intersection(vec![0]),
+            CLIP_EPS,
+            &prep,
+            true,
+        );
         let mut batch: Vec<MeshId> = Vec::new();
         for s in &steps {
             let Step::Draw(d) = s else { continue };

@@ -356,6 +356,53 @@ pub(crate) fn clip_steps(
     eps: f32,
     eye_inside: &[bool],
 ) -> Vec<Step> {
+    clip_steps_in(against, &Region::Union(surface.to_vec()), eps, eye_inside)
+}
+
+/// Where a surface's pixels can be: within the rectangle of a union of meshes
+/// (a literal's or a layer's faces), or of an intersection (an SCS product lies
+/// inside every one of its positive primitives).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Region {
+    Union(Vec<MeshId>),
+    Intersection(Vec<MeshId>),
+}
+
+impl Region {
+    /// The region's rectangle: the sweeps and the merge cover it.
+    pub(crate) fn rect(&self) -> Scissor {
+        match self {
+            Region::Union(ms) => Scissor::BoundsOf(ms.clone()),
+            Region::Intersection(ms) => Scissor::Overlap {
+                of: ms[..1].to_vec(),
+                and: ms[1..].to_vec(),
+            },
+        }
+    }
+
+    /// Mesh `m`'s rectangle cut to the region: a draw whose effect is read only
+    /// inside it.
+    pub(crate) fn cut(&self, m: MeshId) -> Scissor {
+        match self {
+            Region::Union(ms) => Scissor::Within {
+                meshes: vec![m],
+                within: ms.clone(),
+            },
+            Region::Intersection(ms) => Scissor::Overlap {
+                of: vec![m],
+                and: ms.clone(),
+            },
+        }
+    }
+}
+
+/// [`clip_steps`] of a surface that lies in `region`.
+pub(crate) fn clip_steps_in(
+    against: &[Lit],
+    region: &Region,
+    eps: f32,
+    eye_inside: &[bool],
+) -> Vec<Step> {
     let mut steps = vec![Step::Pass("clip".into())];
     for chunk in against.chunks(CLIP_BITS as usize) {
         let (mut mask, mut inside) = (0u8, 0u8);
@@ -367,10 +414,7 @@ pub(crate) fn clip_steps(
             }
             steps.push(Step::Draw(Draw {
                 geometry: Geometry::Mesh(b.prim),
-                scissor: Scissor::Within {
-                    meshes: vec![b.prim],
-                    within: surface.to_vec(),
-                },
+                scissor: region.cut(b.prim),
                 cull: Cull::None,
                 ds: SURFACE,
                 depth: DepthState {
@@ -388,11 +432,7 @@ pub(crate) fn clip_steps(
                 count_samples: false,
             }));
         }
-        steps.push(reject_sweep(
-            mask,
-            inside,
-            Scissor::BoundsOf(surface.to_vec()),
-        ));
+        steps.push(reject_sweep(mask, inside, region.rect()));
     }
     steps
 }
@@ -433,11 +473,16 @@ fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
 
 /// Merge of the clipped surface into the output depth with less-than (§3.5).
 pub(crate) fn merge_steps(surface: &[MeshId]) -> Vec<Step> {
+    merge_steps_in(&Region::Union(surface.to_vec()))
+}
+
+/// [`merge_steps`] of a surface that lies in `region`.
+pub(crate) fn merge_steps_in(region: &Region) -> Vec<Step> {
     vec![
         Step::Pass("merge".into()),
         Step::Draw(Draw {
             geometry: Geometry::FullScreen { depth: FAR },
-            scissor: Scissor::BoundsOf(surface.to_vec()),
+            scissor: region.rect(),
             cull: Cull::None,
             ds: OUTPUT,
             depth: DepthState {
