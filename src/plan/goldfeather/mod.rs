@@ -443,7 +443,7 @@ pub(crate) const CLIP_BITS: u8 = 8;
 /// Where `(stencil & mask) != inside`, depth := far in the image and in the
 /// surface texture `SURF` (the pixel leaves the surface); the bits under `mask`
 /// are cleared on every swept pixel, pass or fail.
-fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
+pub(crate) fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
     let face = StencilFace {
         compare: CompareOp::NotEqual,
         fail: StencilOp::Zero,
