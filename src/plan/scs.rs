@@ -240,25 +240,7 @@ fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
 fn back_face_clip(x: Lit, region: &Region, eps: f32) -> Vec<Step> {
     vec![
         Step::Pass("clip".into()),
-        Step::Draw(Draw {
-            geometry: Geometry::Mesh(x.prim),
-            scissor: region.cut(x.prim),
-            cull: Cull::Front,
-            ds: SURFACE,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: false,
-            },
-            stencil: Some(super::stencil::both(
-                CompareOp::Always,
-                StencilOp::Invert,
-                0,
-                1,
-                0,
-            )),
-            fragment: Fragment::NearerThan { tex: SURF, eps },
-            count_samples: false,
-        }),
+        goldfeather::clip_parity_draw(x.prim, Cull::Front, region.cut(x.prim), 1, eps),
         goldfeather::reject_sweep(1, 0, region.rect()),
     ]
 }

@@ -412,29 +412,47 @@ pub(crate) fn clip_steps_in(
             if !b.negated != eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
                 inside |= bit;
             }
-            steps.push(Step::Draw(Draw {
-                geometry: Geometry::Mesh(b.prim),
-                scissor: region.cut(b.prim),
-                cull: Cull::None,
-                ds: SURFACE,
-                depth: DepthState {
-                    compare: CompareOp::Always,
-                    write: false,
-                },
-                stencil: Some(super::stencil::both(
-                    CompareOp::Always,
-                    StencilOp::Invert,
-                    0,
-                    bit,
-                    0,
-                )),
-                fragment: Fragment::NearerThan { tex: SURF, eps },
-                count_samples: false,
-            }));
+            steps.push(clip_parity_draw(
+                b.prim,
+                Cull::None,
+                region.cut(b.prim),
+                bit,
+                eps,
+            ));
         }
         steps.push(reject_sweep(mask, inside, region.rect()));
     }
     steps
+}
+
+/// The faces of `prim` that `cull` keeps, at most `eps` behind the surface
+/// texture, invert `bit` of the surface image (a clip's parity draw).
+pub(crate) fn clip_parity_draw(
+    prim: MeshId,
+    cull: Cull,
+    scissor: Scissor,
+    bit: u8,
+    eps: f32,
+) -> Step {
+    Step::Draw(Draw {
+        geometry: Geometry::Mesh(prim),
+        scissor,
+        cull,
+        ds: SURFACE,
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        },
+        stencil: Some(super::stencil::both(
+            CompareOp::Always,
+            StencilOp::Invert,
+            0,
+            bit,
+            0,
+        )),
+        fragment: Fragment::NearerThan { tex: SURF, eps },
+        count_samples: false,
+    })
 }
 
 /// Stencil bits of the surface image used for parity (one per clipping primitive).
