@@ -21,7 +21,7 @@ use crate::plan::usage::{Resource, Usage};
 use crate::plan::{CompareOp, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
 use crate::vk::conv;
 use crate::vk::error::VkError;
-use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants, FLAG_HOST_SRGB, FLAG_MESH};
+use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants, FLAG_MESH};
 use crate::vk::scissor::Rect;
 use crate::vk::submit;
 
@@ -33,7 +33,7 @@ pub(crate) struct HostShade {
     /// The host's depth attachment view and format (in
     /// `DEPTH_STENCIL_ATTACHMENT_OPTIMAL`); its stencil is not bound.
     pub depth: (vk::ImageView, vk::Format),
-    /// The host's colour format is `_SRGB` (the shader decodes).
+    /// The host's colour format is `_SRGB` (drawn with the decoding variant).
     pub srgb: bool,
     /// Where the frame's occlusion counts are copied (pairs of `u64` with
     /// availability, room for every counted draw), before the pass's barrier
@@ -164,7 +164,12 @@ impl Recorder<'_> {
         self.stats.counts.barriers += 1;
 
         let pipeline = self.b.pipelines.get(&PipelineDesc {
-            fragment: FragmentKind::ShadeNearDepthHost,
+            // The sRGB decode is a variant of its own (`build.rs`).
+            fragment: if h.srgb {
+                FragmentKind::ShadeNearDepthHostSrgb
+            } else {
+                FragmentKind::ShadeNearDepthHost
+            },
             color_formats: vec![h.color.1],
             depth_stencil_format: Some(h.depth.1),
             normals: false,
@@ -172,7 +177,7 @@ impl Recorder<'_> {
         self.begin_host_block(h);
         let set = self.b.targets.sampling_set(Resource::Texture(tex));
         self.bind(pipeline, Some(set));
-        let flags = self.flags() | FLAG_MESH | if h.srgb { FLAG_HOST_SRGB } else { 0 };
+        let flags = self.flags() | FLAG_MESH;
         // Ascending index: the first writer of a pixel stays (module doc).
         for draw in draws.iter().rev() {
             self.host_draw(draw, flags);
