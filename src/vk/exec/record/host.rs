@@ -302,6 +302,50 @@ mod tests {
         assert_eq!(final_shade(&p), Some(2));
     }
 
+    /// Whether SPIR-V `words` call GLSL.std.450 `Pow` (instruction 26): the
+    /// sRGB decode's, the only `pow` of the host shaders.
+    fn calls_pow(spv: &[u8]) -> bool {
+        let words: Vec<u32> = spv
+            .chunks_exact(4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+            .collect();
+        let mut i = 5; // after the header
+        let mut found = false;
+        while i < words.len() {
+            let (count, opcode) = ((words[i] >> 16) as usize, words[i] & 0xffff);
+            // OpExtInst: type, result, set, instruction, operands.
+            found |= opcode == 12 && words.get(i + 4) == Some(&26);
+            i += count.max(1);
+        }
+        found
+    }
+
+    #[test]
+    fn only_the_srgb_variants_decode() {
+        // lavapipe computes both sides of a flag's branch for every fragment:
+        // a UNORM or float host must get a variant with no decode at all.
+        macro_rules! spv {
+            ($f:literal) => {
+                include_bytes!(concat!(env!("OUT_DIR"), "/", $f, ".spv")).as_slice()
+            };
+        }
+        for (name, plain, srgb) in [
+            (
+                "shade_near_depth",
+                spv!("shade_near_depth.frag.host"),
+                spv!("shade_near_depth.frag.host_srgb"),
+            ),
+            (
+                "composite",
+                spv!("composite.frag"),
+                spv!("composite.frag.host_srgb"),
+            ),
+        ] {
+            assert!(!calls_pow(plain), "{name}'s plain variant decodes sRGB");
+            assert!(calls_pow(srgb), "{name}'s _SRGB variant does not decode");
+        }
+    }
+
     #[test]
     fn plans_ending_otherwise_have_no_final_shade() {
         let copy = Step::CopyDepthToTexture { ds: 1, dst: 1 };
