@@ -529,7 +529,8 @@ fn start(
     })
 }
 
-/// The timed frames of a group of started runs, round-robin ([`rounds`]). They
+/// The timed frames of a group of started runs, round-robin, each after an
+/// untimed one of its run ([`rounds`]). They
 /// leave their images on the GPU; each run's last one is read back once, after
 /// timing, for the error against the reference. A run whose frame fails leaves
 /// the rounds with that failure.
@@ -542,11 +543,13 @@ fn time_rounds(cfg: &BenchConfig, runs: &mut [Result<Started, RunError>]) {
             Err(_) => 0,
         })
         .collect();
-    for i in rounds::schedule(&counts) {
-        let failed = match &mut runs[i] {
+    for slot in rounds::schedule(&counts, rounds::WARM_FRAMES) {
+        let failed = match &mut runs[slot.run] {
             Ok(s) => match s.gpu.execute(&s.plan) {
                 Ok(f) => {
-                    s.frames.push(f);
+                    if slot.timed {
+                        s.frames.push(f);
+                    }
                     None
                 }
                 Err(e) => Some(e.to_string()),
@@ -554,7 +557,7 @@ fn time_rounds(cfg: &BenchConfig, runs: &mut [Result<Started, RunError>]) {
             Err(_) => None,
         };
         if let Some(e) = failed {
-            runs[i] = Err(RunError::Failed(e));
+            runs[slot.run] = Err(RunError::Failed(e));
         }
     }
 }

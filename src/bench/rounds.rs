@@ -6,6 +6,12 @@
 //! own renderer across the rounds, so each replays its own recording; when those
 //! renderers would not fit the memory budget together the runs go one after
 //! another, and the records say so ([`Timing`]).
+//!
+//! Each timed frame follows an untimed frame of the same run: back-to-back
+//! frames find their images in the CPU's caches on lavapipe, and a frame after
+//! another algorithm's does not (shadow_block, whose frames touch a few MB:
+//! +30–60% process CPU per frame), so without it interleaving would charge the
+//! algorithms a cold cache that OpenCSG's back-to-back frames never pay.
 #![deny(unsafe_code)]
 
 use serde::Serialize;
@@ -26,10 +32,21 @@ pub enum Timing {
     Sequential { why: String },
 }
 
-/// The order of the timed frames: per frame, the index of its run, given each
-/// run's number of timed frames; round-robin, a run leaving the rounds once its
-/// frames are done.
-pub fn schedule(frames: &[u32]) -> Vec<usize> {
+/// Untimed frames of a run just before each of its timed frames.
+pub const WARM_FRAMES: u32 = 1;
+
+/// One frame of the rounds: its run, and whether it is timed (else one of the
+/// [`WARM_FRAMES`] before a timed one).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Slot {
+    pub run: usize,
+    pub timed: bool,
+}
+
+/// The order of the frames, given each run's number of timed frames:
+/// round-robin, each timed frame after `warm` untimed ones of its run, a run
+/// leaving the rounds once its frames are done.
+pub fn schedule(frames: &[u32], warm: u32) -> Vec<Slot> {
     let rounds = frames.iter().copied().max().unwrap_or(0);
     (0..rounds)
         .flat_map(|round| {
@@ -37,7 +54,12 @@ pub fn schedule(frames: &[u32]) -> Vec<usize> {
                 .iter()
                 .enumerate()
                 .filter(move |&(_, &n)| round < n)
-                .map(|(i, _)| i)
+                .flat_map(move |(run, _)| {
+                    (0..=warm).map(move |k| Slot {
+                        run,
+                        timed: k == warm,
+                    })
+                })
         })
         .collect()
 }
@@ -83,17 +105,29 @@ pub fn timing(runs: usize, each: u64, budget: u64) -> Timing {
 mod tests {
     use super::*;
 
+    fn timed(s: &[Slot]) -> Vec<usize> {
+        s.iter().filter(|s| s.timed).map(|s| s.run).collect()
+    }
+
     #[test]
     fn frames_go_round_robin_and_short_runs_leave_the_rounds() {
-        assert_eq!(schedule(&[3, 1, 2]), [0, 1, 2, 0, 2, 0]);
-        assert_eq!(schedule(&[2, 2]), [0, 1, 0, 1]);
-        assert_eq!(schedule(&[0, 2]), [1, 1]);
-        assert!(schedule(&[]).is_empty());
-        // Every run gets exactly its frames.
+        assert_eq!(timed(&schedule(&[3, 1, 2], 0)), [0, 1, 2, 0, 2, 0]);
+        assert_eq!(timed(&schedule(&[2, 2], 1)), [0, 1, 0, 1]);
+        assert_eq!(timed(&schedule(&[0, 2], 1)), [1, 1]);
+        assert!(schedule(&[], 1).is_empty());
+        // Every run gets exactly its frames, each timed one right after `warm`
+        // untimed ones of the same run.
         let f = [5, 1, 0, 4];
-        let s = schedule(&f);
-        for (i, &n) in f.iter().enumerate() {
-            assert_eq!(s.iter().filter(|&&j| j == i).count(), n as usize);
+        for warm in [0, 1, 2] {
+            let s = schedule(&f, warm);
+            assert_eq!(s.len() as u32, f.iter().sum::<u32>() * (warm + 1));
+            for (i, &n) in f.iter().enumerate() {
+                assert_eq!(timed(&s).iter().filter(|&&j| j == i).count(), n as usize);
+            }
+            for (k, slot) in s.iter().enumerate().filter(|(_, s)| s.timed) {
+                let before = &s[k - warm as usize..k];
+                assert!(before.iter().all(|b| b.run == slot.run && !b.timed));
+            }
         }
     }
 
