@@ -10,7 +10,7 @@
 //! Each timed frame follows an untimed frame of the same run: back-to-back
 //! frames find their images in the CPU's caches on lavapipe, and a frame after
 //! another algorithm's does not (shadow_block, whose frames touch a few MB:
-//! +30–60% process CPU per frame), so without it interleaving would charge the
+//! kirsch +30% process CPU per frame), so without it interleaving would charge the
 //! algorithms a cold cache that OpenCSG's back-to-back frames never pay.
 #![deny(unsafe_code)]
 
