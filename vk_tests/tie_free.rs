@@ -7,6 +7,7 @@ use std::path::Path;
 
 use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::reference::compare::compare;
+use peeltrim::reference::precision::spec_depth_check;
 use peeltrim::render::{DepthSetup, FrameStats, GpuRenderer};
 
 use crate::algorithms::{load, SIZE};
@@ -87,5 +88,99 @@ fn coincident_faces_keep_the_tie_rule() {
         let c = &stats.exec.counts;
         assert_eq!(c.tie_free_draws, 0, "{algo}: {c:?}");
         assert!(c.tie_rule_draws > 0, "{algo}: {c:?}");
+    }
+}
+
+/// Every GPU algorithm with a final shade (`plan::tie::shade_near_depth`; all
+/// but the reference and the paper's Blister).
+fn shaded() -> impl Iterator<Item = Algo> {
+    Algo::ALL
+        .into_iter()
+        .filter(|a| !matches!(a, Algo::Reference | Algo::BlisterPaper))
+}
+
+#[test]
+fn a_depth_equal_final_shade_gives_the_tie_rule_frames_pixels() {
+    // Every plan's depth-stencil image must hold the visible faces' raster
+    // depths bit-exactly for the depth-equal shade to find them: on every
+    // depth set-up, and with an 8-bit device's vertex snapping emulated.
+    let name = "drilled_block";
+    let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
+    let scene = load(Path::new(&path));
+    let prep = Prepared::new(&scene).expect("prepared");
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    let setups = DepthSetup::ALL.into_iter().map(|d| (d, None)).chain([(
+        DepthSetup::DEFAULT,
+        Some(peeltrim::vk::RoundingEmulation::EIGHT_BITS),
+    )]);
+    let mut failures = Vec::new();
+    for (depth, rounding) in setups {
+        for algo in shaded() {
+            let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
+            let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+                .expect("a Vulkan device (lavapipe)");
+            gpu.set_rounding_emulation(rounding);
+            let mut run = |fixed: bool| {
+                gpu.set_fixed_shade(fixed);
+                gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"))
+            };
+            let (rule, fixed) = (run(false), run(true));
+            let msgs = gpu.validation_messages();
+            assert!(msgs.is_empty(), "{algo}: validation messages: {msgs:#?}");
+            let at = format!("{algo} on {depth:?}, rounding {rounding:?}");
+            let (r, f) = (&rule.stats.exec.counts, &fixed.stats.exec.counts);
+            assert_eq!((r.shade_fixed_draws, f.shade_rule_draws), (0, 0), "{at}");
+            assert_eq!(f.shade_fixed_draws, r.shade_rule_draws, "{at}");
+            assert!(f.shade_fixed_draws > 0, "{at}: no shade draw: {f:?}");
+            // No depth copy: nobody would read it.
+            assert_eq!(f.fullscreen_passes + 1, r.fullscreen_passes, "{at}");
+            let d = compare(&rule.images, &fixed.images).expect("same size");
+            // The tie rule's depth is the plane's at the pixel centre, the
+            // depth-equal shade's the raster depth: equal up to f32 rounding
+            // (view units; the block is ~5 units away) without snapping, within
+            // the specification's bound with it (below).
+            if d.coverage_mismatch_interior > 0
+                || d.prim_mismatch_interior > 0
+                || (rounding.is_none() && d.depth_abs_err_max_interior > 2e-5)
+            {
+                failures.push(format!("{at} against the tie-rule shade: {d:?}"));
+            }
+            let c = compare(&reference, &fixed.images).expect("same size");
+            let precision = match rounding {
+                Some(r) => depth.precision(r.subpixel_bits),
+                None => gpu.precision(),
+            };
+            let s = spec_depth_check(&reference, &fixed.images, &scene.camera, &precision);
+            if c.coverage_mismatch_interior_frac > 0.001
+                || c.prim_mismatch_interior_frac > 0.01
+                || s.ratio_p99 > 1.0
+            {
+                failures.push(format!("{at} against the reference: {c:?} {s:?}"));
+            }
+            eprintln!(
+                "{at}: {} depth-equal shade draws; against the tie-rule shade: \
+                 {} coverage, {} prim mismatches (all), depth max {:.2e}",
+                f.shade_fixed_draws,
+                d.coverage_mismatch,
+                d.prim_mismatch,
+                d.depth_abs_err_max_interior
+            );
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn coincident_faces_keep_the_tie_rule_in_the_final_shade() {
+    for name in ["coincident", "speckle"] {
+        for algo in shaded() {
+            let (_, stats, _) = frame(name, algo, true);
+            let c = &stats.exec.counts;
+            assert!(c.shade_rule_draws > 0, "{name} {algo}: {c:?}");
+            if name == "coincident" {
+                // Every primitive shares a face plane with another one.
+                assert_eq!(c.shade_fixed_draws, 0, "{name} {algo}: {c:?}");
+            }
+        }
     }
 }

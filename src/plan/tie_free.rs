@@ -150,8 +150,11 @@ impl TieBand {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TieFree {
     /// `|eps|` (its bits), then per mesh: no face within that band of a
-    /// parallel face.
+    /// parallel face. The tolerances of parity and peel draws.
     by_eps: Vec<(u32, Vec<bool>)>,
+    /// The same for the tolerances of the final depth-equal shades
+    /// ([`Fragment::ShadeNearDepth`], [module doc](self)).
+    shade: Vec<(u32, Vec<bool>)>,
 }
 
 impl TieFree {
@@ -162,43 +165,44 @@ impl TieFree {
 
     /// The decisions for the tolerances of `plan`'s tolerant draws.
     pub fn new(gaps: &TieGaps, band: &TieBand, plan: &Plan) -> TieFree {
+        // The final shade holds for every plan (its depth-stencil image holds the
+        // visible faces' raster depths: module doc).
+        let shade = decide(gaps, band, shade_tolerances(&plan.steps));
         // The rewrite tests a parity draw against its depth-stencil image in place
         // of the texture, which needs the two equal wherever the result is read.
         // SCS's subtraction moves the texture's depth (a cutter's back faces
         // replace it) without rewriting the depth-stencil image, so its draws keep
         // the tie rule (`vk_tests`: `scs_matches_reference_on_shipped_scenes`).
         if !keeps_depth_image_equal_to_texture(&plan.algo) {
-            return TieFree::none();
+            return TieFree {
+                shade,
+                ..TieFree::none()
+            };
         }
         let mut eps: Vec<u32> = Vec::new();
         tolerances(&plan.steps, &mut eps);
-        eps.sort_unstable();
-        eps.dedup();
-        let by_eps = eps
-            .into_iter()
-            .map(|bits| {
-                let b = band.world(f32::from_bits(bits));
-                let free = gaps
-                    .min_gap
-                    .iter()
-                    .map(|&g| b.is_finite() && b <= gaps.cap && g > b)
-                    .collect();
-                (bits, free)
-            })
-            .collect();
-        TieFree { by_eps }
+        let by_eps = decide(gaps, band, eps);
+        TieFree { by_eps, shade }
+    }
+
+    /// These decisions with every final shade keeping the tie rule (A/B
+    /// measurements, `Executor::set_fixed_shade`).
+    pub fn keep_shade_rule(self) -> TieFree {
+        TieFree {
+            shade: Vec::new(),
+            ..self
+        }
     }
 
     /// Whether every mesh of `meshes` is tie-free at tolerance `eps`.
     pub fn meshes_free(&self, meshes: &[MeshId], eps: f32) -> bool {
-        let key = eps.abs().to_bits();
-        let Some((_, free)) = self.by_eps.iter().find(|(k, _)| *k == key) else {
-            return false;
-        };
-        !meshes.is_empty()
-            && meshes
-                .iter()
-                .all(|&m| free.get(m as usize).copied().unwrap_or(false))
+        all_free(&self.by_eps, meshes, eps)
+    }
+
+    /// Whether the final shade's draws of every mesh of `meshes` at tolerance
+    /// `eps` run as depth-equal draws ([module doc](self)).
+    pub fn shade_free(&self, meshes: &[MeshId], eps: f32) -> bool {
+        all_free(&self.shade, meshes, eps)
     }
 
     /// The draw with plain tests in place of the tie rule, when the rule cannot
@@ -244,9 +248,139 @@ impl TieFree {
                     ..draw.clone()
                 })
             }
+            Fragment::ShadeNearDepth { eps, .. } => {
+                let shade = DepthState {
+                    compare: CompareOp::Always,
+                    write: true,
+                };
+                if draw.depth != shade || !self.shade_free(meshes, eps) {
+                    return None;
+                }
+                Some(Draw {
+                    depth: DepthState {
+                        compare: CompareOp::Equal,
+                        write: false,
+                    },
+                    fragment: Fragment::Shade,
+                    ..draw.clone()
+                })
+            }
             _ => None,
         }
     }
+
+    /// For every [`Step::CopyDepthToTexture`] of `steps`, in order, what it must
+    /// cover once the final shades' draws are rewritten by
+    /// [`TieFree::fixed_function`].
+    pub fn shade_copies(&self, steps: &[&Step]) -> Vec<ShadeCopy> {
+        let mut out = Vec::new();
+        for (i, s) in steps.iter().enumerate() {
+            let Step::CopyDepthToTexture { ds, dst } = s else {
+                continue;
+            };
+            let group: Vec<&Draw> = steps[i + 1..]
+                .iter()
+                .map_while(|s| match s {
+                    Step::Draw(d) => match d.fragment {
+                        Fragment::ShadeNearDepth { tex, .. } if tex == *dst && d.ds == *ds => {
+                            Some(d)
+                        }
+                        _ => None,
+                    },
+                    _ => None,
+                })
+                .collect();
+            let after = &steps[i + 1 + group.len()..];
+            if group.is_empty() || after.iter().any(|s| samples(s, *dst)) {
+                out.push(ShadeCopy::AsPlanned);
+                continue;
+            }
+            let mut rule: Vec<MeshId> = group
+                .into_iter()
+                .filter(|d| self.fixed_function(d).is_none())
+                .flat_map(|d| match &d.geometry {
+                    Geometry::Mesh(m) => vec![*m],
+                    Geometry::Meshes(ms) => ms.clone(),
+                    Geometry::FullScreen { .. } => {
+                        panic!("a final shade draws meshes (plan::tie::shade_near_depth)")
+                    }
+                })
+                .collect();
+            rule.sort_unstable();
+            rule.dedup();
+            out.push(ShadeCopy::ReadBy(rule));
+        }
+        out
+    }
+}
+
+/// What a depth copy must cover ([`TieFree::shade_copies`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShadeCopy {
+    /// The whole image, as planned: not the copy opening a final shade, or one
+    /// whose texture a later step reads.
+    AsPlanned,
+    /// The copy opening a final shade, read by nothing but the shade's draws of
+    /// these meshes, which keep the tie rule: the screen bounds of these meshes
+    /// (with the tie test's neighbour fetches). None: nobody reads the copy.
+    ReadBy(Vec<MeshId>),
+}
+
+/// Whether `step` (or a loop's body) reads texture `tex`.
+fn samples(step: &Step, tex: Tex) -> bool {
+    match step {
+        Step::Loop(l) => l.head.iter().chain(&l.tail).any(|s| samples(s, tex)),
+        s => s
+            .usage()
+            .iter()
+            .any(|&(r, u)| r == super::usage::Resource::Texture(tex) && !u.writes()),
+    }
+}
+
+/// Per tolerance of `eps` (bits of `|eps|`, any order, repeats allowed): per
+/// mesh, whether its smallest gap to a parallel face is wider than the band.
+fn decide(gaps: &TieGaps, band: &TieBand, mut eps: Vec<u32>) -> Vec<(u32, Vec<bool>)> {
+    eps.sort_unstable();
+    eps.dedup();
+    eps.into_iter()
+        .map(|bits| {
+            let b = band.world(f32::from_bits(bits));
+            let free = gaps
+                .min_gap
+                .iter()
+                .map(|&g| b.is_finite() && b <= gaps.cap && g > b)
+                .collect();
+            (bits, free)
+        })
+        .collect()
+}
+
+/// Whether `meshes` is not empty and each is tie-free at `eps` in `by_eps`
+/// (a tolerance not decided: none is).
+fn all_free(by_eps: &[(u32, Vec<bool>)], meshes: &[MeshId], eps: f32) -> bool {
+    let key = eps.abs().to_bits();
+    let Some((_, free)) = by_eps.iter().find(|(k, _)| *k == key) else {
+        return false;
+    };
+    !meshes.is_empty()
+        && meshes
+            .iter()
+            .all(|&m| free.get(m as usize).copied().unwrap_or(false))
+}
+
+/// The `|eps|` bits of every final-shade draw in `steps` (top level: a shade
+/// is never inside a loop, `plan::tie::shade_near_depth`).
+fn shade_tolerances(steps: &[Step]) -> Vec<u32> {
+    steps
+        .iter()
+        .filter_map(|s| match s {
+            Step::Draw(d) => match d.fragment {
+                Fragment::ShadeNearDepth { eps, .. } => Some(eps.abs().to_bits()),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect()
 }
 
 /// The `|eps|` bits of every tolerant parity or peel draw in `steps`.
@@ -483,6 +617,80 @@ mod tests {
         );
         assert_eq!(fast.depth, draw(peel(0)).depth);
         assert_eq!(free.fixed_function(&draw(peel(1))), None);
+    }
+
+    /// A final shade of meshes `ms` (depth-stencil 0, texture 1) after `before`.
+    fn shaded(before: Vec<Step>, ms: &[MeshId]) -> Plan {
+        let mut steps = before;
+        steps.extend(super::super::shade_near_depth(ms, 0, 1, None));
+        plan_of(steps)
+    }
+
+    fn refs(plan: &Plan) -> Vec<&Step> {
+        plan.steps.iter().collect()
+    }
+
+    #[test]
+    fn tie_free_shade_draws_become_depth_equal_shading() {
+        // SCS keeps the tie rule in its parity draws, not in its final shade.
+        let mut plan = shaded(vec![parity(0, SHADE_EPS)], &[0, 1]);
+        plan.algo = crate::plan::Algo::Scs.name().into();
+        let free = half_free(&plan);
+        assert!(free.fixed_function(&draw(parity(0, SHADE_EPS))).is_none());
+        let shade: Vec<Draw> = plan.steps[3..].iter().cloned().map(draw).collect();
+        // Descending order: mesh 1 (can tie) first, then mesh 0.
+        assert_eq!(shade[0].geometry, Geometry::Mesh(1));
+        assert_eq!(free.fixed_function(&shade[0]), None);
+        let fast = free.fixed_function(&shade[1]).expect("mesh 0 is tie-free");
+        assert_eq!(fast.fragment, Fragment::Shade);
+        assert_eq!(
+            fast.depth,
+            DepthState {
+                compare: CompareOp::Equal,
+                write: false
+            }
+        );
+        assert_eq!((fast.ds, fast.stencil, fast.cull), (0, None, Cull::None));
+        // The A/B switch keeps the rule.
+        assert_eq!(
+            free.clone().keep_shade_rule().fixed_function(&shade[1]),
+            None
+        );
+    }
+
+    #[test]
+    fn the_shade_copy_reaches_the_rule_meshes_or_nothing() {
+        let plan = shaded(Vec::new(), &[0, 1]);
+        assert_eq!(
+            half_free(&plan).shade_copies(&refs(&plan)),
+            vec![ShadeCopy::ReadBy(vec![1])]
+        );
+        // Every draw depth-equal: nobody reads the copy.
+        let plan = shaded(Vec::new(), &[0]);
+        assert_eq!(
+            half_free(&plan).shade_copies(&refs(&plan)),
+            vec![ShadeCopy::ReadBy(vec![])]
+        );
+        // Nothing decided: every mesh keeps the rule.
+        assert_eq!(
+            TieFree::none().shade_copies(&refs(&plan)),
+            vec![ShadeCopy::ReadBy(vec![0])]
+        );
+        // A copy read by something else (CST layers' floor), or whose texture
+        // a later step reads, stays as planned.
+        let floor = Step::CopyDepthToTexture { ds: 0, dst: 1 };
+        let mut steps = vec![floor.clone(), Step::Pass("x".into()), floor];
+        steps.extend(super::super::shade_near_depth(&[0], 0, 1, None));
+        steps.push(parity(0, SHADE_EPS));
+        let plan = plan_of(steps);
+        assert_eq!(
+            half_free(&plan).shade_copies(&refs(&plan)),
+            vec![
+                ShadeCopy::AsPlanned,
+                ShadeCopy::AsPlanned,
+                ShadeCopy::AsPlanned
+            ]
+        );
     }
 }
 

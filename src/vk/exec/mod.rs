@@ -238,6 +238,9 @@ pub struct Executor {
     normals: bool,
     /// Plain depth tests where no tie is possible ([`Executor::set_tie_free`]).
     tie_free: bool,
+    /// Depth-equal final shades where no tie is possible
+    /// ([`Executor::set_fixed_shade`]).
+    fixed_shade: bool,
     /// The tie-free decisions for the current plan and camera.
     ties: TieFree,
     /// Keep the accumulate pass's images ([`Executor::set_transparency`]).
@@ -303,6 +306,7 @@ impl Executor {
             rounding: None,
             normals: false,
             tie_free: true,
+            fixed_shade: true,
             ties: TieFree::none(),
             transparency: false,
         })
@@ -366,6 +370,15 @@ impl Executor {
         self.recording = None;
     }
 
+    /// Whether the final shade's draws of meshes that cannot tie run as plain
+    /// depth-`EQUAL` draws (`plan::tie_free`; the default, with
+    /// [`Self::set_tie_free`] on). Off: they keep the tie rule (A/B
+    /// measurements).
+    pub fn set_fixed_shade(&mut self, on: bool) {
+        self.fixed_shade = on;
+        self.recording = None;
+    }
+
     /// The tie-free decisions for `plan` under the scene's current camera.
     fn decide_ties(&self, plan: &Plan) -> TieFree {
         let Some(scene) = self.scene.as_ref().filter(|_| self.tie_free) else {
@@ -386,7 +399,11 @@ impl Executor {
             self.desc.reversed_z,
             &bounds,
         );
-        TieFree::new(&scene.ties, &band, plan)
+        let ties = TieFree::new(&scene.ties, &band, plan);
+        match self.fixed_shade {
+            true => ties,
+            false => ties.keep_shade_rule(),
+        }
     }
 
     fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
@@ -758,6 +775,7 @@ impl Executor {
         if scissored_clears {
             rec.plan_clears(body, plan.output_ds);
         }
+        rec.plan_shades(body);
         rec.begin(cmd, occ_cap, ts_cap);
         for (s, g) in flat.iter().take(body.len()) {
             rec.group = *g;
@@ -817,6 +835,7 @@ impl Executor {
          -> Result<u64, VkError> {
             let t = CpuInstant::now();
             sub.begin(cmd, true)?;
+            rec.plan_shades(&steps.iter().collect::<Vec<_>>());
             rec.begin(cmd, occ_cap, ts_cap);
             for s in steps {
                 rec.step(s)?;
