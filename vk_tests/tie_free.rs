@@ -9,6 +9,7 @@ use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::reference::compare::compare;
 use peeltrim::reference::precision::spec_depth_check;
 use peeltrim::render::{DepthSetup, FrameStats, GpuRenderer};
+use peeltrim::vk::Recorded;
 
 use crate::algorithms::{load, SIZE};
 
@@ -183,4 +184,60 @@ fn coincident_faces_keep_the_tie_rule_in_the_final_shade() {
             }
         }
     }
+}
+
+#[test]
+fn a_camera_change_that_changes_the_shade_decisions_records_again() {
+    // Two boxes, B's bottom face 4e-3 above A's top face: tie-free with a
+    // tight depth range, within the tie band with a near plane 300 times
+    // closer (standard Z: the band grows with far/near). The screen
+    // rectangles stay the same, so only the decisions can make it record.
+    let toml = r##"
+name = "gap"
+[camera]
+eye = [1.0, 3.0, 4.0]
+target = [0.0, 0.5, 0.0]
+near = 3.0
+far = 7.0
+[[primitive]]
+name = "A"
+shape = "box"
+size = [1.0, 1.0, 1.0]
+[[primitive]]
+name = "B"
+shape = "box"
+size = [1.0, 1.0, 1.0]
+translate = [0.3, 1.004, 0.2]
+[csg]
+expr = "A + B"
+"##;
+    let path = std::env::temp_dir().join(format!("peeltrim-gap-{}.toml", std::process::id()));
+    std::fs::write(&path, toml).expect("temp scene");
+    let scene = load(&path);
+    std::fs::remove_file(&path).ok();
+    let plan = plan::build(Algo::Goldfeather, &Prepared::new(&scene).unwrap()).unwrap();
+    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true)
+        .expect("a Vulkan device (lavapipe)");
+    let counts = |gpu: &mut GpuRenderer| {
+        let s = gpu.execute(&plan).unwrap().exec;
+        let c = &s.counts;
+        (s.recorded, c.shade_fixed_draws, c.shade_rule_draws)
+    };
+    counts(&mut gpu);
+    assert_eq!(counts(&mut gpu), (Recorded::New, 2, 0));
+    assert_eq!(counts(&mut gpu), (Recorded::Replayed, 2, 0));
+    let near = peeltrim::scene::Camera {
+        near: 0.01,
+        ..scene.camera
+    };
+    // A moved camera records with grown scissors, and with exact ones once it
+    // stays (`vk_tests/replay.rs`); then it replays.
+    gpu.set_camera(&near).unwrap();
+    assert_eq!(counts(&mut gpu), (Recorded::Camera, 0, 2));
+    assert_eq!(counts(&mut gpu), (Recorded::Camera, 0, 2));
+    assert_eq!(counts(&mut gpu), (Recorded::Replayed, 0, 2));
+    gpu.set_camera(&scene.camera).unwrap();
+    assert_eq!(counts(&mut gpu), (Recorded::Camera, 2, 0));
+    let msgs = gpu.validation_messages();
+    assert!(msgs.is_empty(), "validation messages: {msgs:#?}");
 }

@@ -14,7 +14,28 @@
 //!   (the plans' invariant, documented at [`Fragment::NearerThan`]); llvmpipe then
 //!   tests depth and stencil before an empty shader, as OpenCSG's parity passes;
 //! - a tolerant peel [`Fragment::PeelTolerant`] becomes the exact peel
-//!   ([`Fragment::Peel`], one texel fetch instead of three and no derivatives).
+//!   ([`Fragment::Peel`], one texel fetch instead of three and no derivatives);
+//! - a draw of the final shade [`Fragment::ShadeNearDepth`]
+//!   ([`super::tie::shade_near_depth`]: compare `Always`, the tie test in the
+//!   shader, `gl_FragDepth` written) becomes OpenCSG's shading: the plain
+//!   [`Fragment::Shade`] program tested `Equal` against the depth-stencil image,
+//!   no depth written, no texture read, so llvmpipe tests depth before the
+//!   shader. The image holds the visible face's raster depth bit-exactly in every
+//!   plan: written by the face's own draw (Blister's peels, CST's
+//!   [`Fragment::DepthAtDepth`] merges), or by a full-screen `gl_FragDepth` copy
+//!   of a texture that holds that draw's `gl_FragCoord.z` (Goldfeather's, Kirsch's,
+//!   SCS's and Trickle's merges), which the depth format rounds as it rounds the
+//!   rasterized depth; `gl_Position` is `invariant`, so the shade's redraw of the
+//!   face reproduces it (`vk_tests/tie_free.rs` checks every algorithm on every
+//!   depth set-up, vertex snapping emulated too). A tie-free mesh's draw then
+//!   passes exactly where its face is the visible one, as its tie test did; the
+//!   draws that keep the rule still draw in descending index order, and a
+//!   depth-equal draw and a tie-rule draw can both pass at one pixel only where
+//!   two faces cross within the tie band (an edge of the image), where the rule
+//!   mesh wins whatever the order. The depth output is then the raster depth, not
+//!   the plane depth at the pixel centre (README "Precision and ties"). The depth
+//!   copy that opens the shade is scissored to the meshes that keep the rule, or
+//!   dropped when none does ([`TieFree::shade_copies`]).
 //!
 //! Which meshes are tie-free comes from [`TieGaps`] (camera-independent: the
 //! smallest distance between a mesh's faces and a parallel, overlapping face)
@@ -24,6 +45,8 @@
 //! so a mesh with no partner at all within the band cannot tie whatever the
 //! texture holds. [`TieFree`] is those decisions, per tolerance of the plan; the
 //! executor keeps its recording while a moving camera leaves them unchanged.
+//! SCS keeps the tie rule in its parity draws ([`TieFree::new`]) but not in its
+//! final shade, whose depth image is its merges' like Goldfeather's.
 
 use super::step::*;
 use super::tie::REVERSED_SCALE;
