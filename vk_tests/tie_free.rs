@@ -110,6 +110,9 @@ fn a_depth_equal_final_shade_gives_the_tie_rule_frames_pixels() {
     let scene = load(Path::new(&path));
     let prep = Prepared::new(&scene).expect("prepared");
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    // Under emulated snapping and on D24S8 the shade keeps the rule (its depth
+    // output; `Executor::set_fixed_shade`); its pixels held there too (0
+    // interior mismatches) before those were switched off.
     let setups = DepthSetup::ALL.into_iter().map(|d| (d, None)).chain([(
         DepthSetup::DEFAULT,
         Some(peeltrim::vk::RoundingEmulation::EIGHT_BITS),
@@ -130,6 +133,11 @@ fn a_depth_equal_final_shade_gives_the_tie_rule_frames_pixels() {
             assert!(msgs.is_empty(), "{algo}: validation messages: {msgs:#?}");
             let at = format!("{algo} on {depth:?}, rounding {rounding:?}");
             let (r, f) = (&rule.stats.exec.counts, &fixed.stats.exec.counts);
+            if rounding.is_some() || depth == DepthSetup::D24S8 {
+                assert_eq!(f.shade_fixed_draws, 0, "{at}: snapping, or D24");
+                assert!(rule.images == fixed.images, "{at}");
+                continue;
+            }
             assert_eq!((r.shade_fixed_draws, f.shade_rule_draws), (0, 0), "{at}");
             assert_eq!(f.shade_fixed_draws, r.shade_rule_draws, "{at}");
             assert!(f.shade_fixed_draws > 0, "{at}: no shade draw: {f:?}");
