@@ -45,8 +45,6 @@
 //! so a mesh with no partner at all within the band cannot tie whatever the
 //! texture holds. [`TieFree`] is those decisions, per tolerance of the plan; the
 //! executor keeps its recording while a moving camera leaves them unchanged.
-//! SCS keeps the tie rule in its parity draws ([`TieFree::new`]) but not in its
-//! final shade, whose depth image is its merges' like Goldfeather's.
 
 use super::step::*;
 use super::tie::REVERSED_SCALE;
@@ -188,20 +186,9 @@ impl TieFree {
 
     /// The decisions for the tolerances of `plan`'s tolerant draws.
     pub fn new(gaps: &TieGaps, band: &TieBand, plan: &Plan) -> TieFree {
-        // The final shade holds for every plan (its depth-stencil image holds the
-        // visible faces' raster depths: module doc).
+        // The final shade, and since SCS's exits move the depth image with the
+        // texture, every plan's parity draws (module doc).
         let shade = decide(gaps, band, shade_tolerances(&plan.steps));
-        // The rewrite tests a parity draw against its depth-stencil image in place
-        // of the texture, which needs the two equal wherever the result is read.
-        // SCS's subtraction moves the texture's depth (a cutter's back faces
-        // replace it) without rewriting the depth-stencil image, so its draws keep
-        // the tie rule (`vk_tests`: `scs_matches_reference_on_shipped_scenes`).
-        if !keeps_depth_image_equal_to_texture(&plan.algo) {
-            return TieFree {
-                shade,
-                ..TieFree::none()
-            };
-        }
         let mut eps: Vec<u32> = Vec::new();
         tolerances(&plan.steps, &mut eps);
         let by_eps = decide(gaps, band, eps);
@@ -655,11 +642,8 @@ mod tests {
 
     #[test]
     fn tie_free_shade_draws_become_depth_equal_shading() {
-        // SCS keeps the tie rule in its parity draws, not in its final shade.
-        let mut plan = shaded(vec![parity(0, SHADE_EPS)], &[0, 1]);
-        plan.algo = crate::plan::Algo::Scs.name().into();
+        let plan = shaded(vec![parity(0, SHADE_EPS)], &[0, 1]);
         let free = half_free(&plan);
-        assert!(free.fixed_function(&draw(parity(0, SHADE_EPS))).is_none());
         let shade: Vec<Draw> = plan.steps[3..].iter().cloned().map(draw).collect();
         // Descending order: mesh 1 (can tie) first, then mesh 0.
         assert_eq!(shade[0].geometry, Geometry::Mesh(1));
@@ -715,12 +699,4 @@ mod tests {
             ]
         );
     }
-}
-
-/// Whether `algo`'s plans keep each parity draw's depth-stencil image equal to
-/// the depth texture it reads wherever the draw's result is used (checked by
-/// reading Goldfeather, layered Goldfeather, Kirsch, Blister and CST; Trickle's
-/// peels become exact peels, which do not depend on it).
-fn keeps_depth_image_equal_to_texture(algo: &str) -> bool {
-    algo != crate::plan::Algo::Scs.name()
 }
