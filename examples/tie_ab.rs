@@ -8,7 +8,11 @@
 //!
 //! `cargo run --release --example tie_ab -- SIZE FRAMES ALGOS SCENE...`
 //! with ALGOS comma-separated (e.g. `800x800 7 cst-g,cst-i scenes/complex.toml`).
-//! README, "Per-fragment work".
+//! README, "Per-fragment work". With `TIE_AB=shade`, both frames run their
+//! parity and peel draws tie-free and only the final shade differs: every draw
+//! with the tie rule (A), or the tie-free meshes' draws as depth-`EQUAL` draws
+//! (B, `Executor::set_fixed_shade`; README "The final shade as depth-equal
+//! draws"); the counts are then the shade's depth-equal and tie-rule draws.
 
 #[path = "ab_common/mod.rs"]
 mod ab_common;
@@ -17,6 +21,7 @@ use ab_common::{for_each_run, median};
 use peeltrim::vk::Executor;
 
 fn main() {
+    let shade_only = std::env::var("TIE_AB").is_ok_and(|v| v == "shade");
     println!("scene            algo          tie-rule CPU ms  tie-free CPU ms  ratio  | tie-free draws, tie-rule draws left");
     let mut analysed = String::new();
     for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
@@ -41,7 +46,11 @@ fn main() {
             .iter()
             .map(|&on| {
                 let mut e = Executor::new(ctx, desc).expect("executor");
-                e.set_tie_free(on);
+                if shade_only {
+                    e.set_fixed_shade(on);
+                } else {
+                    e.set_tie_free(on);
+                }
                 e.upload(scene).expect("upload");
                 for _ in 0..2 {
                     e.execute(&plan).expect("warm-up");
@@ -57,6 +66,10 @@ fn main() {
         }
         let c = exs[1].execute(&plan).expect("frame").counts;
         let (a, b) = (median(cpu[0].clone()), median(cpu[1].clone()));
+        let (free, rule) = match shade_only {
+            true => (c.shade_fixed_draws, c.shade_rule_draws),
+            false => (c.tie_free_draws, c.tie_rule_draws),
+        };
         println!(
             "{:16} {:12} {:15.1} {:16.1} {:6.2}  | {}, {}",
             name,
@@ -64,8 +77,8 @@ fn main() {
             a,
             b,
             b / a,
-            c.tie_free_draws,
-            c.tie_rule_draws
+            free,
+            rule
         );
     });
 }

@@ -313,6 +313,12 @@ impl GpuRenderer {
         self.exec.set_tie_free(on);
     }
 
+    /// Whether the final shade's draws of meshes that cannot tie run as plain
+    /// depth-equal draws (the default; see `vk::Executor::set_fixed_shade`).
+    pub fn set_fixed_shade(&mut self, on: bool) {
+        self.exec.set_fixed_shade(on);
+    }
+
     pub fn device_name(&self) -> String {
         self.ctx.device_name().to_string()
     }

@@ -8,7 +8,9 @@ use std::path::Path;
 use peeltrim::plan::step::{Fragment, Step};
 use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::reference::compare::compare;
+use peeltrim::reference::precision::spec_depth_check;
 use peeltrim::render::{DepthSetup, FrameStats, GpuRenderer};
+use peeltrim::vk::Recorded;
 
 use crate::algorithms::{load, SIZE};
 
@@ -88,6 +90,156 @@ fn coincident_faces_keep_the_tie_rule() {
         assert_eq!(c.tie_free_draws, 0, "{algo}: {c:?}");
         assert!(c.tie_rule_draws > 0, "{algo}: {c:?}");
     }
+}
+
+#[test]
+fn a_depth_equal_final_shade_gives_the_tie_rule_frames_pixels() {
+    // Every plan's depth-stencil image must hold the visible faces' raster
+    // depths bit-exactly for the depth-equal shade to find them: on every
+    // depth set-up, and with an 8-bit device's vertex snapping emulated.
+    let name = "drilled_block";
+    let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
+    let scene = load(Path::new(&path));
+    let prep = Prepared::new(&scene).expect("prepared");
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    // Under emulated snapping and on D24S8 the shade keeps the rule (its depth
+    // output; `Executor::set_fixed_shade`); its pixels held there too (0
+    // interior mismatches) before those were switched off.
+    let setups = DepthSetup::ALL.into_iter().map(|d| (d, None)).chain([(
+        DepthSetup::DEFAULT,
+        Some(peeltrim::vk::RoundingEmulation::EIGHT_BITS),
+    )]);
+    let mut failures = Vec::new();
+    for (depth, rounding) in setups {
+        for algo in tolerant() {
+            let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
+            let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+                .expect("a Vulkan device (lavapipe)");
+            gpu.set_rounding_emulation(rounding);
+            let mut run = |fixed: bool| {
+                gpu.set_fixed_shade(fixed);
+                gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"))
+            };
+            let (rule, fixed) = (run(false), run(true));
+            let msgs = gpu.validation_messages();
+            assert!(msgs.is_empty(), "{algo}: validation messages: {msgs:#?}");
+            let at = format!("{algo} on {depth:?}, rounding {rounding:?}");
+            let (r, f) = (&rule.stats.exec.counts, &fixed.stats.exec.counts);
+            if rounding.is_some() || depth == DepthSetup::D24S8 {
+                assert_eq!(f.shade_fixed_draws, 0, "{at}: snapping, or D24");
+                assert!(rule.images == fixed.images, "{at}");
+                continue;
+            }
+            assert_eq!((r.shade_fixed_draws, f.shade_rule_draws), (0, 0), "{at}");
+            assert_eq!(f.shade_fixed_draws, r.shade_rule_draws, "{at}");
+            assert!(f.shade_fixed_draws > 0, "{at}: no shade draw: {f:?}");
+            // No depth copy: nobody would read it.
+            assert_eq!(f.fullscreen_passes + 1, r.fullscreen_passes, "{at}");
+            let d = compare(&rule.images, &fixed.images).expect("same size");
+            // The tie rule's depth is the plane's at the pixel centre, the
+            // depth-equal shade's the raster depth: equal up to f32 rounding
+            // (view units; the block is ~5 units away) without snapping, within
+            // the specification's bound with it (below).
+            if d.coverage_mismatch_interior > 0
+                || d.prim_mismatch_interior > 0
+                || (rounding.is_none() && d.depth_abs_err_max_interior > 2e-5)
+            {
+                failures.push(format!("{at} against the tie-rule shade: {d:?}"));
+            }
+            let c = compare(&reference, &fixed.images).expect("same size");
+            let precision = match rounding {
+                Some(r) => depth.precision(r.subpixel_bits),
+                None => gpu.precision(),
+            };
+            let s = spec_depth_check(&reference, &fixed.images, &scene.camera, &precision);
+            if c.coverage_mismatch_interior_frac > 0.001
+                || c.prim_mismatch_interior_frac > 0.01
+                || s.ratio_p99 > 1.0
+            {
+                failures.push(format!("{at} against the reference: {c:?} {s:?}"));
+            }
+            eprintln!(
+                "{at}: {} depth-equal shade draws; against the tie-rule shade: \
+                 {} coverage, {} prim mismatches (all), depth max {:.2e}",
+                f.shade_fixed_draws,
+                d.coverage_mismatch,
+                d.prim_mismatch,
+                d.depth_abs_err_max_interior
+            );
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn coincident_faces_keep_the_tie_rule_in_the_final_shade() {
+    for name in ["coincident", "speckle"] {
+        for algo in tolerant() {
+            let (_, stats, _) = frame(name, algo, true);
+            let c = &stats.exec.counts;
+            assert!(c.shade_rule_draws > 0, "{name} {algo}: {c:?}");
+            if name == "coincident" {
+                // Every primitive shares a face plane with another one.
+                assert_eq!(c.shade_fixed_draws, 0, "{name} {algo}: {c:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_camera_change_that_changes_the_shade_decisions_records_again() {
+    // Two boxes, B's bottom face 4e-3 above A's top face: tie-free with a
+    // tight depth range, within the tie band with a near plane 300 times
+    // closer (standard Z: the band grows with far/near). The screen
+    // rectangles stay the same, so only the decisions can make it record.
+    let toml = r##"
+name = "gap"
+[camera]
+eye = [1.0, 3.0, 4.0]
+target = [0.0, 0.5, 0.0]
+near = 3.0
+far = 7.0
+[[primitive]]
+name = "A"
+shape = "box"
+size = [1.0, 1.0, 1.0]
+[[primitive]]
+name = "B"
+shape = "box"
+size = [1.0, 1.0, 1.0]
+translate = [0.3, 1.004, 0.2]
+[csg]
+expr = "A + B"
+"##;
+    let path = std::env::temp_dir().join(format!("peeltrim-gap-{}.toml", std::process::id()));
+    std::fs::write(&path, toml).expect("temp scene");
+    let scene = load(&path);
+    std::fs::remove_file(&path).ok();
+    let plan = plan::build(Algo::Goldfeather, &Prepared::new(&scene).unwrap()).unwrap();
+    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true)
+        .expect("a Vulkan device (lavapipe)");
+    let counts = |gpu: &mut GpuRenderer| {
+        let s = gpu.execute(&plan).unwrap().exec;
+        let c = &s.counts;
+        (s.recorded, c.shade_fixed_draws, c.shade_rule_draws)
+    };
+    counts(&mut gpu);
+    assert_eq!(counts(&mut gpu), (Recorded::New, 2, 0));
+    assert_eq!(counts(&mut gpu), (Recorded::Replayed, 2, 0));
+    let near = peeltrim::scene::Camera {
+        near: 0.01,
+        ..scene.camera
+    };
+    // A moved camera records with grown scissors, and with exact ones once it
+    // stays (`vk_tests/replay.rs`); then it replays.
+    gpu.set_camera(&near).unwrap();
+    assert_eq!(counts(&mut gpu), (Recorded::Camera, 0, 2));
+    assert_eq!(counts(&mut gpu), (Recorded::Camera, 0, 2));
+    assert_eq!(counts(&mut gpu), (Recorded::Replayed, 0, 2));
+    gpu.set_camera(&scene.camera).unwrap();
+    assert_eq!(counts(&mut gpu), (Recorded::Camera, 2, 0));
+    let msgs = gpu.validation_messages();
+    assert!(msgs.is_empty(), "validation messages: {msgs:#?}");
 }
 
 #[test]

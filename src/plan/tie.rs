@@ -46,7 +46,9 @@
 //!
 //! The final pass also writes the depth output itself: the winning face's plane
 //! evaluated at the pixel centre (`shaders/shade_near_depth.frag`), which removes
-//! the snapping error (1.) from `depth.npy` to first order.
+//! the snapping error (1.) from `depth.npy` to first order. Where a mesh cannot
+//! tie under the camera the executor draws it as a plain depth-equal shade
+//! instead (`plan::tie_free`), which leaves the raster depth.
 
 use super::{
     CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Scissor, StencilState, Step,

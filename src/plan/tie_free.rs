@@ -14,7 +14,28 @@
 //!   (the plans' invariant, documented at [`Fragment::NearerThan`]); llvmpipe then
 //!   tests depth and stencil before an empty shader, as OpenCSG's parity passes;
 //! - a tolerant peel [`Fragment::PeelTolerant`] becomes the exact peel
-//!   ([`Fragment::Peel`], one texel fetch instead of three and no derivatives).
+//!   ([`Fragment::Peel`], one texel fetch instead of three and no derivatives);
+//! - a draw of the final shade [`Fragment::ShadeNearDepth`]
+//!   ([`super::tie::shade_near_depth`]: compare `Always`, the tie test in the
+//!   shader, `gl_FragDepth` written) becomes OpenCSG's shading: the plain
+//!   [`Fragment::Shade`] program tested `Equal` against the depth-stencil image,
+//!   no depth written, no texture read, so llvmpipe tests depth before the
+//!   shader. The image holds the visible face's raster depth bit-exactly in every
+//!   plan: written by the face's own draw (Blister's peels, CST's
+//!   [`Fragment::DepthAtDepth`] merges), or by a full-screen `gl_FragDepth` copy
+//!   of a texture that holds that draw's `gl_FragCoord.z` (Goldfeather's, Kirsch's,
+//!   SCS's and Trickle's merges), which the depth format rounds as it rounds the
+//!   rasterized depth; `gl_Position` is `invariant`, so the shade's redraw of the
+//!   face reproduces it (`vk_tests/tie_free.rs` checks every algorithm on every
+//!   depth set-up, vertex snapping emulated too). A tie-free mesh's draw then
+//!   passes exactly where its face is the visible one, as its tie test did; the
+//!   draws that keep the rule still draw in descending index order, and a
+//!   depth-equal draw and a tie-rule draw can both pass at one pixel only where
+//!   two faces cross within the tie band (an edge of the image), where the rule
+//!   mesh wins whatever the order. The depth output is then the raster depth, not
+//!   the plane depth at the pixel centre (README "Precision and ties"). The depth
+//!   copy that opens the shade is scissored to the meshes that keep the rule, or
+//!   dropped when none does ([`TieFree::shade_copies`]).
 //!
 //! Which meshes are tie-free comes from [`TieGaps`] (camera-independent: the
 //! smallest distance between a mesh's faces and a parallel, overlapping face)
@@ -150,8 +171,11 @@ impl TieBand {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TieFree {
     /// `|eps|` (its bits), then per mesh: no face within that band of a
-    /// parallel face.
+    /// parallel face. The tolerances of parity and peel draws.
     by_eps: Vec<(u32, Vec<bool>)>,
+    /// The same for the tolerances of the final depth-equal shades
+    /// ([`Fragment::ShadeNearDepth`], [module doc](self)).
+    shade: Vec<(u32, Vec<bool>)>,
 }
 
 impl TieFree {
@@ -162,35 +186,33 @@ impl TieFree {
 
     /// The decisions for the tolerances of `plan`'s tolerant draws.
     pub fn new(gaps: &TieGaps, band: &TieBand, plan: &Plan) -> TieFree {
+        // The final shade, and since SCS's exits move the depth image with the
+        // texture, every plan's parity draws (module doc).
+        let shade = decide(gaps, band, shade_tolerances(&plan.steps));
         let mut eps: Vec<u32> = Vec::new();
         tolerances(&plan.steps, &mut eps);
-        eps.sort_unstable();
-        eps.dedup();
-        let by_eps = eps
-            .into_iter()
-            .map(|bits| {
-                let b = band.world(f32::from_bits(bits));
-                let free = gaps
-                    .min_gap
-                    .iter()
-                    .map(|&g| b.is_finite() && b <= gaps.cap && g > b)
-                    .collect();
-                (bits, free)
-            })
-            .collect();
-        TieFree { by_eps }
+        let by_eps = decide(gaps, band, eps);
+        TieFree { by_eps, shade }
+    }
+
+    /// These decisions with every final shade keeping the tie rule (A/B
+    /// measurements, `Executor::set_fixed_shade`).
+    pub fn keep_shade_rule(self) -> TieFree {
+        TieFree {
+            shade: Vec::new(),
+            ..self
+        }
     }
 
     /// Whether every mesh of `meshes` is tie-free at tolerance `eps`.
     pub fn meshes_free(&self, meshes: &[MeshId], eps: f32) -> bool {
-        let key = eps.abs().to_bits();
-        let Some((_, free)) = self.by_eps.iter().find(|(k, _)| *k == key) else {
-            return false;
-        };
-        !meshes.is_empty()
-            && meshes
-                .iter()
-                .all(|&m| free.get(m as usize).copied().unwrap_or(false))
+        all_free(&self.by_eps, meshes, eps)
+    }
+
+    /// Whether the final shade's draws of every mesh of `meshes` at tolerance
+    /// `eps` run as depth-equal draws ([module doc](self)).
+    pub fn shade_free(&self, meshes: &[MeshId], eps: f32) -> bool {
+        all_free(&self.shade, meshes, eps)
     }
 
     /// The draw with plain tests in place of the tie rule, when the rule cannot
@@ -236,9 +258,139 @@ impl TieFree {
                     ..draw.clone()
                 })
             }
+            Fragment::ShadeNearDepth { eps, .. } => {
+                let shade = DepthState {
+                    compare: CompareOp::Always,
+                    write: true,
+                };
+                if draw.depth != shade || !self.shade_free(meshes, eps) {
+                    return None;
+                }
+                Some(Draw {
+                    depth: DepthState {
+                        compare: CompareOp::Equal,
+                        write: false,
+                    },
+                    fragment: Fragment::Shade,
+                    ..draw.clone()
+                })
+            }
             _ => None,
         }
     }
+
+    /// For every [`Step::CopyDepthToTexture`] of `steps`, in order, what it must
+    /// cover once the final shades' draws are rewritten by
+    /// [`TieFree::fixed_function`].
+    pub fn shade_copies(&self, steps: &[&Step]) -> Vec<ShadeCopy> {
+        let mut out = Vec::new();
+        for (i, s) in steps.iter().enumerate() {
+            let Step::CopyDepthToTexture { ds, dst } = s else {
+                continue;
+            };
+            let group: Vec<&Draw> = steps[i + 1..]
+                .iter()
+                .map_while(|s| match s {
+                    Step::Draw(d) => match d.fragment {
+                        Fragment::ShadeNearDepth { tex, .. } if tex == *dst && d.ds == *ds => {
+                            Some(d)
+                        }
+                        _ => None,
+                    },
+                    _ => None,
+                })
+                .collect();
+            let after = &steps[i + 1 + group.len()..];
+            if group.is_empty() || after.iter().any(|s| samples(s, *dst)) {
+                out.push(ShadeCopy::AsPlanned);
+                continue;
+            }
+            let mut rule: Vec<MeshId> = group
+                .into_iter()
+                .filter(|d| self.fixed_function(d).is_none())
+                .flat_map(|d| match &d.geometry {
+                    Geometry::Mesh(m) => vec![*m],
+                    Geometry::Meshes(ms) => ms.clone(),
+                    Geometry::FullScreen { .. } => {
+                        panic!("a final shade draws meshes (plan::tie::shade_near_depth)")
+                    }
+                })
+                .collect();
+            rule.sort_unstable();
+            rule.dedup();
+            out.push(ShadeCopy::ReadBy(rule));
+        }
+        out
+    }
+}
+
+/// What a depth copy must cover ([`TieFree::shade_copies`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShadeCopy {
+    /// The whole image, as planned: not the copy opening a final shade, or one
+    /// whose texture a later step reads.
+    AsPlanned,
+    /// The copy opening a final shade, read by nothing but the shade's draws of
+    /// these meshes, which keep the tie rule: the screen bounds of these meshes
+    /// (with the tie test's neighbour fetches). None: nobody reads the copy.
+    ReadBy(Vec<MeshId>),
+}
+
+/// Whether `step` (or a loop's body) reads texture `tex`.
+fn samples(step: &Step, tex: Tex) -> bool {
+    match step {
+        Step::Loop(l) => l.head.iter().chain(&l.tail).any(|s| samples(s, tex)),
+        s => s
+            .usage()
+            .iter()
+            .any(|&(r, u)| r == super::usage::Resource::Texture(tex) && !u.writes()),
+    }
+}
+
+/// Per tolerance of `eps` (bits of `|eps|`, any order, repeats allowed): per
+/// mesh, whether its smallest gap to a parallel face is wider than the band.
+fn decide(gaps: &TieGaps, band: &TieBand, mut eps: Vec<u32>) -> Vec<(u32, Vec<bool>)> {
+    eps.sort_unstable();
+    eps.dedup();
+    eps.into_iter()
+        .map(|bits| {
+            let b = band.world(f32::from_bits(bits));
+            let free = gaps
+                .min_gap
+                .iter()
+                .map(|&g| b.is_finite() && b <= gaps.cap && g > b)
+                .collect();
+            (bits, free)
+        })
+        .collect()
+}
+
+/// Whether `meshes` is not empty and each is tie-free at `eps` in `by_eps`
+/// (a tolerance not decided: none is).
+fn all_free(by_eps: &[(u32, Vec<bool>)], meshes: &[MeshId], eps: f32) -> bool {
+    let key = eps.abs().to_bits();
+    let Some((_, free)) = by_eps.iter().find(|(k, _)| *k == key) else {
+        return false;
+    };
+    !meshes.is_empty()
+        && meshes
+            .iter()
+            .all(|&m| free.get(m as usize).copied().unwrap_or(false))
+}
+
+/// The `|eps|` bits of every final-shade draw in `steps` (top level: a shade
+/// is never inside a loop, `plan::tie::shade_near_depth`).
+fn shade_tolerances(steps: &[Step]) -> Vec<u32> {
+    steps
+        .iter()
+        .filter_map(|s| match s {
+            Step::Draw(d) => match d.fragment {
+                Fragment::ShadeNearDepth { eps, .. } => Some(eps.abs().to_bits()),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect()
 }
 
 /// The `|eps|` bits of every tolerant parity or peel draw in `steps`.
@@ -475,5 +627,76 @@ mod tests {
         );
         assert_eq!(fast.depth, draw(peel(0)).depth);
         assert_eq!(free.fixed_function(&draw(peel(1))), None);
+    }
+
+    /// A final shade of meshes `ms` (depth-stencil 0, texture 1) after `before`.
+    fn shaded(before: Vec<Step>, ms: &[MeshId]) -> Plan {
+        let mut steps = before;
+        steps.extend(super::super::shade_near_depth(ms, 0, 1, None));
+        plan_of(steps)
+    }
+
+    fn refs(plan: &Plan) -> Vec<&Step> {
+        plan.steps.iter().collect()
+    }
+
+    #[test]
+    fn tie_free_shade_draws_become_depth_equal_shading() {
+        let plan = shaded(vec![parity(0, SHADE_EPS)], &[0, 1]);
+        let free = half_free(&plan);
+        let shade: Vec<Draw> = plan.steps[3..].iter().cloned().map(draw).collect();
+        // Descending order: mesh 1 (can tie) first, then mesh 0.
+        assert_eq!(shade[0].geometry, Geometry::Mesh(1));
+        assert_eq!(free.fixed_function(&shade[0]), None);
+        let fast = free.fixed_function(&shade[1]).expect("mesh 0 is tie-free");
+        assert_eq!(fast.fragment, Fragment::Shade);
+        assert_eq!(
+            fast.depth,
+            DepthState {
+                compare: CompareOp::Equal,
+                write: false
+            }
+        );
+        assert_eq!((fast.ds, fast.stencil, fast.cull), (0, None, Cull::None));
+        // The A/B switch keeps the rule.
+        assert_eq!(
+            free.clone().keep_shade_rule().fixed_function(&shade[1]),
+            None
+        );
+    }
+
+    #[test]
+    fn the_shade_copy_reaches_the_rule_meshes_or_nothing() {
+        let plan = shaded(Vec::new(), &[0, 1]);
+        assert_eq!(
+            half_free(&plan).shade_copies(&refs(&plan)),
+            vec![ShadeCopy::ReadBy(vec![1])]
+        );
+        // Every draw depth-equal: nobody reads the copy.
+        let plan = shaded(Vec::new(), &[0]);
+        assert_eq!(
+            half_free(&plan).shade_copies(&refs(&plan)),
+            vec![ShadeCopy::ReadBy(vec![])]
+        );
+        // Nothing decided: every mesh keeps the rule.
+        assert_eq!(
+            TieFree::none().shade_copies(&refs(&plan)),
+            vec![ShadeCopy::ReadBy(vec![0])]
+        );
+        // A copy read by something else (CST layers' floor), or whose texture
+        // a later step reads, stays as planned.
+        let floor = Step::CopyDepthToTexture { ds: 0, dst: 1 };
+        let mut steps = vec![floor.clone(), Step::Pass("x".into()), floor];
+        steps.extend(super::super::shade_near_depth(&[0], 0, 1, None));
+        steps.push(parity(0, SHADE_EPS));
+        let plan = plan_of(steps);
+        assert_eq!(
+            half_free(&plan).shade_copies(&refs(&plan)),
+            vec![
+                ShadeCopy::AsPlanned,
+                ShadeCopy::AsPlanned,
+                ShadeCopy::AsPlanned
+            ]
+        );
     }
 }

@@ -26,7 +26,8 @@ use clears::{ClearNeed, PendingClear};
 
 mod clears;
 mod host;
-use crate::plan::tie_free::TieFree;
+mod shade;
+use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::usage::{self, Resource, Usage};
 use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
@@ -152,6 +153,8 @@ pub(super) struct Recorder<'a> {
     pending_clear: BTreeMap<Resource, PendingClear>,
     /// Regions of the clears recorded next, in order (`clears::clear_regions`).
     clear_regions: VecDeque<ClearNeed>,
+    /// What the depth copies recorded next cover, in order (`shade.rs`).
+    shade_copies: VecDeque<ShadeCopy>,
     /// Group of each occlusion query of the current command buffer.
     pub queries: Vec<Group>,
     /// Group of the counted draws recorded next.
@@ -179,6 +182,7 @@ impl<'a> Recorder<'a> {
             state,
             pending_clear: BTreeMap::new(),
             clear_regions: VecDeque::new(),
+            shade_copies: VecDeque::new(),
             queries: Vec::new(),
             group: None,
             marks: Vec::new(),
@@ -399,7 +403,8 @@ impl<'a> Recorder<'a> {
             )
         };
         let color_set = t.sampling_set(Resource::Color);
-        self.fullscreen_internal(&key, FragmentKind::Accumulate, color_set)?;
+        let full = Rect::full(self.b.desc.width, self.b.desc.height);
+        self.fullscreen_internal(&key, FragmentKind::Accumulate, color_set, full)?;
         self.end_block();
         self.rest_all();
         Ok(())
@@ -556,12 +561,7 @@ impl<'a> Recorder<'a> {
                     )
                 };
             }
-            Step::CopyDepthToTexture { ds, dst } => {
-                let key = BlockKey::new(&[Resource::Texture(*dst)], None);
-                let set = self.b.targets.sampling_set(Resource::DepthStencil(*ds));
-                self.open(&key, &step.usage());
-                self.fullscreen_internal(&key, FragmentKind::CopyDepth, set)?;
-            }
+            Step::CopyDepthToTexture { ds, dst } => self.copy_depth(step, *ds, *dst)?,
             Step::Draw(draw) => self.draw(draw, step)?,
             Step::Loop(_) => {
                 panic!("loops are unrolled by the executor (plan::validate forbids nesting)")
@@ -724,17 +724,17 @@ impl<'a> Recorder<'a> {
         m
     }
 
-    /// A full-screen draw that is not a plan `Draw` (depth copies).
+    /// A full-screen draw that is not a plan `Draw` (depth copies), within `rect`.
     fn fullscreen_internal(
         &mut self,
         key: &BlockKey,
         kind: FragmentKind,
         set: vk::DescriptorSet,
+        rect: Rect,
     ) -> Result<(), VkError> {
         let pipeline = self.pipeline_for(key, kind)?;
         self.bind(pipeline, Some(set));
-        let full = Rect::full(self.b.desc.width, self.b.desc.height);
-        self.set_state(None, full);
+        self.set_state(None, rect);
         let pc = PushConstants {
             mvp: Self::fullscreen_matrix(0.0),
             flags: self.flags(),
@@ -748,7 +748,7 @@ impl<'a> Recorder<'a> {
                 .cmd_draw(self.cmd, 6, 1, self.b.scene.quad_first, 0)
         };
         self.stats.counts.fullscreen_passes += 1;
-        self.stats.counts.fullscreen_pixels += full.area();
+        self.stats.counts.fullscreen_pixels += rect.area();
         Ok(())
     }
 
@@ -766,17 +766,25 @@ impl<'a> Recorder<'a> {
         }
         // Plain depth tests where the tie rule cannot change the result.
         let fast = self.b.ties.fixed_function(draw).map(Step::Draw);
+        let shade = matches!(draw.fragment, Fragment::ShadeNearDepth { .. });
+        let counts = &mut self.stats.counts;
         let (draw, step) = match &fast {
             Some(s @ Step::Draw(d)) => {
-                self.stats.counts.tie_free_draws += 1;
+                *if shade {
+                    &mut counts.shade_fixed_draws
+                } else {
+                    &mut counts.tie_free_draws
+                } += 1;
                 (d, s)
             }
             _ => {
-                if matches!(
+                if shade {
+                    counts.shade_rule_draws += 1;
+                } else if matches!(
                     draw.fragment,
                     Fragment::NearerThan { .. } | Fragment::PeelTolerant { .. }
                 ) {
-                    self.stats.counts.tie_rule_draws += 1;
+                    counts.tie_rule_draws += 1;
                 }
                 (draw, step)
             }

@@ -44,6 +44,13 @@ pub struct Counts {
     /// Parity and peel draws that still run a tie-rule shader (`nearer_than`,
     /// `peel_tolerant`).
     pub tie_rule_draws: u64,
+    /// Draws of the final shade (`plan::tie::shade_near_depth`) run as plain
+    /// depth-`EQUAL` draws of the shading program because the mesh cannot tie
+    /// under this camera (`plan::tie_free`): tested before the shader, no
+    /// texture read, no depth written.
+    pub shade_fixed_draws: u64,
+    /// Draws of the final shade that keep the tie rule (`shade_near_depth`).
+    pub shade_rule_draws: u64,
     /// Pipeline barriers recorded (each may carry several image barriers). A
     /// plan's first frame, run loop by loop, records more: each of its
     /// submissions starts a new rendering block.
@@ -183,6 +190,8 @@ impl ExecStats {
         c.skipped_steps += o.skipped_steps;
         c.tie_free_draws += o.tie_free_draws;
         c.tie_rule_draws += o.tie_rule_draws;
+        c.shade_fixed_draws += o.shade_fixed_draws;
+        c.shade_rule_draws += o.shade_rule_draws;
         c.barriers += o.barriers;
         c.render_passes += o.render_passes;
         c.clear_commands += o.clear_commands;
