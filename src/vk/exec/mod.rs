@@ -45,9 +45,9 @@ use gpu_allocator::MemoryLocation;
 
 pub use super::conv::DepthFormat;
 pub use batch::PreparedFrame;
-pub use sequence::{PlanCounts, SeqFrame, SeqItem};
 pub(crate) use embed::{Output, Unrolled};
 pub(crate) use normals::copy_to_host;
+pub use sequence::{PlanCounts, SeqFrame, SeqItem};
 pub(crate) use shadow::color_format;
 pub use stats::{Counts, ExecStats, PassStats, Recorded};
 

@@ -19,8 +19,8 @@ use gpu_allocator::MemoryLocation;
 
 use super::record::Group;
 use super::targets::ALPHA_TABLE_SIDE;
-use super::{layers_fit, unroll, whole_image_region, Clock, ExecStats, Executor, FrameStart};
 use super::{gpu_scene, Recorded, Scissors};
+use super::{layers_fit, unroll, whole_image_region, Clock, ExecStats, Executor, FrameStart};
 use crate::output::Images;
 use crate::plan::tie_free::TieFree;
 use crate::plan::validate::validate;
@@ -140,7 +140,9 @@ impl Executor {
                 )));
             }
         }
-        let accumulates = items.iter().any(|i| matches!(i, SeqItem::Accumulate { .. }));
+        let accumulates = items
+            .iter()
+            .any(|i| matches!(i, SeqItem::Accumulate { .. }));
         if accumulates && !self.transparency {
             return Err(VkError::Plan(
                 "accumulate in a sequence needs set_transparency(true)".into(),
@@ -236,7 +238,10 @@ impl Executor {
             if !layers_fit(plan, loops, groups, s) {
                 return Ok(None);
             }
-            let after = groups.iter().rposition(Option::is_some).map_or(0, |i| i + 1);
+            let after = groups
+                .iter()
+                .rposition(Option::is_some)
+                .map_or(0, |i| i + 1);
             counts.push(PlanCounts {
                 samples: s.iter().sum(),
                 final_samples: s[after..].iter().sum(),
@@ -320,7 +325,15 @@ impl Executor {
                 }
                 SeqItem::Keep => {
                     let buf = keep.expect("the keep buffer was made for the keeps");
-                    record_keep(&shared.device, cmd, &sources, output, buf, slot * slot_bytes, [w, h]);
+                    record_keep(
+                        &shared.device,
+                        cmd,
+                        &sources,
+                        output,
+                        buf,
+                        slot * slot_bytes,
+                        [w, h],
+                    );
                     slot += 1;
                     Ok(())
                 }
@@ -405,8 +418,12 @@ impl Executor {
             gpu_scene::convention(&self.desc),
             scene.background,
         );
-        let normals = (self.seq.slot_bytes as usize > 3 * plane)
-            .then(|| decode_normals(&bytes[base + 3 * plane..base + 7 * plane], &scene.camera.view()));
+        let normals = (self.seq.slot_bytes as usize > 3 * plane).then(|| {
+            decode_normals(
+                &bytes[base + 3 * plane..base + 7 * plane],
+                &scene.camera.view(),
+            )
+        });
         Ok((images, normals))
     }
 }
@@ -450,7 +467,11 @@ fn record_keep(
     let mut copies = vec![
         (src.color, color, 0),
         (src.prim, color, plane),
-        (src.ds[output as usize], vk::ImageAspectFlags::DEPTH, 2 * plane),
+        (
+            src.ds[output as usize],
+            vk::ImageAspectFlags::DEPTH,
+            2 * plane,
+        ),
     ];
     copies.extend(src.normal.map(|n| (n, color, 3 * plane)));
     let layout = sync::access(REST).layout;
