@@ -174,6 +174,9 @@ impl Executor {
         let exact = Scissors::exact(scene, &self.desc);
         self.camera.write(&cam)?;
         self.last_cam = Some(cam);
+        // Before the key: growing a query pool replaces it (a new epoch).
+        let all: Vec<(&Step, Group)> = plans.iter().flat_map(|p| unroll(p.0, p.1)).collect();
+        self.ensure_queries(&all)?;
         let keeps = items.iter().filter(|i| matches!(i, SeqItem::Keep)).count() as u64;
         self.ensure_keep(keeps)?;
         let first_table = items
@@ -276,8 +279,6 @@ impl Executor {
                 _ => None,
             })
             .collect();
-        let all: Vec<(&Step, Group)> = flat.iter().flatten().copied().collect();
-        self.ensure_queries(&all)?;
         let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
         let scissored_clears = self.scissored_clears;
         let shared = self.shared.clone();
