@@ -81,7 +81,7 @@ fn main() {
             build: Default::default(),
         };
         let mut s = LayeredSession::default();
-        let mut frame = |s: &mut LayeredSession| {
+        let frame = |s: &mut LayeredSession| {
             let (t, cpu) = (std::time::Instant::now(), process_ns());
             let f = render_layered_in(s, &scene, &opts, &lopts).expect("frame");
             let sub = f.frame.stats.exec.counts.submits;
