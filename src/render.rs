@@ -20,6 +20,7 @@ pub mod interference;
 mod kirsch;
 pub mod layers;
 pub mod memory;
+mod sequence;
 pub mod shadow;
 pub mod style;
 
@@ -224,6 +225,8 @@ pub struct GpuRenderer {
     depth: DepthSetup,
     /// Why the requested set-up was replaced, if it was.
     fallback: Option<String>,
+    /// What its layered frames needed (`sequence`: one submission each).
+    layered: sequence::Sequencer,
 }
 
 impl GpuRenderer {
@@ -267,6 +270,7 @@ impl GpuRenderer {
             ctx,
             depth,
             fallback: why,
+            layered: Default::default(),
         })
     }
 

@@ -14,6 +14,7 @@ mod embed;
 mod gpu_layers;
 mod kirsch;
 mod limits;
+mod one_submit;
 mod openscad;
 mod replay;
 mod rounding;

@@ -4,7 +4,10 @@
 //! with the layers peeled and the CSTs run, as the CST paper's second table
 //! (seed 000 §8: Prims, CSTs, Time) reports them, for CST-Z/I/G and kirsch
 //! (whose CSTs are 0; it refuses highlight, which is then skipped with a
-//! warning). Writes `modes.csv` and `modes.md`.
+//! warning), with the last frame's submissions and recording time: each mode
+//! keeps its renderer from frame to frame, so from the second frame on a
+//! layered frame is one submission replayed (issue 9 §2, `render::sequence`).
+//! Writes `modes.csv` and `modes.md`.
 #![deny(unsafe_code)]
 
 use std::fmt::Write as _;
@@ -15,11 +18,13 @@ use serde::Serialize;
 
 use super::{median_iqr, scene_label, BenchConfig, BenchError, BenchScene};
 use crate::plan::cst::{leaf_csts, Variant};
-use crate::plan::{Algo, Prepared};
-use crate::render::layers::{render_layered, LayerOptions};
-use crate::render::{self, RenderOptions};
+use crate::plan::{self, Algo, Prepared};
+
+use crate::render::layers::{render_layered_in, LayerOptions, LayeredSession};
+use crate::render::{GpuRenderer, RenderOptions};
 use crate::scene::style::Style;
 use crate::scene::{self, LoadOptions};
+use crate::vk::ExecStats;
 
 /// The modes timed: the opaque image, its first four layers composited
 /// (transparent, and in the three blueprint styles of seed 001 §5), and a
@@ -56,9 +61,16 @@ pub struct ModeRecord {
     /// and the composite's: a transparent frame composited on the GPU reads
     /// back layer 1 and the composite only).
     pub readback_bytes: u64,
+    /// Queue submissions of the last frame (issue 9 §2: one from a
+    /// session's second frame on; the interference view two).
+    pub submits: u64,
+    /// CPU ms recording the last frame (0: its kept recording replayed).
+    pub record_ms: f64,
     /// Median over the frames of the GPU time of all the mode's plans.
     pub gpu_ms_median: f64,
-    /// Median wall time of the whole mode (device set-up included).
+    /// Median wall time of a frame, the device kept from frame to frame (its
+    /// set-up, and the first frame's learning run layer by layer, only in
+    /// the first frame).
     pub wall_ms_median: f64,
     pub frames: u32,
 }
@@ -109,18 +121,26 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
             };
             for mode in MODES {
                 bar.set_message(format!("{label}: {} {mode}", algo.name()));
+                // One renderer for all frames of the mode: later frames replay.
+                let mut session = LayeredSession::default();
+                let mut opaque: Option<(GpuRenderer, crate::plan::Plan)> = None;
                 let mut gpu = Vec::new();
                 let mut wall = Vec::new();
                 let mut last = None;
                 for _ in 0..cfg.frames.max(1) {
                     let t = std::time::Instant::now();
                     let r =
-                        (|| -> Result<(f64, u32, u32, u64, u64), Box<dyn std::error::Error>> {
+                        (|| -> Result<(ExecStats, u32, u32, u64, u64), Box<dyn std::error::Error>> {
                             Ok(match mode {
                                 "opaque" => {
                                     scene.appearance.alpha = None;
-                                    let f = render::render(&scene, &opts)?;
                                     let prep = Prepared::new(&scene)?;
+                                    if opaque.is_none() {
+                                        let plan = plan::build_with(algo, &prep, &opts.build)?;
+                                        opaque = Some((GpuRenderer::for_options(&scene, &opts)?, plan));
+                                    }
+                                    let (r, plan) = opaque.as_mut().expect("made above");
+                                    let f = r.frame(plan)?;
                                     let variant = match algo {
                                         Algo::CstZ => Some(Variant::Z),
                                         Algo::CstI => Some(Variant::I),
@@ -138,7 +158,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                                     });
                                     // Colour, ids and depth: 4 bytes each a pixel.
                                     let bytes = 12 * w as u64 * h as u64;
-                                    (f.stats.exec.gpu_ms, 1, 1, csts, bytes)
+                                    (f.stats.exec, 1, 1, csts, bytes)
                                 }
                                 _ => {
                                     let highlight = mode == "highlight";
@@ -157,12 +177,12 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                                         highlight: if highlight { vec![0] } else { vec![] },
                                         ..Default::default()
                                     };
-                                    let l = render_layered(&scene, &opts, &lopts);
+                                    let l = render_layered_in(&mut session, &scene, &opts, &lopts);
                                     scene.appearance.style = Style::Opaque;
                                     let l = l?;
                                     let s = &l.layer_stats;
                                     (
-                                        l.frame.stats.exec.gpu_ms,
+                                        l.frame.stats.exec.clone(),
                                         s.layers,
                                         s.stream_layers.unwrap_or(0),
                                         s.csts.unwrap_or(0),
@@ -183,10 +203,10 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                         }
                     };
                     wall.push(t.elapsed().as_secs_f64() * 1e3);
-                    gpu.push(r.0);
+                    gpu.push(r.0.gpu_ms);
                     last = Some(r);
                 }
-                let Some((_, layers, stream_layers, csts, readback_bytes)) = last else {
+                let Some((exec, layers, stream_layers, csts, readback_bytes)) = last else {
                     bar.inc(1);
                     continue;
                 };
@@ -199,6 +219,8 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                     stream_layers,
                     csts,
                     readback_bytes,
+                    submits: exec.counts.submits,
+                    record_ms: exec.record_ms,
                     gpu_ms_median: median_iqr(&mut gpu).0,
                     wall_ms_median: median_iqr(&mut wall).0,
                     frames: gpu.len() as u32,
@@ -215,13 +237,13 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
 /// The table of seed 000 §8's second kind: per scene, algorithm and mode.
 pub fn table(records: &[ModeRecord]) -> String {
     let mut s = String::from(
-        "| scene | prims | algo | mode | layers | layer plans | CSTs | read back KiB | GPU ms | wall ms |\n\
-         |---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | prims | algo | mode | layers | layer plans | CSTs | read back KiB | submits | record ms | GPU ms | wall ms |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in records {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {:.1} | {:.1} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.1} |",
             r.scene,
             r.prims,
             r.algo,
@@ -230,6 +252,8 @@ pub fn table(records: &[ModeRecord]) -> String {
             r.stream_layers,
             r.csts,
             r.readback_bytes / 1024,
+            r.submits,
+            r.record_ms,
             r.gpu_ms_median,
             r.wall_ms_median
         );
@@ -242,12 +266,12 @@ pub fn write(dir: &Path, records: &[ModeRecord]) -> Result<(), BenchError> {
     let io =
         |e: std::io::Error| BenchError::Other(format!("writing modes into {}: {e}", dir.display()));
     let mut csv = String::from(
-        "scene,algo,mode,prims,layers,stream_layers,csts,readback_bytes,gpu_ms_median,wall_ms_median,frames\n",
+        "scene,algo,mode,prims,layers,stream_layers,csts,readback_bytes,submits,record_ms,gpu_ms_median,wall_ms_median,frames\n",
     );
     for r in records {
         let _ = writeln!(
             csv,
-            "{},{},{},{},{},{},{},{},{:.3},{:.3},{}",
+            "{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{}",
             r.scene,
             r.algo,
             r.mode,
@@ -256,6 +280,8 @@ pub fn write(dir: &Path, records: &[ModeRecord]) -> Result<(), BenchError> {
             r.stream_layers,
             r.csts,
             r.readback_bytes,
+            r.submits,
+            r.record_ms,
             r.gpu_ms_median,
             r.wall_ms_median,
             r.frames

@@ -15,7 +15,10 @@
 //! composited on the CPU (README, "Layers of the solid and transparency").
 #![deny(unsafe_code)]
 
+use std::cell::Cell;
+
 use super::layers::SolidLayer;
+use super::sequence::{self, Counted, Layer, Stop, Stop::Go, Stream};
 use super::{GpuRenderer, RenderError};
 use crate::output::Images;
 use crate::plan::cst::layers::{coverage_plan, layer_plan, Side, EXIT_FLOOR, FLOOR};
@@ -53,6 +56,8 @@ pub struct GpuLayers {
     /// Bytes copied from the GPU: layer images (colour, id, depth; normals
     /// when on) and the composite.
     pub readback_bytes: u64,
+    /// The images of the plan [`render`] was asked to run after the layers.
+    pub after: Option<Images>,
 }
 
 /// Bytes a pixel of one layer's read-back takes: colour, id and depth (4 each),
@@ -98,73 +103,128 @@ fn peelable(scene: &Scene, i: usize) -> Result<Option<(Prepared, bool, u32)>, Re
     Ok(Some((prep, alternating, bound)))
 }
 
-/// Peels every solid's streams on `gpu` (the scene uploaded) and merges them.
+/// Peels every solid's streams on `gpu` (the scene uploaded) and merges them;
+/// `kind` names the frame among the renderer's layered frames (`sequence`).
+/// `after`: a plan run in the same submission after the layers (the opaque
+/// image of a layered frame), its images in [`GpuLayers::after`].
 pub fn render(
     gpu: &mut GpuRenderer,
+    kind: &'static str,
     scene: &Scene,
     variant: Variant,
     limit: StreamLimit,
+    after: Option<&crate::plan::Plan>,
 ) -> Result<GpuLayers, RenderError> {
-    let mut stats = ExecStats::default();
-    let mut peeled = Vec::new();
-    let (mut stream_layers, mut csts, mut readback_bytes) = (0, 0, 0);
-    let pixels = scene.render.width as u64 * scene.render.height as u64;
+    let (w, h) = (scene.render.width, scene.render.height);
+    let pixels = w as u64 * h as u64;
     let coverage = coverage_plan();
+    let mut solids = Vec::new();
     for i in 0..scene.solids.len() {
-        let Some((prep, alternating, bound)) = peelable(scene, i)? else {
-            continue;
-        };
-        for side in [Side::Entry, Side::Exit] {
-            let cap = match (limit.max, alternating, side) {
-                (None, _, _) => bound,
+        if let Some(p) = peelable(scene, i)? {
+            solids.push((i as u32, p));
+        }
+    }
+    // Per stream: its solid and the CSTs of each of its layer plans.
+    let csts: Vec<(u32, Cell<usize>)> = solids
+        .iter()
+        .flat_map(|(i, _)| [(*i, Cell::new(0)), (*i, Cell::new(0))])
+        .collect();
+    let mut streams = Vec::new();
+    for ((_, (prep, alternating, bound)), cells) in solids.iter().zip(csts.chunks(2)) {
+        for (side, cell) in [Side::Entry, Side::Exit].into_iter().zip(cells) {
+            let cap = match (limit.max, *alternating, side) {
+                (None, _, _) => *bound,
                 (Some(n), false, _) => n,
                 (Some(n), true, Side::Entry) => n.div_ceil(2),
                 (Some(n), true, Side::Exit) => n / 2,
             };
-            for k in 0..cap {
-                let lp = layer_plan(&prep, variant, side, k == 0, FLOOR)?;
-                let st = gpu.execute(&lp.plan)?;
-                stats.accumulate(&st.exec);
-                stream_layers += 1;
-                csts += lp.csts as u64;
-                let counted = gpu.execute(&coverage)?;
-                stats.accumulate(&counted.exec);
-                let covered = counted.exec.counts.samples_counted;
-                if covered == 0 {
-                    break;
-                }
-                // Every peeled layer stays on the host until the merge.
-                super::FrameMemory {
-                    gpu: true,
-                    normals: gpu.normals(),
-                    layers: peeled.len() as u64 + 1,
-                    shadow_map: None,
-                    accumulate: false,
-                }
-                .check(scene.render.width, scene.render.height)?;
-                let p = Peeled {
-                    solid: i as u32,
-                    images: gpu.read_back()?,
-                    normal: gpu.read_normals()?,
-                };
-                readback_bytes += pixels * layer_bytes(&p.normal);
-                peeled.push(p);
-                if alternating && covered < limit.threshold {
-                    break;
-                }
-            }
+            let coverage = &coverage;
+            let alternating = *alternating;
+            streams.push(Stream {
+                cap,
+                layer: Box::new(move |k| {
+                    let lp = layer_plan(prep, variant, side, k == 0, FLOOR)?;
+                    cell.1.set(lp.csts);
+                    Ok(Layer {
+                        plans: vec![lp.plan, coverage.clone()],
+                        counted: Counted::Samples,
+                        accumulate: None,
+                        keep: true,
+                    })
+                }),
+                stop: Box::new(move |_, covered| {
+                    if covered == 0 {
+                        Stop::Before
+                    } else if alternating && covered < limit.threshold {
+                        Stop::After
+                    } else {
+                        Go
+                    }
+                }),
+            });
         }
     }
-    let (w, h) = (scene.render.width, scene.render.height);
+    streams.extend(after.map(|p| Stream {
+        cap: 1,
+        layer: Box::new(move |_| {
+            Ok(Layer {
+                plans: vec![p.clone()],
+                counted: Counted::Samples,
+                accumulate: None,
+                keep: true,
+            })
+        }),
+        stop: Box::new(|_, _| Go),
+    }));
+    let normals = gpu.normals();
+    // Every peeled layer stays on the host until the merge.
+    let check = |n: u64| {
+        super::FrameMemory {
+            gpu: true,
+            normals,
+            layers: n,
+            shadow_map: None,
+            accumulate: false,
+        }
+        .check(w, h)
+        .map_err(RenderError::from)
+    };
+    let mut out = sequence::frame(gpu, kind, &mut streams, None, &check)?;
+    drop(streams);
+    let after = after.map(|_| {
+        let last = out.streams.pop().and_then(|mut s| s.pop());
+        last.and_then(|l| l.images)
+            .expect("the plan after the layers is kept")
+            .0
+    });
+    let mut peeled = Vec::new();
+    let mut readback_bytes = 0;
+    for ((solid, _), layers) in csts.iter().zip(out.streams) {
+        for l in layers {
+            let (images, normal) = l.images.expect("every layer of a stream is kept");
+            readback_bytes += pixels * layer_bytes(&normal);
+            peeled.push(Peeled {
+                solid: *solid,
+                images,
+                normal,
+            });
+        }
+    }
     let (layers, solid) = merge(&peeled, w, h, scene.render.background, limit);
     Ok(GpuLayers {
         pixels: layers.iter().map(SolidLayer::covered).collect(),
         layers,
         solid,
-        stats,
-        stream_layers,
-        csts,
+        stats: out.stats,
+        stream_layers: out.peeled.iter().sum(),
+        csts: out
+            .peeled
+            .iter()
+            .zip(&csts)
+            .map(|(&n, c)| n as u64 * c.1.get() as u64)
+            .sum(),
         readback_bytes,
+        after,
     })
 }
 
@@ -208,60 +268,68 @@ pub fn composite(
         .chain((0..scene.primitives.len() as u32).map(|p| alpha(p) as f32))
         .collect();
     let (w, h) = (scene.render.width, scene.render.height);
+    let pixels = w as u64 * h as u64;
+    let coverage = coverage_plan();
+    let csts = Cell::new(0);
+    let mut streams = [Stream {
+        cap: limit.max.unwrap_or(2 * bound),
+        layer: Box::new(|m| {
+            // Layer m + 1: the entry stream's (m / 2 + 1)-th, or the exit stream's.
+            let (side, floor) = match m % 2 {
+                0 => (Side::Entry, FLOOR),
+                _ => (Side::Exit, EXIT_FLOOR),
+            };
+            let lp = layer_plan(&prep, variant, side, m < 2, floor)?;
+            csts.set(lp.csts);
+            Ok(Layer {
+                plans: vec![lp.plan, coverage.clone()],
+                counted: Counted::Samples,
+                accumulate: Some(m == 0),
+                keep: images || m == 0,
+            })
+        }),
+        stop: Box::new(|_, covered| {
+            if covered == 0 || covered < limit.threshold {
+                Stop::Before
+            } else {
+                Go
+            }
+        }),
+    }];
+    let run = sequence::frame(gpu, "composite", &mut streams, Some(&table), &|_| Ok(()))?;
+    drop(streams);
     let mut out = GpuLayers {
         layers: Vec::new(),
         pixels: Vec::new(),
         solid: Vec::new(),
-        stats: ExecStats::default(),
-        stream_layers: 0,
-        csts: 0,
+        stats: run.stats,
+        stream_layers: run.peeled[0],
+        csts: run.peeled[0] as u64 * csts.get() as u64,
         readback_bytes: 0,
+        after: None,
     };
-    let pixels = w as u64 * h as u64;
     let mut first = None;
-    let coverage = coverage_plan();
-    let max = limit.max.unwrap_or(2 * bound);
-    for m in 0..max {
-        // Layer m + 1: the entry stream's (m / 2 + 1)-th, or the exit stream's.
-        let (side, floor) = match m % 2 {
-            0 => (Side::Entry, FLOOR),
-            _ => (Side::Exit, EXIT_FLOOR),
+    for (m, l) in run.streams.into_iter().flatten().enumerate() {
+        out.pixels.push(l.covered);
+        let Some((images_m, normal)) = l.images else {
+            continue;
         };
-        let lp = layer_plan(&prep, variant, side, m < 2, floor)?;
-        let st = gpu.execute(&lp.plan)?;
-        out.stats.accumulate(&st.exec);
-        out.stream_layers += 1;
-        out.csts += lp.csts as u64;
-        let counted = gpu.execute(&coverage)?;
-        out.stats.accumulate(&counted.exec);
-        let covered = counted.exec.counts.samples_counted;
-        if covered == 0 || covered < limit.threshold {
-            break;
+        out.readback_bytes += pixels * layer_bytes(&normal);
+        if m == 0 {
+            first = Some(images_m.clone());
         }
-        gpu.accumulate((m == 0).then_some(&table[..]))?;
-        // The accumulate pass is a submission of its own.
-        out.stats.counts.submits += 1;
-        out.pixels.push(covered);
-        if images || m == 0 {
-            let layer = SolidLayer {
-                images: gpu.read_back()?,
-                normal: gpu.read_normals()?,
-            };
-            out.readback_bytes += pixels * layer_bytes(&layer.normal);
-            if m == 0 {
-                first = Some(layer.images.clone());
-            }
-            if images {
-                out.solid.push(
-                    layer
-                        .images
-                        .prim
-                        .iter()
-                        .map(|&p| if p == 0 { u32::MAX } else { 0 })
-                        .collect(),
-                );
-                out.layers.push(layer);
-            }
+        if images {
+            out.solid.push(
+                images_m
+                    .prim
+                    .iter()
+                    .map(|&p| if p == 0 { u32::MAX } else { 0 })
+                    .collect(),
+            );
+            out.layers.push(SolidLayer {
+                images: images_m,
+                normal,
+            });
         }
     }
     let bg = scene.render.background;

@@ -13,6 +13,7 @@
 use super::edges::edge_map;
 use super::gpu_layers::{self, GpuLayers, StreamLimit};
 use super::layers::{LayerOptions, LayerStats, LayeredFrame};
+use super::sequence::{self, Counted, Layer, Stop, Stream};
 use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::Images;
 use crate::plan::cst::Variant;
@@ -33,6 +34,8 @@ pub struct GpuInterference {
     pub pairs: Vec<InterferingPair>,
     /// GPU time of all pair frames.
     pub gpu_ms: f64,
+    /// Queue submissions of the pair frames (one, after the first frame).
+    pub submits: u64,
 }
 
 impl GpuInterference {
@@ -78,13 +81,19 @@ pub fn gpu_interference(
 
 /// One renderer for every pair frame and the layers (one device, not one each).
 fn renderer(scene: &Scene, opts: &RenderOptions) -> Result<GpuRenderer, RenderError> {
-    if !supported(opts.algo) {
+    check_supported(opts.algo)?;
+    GpuRenderer::for_options(scene, opts)
+}
+
+/// [`supported`] as an error.
+fn check_supported(algo: Algo) -> Result<(), RenderError> {
+    if !supported(algo) {
         return Err(RenderError::Unsupported {
-            algo: opts.algo.name().to_string(),
+            algo: algo.name().to_string(),
             what: "interference (--interference; cst-z, cst-i and cst-g can)",
         });
     }
-    GpuRenderer::for_options(scene, opts)
+    Ok(())
 }
 
 /// Every pair's `A·B` on `gpu` (which it leaves holding the last pair's meshes).
@@ -99,31 +108,65 @@ fn pairs_on(
         depth: vec![f32::INFINITY; n],
         pairs: Vec::new(),
         gpu_ms: 0.0,
+        submits: 0,
     };
+    // Every pair's scene has the same meshes (all primitives in the
+    // interference colour, no surfaces): one upload, and all pairs' frames in
+    // one submission (`sequence`), each pair's images copied out.
+    let mut pairs = Vec::new();
     for (i, a) in scene.solids.iter().enumerate() {
         for b in &scene.solids[i + 1..] {
             let pair = pair_scene(scene, a, b);
             let plan = crate::plan::build_with(opts.algo, &Prepared::new(&pair)?, &opts.build)?;
-            gpu.upload(&pair)?;
-            let f = gpu.frame(&plan)?;
-            out.gpu_ms += f.stats.exec.gpu_ms;
-            let mut pixels = 0;
-            for (k, (&p, &d)) in f.images.prim.iter().zip(&f.images.depth).enumerate() {
-                if p == 0 {
-                    continue;
-                }
-                pixels += 1;
-                if d < out.depth[k] {
-                    out.depth[k] = d;
-                    out.color[k] = Some(f.images.color[k]);
-                }
+            pairs.push((a, b, pair, plan));
+        }
+    }
+    let Some(first) = pairs.first() else {
+        return Ok(out);
+    };
+    gpu.upload(&first.2)?;
+    let mut streams: Vec<Stream<'_>> = pairs
+        .iter()
+        .map(|p| Stream {
+            cap: 1,
+            layer: Box::new(|_| {
+                Ok(Layer {
+                    plans: vec![p.3.clone()],
+                    counted: Counted::Samples,
+                    accumulate: None,
+                    keep: true,
+                })
+            }),
+            stop: Box::new(|_, _| Stop::Go),
+        })
+        .collect();
+    let run = sequence::frame(gpu, "interference-pairs", &mut streams, None, &|_| Ok(()))?;
+    drop(streams);
+    out.gpu_ms = run.stats.gpu_ms;
+    out.submits = run.stats.counts.submits;
+    for ((a, b, _, _), layers) in pairs.iter().zip(run.streams) {
+        let images = layers
+            .into_iter()
+            .next()
+            .and_then(|l| l.images)
+            .expect("every pair's frame is kept")
+            .0;
+        let mut pixels = 0;
+        for (k, (&p, &d)) in images.prim.iter().zip(&images.depth).enumerate() {
+            if p == 0 {
+                continue;
             }
-            if pixels > 0 {
-                out.pairs.push(InterferingPair {
-                    solids: [a.name.clone(), b.name.clone()],
-                    pixels,
-                });
+            pixels += 1;
+            if d < out.depth[k] {
+                out.depth[k] = d;
+                out.color[k] = Some(images.color[k]);
             }
+        }
+        if pixels > 0 {
+            out.pairs.push(InterferingPair {
+                solids: [a.name.clone(), b.name.clone()],
+                pixels,
+            });
         }
     }
     Ok(out)
@@ -139,20 +182,21 @@ pub fn render_interference(
     scene: &Scene,
     opts: &RenderOptions,
 ) -> Result<(Frame, GpuInterference, GpuLayers), RenderError> {
-    render_interference_with(scene, opts, false)
+    let mut gpu = renderer(scene, opts)?;
+    render_interference_with(&mut gpu, scene, opts, false)
 }
 
 /// [`render_interference`]; with `normals`, the layers have their normals
 /// (for their edge maps).
 fn render_interference_with(
+    gpu: &mut GpuRenderer,
     scene: &Scene,
     opts: &RenderOptions,
     normals: bool,
 ) -> Result<(Frame, GpuInterference, GpuLayers), RenderError> {
     let t = std::time::Instant::now();
-    let mut gpu = renderer(scene, opts)?;
     gpu.set_normals(normals)?;
-    let inter = pairs_on(&mut gpu, scene, opts)?;
+    let inter = pairs_on(gpu, scene, opts)?;
     gpu.upload(scene)?;
     let variant = match opts.algo {
         Algo::CstZ => Variant::Z,
@@ -163,7 +207,7 @@ fn render_interference_with(
         max: None,
         threshold: 0,
     };
-    let peeled = gpu_layers::render(&mut gpu, scene, variant, every)?;
+    let peeled = gpu_layers::render(gpu, "interference", scene, variant, every, None)?;
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {
         return Err(RenderError::Validation(msgs));
@@ -192,6 +236,7 @@ fn render_interference_with(
     let first = peeled.layers.first();
     let mut exec = peeled.stats.clone();
     exec.gpu_ms += inter.gpu_ms;
+    exec.counts.submits += inter.submits;
     exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
     let frame = Frame {
         images: Images {
@@ -228,11 +273,15 @@ pub fn handles(scene: &Scene, lopts: &LayerOptions) -> bool {
 /// `--layer-threshold`; with `--layers-out` their normals and edge maps), and
 /// in `stats.json` the pairs and the interference's pixels.
 pub fn layered_frame(
+    session: &mut super::layers::LayeredSession,
     scene: &Scene,
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
-    let (mut frame, inter, mut peeled) = render_interference_with(scene, opts, lopts.write_layers)?;
+    check_supported(opts.algo)?;
+    let gpu = session.gpu(scene, opts)?;
+    let (mut frame, inter, mut peeled) =
+        render_interference_with(gpu, scene, opts, lopts.write_layers)?;
     // The reference's cut: at most N layers, stopping before the first that
     // covers fewer pixels than the threshold.
     let count = peeled

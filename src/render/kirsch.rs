@@ -19,8 +19,9 @@ use std::time::Instant;
 
 use super::edges::{count, edge_map};
 use super::layers::{LayerOptions, LayerStats, LayeredFrame, SolidLayer};
+use super::sequence::{self, Counted, Layer, Stop, Stream};
 use super::style::compose_scene;
-use super::{Frame, GpuRenderer, RenderError, RenderOptions};
+use super::{Frame, RenderError, RenderOptions};
 use crate::output::Images;
 use crate::plan::{self, Prepared};
 use crate::scene::Scene;
@@ -28,71 +29,61 @@ use crate::scene::Scene;
 /// The layers of `scene` by Kirsch's depth peeling, products each on their own
 /// (§7a).
 pub(super) fn render_layered(
+    session: &mut super::layers::LayeredSession,
     scene: &Scene,
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
     let t = Instant::now();
     let prep = Prepared::new(scene)?;
-    let mut gpu = GpuRenderer::for_options(scene, opts)?;
+    let gpu = session.gpu(scene, opts)?;
     // No layer beyond the total face count: a bound, not a limit reached in practice.
     let bound = prep.triangles_in(&prep.solid_meshes).max(1) as u32;
     let max = lopts.max_layers.unwrap_or(bound).min(bound);
-    let mut layers: Vec<Images> = Vec::new();
     // Normals (and the edge maps from them) only where something reads them.
     let style = scene.appearance.style;
     let want_normals = lopts.write_layers || style.layered();
     gpu.set_normals(want_normals)?;
+    let threshold = lopts.threshold;
+    let mut streams = [Stream {
+        cap: max,
+        layer: Box::new(|k| {
+            Ok(Layer {
+                plans: vec![plan::build_kirsch_layer(&prep, &opts.build, k + 1)?],
+                counted: Counted::Final,
+                accumulate: None,
+                keep: true,
+            })
+        }),
+        stop: Box::new(|_, covered| {
+            if covered == 0 || covered < threshold {
+                Stop::Before
+            } else {
+                Stop::Go
+            }
+        }),
+    }];
+    let run = sequence::frame(gpu, "kirsch", &mut streams, None, &|_| Ok(()))?;
+    drop(streams);
+    let mut layers: Vec<Images> = Vec::new();
     let mut normals: Vec<Vec<[f32; 3]>> = Vec::new();
     let mut layer_pixels = Vec::new();
-    let mut stats = None;
-    // GPU and frame time of every layer's plan, the one that finds none included.
-    let (mut gpu_ms, mut frame_ms, mut record_ms) = (0.0, 0.0, 0.0);
-    let mut submits = 0;
-    for k in 1..=max {
-        let p = plan::build_kirsch_layer(&prep, &opts.build, k)?;
-        let s = gpu.execute(&p)?;
-        gpu_ms += s.exec.gpu_ms;
-        frame_ms += s.exec.frame_ms;
-        record_ms += s.exec.record_ms;
-        submits += s.exec.counts.submits;
-        let covered = s.exec.counts.final_samples;
-        if covered == 0 || covered < lopts.threshold {
-            break;
-        }
-        layers.push(gpu.read_back()?);
-        if want_normals {
-            // Read before the next layer's plan overwrites the normal buffer.
-            normals.push(
-                gpu.read_normals()?
-                    .expect("the normal buffer is on for this frame"),
-            );
-        }
-        layer_pixels.push(covered);
-        stats = Some(s);
+    for l in run.streams.into_iter().flatten() {
+        let (images, normal) = l.images.expect("every Kirsch layer is kept");
+        layers.push(images);
+        normals.extend(normal);
+        layer_pixels.push(l.covered);
     }
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {
         return Err(RenderError::Validation(msgs));
     }
-    let mut stats = match stats {
-        Some(s) => s,
-        // Nothing covers a pixel: the (empty) first layer is the image.
-        None => {
-            let s = gpu.execute(&plan::build_kirsch_layer(&prep, &opts.build, 1)?)?;
-            submits += s.exec.counts.submits;
-            s
-        }
-    };
+    let mut stats = gpu.frame_stats(&plan::build_kirsch_layer(&prep, &opts.build, 1)?, run.stats);
     stats.exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
-    stats.exec.gpu_ms = gpu_ms;
-    stats.exec.frame_ms = frame_ms;
-    stats.exec.record_ms = record_ms;
-    // Every layer's plan is a frame of its own.
-    stats.exec.counts.submits = submits;
     let transparent = scene.appearance.is_transparent();
     let mut images = match layers.first() {
         Some(first) => first.clone(),
+        // Nothing covers a pixel: the (empty) first layer, the frame's last plan.
         None => gpu.read_back()?,
     };
     let solid_of = solid_of(scene);

@@ -25,6 +25,7 @@ use crate::reference::interference::{render_interference, InterferingPair};
 use crate::reference::layers::blend_colors;
 use crate::reference::{render_layers_read, LayerLimit, LayerReading};
 use crate::scene::Scene;
+use crate::vk::ExecStats;
 
 /// What the command line asks of layers and transparency.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -161,6 +162,37 @@ pub fn draws_transparency(algo: Algo) -> bool {
     )
 }
 
+/// A GPU renderer kept from one layered frame to the next of one scene and
+/// one set of options ([`render_layered_in`]): from the second frame on, a
+/// frame is one submission, replayed without recording while the camera stays
+/// (`render::sequence`).
+#[derive(Default)]
+pub struct LayeredSession {
+    gpu: Option<GpuRenderer>,
+}
+
+impl LayeredSession {
+    /// The session's renderer, made for `scene` and `opts` on first use.
+    pub(super) fn gpu(
+        &mut self,
+        scene: &Scene,
+        opts: &RenderOptions,
+    ) -> Result<&mut GpuRenderer, RenderError> {
+        if self.gpu.is_none() {
+            self.gpu = Some(GpuRenderer::for_options(scene, opts)?);
+        }
+        Ok(self.gpu.as_mut().expect("made above"))
+    }
+
+    /// The next frame runs layer by layer again, as a first frame does (A/B
+    /// measurements of the one-submission frame: `examples/onesubmit_ab.rs`).
+    pub fn forget_layer_counts(&mut self) {
+        if let Some(g) = &mut self.gpu {
+            g.layered = Default::default();
+        }
+    }
+}
+
 /// Renders `scene` with its layers: exactly with the reference (every style),
 /// by CST depth peeling with `cst-z`, `cst-i` and `cst-g` (layers, transparency,
 /// highlight), by Kirsch's CSG depth peeling with `kirsch` (layers and
@@ -172,8 +204,19 @@ pub fn render_layered(
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
+    render_layered_in(&mut LayeredSession::default(), scene, opts, lopts)
+}
+
+/// [`render_layered`] on `session`'s renderer (made on first use): every
+/// frame of a session must have the same scene, options and layer options.
+pub fn render_layered_in(
+    session: &mut LayeredSession,
+    scene: &Scene,
+    opts: &RenderOptions,
+    lopts: &LayerOptions,
+) -> Result<LayeredFrame, RenderError> {
     if opts.algo != Algo::Reference && super::interference::handles(scene, lopts) {
-        return super::interference::layered_frame(scene, opts, lopts);
+        return super::interference::layered_frame(session, scene, opts, lopts);
     }
     let gpu_refuses = |what: &'static str| {
         Err(RenderError::Unsupported {
@@ -201,7 +244,7 @@ pub fn render_layered(
             if !lopts.highlight.is_empty() || scene.appearance.interference {
                 return gpu_refuses("highlight and interference together with layers (cst-z, cst-i and cst-g render highlight)");
             }
-            return super::kirsch::render_layered(scene, opts, lopts);
+            return super::kirsch::render_layered(session, scene, opts, lopts);
         }
         Algo::CstZ => Variant::Z,
         Algo::CstI => Variant::I,
@@ -219,13 +262,14 @@ pub fn render_layered(
             what: "interference together with highlight or styles (--interference with --highlight or --style)",
         });
     }
-    render_layered_gpu(scene, opts, lopts, variant)
+    render_layered_gpu(session, scene, opts, lopts, variant)
 }
 
 /// The GPU's layered frame (see [`super::gpu_layers`]): the opaque image as
 /// `render` makes it, or the composite of the layers when something is
 /// see-through; highlight over either.
 fn render_layered_gpu(
+    session: &mut LayeredSession,
     scene: &Scene,
     opts: &RenderOptions,
     lopts: &LayerOptions,
@@ -233,7 +277,7 @@ fn render_layered_gpu(
 ) -> Result<LayeredFrame, RenderError> {
     let t = Instant::now();
     let transparent = scene.appearance.is_transparent();
-    let mut gpu = GpuRenderer::for_options(scene, opts)?;
+    let gpu = session.gpu(scene, opts)?;
     let style = scene.appearance.style;
     // Edge maps (styles, `--layers-out`) need each layer's normals.
     let want_edges = style.edges() || lopts.write_layers;
@@ -246,7 +290,7 @@ fn render_layered_gpu(
     let keep = want_edges || style.layered() || !lopts.highlight.is_empty();
     let composited = if transparent {
         let alpha = |p: u32| scene.appearance.alpha_of(p, 0);
-        gpu_layers::composite(&mut gpu, scene, variant, limit, keep, alpha)?
+        gpu_layers::composite(gpu, scene, variant, limit, keep, alpha)?
     } else {
         None
     };
@@ -260,7 +304,7 @@ fn render_layered_gpu(
             let stats = FrameStats::default();
             (c.layers, Frame { images, stats })
         }
-        None => cpu_composite(&mut gpu, scene, opts, variant, limit)?,
+        None => cpu_composite(gpu, scene, opts, variant, limit)?,
     };
     let mut exec = peeled.stats.clone();
     if !transparent {
@@ -318,7 +362,7 @@ fn render_layered_gpu(
     }
     if !lopts.highlight.is_empty() {
         highlight_gpu(
-            &mut gpu,
+            gpu,
             &mut frame,
             &peeled,
             scene,
@@ -352,8 +396,18 @@ fn cpu_composite(
     variant: Variant,
     limit: StreamLimit,
 ) -> Result<(GpuLayers, Frame), RenderError> {
-    let peeled = gpu_layers::render(gpu, scene, variant, limit)?;
-    let frame = if scene.appearance.is_transparent() {
+    let opaque = if scene.appearance.is_transparent() {
+        None
+    } else {
+        let prep = Prepared::new(scene)?;
+        Some(crate::plan::build_with(opts.algo, &prep, &opts.build)?)
+    };
+    let mut peeled = gpu_layers::render(gpu, "layers", scene, variant, limit, opaque.as_ref())?;
+    let frame = if let (Some(plan), Some(images)) = (&opaque, peeled.after.take()) {
+        // Opaque: the image `render` makes, unchanged, in the layers' submission.
+        let stats = gpu.frame_stats(plan, ExecStats::default());
+        Frame { images, stats }
+    } else {
         let n = scene.render.width as usize * scene.render.height as usize;
         let bg = scene.render.background;
         let color = (0..n)
@@ -379,11 +433,6 @@ fn cpu_composite(
             },
             stats: FrameStats::default(),
         }
-    } else {
-        // Opaque: the image `render` makes, unchanged.
-        let prep = Prepared::new(scene)?;
-        let plan = crate::plan::build_with(opts.algo, &prep, &opts.build)?;
-        gpu.frame(&plan)?
     };
     Ok((peeled, frame))
 }
@@ -519,7 +568,9 @@ fn highlight_gpu(
         max: Some(peeled.layers.len() as u32),
         threshold: 0,
     };
-    let again = gpu_layers::render(gpu, &painted, variant, limit)?;
+    let again = gpu_layers::render(gpu, "highlight", &painted, variant, limit, None)?;
+    // The renderer's next frame (a bench repeating it) draws the scene's colours.
+    gpu.upload(scene)?;
     frame.stats.exec.accumulate(&again.stats);
     let chosen: Vec<u16> = lopts.highlight.iter().map(|&p| p as u16 + 1).collect();
     let (mut shown, mut hidden) = (0, 0);

@@ -21,7 +21,8 @@
 //! recorded only where it changes), `stats` (typed statistics), `normals` (the
 //! optional normal buffer and the edge pass on it, seed 001 §5), `transparency`
 //! (the accumulate pass compositing peeled layers on the GPU, seed 000 §6),
-//! `shadow` (what the shadow pass, `vk::shadow`, reads of an executor).
+//! `sequence` (several plans, accumulate passes and layer copies in one
+//! submission: layered frames), `shadow` (what the shadow pass, `vk::shadow`, reads of an executor).
 
 mod batch;
 mod camera;
@@ -29,6 +30,7 @@ mod embed;
 mod gpu_scene;
 mod normals;
 mod record;
+mod sequence;
 mod shadow;
 mod state;
 mod stats;
@@ -45,6 +47,7 @@ pub use super::conv::DepthFormat;
 pub use batch::PreparedFrame;
 pub(crate) use embed::{Output, Unrolled};
 pub(crate) use normals::copy_to_host;
+pub use sequence::{PlanCounts, SeqFrame, SeqItem};
 pub(crate) use shadow::color_format;
 pub use stats::{Counts, ExecStats, PassStats, Recorded};
 
@@ -249,6 +252,8 @@ pub struct Executor {
     ties: TieFree,
     /// Keep the accumulate pass's images ([`Executor::set_transparency`]).
     transparency: bool,
+    /// Sequence frames' recording and buffers ([`Executor::execute_sequence`]).
+    seq: sequence::SeqState,
 }
 
 impl Executor {
@@ -317,6 +322,7 @@ impl Executor {
             unsnapped: cpu,
             ties: TieFree::none(),
             transparency: false,
+            seq: Default::default(),
         })
     }
 

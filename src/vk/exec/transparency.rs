@@ -5,13 +5,11 @@
 //! layer. The caller peels the layers in front-to-back order per pixel.
 
 use ash::vk;
-use gpu_allocator::MemoryLocation;
 
-use super::targets::{format, ALPHA_TABLE_SIDE};
+use super::targets::format;
 use super::Executor;
 use crate::plan::usage::Resource;
 use crate::vk::error::VkError;
-use crate::vk::memory::Buffer;
 
 impl Executor {
     /// Whether later frames keep the accumulate pass's images (an `f32` RGBA
@@ -53,25 +51,9 @@ impl Executor {
             self.transparency,
             "accumulate needs set_transparency(true) before the frame"
         );
-        let side = ALPHA_TABLE_SIDE as usize;
-        let staging = match alpha {
-            Some(a) => {
-                assert!(a.len() <= side * side, "one opacity per 16-bit id");
-                let mut buf = Buffer::new(
-                    &self.shared,
-                    "alpha table",
-                    (side * side * 4) as u64,
-                    vk::BufferUsageFlags::TRANSFER_SRC,
-                    MemoryLocation::CpuToGpu,
-                )?;
-                let bytes = buf.mapped_mut()?;
-                for (i, b) in bytes.chunks_exact_mut(4).enumerate() {
-                    b.copy_from_slice(&a.get(i).copied().unwrap_or(1.0).to_ne_bytes());
-                }
-                Some(buf)
-            }
-            None => None,
-        };
+        let staging = alpha
+            .map(|a| super::sequence::alpha_staging(&self.shared, a))
+            .transpose()?;
         let cmd = self.submit.cmd;
         let (mut rec, sub) = self.recorder_and_submitter();
         sub.begin(cmd, true)?;
