@@ -21,7 +21,7 @@ use crate::plan::usage::{Resource, Usage};
 use crate::plan::{CompareOp, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
 use crate::vk::conv;
 use crate::vk::error::VkError;
-use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants, FLAG_HOST_SRGB, FLAG_MESH};
+use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants, FLAG_HOST_SRGB};
 use crate::vk::scissor::Rect;
 use crate::vk::submit;
 
@@ -172,7 +172,7 @@ impl Recorder<'_> {
         self.begin_host_block(h);
         let set = self.b.targets.sampling_set(Resource::Texture(tex));
         self.bind(pipeline, Some(set));
-        let flags = self.flags() | FLAG_MESH | if h.srgb { FLAG_HOST_SRGB } else { 0 };
+        let flags = self.flags() | if h.srgb { FLAG_HOST_SRGB } else { 0 };
         // Ascending index: the first writer of a pixel stays (module doc).
         for draw in draws.iter().rev() {
             self.host_draw(draw, flags);
