@@ -262,18 +262,21 @@ pub fn pipeline_flags(reversed_z: bool, subpixel_bits: u32) -> u32 {
 
 impl PushConstants {
     pub fn bytes(&self) -> [u8; PUSH_SIZE as usize] {
+        // Field by field in declaration order (`repr(C)`, all 4-byte words):
+        // recorded at most once per draw, so no iterator chain.
         let mut out = [0u8; PUSH_SIZE as usize];
-        let words = self
-            .mvp
-            .iter()
-            .chain(&self.view)
-            .chain(&self.color)
-            .map(|f| f.to_bits())
-            .chain([self.prim, self.flags])
-            .chain(self.snap.iter().map(|f| f.to_bits()));
-        for (i, w) in words.enumerate() {
-            out[i * 4..i * 4 + 4].copy_from_slice(&w.to_ne_bytes());
+        let mut at = 0;
+        let mut put = |w: u32| {
+            out[at..at + 4].copy_from_slice(&w.to_ne_bytes());
+            at += 4;
+        };
+        for f in self.mvp.iter().chain(&self.view).chain(&self.color) {
+            put(f.to_bits());
         }
+        put(self.prim);
+        put(self.flags);
+        put(self.snap[0].to_bits());
+        put(self.snap[1].to_bits());
         out
     }
 }

@@ -105,6 +105,42 @@ struct Pipe {
     fixed: bool,
 }
 
+/// Each image's last usage in the recording: a flat table by [`ImageStates::slot`]
+/// (the recorder looks up every used image at every draw).
+#[derive(Default)]
+struct ImageStates(Vec<Option<Usage>>);
+
+impl ImageStates {
+    fn slot(r: Resource) -> usize {
+        match r {
+            Resource::Color => 0,
+            Resource::Prim => 1,
+            Resource::Normal => 2,
+            Resource::Edges => 3,
+            Resource::Accum => 4,
+            Resource::AlphaTable => 5,
+            Resource::DepthStencil(d) => 6 + 2 * d as usize,
+            Resource::Texture(t) => 7 + 2 * t as usize,
+        }
+    }
+
+    fn get(&self, r: Resource) -> Usage {
+        self.0
+            .get(Self::slot(r))
+            .copied()
+            .flatten()
+            .unwrap_or_else(|| panic!("{r:?} is not an image of the executor's targets"))
+    }
+
+    fn set(&mut self, r: Resource, u: Usage) {
+        let i = Self::slot(r);
+        if self.0.len() <= i {
+            self.0.resize(i + 1, None);
+        }
+        self.0[i] = Some(u);
+    }
+}
+
 /// Tags the occlusion queries of one loop-head execution: `(loop, iteration)`.
 pub(super) type Group = Option<(usize, u32)>;
 
@@ -169,7 +205,7 @@ pub(super) struct Recorder<'a> {
     /// Pipelines of this recording (a plan uses a few dozen; looked up without
     /// building a `PipelineDesc` per draw).
     pipes: Vec<Pipe>,
-    state: BTreeMap<Resource, Usage>,
+    state: ImageStates,
     pending_clear: BTreeMap<Resource, PendingClear>,
     /// Regions of the clears recorded next, in order (`clears::clear_regions`).
     clear_regions: VecDeque<ClearNeed>,
@@ -187,7 +223,10 @@ pub(super) struct Recorder<'a> {
 impl<'a> Recorder<'a> {
     pub fn new(b: Bindings<'a>) -> Recorder<'a> {
         // Every image rests in `REST` between frames (see `finish_frame`).
-        let state = b.targets.all().into_iter().map(|r| (r, REST)).collect();
+        let mut state = ImageStates::default();
+        for r in b.targets.all() {
+            state.set(r, REST);
+        }
         Recorder {
             b,
             cmd: vk::CommandBuffer::null(),
@@ -500,7 +539,7 @@ impl<'a> Recorder<'a> {
             vk::PipelineStageFlags::empty(),
         );
         for &(r, u) in uses {
-            let prev = self.state[&r];
+            let prev = self.state.get(r);
             if !sync::needs_barrier(prev, u, same_block) {
                 continue;
             }
@@ -512,7 +551,7 @@ impl<'a> Recorder<'a> {
             barriers.push(sync::image_barrier(src, dst, img.raw, img.desc.aspect()));
         }
         for &(r, u) in uses {
-            self.state.insert(r, u);
+            self.state.set(r, u);
         }
         ((src_stage, dst_stage), barriers)
     }
