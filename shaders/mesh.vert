@@ -9,7 +9,7 @@ layout(push_constant) uniform Push {
     vec4 color;
     // primitive id written to the id target (mesh index + 1)
     uint prim;
-    // bit 0: reversed Z (near = 1, far = 0); bit 1: a mesh, transformed by cam.mvp
+    // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
     // Rounding emulation (tests only; 0 = off): the NDC step of a coarse subpixel
     // grid to which vertices are snapped, as a device with few subPixelPrecisionBits
@@ -29,10 +29,13 @@ invariant gl_Position;
 void main() {
     v_world = a_pos;
     v_normal = a_normal;
-    // Meshes (flags bit 1) use the camera's matrix; full-screen rectangles their own.
-    mat4 m = (pc.flags & 2u) != 0u ? cam.mvp : pc.mvp;
+    // The full-screen quad is drawn as instance 1 (vk::pipeline::QUAD_INSTANCE)
+    // with its own matrix and stays unsnapped; meshes use the camera's matrix.
+    // Not a push-constant flag: alternating mesh and quad draws share one push.
+    bool quad = gl_InstanceIndex != 0;
+    mat4 m = quad ? pc.mvp : cam.mvp;
     vec4 p = m * vec4(a_pos, 1.0);
-    if (pc.snap.x > 0.0 && p.w > 0.0) {
+    if (!quad && pc.snap.x > 0.0 && p.w > 0.0) {
         // Window position in grid steps from the viewport corner, rounded, back
         // to clip space with the same w (the point stays on its eye ray up to
         // the snap). Far-off vertices are left alone (the clipper takes them).

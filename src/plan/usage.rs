@@ -58,24 +58,24 @@ impl Usage {
 }
 
 /// Colour targets of a fragment program, in attachment order.
-pub fn color_targets(f: &Fragment) -> Vec<Resource> {
+pub fn color_targets(f: &Fragment) -> Uses<Resource> {
     match *f {
         Fragment::None
         | Fragment::DepthFromTexture { .. }
         | Fragment::NearerThan { .. }
-        | Fragment::DepthAtDepth { .. } => vec![],
+        | Fragment::DepthAtDepth { .. } => Uses::of(&[]),
         Fragment::Shade
         | Fragment::Paint { .. }
         | Fragment::Background
         | Fragment::ShadeAtDepth { .. }
-        | Fragment::ShadeNearDepth { .. } => vec![Resource::Color, Resource::Prim],
+        | Fragment::ShadeNearDepth { .. } => Uses::of(&[Resource::Color, Resource::Prim]),
         Fragment::Peel {
             out, shade: true, ..
-        } => vec![Resource::Color, Resource::Prim, Resource::Texture(out)],
+        } => Uses::of(&[Resource::Color, Resource::Prim, Resource::Texture(out)]),
         Fragment::Peel { out, .. }
         | Fragment::WriteDepth { out }
         | Fragment::PeelTolerant { out, .. }
-        | Fragment::CopyTexel { out, .. } => vec![Resource::Texture(out)],
+        | Fragment::CopyTexel { out, .. } => Uses::of(&[Resource::Texture(out)]),
     }
 }
 
@@ -96,11 +96,11 @@ pub fn sampled_texture(f: &Fragment) -> Option<Tex> {
     }
 }
 
-fn draw_usage(d: &Draw) -> Vec<(Resource, Usage)> {
-    let mut u: Vec<_> = color_targets(&d.fragment)
-        .into_iter()
-        .map(|r| (r, Usage::ColorTarget))
-        .collect();
+fn draw_usage(d: &Draw) -> Uses<(Resource, Usage)> {
+    let mut u = Uses::default();
+    for r in color_targets(&d.fragment) {
+        u.push((r, Usage::ColorTarget));
+    }
     u.push((Resource::DepthStencil(d.ds), Usage::DepthStencilTarget));
     if let Some(t) = sampled_texture(&d.fragment) {
         u.push((Resource::Texture(t), Usage::Sampled));
@@ -111,29 +111,112 @@ fn draw_usage(d: &Draw) -> Vec<(Resource, Usage)> {
 impl Step {
     /// The resources this step touches and how. Empty for `Pass` and for `Loop`
     /// (whose body steps declare their own).
-    pub fn usage(&self) -> Vec<(Resource, Usage)> {
+    pub fn usage(&self) -> Uses<(Resource, Usage)> {
         match self {
-            Step::Pass(_) | Step::Loop(_) => vec![],
+            Step::Pass(_) | Step::Loop(_) => Uses::default(),
             Step::Clear(Clear::DepthStencil { ds, .. }) => {
-                vec![(Resource::DepthStencil(*ds), Usage::Clear)]
+                Uses::of(&[(Resource::DepthStencil(*ds), Usage::Clear)])
             }
             Step::Clear(Clear::Texture { tex, .. }) => {
-                vec![(Resource::Texture(*tex), Usage::Clear)]
+                Uses::of(&[(Resource::Texture(*tex), Usage::Clear)])
             }
-            Step::Clear(Clear::Color) => vec![
+            Step::Clear(Clear::Color) => Uses::of(&[
                 (Resource::Color, Usage::Clear),
                 (Resource::Prim, Usage::Clear),
-            ],
-            Step::CopyTexture { src, dst } => vec![
+            ]),
+            Step::CopyTexture { src, dst } => Uses::of(&[
                 (Resource::Texture(*src), Usage::CopySrc),
                 (Resource::Texture(*dst), Usage::CopyDst),
-            ],
-            Step::CopyDepthToTexture { ds, dst } => vec![
+            ]),
+            Step::CopyDepthToTexture { ds, dst } => Uses::of(&[
                 (Resource::Texture(*dst), Usage::ColorTarget),
                 (Resource::DepthStencil(*ds), Usage::Sampled),
-            ],
+            ]),
             Step::Draw(d) => draw_usage(d),
         }
+    }
+}
+
+/// Most entries of a [`Uses`]: a shading peel's three colour targets, its
+/// depth-stencil and sampled texture, and the normal buffer the executor adds.
+pub const MAX_USES: usize = 6;
+
+/// A step's few resources (or usages), inline: asked for per step whenever a
+/// frame is recorded, so they allocate nothing (issue 9 §3, re-recording at
+/// ≤ 1 µs per draw). Reads as a slice.
+#[derive(Clone, Copy, Debug)]
+pub struct Uses<T: Slot> {
+    items: [T; MAX_USES],
+    len: u8,
+}
+
+/// What a [`Uses`] holds; `FILL` stands in its unused slots (never read).
+pub trait Slot: Copy {
+    const FILL: Self;
+}
+
+impl Slot for Resource {
+    const FILL: Self = Resource::Color;
+}
+
+impl Slot for (Resource, Usage) {
+    const FILL: Self = (Resource::Color, Usage::Sampled);
+}
+
+impl<T: Slot> Default for Uses<T> {
+    fn default() -> Self {
+        Uses {
+            items: [T::FILL; MAX_USES],
+            len: 0,
+        }
+    }
+}
+
+impl<T: Slot> Uses<T> {
+    pub fn of(items: &[T]) -> Uses<T> {
+        let mut u = Uses::default();
+        for &i in items {
+            u.push(i);
+        }
+        u
+    }
+
+    pub fn push(&mut self, item: T) {
+        assert!(
+            (self.len as usize) < MAX_USES,
+            "a step uses at most {MAX_USES} resources"
+        );
+        self.items[self.len as usize] = item;
+        self.len += 1;
+    }
+}
+
+impl<T: Slot> std::ops::Deref for Uses<T> {
+    type Target = [T];
+
+    fn deref(&self) -> &[T] {
+        &self.items[..self.len as usize]
+    }
+}
+
+impl<T: Slot> IntoIterator for Uses<T> {
+    type Item = T;
+    type IntoIter = std::iter::Take<std::array::IntoIter<T, MAX_USES>>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.items.into_iter().take(self.len as usize)
+    }
+}
+
+impl<T: Slot + PartialEq> PartialEq for Uses<T> {
+    fn eq(&self, o: &Self) -> bool {
+        **self == **o
+    }
+}
+
+impl<T: Slot + PartialEq> PartialEq<Vec<T>> for Uses<T> {
+    fn eq(&self, o: &Vec<T>) -> bool {
+        **self == **o
     }
 }
 
@@ -186,6 +269,6 @@ mod tests {
         assert!(!Usage::Sampled.writes() && Usage::ColorTarget.writes());
         let d = Step::CopyDepthToTexture { ds: 0, dst: 3 }.usage();
         assert!(d.contains(&(Resource::DepthStencil(0), Usage::Sampled)));
-        assert_eq!(Step::Pass("x".into()).usage(), vec![]);
+        assert!(Step::Pass("x".into()).usage().is_empty());
     }
 }

@@ -73,7 +73,7 @@ pub fn stencil_op(op: StencilOp) -> vk::StencilOp {
 }
 
 /// The ops of one face, in the order of `vkCmdSetStencilOp`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct StencilFaceOps {
     pub fail: vk::StencilOp,
     pub pass: vk::StencilOp,

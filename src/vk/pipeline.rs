@@ -1,6 +1,7 @@
-//! Graphics pipelines: one per fragment program and attachment formats. Everything
-//! a Blist step changes between draws (cull, depth, stencil, scissor) is dynamic
-//! state, so a plan needs only a handful of pipelines.
+//! Graphics pipelines: one per fragment program and attachment formats with the
+//! depth, stencil and cull state dynamic, and variants of them with that state
+//! baked in ([`RasterState`], [`Pipelines::get_fixed`]; `vk::exec::state` says
+//! why). The scissor is dynamic in all of them: it changes at nearly every draw.
 
 use std::collections::HashMap;
 use std::io::Cursor;
@@ -8,6 +9,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::conv::StencilFaceOps;
 use super::cpu_clock::CpuInstant;
 use super::error::{Check, VkError};
 use super::instance::Shared;
@@ -77,6 +79,38 @@ impl FragmentKind {
         }
     }
 
+    /// The push-constant fields the program reads beyond `flags` (the table
+    /// the recorder skips pushes by; `tests::reads_match_the_shader_sources`
+    /// checks it against `shaders/`).
+    pub fn reads(self) -> Reads {
+        let (color, prim, view) = match self {
+            FragmentKind::Shade
+            | FragmentKind::Paint
+            | FragmentKind::PeelShade
+            | FragmentKind::ShadeNearDepth
+            | FragmentKind::ShadeNearDepthHost
+            | FragmentKind::ShadeNearDepthHostSrgb
+            | FragmentKind::ShadeAtDepth => (true, true, false),
+            FragmentKind::Background | FragmentKind::PeelTolerant | FragmentKind::NearerThan => {
+                (true, false, false)
+            }
+            FragmentKind::Edges => (true, false, true),
+            FragmentKind::None
+            | FragmentKind::Peel
+            | FragmentKind::WriteDepth
+            | FragmentKind::DepthFromTexture
+            | FragmentKind::DepthAtDepth
+            | FragmentKind::CopyDepth
+            | FragmentKind::Accumulate => (false, false, false),
+        };
+        Reads {
+            mvp: false,
+            view,
+            color,
+            prim,
+        }
+    }
+
     fn spirv(self, normals: bool) -> &'static [u8] {
         if normals {
             return self
@@ -125,11 +159,58 @@ pub struct PipelineDesc {
     pub normals: bool,
 }
 
+/// The depth, stencil and cull state of a draw, in Vulkan's terms: baked into
+/// a pipeline variant ([`Pipelines::get_fixed`]) or recorded as dynamic state
+/// (`vk::exec::state`, which maps a plan draw to it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct RasterState {
+    pub cull: vk::CullModeFlags,
+    pub depth_test: bool,
+    pub depth_write: bool,
+    pub depth_compare: vk::CompareOp,
+    pub stencil_test: bool,
+    pub front: StencilFaceOps,
+    pub back: StencilFaceOps,
+    pub compare_mask: u32,
+    pub write_mask: u32,
+    pub reference: u32,
+}
+
+impl RasterState {
+    fn depth_stencil(&self) -> vk::PipelineDepthStencilStateCreateInfo<'static> {
+        let face = |o: &StencilFaceOps| vk::StencilOpState {
+            fail_op: o.fail,
+            pass_op: o.pass,
+            depth_fail_op: o.depth_fail,
+            compare_op: o.compare,
+            compare_mask: self.compare_mask,
+            write_mask: self.write_mask,
+            reference: self.reference,
+        };
+        vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(self.depth_test)
+            .depth_write_enable(self.depth_write)
+            .depth_compare_op(self.depth_compare)
+            .stencil_test_enable(self.stencil_test)
+            .front(face(&self.front))
+            .back(face(&self.back))
+            .depth_bounds_test_enable(false)
+            .min_depth_bounds(0.0)
+            .max_depth_bounds(1.0)
+    }
+}
+
+/// Most pipeline variants with baked state an executor creates; past them a
+/// draw takes the pipeline with dynamic state. The shipped scenes' plans use
+/// 5–21 states each; each variant costs a pipeline creation (about 3 ms of CPU
+/// on lavapipe) and, there, a vertex-shader compile at its first draw.
+pub const MAX_FIXED_PIPELINES: usize = 96;
+
 /// Push constants shared by every shader (`shaders/*`: `Push`). Nothing in them
 /// depends on the camera (that is in the uniform buffer of `shaders/camera.glsl`),
 /// so recordings survive camera moves; `view` is unused, kept for the layout.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PushConstants {
     pub mvp: [f32; 16],
     pub view: [f32; 4],
@@ -141,13 +222,35 @@ pub struct PushConstants {
     pub snap: [f32; 2],
 }
 
+/// Which [`PushConstants`] fields a draw's shaders read beyond `flags` and
+/// `snap` (the same for every draw of a frame): the others may hold anything.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Reads {
+    /// The full-screen quad's matrix (meshes take the camera's).
+    pub mvp: bool,
+    pub view: bool,
+    pub color: bool,
+    pub prim: bool,
+}
+
+impl Reads {
+    pub const ALL: Reads = Reads {
+        mvp: true,
+        view: true,
+        color: true,
+        prim: true,
+    };
+}
+
 pub const PUSH_SIZE: u32 = std::mem::size_of::<PushConstants>() as u32;
 /// `PushConstants::flags` bit: depths are reversed (near 1, far 0).
 pub const FLAG_REVERSED_Z: u32 = 1;
-/// `PushConstants::flags` bit: a mesh draw, transformed by the camera's matrix
-/// from the uniform buffer (set 1); without it the push constants' `mvp` (the
-/// full-screen rectangle's).
-pub const FLAG_MESH: u32 = 2;
+/// The `firstInstance` of a draw of the full-screen quad, which
+/// `shaders/mesh.vert` transforms by the push constants' `mvp` and leaves
+/// unsnapped; meshes are drawn with instance 0 and the camera's matrix. Told
+/// by the instance rather than a push-constant flag so that alternating mesh
+/// and full-screen draws (a CST trim) can share one push.
+pub const QUAD_INSTANCE: u32 = 1;
 /// `PushConstants::flags` bits 8..16: the device's subpixel precision bits, from
 /// which the shaders' tie tolerance derives its slope term (`plan::tie`).
 pub const FLAG_SUBPIXEL_SHIFT: u32 = 8;
@@ -161,18 +264,21 @@ pub fn pipeline_flags(reversed_z: bool, subpixel_bits: u32) -> u32 {
 
 impl PushConstants {
     pub fn bytes(&self) -> [u8; PUSH_SIZE as usize] {
+        // Field by field in declaration order (`repr(C)`, all 4-byte words):
+        // recorded at most once per draw, so no iterator chain.
         let mut out = [0u8; PUSH_SIZE as usize];
-        let words = self
-            .mvp
-            .iter()
-            .chain(&self.view)
-            .chain(&self.color)
-            .map(|f| f.to_bits())
-            .chain([self.prim, self.flags])
-            .chain(self.snap.iter().map(|f| f.to_bits()));
-        for (i, w) in words.enumerate() {
-            out[i * 4..i * 4 + 4].copy_from_slice(&w.to_ne_bytes());
+        let mut at = 0;
+        let mut put = |w: u32| {
+            out[at..at + 4].copy_from_slice(&w.to_ne_bytes());
+            at += 4;
+        };
+        for f in self.mvp.iter().chain(&self.view).chain(&self.color) {
+            put(f.to_bits());
         }
+        put(self.prim);
+        put(self.flags);
+        put(self.snap[0].to_bits());
+        put(self.snap[1].to_bits());
         out
     }
 }
@@ -191,6 +297,8 @@ pub struct Pipelines {
     pub(crate) camera_set_layout: vk::DescriptorSetLayout,
     pub(crate) layout: vk::PipelineLayout,
     cache: HashMap<PipelineDesc, vk::Pipeline>,
+    /// Variants with baked state (at most [`MAX_FIXED_PIPELINES`]).
+    fixed: HashMap<(PipelineDesc, RasterState), vk::Pipeline>,
     /// Pipelines created so far, and the calling thread's CPU time creating them
     /// (drivers compile the shaders then: lavapipe runs LLVM, milliseconds each).
     pub(crate) created: u32,
@@ -229,6 +337,7 @@ impl Pipelines {
             camera_set_layout: vk::DescriptorSetLayout::null(),
             layout: vk::PipelineLayout::null(),
             cache: HashMap::new(),
+            fixed: HashMap::new(),
             created: 0,
             create_ms: 0.0,
         };
@@ -281,11 +390,44 @@ impl Pipelines {
         Ok(p)
     }
 
-    /// The pipeline for `desc`, created on first use.
+    /// The pipeline for `desc` with dynamic depth, stencil and cull state,
+    /// created on first use.
     pub(crate) fn get(&mut self, desc: &PipelineDesc) -> Result<vk::Pipeline, VkError> {
         if let Some(&p) = self.cache.get(desc) {
             return Ok(p);
         }
+        let pipeline = self.create_timed(desc, None)?;
+        self.cache.insert(desc.clone(), pipeline);
+        Ok(pipeline)
+    }
+
+    /// The variant of `desc` with `state` baked in, created on first use;
+    /// `None` once [`MAX_FIXED_PIPELINES`] exist and this one does not (the
+    /// caller then uses [`Self::get`] and sets the state dynamically).
+    pub(crate) fn get_fixed(
+        &mut self,
+        desc: &PipelineDesc,
+        state: &RasterState,
+    ) -> Result<Option<vk::Pipeline>, VkError> {
+        let key = (desc.clone(), *state);
+        if let Some(&p) = self.fixed.get(&key) {
+            return Ok(Some(p));
+        }
+        if self.fixed.len() >= MAX_FIXED_PIPELINES {
+            return Ok(None);
+        }
+        let pipeline = self.create_timed(desc, Some(state))?;
+        self.fixed.insert(key, pipeline);
+        Ok(Some(pipeline))
+    }
+
+    /// Creates the pipeline of `desc` (with `state` baked in, or dynamic),
+    /// counting it and its CPU time.
+    fn create_timed(
+        &mut self,
+        desc: &PipelineDesc,
+        state: Option<&RasterState>,
+    ) -> Result<vk::Pipeline, VkError> {
         let t = CpuInstant::now();
         let key = (desc.fragment, desc.normals);
         let fragment = match self.fragments.get(&key) {
@@ -296,8 +438,7 @@ impl Pipelines {
                 m
             }
         };
-        let pipeline = self.create(desc, fragment)?;
-        self.cache.insert(desc.clone(), pipeline);
+        let pipeline = self.create(desc, fragment, state)?;
         self.created += 1;
         self.create_ms += t.elapsed_ms();
         Ok(pipeline)
@@ -307,6 +448,7 @@ impl Pipelines {
         &self,
         desc: &PipelineDesc,
         fragment: vk::ShaderModule,
+        state: Option<&RasterState>,
     ) -> Result<vk::Pipeline, VkError> {
         let stages = [
             vk::PipelineShaderStageCreateInfo::default()
@@ -340,24 +482,35 @@ impl Pipelines {
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&vb)
             .vertex_attribute_descriptions(&va);
-        let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_bounds_test_enable(false)
-            .min_depth_bounds(0.0)
-            .max_depth_bounds(1.0);
-        let dynamic_states = [
+        let depth_stencil = state.map_or_else(
+            || {
+                vk::PipelineDepthStencilStateCreateInfo::default()
+                    .depth_bounds_test_enable(false)
+                    .min_depth_bounds(0.0)
+                    .max_depth_bounds(1.0)
+            },
+            RasterState::depth_stencil,
+        );
+        // Viewport, scissor and front face are dynamic in every pipeline, so
+        // binding a variant never invalidates them.
+        let mut dynamic_states = vec![
             vk::DynamicState::VIEWPORT,
             vk::DynamicState::SCISSOR,
-            vk::DynamicState::CULL_MODE,
             vk::DynamicState::FRONT_FACE,
-            vk::DynamicState::DEPTH_TEST_ENABLE,
-            vk::DynamicState::DEPTH_WRITE_ENABLE,
-            vk::DynamicState::DEPTH_COMPARE_OP,
-            vk::DynamicState::STENCIL_TEST_ENABLE,
-            vk::DynamicState::STENCIL_OP,
-            vk::DynamicState::STENCIL_COMPARE_MASK,
-            vk::DynamicState::STENCIL_WRITE_MASK,
-            vk::DynamicState::STENCIL_REFERENCE,
         ];
+        if state.is_none() {
+            dynamic_states.extend([
+                vk::DynamicState::CULL_MODE,
+                vk::DynamicState::DEPTH_TEST_ENABLE,
+                vk::DynamicState::DEPTH_WRITE_ENABLE,
+                vk::DynamicState::DEPTH_COMPARE_OP,
+                vk::DynamicState::STENCIL_TEST_ENABLE,
+                vk::DynamicState::STENCIL_OP,
+                vk::DynamicState::STENCIL_COMPARE_MASK,
+                vk::DynamicState::STENCIL_WRITE_MASK,
+                vk::DynamicState::STENCIL_REFERENCE,
+            ]);
+        }
         let ds_format = desc.depth_stencil_format.unwrap_or(vk::Format::UNDEFINED);
         // A host's depth attachment is bound without its stencil (untouched).
         let stencil_format = match desc.fragment {
@@ -371,7 +524,7 @@ impl Pipelines {
             &Graphics {
                 stages: &stages,
                 vertex_input: &vertex_input,
-                cull: vk::CullModeFlags::NONE,
+                cull: state.map_or(vk::CullModeFlags::NONE, |s| s.cull),
                 depth_stencil: &depth_stencil,
                 dynamic_states: &dynamic_states,
                 color_formats: &desc.color_formats,
@@ -477,7 +630,12 @@ impl Drop for Pipelines {
     fn drop(&mut self) {
         let _layer = self.shared.layer_use();
         let d = &self.shared.device;
-        for (_, p) in self.cache.drain() {
+        for p in self
+            .cache
+            .drain()
+            .map(|e| e.1)
+            .chain(self.fixed.drain().map(|e| e.1))
+        {
             // SAFETY: the executor waited for the GPU before dropping its pipelines.
             unsafe { d.destroy_pipeline(p, None) };
         }
@@ -495,5 +653,95 @@ impl Drop for Pipelines {
         }
         // SAFETY: as above.
         unsafe { d.destroy_shader_module(self.vertex, None) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each program's source under `shaders/` (the host variant is the same
+    /// source built with `HOST`).
+    const SOURCES: [(FragmentKind, &str); 17] = [
+        (FragmentKind::None, "none.frag"),
+        (FragmentKind::Shade, "shade.frag"),
+        (FragmentKind::Paint, "paint.frag"),
+        (FragmentKind::Background, "background.frag"),
+        (FragmentKind::Peel, "peel.frag"),
+        (FragmentKind::PeelShade, "peel_shade.frag"),
+        (FragmentKind::PeelTolerant, "peel_tolerant.frag"),
+        (FragmentKind::WriteDepth, "write_depth.frag"),
+        (FragmentKind::DepthFromTexture, "depth_from_texture.frag"),
+        (FragmentKind::ShadeNearDepth, "shade_near_depth.frag"),
+        (FragmentKind::ShadeNearDepthHost, "shade_near_depth.frag"),
+        (FragmentKind::NearerThan, "nearer_than.frag"),
+        (FragmentKind::ShadeAtDepth, "shade_at_depth.frag"),
+        (FragmentKind::DepthAtDepth, "depth_at_depth.frag"),
+        (FragmentKind::CopyDepth, "copy_depth.frag"),
+        (FragmentKind::Edges, "edges.frag"),
+        (FragmentKind::Accumulate, "accumulate.frag"),
+    ];
+
+    /// The push-constant elision trusts `FragmentKind::reads`: a field a
+    /// program reads but the table omits would keep another draw's value.
+    #[test]
+    fn reads_match_the_shader_sources() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        for (kind, file) in SOURCES {
+            let mut text = std::fs::read_to_string(dir.join(file)).expect("shader source");
+            // The includes a program pulls in read push constants too.
+            for line in text.clone().lines() {
+                if let Some(inc) = line.strip_prefix("#include \"") {
+                    let inc = inc.trim_end_matches('"');
+                    text += &std::fs::read_to_string(dir.join(inc)).expect("include");
+                }
+            }
+            let r = kind.reads();
+            for (field, read) in [("color", r.color), ("prim", r.prim), ("view", r.view)] {
+                assert_eq!(
+                    text.contains(&format!("pc.{field}")),
+                    read,
+                    "{kind:?} ({file}) and its `reads` disagree on `{field}`"
+                );
+            }
+            assert!(!r.mvp, "only the quad's vertex shader reads mvp");
+        }
+    }
+
+    #[test]
+    fn a_baked_state_goes_into_the_depth_stencil_info() {
+        let face = StencilFaceOps {
+            fail: vk::StencilOp::KEEP,
+            pass: vk::StencilOp::INVERT,
+            depth_fail: vk::StencilOp::ZERO,
+            compare: vk::CompareOp::EQUAL,
+        };
+        let s = RasterState {
+            cull: vk::CullModeFlags::BACK,
+            depth_test: true,
+            depth_write: false,
+            depth_compare: vk::CompareOp::GREATER,
+            stencil_test: true,
+            front: face,
+            back: face,
+            compare_mask: 6,
+            write_mask: 1,
+            reference: 2,
+        };
+        let ci = s.depth_stencil();
+        assert_eq!(ci.depth_test_enable, vk::TRUE);
+        assert_eq!(ci.depth_write_enable, vk::FALSE);
+        assert_eq!(ci.depth_compare_op, vk::CompareOp::GREATER);
+        assert_eq!(ci.stencil_test_enable, vk::TRUE);
+        assert_eq!(ci.front.pass_op, vk::StencilOp::INVERT);
+        assert_eq!(ci.back.depth_fail_op, vk::StencilOp::ZERO);
+        assert_eq!(
+            (
+                ci.front.compare_mask,
+                ci.front.write_mask,
+                ci.front.reference
+            ),
+            (6, 1, 2)
+        );
     }
 }

@@ -738,14 +738,27 @@ impl Executor {
         stats.counts.submits = 1;
         self.submit.end(cmd)?;
         let ms = t.elapsed_ms();
-        self.recording = Some(Recording {
-            key: RecordingKey {
+        // The kept key when it is this one (a plan recorded anew): no clone.
+        let key = match self.recording.take() {
+            Some(r)
+                if r.key.epoch == self.epoch
+                    && r.key.layers == layers
+                    && r.key.rects == self.rects
+                    && r.key.ties == self.ties
+                    && r.key.plan == *plan =>
+            {
+                r.key
+            }
+            _ => RecordingKey {
                 plan: plan.clone(),
                 rects: self.rects.clone(),
                 layers: layers.to_vec(),
                 epoch: self.epoch,
                 ties: self.ties.clone(),
             },
+        };
+        self.recording = Some(Recording {
+            key,
             stats,
             queries,
             marks,
@@ -1048,7 +1061,15 @@ fn layers_fit(plan: &Plan, layers: &[u32], groups: &[Group], samples: &[u64]) ->
 /// `plan`'s steps with each loop `i` unrolled to `layers[i]` head executions (the
 /// last without its tail), head steps tagged with their loop and iteration.
 fn unroll<'p>(plan: &'p Plan, layers: &[u32]) -> Vec<(&'p Step, Group)> {
-    let mut out = Vec::new();
+    let mut loops = layers.iter();
+    let len = plan.steps.iter().map(|s| match s {
+        Step::Loop(l) => {
+            let n = *loops.next().expect("a count per loop") as usize;
+            n * l.head.len() + n.saturating_sub(1) * l.tail.len()
+        }
+        _ => 1,
+    });
+    let mut out = Vec::with_capacity(len.sum());
     let mut li = 0;
     for s in &plan.steps {
         let Step::Loop(l) = s else {

@@ -1,5 +1,6 @@
 //! Recording plan steps into a command buffer (seed papers' passes become draws
-//! with dynamic depth, stencil and cull state).
+//! with their depth, stencil and cull state baked into pipeline variants,
+//! `state.rs`).
 //!
 //! Synchronization comes from the steps' declared usages (`plan::usage`) through
 //! the pure table in `vk/sync.rs`: the recorder tracks each image's last usage and
@@ -12,13 +13,17 @@
 //! before it ([`ClearMode::Command`]); one read otherwise is a clear command. Draws whose scissor is empty on
 //! screen are not recorded. Meshes of one draw that lie contiguously in the
 //! vertex buffer and need no per-mesh push constants are drawn with one call.
+//!
+//! Re-recording a plan costs ≤ 1 µs of CPU per draw (issue 9 §3): a pipeline
+//! bind, the scissor and the push constants are recorded only where they
+//! change (`state.rs`, `record/push.rs`), and nothing is allocated per draw.
 
 use std::collections::{BTreeMap, VecDeque};
 
 use ash::vk;
 
 use super::gpu_scene::GpuScene;
-use super::state::{self, DynState};
+use super::state;
 use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
@@ -26,19 +31,21 @@ use clears::{ClearNeed, PendingClear};
 
 mod clears;
 mod host;
+mod push;
 mod shade;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
-use crate::plan::usage::{self, Resource, Usage};
+use crate::plan::usage::{self, Resource, Usage, Uses};
 use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{
-    FragmentKind, PipelineDesc, Pipelines, PushConstants, FLAG_MESH, PUSH_SIZE,
+    FragmentKind, PipelineDesc, Pipelines, PushConstants, RasterState, Reads, QUAD_INSTANCE,
 };
 use crate::vk::scissor::{Rect, RectUnions};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
 pub(crate) use host::{copy_counts, final_shade, host_barriers, HostShade};
+use push::PushTracker;
 
 /// Attachments of a rendering block: plain data (no allocation per draw).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,6 +92,53 @@ impl BlockKey {
 
     fn colors(&self) -> &[Resource] {
         &self.colors[..self.n_colors as usize]
+    }
+}
+
+/// A pipeline of a recording: what selects it, and whether its depth,
+/// stencil and cull state is baked in (`fixed`) or set dynamically.
+#[derive(Clone, Copy, Debug)]
+struct Pipe {
+    block: BlockKey,
+    kind: FragmentKind,
+    state: RasterState,
+    pipeline: vk::Pipeline,
+    fixed: bool,
+}
+
+/// Each image's last usage in the recording: a flat table by [`ImageStates::slot`]
+/// (the recorder looks up every used image at every draw).
+#[derive(Default)]
+struct ImageStates(Vec<Option<Usage>>);
+
+impl ImageStates {
+    fn slot(r: Resource) -> usize {
+        match r {
+            Resource::Color => 0,
+            Resource::Prim => 1,
+            Resource::Normal => 2,
+            Resource::Edges => 3,
+            Resource::Accum => 4,
+            Resource::AlphaTable => 5,
+            Resource::DepthStencil(d) => 6 + 2 * d as usize,
+            Resource::Texture(t) => 7 + 2 * t as usize,
+        }
+    }
+
+    fn get(&self, r: Resource) -> Usage {
+        self.0
+            .get(Self::slot(r))
+            .copied()
+            .flatten()
+            .unwrap_or_else(|| panic!("{r:?} is not an image of the executor's targets"))
+    }
+
+    fn set(&mut self, r: Resource, u: Usage) {
+        let i = Self::slot(r);
+        if self.0.len() <= i {
+            self.0.resize(i + 1, None);
+        }
+        self.0[i] = Some(u);
     }
 }
 
@@ -144,12 +198,15 @@ pub(super) struct Recorder<'a> {
     /// are recorded (command-buffer state outlives pipeline binds and blocks).
     bound: Option<vk::Pipeline>,
     bound_set: Option<vk::DescriptorSet>,
-    dyn_state: Option<DynState>,
-    pushed: Option<[u8; PUSH_SIZE as usize]>,
-    /// Pipelines of this recording by block and fragment program (a plan uses a
-    /// handful; looked up without building a `PipelineDesc` per draw).
-    pipes: Vec<(BlockKey, FragmentKind, vk::Pipeline)>,
-    state: BTreeMap<Resource, Usage>,
+    scissor: Option<Rect>,
+    /// The dynamic depth, stencil and cull state; `None` also after a bind of a
+    /// pipeline with that state baked in (which leaves it undefined).
+    dyn_state: Option<RasterState>,
+    push: PushTracker,
+    /// Pipelines of this recording (a plan uses a few dozen; looked up without
+    /// building a `PipelineDesc` per draw).
+    pipes: Vec<Pipe>,
+    state: ImageStates,
     pending_clear: BTreeMap<Resource, PendingClear>,
     /// Regions of the clears recorded next, in order (`clears::clear_regions`).
     clear_regions: VecDeque<ClearNeed>,
@@ -169,15 +226,19 @@ pub(super) struct Recorder<'a> {
 impl<'a> Recorder<'a> {
     pub fn new(b: Bindings<'a>) -> Recorder<'a> {
         // Every image rests in `REST` between frames (see `finish_frame`).
-        let state = b.targets.all().into_iter().map(|r| (r, REST)).collect();
+        let mut state = ImageStates::default();
+        for r in b.targets.all() {
+            state.set(r, REST);
+        }
         Recorder {
             b,
             cmd: vk::CommandBuffer::null(),
             block: None,
             bound: None,
             bound_set: None,
+            scissor: None,
             dyn_state: None,
-            pushed: None,
+            push: PushTracker::default(),
             pipes: Vec::new(),
             state,
             pending_clear: BTreeMap::new(),
@@ -222,8 +283,9 @@ impl<'a> Recorder<'a> {
         self.cmd = cmd;
         self.bound = None;
         self.bound_set = None;
+        self.scissor = None;
         self.dyn_state = None;
-        self.pushed = None;
+        self.push.reset();
         state::record_fixed(self.b.device, cmd, self.b.desc.width, self.b.desc.height);
         // SAFETY: the vertex buffer is live while the recording may be replayed.
         unsafe {
@@ -293,11 +355,9 @@ impl<'a> Recorder<'a> {
             (depth, Usage::Sampled),
         ];
         self.open(&key, &uses);
-        let pipeline = self.pipeline_for(&key, FragmentKind::Edges)?;
-        self.bind(
-            pipeline,
-            Some(self.b.targets.sampling_set(Resource::Normal)),
-        );
+        let tests_off = state::raster_state(None, self.b.desc.reversed_z);
+        let pipe = self.pipeline_for(&key, FragmentKind::Edges, &tests_off)?;
+        self.bind_pipe(pipe, Some(self.b.targets.sampling_set(Resource::Normal)));
         let depth_set = self.b.targets.sampling_set(depth);
         // SAFETY: set 2 of the pipeline layout has the set's layout; inside a block.
         unsafe {
@@ -311,25 +371,22 @@ impl<'a> Recorder<'a> {
             )
         };
         let full = Rect::full(self.b.desc.width, self.b.desc.height);
-        self.set_state(None, full);
+        self.set_scissor(full);
         let cam = &self.b.scene.camera;
         let ortho = matches!(
             cam.projection,
             crate::scene::Projection::Orthographic { .. }
         );
-        self.push(&PushConstants {
+        let pc = PushConstants {
             mvp: Self::fullscreen_matrix(0.0),
             view: [cam.near as f32, cam.far as f32, ortho as u32 as f32, 0.0],
             color: [rule[0], rule[1], 0.0, 0.0],
             flags: self.flags(),
+            snap: self.b.snap,
             ..Default::default()
-        });
-        // SAFETY: inside a block with a bound pipeline and vertex buffer.
-        unsafe {
-            self.b
-                .device
-                .cmd_draw(cmd, 6, 1, self.b.scene.quad_first, 0)
         };
+        self.push_for(FragmentKind::Edges, true, &pc);
+        self.draw_quad();
         self.stats.counts.fullscreen_passes += 1;
         self.stats.counts.fullscreen_pixels += full.area();
         self.end_block();
@@ -487,7 +544,7 @@ impl<'a> Recorder<'a> {
             vk::PipelineStageFlags::empty(),
         );
         for &(r, u) in uses {
-            let prev = self.state[&r];
+            let prev = self.state.get(r);
             if !sync::needs_barrier(prev, u, same_block) {
                 continue;
             }
@@ -499,7 +556,7 @@ impl<'a> Recorder<'a> {
             barriers.push(sync::image_barrier(src, dst, img.raw, img.desc.aspect()));
         }
         for &(r, u) in uses {
-            self.state.insert(r, u);
+            self.state.set(r, u);
         }
         ((src_stage, dst_stage), barriers)
     }
@@ -573,11 +630,12 @@ impl<'a> Recorder<'a> {
     /// Makes `key` the open block with every usage in `uses` satisfied.
     fn open(&mut self, key: &BlockKey, uses: &[(Resource, Usage)]) {
         self.settle_clears(uses);
-        let load_clear: Vec<Resource> = uses
-            .iter()
-            .map(|u| u.0)
-            .filter(|r| self.pending_clear.contains_key(r))
-            .collect();
+        let mut load_clear = Uses::<Resource>::default();
+        for &(r, _) in uses {
+            if self.pending_clear.contains_key(&r) {
+                load_clear.push(r);
+            }
+        }
         let same = self.block.as_ref() == Some(key) && load_clear.is_empty();
         let barrier = self.transitions_with(uses, same, &load_clear);
         if same && !barrier {
@@ -629,13 +687,21 @@ impl<'a> Recorder<'a> {
         self.clear_in_block(&in_block);
     }
 
+    /// The pipeline of fragment program `kind` in block `key` with `state`
+    /// baked in, or with dynamic state past the executor's budget of variants
+    /// (`vk::pipeline::MAX_FIXED_PIPELINES`).
     fn pipeline_for(
         &mut self,
         key: &BlockKey,
         kind: FragmentKind,
-    ) -> Result<vk::Pipeline, VkError> {
-        if let Some(&(_, _, p)) = self.pipes.iter().find(|(k, f, _)| k == key && *f == kind) {
-            return Ok(p);
+        state: &RasterState,
+    ) -> Result<Pipe, VkError> {
+        if let Some(p) = self
+            .pipes
+            .iter()
+            .find(|p| p.kind == kind && p.state == *state && p.block == *key)
+        {
+            return Ok(*p);
         }
         let desc = PipelineDesc {
             fragment: kind,
@@ -647,9 +713,34 @@ impl<'a> Recorder<'a> {
             depth_stencil_format: key.ds.map(|_| self.b.desc.depth_format.vk()),
             normals: key.colors().contains(&Resource::Normal),
         };
-        let p = self.b.pipelines.get(&desc)?;
-        self.pipes.push((*key, kind, p));
-        Ok(p)
+        let (pipeline, fixed) = match self.b.pipelines.get_fixed(&desc, state)? {
+            Some(p) => (p, true),
+            None => (self.b.pipelines.get(&desc)?, false),
+        };
+        let pipe = Pipe {
+            block: *key,
+            kind,
+            state: *state,
+            pipeline,
+            fixed,
+        };
+        self.pipes.push(pipe);
+        Ok(pipe)
+    }
+
+    /// Binds `pipe` and `set` where they differ from what is bound, and sets
+    /// the pipe's state dynamically when it is not baked in.
+    fn bind_pipe(&mut self, pipe: Pipe, set: Option<vk::DescriptorSet>) {
+        if pipe.fixed {
+            if self.bound != Some(pipe.pipeline) {
+                // Its static state leaves the dynamic state undefined.
+                self.dyn_state = None;
+            }
+            self.bind(pipe.pipeline, set);
+        } else {
+            self.bind(pipe.pipeline, set);
+            self.set_dynamic(&pipe.state);
+        }
     }
 
     /// Binds `pipeline` and `set` where they differ from what is bound.
@@ -680,25 +771,59 @@ impl<'a> Recorder<'a> {
         }
     }
 
-    /// Records the dynamic state of `draw` that differs from what is set.
-    fn set_state(&mut self, draw: Option<&Draw>, scissor: Rect) {
-        let next = DynState::of(draw, scissor, self.b.desc.reversed_z);
+    /// Sets the scissor unless it is what is set.
+    fn set_scissor(&mut self, scissor: Rect) {
+        if self.scissor != Some(scissor) {
+            // SAFETY: recording; every pipeline declares the scissor dynamic.
+            unsafe {
+                self.b
+                    .device
+                    .cmd_set_scissor(self.cmd, 0, &[conv::rect2d(scissor)])
+            };
+            self.scissor = Some(scissor);
+            self.stats.counts.state_commands += 1;
+        }
+    }
+
+    /// Records the fields of `next` that differ from the dynamic state set (a
+    /// pipeline with dynamic depth, stencil and cull state is bound).
+    fn set_dynamic(&mut self, next: &RasterState) {
         let mut n = 0;
-        for f in next.changes(self.dyn_state.as_ref()) {
-            next.record(self.b.device, self.cmd, f);
+        for f in state::changes(next, self.dyn_state.as_ref()) {
+            state::record(self.b.device, self.cmd, next, f);
             n += 1;
         }
         self.stats.counts.state_commands += n;
-        self.dyn_state = Some(next);
+        self.dyn_state = Some(*next);
     }
 
-    /// Records `pc` unless it is what the last push left (push constants, too,
-    /// outlive pipeline binds of one layout).
+    /// Sets the scissor and the dynamic state of `draw` (`None`: tests off),
+    /// under a pipeline with dynamic state ([`Pipelines::get`]).
+    fn set_state(&mut self, draw: Option<&Draw>, scissor: Rect) {
+        self.set_scissor(scissor);
+        self.set_dynamic(&state::raster_state(draw, self.b.desc.reversed_z));
+    }
+
+    /// Records `pc` unless what the command buffer holds serves a draw that
+    /// reads every field.
     fn push(&mut self, pc: &PushConstants) {
-        let bytes = pc.bytes();
-        if self.pushed == Some(bytes) {
+        self.push_reads(pc, Reads::ALL);
+    }
+
+    /// Records `pc` for a draw of program `kind` (`quad`: of the full-screen
+    /// quad, which reads `mvp`) unless what is held serves it (`record/push.rs`).
+    fn push_for(&mut self, kind: FragmentKind, quad: bool, pc: &PushConstants) {
+        let reads = Reads {
+            mvp: quad,
+            ..kind.reads()
+        };
+        self.push_reads(pc, reads);
+    }
+
+    fn push_reads(&mut self, pc: &PushConstants, reads: Reads) {
+        let Some(next) = self.push.next(pc, reads) else {
             return;
-        }
+        };
         // SAFETY: recording; the range matches the layout's single push range.
         unsafe {
             self.b.device.cmd_push_constants(
@@ -706,11 +831,19 @@ impl<'a> Recorder<'a> {
                 self.b.pipelines.layout,
                 vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                 0,
-                &bytes,
+                &next.bytes(),
             )
         };
-        self.pushed = Some(bytes);
         self.stats.counts.state_commands += 1;
+    }
+
+    /// Draws the full-screen quad (inside a block, with a pipeline bound and its
+    /// push constants pushed).
+    fn draw_quad(&mut self) {
+        let first = self.b.scene.quad_first;
+        // SAFETY: inside a block with a bound pipeline and vertex buffer; the
+        // quad's six vertices lie in it.
+        unsafe { self.b.device.cmd_draw(self.cmd, 6, 1, first, QUAD_INSTANCE) };
     }
 
     fn flags(&self) -> u32 {
@@ -732,21 +865,18 @@ impl<'a> Recorder<'a> {
         set: vk::DescriptorSet,
         rect: Rect,
     ) -> Result<(), VkError> {
-        let pipeline = self.pipeline_for(key, kind)?;
-        self.bind(pipeline, Some(set));
-        self.set_state(None, rect);
+        let tests_off = state::raster_state(None, self.b.desc.reversed_z);
+        let pipe = self.pipeline_for(key, kind, &tests_off)?;
+        self.bind_pipe(pipe, Some(set));
+        self.set_scissor(rect);
         let pc = PushConstants {
             mvp: Self::fullscreen_matrix(0.0),
             flags: self.flags(),
+            snap: self.b.snap,
             ..Default::default()
         };
-        self.push(&pc);
-        // SAFETY: inside a block with a bound pipeline and vertex buffer.
-        unsafe {
-            self.b
-                .device
-                .cmd_draw(self.cmd, 6, 1, self.b.scene.quad_first, 0)
-        };
+        self.push_for(kind, true, &pc);
+        self.draw_quad();
         self.stats.counts.fullscreen_passes += 1;
         self.stats.counts.fullscreen_pixels += rect.area();
         Ok(())
@@ -799,10 +929,11 @@ impl<'a> Recorder<'a> {
             uses.push((Resource::Normal, Usage::ColorTarget));
         }
         let key = BlockKey::of_draw(&uses, draw.ds);
-        let pipeline = self.pipeline_for(&key, kind)?;
+        let raster = state::raster_state(Some(draw), self.b.desc.reversed_z);
+        let pipe = self.pipeline_for(&key, kind, &raster)?;
         self.open(&key, &uses);
-        self.bind(pipeline, set);
-        self.set_state(Some(draw), scissor);
+        self.bind_pipe(pipe, set);
+        self.set_scissor(scissor);
         let flags = self.flags();
         let scene = self.b.scene;
         let rgb = |c: [u8; 3]| {
@@ -845,13 +976,12 @@ impl<'a> Recorder<'a> {
                     color,
                     prim: 0,
                     flags,
-                    // Full-screen rectangles stay unsnapped.
-                    snap: [0.0; 2],
+                    // The quad stays unsnapped (`shaders/mesh.vert`).
+                    snap: self.b.snap,
                     ..Default::default()
                 };
-                self.push(&pc);
-                // SAFETY: inside a block with a bound pipeline and vertex buffer.
-                unsafe { device.cmd_draw(self.cmd, 6, 1, scene.quad_first, 0) };
+                self.push_for(kind, true, &pc);
+                self.draw_quad();
                 self.stats.counts.fullscreen_passes += 1;
                 self.stats.counts.fullscreen_pixels += scissor.area();
             }
@@ -863,7 +993,9 @@ impl<'a> Recorder<'a> {
                 };
                 self.stats.counts.mesh_draws += 1;
                 self.stats.counts.mesh_pixels += scissor.area();
-                let per_mesh = per_mesh_constants(&draw.fragment);
+                // A program that reads the primitive id needs each mesh's own
+                // constants and draw call.
+                let per_mesh = kind.reads().prim;
                 let mut i = 0;
                 while i < ids.len() {
                     let m = ids[i];
@@ -875,8 +1007,7 @@ impl<'a> Recorder<'a> {
                         count += scene.ranges[ids[j] as usize].1;
                         j += 1;
                     }
-                    // Constants nobody reads stay zero, so that consecutive draws
-                    // push nothing new.
+                    // Fields the program does not read are not pushed for.
                     let (color, prim) = if per_mesh {
                         let color = match draw.fragment {
                             Fragment::Paint { rgb: c } => rgb(c),
@@ -901,11 +1032,11 @@ impl<'a> Recorder<'a> {
                         color,
                         prim,
                         // The matrix comes from the camera's uniform buffer.
-                        flags: flags | FLAG_MESH,
+                        flags,
                         snap: self.b.snap,
                         ..Default::default()
                     };
-                    self.push(&pc);
+                    self.push_for(kind, false, &pc);
                     if count > 0 {
                         // SAFETY: inside a block; the range lies in the vertex buffer.
                         unsafe { device.cmd_draw(self.cmd, count, 1, first, 0) };
@@ -921,27 +1052,6 @@ impl<'a> Recorder<'a> {
             unsafe { device.cmd_end_query(self.cmd, self.b.occlusion, q) };
         }
         Ok(())
-    }
-}
-
-/// Whether a fragment program reads a mesh's own colour or primitive id (then
-/// each mesh needs its push constants and its own draw call).
-fn per_mesh_constants(f: &Fragment) -> bool {
-    match f {
-        Fragment::None
-        | Fragment::Peel { shade: false, .. }
-        | Fragment::WriteDepth { .. }
-        | Fragment::PeelTolerant { .. }
-        | Fragment::NearerThan { .. }
-        | Fragment::DepthFromTexture { .. }
-        | Fragment::DepthAtDepth { .. }
-        | Fragment::CopyTexel { .. } => false,
-        Fragment::Shade
-        | Fragment::Paint { .. }
-        | Fragment::Background
-        | Fragment::Peel { shade: true, .. }
-        | Fragment::ShadeNearDepth { .. }
-        | Fragment::ShadeAtDepth { .. } => true,
     }
 }
 

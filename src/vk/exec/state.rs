@@ -1,39 +1,29 @@
-//! The dynamic state of a draw (scissor, cull, depth and stencil: everything a
-//! Blist step changes between draws) and which of it must be recorded again.
+//! The depth, stencil and cull state of a draw (everything a Blist step changes
+//! between draws but its scissor), and how the recorder gets it into the
+//! command buffer with the fewest commands (issue 9 §3: re-recording 1,000
+//! draws in ≤ 1 ms of CPU).
 //!
-//! Dynamic state is command-buffer state: it survives pipeline binds (every
-//! pipeline leaves the same states dynamic) and rendering blocks. So the recorder
-//! keeps what it last set and records only the commands whose value changes —
-//! consecutive parity or peel draws differ in a scissor or a stencil op, not in
-//! all eleven. This is what makes re-recording cheap (issue 9 §3: ≤ 1 ms of CPU
-//! per 1,000 draws); `Counts::state_commands` counts what is recorded.
+//! A plan uses few distinct states (5 to 21 on the shipped scenes), but
+//! consecutive draws differ in several fields: a CST trim alternates a mesh
+//! draw and a full-screen sweep whose stencil reference, compare and write
+//! masks all differ. So the state is baked into pipeline variants
+//! ([`crate::vk::pipeline::Pipelines::get_fixed`]): one pipeline bind replaces
+//! up to ten dynamic-state commands, and on lavapipe each command is an
+//! allocation when recorded and a free when the buffer is reset. Past the
+//! executor's budget of variants a draw falls back to the pipeline with every
+//! field dynamic, and the recorder sets only the fields whose value changes
+//! ([`RasterState::changes`]). The scissor, viewport and front face are dynamic
+//! in every pipeline. `Counts::state_commands` counts what is recorded.
 
 use ash::vk;
 
 use crate::plan::Draw;
 use crate::vk::conv::{self, StencilFaceOps};
-use crate::vk::scissor::Rect;
+use crate::vk::pipeline::RasterState;
 
-/// The dynamic state of one draw.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct DynState {
-    pub scissor: Rect,
-    pub cull: vk::CullModeFlags,
-    pub depth_test: bool,
-    pub depth_write: bool,
-    pub depth_compare: vk::CompareOp,
-    pub stencil_test: bool,
-    pub front: StencilFaceOps,
-    pub back: StencilFaceOps,
-    pub compare_mask: u32,
-    pub write_mask: u32,
-    pub reference: u32,
-}
-
-/// One settable piece of [`DynState`]: one command each.
+/// One dynamic piece of [`RasterState`]: one command each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Field {
-    Scissor,
     Cull,
     DepthTest,
     DepthWrite,
@@ -46,8 +36,7 @@ pub(super) enum Field {
     Reference,
 }
 
-const FIELDS: [Field; 11] = [
-    Field::Scissor,
+const FIELDS: [Field; 10] = [
     Field::Cull,
     Field::DepthTest,
     Field::DepthWrite,
@@ -67,125 +56,112 @@ const KEEP: StencilFaceOps = StencilFaceOps {
     compare: vk::CompareOp::ALWAYS,
 };
 
-impl DynState {
-    /// The state of `draw` (`None`: an internal full-screen copy, no tests) within
-    /// `scissor`; `reversed`: reversed depth.
-    pub fn of(draw: Option<&Draw>, scissor: Rect, reversed: bool) -> DynState {
-        let cull = draw
-            .map(|d| conv::cull_mode(d.cull))
-            .unwrap_or(vk::CullModeFlags::NONE);
-        let (depth_test, depth_write, depth_compare) = match draw {
-            Some(dr) => (
-                true,
-                dr.depth.write,
-                conv::compare_op(dr.depth.compare, reversed),
-            ),
-            None => (false, false, vk::CompareOp::ALWAYS),
-        };
-        let stencil = draw.and_then(|d| d.stencil.as_ref());
-        let (front, back, compare_mask, write_mask, reference) = match stencil {
-            Some(s) => (
-                conv::stencil_face(&s.front),
-                conv::stencil_face(&s.back),
-                s.compare_mask as u32,
-                s.write_mask as u32,
-                s.reference as u32,
-            ),
-            None => (KEEP, KEEP, 0, 0, 0),
-        };
-        DynState {
-            scissor,
-            cull,
-            depth_test,
-            depth_write,
-            depth_compare,
-            stencil_test: stencil.is_some(),
-            front,
-            back,
-            compare_mask,
-            write_mask,
-            reference,
-        }
+/// The state of plan draw `draw` (`None`: an internal full-screen pass, no
+/// tests, no culling); `reversed`: reversed depth. The one mapping from a
+/// plan's cull, depth and stencil state to Vulkan's: a new `Fragment` or
+/// `DepthState` a planner gives a draw needs nothing here.
+pub(super) fn raster_state(draw: Option<&Draw>, reversed: bool) -> RasterState {
+    let cull = draw
+        .map(|d| conv::cull_mode(d.cull))
+        .unwrap_or(vk::CullModeFlags::NONE);
+    let (depth_test, depth_write, depth_compare) = match draw {
+        Some(dr) => (
+            true,
+            dr.depth.write,
+            conv::compare_op(dr.depth.compare, reversed),
+        ),
+        None => (false, false, vk::CompareOp::ALWAYS),
+    };
+    let stencil = draw.and_then(|d| d.stencil.as_ref());
+    let (front, back, compare_mask, write_mask, reference) = match stencil {
+        Some(s) => (
+            conv::stencil_face(&s.front),
+            conv::stencil_face(&s.back),
+            s.compare_mask as u32,
+            s.write_mask as u32,
+            s.reference as u32,
+        ),
+        None => (KEEP, KEEP, 0, 0, 0),
+    };
+    RasterState {
+        cull,
+        depth_test,
+        depth_write,
+        depth_compare,
+        stencil_test: stencil.is_some(),
+        front,
+        back,
+        compare_mask,
+        write_mask,
+        reference,
     }
+}
 
-    fn same(&self, o: &DynState, f: Field) -> bool {
-        match f {
-            Field::Scissor => self.scissor == o.scissor,
-            Field::Cull => self.cull == o.cull,
-            Field::DepthTest => self.depth_test == o.depth_test,
-            Field::DepthWrite => self.depth_write == o.depth_write,
-            Field::DepthCompare => self.depth_compare == o.depth_compare,
-            Field::StencilTest => self.stencil_test == o.stencil_test,
-            Field::StencilFront => self.front == o.front,
-            Field::StencilBack => self.back == o.back,
-            Field::CompareMask => self.compare_mask == o.compare_mask,
-            Field::WriteMask => self.write_mask == o.write_mask,
-            Field::Reference => self.reference == o.reference,
-        }
+/// Whether field `f` of `a` and `b` agree.
+fn same(a: &RasterState, b: &RasterState, f: Field) -> bool {
+    match f {
+        Field::Cull => a.cull == b.cull,
+        Field::DepthTest => a.depth_test == b.depth_test,
+        Field::DepthWrite => a.depth_write == b.depth_write,
+        Field::DepthCompare => a.depth_compare == b.depth_compare,
+        Field::StencilTest => a.stencil_test == b.stencil_test,
+        Field::StencilFront => a.front == b.front,
+        Field::StencilBack => a.back == b.back,
+        Field::CompareMask => a.compare_mask == b.compare_mask,
+        Field::WriteMask => a.write_mask == b.write_mask,
+        Field::Reference => a.reference == b.reference,
     }
+}
 
-    /// The fields to record to go from `prev` (`None`: nothing set yet in this
-    /// command buffer) to `self`.
-    pub fn changes<'a>(&'a self, prev: Option<&'a DynState>) -> impl Iterator<Item = Field> + 'a {
-        FIELDS
-            .into_iter()
-            .filter(move |&f| prev.is_none_or(|p| !p.same(self, f)))
-    }
+/// The fields to record to go from `prev` (`None`: nothing valid set since the
+/// command buffer began or a pipeline with static state was bound) to `next`.
+pub(super) fn changes<'a>(
+    next: &'a RasterState,
+    prev: Option<&'a RasterState>,
+) -> impl Iterator<Item = Field> + 'a {
+    FIELDS
+        .into_iter()
+        .filter(move |&f| prev.is_none_or(|p| !same(p, next, f)))
+}
 
-    /// Records field `f` of `self` into `cmd`.
-    pub fn record(&self, device: &ash::Device, cmd: vk::CommandBuffer, f: Field) {
-        let both = vk::StencilFaceFlags::FRONT_AND_BACK;
-        // SAFETY (every call below): `cmd` is recording and every bound pipeline
-        // declares these states dynamic; Vulkan 1.3 core commands.
-        match f {
-            Field::Scissor => unsafe {
-                device.cmd_set_scissor(cmd, 0, &[conv::rect2d(self.scissor)])
-            },
+/// Records field `f` of `s` into `cmd` as dynamic state.
+pub(super) fn record(device: &ash::Device, cmd: vk::CommandBuffer, s: &RasterState, f: Field) {
+    let both = vk::StencilFaceFlags::FRONT_AND_BACK;
+    // SAFETY (every call below): `cmd` is recording and the bound pipeline
+    // declares these states dynamic; Vulkan 1.3 core commands.
+    match f {
+        // SAFETY: see above.
+        Field::Cull => unsafe { device.cmd_set_cull_mode(cmd, s.cull) },
+        // SAFETY: see above.
+        Field::DepthTest => unsafe { device.cmd_set_depth_test_enable(cmd, s.depth_test) },
+        // SAFETY: see above.
+        Field::DepthWrite => unsafe { device.cmd_set_depth_write_enable(cmd, s.depth_write) },
+        // SAFETY: see above.
+        Field::DepthCompare => unsafe { device.cmd_set_depth_compare_op(cmd, s.depth_compare) },
+        // SAFETY: see above.
+        Field::StencilTest => unsafe { device.cmd_set_stencil_test_enable(cmd, s.stencil_test) },
+        Field::StencilFront | Field::StencilBack => {
+            let (face, o) = if f == Field::StencilFront {
+                (vk::StencilFaceFlags::FRONT, s.front)
+            } else {
+                (vk::StencilFaceFlags::BACK, s.back)
+            };
             // SAFETY: see above.
-            Field::Cull => unsafe { device.cmd_set_cull_mode(cmd, self.cull) },
-            // SAFETY: see above.
-            Field::DepthTest => unsafe { device.cmd_set_depth_test_enable(cmd, self.depth_test) },
-            // SAFETY: see above.
-            Field::DepthWrite => unsafe {
-                device.cmd_set_depth_write_enable(cmd, self.depth_write)
-            },
-            // SAFETY: see above.
-            Field::DepthCompare => unsafe {
-                device.cmd_set_depth_compare_op(cmd, self.depth_compare)
-            },
-            // SAFETY: see above.
-            Field::StencilTest => unsafe {
-                device.cmd_set_stencil_test_enable(cmd, self.stencil_test)
-            },
-            Field::StencilFront | Field::StencilBack => {
-                let (face, o) = if f == Field::StencilFront {
-                    (vk::StencilFaceFlags::FRONT, self.front)
-                } else {
-                    (vk::StencilFaceFlags::BACK, self.back)
-                };
-                // SAFETY: see above.
-                unsafe {
-                    device.cmd_set_stencil_op(cmd, face, o.fail, o.pass, o.depth_fail, o.compare)
-                }
-            }
-            // SAFETY: see above.
-            Field::CompareMask => unsafe {
-                device.cmd_set_stencil_compare_mask(cmd, both, self.compare_mask)
-            },
-            // SAFETY: see above.
-            Field::WriteMask => unsafe {
-                device.cmd_set_stencil_write_mask(cmd, both, self.write_mask)
-            },
-            // SAFETY: see above.
-            Field::Reference => unsafe {
-                device.cmd_set_stencil_reference(cmd, both, self.reference)
-            },
+            unsafe { device.cmd_set_stencil_op(cmd, face, o.fail, o.pass, o.depth_fail, o.compare) }
         }
+        // SAFETY: see above.
+        Field::CompareMask => unsafe {
+            device.cmd_set_stencil_compare_mask(cmd, both, s.compare_mask)
+        },
+        // SAFETY: see above.
+        Field::WriteMask => unsafe { device.cmd_set_stencil_write_mask(cmd, both, s.write_mask) },
+        // SAFETY: see above.
+        Field::Reference => unsafe { device.cmd_set_stencil_reference(cmd, both, s.reference) },
     }
 }
 
 /// Records the state every draw of a command buffer shares (viewport, front
-/// face): once, before its first draw.
+/// face; dynamic in every pipeline): once, before its first draw.
 pub(super) fn record_fixed(device: &ash::Device, cmd: vk::CommandBuffer, width: u32, height: u32) {
     let vp = vk::Viewport {
         x: 0.0,
@@ -239,28 +215,33 @@ mod tests {
 
     #[test]
     fn the_first_draw_sets_everything_and_an_equal_one_nothing() {
-        let r = Rect::full(8, 8);
-        let a = DynState::of(Some(&draw(Cull::Back, 1)), r, false);
-        assert_eq!(a.changes(None).count(), FIELDS.len());
-        assert_eq!(a.changes(Some(&a)).count(), 0);
+        let a = raster_state(Some(&draw(Cull::Back, 1)), false);
+        assert_eq!(changes(&a, None).count(), FIELDS.len());
+        assert_eq!(changes(&a, Some(&a)).count(), 0);
     }
 
     #[test]
     fn only_what_differs_is_recorded_again() {
-        let r = Rect::full(8, 8);
-        let a = DynState::of(Some(&draw(Cull::Back, 1)), r, false);
-        let b = DynState::of(Some(&draw(Cull::Front, 2)), r, false);
-        let got: Vec<Field> = b.changes(Some(&a)).collect();
+        let a = raster_state(Some(&draw(Cull::Back, 1)), false);
+        let b = raster_state(Some(&draw(Cull::Front, 2)), false);
+        let got: Vec<Field> = changes(&b, Some(&a)).collect();
         assert_eq!(got, vec![Field::Cull, Field::Reference]);
-        let smaller = Rect { x1: 4, ..r };
-        let c = DynState::of(Some(&draw(Cull::Front, 2)), smaller, false);
-        assert_eq!(
-            c.changes(Some(&b)).collect::<Vec<_>>(),
-            vec![Field::Scissor]
-        );
         // An internal copy turns the tests off.
-        let copy = DynState::of(None, r, false);
-        let off: Vec<Field> = copy.changes(Some(&b)).collect();
+        let copy = raster_state(None, false);
+        let off: Vec<Field> = changes(&copy, Some(&b)).collect();
         assert!(off.contains(&Field::DepthTest) && off.contains(&Field::StencilTest));
+    }
+
+    #[test]
+    fn the_plan_state_maps_to_vulkan_values() {
+        let s = raster_state(Some(&draw(Cull::Back, 3)), true);
+        assert_eq!(s.cull, vk::CullModeFlags::BACK);
+        assert!(s.depth_test && !s.depth_write && s.stencil_test);
+        // Reversed depth mirrors the comparison.
+        assert_eq!(s.depth_compare, vk::CompareOp::GREATER);
+        assert_eq!((s.reference, s.compare_mask, s.write_mask), (3, 0xff, 0xff));
+        assert_eq!(s.front.pass, vk::StencilOp::INVERT);
+        let none = raster_state(None, true);
+        assert!(!none.depth_test && !none.stencil_test);
     }
 }

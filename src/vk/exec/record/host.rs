@@ -21,7 +21,7 @@ use crate::plan::usage::{Resource, Usage};
 use crate::plan::{CompareOp, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
 use crate::vk::conv;
 use crate::vk::error::VkError;
-use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants, FLAG_MESH};
+use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
 use crate::vk::scissor::Rect;
 use crate::vk::submit;
 
@@ -177,7 +177,7 @@ impl Recorder<'_> {
         self.begin_host_block(h);
         let set = self.b.targets.sampling_set(Resource::Texture(tex));
         self.bind(pipeline, Some(set));
-        let flags = self.flags() | FLAG_MESH;
+        let flags = self.flags();
         // Ascending index: the first writer of a pixel stays (module doc).
         for draw in draws.iter().rev() {
             self.host_draw(draw, flags);
