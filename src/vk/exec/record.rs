@@ -22,10 +22,11 @@ use super::state::{self, DynState};
 use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
-use clears::{ClearNeed, PendingClear};
+use clears::PendingClear;
 
 mod clears;
 mod host;
+use crate::plan::reach::ClearNeed;
 use crate::plan::tie_free::TieFree;
 use crate::plan::usage::{self, Resource, Usage};
 use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
@@ -150,8 +151,14 @@ pub(super) struct Recorder<'a> {
     pipes: Vec<(BlockKey, FragmentKind, vk::Pipeline)>,
     state: BTreeMap<Resource, Usage>,
     pending_clear: BTreeMap<Resource, PendingClear>,
-    /// Regions of the clears recorded next, in order (`clears::clear_regions`).
+    /// Regions of the clears recorded next, in order (`plan::reach`).
     clear_regions: VecDeque<ClearNeed>,
+    /// Regions of the copies recorded next, in order (`plan::reach`).
+    copy_regions: VecDeque<Rect>,
+    /// The frame's outputs (`plan_clears`).
+    outputs: Vec<Resource>,
+    /// The open block's render area.
+    render_area: Rect,
     /// Group of each occlusion query of the current command buffer.
     pub queries: Vec<Group>,
     /// Group of the counted draws recorded next.
@@ -179,6 +186,9 @@ impl<'a> Recorder<'a> {
             state,
             pending_clear: BTreeMap::new(),
             clear_regions: VecDeque::new(),
+            copy_regions: VecDeque::new(),
+            outputs: Vec::new(),
+            render_area: Rect::EMPTY,
             queries: Vec::new(),
             group: None,
             marks: Vec::new(),
@@ -258,12 +268,7 @@ impl<'a> Recorder<'a> {
     /// with their pending clears done, every image in `REST`.
     pub fn finish_frame(&mut self, output_ds: u8) {
         self.end_block();
-        let mut outputs = vec![
-            Resource::Color,
-            Resource::Prim,
-            Resource::DepthStencil(output_ds),
-        ];
-        outputs.extend(self.b.normals.then_some(Resource::Normal));
+        let outputs = self.outputs(output_ds);
         self.flush_clears(&outputs);
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
@@ -399,7 +404,8 @@ impl<'a> Recorder<'a> {
             )
         };
         let color_set = t.sampling_set(Resource::Color);
-        self.fullscreen_internal(&key, FragmentKind::Accumulate, color_set)?;
+        let full = Rect::full(self.b.desc.width, self.b.desc.height);
+        self.fullscreen_internal(&key, FragmentKind::Accumulate, color_set, full)?;
         self.end_block();
         self.rest_all();
         Ok(())
@@ -513,7 +519,10 @@ impl<'a> Recorder<'a> {
             }
             Step::Clear(clear) => self.clear(clear),
             Step::CopyTexture { src, dst } => {
-                if src == dst {
+                let rect = self.copy_region();
+                if src == dst || rect.is_empty() {
+                    // Nobody reads the copy.
+                    self.stats.counts.skipped_steps += u64::from(src != dst);
                     return Ok(());
                 }
                 let uses = step.usage();
@@ -530,21 +539,25 @@ impl<'a> Recorder<'a> {
                     base_array_layer: 0,
                     layer_count: 1,
                 };
+                let offset = vk::Offset3D {
+                    x: rect.x0 as i32,
+                    y: rect.y0 as i32,
+                    z: 0,
+                };
                 let region = vk::ImageCopy {
                     src_subresource: layers,
-                    src_offset: vk::Offset3D::default(),
+                    src_offset: offset,
                     dst_subresource: layers,
-                    dst_offset: vk::Offset3D::default(),
+                    dst_offset: offset,
                     extent: vk::Extent3D {
-                        width: self.b.desc.width,
-                        height: self.b.desc.height,
+                        width: rect.width(),
+                        height: rect.height(),
                         depth: 1,
                     },
                 };
-                self.stats.counts.copied_pixels +=
-                    Rect::full(self.b.desc.width, self.b.desc.height).area();
+                self.stats.counts.copied_pixels += rect.area();
                 // SAFETY: outside rendering; both images allow transfer, same format,
-                // in the copy layouts after the barrier above.
+                // in the copy layouts after the barrier above; the region lies in both.
                 unsafe {
                     self.b.device.cmd_copy_image(
                         self.cmd,
@@ -557,10 +570,15 @@ impl<'a> Recorder<'a> {
                 };
             }
             Step::CopyDepthToTexture { ds, dst } => {
+                let rect = self.copy_region();
+                if rect.is_empty() {
+                    self.stats.counts.skipped_steps += 1;
+                    return Ok(());
+                }
                 let key = BlockKey::new(&[Resource::Texture(*dst)], None);
                 let set = self.b.targets.sampling_set(Resource::DepthStencil(*ds));
                 self.open(&key, &step.usage());
-                self.fullscreen_internal(&key, FragmentKind::CopyDepth, set)?;
+                self.fullscreen_internal(&key, FragmentKind::CopyDepth, set, rect)?;
             }
             Step::Draw(draw) => self.draw(draw, step)?,
             Step::Loop(_) => {
@@ -590,9 +608,11 @@ impl<'a> Recorder<'a> {
     fn begin_block(&mut self, key: &BlockKey) {
         let color_layout = sync::access(Usage::ColorTarget).layout;
         let ds_layout = sync::access(Usage::DepthStencilTarget).layout;
+        let attached = key.colors().iter().copied();
+        let area = self.render_area(attached.chain(key.ds.map(Resource::DepthStencil)));
         let mut in_block = Vec::new();
         let mut attachment = |rec: &mut Self, r: Resource, index, layout| {
-            let (load, clear) = rec.load_op(r, index, &mut in_block);
+            let (load, clear) = rec.load_op(r, index, area, &mut in_block);
             vk::RenderingAttachmentInfo::default()
                 .image_view(rec.b.targets.image(r).view)
                 .image_layout(layout)
@@ -609,13 +629,7 @@ impl<'a> Recorder<'a> {
             .ds
             .map(|d| attachment(self, Resource::DepthStencil(d), None, ds_layout));
         let mut ri = vk::RenderingInfo::default()
-            .render_area(vk::Rect2D {
-                offset: vk::Offset2D { x: 0, y: 0 },
-                extent: vk::Extent2D {
-                    width: self.b.desc.width,
-                    height: self.b.desc.height,
-                },
-            })
+            .render_area(conv::rect2d(area))
             .layer_count(1)
             .color_attachments(colors);
         if let Some(a) = ds_att.as_ref() {
@@ -626,6 +640,7 @@ impl<'a> Recorder<'a> {
         unsafe { self.b.device.cmd_begin_rendering(self.cmd, &ri) };
         self.stats.counts.render_passes += 1;
         self.block = Some(*key);
+        self.render_area = area;
         self.clear_in_block(&in_block);
     }
 
@@ -724,17 +739,19 @@ impl<'a> Recorder<'a> {
         m
     }
 
-    /// A full-screen draw that is not a plan `Draw` (depth copies).
+    /// A full-screen draw that is not a plan `Draw` (depth copies), cut to
+    /// `rect`.
     fn fullscreen_internal(
         &mut self,
         key: &BlockKey,
         kind: FragmentKind,
         set: vk::DescriptorSet,
+        rect: Rect,
     ) -> Result<(), VkError> {
         let pipeline = self.pipeline_for(key, kind)?;
         self.bind(pipeline, Some(set));
-        let full = Rect::full(self.b.desc.width, self.b.desc.height);
-        self.set_state(None, full);
+        self.check_in_area(rect);
+        self.set_state(None, rect);
         let pc = PushConstants {
             mvp: Self::fullscreen_matrix(0.0),
             flags: self.flags(),
@@ -748,8 +765,17 @@ impl<'a> Recorder<'a> {
                 .cmd_draw(self.cmd, 6, 1, self.b.scene.quad_first, 0)
         };
         self.stats.counts.fullscreen_passes += 1;
-        self.stats.counts.fullscreen_pixels += full.area();
+        self.stats.counts.fullscreen_pixels += rect.area();
         Ok(())
+    }
+
+    /// A draw's scissor lies in its block's render area (`render_area`).
+    fn check_in_area(&self, scissor: Rect) {
+        assert!(
+            self.render_area.contains(&scissor),
+            "a draw's scissor {scissor:?} lies outside its block's render area {:?}",
+            self.render_area
+        );
     }
 
     fn scissor(&self, s: &Scissor) -> Rect {
@@ -793,6 +819,7 @@ impl<'a> Recorder<'a> {
         let key = BlockKey::of_draw(&uses, draw.ds);
         let pipeline = self.pipeline_for(&key, kind)?;
         self.open(&key, &uses);
+        self.check_in_area(scissor);
         self.bind(pipeline, set);
         self.set_state(Some(draw), scissor);
         let flags = self.flags();
