@@ -339,3 +339,505 @@ pub fn holds(now: &KeptImages, assumed: &KeptImages) -> bool {
         })
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::{Draw, Fragment, Geometry};
+
+    const W: u32 = 100;
+    const H: u32 = 80;
+
+    /// Scissors: `BoundsOf([m])` is the 10×10 square at (10m, 10m); full is full.
+    fn scissor(s: &Scissor) -> Rect {
+        match s {
+            Scissor::Full => Rect::full(W, H),
+            Scissor::BoundsOf(ms) => ms.iter().fold(Rect::EMPTY, |r, &m| {
+                let o = 10 * m;
+                r.union(&Rect {
+                    x0: o,
+                    y0: o,
+                    x1: o + 10,
+                    y1: o + 10,
+                })
+            }),
+            Scissor::Within { .. } | Scissor::Overlap { .. } | Scissor::Run { .. } => {
+                unreachable!("these tests draw with full and BoundsOf scissors")
+            }
+        }
+    }
+
+    fn draw(fragment: Fragment, ds: u8, mesh: u32) -> Step {
+        let Step::Draw(mut d) = Draw::for_test(Geometry::Mesh(mesh), fragment) else {
+            unreachable!()
+        };
+        d.ds = ds;
+        d.scissor = Scissor::BoundsOf(vec![mesh]);
+        Step::Draw(d)
+    }
+
+    fn off_screen(fragment: Fragment, ds: u8) -> Step {
+        let Step::Draw(mut d) = draw(fragment, ds, 1) else {
+            unreachable!()
+        };
+        d.scissor = Scissor::BoundsOf(vec![]);
+        Step::Draw(d)
+    }
+
+    fn square(m: u32) -> Rect {
+        scissor(&Scissor::BoundsOf(vec![m])).grown(READ_MARGIN, READ_MARGIN, W, H)
+    }
+
+    fn reach_of(steps: &[Step], outputs: &[Resource], before: &KeptImages) -> FrameReach {
+        let refs: Vec<&Step> = steps.iter().collect();
+        let images = Images {
+            outputs,
+            normals: false,
+            size: (W, H),
+        };
+        frame_reach(&refs, scissor, images, before)
+    }
+
+    fn needs(steps: &[Step], outputs: &[Resource]) -> Vec<ClearNeed> {
+        reach_of(steps, outputs, &KeptImages::new()).clears
+    }
+
+    /// The regions of clears that all reach something.
+    fn regions(steps: &[Step], outputs: &[Resource]) -> Vec<Rect> {
+        needs(steps, outputs)
+            .into_iter()
+            .map(|n| match n {
+                ClearNeed::Reach(r) => r,
+                ClearNeed::Held => panic!("no clear of these tests is held"),
+            })
+            .collect()
+    }
+
+    fn clear_ds(ds: u8) -> Step {
+        Step::Clear(Clear::DepthStencil {
+            ds,
+            depth: 1.0,
+            stencil: 0,
+        })
+    }
+
+    fn clear_tex(tex: u8) -> Step {
+        Step::Clear(Clear::Texture { tex, depth: 0.0 })
+    }
+
+    fn peel(prev: u8, out: u8, mesh: u32) -> Step {
+        let f = Fragment::Peel {
+            prev,
+            out,
+            shade: false,
+        };
+        draw(f, 0, mesh)
+    }
+
+    #[test]
+    fn a_clear_reaches_the_scissors_of_the_draws_until_the_next_clear() {
+        let steps = vec![
+            clear_ds(1),
+            draw(Fragment::None, 1, 1),
+            draw(Fragment::None, 1, 3),
+            // Another image: not a use of ds 1.
+            draw(Fragment::None, 0, 6),
+            clear_ds(1),
+            draw(Fragment::None, 1, 2),
+        ];
+        let r = regions(&steps, &[]);
+        assert_eq!(r, vec![square(1).union(&square(3)), square(2)]);
+        let expected = Rect {
+            x0: 8,
+            y0: 8,
+            x1: 42,
+            y1: 42,
+        };
+        assert_eq!(r[0], expected);
+    }
+
+    #[test]
+    fn sampled_textures_copies_and_outputs_need_what_they_read() {
+        let steps = vec![
+            clear_tex(0),
+            clear_tex(1),
+            Step::Clear(Clear::Color),
+            peel(0, 1, 4),
+            // The copy replaces 2 where it is read (nowhere) and reads 1 there.
+            clear_tex(2),
+            Step::CopyTexture { src: 1, dst: 2 },
+            // Read by nobody.
+            clear_tex(3),
+        ];
+        let r = regions(&steps, &[Resource::Color, Resource::Prim]);
+        let full = Rect::full(W, H);
+        // tex 0 sampled by the peel, tex 1 written there, colour and ids read
+        // back whole (nothing known of them before), tex 2 replaced by the
+        // copy, tex 3 unread.
+        assert_eq!(
+            r,
+            vec![square(4), square(4), full, full, Rect::EMPTY, Rect::EMPTY]
+        );
+        assert_eq!(
+            reach_of(&steps, &[], &KeptImages::new()).copies,
+            vec![Rect::EMPTY]
+        );
+    }
+
+    /// Goldfeather's layer loop: the layer `CUR` is copied to `PREV`, which the
+    /// next peel samples, and to `SURF`, which the merge samples.
+    #[test]
+    fn a_copy_reaches_what_its_destination_is_read_at_and_reads_its_source_there() {
+        let steps = vec![
+            clear_tex(0),
+            clear_tex(1),
+            peel(0, 1, 2),
+            Step::CopyTexture { src: 1, dst: 2 },
+            draw(Fragment::DepthFromTexture { src: 2 }, 0, 5),
+            Step::CopyTexture { src: 1, dst: 0 },
+            peel(0, 1, 3),
+        ];
+        let r = reach_of(&steps, &[], &KeptImages::new());
+        assert_eq!(r.copies, vec![square(5), square(3)]);
+        // Texture 1 is read by both copies and written by both peels.
+        let tex1 = square(2).union(&square(3)).union(&square(5));
+        assert_eq!(
+            r.clears,
+            vec![ClearNeed::Reach(square(2)), ClearNeed::Reach(tex1)]
+        );
+    }
+
+    #[test]
+    fn a_depth_copy_reads_the_depth_where_its_texture_is_read_and_skipped_draws_read_nothing() {
+        let steps = vec![
+            clear_ds(0),
+            clear_tex(5),
+            Step::CopyDepthToTexture { ds: 0, dst: 5 },
+            draw(Fragment::ShadeNearDepth { tex: 5, eps: 0.0 }, 1, 3),
+            clear_tex(6),
+            // Off screen (empty scissor): skipped by the recorder.
+            off_screen(Fragment::WriteDepth { out: 6 }, 0),
+        ];
+        let r = reach_of(&steps, &[], &KeptImages::new());
+        assert_eq!(r.copies, vec![square(3)]);
+        assert_eq!(
+            r.clears,
+            vec![
+                ClearNeed::Reach(square(3)),
+                ClearNeed::Reach(Rect::EMPTY),
+                ClearNeed::Reach(Rect::EMPTY)
+            ]
+        );
+    }
+
+    #[test]
+    fn the_normal_buffer_goes_with_the_colour() {
+        let steps = [Step::Clear(Clear::Color), draw(Fragment::Shade, 0, 2)];
+        let refs: Vec<&Step> = steps.iter().collect();
+        let images = Images {
+            outputs: &[],
+            normals: true,
+            size: (W, H),
+        };
+        let r = frame_reach(&refs, scissor, images, &KeptImages::new());
+        assert_eq!(r.clears, vec![ClearNeed::Reach(square(2)); 3]);
+    }
+
+    /// CST's floor: cleared to one value per product, only ever sampled. The
+    /// first clear reaches every product's reads; the others need nothing.
+    #[test]
+    fn a_clear_to_the_value_the_image_holds_is_held() {
+        let floor = clear_tex(0);
+        let steps = vec![floor.clone(), peel(0, 1, 1), floor.clone(), peel(0, 1, 3)];
+        assert_eq!(
+            needs(&steps, &[]),
+            vec![
+                ClearNeed::Reach(square(1).union(&square(3))),
+                ClearNeed::Held
+            ]
+        );
+        // Another value, or a write in between: the second clear is needed and
+        // ends the first one's reach.
+        let other = Step::Clear(Clear::Texture { tex: 0, depth: 1.0 });
+        let steps = vec![floor.clone(), peel(0, 1, 1), other, peel(0, 1, 3)];
+        assert_eq!(regions(&steps, &[]), vec![square(1), square(3)]);
+        let write = draw(Fragment::WriteDepth { out: 0 }, 0, 2);
+        let steps = vec![
+            floor.clone(),
+            peel(0, 1, 1),
+            write,
+            floor.clone(),
+            peel(0, 1, 3),
+        ];
+        assert_eq!(
+            regions(&steps, &[]),
+            vec![square(1).union(&square(2)), square(3)]
+        );
+        // A write that is skipped (empty scissor) writes nothing.
+        let skipped = off_screen(Fragment::WriteDepth { out: 0 }, 0);
+        let steps = vec![floor.clone(), skipped, floor, peel(0, 1, 3)];
+        assert_eq!(
+            needs(&steps, &[]),
+            vec![ClearNeed::Reach(square(3)), ClearNeed::Held]
+        );
+    }
+
+    /// The outputs of a frame that starts from what the last one left: their
+    /// clears reach the pixels dirtied then and now, not the whole image.
+    #[test]
+    fn outputs_are_cleared_where_earlier_frames_and_this_one_draw() {
+        let outputs = [Resource::Color, Resource::Prim, Resource::DepthStencil(0)];
+        let steps = vec![
+            clear_ds(0),
+            Step::Clear(Clear::Color),
+            draw(Fragment::Shade, 0, 2),
+            draw(Fragment::Shade, 0, 3),
+        ];
+        let full = Rect::full(W, H);
+        let first = reach_of(&steps, &outputs, &KeptImages::new());
+        assert_eq!(first.clears, vec![ClearNeed::Reach(full); 3]);
+        let written = scissor(&Scissor::BoundsOf(vec![2, 3]));
+        let colour = Kept {
+            value: Clear::Color,
+            dirty: written,
+        };
+        assert_eq!(first.kept[&Resource::Color], colour);
+        assert_eq!(first.kept[&Resource::DepthStencil(0)].dirty, written);
+        // The next frame: only what it reads and what the last one dirtied.
+        let next = reach_of(&steps, &outputs, &first.kept);
+        let reads = square(2).union(&square(3));
+        assert_eq!(next.clears, vec![ClearNeed::Reach(reads); 3]);
+        assert_eq!(next.kept, first.kept);
+        // Earlier frames dirtied a corner: it is cleared too.
+        let mut corner = first.kept.clone();
+        let c = Rect {
+            x0: 90,
+            y0: 70,
+            x1: 100,
+            y1: 80,
+        };
+        corner.get_mut(&Resource::Color).unwrap().dirty = c;
+        let r = reach_of(&steps, &outputs, &corner);
+        assert_eq!(r.clears[1], ClearNeed::Reach(reads.union(&c)));
+        // Another value than the image holds: the whole image.
+        let mut other = first.kept.clone();
+        other.get_mut(&Resource::DepthStencil(0)).unwrap().value = Clear::DepthStencil {
+            ds: 0,
+            depth: 0.0,
+            stencil: 0,
+        };
+        assert_eq!(
+            reach_of(&steps, &outputs, &other).clears[0],
+            ClearNeed::Reach(full)
+        );
+        // A frame that uses an output as a work image leaves it unknown.
+        let work = [clear_ds(1), draw(Fragment::None, 1, 2)];
+        let r = reach_of(&work, &outputs, &first.kept);
+        assert!(r.kept.contains_key(&Resource::Color));
+        let other_outputs = [Resource::Color, Resource::Prim, Resource::DepthStencil(1)];
+        let steps = [clear_ds(0), draw(Fragment::None, 0, 1)];
+        let r = reach_of(&steps, &other_outputs, &first.kept);
+        assert!(!r.kept.contains_key(&Resource::DepthStencil(0)));
+    }
+
+    #[test]
+    fn a_recording_assumes_what_it_leaves_and_holds_checks_it() {
+        let a = Rect {
+            x0: 0,
+            y0: 0,
+            x1: 5,
+            y1: 5,
+        };
+        let b = Rect {
+            x0: 10,
+            y0: 10,
+            x1: 20,
+            y1: 20,
+        };
+        let k = |dirty| {
+            KeptImages::from([(
+                Resource::Color,
+                Kept {
+                    value: Clear::Color,
+                    dirty,
+                },
+            )])
+        };
+        let assumed = assume(&k(a), &k(b));
+        assert_eq!(assumed, k(a.union(&b)));
+        assert!(holds(&k(a), &assumed) && holds(&k(b), &assumed));
+        assert!(holds(&k(Rect::EMPTY), &assumed));
+        assert!(!holds(&k(Rect::full(W, H)), &assumed));
+        assert!(!holds(&KeptImages::new(), &assumed));
+        assert!(holds(&KeptImages::new(), &KeptImages::new()));
+        // Nothing known now: nothing assumed.
+        assert_eq!(assume(&KeptImages::new(), &k(b)), KeptImages::new());
+    }
+
+    /// Pixel images of a simulated frame: a value per pixel and image.
+    type Pixels = BTreeMap<Resource, Vec<u64>>;
+
+    fn value_of(c: &Clear) -> u64 {
+        match *c {
+            Clear::DepthStencil { ds, depth, stencil } => {
+                1 << 40 | (ds as u64) << 32 | (depth.to_bits() as u64) ^ stencil as u64
+            }
+            Clear::Texture { tex, depth } => 2 << 40 | (tex as u64) << 32 | depth.to_bits() as u64,
+            Clear::Color => 3 << 40,
+        }
+    }
+
+    fn each(rect: Rect, mut f: impl FnMut(usize)) {
+        for y in rect.y0..rect.y1 {
+            for x in rect.x0..rect.x1 {
+                f((y * W + x) as usize);
+            }
+        }
+    }
+
+    /// Runs `steps` on `px` with the clears and copies reaching `reach` (or
+    /// whole images): every value a draw reads (its images within its grown
+    /// scissor) goes to `reads`; a draw writes a value of its own (`tag`,
+    /// step) to the images it may write within its scissor.
+    fn simulate(
+        steps: &[Step],
+        reach: Option<&FrameReach>,
+        px: &mut Pixels,
+        tag: u64,
+        reads: &mut Vec<u64>,
+    ) {
+        let full = Rect::full(W, H);
+        let mut clears = reach.map(|r| r.clears.iter());
+        let mut copies = reach.map(|r| r.copies.iter());
+        let mut get = |px: &mut Pixels, r| {
+            px.entry(r)
+                .or_insert(vec![u64::MAX; (W * H) as usize])
+                .clone()
+        };
+        for (i, s) in steps.iter().enumerate() {
+            match s {
+                Step::Clear(c) => {
+                    for r in cleared(c, false) {
+                        let need = clears.as_mut().map_or(ClearNeed::Reach(full), |n| {
+                            *n.next().expect("a need per cleared image")
+                        });
+                        let mut img = get(px, r);
+                        if let ClearNeed::Reach(rect) = need {
+                            each(rect, |p| img[p] = value_of(c));
+                        }
+                        px.insert(r, img);
+                    }
+                }
+                Step::CopyTexture { src, dst } | Step::CopyDepthToTexture { ds: src, dst } => {
+                    let rect = copies
+                        .as_mut()
+                        .map_or(full, |c| *c.next().expect("a region per copy"));
+                    let src = match s {
+                        Step::CopyTexture { .. } => Resource::Texture(*src),
+                        _ => Resource::DepthStencil(*src),
+                    };
+                    let from = get(px, src);
+                    let mut to = get(px, Resource::Texture(*dst));
+                    each(rect, |p| to[p] = from[p]);
+                    px.insert(Resource::Texture(*dst), to);
+                }
+                Step::Draw(_) => {
+                    let Some(rect) = draw_rect(s, &scissor) else {
+                        continue;
+                    };
+                    for (r, _) in uses(s, false) {
+                        let img = get(px, r);
+                        each(rect.grown(READ_MARGIN, READ_MARGIN, W, H), |p| {
+                            reads.push(img[p])
+                        });
+                    }
+                    for (r, _) in uses(s, false) {
+                        if may_write(s, r, false) {
+                            let mut img = get(px, r);
+                            each(rect, |p| img[p] = tag << 20 | i as u64);
+                            px.insert(r, img);
+                        }
+                    }
+                }
+                Step::Pass(_) | Step::Loop(_) => {}
+            }
+        }
+    }
+
+    /// A random frame from a small vocabulary of steps on 2 depth-stencils
+    /// and 3 textures, every image cleared at its start as plans do (a plan
+    /// reads no image it has not cleared or written).
+    fn random_frame(seed: u64) -> Vec<Step> {
+        let mut x = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let mut next = |n: u64| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 33) % n
+        };
+        let mut steps = vec![clear_ds(0), Step::Clear(Clear::Color), clear_ds(1)];
+        steps.extend((0..3).map(clear_tex));
+        for _ in 0..12 {
+            let (t, u, m) = (next(3) as u8, next(3) as u8, next(7) as u32);
+            let ds = next(2) as u8;
+            steps.push(match next(9) {
+                0 => clear_ds(ds),
+                1 => Step::Clear(Clear::Texture {
+                    tex: t,
+                    depth: next(2) as f32,
+                }),
+                2 => Step::CopyTexture { src: t, dst: u },
+                3 => Step::CopyDepthToTexture { ds, dst: t },
+                4 => draw(Fragment::Shade, ds, m),
+                5 => draw(
+                    Fragment::Peel {
+                        prev: t,
+                        out: u,
+                        shade: next(2) == 0,
+                    },
+                    ds,
+                    m,
+                ),
+                6 => draw(Fragment::DepthFromTexture { src: t }, ds, m),
+                7 => draw(Fragment::WriteDepth { out: t }, ds, m),
+                _ => draw(Fragment::None, ds, m),
+            });
+        }
+        steps
+    }
+
+    /// Random frames, run several times in a row as the executor runs them:
+    /// with clears and copies cut to `frame_reach` (outputs carried over from
+    /// frame to frame) every draw reads the values it reads with whole clears
+    /// and copies, and the outputs end the same, pixel for pixel.
+    #[test]
+    fn cut_clears_and_copies_read_and_leave_what_whole_ones_do() {
+        let outputs = [Resource::Color, Resource::Prim, Resource::DepthStencil(0)];
+        for seed in 0..300 {
+            let steps = random_frame(seed);
+            let (mut whole, mut cut) = (Pixels::new(), Pixels::new());
+            let mut kept = KeptImages::new();
+            for frame in 0..3 {
+                let r = reach_of(&steps, &outputs, &kept);
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                simulate(&steps, None, &mut whole, frame, &mut a);
+                simulate(&steps, Some(&r), &mut cut, frame, &mut b);
+                assert!(
+                    a == b,
+                    "seed {seed} frame {frame}: a draw read another value\n{steps:#?}"
+                );
+                for o in &outputs {
+                    assert!(
+                        whole[o] == cut[o],
+                        "seed {seed} frame {frame}: output {o:?} differs"
+                    );
+                }
+                kept = r.kept;
+            }
+            // From the second frame on, the outputs' clears are cut.
+            assert!(kept.contains_key(&Resource::Color), "seed {seed}");
+        }
+    }
+}
