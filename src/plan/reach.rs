@@ -709,7 +709,7 @@ mod tests {
         let full = Rect::full(W, H);
         let mut clears = reach.map(|r| r.clears.iter());
         let mut copies = reach.map(|r| r.copies.iter());
-        let mut get = |px: &mut Pixels, r| {
+        let get = |px: &mut Pixels, r| {
             px.entry(r)
                 .or_insert(vec![u64::MAX; (W * H) as usize])
                 .clone()
