@@ -7,7 +7,11 @@
 //! `OUT_DIR/<name>.<stage>.normals.spv`: the variant that writes the normal buffer
 //! (seed 001 §5.2) for executors that ask for one. Likewise `#ifdef HOST` gives
 //! `<name>.<stage>.host.spv`: the variant drawing into an embedding host's
-//! attachments (`vk::exec::record::host`).
+//! attachments (`vk::exec::record::host`), and `#ifdef HOST_SRGB` gives
+//! `<name>.<stage>.host_srgb.spv` (`HOST` and `HOST_SRGB` defined): the variant
+//! for an `_SRGB` host colour format, which decodes the colour it writes. A
+//! variant rather than a push-constant branch because lavapipe runs both sides
+//! of a uniform branch for every fragment.
 
 use std::path::Path;
 
@@ -33,22 +37,29 @@ fn main() {
             &path,
             stage,
             &source,
-            None,
+            &[],
             &Path::new(&out_dir).join(format!("{name}.spv")),
         );
-        for (define, suffix) in [("NORMALS", "normals"), ("HOST", "host")] {
-            if source.contains(&format!("#ifdef {define}")) {
+        // (defines, suffix): compiled when the source tests the last define.
+        let variants: [(&[&str], &str); 3] = [
+            (&["NORMALS"], "normals"),
+            (&["HOST"], "host"),
+            (&["HOST", "HOST_SRGB"], "host_srgb"),
+        ];
+        for (defines, suffix) in variants {
+            let last = defines.last().expect("a variant has a define");
+            if source.lines().any(|l| l.trim() == format!("#ifdef {last}")) {
                 let out = Path::new(&out_dir).join(format!("{name}.{suffix}.spv"));
-                compile(&path, stage, &source, Some(define), &out);
+                compile(&path, stage, &source, defines, &out);
             }
         }
     }
 }
 
-/// Compiles one shader (with `define` defined as 1) into `out`.
-fn compile(path: &Path, stage: naga::ShaderStage, source: &str, define: Option<&str>, out: &Path) {
+/// Compiles one shader (with each of `defines` defined as 1) into `out`.
+fn compile(path: &Path, stage: naga::ShaderStage, source: &str, defines: &[&str], out: &Path) {
     let mut opts = naga::front::glsl::Options::from(stage);
-    if let Some(d) = define {
+    for d in defines {
         opts.defines.insert(d.to_string(), "1".to_string());
     }
     let module = naga::front::glsl::Frontend::default()

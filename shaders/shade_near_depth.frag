@@ -4,7 +4,8 @@
 // of this face's depth slope of the texture; writes the face's depth at the pixel
 // centre, independent of how the device snapped the vertices (plan::tie, README
 // "Precision"). With HOST: the embedding's final pass drawn straight into a
-// host's attachments (vk::exec::record::host), colour only.
+// host's attachments (vk::exec::record::host), colour only; with HOST_SRGB too,
+// for an _SRGB host colour format.
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -32,7 +33,7 @@ layout(location = 1) out uint o_prim;
 
 
 #include "tie.glsl"
-#ifdef HOST
+#ifdef HOST_SRGB
 #include "srgb.glsl"
 #endif
 
@@ -94,9 +95,13 @@ void main() {
     // first (the host's geometry wins exact ties).
     gl_FragDepth = t.d;
     vec3 c = pc.color.rgb * shade_factor();
-    // flags bit 2: an _SRGB host format, whose hardware encoding would encode
-    // these (already sRGB-encoded) values a second time.
-    o_color = vec4((pc.flags & 4u) != 0u ? srgb_to_linear(c) : c, 1.0);
+#ifdef HOST_SRGB
+    // An _SRGB host format, whose hardware encoding would encode these
+    // (already sRGB-encoded) values a second time. A shader variant, not a
+    // flag: lavapipe would compute the decode for every fragment either way.
+    c = srgb_to_linear(c);
+#endif
+    o_color = vec4(c, 1.0);
 #else
     gl_FragDepth = z;
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);

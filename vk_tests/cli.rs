@@ -527,3 +527,49 @@ fn closed_stdout_is_not_a_panic() {
         assert!(out.status.success(), "{args:?}: {:?} {err}", out.status);
     }
 }
+
+/// `bench` times a scene's algorithms round-robin and says so per run; on the
+/// gear CST-G plans exactly CST-I's steps (equal digests) and the summary's CST
+/// ordering line says so.
+#[test]
+fn bench_interleaves_frames_and_states_the_cst_ordering() {
+    let out = tmp("bench-interleaved");
+    let o = run(&[
+        "bench",
+        &scene("gear.toml"),
+        "--algos",
+        "cst-g,cst-i,cst-z,blister",
+        "--size",
+        "48x48",
+        "--frames",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let rows = json.as_array().unwrap();
+    assert_eq!(rows.len(), 4, "{json:#}");
+    for r in rows {
+        assert!(r["failure"].is_null(), "{r:#}");
+        assert_eq!(r["timing"]["interleaved"]["runs"], 4, "{r:#}");
+        assert_eq!(r["frames"], 2, "{r:#}");
+        assert_eq!(r["overhead"]["replayed_frames"], 2, "{r:#}");
+    }
+    let digest = |a: &str| {
+        rows.iter().find(|r| r["algo"] == a).unwrap()["plan_digest"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    assert_eq!(digest("cst-g"), digest("cst-i"));
+    assert_ne!(digest("cst-i"), digest("cst-z"));
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(
+        summary.contains("4 of 4 runs had their timed frames interleaved")
+            && summary.contains("≡ cst-i")
+            && summary.contains("CST-G = CST-I plan"),
+        "{summary}"
+    );
+}

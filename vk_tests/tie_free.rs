@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use peeltrim::plan::step::{Fragment, Step};
 use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::reference::compare::compare;
 use peeltrim::render::{DepthSetup, FrameStats, GpuRenderer};
@@ -13,11 +14,10 @@ use crate::algorithms::{load, SIZE};
 
 /// The GPU algorithms with tolerant parity or peel draws (all but the
 /// reference and the paper's depth-test Blister).
-/// (SCS keeps the tie rule everywhere: `plan::tie_free`.)
 fn tolerant() -> impl Iterator<Item = Algo> {
     Algo::ALL
         .into_iter()
-        .filter(|a| !matches!(a, Algo::Reference | Algo::BlisterPaper | Algo::Scs))
+        .filter(|a| !matches!(a, Algo::Reference | Algo::BlisterPaper))
 }
 
 /// One frame of `algo` on the shipped scene `name`, with the fast path on or off.
@@ -88,4 +88,48 @@ fn coincident_faces_keep_the_tie_rule() {
         assert_eq!(c.tie_free_draws, 0, "{algo}: {c:?}");
         assert!(c.tie_rule_draws > 0, "{algo}: {c:?}");
     }
+}
+
+#[test]
+fn scs_subtracts_drilled_block_with_plain_depth_tests() {
+    // SCS's exits move `z` in the depth-stencil image as in the texture, so its
+    // tie-free parity draws test the image: each hole's subtraction and the
+    // block's clip run without the tie-rule shader (`plan::scs`).
+    let (fast, stats, scene) = frame("drilled_block", Algo::Scs, true);
+    let prep = Prepared::new(&scene).expect("prepared");
+    let built = plan::build(Algo::Scs, &prep).expect("scs plan");
+    let mut parity: Vec<(&str, u64)> = Vec::new();
+    let mut pass = "";
+    for s in &built.steps {
+        match s {
+            Step::Pass(p) => pass = p,
+            Step::Draw(d) if matches!(d.fragment, Fragment::NearerThan { .. }) => {
+                match parity.last_mut() {
+                    Some((p, n)) if *p == pass => *n += 1,
+                    _ => parity.push((pass, 1)),
+                }
+            }
+            Step::Loop(_) => panic!("the holes are disjoint: no rounds"),
+            _ => {}
+        }
+    }
+    // One parity draw per hole, then the block's clip.
+    assert_eq!(parity, vec![("subtract", 12), ("clip", 1)]);
+    let c = &stats.exec.counts;
+    assert_eq!((c.tie_free_draws, c.tie_rule_draws), (13, 0), "{c:?}");
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    let r = compare(&reference, &fast).expect("same size");
+    // `vk_tests::algorithms`' SCS bars.
+    assert!(
+        r.coverage_mismatch_interior_frac <= 0.0005 && r.prim_mismatch_interior_frac <= 0.0001,
+        "against the reference: {r:?}"
+    );
+    let (slow, slow_stats, _) = frame("drilled_block", Algo::Scs, false);
+    assert_eq!(slow_stats.exec.counts.tie_rule_draws, 13);
+    let d = compare(&slow, &fast).expect("same size");
+    assert_eq!(
+        (d.coverage_mismatch_interior, d.prim_mismatch_interior),
+        (0, 0),
+        "against the tie-rule frame: {d:?}"
+    );
 }

@@ -17,6 +17,7 @@ pub mod modes;
 pub mod opencsg;
 pub mod plot;
 pub mod report;
+pub mod rounds;
 pub mod scaling;
 
 use std::path::{Path, PathBuf};
@@ -136,6 +137,11 @@ pub struct Record {
     /// With `interference = true` (CST variants): the pair frames' time.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interference: Option<modes::InterferenceBench>,
+    /// How the timed frames were ordered against the scene's other runs.
+    pub timing: rounds::Timing,
+    /// A digest of the plan's steps: runs with equal digests ran the same plan
+    /// (CST-G where its counter pays for no group is CST-I's plan).
+    pub plan_digest: String,
 }
 
 impl Record {
@@ -179,6 +185,8 @@ impl Record {
             embedded: None,
             shadow: None,
             interference: None,
+            timing: rounds::Timing::Alone,
+            plan_digest: String::new(),
         }
     }
 
@@ -307,50 +315,104 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 }
                 _ => None,
             };
-            for &depth in &cfg.depth_setups {
-                let mut gpu: Option<GpuRenderer> = None;
-                for &algo in &gpu_algos {
-                    bar.set_message(format!("{label} {w}x{h}: {algo} {}", depth.name()));
-                    let mut rec = base(algo.name(), depth.name());
-                    let setup = RunSetup {
-                        scene: &scene,
-                        prep: &prep,
-                        costs: costs.as_ref(),
-                        reference: &reference,
-                    };
-                    match run_one(cfg, &setup, algo, depth, &mut gpu) {
-                        Ok((r, images)) => {
-                            rec = Record {
-                                scene: rec.scene,
-                                family: rec.family,
-                                n: rec.n,
-                                prims: rec.prims,
-                                ..r
-                            };
-                            if cfg.save_images {
-                                save(cfg, &label, w, h, algo.name(), &rec.depth_setup, &images)?;
-                            }
-                        }
-                        Err(RunError::Failed(e)) => rec.failure = Some(e),
-                        Err(RunError::Skipped(est)) => {
-                            rec.skipped = Some(format!(
-                                "skipped: {est}, over --max-est-s {}",
-                                cfg.max_est_s
-                            ));
-                            rec.estimate = Some(est);
-                        }
-                    }
-                    records.push(rec);
-                    bar.inc(1);
-                }
-            }
-            if let Some(b) = &cfg.baseline {
-                bar.set_message(format!("{label} {w}x{h}: opencsg"));
+            // OpenCSG (a separate process) runs before and after our rounds; its
+            // figures are the median of both runs (`opencsg::merge_runs`).
+            let run_opencsg = |b: &opencsg::OpenCsgBaseline, when: &str| {
                 let work = cfg.out.join("opencsg").join(format!("{label}-{w}x{h}"));
                 let base = base("opencsg", "gl-d24s8");
-                let rows =
-                    opencsg::run_scene(b, &scene, &reference, base, cfg.frames, cfg.warmup, &work);
-                for (rec, images) in rows {
+                let (frames, warmup) = (cfg.frames, cfg.warmup);
+                opencsg::run_scene(
+                    b,
+                    &scene,
+                    &reference,
+                    base,
+                    frames,
+                    warmup,
+                    &work.join(when),
+                )
+            };
+            let opencsg_before = cfg.baseline.as_ref().map(|b| {
+                bar.set_message(format!("{label} {w}x{h}: opencsg (before)"));
+                run_opencsg(b, "before")
+            });
+            let setup = RunSetup {
+                scene: &scene,
+                prep: &prep,
+                costs: costs.as_ref(),
+                reference: &reference,
+            };
+            let timing = rounds::timing(
+                gpu_algos.len(),
+                rounds::renderer_bytes(&scene, w, h),
+                crate::budget::current().bytes,
+            );
+            // Interleaved: one group of every algorithm, each with its own renderer;
+            // else one group per algorithm, sharing one renderer in turn.
+            let groups: Vec<&[Algo]> = match timing {
+                rounds::Timing::Interleaved { .. } => vec![&gpu_algos[..]],
+                _ => gpu_algos.chunks(1).collect(),
+            };
+            for &depth in &cfg.depth_setups {
+                let mut spare: Option<GpuRenderer> = None;
+                for &group in &groups {
+                    let mut runs = Vec::new();
+                    for &algo in group {
+                        bar.set_message(format!(
+                            "{label} {w}x{h}: {algo} {}: warm-up",
+                            depth.name()
+                        ));
+                        runs.push(start(cfg, &setup, algo, depth, &mut spare));
+                    }
+                    bar.set_message(format!("{label} {w}x{h}: {}: timed frames", depth.name()));
+                    time_rounds(cfg, &mut runs);
+                    for (&algo, run) in group.iter().zip(runs) {
+                        bar.set_message(format!("{label} {w}x{h}: {algo} {}", depth.name()));
+                        let mut rec = base(algo.name(), depth.name());
+                        let result = run.and_then(|mut started| {
+                            let r = finish(cfg, &setup, &mut started, depth);
+                            spare = Some(started.gpu);
+                            r
+                        });
+                        match result {
+                            Ok((r, images)) => {
+                                rec = Record {
+                                    scene: rec.scene,
+                                    family: rec.family,
+                                    n: rec.n,
+                                    prims: rec.prims,
+                                    timing: timing.clone(),
+                                    ..r
+                                };
+                                if cfg.save_images {
+                                    save(
+                                        cfg,
+                                        &label,
+                                        w,
+                                        h,
+                                        algo.name(),
+                                        &rec.depth_setup,
+                                        &images,
+                                    )?;
+                                }
+                            }
+                            Err(RunError::Failed(e)) => rec.failure = Some(e),
+                            Err(RunError::Skipped(est)) => {
+                                rec.skipped = Some(format!(
+                                    "skipped: {est}, over --max-est-s {}",
+                                    cfg.max_est_s
+                                ));
+                                rec.estimate = Some(est);
+                            }
+                        }
+                        records.push(rec);
+                        bar.inc(1);
+                    }
+                }
+            }
+            if let (Some(b), Some(before)) = (&cfg.baseline, opencsg_before) {
+                bar.set_message(format!("{label} {w}x{h}: opencsg (after)"));
+                let after = run_opencsg(b, "after");
+                for (rec, images) in opencsg::merge_runs(before, after) {
                     if let (true, Some(images)) = (cfg.save_images, images) {
                         save(cfg, &label, w, h, &rec.algo, &rec.depth_setup, &images)?;
                     }
@@ -405,15 +467,28 @@ impl From<String> for RunError {
     }
 }
 
-/// Warm-up and timed frames of one algorithm; the error of the last image.
-fn run_one(
+/// A run warmed up and ready for its timed frames: its plan, its renderer (kept
+/// across the rounds, so it replays its own recording) and its timed frames so far.
+struct Started {
+    algo: Algo,
+    plan: plan::Plan,
+    gpu: GpuRenderer,
+    est: Option<estimate::FrameEstimate>,
+    /// Its warm-up took longer than `budget_ms`: timed on one frame only.
+    slow: bool,
+    frames: Vec<FrameStats>,
+}
+
+/// The plan and warm-up of one algorithm, on `spare`'s renderer when there is
+/// one (taken once the plan is made), else on a new one.
+fn start(
     cfg: &BenchConfig,
     setup: &RunSetup,
     algo: Algo,
     depth: DepthSetup,
-    gpu: &mut Option<GpuRenderer>,
-) -> Result<(Record, Images), RunError> {
-    let (scene, reference) = (setup.scene, setup.reference);
+    spare: &mut Option<GpuRenderer>,
+) -> Result<Started, RunError> {
+    let scene = setup.scene;
     let prep = setup.prep.as_ref().map_err(|e| e.to_string())?;
     let plan = plan::build_with(algo, prep, &cfg.build).map_err(|e| e.to_string())?;
     let est = setup
@@ -425,19 +500,13 @@ fn run_one(
     {
         return Err(RunError::Skipped(e.clone()));
     }
-    if gpu.is_none() {
-        *gpu = Some(
-            GpuRenderer::with_fallback(
-                scene,
-                cfg.device,
-                depth,
-                cfg.depth_fallback,
-                cfg.validation,
-            )
-            .map_err(|e| e.to_string())?,
-        );
-    }
-    let gpu = gpu.as_mut().expect("created above");
+    let mut gpu = match spare.take() {
+        Some(g) => g,
+        None => {
+            GpuRenderer::with_fallback(scene, cfg.device, depth, cfg.depth_fallback, cfg.validation)
+                .map_err(|e| e.to_string())?
+        }
+    };
     let mut slow = false;
     let mut last = None;
     for _ in 0..cfg.warmup {
@@ -450,12 +519,67 @@ fn run_one(
     if cfg.warmup > 0 && last == Some(crate::vk::Recorded::Stepwise) {
         gpu.execute(&plan).map_err(|e| e.to_string())?;
     }
-    // Timed frames leave their images on the GPU; the last one is read back once,
-    // after timing, for the error against the reference.
-    let mut frames = Vec::new();
-    for _ in 0..if slow { 1 } else { cfg.frames.max(1) } {
-        frames.push(gpu.execute(&plan).map_err(|e| e.to_string())?);
+    Ok(Started {
+        algo,
+        plan,
+        gpu,
+        est,
+        slow,
+        frames: Vec::new(),
+    })
+}
+
+/// The timed frames of a group of started runs, round-robin, each after an
+/// untimed one of its run ([`rounds`]). They
+/// leave their images on the GPU; each run's last one is read back once, after
+/// timing, for the error against the reference. A run whose frame fails leaves
+/// the rounds with that failure.
+fn time_rounds(cfg: &BenchConfig, runs: &mut [Result<Started, RunError>]) {
+    let counts: Vec<u32> = runs
+        .iter()
+        .map(|r| match r {
+            Ok(s) if s.slow => 1,
+            Ok(_) => cfg.frames.max(1),
+            Err(_) => 0,
+        })
+        .collect();
+    for slot in rounds::schedule(&counts, rounds::WARM_FRAMES) {
+        let failed = match &mut runs[slot.run] {
+            Ok(s) => match s.gpu.execute(&s.plan) {
+                Ok(f) => {
+                    if slot.timed {
+                        s.frames.push(f);
+                    }
+                    None
+                }
+                Err(e) => Some(e.to_string()),
+            },
+            Err(_) => None,
+        };
+        if let Some(e) = failed {
+            runs[slot.run] = Err(RunError::Failed(e));
+        }
     }
+}
+
+/// A timed run's record: the camera-move and re-recording figures, the error of
+/// its last image, and its modes (embedded, shadows, interference).
+fn finish(
+    cfg: &BenchConfig,
+    setup: &RunSetup,
+    started: &mut Started,
+    depth: DepthSetup,
+) -> Result<(Record, Images), RunError> {
+    let (scene, reference) = (setup.scene, setup.reference);
+    let Started {
+        algo,
+        ref plan,
+        ref mut gpu,
+        ref est,
+        slow,
+        ref frames,
+    } = *started;
+    let est = est.clone();
     let replayed = frames.iter().filter(|f| f.exec.record_ms == 0.0).count() as u32;
     // A camera move (a viewer's orbit), then one frame recorded anew at the
     // original camera: what a moved camera and a new plan cost the CPU (skipped
@@ -466,9 +590,9 @@ fn run_one(
         // An orbit in two steps: the first records the frame with grown
         // scissors, the second is what each frame of an orbit then costs.
         gpu.set_camera(&nudged(&scene.camera, 0.5)).map_err(err)?;
-        gpu.execute(&plan).map_err(err)?;
+        gpu.execute(plan).map_err(err)?;
         gpu.set_camera(&nudged(&scene.camera, 1.0)).map_err(err)?;
-        let moved = gpu.execute(&plan).map_err(err)?.exec;
+        let moved = gpu.execute(plan).map_err(err)?.exec;
         (camera_move_record_ms, camera_move) = (moved.record_ms, Some(moved.recorded));
         gpu.set_camera(&scene.camera).map_err(err)?;
         // Back at the scene's camera (relearning the loop counts should the moved
@@ -476,8 +600,8 @@ fn run_one(
         // that frame recorded anew, a few times: the median CPU time.
         let mut times = None;
         for _ in 0..3 {
-            gpu.execute(&plan).map_err(err)?;
-            times = gpu.time_recording(&plan, RERECORD_REPS).map_err(err)?;
+            gpu.execute(plan).map_err(err)?;
+            times = gpu.time_recording(plan, RERECORD_REPS).map_err(err)?;
             if times.is_some() {
                 break;
             }
@@ -490,7 +614,7 @@ fn run_one(
     let embedded = match cfg.embedded && !slow {
         true => Some(embedded::measure(
             gpu,
-            &plan,
+            plan,
             scene,
             algo,
             (cfg.warmup, cfg.frames),
@@ -521,7 +645,7 @@ fn run_one(
         .unwrap_or(Value::Null);
     // With a `[light]`: the light's map and the shadow pass timed too; the saved
     // images are shadowed, the error above is the opaque frame's.
-    let shadowed = modes::shadows(cfg, scene, algo, &plan, gpu, gm)?;
+    let shadowed = modes::shadows(cfg, scene, algo, plan, gpu, gm)?;
     let rec = Record {
         scene: String::new(),
         family: None,
@@ -559,8 +683,20 @@ fn run_one(
         embedded,
         shadow: shadowed.as_ref().map(|(b, _)| b.clone()),
         interference: modes::interference(cfg, scene, algo, depth)?,
+        timing: rounds::Timing::Alone,
+        plan_digest: digest(plan),
     };
     Ok((rec, shadowed.map_or(images, |(_, i)| i)))
+}
+
+/// A digest of a plan's steps (FNV-1a over their debug text): equal for equal
+/// plans within one build, so the summary can tell two algorithms ran one plan.
+fn digest(plan: &plan::Plan) -> String {
+    let text = format!("{:?}", plan.steps);
+    let h = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    });
+    format!("{h:016x}")
 }
 
 /// Recordings of each run's frame made anew for `rerecord_ms` (their median).

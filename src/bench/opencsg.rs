@@ -21,7 +21,7 @@ use glam::{DMat4, DVec4};
 use serde_json::json;
 
 use super::report::error_figures;
-use super::Record;
+use super::{median_iqr, Record};
 use crate::csg::normalize::{normalize, ScadProduct, OPENSCAD_NODE_LIMIT};
 use crate::output::Images;
 use crate::plan::Prepared;
@@ -397,6 +397,41 @@ pub fn run_scene(
     rows
 }
 
+/// One scene's two baseline runs, made before and after our timed rounds, as
+/// one: per variant the median of the two runs' medians (their mean), the
+/// extremes of both, the frames of both; errors and images from the later run
+/// (the images are the same). A variant that ran only once keeps that run.
+pub fn merge_runs(
+    before: Vec<(Record, Option<Images>)>,
+    after: Vec<(Record, Option<Images>)>,
+) -> Vec<(Record, Option<Images>)> {
+    let mut before = before;
+    let mut out = Vec::new();
+    for (mut r, images) in after {
+        let earlier = before
+            .iter()
+            .position(|(b, _)| b.algo == r.algo)
+            .map(|i| before.remove(i).0);
+        match earlier {
+            Some(b) if b.ran() && r.ran() => {
+                let (ms, _, _, spread) = median_iqr(&mut [b.gpu_ms_median, r.gpu_ms_median]);
+                r.gpu_ms_min = r.gpu_ms_min.min(b.gpu_ms_min);
+                r.gpu_ms_max = r.gpu_ms_max.max(b.gpu_ms_max);
+                (r.gpu_ms_median, r.cpu_ms_median, r.gpu_ms_iqr) = (ms, ms, spread);
+                r.frames += b.frames;
+            }
+            Some(b) if b.ran() => {
+                out.push((b, None));
+                continue;
+            }
+            _ => {}
+        }
+        out.push((r, images));
+    }
+    out.extend(before);
+    out
+}
+
 /// Wall time per frame of a run: what the side-by-side compares.
 pub fn wall_ms(r: &Record) -> f64 {
     r.cpu_ms_median
@@ -486,6 +521,36 @@ mod tests {
     fn scene(toml: &str) -> Scene {
         crate::scene::load_str(toml, Path::new("t.toml"), &Default::default())
             .expect("test scene loads")
+    }
+
+    #[test]
+    fn baseline_runs_merge_to_the_median_of_both() {
+        let run = |algo: &str, ms: f64| {
+            let mut r = Record::blank(algo, "gl-d24s8");
+            (r.gpu_ms_median, r.gpu_ms_min, r.gpu_ms_max, r.frames) = (ms, ms - 1.0, ms + 1.0, 5);
+            r.cpu_ms_median = ms;
+            (r, None)
+        };
+        let mut failed = run("opencsg-scs", 0.0);
+        failed.0.failure = Some("crashed".into());
+        let merged = merge_runs(
+            vec![run("opencsg-goldfeather", 10.0), run("opencsg-scs", 4.0)],
+            vec![run("opencsg-goldfeather", 14.0), failed],
+        );
+        let gf = &merged[0].0;
+        assert_eq!(
+            (gf.algo.as_str(), gf.gpu_ms_median),
+            ("opencsg-goldfeather", 12.0)
+        );
+        assert_eq!(
+            (gf.cpu_ms_median, gf.gpu_ms_min, gf.gpu_ms_max),
+            (12.0, 9.0, 15.0)
+        );
+        assert_eq!((gf.frames, gf.gpu_ms_iqr), (10, 2.0));
+        // The later run failed: the earlier one's figures stand.
+        let scs = &merged[1].0;
+        assert_eq!((scs.algo.as_str(), scs.gpu_ms_median), ("opencsg-scs", 4.0));
+        assert!(scs.failure.is_none() && merged.len() == 2);
     }
 
     #[test]

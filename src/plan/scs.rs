@@ -26,7 +26,13 @@
 //!    (`z` only moved back, and each `Xi` is one interval along the ray, so this
 //!    also rejects rays that miss the intersection), then merged into the output
 //!    depth by a less-than test, and the image is shaded by depth as for
-//!    Goldfeather.
+//!    Goldfeather. With a single `X` (a block minus holes) only its back faces
+//!    are drawn: `z` is at or behind its front face wherever the ray meets it
+//!    ([`back_face_clip`]).
+//!
+//! Every draw is cut to the intersection of the `Xi`'s screen rectangles
+//! ([`Region::Intersection`]): the product lies inside each `Xi`, and only the
+//! clip and the merge, both cut to it, read `z`.
 //!
 //! **Ties** (where OpenCSG's fixed-function depth tests z-fight): "inside `Yj`"
 //! and "inside `Xi`" are Goldfeather's tolerant parity draws
@@ -39,6 +45,21 @@
 //! nearer. `z` itself is always a rasterized fragment depth kept in a float
 //! texture, never a depth-buffer round trip.
 //!
+//! **Tie-free cutters** (no face within the tie band of another's,
+//! [`super::tie_free`]) need none of this: the executor runs their parity draws
+//! as plain `LessOrEqual` depth-stencil tests with no fragment shader, against
+//! the surface image, as OpenCSG's SCS does. That image holds `z` wherever a
+//! parity draw's result is read because the front draws and every exit write
+//! `z` into it as into the texture (the exits' depth test is off, their stencil
+//! bit admits one back face per pixel). Where no front face is drawn the image
+//! holds near and the texture far. Against either, the parity of a cutter the
+//! ray starts outside of is even, so `z` stays far; a cutter the ray may start
+//! inside (the eye correction) can differ, but the ray misses an `Xi` there,
+//! and the parity clip, always used with such cutters, rejects the pixel
+//! whatever `z` became. The exits keep their one-store shader: the
+//! merge reads the texture, and with no `discard` the stencil test runs before
+//! it, so only the pixels whose `z` moves run it.
+//!
 //! **Where SCS does not apply**, the product is drawn with Goldfeather's steps
 //! ([`goldfeather::product_steps`]) in the same plan, and `scs` says so in its
 //! pass names (`surface`, not `scs-front`): a product with a non-convex
@@ -49,7 +70,7 @@
 //! positive primitive is one draw ([`goldfeather::direct_steps`]).
 #![deny(unsafe_code)]
 
-use super::goldfeather::{self, Lit, ProductOptions, CLIP_BITS, OUTPUT, SURF, SURFACE};
+use super::goldfeather::{self, Lit, ProductOptions, Region, CLIP_BITS, OUTPUT, SURF, SURFACE};
 use super::step::*;
 use super::{eye, PlanError, Prepared};
 
@@ -143,9 +164,10 @@ pub fn fallback_warning(prep: &Prepared) -> Option<String> {
 /// The steps of one product of convex primitives (module documentation, 1–3).
 fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
     let (xs, ys): (Vec<Lit>, Vec<Lit>) = p.iter().partition(|l| !l.negated);
-    // Where the product can be: inside the intersection of its positive boxes;
-    // the clip's sweeps and the merge cover this region (their union's rectangle).
-    let region: Vec<MeshId> = xs.iter().map(|l| l.prim).collect();
+    // Where the product can be: inside every positive primitive, so inside the
+    // intersection of their rectangles. Only the clip and the merge read `z`,
+    // and both are cut to it, so every draw is.
+    let region = Region::Intersection(xs.iter().map(|l| l.prim).collect());
     let mut steps = vec![
         Step::Pass("scs-front".into()),
         Step::Clear(Clear::DepthStencil {
@@ -163,7 +185,7 @@ fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
     for x in &xs {
         steps.push(Step::Draw(Draw {
             geometry: Geometry::Mesh(x.prim),
-            scissor: Scissor::BoundsOf(vec![x.prim]),
+            scissor: region.cut(x.prim),
             cull: x.visible_cull(),
             ds: SURFACE,
             depth: DepthState {
@@ -189,9 +211,38 @@ fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
             max_iterations: seq.max_rounds,
         }));
     }
-    steps.extend(goldfeather::clip_steps(&xs, &region, eps, &prep.eye_inside));
-    steps.extend(goldfeather::merge_steps(&region));
+    let flag = |v: &[bool], m: MeshId| v.get(m as usize).copied().unwrap_or(false);
+    let start_inside = |y: &Lit| flag(&prep.eye_inside, y.prim) || flag(&prep.near_cut, y.prim);
+    match xs.as_slice() {
+        [x] if !ys.iter().any(start_inside) => steps.extend(back_face_clip(*x, &region, eps)),
+        _ => steps.extend(goldfeather::clip_steps_in(
+            &xs,
+            &region,
+            eps,
+            &prep.eye_inside,
+        )),
+    }
+    steps.extend(goldfeather::merge_steps_in(&region));
     steps
+}
+
+/// The clip of a product with one positive primitive `x` (module
+/// documentation, 3) whose cutters all start outside every ray: half of the
+/// parity clip's fragments. Where the ray meets `x`, `z` is at or behind its
+/// front face (it starts there and only moves back), so the parity draw always
+/// counts the front face and `z` is inside `x` exactly where the back face is
+/// not at or in front of it (the tie rule): one draw of the back faces sets a
+/// bit there, and the sweep rejects where it is set. Where the ray misses `x`,
+/// no front face was drawn and `z` is still the texture's far (no cutter's
+/// parity is odd along a ray starting outside it, so no exit moved it; the
+/// depth-stencil image there holds near, which no face is in front of), and the
+/// merge skips far.
+fn back_face_clip(x: Lit, region: &Region, eps: f32) -> Vec<Step> {
+    vec![
+        Step::Pass("clip".into()),
+        goldfeather::clip_parity_draw(x.prim, Cull::Front, region.cut(x.prim), 1, eps),
+        goldfeather::reject_sweep(1, 0, region.rect()),
+    ]
 }
 
 /// A product's subtraction sequence (module documentation, 2).
@@ -258,7 +309,7 @@ pub fn sequence(ys: &[Lit], prep: &Prepared) -> Sequence {
 /// parity draw into its bit (inside: odd), then per primitive its back faces
 /// written into `z` where its bit is set, clearing the bit. With `count`, the
 /// exits count samples (the rounds' early out).
-fn subtract(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
+fn subtract(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
     let mut steps = Vec::new();
     let mut batch: Vec<Lit> = Vec::new();
     let flush = |batch: &mut Vec<Lit>, steps: &mut Vec<Step>| {
@@ -281,20 +332,16 @@ fn subtract(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: boo
     steps
 }
 
-fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
-    let scissor = |y: &Lit| Scissor::Within {
-        meshes: vec![y.prim],
-        within: region.to_vec(),
-    };
-    let draw = |y: &Lit, cull, stencil, fragment, count_samples| {
+fn batch_steps(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
+    let draw = |y: &Lit, cull, write, stencil, fragment, count_samples| {
         Step::Draw(Draw {
             geometry: Geometry::Mesh(y.prim),
-            scissor: scissor(y),
+            scissor: region.cut(y.prim),
             cull,
             ds: SURFACE,
             depth: DepthState {
                 compare: CompareOp::Always,
-                write: false,
+                write,
             },
             stencil: Some(stencil),
             fragment,
@@ -307,6 +354,7 @@ fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: 
         parity.push(draw(
             y,
             Cull::None,
+            false,
             super::stencil::both(CompareOp::Always, StencilOp::Invert, 0, bit, 0),
             Fragment::NearerThan { tex: SURF, eps },
             false,
@@ -320,9 +368,14 @@ fn batch_steps(ys: &[Lit], region: &[MeshId], eps: f32, prep: &Prepared, count: 
     let mut steps = eye::correct(parity, &prep.eye_inside);
     for (k, y) in ys.iter().enumerate() {
         let bit = 1u8 << k;
+        // The exit moves `z` in the depth-stencil image as in the texture, so the
+        // image holds `z` wherever a later parity draw reads it, and a tie-free
+        // parity draw can test it with the fixed-function depth test
+        // ([`super::tie_free`]).
         steps.push(draw(
             y,
             Cull::Front,
+            true,
             super::stencil::both(CompareOp::Equal, StencilOp::Zero, bit, bit, bit),
             Fragment::WriteDepth { out: SURF },
             count,
@@ -387,7 +440,13 @@ mod tests {
         assert_eq!(rounds, vec![lit(1), lit(2), lit(3), lit(6), lit(7)]);
         // A batch never holds two overlapping cutters: the round 1, 6, 2, 7, 3 is
         // cut wherever the next one meets one already in the batch.
-        let steps = subtract(&seq.rounds, &[0], CLIP_EPS, &prep, true);
+        let steps = subtract(
+            &seq.rounds,
+            &Region::Intersection(vec![0]),
+            CLIP_EPS,
+            &prep,
+            true,
+        );
         let mut batch: Vec<MeshId> = Vec::new();
         for s in &steps {
             let Step::Draw(d) = s else { continue };
@@ -434,6 +493,89 @@ mod tests {
             .steps
             .iter()
             .any(|s| matches!(s, Step::Pass(p) if p == "scs-front")));
+    }
+
+    /// The draws of the pass named `name` (the first such pass).
+    fn pass_draws<'a>(steps: &'a [Step], name: &str) -> Vec<&'a Draw> {
+        steps
+            .iter()
+            .skip_while(|s| !matches!(s, Step::Pass(p) if p == name))
+            .skip(1)
+            .take_while(|s| !matches!(s, Step::Pass(_)))
+            .filter_map(|s| match s {
+                Step::Draw(d) => Some(d),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn one_positive_primitive_is_clipped_by_its_back_faces() {
+        let prep = row_of_boxes();
+        let built = plan(&prep, &ProductOptions::default()).unwrap();
+        let clip = pass_draws(&built.steps, "clip");
+        // The back faces of box 0 set bit 0 where they are at or in front of
+        // `z`; the sweep rejects where it is set.
+        assert_eq!(clip.len(), 2);
+        assert_eq!(
+            (&clip[0].geometry, clip[0].cull),
+            (&Geometry::Mesh(0), Cull::Front)
+        );
+        assert!(matches!(clip[0].fragment, Fragment::NearerThan { .. }));
+        let sweep = clip[1].stencil.expect("a stencil test");
+        assert_eq!((sweep.compare_mask, sweep.reference), (1, 0));
+        // Every exit moves `z` in the depth-stencil image too (the tie-free
+        // parity draws test it there).
+        let exits: Vec<&Draw> = pass_draws(&built.steps, "subtract")
+            .into_iter()
+            .filter(|d| d.cull == Cull::Front)
+            .collect();
+        assert_eq!(exits.len(), 2);
+        assert!(exits.iter().all(|d| d.depth.write
+            && d.depth.compare == CompareOp::Always
+            && d.fragment == Fragment::WriteDepth { out: SURF }));
+        // A cutter whose rays may start inside it keeps the parity clip (the
+        // image and the texture differ where no front face is drawn).
+        let mut near = prep.clone();
+        near.near_cut = vec![false; 8];
+        near.near_cut[4] = true;
+        let built = plan(&near, &ProductOptions::default()).unwrap();
+        assert_eq!(pass_draws(&built.steps, "clip")[0].cull, Cull::None);
+    }
+
+    #[test]
+    fn an_intersection_is_drawn_within_the_overlap_of_its_rectangles() {
+        use crate::reference::fixtures::ExprBuilder;
+        // (0 ∩ 1) − 2: every draw, the sweeps and the merge are cut to the
+        // rectangles of both 0 and 1; the clip is Goldfeather's parity.
+        let mut prep = row_of_boxes();
+        let mut e = ExprBuilder::default();
+        let (a, b, c) = (e.leaf(0), e.leaf(1), e.leaf(2));
+        let ab = e.inter(a, b);
+        let root = e.diff(ab, c);
+        prep = Prepared::from_parts(e.build(root), vec![12; 8], prep.mesh_bounds.clone());
+        prep.mesh_convex = vec![true; 8];
+        let built = plan(&prep, &ProductOptions::default()).unwrap();
+        let product: Vec<&Draw> = built
+            .steps
+            .iter()
+            .take_while(|s| !matches!(s, Step::Pass(p) if p == "shade"))
+            .filter_map(|s| match s {
+                Step::Draw(d) => Some(d),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(product.len(), 2 + 2 + 2 + 1 + 1);
+        for d in product {
+            let Scissor::Overlap { of, and } = &d.scissor else {
+                panic!("not cut to the overlap: {d:?}");
+            };
+            assert!(of.len() == 1 && and.contains(&1), "{d:?}");
+            assert!(of.contains(&0) || and.contains(&0), "{d:?}");
+        }
+        let clip = pass_draws(&built.steps, "clip");
+        assert_eq!(clip.len(), 3);
+        assert!(clip[..2].iter().all(|d| d.cull == Cull::None));
     }
 
     #[test]

@@ -162,14 +162,6 @@ impl TieFree {
 
     /// The decisions for the tolerances of `plan`'s tolerant draws.
     pub fn new(gaps: &TieGaps, band: &TieBand, plan: &Plan) -> TieFree {
-        // The rewrite tests a parity draw against its depth-stencil image in place
-        // of the texture, which needs the two equal wherever the result is read.
-        // SCS's subtraction moves the texture's depth (a cutter's back faces
-        // replace it) without rewriting the depth-stencil image, so its draws keep
-        // the tie rule (`vk_tests`: `scs_matches_reference_on_shipped_scenes`).
-        if !keeps_depth_image_equal_to_texture(&plan.algo) {
-            return TieFree::none();
-        }
         let mut eps: Vec<u32> = Vec::new();
         tolerances(&plan.steps, &mut eps);
         eps.sort_unstable();
@@ -484,12 +476,4 @@ mod tests {
         assert_eq!(fast.depth, draw(peel(0)).depth);
         assert_eq!(free.fixed_function(&draw(peel(1))), None);
     }
-}
-
-/// Whether `algo`'s plans keep each parity draw's depth-stencil image equal to
-/// the depth texture it reads wherever the draw's result is used (checked by
-/// reading Goldfeather, layered Goldfeather, Kirsch, Blister and CST; Trickle's
-/// peels become exact peels, which do not depend on it).
-fn keeps_depth_image_equal_to_texture(algo: &str) -> bool {
-    algo != crate::plan::Algo::Scs.name()
 }

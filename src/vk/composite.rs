@@ -17,6 +17,8 @@ use crate::plan::usage::Usage;
 
 const VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fullscreen.vert.spv"));
 const FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/composite.frag.spv"));
+/// The variant for an `_SRGB` host colour format (decodes before writing).
+const FRAG_SRGB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/composite.frag.host_srgb.spv"));
 
 /// Host colour formats peeltrim writes into (directly or by the composite).
 /// peeltrim's colour is sRGB-encoded; it is written as those values into UNORM
@@ -193,15 +195,7 @@ impl Composite {
             .check("vkCreateDescriptorSetLayout")
             .inspect_err(|_| c.destroy(device))?;
         let set_layouts = [c.set_layout];
-        // One u32: decode sRGB before writing (an `_SRGB` host format).
-        let push = [vk::PushConstantRange {
-            stage_flags: vk::ShaderStageFlags::FRAGMENT,
-            offset: 0,
-            size: 4,
-        }];
-        let lci = vk::PipelineLayoutCreateInfo::default()
-            .set_layouts(&set_layouts)
-            .push_constant_ranges(&push);
+        let lci = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
         // SAFETY: valid create info; the set layout is live.
         c.layout = unsafe { device.create_pipeline_layout(&lci, None) }
             .check("vkCreatePipelineLayout")
@@ -236,7 +230,8 @@ impl Composite {
 
     fn make_pipeline(&self, shared: &Shared) -> Result<vk::Pipeline, VkError> {
         let vert = shader_module(shared, VERT)?;
-        let frag = shader_module(shared, FRAG);
+        let srgb = is_srgb(self.formats.0);
+        let frag = shader_module(shared, if srgb { FRAG_SRGB } else { FRAG });
         let device = &shared.device;
         let made = frag.and_then(|frag| {
             let stages = [
@@ -366,11 +361,6 @@ impl Composite {
             extent,
             scissor,
         );
-        let push = u32::from(is_srgb(t.color_format)).to_ne_bytes();
-        // SAFETY: the layout's range holds this one u32 for the fragment stage.
-        unsafe {
-            device.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::FRAGMENT, 0, &push)
-        };
         // SAFETY: dynamic state of the bound pipeline.
         unsafe { device.cmd_set_depth_compare_op(cmd, depth_compare) };
         // SAFETY: pipeline, set and state bound; the vertex shader needs no buffer.

@@ -31,6 +31,9 @@ pub enum FragmentKind {
     /// attachments (`vk::exec::record::host`): colour only, the visible depth
     /// written, the depth attachment bound without its stencil aspect.
     ShadeNearDepthHost,
+    /// `ShadeNearDepthHost` for an `_SRGB` host colour format: decodes the
+    /// colour (sRGB-encoded) so that the format's encoding stores it unchanged.
+    ShadeNearDepthHostSrgb,
     NearerThan,
     ShadeAtDepth,
     /// `ShadeAtDepth` without colour: depth only.
@@ -97,6 +100,7 @@ impl FragmentKind {
             FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
             FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
             FragmentKind::ShadeNearDepthHost => spv!("shade_near_depth.frag.host"),
+            FragmentKind::ShadeNearDepthHostSrgb => spv!("shade_near_depth.frag.host_srgb"),
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
@@ -144,9 +148,6 @@ pub const FLAG_REVERSED_Z: u32 = 1;
 /// from the uniform buffer (set 1); without it the push constants' `mvp` (the
 /// full-screen rectangle's).
 pub const FLAG_MESH: u32 = 2;
-/// `PushConstants::flags` bit: the host's colour format is `_SRGB` (the
-/// embedding's direct final pass decodes peeltrim's sRGB-encoded colour).
-pub const FLAG_HOST_SRGB: u32 = 4;
 /// `PushConstants::flags` bits 8..16: the device's subpixel precision bits, from
 /// which the shaders' tie tolerance derives its slope term (`plan::tie`).
 pub const FLAG_SUBPIXEL_SHIFT: u32 = 8;
@@ -360,7 +361,9 @@ impl Pipelines {
         let ds_format = desc.depth_stencil_format.unwrap_or(vk::Format::UNDEFINED);
         // A host's depth attachment is bound without its stencil (untouched).
         let stencil_format = match desc.fragment {
-            FragmentKind::ShadeNearDepthHost => vk::Format::UNDEFINED,
+            FragmentKind::ShadeNearDepthHost | FragmentKind::ShadeNearDepthHostSrgb => {
+                vk::Format::UNDEFINED
+            }
             _ => ds_format,
         };
         graphics_pipeline(

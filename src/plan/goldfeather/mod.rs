@@ -356,6 +356,53 @@ pub(crate) fn clip_steps(
     eps: f32,
     eye_inside: &[bool],
 ) -> Vec<Step> {
+    clip_steps_in(against, &Region::Union(surface.to_vec()), eps, eye_inside)
+}
+
+/// Where a surface's pixels can be: within the rectangle of a union of meshes
+/// (a literal's or a layer's faces), or of an intersection (an SCS product lies
+/// inside every one of its positive primitives).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Region {
+    Union(Vec<MeshId>),
+    Intersection(Vec<MeshId>),
+}
+
+impl Region {
+    /// The region's rectangle: the sweeps and the merge cover it.
+    pub(crate) fn rect(&self) -> Scissor {
+        match self {
+            Region::Union(ms) => Scissor::BoundsOf(ms.clone()),
+            Region::Intersection(ms) => Scissor::Overlap {
+                of: ms[..1].to_vec(),
+                and: ms[1..].to_vec(),
+            },
+        }
+    }
+
+    /// Mesh `m`'s rectangle cut to the region: a draw whose effect is read only
+    /// inside it.
+    pub(crate) fn cut(&self, m: MeshId) -> Scissor {
+        match self {
+            Region::Union(ms) => Scissor::Within {
+                meshes: vec![m],
+                within: ms.clone(),
+            },
+            Region::Intersection(ms) => Scissor::Overlap {
+                of: vec![m],
+                and: ms.clone(),
+            },
+        }
+    }
+}
+
+/// [`clip_steps`] of a surface that lies in `region`.
+pub(crate) fn clip_steps_in(
+    against: &[Lit],
+    region: &Region,
+    eps: f32,
+    eye_inside: &[bool],
+) -> Vec<Step> {
     let mut steps = vec![Step::Pass("clip".into())];
     for chunk in against.chunks(CLIP_BITS as usize) {
         let (mut mask, mut inside) = (0u8, 0u8);
@@ -365,36 +412,47 @@ pub(crate) fn clip_steps(
             if !b.negated != eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
                 inside |= bit;
             }
-            steps.push(Step::Draw(Draw {
-                geometry: Geometry::Mesh(b.prim),
-                scissor: Scissor::Within {
-                    meshes: vec![b.prim],
-                    within: surface.to_vec(),
-                },
-                cull: Cull::None,
-                ds: SURFACE,
-                depth: DepthState {
-                    compare: CompareOp::Always,
-                    write: false,
-                },
-                stencil: Some(super::stencil::both(
-                    CompareOp::Always,
-                    StencilOp::Invert,
-                    0,
-                    bit,
-                    0,
-                )),
-                fragment: Fragment::NearerThan { tex: SURF, eps },
-                count_samples: false,
-            }));
+            steps.push(clip_parity_draw(
+                b.prim,
+                Cull::None,
+                region.cut(b.prim),
+                bit,
+                eps,
+            ));
         }
-        steps.push(reject_sweep(
-            mask,
-            inside,
-            Scissor::BoundsOf(surface.to_vec()),
-        ));
+        steps.push(reject_sweep(mask, inside, region.rect()));
     }
     steps
+}
+
+/// The faces of `prim` that `cull` keeps, at most `eps` behind the surface
+/// texture, invert `bit` of the surface image (a clip's parity draw).
+pub(crate) fn clip_parity_draw(
+    prim: MeshId,
+    cull: Cull,
+    scissor: Scissor,
+    bit: u8,
+    eps: f32,
+) -> Step {
+    Step::Draw(Draw {
+        geometry: Geometry::Mesh(prim),
+        scissor,
+        cull,
+        ds: SURFACE,
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        },
+        stencil: Some(super::stencil::both(
+            CompareOp::Always,
+            StencilOp::Invert,
+            0,
+            bit,
+            0,
+        )),
+        fragment: Fragment::NearerThan { tex: SURF, eps },
+        count_samples: false,
+    })
 }
 
 /// Stencil bits of the surface image used for parity (one per clipping primitive).
@@ -403,7 +461,7 @@ pub(crate) const CLIP_BITS: u8 = 8;
 /// Where `(stencil & mask) != inside`, depth := far in the image and in the
 /// surface texture `SURF` (the pixel leaves the surface); the bits under `mask`
 /// are cleared on every swept pixel, pass or fail.
-fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
+pub(crate) fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
     let face = StencilFace {
         compare: CompareOp::NotEqual,
         fail: StencilOp::Zero,
@@ -433,11 +491,16 @@ fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
 
 /// Merge of the clipped surface into the output depth with less-than (§3.5).
 pub(crate) fn merge_steps(surface: &[MeshId]) -> Vec<Step> {
+    merge_steps_in(&Region::Union(surface.to_vec()))
+}
+
+/// [`merge_steps`] of a surface that lies in `region`.
+pub(crate) fn merge_steps_in(region: &Region) -> Vec<Step> {
     vec![
         Step::Pass("merge".into()),
         Step::Draw(Draw {
             geometry: Geometry::FullScreen { depth: FAR },
-            scissor: Scissor::BoundsOf(surface.to_vec()),
+            scissor: region.rect(),
             cull: Cull::None,
             ds: OUTPUT,
             depth: DepthState {

@@ -21,7 +21,7 @@ use crate::plan::usage::{Resource, Usage};
 use crate::plan::{CompareOp, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
 use crate::vk::conv;
 use crate::vk::error::VkError;
-use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants, FLAG_HOST_SRGB, FLAG_MESH};
+use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants, FLAG_MESH};
 use crate::vk::scissor::Rect;
 use crate::vk::submit;
 
@@ -33,7 +33,7 @@ pub(crate) struct HostShade {
     /// The host's depth attachment view and format (in
     /// `DEPTH_STENCIL_ATTACHMENT_OPTIMAL`); its stencil is not bound.
     pub depth: (vk::ImageView, vk::Format),
-    /// The host's colour format is `_SRGB` (the shader decodes).
+    /// The host's colour format is `_SRGB` (drawn with the decoding variant).
     pub srgb: bool,
     /// Where the frame's occlusion counts are copied (pairs of `u64` with
     /// availability, room for every counted draw), before the pass's barrier
@@ -164,7 +164,12 @@ impl Recorder<'_> {
         self.stats.counts.barriers += 1;
 
         let pipeline = self.b.pipelines.get(&PipelineDesc {
-            fragment: FragmentKind::ShadeNearDepthHost,
+            // The sRGB decode is a variant of its own (`build.rs`).
+            fragment: if h.srgb {
+                FragmentKind::ShadeNearDepthHostSrgb
+            } else {
+                FragmentKind::ShadeNearDepthHost
+            },
             color_formats: vec![h.color.1],
             depth_stencil_format: Some(h.depth.1),
             normals: false,
@@ -172,7 +177,7 @@ impl Recorder<'_> {
         self.begin_host_block(h);
         let set = self.b.targets.sampling_set(Resource::Texture(tex));
         self.bind(pipeline, Some(set));
-        let flags = self.flags() | FLAG_MESH | if h.srgb { FLAG_HOST_SRGB } else { 0 };
+        let flags = self.flags() | FLAG_MESH;
         // Ascending index: the first writer of a pixel stays (module doc).
         for draw in draws.iter().rev() {
             self.host_draw(draw, flags);
@@ -295,6 +300,50 @@ mod tests {
         // Built by the plan builders: every GPU algorithm but blister-paper.
         let p = plan(crate::plan::shade_near_depth(&[0, 1], 1, 1, None));
         assert_eq!(final_shade(&p), Some(2));
+    }
+
+    /// Whether SPIR-V `words` call GLSL.std.450 `Pow` (instruction 26): the
+    /// sRGB decode's, the only `pow` of the host shaders.
+    fn calls_pow(spv: &[u8]) -> bool {
+        let words: Vec<u32> = spv
+            .chunks_exact(4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+            .collect();
+        let mut i = 5; // after the header
+        let mut found = false;
+        while i < words.len() {
+            let (count, opcode) = ((words[i] >> 16) as usize, words[i] & 0xffff);
+            // OpExtInst: type, result, set, instruction, operands.
+            found |= opcode == 12 && words.get(i + 4) == Some(&26);
+            i += count.max(1);
+        }
+        found
+    }
+
+    #[test]
+    fn only_the_srgb_variants_decode() {
+        // lavapipe computes both sides of a flag's branch for every fragment:
+        // a UNORM or float host must get a variant with no decode at all.
+        macro_rules! spv {
+            ($f:literal) => {
+                include_bytes!(concat!(env!("OUT_DIR"), "/", $f, ".spv")).as_slice()
+            };
+        }
+        for (name, plain, srgb) in [
+            (
+                "shade_near_depth",
+                spv!("shade_near_depth.frag.host"),
+                spv!("shade_near_depth.frag.host_srgb"),
+            ),
+            (
+                "composite",
+                spv!("composite.frag"),
+                spv!("composite.frag.host_srgb"),
+            ),
+        ] {
+            assert!(!calls_pow(plain), "{name}'s plain variant decodes sRGB");
+            assert!(calls_pow(srgb), "{name}'s _SRGB variant does not decode");
+        }
     }
 
     #[test]

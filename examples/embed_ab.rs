@@ -1,0 +1,104 @@
+//! Interleaved A/B timing of the embedding path against the standalone path
+//! (issue 14, "Speed"): for each scene and algorithm, a standalone frame
+//! (`Executor::execute`, the kept recording replayed) and an embedded frame
+//! (`CsgScene` recorded into an off-screen host's frame, the host's clear
+//! submitted apart) alternate, so that a shared machine's load falls on both
+//! alike. Prints the median process CPU time (every thread: lavapipe's
+//! rasterizer work) and wall time per frame, their ratio and the frames' counts.
+//!
+//! `cargo run --release --example embed_ab -- SIZE FRAMES ALGOS SCENE...`
+//! (e.g. `400x400 15 cst-i,goldfeather scenes/speckle.toml`). With
+//! `EMBED_AB_ONLY=standalone` or `=embedded` only that path runs (for `perf`).
+
+#[path = "ab_common/mod.rs"]
+mod ab_common;
+
+use ab_common::{for_each_run, median};
+use peeltrim::vk::{ExecStats, Executor, OffscreenHost};
+use peeltrim::{CsgScene, EmbedDesc, LoopCounts};
+
+fn main() {
+    let only = std::env::var("EMBED_AB_ONLY").ok();
+    let (alone_on, embedded_on) = match only.as_deref() {
+        Some("standalone") => (true, false),
+        Some("embedded") => (false, true),
+        _ => (true, true),
+    };
+    for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
+        let mut exec = Executor::new(ctx, desc).expect("executor");
+        exec.upload(scene).expect("upload");
+        let edesc = EmbedDesc {
+            extent: [desc.width, desc.height],
+            reversed_z: desc.reversed_z,
+            frames_in_flight: 1,
+            algo,
+            loop_counts: LoopCounts::Learn,
+            internal_depth: desc.depth_format,
+        };
+        let mut csg = CsgScene::from_scene(ctx, scene, &edesc).expect("embedded scene");
+        let mut host = OffscreenHost::new(ctx, edesc.extent).expect("host");
+        let far = if desc.reversed_z { 0.0 } else { 1.0 };
+        let bg = scene.render.background;
+        let mut embedded = |host: &mut OffscreenHost| -> ExecStats {
+            host.clear(bg, far).expect("host clear");
+            host.frame(csg.recorder()).expect("embedded frame")
+        };
+        for _ in 0..3 {
+            if alone_on {
+                exec.execute(&plan).expect("warm-up");
+            }
+            if embedded_on {
+                embedded(&mut host);
+            }
+        }
+        let (mut a, mut e) = (Vec::new(), Vec::new());
+        for i in 0..frames {
+            // The order inside a pair alternates.
+            for second in [i % 2 == 1, i % 2 == 0] {
+                if second && alone_on {
+                    a.push(exec.execute(&plan).expect("standalone"));
+                } else if !second && embedded_on {
+                    e.push(embedded(&mut host));
+                }
+            }
+        }
+        let med = |v: &[ExecStats], f: fn(&ExecStats) -> f64| {
+            if v.is_empty() {
+                0.0
+            } else {
+                median(v.iter().map(f).collect())
+            }
+        };
+        let ratio = |f: fn(&ExecStats) -> f64| {
+            if a.is_empty() || e.is_empty() {
+                return 0.0;
+            }
+            median(e.iter().zip(&a).map(|(e, a)| f(e) / f(a)).collect())
+        };
+        print!("{name:16} {:20}", algo.name());
+        print!(
+            "  standalone {:7.2} cpu {:7.2} wall  embedded {:7.2} cpu {:7.2} wall  ratio cpu {:5.3} wall {:5.3}",
+            med(&a, |s| s.frame_cpu_ms),
+            med(&a, |s| s.frame_ms),
+            med(&e, |s| s.frame_cpu_ms),
+            med(&e, |s| s.frame_ms),
+            ratio(|s| s.frame_cpu_ms),
+            ratio(|s| s.frame_ms),
+        );
+        for (label, s) in [("standalone", a.last()), ("embedded", e.last())] {
+            if let Some(s) = s {
+                let c = &s.counts;
+                print!(
+                    "  | {label}: draws {} barriers {} passes {} fullscreen {} clears {} cleared {:.2} Mpx",
+                    c.draws,
+                    c.barriers,
+                    c.render_passes,
+                    c.fullscreen_passes,
+                    c.clear_commands,
+                    c.cleared_pixels as f64 * 1e-6
+                );
+            }
+        }
+        println!();
+    });
+}
