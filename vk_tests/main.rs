@@ -8,6 +8,7 @@
 mod algorithms;
 mod blueprint;
 mod classic;
+mod clears;
 mod concurrency;
 mod cst;
 mod embed;

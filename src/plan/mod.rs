@@ -17,6 +17,8 @@ pub mod eye;
 pub mod goldfeather;
 pub mod kirsch;
 pub mod print;
+pub mod reach;
+pub mod rect;
 pub mod scs;
 pub mod stencil;
 pub mod step;

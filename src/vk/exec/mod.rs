@@ -60,6 +60,7 @@ use super::readback::{decode, Raw};
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::output::Images;
+use crate::plan::reach::{self, KeptImages};
 use crate::plan::tie_free::{TieBand, TieFree};
 use crate::plan::validate::validate;
 use crate::plan::{Plan, Step};
@@ -97,6 +98,8 @@ struct RecordingKey {
     epoch: u64,
     /// The tie-free decisions its draws were recorded with.
     ties: TieFree,
+    /// What it assumes the outputs hold before it (`plan::reach::holds`).
+    assumed: KeptImages,
 }
 
 /// The per-mesh screen rectangles a recording's scissors come from: exact for a
@@ -165,10 +168,17 @@ impl Scissors {
 /// The kept frame recording and what its replays report.
 struct Recording {
     key: RecordingKey,
+    /// What the outputs hold after it runs.
+    after: KeptImages,
     stats: ExecStats,
     queries: Vec<Group>,
     marks: Vec<String>,
 }
+
+/// A frame's recording: its stats, the loop group of each occlusion query, the
+/// pass at each timestamp, and what it assumes the outputs hold before it and
+/// leaves them holding.
+type FrameRecording = (ExecStats, Vec<Group>, Vec<String>, (KeptImages, KeptImages));
 
 /// Time bookkeeping of one `execute`.
 #[derive(Default)]
@@ -254,6 +264,12 @@ pub struct Executor {
     transparency: bool,
     /// Sequence frames' recording and buffers ([`Executor::execute_sequence`]).
     seq: sequence::SeqState,
+    /// What the outputs hold now, outside the pixels frames dirtied
+    /// (`plan::reach`): their next clears reach only those pixels.
+    kept: KeptImages,
+    /// An embedding recorded a frame someone else submits: what the outputs
+    /// hold is no longer known here, and their clears reach whole images.
+    kept_unknown: bool,
 }
 
 impl Executor {
@@ -323,6 +339,8 @@ impl Executor {
             ties: TieFree::none(),
             transparency: false,
             seq: Default::default(),
+            kept: KeptImages::new(),
+            kept_unknown: false,
         })
     }
 
@@ -476,6 +494,8 @@ impl Executor {
         );
         self.submit.finish(cmd)?;
         self.targets = Some(t);
+        // New images hold nothing known.
+        self.kept.clear();
         self.epoch += 1;
         Ok(())
     }
@@ -545,6 +565,7 @@ impl Executor {
             None => {
                 self.rects = f.exact;
                 let s = self.run_stepwise(plan, &mut f.clock)?;
+                self.kept_after_stepwise(plan);
                 self.layers = Some((plan.clone(), s.counts.loop_iterations.clone()));
                 s
             }
@@ -673,6 +694,7 @@ impl Executor {
             Some(r)
                 if r.key.rects.covers(exact)
                     && r.key.ties == self.ties
+                    && reach::holds(&self.kept, &r.key.assumed)
                     && !(still && r.key.rects.grown) =>
             {
                 if r.key.rects.rects == exact.rects || still {
@@ -691,7 +713,8 @@ impl Executor {
                 exact.clone()
             };
             self.recording = None;
-            f.clock.record_ms += self.record_kept(plan, layers)?;
+            let now = self.kept.clone();
+            f.clock.record_ms += self.record_kept(plan, layers, &now)?;
         }
         Ok(kind)
     }
@@ -705,6 +728,10 @@ impl Executor {
         kind: Recorded,
     ) -> Result<Option<ExecStats>, VkError> {
         let rec = self.recording.as_ref().expect("recorded before submission");
+        // The frame ran: the outputs hold what it leaves, whatever its counts.
+        if !self.kept_unknown {
+            self.kept = rec.after.clone();
+        }
         let device = &self.shared.device;
         let samples = submit::query_results(device, self.occlusion.pool, rec.queries.len())?;
         if !layers_fit(plan, layers, &rec.queries, &samples) {
@@ -730,11 +757,18 @@ impl Executor {
     /// Records `plan` unrolled to `layers` into the frame command buffer and keeps
     /// the recording for replays (scissors from `self.rects`): the calling
     /// thread's CPU ms, from resetting the buffer to ending it.
-    fn record_kept(&mut self, plan: &Plan, layers: &[u32]) -> Result<f64, VkError> {
+    fn record_kept(
+        &mut self,
+        plan: &Plan,
+        layers: &[u32],
+        now: &KeptImages,
+    ) -> Result<f64, VkError> {
         let t = CpuInstant::now();
         let cmd = self.frame_cmd;
         self.submit.begin(cmd, false)?;
-        let (mut stats, queries, marks) = self.record_frame(cmd, plan, layers, None)?;
+        let now = self.kept_now(now);
+        let (mut stats, queries, marks, (assumed, after)) =
+            self.record_frame_from(cmd, plan, layers, None, &now)?;
         stats.counts.submits = 1;
         self.submit.end(cmd)?;
         let ms = t.elapsed_ms();
@@ -745,6 +779,7 @@ impl Executor {
                     && r.key.layers == layers
                     && r.key.rects == self.rects
                     && r.key.ties == self.ties
+                    && r.key.assumed == assumed
                     && r.key.plan == *plan =>
             {
                 r.key
@@ -755,10 +790,12 @@ impl Executor {
                 layers: layers.to_vec(),
                 epoch: self.epoch,
                 ties: self.ties.clone(),
+                assumed,
             },
         };
         self.recording = Some(Recording {
             key,
+            after,
             stats,
             queries,
             marks,
@@ -782,8 +819,10 @@ impl Executor {
         // recording stays what it was.
         let key = &self.recording.as_ref().expect("matched above").key;
         (self.rects, self.ties) = (key.rects.clone(), key.ties.clone());
+        // Made for what it assumed, a recording assumes the same.
+        let assumed = key.assumed.clone();
         (0..reps)
-            .map(|_| self.record_kept(plan, &layers))
+            .map(|_| self.record_kept(plan, &layers, &assumed))
             .collect::<Result<Vec<f64>, VkError>>()
             .map(Some)
     }
@@ -793,6 +832,8 @@ impl Executor {
     /// each timestamp. Every image starts and ends in `REST`. With `host`, the
     /// plan's last `host.1` steps (its final shade, `record::final_shade`) are
     /// drawn into an embedding host's attachments instead (`record::host`).
+    /// Someone else submits it: from now on what the outputs hold is unknown
+    /// here, and their clears reach whole images.
     fn record_frame(
         &mut self,
         cmd: vk::CommandBuffer,
@@ -800,19 +841,37 @@ impl Executor {
         layers: &[u32],
         host: Option<(&HostShade, usize)>,
     ) -> Result<(ExecStats, Vec<Group>, Vec<String>), VkError> {
+        self.kept_unknown = true;
+        self.kept.clear();
+        let (stats, groups, marks, _) =
+            self.record_frame_from(cmd, plan, layers, host, &KeptImages::new())?;
+        Ok((stats, groups, marks))
+    }
+
+    /// [`Self::record_frame`] for outputs that hold `now` before it: also
+    /// what the recording assumes they hold and what they hold after it
+    /// (`Recorder::plan_clears`).
+    fn record_frame_from(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        plan: &Plan,
+        layers: &[u32],
+        host: Option<(&HostShade, usize)>,
+        now: &KeptImages,
+    ) -> Result<FrameRecording, VkError> {
         let flat = unroll(plan, layers);
         self.ensure_queries(&flat)?;
         let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
         let scissored_clears = self.scissored_clears;
         let mut rec = self.recorder();
         let steps: Vec<&Step> = flat.iter().map(|(s, _)| *s).collect();
-        let (body, shade) = steps.split_at(steps.len() - host.map_or(0, |h| h.1));
-        if scissored_clears {
-            rec.plan_clears(body, plan.output_ds);
-        }
-        rec.plan_shades(body);
+        let body = steps.len() - host.map_or(0, |h| h.1);
+        // The host's shade reads the body's last depth copy: its draws count.
+        let kept = rec.plan_clears(&steps, plan.output_ds, now, scissored_clears);
+        rec.plan_shades(&steps[..body]);
+        let shade = &steps[body..];
         rec.begin(cmd, occ_cap, ts_cap);
-        for (s, g) in flat.iter().take(body.len()) {
+        for (s, g) in flat.iter().take(body) {
             rec.group = *g;
             rec.step(s)?;
         }
@@ -821,7 +880,42 @@ impl Executor {
             None => rec.finish_frame(plan.output_ds),
         }
         rec.end();
-        Ok((rec.stats, rec.queries, rec.marks))
+        Ok((rec.stats, rec.queries, rec.marks, kept))
+    }
+
+    /// What a frame recorded now may assume the outputs hold: `kept`, or
+    /// nothing once an embedding records frames.
+    fn kept_now(&self, kept: &KeptImages) -> KeptImages {
+        match self.kept_unknown {
+            true => KeptImages::new(),
+            false => kept.clone(),
+        }
+    }
+
+    /// What the outputs hold after a loop-by-loop frame of `plan` (its clears
+    /// reach whole images): each loop as its head, tail and head again
+    /// (`reach::kept_after`).
+    fn kept_after_stepwise(&mut self, plan: &Plan) {
+        if self.kept_unknown {
+            return;
+        }
+        let steps: Vec<&Step> = plan
+            .steps
+            .iter()
+            .flat_map(|s| match s {
+                Step::Loop(l) => l.head.iter().chain(&l.tail).chain(&l.head).collect(),
+                s => vec![s],
+            })
+            .collect();
+        let unions = RectUnions::new(&self.rects.rects);
+        let (w, h) = (self.desc.width, self.desc.height);
+        let outputs = reach::outputs(plan.output_ds, self.normals);
+        let images = reach::Images {
+            outputs: &outputs,
+            normals: self.normals,
+            size: (w, h),
+        };
+        self.kept = reach::kept_after(&steps, |s| unions.scissor(s, w, h), images, &self.kept);
     }
 
     /// Adds the GPU times between the timestamps of the last command buffer.

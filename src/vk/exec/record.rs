@@ -27,12 +27,13 @@ use super::state;
 use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
-use clears::{ClearNeed, PendingClear};
+use clears::PendingClear;
 
 mod clears;
 mod host;
 mod push;
 mod shade;
+use crate::plan::reach::ClearNeed;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::usage::{self, Resource, Usage, Uses};
 use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
@@ -208,10 +209,16 @@ pub(super) struct Recorder<'a> {
     pipes: Vec<Pipe>,
     state: ImageStates,
     pending_clear: BTreeMap<Resource, PendingClear>,
-    /// Regions of the clears recorded next, in order (`clears::clear_regions`).
+    /// Regions of the clears recorded next, in order (`plan::reach`).
     clear_regions: VecDeque<ClearNeed>,
     /// What the depth copies recorded next cover, in order (`shade.rs`).
     shade_copies: VecDeque<ShadeCopy>,
+    /// Regions of the copies recorded next, in order (`plan::reach`).
+    copy_regions: VecDeque<Rect>,
+    /// The frame's outputs (`plan_clears`).
+    outputs: Vec<Resource>,
+    /// The open block's render area.
+    render_area: Rect,
     /// Group of each occlusion query of the current command buffer.
     pub queries: Vec<Group>,
     /// Group of the counted draws recorded next.
@@ -244,6 +251,9 @@ impl<'a> Recorder<'a> {
             pending_clear: BTreeMap::new(),
             clear_regions: VecDeque::new(),
             shade_copies: VecDeque::new(),
+            copy_regions: VecDeque::new(),
+            outputs: Vec::new(),
+            render_area: Rect::EMPTY,
             queries: Vec::new(),
             group: None,
             marks: Vec::new(),
@@ -324,12 +334,7 @@ impl<'a> Recorder<'a> {
     /// with their pending clears done, every image in `REST`.
     pub fn finish_frame(&mut self, output_ds: u8) {
         self.end_block();
-        let mut outputs = vec![
-            Resource::Color,
-            Resource::Prim,
-            Resource::DepthStencil(output_ds),
-        ];
-        outputs.extend(self.b.normals.then_some(Resource::Normal));
+        let outputs = self.outputs(output_ds);
         self.flush_clears(&outputs);
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
@@ -575,7 +580,10 @@ impl<'a> Recorder<'a> {
             }
             Step::Clear(clear) => self.clear(clear),
             Step::CopyTexture { src, dst } => {
-                if src == dst {
+                let rect = self.copy_region();
+                if src == dst || rect.is_empty() {
+                    // Nobody reads the copy.
+                    self.stats.counts.skipped_steps += u64::from(src != dst);
                     return Ok(());
                 }
                 let uses = step.usage();
@@ -592,21 +600,25 @@ impl<'a> Recorder<'a> {
                     base_array_layer: 0,
                     layer_count: 1,
                 };
+                let offset = vk::Offset3D {
+                    x: rect.x0 as i32,
+                    y: rect.y0 as i32,
+                    z: 0,
+                };
                 let region = vk::ImageCopy {
                     src_subresource: layers,
-                    src_offset: vk::Offset3D::default(),
+                    src_offset: offset,
                     dst_subresource: layers,
-                    dst_offset: vk::Offset3D::default(),
+                    dst_offset: offset,
                     extent: vk::Extent3D {
-                        width: self.b.desc.width,
-                        height: self.b.desc.height,
+                        width: rect.width(),
+                        height: rect.height(),
                         depth: 1,
                     },
                 };
-                self.stats.counts.copied_pixels +=
-                    Rect::full(self.b.desc.width, self.b.desc.height).area();
+                self.stats.counts.copied_pixels += rect.area();
                 // SAFETY: outside rendering; both images allow transfer, same format,
-                // in the copy layouts after the barrier above.
+                // in the copy layouts after the barrier above; the region lies in both.
                 unsafe {
                     self.b.device.cmd_copy_image(
                         self.cmd,
@@ -648,9 +660,11 @@ impl<'a> Recorder<'a> {
     fn begin_block(&mut self, key: &BlockKey) {
         let color_layout = sync::access(Usage::ColorTarget).layout;
         let ds_layout = sync::access(Usage::DepthStencilTarget).layout;
+        let attached = key.colors().iter().copied();
+        let area = self.render_area(attached.chain(key.ds.map(Resource::DepthStencil)));
         let mut in_block = Vec::new();
         let mut attachment = |rec: &mut Self, r: Resource, index, layout| {
-            let (load, clear) = rec.load_op(r, index, &mut in_block);
+            let (load, clear) = rec.load_op(r, index, area, &mut in_block);
             vk::RenderingAttachmentInfo::default()
                 .image_view(rec.b.targets.image(r).view)
                 .image_layout(layout)
@@ -667,13 +681,7 @@ impl<'a> Recorder<'a> {
             .ds
             .map(|d| attachment(self, Resource::DepthStencil(d), None, ds_layout));
         let mut ri = vk::RenderingInfo::default()
-            .render_area(vk::Rect2D {
-                offset: vk::Offset2D { x: 0, y: 0 },
-                extent: vk::Extent2D {
-                    width: self.b.desc.width,
-                    height: self.b.desc.height,
-                },
-            })
+            .render_area(conv::rect2d(area))
             .layer_count(1)
             .color_attachments(colors);
         if let Some(a) = ds_att.as_ref() {
@@ -684,6 +692,7 @@ impl<'a> Recorder<'a> {
         unsafe { self.b.device.cmd_begin_rendering(self.cmd, &ri) };
         self.stats.counts.render_passes += 1;
         self.block = Some(*key);
+        self.render_area = area;
         self.clear_in_block(&in_block);
     }
 
@@ -857,7 +866,8 @@ impl<'a> Recorder<'a> {
         m
     }
 
-    /// A full-screen draw that is not a plan `Draw` (depth copies), within `rect`.
+    /// A full-screen draw that is not a plan `Draw` (depth copies), cut to
+    /// `rect`.
     fn fullscreen_internal(
         &mut self,
         key: &BlockKey,
@@ -868,6 +878,7 @@ impl<'a> Recorder<'a> {
         let tests_off = state::raster_state(None, self.b.desc.reversed_z);
         let pipe = self.pipeline_for(key, kind, &tests_off)?;
         self.bind_pipe(pipe, Some(set));
+        self.check_in_area(rect);
         self.set_scissor(rect);
         let pc = PushConstants {
             mvp: Self::fullscreen_matrix(0.0),
@@ -880,6 +891,15 @@ impl<'a> Recorder<'a> {
         self.stats.counts.fullscreen_passes += 1;
         self.stats.counts.fullscreen_pixels += rect.area();
         Ok(())
+    }
+
+    /// A draw's scissor lies in its block's render area (`render_area`).
+    fn check_in_area(&self, scissor: Rect) {
+        assert!(
+            self.render_area.contains(&scissor),
+            "a draw's scissor {scissor:?} lies outside its block's render area {:?}",
+            self.render_area
+        );
     }
 
     fn scissor(&self, s: &Scissor) -> Rect {
@@ -932,6 +952,7 @@ impl<'a> Recorder<'a> {
         let raster = state::raster_state(Some(draw), self.b.desc.reversed_z);
         let pipe = self.pipeline_for(&key, kind, &raster)?;
         self.open(&key, &uses);
+        self.check_in_area(scissor);
         self.bind_pipe(pipe, set);
         self.set_scissor(scissor);
         let flags = self.flags();

@@ -118,6 +118,9 @@ impl Executor {
         alpha: Option<&[f32]>,
     ) -> Result<Option<SeqFrame>, VkError> {
         let _layer = self.shared.layer_use();
+        // A sequence writes the outputs without tracking what they hold
+        // (`plan::reach`): the next single frame clears them whole.
+        self.kept.clear();
         let plans: Vec<(&Plan, &[u32])> = items
             .iter()
             .filter_map(|i| match i {
@@ -307,7 +310,9 @@ impl Executor {
                     plan_i += 1;
                     if scissored_clears {
                         let s: Vec<&Step> = steps.iter().map(|(s, _)| *s).collect();
-                        rec.plan_clears(&s, plan.output_ds);
+                        // Outputs taken as unknown: a sequence's plans share
+                        // them, so their clears reach whole images.
+                        rec.plan_clears(&s, plan.output_ds, &Default::default(), true);
                     }
                     let q0 = rec.queries.len();
                     let r = steps.iter().try_for_each(|(s, g)| {

@@ -7,8 +7,8 @@
 
 use std::collections::VecDeque;
 
-use super::clears::READ_MARGIN;
 use super::{BlockKey, Recorder};
+use crate::plan::reach::READ_MARGIN;
 use crate::plan::tie_free::ShadeCopy;
 use crate::plan::usage::Resource;
 use crate::plan::{Ds, Scissor, Step, Tex};
@@ -28,6 +28,9 @@ impl Recorder<'_> {
     /// it is read.
     pub(super) fn copy_depth(&mut self, step: &Step, ds: Ds, dst: Tex) -> Result<(), VkError> {
         let (w, h) = (self.b.desc.width, self.b.desc.height);
+        // What later steps read of the copy (`plan::reach`), within what the
+        // shade's tie-rule draws read of it.
+        let reach = self.copy_region();
         let rect = match self.shade_copies.pop_front() {
             None | Some(ShadeCopy::AsPlanned) => Rect::full(w, h),
             // The tie test also reads the texels next to a fragment's pixel.
@@ -35,7 +38,8 @@ impl Recorder<'_> {
                 self.scissor(&Scissor::BoundsOf(meshes))
                     .grown(READ_MARGIN, READ_MARGIN, w, h)
             }
-        };
+        }
+        .intersect(&reach);
         if rect.is_empty() {
             self.stats.counts.skipped_steps += 1;
             return Ok(());

@@ -1,0 +1,843 @@
+//! What part of each image a frame's clears and copies must reach (issue 9 §4:
+//! "clears go through load ops, or are scissored to what will be read"). Pure:
+//! the executor resolves scissors to rectangles and records what this says.
+//!
+//! A backward pass over the frame's steps (loops unrolled) keeps, for every
+//! image, the region that later steps can still read: a draw reads every image
+//! it uses within its scissor (grown by [`READ_MARGIN`]), a copy reads its
+//! source where its destination is read after it, and the frame's outputs are
+//! read after the frame. A clear (or a copy into an image) reaches exactly the
+//! region read after it, and nothing before it reads the image. So a pixel
+//! outside that region is never read before the image is cleared or replaced
+//! again, whatever it holds: the clear or copy may leave it alone.
+//!
+//! The outputs (colour, ids, output depth, normals) are read whole after the
+//! frame, but they keep their pixels from one frame to the next: where an
+//! output was last cleared to the value this frame clears it to and not
+//! written since ([`Kept`]), it already holds that value and needs no clear.
+//! The last clear of an output then reaches the pixels the previous frames
+//! left dirty and those this frame writes before it; what stays outside holds
+//! the background, the far depth and id 0 (the GPU test
+//! `outside_the_csg_the_outputs_hold_the_background` checks it frame after
+//! frame).
+
+use std::collections::BTreeMap;
+
+use super::rect::Rect;
+use super::step::{Clear, Scissor, Step};
+use super::usage::{Resource, Usage};
+
+/// Pixels beyond a draw's scissor that its fragment programs may read: the tie
+/// test's neighbour fetch (`shaders/tie.glsl`, one texel), which a helper
+/// invocation of the pixel quad just outside the scissor also makes (one more).
+pub const READ_MARGIN: u32 = 2;
+
+/// What one image's clear must do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClearNeed {
+    /// Clear this region (empty: nobody reads the value, drop the clear).
+    Reach(Rect),
+    /// Nothing: an earlier clear of the image to the same value, with no write
+    /// since, already reaches everything read after this one.
+    Held,
+}
+
+/// An output image's contents between frames: `value` (a clear) everywhere
+/// outside `dirty`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Kept {
+    pub value: Clear,
+    pub dirty: Rect,
+}
+
+/// What the outputs hold between frames, by image (an image not listed: unknown).
+pub type KeptImages = BTreeMap<Resource, Kept>;
+
+/// The frame's images: its outputs, read whole after it, and whether the
+/// normal buffer goes with the colour.
+#[derive(Clone, Copy, Debug)]
+pub struct Images<'a> {
+    pub outputs: &'a [Resource],
+    pub normals: bool,
+    pub size: (u32, u32),
+}
+
+/// What a frame's clears and copies reach ([`frame_reach`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameReach {
+    /// For every image every `Clear` clears, in order ([`cleared`]).
+    pub clears: Vec<ClearNeed>,
+    /// For every `CopyTexture` and `CopyDepthToTexture`, in order: the region
+    /// to copy (empty: nobody reads the copy).
+    pub copies: Vec<Rect>,
+    /// What the outputs hold after the frame.
+    pub kept: KeptImages,
+}
+
+/// A frame's outputs, read whole after it: colour, ids, the depth-stencil
+/// `output_ds` and, with `normals`, the normal buffer.
+pub fn outputs(output_ds: u8, normals: bool) -> Vec<Resource> {
+    let mut outputs = vec![
+        Resource::Color,
+        Resource::Prim,
+        Resource::DepthStencil(output_ds),
+    ];
+    outputs.extend(normals.then_some(Resource::Normal));
+    outputs
+}
+
+/// The images `clear` clears, in recording order (`normals`: the normal buffer
+/// goes with the colour).
+pub fn cleared(clear: &Clear, normals: bool) -> Vec<Resource> {
+    match *clear {
+        Clear::DepthStencil { ds, .. } => vec![Resource::DepthStencil(ds)],
+        Clear::Texture { tex, .. } => vec![Resource::Texture(tex)],
+        Clear::Color => {
+            let mut v = vec![Resource::Color, Resource::Prim];
+            v.extend(normals.then_some(Resource::Normal));
+            v
+        }
+    }
+}
+
+/// The images `step` uses and how, the normal buffer with the colour target.
+fn uses(step: &Step, normals: bool) -> Vec<(Resource, Usage)> {
+    let mut u = step.usage();
+    if normals && u.contains(&(Resource::Color, Usage::ColorTarget)) {
+        u.push((Resource::Normal, Usage::ColorTarget));
+    }
+    u.to_vec()
+}
+
+/// Whether `step` may write `r` (a target of a draw or depth copy, or a copy's
+/// destination); clears are not counted.
+fn may_write(step: &Step, r: Resource, normals: bool) -> bool {
+    uses(step, normals)
+        .iter()
+        .any(|&(res, u)| res == r && u.writes() && u != Usage::Clear)
+}
+
+/// The rectangle a step works in, or `None` when it is skipped (a draw with
+/// an empty scissor) or is not a draw.
+fn draw_rect(step: &Step, scissor: &impl Fn(&Scissor) -> Rect) -> Option<Rect> {
+    match step {
+        Step::Draw(d) => Some(scissor(&d.scissor)).filter(|r| !r.is_empty()),
+        _ => None,
+    }
+}
+
+/// Which clears of `steps` are [`ClearNeed::Held`], per image cleared: a clear
+/// to the value an earlier clear left, with no write to the image since (CST
+/// clears its floor texture to the same depth for every product and only
+/// samples it).
+fn held_clears(
+    steps: &[&Step],
+    scissor: &impl Fn(&Scissor) -> Rect,
+    normals: bool,
+) -> Vec<Vec<bool>> {
+    let mut held: Vec<(Resource, Clear)> = Vec::new();
+    let mut out = Vec::new();
+    for s in steps {
+        match s {
+            Step::Clear(c) => out.push(
+                cleared(c, normals)
+                    .into_iter()
+                    .map(|r| {
+                        let h = held.contains(&(r, *c));
+                        if !h {
+                            held.retain(|k| k.0 != r);
+                            held.push((r, *c));
+                        }
+                        h
+                    })
+                    .collect(),
+            ),
+            Step::Draw(_) if draw_rect(s, scissor).is_none() => {}
+            _ => held.retain(|&(r, _)| !may_write(s, r, normals)),
+        }
+    }
+    out
+}
+
+/// The union of the regions `steps` may write in output `r`, and the value of
+/// its last clear (`None`: not cleared): what the image holds after them, up
+/// to the pixels written after that clear.
+fn writes(
+    steps: &[&Step],
+    scissor: &impl Fn(&Scissor) -> Rect,
+    r: Resource,
+    normals: bool,
+) -> (Rect, Option<Clear>, Rect) {
+    let (mut all, mut last, mut after) = (Rect::EMPTY, None, Rect::EMPTY);
+    for s in steps {
+        if let Step::Clear(c) = s {
+            if cleared(c, normals).contains(&r) {
+                last = Some(*c);
+                after = Rect::EMPTY;
+            }
+        } else if let Some(rect) = draw_rect(s, scissor).filter(|_| may_write(s, r, normals)) {
+            all = all.union(&rect);
+            after = after.union(&rect);
+        }
+    }
+    (all, last, after)
+}
+
+/// For a frame of `steps` (loops unrolled) on `images`, whose outputs hold
+/// `before` from earlier frames: the region each clear and copy must reach and
+/// what the outputs hold after (module doc). `scissor` resolves a draw's
+/// scissor (an empty one: the draw is skipped); outputs are only ever drawn
+/// into and cleared, never copied into.
+pub fn frame_reach(
+    steps: &[&Step],
+    scissor: impl Fn(&Scissor) -> Rect,
+    images: Images<'_>,
+    before: &KeptImages,
+) -> FrameReach {
+    let (w, h) = images.size;
+    let full = Rect::full(w, h);
+    let normals = images.normals;
+    let mut live: BTreeMap<Resource, Rect> = BTreeMap::new();
+    for &r in images.outputs {
+        let (all, last, _) = writes(steps, &scissor, r, normals);
+        // Every clear of the image must be to the value it keeps for its
+        // pixels outside the dirty region to hold that value already.
+        let one_value = steps.iter().all(|s| match s {
+            Step::Clear(c) => !cleared(c, normals).contains(&r) || Some(*c) == last,
+            _ => true,
+        });
+        let end = match (before.get(&r), last) {
+            (Some(k), Some(v)) if k.value == v && one_value => k.dirty.union(&all),
+            _ => full,
+        };
+        live.insert(r, end);
+    }
+    let held = held_clears(steps, &scissor, normals);
+    let mut clears = Vec::new();
+    let mut copies = Vec::new();
+    let take = |live: &mut BTreeMap<Resource, Rect>, r| live.remove(&r).unwrap_or(Rect::EMPTY);
+    let mut n_clear = held.len();
+    for s in steps.iter().rev() {
+        match s {
+            Step::Clear(c) => {
+                n_clear -= 1;
+                let rs = cleared(c, normals);
+                for (r, h) in rs.into_iter().zip(&held[n_clear]).rev() {
+                    clears.push(match h {
+                        // The earlier clear reaches what is read after this one.
+                        true => ClearNeed::Held,
+                        false => ClearNeed::Reach(take(&mut live, r)),
+                    });
+                }
+            }
+            Step::CopyTexture { src, dst } if src != dst => {
+                let region = take(&mut live, Resource::Texture(*dst));
+                let src = live.entry(Resource::Texture(*src)).or_insert(Rect::EMPTY);
+                *src = src.union(&region);
+                copies.push(region);
+            }
+            Step::CopyTexture { .. } => copies.push(Rect::EMPTY),
+            // A full-screen draw reading the depth at the pixel it writes.
+            Step::CopyDepthToTexture { ds, dst } => {
+                let region = take(&mut live, Resource::Texture(*dst));
+                let ds = live
+                    .entry(Resource::DepthStencil(*ds))
+                    .or_insert(Rect::EMPTY);
+                *ds = ds.union(&region);
+                copies.push(region);
+            }
+            _ => {
+                if let Some(rect) = draw_rect(s, &scissor) {
+                    let read = rect.grown(READ_MARGIN, READ_MARGIN, w, h);
+                    for (r, _) in uses(s, normals) {
+                        let l = live.entry(r).or_insert(Rect::EMPTY);
+                        *l = l.union(&read);
+                    }
+                }
+            }
+        }
+    }
+    clears.reverse();
+    copies.reverse();
+    FrameReach {
+        clears,
+        copies,
+        kept: kept_after(steps, &scissor, images, before),
+    }
+}
+
+/// What the outputs hold after `steps` run from `before`, whether their clears
+/// reach what [`frame_reach`] says or whole images: an output cleared in the
+/// frame holds its last clear's value outside what is written after it (that
+/// clear reaches every pixel earlier frames and this one dirtied); one not
+/// cleared gains the frame's writes. Images the frame uses other than as
+/// outputs hold nothing known. A frame run loop by loop is described by its
+/// loops' head, tail and head again (every write that can follow a clear in
+/// the loop follows it there).
+pub fn kept_after(
+    steps: &[&Step],
+    scissor: impl Fn(&Scissor) -> Rect,
+    images: Images<'_>,
+    before: &KeptImages,
+) -> KeptImages {
+    let normals = images.normals;
+    let mut kept = before.clone();
+    for s in steps {
+        for (r, _) in uses(s, normals) {
+            if !images.outputs.contains(&r) {
+                kept.remove(&r);
+            }
+        }
+    }
+    for &r in images.outputs {
+        match writes(steps, &scissor, r, normals) {
+            (_, Some(value), after) => {
+                kept.insert(
+                    r,
+                    Kept {
+                        value,
+                        dirty: after,
+                    },
+                );
+            }
+            (all, None, _) => {
+                if let Some(k) = kept.get_mut(&r) {
+                    k.dirty = k.dirty.union(&all);
+                }
+            }
+        }
+    }
+    kept
+}
+
+/// The outputs' state a recording made for a frame that starts from `now`
+/// should assume so that its replays stay valid: `now` widened by the dirty
+/// regions the frame itself leaves (`after`), where the values agree. A frame
+/// recorded for the result is correct from `now` and from what it leaves.
+pub fn assume(now: &KeptImages, after: &KeptImages) -> KeptImages {
+    now.iter()
+        .filter_map(|(r, k)| {
+            let a = after.get(r)?;
+            (a.value == k.value).then_some((
+                *r,
+                Kept {
+                    value: k.value,
+                    dirty: k.dirty.union(&a.dirty),
+                },
+            ))
+        })
+        .collect()
+}
+
+/// Whether images holding `now` satisfy what a recording assumed (`assumed`):
+/// every output it counts on holds the same value outside a region inside the
+/// one assumed.
+pub fn holds(now: &KeptImages, assumed: &KeptImages) -> bool {
+    assumed.iter().all(|(r, a)| {
+        now.get(r).is_some_and(|k| {
+            k.value == a.value && (k.dirty.is_empty() || a.dirty.contains(&k.dirty))
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::{Draw, Fragment, Geometry};
+
+    const W: u32 = 100;
+    const H: u32 = 80;
+
+    /// Scissors: `BoundsOf([m])` is the 10×10 square at (10m, 10m); full is full.
+    fn scissor(s: &Scissor) -> Rect {
+        match s {
+            Scissor::Full => Rect::full(W, H),
+            Scissor::BoundsOf(ms) => ms.iter().fold(Rect::EMPTY, |r, &m| {
+                let o = 10 * m;
+                r.union(&Rect {
+                    x0: o,
+                    y0: o,
+                    x1: o + 10,
+                    y1: o + 10,
+                })
+            }),
+            Scissor::Within { .. } | Scissor::Overlap { .. } | Scissor::Run { .. } => {
+                unreachable!("these tests draw with full and BoundsOf scissors")
+            }
+        }
+    }
+
+    fn draw(fragment: Fragment, ds: u8, mesh: u32) -> Step {
+        let Step::Draw(mut d) = Draw::for_test(Geometry::Mesh(mesh), fragment) else {
+            unreachable!()
+        };
+        d.ds = ds;
+        d.scissor = Scissor::BoundsOf(vec![mesh]);
+        Step::Draw(d)
+    }
+
+    fn off_screen(fragment: Fragment, ds: u8) -> Step {
+        let Step::Draw(mut d) = draw(fragment, ds, 1) else {
+            unreachable!()
+        };
+        d.scissor = Scissor::BoundsOf(vec![]);
+        Step::Draw(d)
+    }
+
+    fn square(m: u32) -> Rect {
+        scissor(&Scissor::BoundsOf(vec![m])).grown(READ_MARGIN, READ_MARGIN, W, H)
+    }
+
+    fn reach_of(steps: &[Step], outputs: &[Resource], before: &KeptImages) -> FrameReach {
+        let refs: Vec<&Step> = steps.iter().collect();
+        let images = Images {
+            outputs,
+            normals: false,
+            size: (W, H),
+        };
+        frame_reach(&refs, scissor, images, before)
+    }
+
+    fn needs(steps: &[Step], outputs: &[Resource]) -> Vec<ClearNeed> {
+        reach_of(steps, outputs, &KeptImages::new()).clears
+    }
+
+    /// The regions of clears that all reach something.
+    fn regions(steps: &[Step], outputs: &[Resource]) -> Vec<Rect> {
+        needs(steps, outputs)
+            .into_iter()
+            .map(|n| match n {
+                ClearNeed::Reach(r) => r,
+                ClearNeed::Held => panic!("no clear of these tests is held"),
+            })
+            .collect()
+    }
+
+    fn clear_ds(ds: u8) -> Step {
+        Step::Clear(Clear::DepthStencil {
+            ds,
+            depth: 1.0,
+            stencil: 0,
+        })
+    }
+
+    fn clear_tex(tex: u8) -> Step {
+        Step::Clear(Clear::Texture { tex, depth: 0.0 })
+    }
+
+    fn peel(prev: u8, out: u8, mesh: u32) -> Step {
+        let f = Fragment::Peel {
+            prev,
+            out,
+            shade: false,
+        };
+        draw(f, 0, mesh)
+    }
+
+    #[test]
+    fn a_clear_reaches_the_scissors_of_the_draws_until_the_next_clear() {
+        let steps = vec![
+            clear_ds(1),
+            draw(Fragment::None, 1, 1),
+            draw(Fragment::None, 1, 3),
+            // Another image: not a use of ds 1.
+            draw(Fragment::None, 0, 6),
+            clear_ds(1),
+            draw(Fragment::None, 1, 2),
+        ];
+        let r = regions(&steps, &[]);
+        assert_eq!(r, vec![square(1).union(&square(3)), square(2)]);
+        let expected = Rect {
+            x0: 8,
+            y0: 8,
+            x1: 42,
+            y1: 42,
+        };
+        assert_eq!(r[0], expected);
+    }
+
+    #[test]
+    fn sampled_textures_copies_and_outputs_need_what_they_read() {
+        let steps = vec![
+            clear_tex(0),
+            clear_tex(1),
+            Step::Clear(Clear::Color),
+            peel(0, 1, 4),
+            // The copy replaces 2 where it is read (nowhere) and reads 1 there.
+            clear_tex(2),
+            Step::CopyTexture { src: 1, dst: 2 },
+            // Read by nobody.
+            clear_tex(3),
+        ];
+        let r = regions(&steps, &[Resource::Color, Resource::Prim]);
+        let full = Rect::full(W, H);
+        // tex 0 sampled by the peel, tex 1 written there, colour and ids read
+        // back whole (nothing known of them before), tex 2 replaced by the
+        // copy, tex 3 unread.
+        assert_eq!(
+            r,
+            vec![square(4), square(4), full, full, Rect::EMPTY, Rect::EMPTY]
+        );
+        assert_eq!(
+            reach_of(&steps, &[], &KeptImages::new()).copies,
+            vec![Rect::EMPTY]
+        );
+    }
+
+    /// Goldfeather's layer loop: the layer `CUR` is copied to `PREV`, which the
+    /// next peel samples, and to `SURF`, which the merge samples.
+    #[test]
+    fn a_copy_reaches_what_its_destination_is_read_at_and_reads_its_source_there() {
+        let steps = vec![
+            clear_tex(0),
+            clear_tex(1),
+            peel(0, 1, 2),
+            Step::CopyTexture { src: 1, dst: 2 },
+            draw(Fragment::DepthFromTexture { src: 2 }, 0, 5),
+            Step::CopyTexture { src: 1, dst: 0 },
+            peel(0, 1, 3),
+        ];
+        let r = reach_of(&steps, &[], &KeptImages::new());
+        assert_eq!(r.copies, vec![square(5), square(3)]);
+        // Texture 1 is read by both copies and written by both peels.
+        let tex1 = square(2).union(&square(3)).union(&square(5));
+        assert_eq!(
+            r.clears,
+            vec![ClearNeed::Reach(square(2)), ClearNeed::Reach(tex1)]
+        );
+    }
+
+    #[test]
+    fn a_depth_copy_reads_the_depth_where_its_texture_is_read_and_skipped_draws_read_nothing() {
+        let steps = vec![
+            clear_ds(0),
+            clear_tex(5),
+            Step::CopyDepthToTexture { ds: 0, dst: 5 },
+            draw(Fragment::ShadeNearDepth { tex: 5, eps: 0.0 }, 1, 3),
+            clear_tex(6),
+            // Off screen (empty scissor): skipped by the recorder.
+            off_screen(Fragment::WriteDepth { out: 6 }, 0),
+        ];
+        let r = reach_of(&steps, &[], &KeptImages::new());
+        assert_eq!(r.copies, vec![square(3)]);
+        assert_eq!(
+            r.clears,
+            vec![
+                ClearNeed::Reach(square(3)),
+                ClearNeed::Reach(Rect::EMPTY),
+                ClearNeed::Reach(Rect::EMPTY)
+            ]
+        );
+    }
+
+    #[test]
+    fn the_normal_buffer_goes_with_the_colour() {
+        let steps = [Step::Clear(Clear::Color), draw(Fragment::Shade, 0, 2)];
+        let refs: Vec<&Step> = steps.iter().collect();
+        let images = Images {
+            outputs: &[],
+            normals: true,
+            size: (W, H),
+        };
+        let r = frame_reach(&refs, scissor, images, &KeptImages::new());
+        assert_eq!(r.clears, vec![ClearNeed::Reach(square(2)); 3]);
+    }
+
+    /// CST's floor: cleared to one value per product, only ever sampled. The
+    /// first clear reaches every product's reads; the others need nothing.
+    #[test]
+    fn a_clear_to_the_value_the_image_holds_is_held() {
+        let floor = clear_tex(0);
+        let steps = vec![floor.clone(), peel(0, 1, 1), floor.clone(), peel(0, 1, 3)];
+        assert_eq!(
+            needs(&steps, &[]),
+            vec![
+                ClearNeed::Reach(square(1).union(&square(3))),
+                ClearNeed::Held
+            ]
+        );
+        // Another value, or a write in between: the second clear is needed and
+        // ends the first one's reach.
+        let other = Step::Clear(Clear::Texture { tex: 0, depth: 1.0 });
+        let steps = vec![floor.clone(), peel(0, 1, 1), other, peel(0, 1, 3)];
+        assert_eq!(regions(&steps, &[]), vec![square(1), square(3)]);
+        let write = draw(Fragment::WriteDepth { out: 0 }, 0, 2);
+        let steps = vec![
+            floor.clone(),
+            peel(0, 1, 1),
+            write,
+            floor.clone(),
+            peel(0, 1, 3),
+        ];
+        assert_eq!(
+            regions(&steps, &[]),
+            vec![square(1).union(&square(2)), square(3)]
+        );
+        // A write that is skipped (empty scissor) writes nothing.
+        let skipped = off_screen(Fragment::WriteDepth { out: 0 }, 0);
+        let steps = vec![floor.clone(), skipped, floor, peel(0, 1, 3)];
+        assert_eq!(
+            needs(&steps, &[]),
+            vec![ClearNeed::Reach(square(3)), ClearNeed::Held]
+        );
+    }
+
+    /// The outputs of a frame that starts from what the last one left: their
+    /// clears reach the pixels dirtied then and now, not the whole image.
+    #[test]
+    fn outputs_are_cleared_where_earlier_frames_and_this_one_draw() {
+        let outputs = [Resource::Color, Resource::Prim, Resource::DepthStencil(0)];
+        let steps = vec![
+            clear_ds(0),
+            Step::Clear(Clear::Color),
+            draw(Fragment::Shade, 0, 2),
+            draw(Fragment::Shade, 0, 3),
+        ];
+        let full = Rect::full(W, H);
+        let first = reach_of(&steps, &outputs, &KeptImages::new());
+        assert_eq!(first.clears, vec![ClearNeed::Reach(full); 3]);
+        let written = scissor(&Scissor::BoundsOf(vec![2, 3]));
+        let colour = Kept {
+            value: Clear::Color,
+            dirty: written,
+        };
+        assert_eq!(first.kept[&Resource::Color], colour);
+        assert_eq!(first.kept[&Resource::DepthStencil(0)].dirty, written);
+        // The next frame: only what it reads and what the last one dirtied.
+        let next = reach_of(&steps, &outputs, &first.kept);
+        let reads = square(2).union(&square(3));
+        assert_eq!(next.clears, vec![ClearNeed::Reach(reads); 3]);
+        assert_eq!(next.kept, first.kept);
+        // Earlier frames dirtied a corner: it is cleared too.
+        let mut corner = first.kept.clone();
+        let c = Rect {
+            x0: 90,
+            y0: 70,
+            x1: 100,
+            y1: 80,
+        };
+        corner.get_mut(&Resource::Color).unwrap().dirty = c;
+        let r = reach_of(&steps, &outputs, &corner);
+        assert_eq!(r.clears[1], ClearNeed::Reach(reads.union(&c)));
+        // Another value than the image holds: the whole image.
+        let mut other = first.kept.clone();
+        other.get_mut(&Resource::DepthStencil(0)).unwrap().value = Clear::DepthStencil {
+            ds: 0,
+            depth: 0.0,
+            stencil: 0,
+        };
+        assert_eq!(
+            reach_of(&steps, &outputs, &other).clears[0],
+            ClearNeed::Reach(full)
+        );
+        // A frame that uses an output as a work image leaves it unknown.
+        let work = [clear_ds(1), draw(Fragment::None, 1, 2)];
+        let r = reach_of(&work, &outputs, &first.kept);
+        assert!(r.kept.contains_key(&Resource::Color));
+        let other_outputs = [Resource::Color, Resource::Prim, Resource::DepthStencil(1)];
+        let steps = [clear_ds(0), draw(Fragment::None, 0, 1)];
+        let r = reach_of(&steps, &other_outputs, &first.kept);
+        assert!(!r.kept.contains_key(&Resource::DepthStencil(0)));
+    }
+
+    #[test]
+    fn a_recording_assumes_what_it_leaves_and_holds_checks_it() {
+        let a = Rect {
+            x0: 0,
+            y0: 0,
+            x1: 5,
+            y1: 5,
+        };
+        let b = Rect {
+            x0: 10,
+            y0: 10,
+            x1: 20,
+            y1: 20,
+        };
+        let k = |dirty| {
+            KeptImages::from([(
+                Resource::Color,
+                Kept {
+                    value: Clear::Color,
+                    dirty,
+                },
+            )])
+        };
+        let assumed = assume(&k(a), &k(b));
+        assert_eq!(assumed, k(a.union(&b)));
+        assert!(holds(&k(a), &assumed) && holds(&k(b), &assumed));
+        assert!(holds(&k(Rect::EMPTY), &assumed));
+        assert!(!holds(&k(Rect::full(W, H)), &assumed));
+        assert!(!holds(&KeptImages::new(), &assumed));
+        assert!(holds(&KeptImages::new(), &KeptImages::new()));
+        // Nothing known now: nothing assumed.
+        assert_eq!(assume(&KeptImages::new(), &k(b)), KeptImages::new());
+    }
+
+    /// Pixel images of a simulated frame: a value per pixel and image.
+    type Pixels = BTreeMap<Resource, Vec<u64>>;
+
+    fn value_of(c: &Clear) -> u64 {
+        match *c {
+            Clear::DepthStencil { ds, depth, stencil } => {
+                1 << 40 | (ds as u64) << 32 | (depth.to_bits() as u64) ^ stencil as u64
+            }
+            Clear::Texture { tex, depth } => 2 << 40 | (tex as u64) << 32 | depth.to_bits() as u64,
+            Clear::Color => 3 << 40,
+        }
+    }
+
+    fn each(rect: Rect, mut f: impl FnMut(usize)) {
+        for y in rect.y0..rect.y1 {
+            for x in rect.x0..rect.x1 {
+                f((y * W + x) as usize);
+            }
+        }
+    }
+
+    /// Runs `steps` on `px` with the clears and copies reaching `reach` (or
+    /// whole images): every value a draw reads (its images within its grown
+    /// scissor) goes to `reads`; a draw writes a value of its own (`tag`,
+    /// step) to the images it may write within its scissor.
+    fn simulate(
+        steps: &[Step],
+        reach: Option<&FrameReach>,
+        px: &mut Pixels,
+        tag: u64,
+        reads: &mut Vec<u64>,
+    ) {
+        let full = Rect::full(W, H);
+        let mut clears = reach.map(|r| r.clears.iter());
+        let mut copies = reach.map(|r| r.copies.iter());
+        let get = |px: &mut Pixels, r| {
+            px.entry(r)
+                .or_insert(vec![u64::MAX; (W * H) as usize])
+                .clone()
+        };
+        for (i, s) in steps.iter().enumerate() {
+            match s {
+                Step::Clear(c) => {
+                    for r in cleared(c, false) {
+                        let need = clears.as_mut().map_or(ClearNeed::Reach(full), |n| {
+                            *n.next().expect("a need per cleared image")
+                        });
+                        let mut img = get(px, r);
+                        if let ClearNeed::Reach(rect) = need {
+                            each(rect, |p| img[p] = value_of(c));
+                        }
+                        px.insert(r, img);
+                    }
+                }
+                Step::CopyTexture { src, dst } | Step::CopyDepthToTexture { ds: src, dst } => {
+                    let rect = copies
+                        .as_mut()
+                        .map_or(full, |c| *c.next().expect("a region per copy"));
+                    let src = match s {
+                        Step::CopyTexture { .. } => Resource::Texture(*src),
+                        _ => Resource::DepthStencil(*src),
+                    };
+                    let from = get(px, src);
+                    let mut to = get(px, Resource::Texture(*dst));
+                    each(rect, |p| to[p] = from[p]);
+                    px.insert(Resource::Texture(*dst), to);
+                }
+                Step::Draw(_) => {
+                    let Some(rect) = draw_rect(s, &scissor) else {
+                        continue;
+                    };
+                    for (r, _) in uses(s, false) {
+                        let img = get(px, r);
+                        each(rect.grown(READ_MARGIN, READ_MARGIN, W, H), |p| {
+                            reads.push(img[p])
+                        });
+                    }
+                    for (r, _) in uses(s, false) {
+                        if may_write(s, r, false) {
+                            let mut img = get(px, r);
+                            each(rect, |p| img[p] = tag << 20 | i as u64);
+                            px.insert(r, img);
+                        }
+                    }
+                }
+                Step::Pass(_) | Step::Loop(_) => {}
+            }
+        }
+    }
+
+    /// A random frame from a small vocabulary of steps on 2 depth-stencils
+    /// and 3 textures, every image cleared at its start as plans do (a plan
+    /// reads no image it has not cleared or written).
+    fn random_frame(seed: u64) -> Vec<Step> {
+        let mut x = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let mut next = |n: u64| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 33) % n
+        };
+        let mut steps = vec![clear_ds(0), Step::Clear(Clear::Color), clear_ds(1)];
+        steps.extend((0..3).map(clear_tex));
+        for _ in 0..12 {
+            let (t, u, m) = (next(3) as u8, next(3) as u8, next(7) as u32);
+            let ds = next(2) as u8;
+            steps.push(match next(9) {
+                0 => clear_ds(ds),
+                1 => Step::Clear(Clear::Texture {
+                    tex: t,
+                    depth: next(2) as f32,
+                }),
+                2 => Step::CopyTexture { src: t, dst: u },
+                3 => Step::CopyDepthToTexture { ds, dst: t },
+                4 => draw(Fragment::Shade, ds, m),
+                5 => draw(
+                    Fragment::Peel {
+                        prev: t,
+                        out: u,
+                        shade: next(2) == 0,
+                    },
+                    ds,
+                    m,
+                ),
+                6 => draw(Fragment::DepthFromTexture { src: t }, ds, m),
+                7 => draw(Fragment::WriteDepth { out: t }, ds, m),
+                _ => draw(Fragment::None, ds, m),
+            });
+        }
+        steps
+    }
+
+    /// Random frames, run several times in a row as the executor runs them:
+    /// with clears and copies cut to `frame_reach` (outputs carried over from
+    /// frame to frame) every draw reads the values it reads with whole clears
+    /// and copies, and the outputs end the same, pixel for pixel.
+    #[test]
+    fn cut_clears_and_copies_read_and_leave_what_whole_ones_do() {
+        let outputs = [Resource::Color, Resource::Prim, Resource::DepthStencil(0)];
+        for seed in 0..300 {
+            let steps = random_frame(seed);
+            let (mut whole, mut cut) = (Pixels::new(), Pixels::new());
+            let mut kept = KeptImages::new();
+            for frame in 0..3 {
+                let r = reach_of(&steps, &outputs, &kept);
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                simulate(&steps, None, &mut whole, frame, &mut a);
+                simulate(&steps, Some(&r), &mut cut, frame, &mut b);
+                assert!(
+                    a == b,
+                    "seed {seed} frame {frame}: a draw read another value\n{steps:#?}"
+                );
+                for o in &outputs {
+                    assert!(
+                        whole[o] == cut[o],
+                        "seed {seed} frame {frame}: output {o:?} differs"
+                    );
+                }
+                kept = r.kept;
+            }
+            // From the second frame on, the outputs' clears are cut.
+            assert!(kept.contains_key(&Resource::Color), "seed {seed}");
+        }
+    }
+}
