@@ -313,6 +313,7 @@ impl Executor {
                         // Outputs taken as unknown: a sequence's plans share
                         // them, so their clears reach whole images.
                         rec.plan_clears(&s, plan.output_ds, &Default::default(), true);
+                        rec.whole_copies();
                     }
                     let q0 = rec.queries.len();
                     let r = steps.iter().try_for_each(|(s, g)| {

@@ -83,6 +83,12 @@ impl Recorder<'_> {
         (assumed, r.kept)
     }
 
+    /// Every copy recorded next copies whole images (a sequence frame's plans
+    /// read each other's textures, which one plan's reach does not see).
+    pub(crate) fn whole_copies(&mut self) {
+        self.copy_regions.clear();
+    }
+
     /// The region the next texture or depth copy copies (the whole image when
     /// no regions were planned).
     pub(super) fn copy_region(&mut self) -> Rect {
