@@ -517,11 +517,10 @@ impl Executor {
         self.end_frame(plan, f, unrolled)
     }
 
-    /// What every frame does before recording: checks `plan`, makes its
-    /// images, writes the camera (no frame is in flight) and looks up the loop
-    /// counts the last frame of `plan` needed.
-    fn begin_frame(&mut self, plan: &Plan) -> Result<FrameStart, VkError> {
-        let start = Instant::now();
+    /// Checks `plan` against the uploaded scene, makes its images and decides
+    /// its tie-free draws: what a single frame and a sequence frame (all its
+    /// plans as one) both do first.
+    fn prepare_plan(&mut self, plan: &Plan) -> Result<(), VkError> {
         let meshes = self
             .scene
             .as_ref()
@@ -531,6 +530,15 @@ impl Executor {
         validate(plan, meshes)?;
         self.ensure_targets(plan)?;
         self.ties = self.decide_ties(plan);
+        Ok(())
+    }
+
+    /// What every frame does before recording: checks `plan`, makes its
+    /// images, writes the camera (no frame is in flight) and looks up the loop
+    /// counts the last frame of `plan` needed.
+    fn begin_frame(&mut self, plan: &Plan) -> Result<FrameStart, VkError> {
+        let start = Instant::now();
+        self.prepare_plan(plan)?;
         let scene = self.scene.as_ref().expect("checked above");
         let cam = scene.cam;
         let exact = Scissors::exact(scene, &self.desc);

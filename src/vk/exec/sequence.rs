@@ -23,7 +23,6 @@ use super::{gpu_scene, Recorded, Scissors};
 use super::{layers_fit, unroll, whole_image_region, Clock, ExecStats, Executor, FrameStart};
 use crate::output::Images;
 use crate::plan::tie_free::TieFree;
-use crate::plan::validate::validate;
 use crate::plan::{Plan, Step};
 use crate::vk::error::VkError;
 use crate::vk::memory::Buffer;
@@ -163,15 +162,7 @@ impl Executor {
             output_ds: last.output_ds,
             steps: plans.iter().flat_map(|p| p.0.steps.clone()).collect(),
         };
-        let meshes = self
-            .scene
-            .as_ref()
-            .ok_or_else(|| VkError::Plan("execute before upload: no scene".into()))?
-            .ranges
-            .len() as u32;
-        validate(&whole, meshes)?;
-        self.ensure_targets(&whole)?;
-        self.ties = self.decide_ties(&whole);
+        self.prepare_plan(&whole)?;
         let scene = self.scene.as_ref().expect("checked above");
         let cam = scene.cam;
         let exact = Scissors::exact(scene, &self.desc);
