@@ -191,23 +191,19 @@ pub fn summary(records: &[Record]) -> String {
         s.push_str("| algo | depth | GPU ms (median ± IQR) | frame ms | record ms | CPU ms | draws | triangles | full-screen passes | cov. mism. % | prim mism. % | depth p99 |\n");
         s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for r in rows {
-            if let Some(why) = &r.skipped {
+            // A run without figures: why, in the first figure's column.
+            let why = match (&r.skipped, &r.failure) {
+                (Some(why), _) => Some(why.clone()),
+                (None, Some(f)) => Some(format!("not run: {f}")),
+                (None, None) => None,
+            };
+            if let Some(why) = why {
                 let _ = writeln!(
                     s,
                     "| {} | {} | {} | | | | | | | | | |",
                     r.algo,
                     r.depth_setup,
                     why.replace('|', "/")
-                );
-                continue;
-            }
-            if let Some(f) = &r.failure {
-                let _ = writeln!(
-                    s,
-                    "| {} | {} | not run: {} | | | | | | | | | |",
-                    r.algo,
-                    r.depth_setup,
-                    f.replace('|', "/")
                 );
                 continue;
             }
