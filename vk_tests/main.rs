@@ -21,6 +21,7 @@ mod replay;
 mod rounding;
 mod scad_models;
 mod scs;
+mod scs_ortho;
 mod see_inside;
 mod setup;
 mod shadow;
@@ -442,6 +443,30 @@ fn peel_loop_stops_after_two_layers() {
     assert_clean(&ctx);
 }
 
+/// Depth-stencil image 1 cleared to `clear`, then texture 0's depths written
+/// into it by a full-screen draw at `depth` (which `DepthFromTexture` replaces),
+/// counting samples with `count`.
+fn restore_depth(clear: f32, depth: f32, count: bool) -> [Step; 2] {
+    [
+        Step::Clear(Clear::DepthStencil {
+            ds: 1,
+            depth: clear,
+            stencil: 0,
+        }),
+        Step::Draw(Draw {
+            geometry: Geometry::FullScreen { depth },
+            ds: 1,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: true,
+            },
+            fragment: Fragment::DepthFromTexture { src: 0 },
+            count_samples: count,
+            ..shade_draw(0, Cull::None)
+        }),
+    ]
+}
+
 /// Peel the first layer, copy it into a depth texture and back into the depth
 /// buffer, then shade with depth Equal: the same picture as a plain shade.
 #[test]
@@ -459,21 +484,7 @@ fn depth_copies_round_trip() {
             ..shade_draw(0, Cull::Back)
         }));
         steps.push(Step::CopyDepthToTexture { ds: 0, dst: 0 });
-        steps.push(Step::Clear(Clear::DepthStencil {
-            ds: 1,
-            depth: 1.0,
-            stencil: 0,
-        }));
-        steps.push(Step::Draw(Draw {
-            geometry: Geometry::FullScreen { depth: 0.5 },
-            ds: 1,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: true,
-            },
-            fragment: Fragment::DepthFromTexture { src: 0 },
-            ..shade_draw(0, Cull::None)
-        }));
+        steps.extend(restore_depth(1.0, 0.5, false));
         steps.push(Step::Draw(Draw {
             ds: 1,
             depth: DepthState {
@@ -564,22 +575,7 @@ fn paint_write_depth_and_restore() {
         fragment: Fragment::WriteDepth { out: 0 },
         ..shade_draw(0, Cull::Back)
     }));
-    steps.push(Step::Clear(Clear::DepthStencil {
-        ds: 1,
-        depth: 0.25,
-        stencil: 0,
-    }));
-    steps.push(Step::Draw(Draw {
-        geometry: Geometry::FullScreen { depth: 0.0 },
-        ds: 1,
-        depth: DepthState {
-            compare: CompareOp::Always,
-            write: true,
-        },
-        fragment: Fragment::DepthFromTexture { src: 0 },
-        count_samples: true,
-        ..shade_draw(0, Cull::None)
-    }));
+    steps.extend(restore_depth(0.25, 0.0, true));
     for reversed_z in [false, true] {
         let mut p = plan(steps.clone(), 1);
         p.depth_stencils = 2;

@@ -12,7 +12,7 @@
 
 use super::edges::edge_map;
 use super::gpu_layers::{self, GpuLayers, StreamLimit};
-use super::layers::{LayerOptions, LayerStats, LayeredFrame};
+use super::layers::{GpuLayerFigures, InterferenceFigures, LayerOptions, LayerStats, LayeredFrame};
 use super::sequence::{self, Counted, Layer, Stop, Stream};
 use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::Images;
@@ -303,13 +303,13 @@ pub fn layered_frame(
         .collect();
     let layer_stats = LayerStats {
         layers: count as u32,
+        gpu: Some(GpuLayerFigures::of(&peeled)),
         layer_pixels: peeled.pixels,
         transparent: scene.appearance.is_transparent(),
-        interference_pixels: Some(inter.color.iter().filter(|c| c.is_some()).count() as u64),
-        interference: Some(inter.pairs),
-        readback_bytes: Some(peeled.readback_bytes),
-        stream_layers: Some(peeled.stream_layers),
-        csts: Some(peeled.csts),
+        interference: Some(InterferenceFigures {
+            pixels: inter.color.iter().filter(|c| c.is_some()).count() as u64,
+            pairs: inter.pairs,
+        }),
         style: scene.appearance.style.name(),
         edge_pixels: (!edges.is_empty())
             .then(|| edges.iter().map(|e| super::edges::count(e)).collect()),
