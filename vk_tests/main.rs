@@ -282,6 +282,35 @@ fn front_face_convention() {
     assert_clean(&ctx);
 }
 
+/// A full-screen draw with the depth test off and no fragment output on
+/// stencil bit 0: `compare` against `reference`, where it passes `op` (both
+/// sides), written where `write` is 1.
+fn bit_draw(compare: CompareOp, op: StencilOp, write: u8, reference: u8) -> Draw {
+    let face = StencilFace {
+        compare,
+        fail: StencilOp::Keep,
+        pass: op,
+        depth_fail: op,
+    };
+    Draw {
+        geometry: Geometry::FullScreen { depth: 0.0 },
+        cull: Cull::None,
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        },
+        stencil: Some(StencilState {
+            front: face,
+            back: face,
+            compare_mask: 1,
+            write_mask: write,
+            reference,
+        }),
+        fragment: Fragment::None,
+        ..shade_draw(0, Cull::None)
+    }
+}
+
 /// Invert a stencil bit where a small box is, then reset those pixels with a
 /// scissored full-screen background pass that tests the bit.
 #[test]
@@ -291,55 +320,16 @@ fn stencil_invert_then_background() {
     let sc = scene(vec![unit_box(), small]);
     let mut steps = clear_all();
     steps.push(Step::Draw(shade_draw(0, Cull::Back)));
-    let invert = StencilFace {
-        compare: CompareOp::Always,
-        fail: StencilOp::Keep,
-        pass: StencilOp::Invert,
-        depth_fail: StencilOp::Invert,
-    };
     steps.push(Step::Draw(Draw {
         geometry: Geometry::Mesh(1),
-        scissor: Scissor::Full,
         cull: Cull::Back,
-        ds: 0,
-        depth: DepthState {
-            compare: CompareOp::Always,
-            write: false,
-        },
-        stencil: Some(StencilState {
-            front: invert,
-            back: invert,
-            compare_mask: 1,
-            write_mask: 1,
-            reference: 0,
-        }),
-        fragment: Fragment::None,
-        count_samples: false,
+        ..bit_draw(CompareOp::Always, StencilOp::Invert, 1, 0)
     }));
-    let equal = StencilFace {
-        compare: CompareOp::Equal,
-        fail: StencilOp::Keep,
-        pass: StencilOp::Keep,
-        depth_fail: StencilOp::Keep,
-    };
     steps.push(Step::Draw(Draw {
         geometry: Geometry::FullScreen { depth: 0.0 },
         scissor: Scissor::BoundsOf(vec![1]),
-        cull: Cull::None,
-        ds: 0,
-        depth: DepthState {
-            compare: CompareOp::Always,
-            write: false,
-        },
-        stencil: Some(StencilState {
-            front: equal,
-            back: equal,
-            compare_mask: 1,
-            write_mask: 0,
-            reference: 1,
-        }),
         fragment: Fragment::Background,
-        count_samples: false,
+        ..bit_draw(CompareOp::Equal, StencilOp::Keep, 0, 1)
     }));
     let f = run(&ctx, std_desc(), &sc, &plan(steps, 0));
     let im = &f.images;
@@ -390,19 +380,13 @@ fn peel_loop_plan(shade: bool) -> Plan {
             Step::Draw(Draw {
                 geometry: Geometry::Meshes(vec![0]),
                 scissor: Scissor::BoundsOf(vec![0]),
-                cull: Cull::None,
-                ds: 0,
-                depth: DepthState {
-                    compare: CompareOp::Less,
-                    write: true,
-                },
-                stencil: None,
                 fragment: Fragment::Peel {
                     prev: 0,
                     out: 1,
                     shade,
                 },
                 count_samples: true,
+                ..shade_draw(0, Cull::None)
             }),
         ],
         tail: vec![Step::CopyTexture { src: 1, dst: 0 }],

@@ -386,17 +386,6 @@ fn render_layered_gpu(
         Some((prim, peeled.solid[k][i]))
     };
     styled(scene, &mut frame, &mut layer_stats, &images, &edges, hit);
-    styled(
-        scene,
-        &mut frame,
-        &mut layer_stats,
-        &images,
-        &edges,
-        |k, i| {
-            let prim = (images[k].prim[i] as u32).checked_sub(1)?;
-            Some((prim, peeled.solid[k][i]))
-        },
-    );
     if !lopts.highlight.is_empty() {
         highlight_gpu(
             gpu,
@@ -544,14 +533,6 @@ fn render_layered_reference(
     let images: Vec<&Images> = stack.layers.iter().collect();
     let hit = |k: usize, i: usize| stack.hits[i].get(k).map(|h| (h.prim, h.solid));
     styled(scene, &mut frame, &mut layer_stats, &images, &edges, hit);
-    styled(
-        scene,
-        &mut frame,
-        &mut layer_stats,
-        &images,
-        &edges,
-        |k, i| stack.hits[i].get(k).map(|hit| (hit.prim, hit.solid)),
-    );
     if !lopts.highlight.is_empty() {
         let mut chosen = vec![false; scene.primitives.len()];
         for &p in &lopts.highlight {
