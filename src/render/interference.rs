@@ -7,7 +7,7 @@
 //! pair's pixels, and the nearest pair's visible point is the opaque
 //! interference. The reference ([`crate::reference::interference`]) computes the
 //! same sets exactly. The solids' layers in front of it are the GPU's layers of
-//! the solid (seed 000 §6, [`super::gpu_layers`]), blended semi-transparent.
+//! the solid (seed 000 §6, `render::gpu_layers`), blended semi-transparent.
 #![deny(unsafe_code)]
 
 use super::edges::edge_map;
@@ -176,7 +176,7 @@ fn pairs_on(
 /// §6): each pixel's nearest interference opaque in the interference colour, the
 /// solids' layers in front of it semi-transparent (their `alpha` where below 1,
 /// else [`SOLID_ALPHA`]); where there is none, every layer semi-transparent over
-/// the background. The layers are the GPU's ([`super::gpu_layers`]); depth and
+/// the background. The layers are the GPU's (`render::gpu_layers`); depth and
 /// primitive are layer 1's.
 pub fn render_interference(
     scene: &Scene,

@@ -2,7 +2,7 @@
 //! the options (`--layers`, `--layer-threshold`, `--layers-out`, `--alpha`), the
 //! frame they produce, and writing `layers/NN/`. The reference computes them
 //! exactly ([`crate::reference::layers`]); CST-Z/I/G peel them on the GPU
-//! ([`super::gpu_layers`]), kirsch by CSG depth peeling ([`super::kirsch`]); the
+//! (`render::gpu_layers`), kirsch by CSG depth peeling (`render::kirsch`); the
 //! other GPU algorithms say they cannot. The reference's layers also have
 //! view-space normals and edge maps ([`super::edges`]), from which the styles
 //! compose `color.png` ([`super::style`]).

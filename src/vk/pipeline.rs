@@ -1,6 +1,6 @@
 //! Graphics pipelines: one per fragment program and attachment formats with the
 //! depth, stencil and cull state dynamic, and variants of them with that state
-//! baked in ([`RasterState`], [`Pipelines::get_fixed`]; `vk::exec::state` says
+//! baked in ([`RasterState`], `Pipelines::get_fixed`; `vk::exec::state` says
 //! why). The scissor is dynamic in all of them: it changes at nearly every draw.
 
 use std::collections::HashMap;
@@ -160,7 +160,7 @@ pub struct PipelineDesc {
 }
 
 /// The depth, stencil and cull state of a draw, in Vulkan's terms: baked into
-/// a pipeline variant ([`Pipelines::get_fixed`]) or recorded as dynamic state
+/// a pipeline variant (`Pipelines::get_fixed`) or recorded as dynamic state
 /// (`vk::exec::state`, which maps a plan draw to it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct RasterState {

@@ -195,7 +195,7 @@ pub struct GroupTrimmer {
 /// a counter sweep could not tell pixels moved to such a target from pixels
 /// still to be classified (at most one label over plain reuse). A literal
 /// (`reuse[i]`) frees its label first: its parity sweeps handle a target at
-/// their own label ([`literal_sweeps`]) and leave out that sweep.
+/// their own label (`literal_sweeps`) and leave out that sweep.
 pub fn assign_labels(targets: &[(Next, Next)], reuse: &[bool]) -> Vec<u32> {
     let mut label = vec![u32::MAX; targets.len()];
     let mut used: Vec<bool> = Vec::new();
