@@ -29,7 +29,7 @@ use serde::Serialize;
 use super::composite::{check_host_formats, is_srgb, Composite};
 use super::error::{Check, VkError};
 use super::exec::{
-    copy_counts, final_shade, host_barriers, ExecDesc, ExecStats, Executor, HostShade, Unrolled,
+    copy_counts, host_barriers, ExecDesc, ExecStats, Executor, HostPass, HostShade, Unrolled,
 };
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
@@ -332,10 +332,10 @@ impl Embedder {
                     srgb: is_srgb(targets.color_format),
                     counts: room.then_some(self.slots[slot].counts.raw),
                 };
-                let shade = final_shade(plan).expect("host_path checked it");
+                let pass = HostPass::of(plan).expect("host_path checked it");
                 let unrolled =
                     self.exec
-                        .record_unrolled(cmd, plan, &layers, Some((&host, shade)))?;
+                        .record_unrolled(cmd, plan, &layers, Some((&host, &pass)))?;
                 let stats = unrolled.stats.clone();
                 (unrolled, stats)
             }
@@ -370,7 +370,7 @@ impl Embedder {
     fn host_path(&self, plan: &Plan) -> HostPath {
         if self.shadow.is_some() {
             HostPath::CompositeShadows
-        } else if final_shade(plan).is_none() {
+        } else if HostPass::of(plan).is_none() {
             HostPath::CompositePlan
         } else {
             HostPath::Direct

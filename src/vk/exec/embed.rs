@@ -6,7 +6,7 @@
 use ash::vk;
 
 use super::gpu_scene::GpuScene;
-use super::record::{Group, HostShade};
+use super::record::{Group, HostPass, HostShade};
 use super::{layers_fit, ExecStats, Executor};
 use crate::plan::usage::Resource;
 use crate::plan::{Plan, Step};
@@ -45,15 +45,15 @@ impl Executor {
 
     /// Records `plan`'s frame with its loops unrolled to `layers` into `cmd`
     /// (begun by the caller, outside any rendering); every image starts and ends
-    /// in `sync::REST`. Submits nothing. With `host`, the plan's final shade
-    /// (its last `host.1` steps, `final_shade`) is drawn into the host's
-    /// attachments (`record::host`).
+    /// in `sync::REST`. Submits nothing. With `host`, the plan's last pass
+    /// (`host.1`: its final shade, or the peel's meshes at their depth) is drawn
+    /// into the host's attachments (`record::host`).
     pub(crate) fn record_unrolled(
         &mut self,
         cmd: vk::CommandBuffer,
         plan: &Plan,
         layers: &[u32],
-        host: Option<(&HostShade, usize)>,
+        host: Option<(&HostShade, &HostPass)>,
     ) -> Result<Unrolled, VkError> {
         let _layer = self.shared.layer_use();
         let meshes = self.scene_ref()?.ranges.len() as u32;

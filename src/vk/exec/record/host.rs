@@ -18,7 +18,9 @@ use ash::vk;
 
 use super::Recorder;
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::{CompareOp, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
+use crate::plan::{
+    CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Plan, Scissor, Step, Tex,
+};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
@@ -39,6 +41,35 @@ pub(crate) struct HostShade {
     /// availability, room for every counted draw), before the pass's barrier
     /// makes them visible to the host.
     pub counts: Option<vk::Buffer>,
+}
+
+/// What an embedded frame draws into the host's attachments, and how many of
+/// the plan's last steps that replaces.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum HostPass {
+    /// The plan's final depth-equal shade, its last `n` steps ([`final_shade`]).
+    FinalShade(usize),
+    /// A plan that takes its colour from its peel (`blister-paper`): after all
+    /// of its steps, `meshes` shaded where their raster depth is the one the
+    /// peel left in depth-stencil `ds` ([`peel_colored`]).
+    PeelColored { ds: Ds, meshes: Vec<MeshId> },
+}
+
+impl HostPass {
+    /// The pass `plan` ends in, if a direct one can draw it.
+    pub fn of(plan: &Plan) -> Option<HostPass> {
+        final_shade(plan)
+            .map(HostPass::FinalShade)
+            .or_else(|| peel_colored(plan).map(|(ds, meshes)| HostPass::PeelColored { ds, meshes }))
+    }
+
+    /// How many of the plan's last steps the pass replaces.
+    pub fn steps(&self) -> usize {
+        match self {
+            HostPass::FinalShade(n) => *n,
+            HostPass::PeelColored { .. } => 0,
+        }
+    }
 }
 
 /// How many steps at the end of `plan` are its final depth-equal shade as the
@@ -66,6 +97,54 @@ pub(crate) fn final_shade(plan: &Plan) -> Option<usize> {
         }
     }
     None
+}
+
+/// The output depth-stencil and the meshes of a plan whose colour comes from
+/// its peel (`blister-paper`: `Peel { shade: true }` draws into the output
+/// depth-stencil, writing its depth): every draw that writes colour is such a
+/// peel or a `Background` reset that pushes the depth to far, so wherever a
+/// colour of the peel stays, the depth-stencil holds the raster depth of the
+/// face that wrote it, bit-exactly, and far elsewhere. Redrawn where their
+/// raster depth equals it (`gl_Position` is invariant), the meshes give the
+/// same colours under the host's depth test. `None` for any other plan.
+pub(crate) fn peel_colored(plan: &Plan) -> Option<(Ds, Vec<MeshId>)> {
+    let ds = plan.output_ds;
+    let mut meshes: Vec<MeshId> = Vec::new();
+    let mut steps: Vec<&Step> = Vec::new();
+    for s in &plan.steps {
+        match s {
+            Step::Loop(l) => steps.extend(l.head.iter().chain(&l.tail)),
+            s => steps.push(s),
+        }
+    }
+    for s in steps {
+        let Step::Draw(d) = s else { continue };
+        let writes_ds = d.ds == ds && d.depth.write;
+        match (&d.fragment, &d.geometry) {
+            (Fragment::Peel { shade: true, .. }, g) if d.ds == ds && d.depth.write => match g {
+                Geometry::Mesh(m) => meshes.push(*m),
+                Geometry::Meshes(ms) => meshes.extend(ms),
+                Geometry::FullScreen { .. } => return None,
+            },
+            (Fragment::Background, Geometry::FullScreen { depth })
+                if writes_ds && *depth == 1.0 => {}
+            (
+                Fragment::Shade
+                | Fragment::Paint { .. }
+                | Fragment::Background
+                | Fragment::Peel { shade: true, .. }
+                | Fragment::ShadeNearDepth { .. }
+                | Fragment::ShadeAtDepth { .. },
+                _,
+            ) => return None,
+            // Any other depth written into the output: not the peel's.
+            _ if writes_ds => return None,
+            _ => {}
+        }
+    }
+    meshes.sort_unstable();
+    meshes.dedup();
+    (!meshes.is_empty()).then_some((ds, meshes))
 }
 
 /// Copies the first `n` occlusion queries of `pool`, each with its availability
@@ -132,12 +211,26 @@ pub(crate) fn host_barriers(
 }
 
 impl Recorder<'_> {
-    /// Records `shade` (the plan's last steps, [`final_shade`]'s draws, in plan
-    /// order) into the host's attachments, after the rest of the frame: the
-    /// occlusion counts copied to `h.counts`, one barrier (the shade's texture to
-    /// sampled, the host's attachment writes, the counts for the host), one
-    /// rendering block, then every image back to `REST`.
-    pub fn host_shade(&mut self, h: &HostShade, shade: &[&Step]) -> Result<(), VkError> {
+    /// Records `pass` into the host's attachments, after the rest of the frame
+    /// (`shade`: the plan's last steps it replaces, [`final_shade`]'s draws in
+    /// plan order): the occlusion counts copied to `h.counts`, one barrier (what
+    /// the pass samples to sampled, the host's attachment writes, the counts for
+    /// the host), one rendering block, then every image back to `REST`.
+    ///
+    /// A shade draw the standalone frame runs as a plain depth-`EQUAL` draw
+    /// (`TieFree::fixed_function`: no face can tie with it) is drawn with
+    /// `ShadeAtDepthHost` reading the output depth itself: its raster depth
+    /// equal to the visible one there, bit-exactly, as the standalone test
+    /// asks, and written by the host's depth test; no texture copy, no tie
+    /// test. The draws that keep the tie rule use `ShadeNearDepthHost` on the
+    /// copy, and go first: where both pass (faces crossing within the tie band)
+    /// the rule mesh wins, as in the standalone frame.
+    pub fn host_pass(
+        &mut self,
+        h: &HostShade,
+        pass: &HostPass,
+        shade: &[&Step],
+    ) -> Result<(), VkError> {
         self.end_block();
         let device = self.b.device;
         let n = self.queries.len() as u32;
@@ -145,42 +238,73 @@ impl Recorder<'_> {
         if let (true, Some(buffer)) = (counted, h.counts) {
             copy_counts(device, self.cmd, self.b.occlusion, n, buffer);
         }
-        let draws: Vec<&Draw> = shade
-            .iter()
-            .map(|s| match s {
-                Step::Draw(d) => d,
-                _ => panic!("final_shade selects draws only"),
-            })
-            .collect();
-        let tex = match draws.first().map(|d| &d.fragment) {
-            Some(&Fragment::ShadeNearDepth { tex, .. }) => tex,
-            _ => panic!("final_shade selects at least one ShadeNearDepth draw"),
+        // (draw, rule): in drawing order, ascending index within each kind.
+        let draws: Vec<(Draw, bool)> = match pass {
+            HostPass::FinalShade(_) => {
+                let plan_draws = shade.iter().rev().map(|s| match s {
+                    Step::Draw(d) => d,
+                    _ => panic!("final_shade selects draws only"),
+                });
+                let (mut rule, mut equal) = (Vec::new(), Vec::new());
+                for d in plan_draws {
+                    match self.b.ties.fixed_function(d) {
+                        Some(_) => equal.push((d.clone(), false)),
+                        None => rule.push((d.clone(), true)),
+                    }
+                }
+                rule.extend(equal);
+                rule
+            }
+            HostPass::PeelColored { ds, meshes } => meshes
+                .iter()
+                .map(|&m| (at_depth_draw(m, *ds), false))
+                .collect(),
         };
-        let uses = [(Resource::Texture(tex), Usage::Sampled)];
+        let rule_tex = draws
+            .iter()
+            .find(|(_, rule)| *rule)
+            .map(|(d, _)| match d.fragment {
+                Fragment::ShadeNearDepth { tex, .. } => tex,
+                _ => panic!("final_shade selects ShadeNearDepth draws"),
+            });
+        let equal_ds = draws.iter().find(|(_, rule)| !*rule).map(|(d, _)| d.ds);
+        let mut uses = Vec::new();
+        uses.extend(rule_tex.map(|t| (Resource::Texture(t), Usage::Sampled)));
+        uses.extend(equal_ds.map(|ds| (Resource::DepthStencil(ds), Usage::Sampled)));
         self.settle_clears(&uses);
         let ((src, dst), images) = self.image_transitions(&uses, false, &[]);
         let ((hsrc, hdst), memory) = host_barriers(counted);
         submit::pipeline_barrier(device, self.cmd, (src | hsrc, dst | hdst), &memory, &images);
         self.stats.counts.barriers += 1;
 
-        let pipeline = self.b.pipelines.get(&PipelineDesc {
-            // The sRGB decode is a variant of its own (`build.rs`).
-            fragment: if h.srgb {
-                FragmentKind::ShadeNearDepthHostSrgb
-            } else {
-                FragmentKind::ShadeNearDepthHost
-            },
+        let pipeline = |fragment| PipelineDesc {
+            fragment,
             color_formats: vec![h.color.1],
             depth_stencil_format: Some(h.depth.1),
             normals: false,
-        })?;
+        };
+        // The sRGB decode is a variant of its own (`build.rs`).
+        let (rule_kind, equal_kind) = match h.srgb {
+            true => (
+                FragmentKind::ShadeNearDepthHostSrgb,
+                FragmentKind::ShadeAtDepthHostSrgb,
+            ),
+            false => (
+                FragmentKind::ShadeNearDepthHost,
+                FragmentKind::ShadeAtDepthHost,
+            ),
+        };
         self.begin_host_block(h);
-        let set = self.b.targets.sampling_set(Resource::Texture(tex));
-        self.bind(pipeline, Some(set));
         let flags = self.flags();
-        // Ascending index: the first writer of a pixel stays (module doc).
-        for draw in draws.iter().rev() {
-            self.host_draw(draw, flags);
+        for (draw, rule) in &draws {
+            let (kind, set) = match rule {
+                true => (rule_kind, rule_tex.map(Resource::Texture)),
+                false => (equal_kind, equal_ds.map(Resource::DepthStencil)),
+            };
+            let set = set.map(|r| self.b.targets.sampling_set(r));
+            let pipeline = self.b.pipelines.get(&pipeline(kind))?;
+            self.bind(pipeline, set);
+            self.host_draw(draw, *rule, flags);
         }
         // SAFETY: closes the block `begin_host_block` opened.
         unsafe { device.cmd_end_rendering(self.cmd) };
@@ -214,12 +338,20 @@ impl Recorder<'_> {
         self.stats.counts.render_passes += 1;
     }
 
-    /// One shade draw of one mesh under the host's strict depth test.
-    fn host_draw(&mut self, draw: &Draw, flags: u32) {
-        let (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) =
-            (&draw.geometry, &draw.fragment)
-        else {
-            panic!("final_shade selects ShadeNearDepth draws of one mesh");
+    /// One shade draw of one mesh under the host's strict depth test: with the
+    /// tie rule (`rule`, `ShadeNearDepthHost`: the visible depth written) or at
+    /// the output depth (`ShadeAtDepthHost`: the raster depth written).
+    fn host_draw(&mut self, draw: &Draw, rule: bool, flags: u32) {
+        let m = match (&draw.geometry, &draw.fragment) {
+            (
+                Geometry::Mesh(m),
+                Fragment::ShadeNearDepth { .. } | Fragment::ShadeAtDepth { .. },
+            ) => *m,
+            _ => panic!("a host pass draws ShadeNearDepth or ShadeAtDepth draws of one mesh"),
+        };
+        let eps = match draw.fragment {
+            Fragment::ShadeNearDepth { eps, .. } => eps,
+            _ => 0.0,
         };
         let scissor = self.scissor(&draw.scissor);
         if scissor.is_empty() {
@@ -238,16 +370,16 @@ impl Recorder<'_> {
         };
         self.set_state(Some(&host), scissor);
         let scene = self.b.scene;
-        let c = scene.colors[*m as usize].map(|v| v as f32 / 255.0);
+        let c = scene.colors[m as usize].map(|v| v as f32 / 255.0);
         self.push(&PushConstants {
             // The tolerance travels in the colour's alpha, as in the plan's draw.
-            color: [c[0], c[1], c[2], *eps],
+            color: [c[0], c[1], c[2], eps],
             prim: m + 1,
             flags,
             snap: self.b.snap,
             ..Default::default()
         });
-        let (first, count) = scene.ranges[*m as usize];
+        let (first, count) = scene.ranges[m as usize];
         if count > 0 {
             // SAFETY: inside the host block with the pipeline bound; the range
             // lies in the vertex buffer.
@@ -259,9 +391,31 @@ impl Recorder<'_> {
         c.mesh_draws += 1;
         c.mesh_pixels += scissor.area();
         c.triangles += count as u64 / 3;
+        *match rule {
+            true => &mut c.shade_rule_draws,
+            false => &mut c.shade_fixed_draws,
+        } += 1;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
         }
+    }
+}
+
+/// The draw of mesh `m` at the depth depth-stencil `ds` holds (a
+/// [`HostPass::PeelColored`] pass): its own bounds, no stencil.
+fn at_depth_draw(m: MeshId, ds: Ds) -> Draw {
+    Draw {
+        geometry: Geometry::Mesh(m),
+        scissor: Scissor::BoundsOf(vec![m]),
+        cull: Cull::None,
+        depth: DepthState {
+            compare: CompareOp::Less,
+            write: true,
+        },
+        stencil: None,
+        fragment: Fragment::ShadeAtDepth { tex: 0 },
+        ds,
+        count_samples: false,
     }
 }
 
