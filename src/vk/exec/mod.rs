@@ -69,7 +69,7 @@ use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 use camera::CameraBuffer;
 use gpu_scene::{CameraState, GpuScene};
 pub use record::ClearMode;
-pub(crate) use record::{copy_counts, host_barriers, HostPass, HostShade};
+pub(crate) use record::{copy_counts, final_shade, host_barriers, peel_depth, HostShade};
 use record::{Bindings, Group, Recorder};
 use targets::Targets;
 
@@ -838,8 +838,8 @@ impl Executor {
     /// Records `plan` with its loops unrolled to `layers` into `cmd` (begun by the
     /// caller): the stats, the loop group of each occlusion query, the pass at
     /// each timestamp. Every image starts and ends in `REST`. With `host`, the
-    /// pass `host.1` (`record::HostPass`, which replaces the plan's last steps
-    /// or none) is drawn into an embedding host's attachments (`record::host`).
+    /// plan's last `host.1` steps (its final shade, `record::final_shade`) are
+    /// drawn into an embedding host's attachments instead (`record::host`).
     /// Someone else submits it: from now on what the outputs hold is unknown
     /// here, and their clears reach whole images.
     fn record_frame(
@@ -847,7 +847,7 @@ impl Executor {
         cmd: vk::CommandBuffer,
         plan: &Plan,
         layers: &[u32],
-        host: Option<(&HostShade, &HostPass)>,
+        host: Option<(&HostShade, usize)>,
     ) -> Result<(ExecStats, Vec<Group>, Vec<String>), VkError> {
         self.kept_unknown = true;
         self.kept.clear();
@@ -864,7 +864,7 @@ impl Executor {
         cmd: vk::CommandBuffer,
         plan: &Plan,
         layers: &[u32],
-        host: Option<(&HostShade, &HostPass)>,
+        host: Option<(&HostShade, usize)>,
         now: &KeptImages,
     ) -> Result<FrameRecording, VkError> {
         let flat = unroll(plan, layers);
@@ -873,7 +873,7 @@ impl Executor {
         let scissored_clears = self.scissored_clears;
         let mut rec = self.recorder();
         let steps: Vec<&Step> = flat.iter().map(|(s, _)| *s).collect();
-        let body = steps.len() - host.map_or(0, |h| h.1.steps());
+        let body = steps.len() - host.map_or(0, |h| h.1);
         // The host's shade reads the body's last depth copy: its draws count.
         let kept = rec.plan_clears(&steps, plan.output_ds, now, scissored_clears);
         // The host's shade draws decide what the last copy covers, as the
@@ -886,7 +886,7 @@ impl Executor {
             rec.step(s)?;
         }
         match host {
-            Some((h, pass)) => rec.host_pass(h, pass, shade)?,
+            Some((h, _)) => rec.host_shade(h, shade)?,
             None => rec.finish_frame(plan.output_ds),
         }
         rec.end();

@@ -18,9 +18,7 @@ use ash::vk;
 
 use super::Recorder;
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::{
-    CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Plan, Scissor, Step, Tex,
-};
+use crate::plan::{CompareOp, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
@@ -41,35 +39,6 @@ pub(crate) struct HostShade {
     /// availability, room for every counted draw), before the pass's barrier
     /// makes them visible to the host.
     pub counts: Option<vk::Buffer>,
-}
-
-/// What an embedded frame draws into the host's attachments, and how many of
-/// the plan's last steps that replaces.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) enum HostPass {
-    /// The plan's final depth-equal shade, its last `n` steps ([`final_shade`]).
-    FinalShade(usize),
-    /// A plan that takes its colour from its peel (`blister-paper`): after all
-    /// of its steps, `meshes` shaded where their raster depth is the one the
-    /// peel left in depth-stencil `ds` ([`peel_colored`]).
-    PeelColored { ds: Ds, meshes: Vec<MeshId> },
-}
-
-impl HostPass {
-    /// The pass `plan` ends in, if a direct one can draw it.
-    pub fn of(plan: &Plan) -> Option<HostPass> {
-        final_shade(plan)
-            .map(HostPass::FinalShade)
-            .or_else(|| peel_colored(plan).map(|(ds, meshes)| HostPass::PeelColored { ds, meshes }))
-    }
-
-    /// How many of the plan's last steps the pass replaces.
-    pub fn steps(&self) -> usize {
-        match self {
-            HostPass::FinalShade(n) => *n,
-            HostPass::PeelColored { .. } => 0,
-        }
-    }
 }
 
 /// How many steps at the end of `plan` are its final depth-equal shade as the
@@ -99,33 +68,22 @@ pub(crate) fn final_shade(plan: &Plan) -> Option<usize> {
     None
 }
 
-/// The output depth-stencil and the meshes of a plan whose colour comes from
-/// its peel (`blister-paper`: `Peel { shade: true }` draws into the output
-/// depth-stencil, writing its depth): every draw that writes colour is such a
-/// peel or a `Background` reset that pushes the depth to far, so wherever a
-/// colour of the peel stays, the depth-stencil holds the raster depth of the
-/// face that wrote it, bit-exactly, and far elsewhere. Redrawn where their
-/// raster depth equals it (`gl_Position` is invariant), the meshes give the
-/// same colours under the host's depth test. `None` for any other plan.
-pub(crate) fn peel_colored(plan: &Plan) -> Option<(Ds, Vec<MeshId>)> {
+/// Whether `plan` takes its colour from its peel (`blister-paper`): every draw
+/// that writes colour is a `Peel { shade: true }` draw of meshes into the output
+/// depth-stencil, writing its depth, or a `Background` reset that pushes that
+/// depth to far; nothing else writes it.
+fn colours_from_peel(plan: &Plan) -> bool {
     let ds = plan.output_ds;
-    let mut meshes: Vec<MeshId> = Vec::new();
-    let mut steps: Vec<&Step> = Vec::new();
-    for s in &plan.steps {
-        match s {
-            Step::Loop(l) => steps.extend(l.head.iter().chain(&l.tail)),
-            s => steps.push(s),
-        }
-    }
-    for s in steps {
+    let mut peels = false;
+    for s in flat_steps(plan) {
         let Step::Draw(d) = s else { continue };
         let writes_ds = d.ds == ds && d.depth.write;
         match (&d.fragment, &d.geometry) {
-            (Fragment::Peel { shade: true, .. }, g) if d.ds == ds && d.depth.write => match g {
-                Geometry::Mesh(m) => meshes.push(*m),
-                Geometry::Meshes(ms) => meshes.extend(ms),
-                Geometry::FullScreen { .. } => return None,
-            },
+            (Fragment::Peel { shade: true, .. }, Geometry::Mesh(_) | Geometry::Meshes(_))
+                if writes_ds =>
+            {
+                peels = true
+            }
             (Fragment::Background, Geometry::FullScreen { depth })
                 if writes_ds && *depth == 1.0 => {}
             (
@@ -136,15 +94,79 @@ pub(crate) fn peel_colored(plan: &Plan) -> Option<(Ds, Vec<MeshId>)> {
                 | Fragment::ShadeNearDepth { .. }
                 | Fragment::ShadeAtDepth { .. },
                 _,
-            ) => return None,
-            // Any other depth written into the output: not the peel's.
-            _ if writes_ds => return None,
+            ) => return false,
+            _ if writes_ds => return false,
             _ => {}
         }
     }
-    meshes.sort_unstable();
-    meshes.dedup();
-    (!meshes.is_empty()).then_some((ds, meshes))
+    peels
+}
+
+/// Every step of `plan`, a loop's as its head then its tail.
+fn flat_steps(plan: &Plan) -> Vec<&Step> {
+    plan.steps
+        .iter()
+        .flat_map(|s| match s {
+            Step::Loop(l) => l.head.iter().chain(&l.tail).collect(),
+            s => vec![s],
+        })
+        .collect()
+}
+
+/// The texture that holds, wherever a plan coloured by its peel keeps a colour
+/// ([`colours_from_peel`]: the ids are not 0 there), the depth of the face that
+/// wrote it, as a 32-bit float: the peels' `out` (the peel writes
+/// `gl_FragCoord.z` there with the colour, and a locked pixel is never peeled
+/// again), when every peel writes it and nothing else does but a clear before
+/// the loops. The composite reads it instead of the depth-stencil: lavapipe
+/// fetches a D32S8 texel several times slower than an R32F one.
+pub(crate) fn peel_depth(plan: &Plan) -> Option<Tex> {
+    if !colours_from_peel(plan) {
+        return None;
+    }
+    let mut out: Option<Tex> = None;
+    let peels = plan.steps.iter().flat_map(|s| match s {
+        Step::Loop(l) => l.head.iter().chain(&l.tail).collect::<Vec<_>>(),
+        _ => vec![],
+    });
+    for s in peels.clone() {
+        if let Step::Draw(Draw {
+            fragment:
+                Fragment::Peel {
+                    out: o,
+                    shade: true,
+                    ..
+                },
+            ..
+        }) = s
+        {
+            if out.is_some_and(|t| t != *o) {
+                return None;
+            }
+            out = Some(*o);
+        }
+    }
+    let out = out?;
+    let writes_out = |s: &Step| {
+        s.usage()
+            .iter()
+            .any(|(r, u)| *r == Resource::Texture(out) && u.writes())
+    };
+    let peel = |s: &Step| {
+        matches!(
+            s,
+            Step::Draw(Draw {
+                fragment: Fragment::Peel { shade: true, .. },
+                ..
+            })
+        )
+    };
+    let outside_ok = plan
+        .steps
+        .iter()
+        .all(|s| matches!(s, Step::Loop(_) | Step::Clear(_)) || !writes_out(s));
+    let inside_ok = peels.into_iter().all(|s| peel(s) || !writes_out(s));
+    (outside_ok && inside_ok).then_some(out)
 }
 
 /// Copies the first `n` occlusion queries of `pool`, each with its availability
@@ -211,11 +233,11 @@ pub(crate) fn host_barriers(
 }
 
 impl Recorder<'_> {
-    /// Records `pass` into the host's attachments, after the rest of the frame
-    /// (`shade`: the plan's last steps it replaces, [`final_shade`]'s draws in
-    /// plan order): the occlusion counts copied to `h.counts`, one barrier (what
-    /// the pass samples to sampled, the host's attachment writes, the counts for
-    /// the host), one rendering block, then every image back to `REST`.
+    /// Records `shade` (the plan's last steps, [`final_shade`]'s draws, in plan
+    /// order) into the host's attachments, after the rest of the frame: the
+    /// occlusion counts copied to `h.counts`, one barrier (what the draws
+    /// sample to sampled, the host's attachment writes, the counts for the
+    /// host), one rendering block, then every image back to `REST`.
     ///
     /// A shade draw the standalone frame runs as a plain depth-`EQUAL` draw
     /// (`TieFree::fixed_function`: no face can tie with it) is drawn with
@@ -225,12 +247,7 @@ impl Recorder<'_> {
     /// test. The draws that keep the tie rule use `ShadeNearDepthHost` on the
     /// copy, and go first: where both pass (faces crossing within the tie band)
     /// the rule mesh wins, as in the standalone frame.
-    pub fn host_pass(
-        &mut self,
-        h: &HostShade,
-        pass: &HostPass,
-        shade: &[&Step],
-    ) -> Result<(), VkError> {
+    pub fn host_shade(&mut self, h: &HostShade, shade: &[&Step]) -> Result<(), VkError> {
         self.end_block();
         let device = self.b.device;
         let n = self.queries.len() as u32;
@@ -239,27 +256,17 @@ impl Recorder<'_> {
             copy_counts(device, self.cmd, self.b.occlusion, n, buffer);
         }
         // (draw, rule): in drawing order, ascending index within each kind.
-        let draws: Vec<(Draw, bool)> = match pass {
-            HostPass::FinalShade(_) => {
-                let plan_draws = shade.iter().rev().map(|s| match s {
-                    Step::Draw(d) => d,
-                    _ => panic!("final_shade selects draws only"),
-                });
-                let (mut rule, mut equal) = (Vec::new(), Vec::new());
-                for d in plan_draws {
-                    match self.b.ties.fixed_function(d) {
-                        Some(_) => equal.push((d.clone(), false)),
-                        None => rule.push((d.clone(), true)),
-                    }
-                }
-                rule.extend(equal);
-                rule
+        let (mut draws, mut equal) = (Vec::new(), Vec::new());
+        for s in shade.iter().rev() {
+            let Step::Draw(d) = s else {
+                panic!("final_shade selects draws only")
+            };
+            match self.b.ties.fixed_function(d) {
+                Some(_) => equal.push((d.clone(), false)),
+                None => draws.push((d.clone(), true)),
             }
-            HostPass::PeelColored { ds, meshes } => meshes
-                .iter()
-                .map(|&m| (at_depth_draw(m, *ds), false))
-                .collect(),
-        };
+        }
+        draws.extend(equal);
         let rule_tex = draws
             .iter()
             .find(|(_, rule)| *rule)
@@ -342,16 +349,9 @@ impl Recorder<'_> {
     /// tie rule (`rule`, `ShadeNearDepthHost`: the visible depth written) or at
     /// the output depth (`ShadeAtDepthHost`: the raster depth written).
     fn host_draw(&mut self, draw: &Draw, rule: bool, flags: u32) {
-        let m = match (&draw.geometry, &draw.fragment) {
-            (
-                Geometry::Mesh(m),
-                Fragment::ShadeNearDepth { .. } | Fragment::ShadeAtDepth { .. },
-            ) => *m,
-            _ => panic!("a host pass draws ShadeNearDepth or ShadeAtDepth draws of one mesh"),
-        };
-        let eps = match draw.fragment {
-            Fragment::ShadeNearDepth { eps, .. } => eps,
-            _ => 0.0,
+        let (m, eps) = match (&draw.geometry, &draw.fragment) {
+            (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) => (*m, *eps),
+            _ => panic!("final_shade selects ShadeNearDepth draws of one mesh"),
         };
         let scissor = self.scissor(&draw.scissor);
         if scissor.is_empty() {
@@ -398,24 +398,6 @@ impl Recorder<'_> {
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
         }
-    }
-}
-
-/// The draw of mesh `m` at the depth depth-stencil `ds` holds (a
-/// [`HostPass::PeelColored`] pass): its own bounds, no stencil.
-fn at_depth_draw(m: MeshId, ds: Ds) -> Draw {
-    Draw {
-        geometry: Geometry::Mesh(m),
-        scissor: Scissor::BoundsOf(vec![m]),
-        cull: Cull::None,
-        depth: DepthState {
-            compare: CompareOp::Less,
-            write: true,
-        },
-        stencil: None,
-        fragment: Fragment::ShadeAtDepth { tex: 0 },
-        ds,
-        count_samples: false,
     }
 }
 
@@ -490,6 +472,11 @@ mod tests {
                 spv!("shade_near_depth.frag.host_srgb"),
             ),
             (
+                "shade_at_depth",
+                spv!("shade_at_depth.frag.host"),
+                spv!("shade_at_depth.frag.host_srgb"),
+            ),
+            (
                 "composite",
                 spv!("composite.frag"),
                 spv!("composite.frag.host_srgb"),
@@ -498,6 +485,32 @@ mod tests {
             assert!(!calls_pow(plain), "{name}'s plain variant decodes sRGB");
             assert!(calls_pow(srgb), "{name}'s _SRGB variant does not decode");
         }
+    }
+
+    /// `blister-paper` keeps its peel's depth in the peel's `out` texture;
+    /// every other GPU algorithm colours in its final shade, and a plan where
+    /// anything else writes that texture has none.
+    #[test]
+    fn only_a_plan_coloured_by_its_peel_has_a_peel_depth() {
+        use crate::plan::{Algo, Prepared};
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let opts = crate::scene::LoadOptions::default();
+        let scene = crate::scene::load(&dir.join("interference.toml"), &opts).unwrap();
+        let prep = Prepared::new(&scene).unwrap();
+        for algo in Algo::ALL.into_iter().filter(|a| *a != Algo::Reference) {
+            let p = crate::plan::build(algo, &prep).unwrap();
+            let depth = peel_depth(&p);
+            match algo {
+                Algo::BlisterPaper => assert_eq!(depth, Some(1), "{p:?}"),
+                _ => assert_eq!(depth, None, "{algo:?}"),
+            }
+        }
+        let mut p = crate::plan::build(Algo::BlisterPaper, &prep).unwrap();
+        let Some(Step::Loop(l)) = p.steps.iter_mut().find(|s| matches!(s, Step::Loop(_))) else {
+            panic!("blister-paper peels in a loop");
+        };
+        l.tail.push(Step::CopyDepthToTexture { ds: 0, dst: 1 });
+        assert_eq!(peel_depth(&p), None);
     }
 
     #[test]
