@@ -13,6 +13,13 @@
 //! meshes are drawn in ascending index order under the host's strict test
 //! (`LESS`, reversed `GREATER`): the first writer — the lowest index — stays,
 //! and the host's own geometry keeps exact ties, as with the composite.
+//!
+//! A mesh the standalone frame shades with a plain depth-`EQUAL` test
+//! (`plan::tie_free`: no face can tie with it) is drawn with
+//! `shaders/shade_at_depth.frag` (`HOST`) instead: kept where its raster depth
+//! equals the output depth-stencil's, fetched in the shader, and written by the
+//! host's test, with no copy and no tie test — on lavapipe the tie test and
+//! `gl_FragDepth` cost the embedded frame twice the standalone one's shade.
 
 use ash::vk;
 
@@ -170,8 +177,8 @@ pub(crate) fn peel_depth(plan: &Plan) -> Option<Tex> {
 }
 
 /// Copies the first `n` occlusion queries of `pool`, each with its availability
-/// (two `u64`), into `buffer` (room for `n` pairs). Outside rendering; the
-/// queries were reset and ended in this command buffer.
+/// (two `u64`), into `buffer` (room for `n` pairs), once the device has them.
+/// Outside rendering; the queries were reset and ended in this command buffer.
 pub(crate) fn copy_counts(
     device: &ash::Device,
     cmd: vk::CommandBuffer,
@@ -190,7 +197,13 @@ pub(crate) fn copy_counts(
             buffer,
             0,
             16,
-            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY,
+            // WAIT: on the device (no CPU wait), for the last draws may still
+            // be rasterizing (lavapipe), and an unavailable count would leave
+            // the frame unchecked: every query copied was ended in this
+            // recording, so each becomes available.
+            vk::QueryResultFlags::TYPE_64
+                | vk::QueryResultFlags::WITH_AVAILABILITY
+                | vk::QueryResultFlags::WAIT,
         )
     };
 }
