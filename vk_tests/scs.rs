@@ -1,7 +1,8 @@
 //! SCS (sequenced convex subtraction) on the cases its subtraction sequence and
-//! tie rule exist for, against the exact reference (validation on): a chain of
-//! overlapping cutters that needs several rounds, and cutters whose faces
-//! coincide with each other's and with the block's.
+//! tie rule exist for, against the exact reference (validation on): chains of
+//! overlapping cutters (a static sequence for three, rounds for four), and
+//! cutters whose faces coincide with each other's and with the block's (one
+//! pass in ray order).
 
 use std::path::Path;
 
@@ -66,12 +67,34 @@ fn all_scs(scene: &Scene) -> bool {
     passes.contains(&"scs-front") && !passes.contains(&"surface")
 }
 
-/// A block minus three overlapping spheres stacked along the view direction,
-/// listed deepest first: a ray through the top enters S1, leaves it inside S2,
-/// then S3, so the round S3, S2, S1 needs three rounds (the sequence's bound).
-#[test]
-fn a_chain_of_overlapping_cutters_takes_several_rounds() {
-    let scene = load(
+/// The subtraction draws of `scene`'s SCS plan: the cutters' parity draws in
+/// order (outside loops) and whether a loop of rounds remains.
+fn subtraction(scene: &Scene) -> (Vec<String>, bool) {
+    let prep = Prepared::new(scene).unwrap();
+    let p = plan::build(Algo::Scs, &prep).unwrap();
+    let mut in_subtract = false;
+    let mut parity = Vec::new();
+    for s in &p.steps {
+        match s {
+            Step::Pass(n) => in_subtract = n == "subtract",
+            Step::Draw(d) if in_subtract && d.cull == peeltrim::plan::Cull::None => {
+                let peeltrim::plan::Geometry::Mesh(m) = d.geometry else {
+                    panic!("mesh draws only")
+                };
+                parity.push(scene.primitives[m as usize].name.clone());
+            }
+            _ => {}
+        }
+    }
+    (parity, p.loops().next().is_some())
+}
+
+/// A block minus spheres stacked along the view direction, listed deepest
+/// first: a ray through the top enters the top sphere, leaves it inside the
+/// next, then the next. `n` spheres, each overlapping its neighbours.
+fn stacked_spheres(n: usize) -> Scene {
+    let names = ["S1", "S2", "S3", "S4"];
+    let mut text = String::from(
         r##"
 [camera]
 eye = [0.3, 4.0, 1.2]
@@ -81,39 +104,57 @@ fit = true
 name = "Block"
 shape = "box"
 size = [3.0, 1.6, 2.0]
-[[primitive]]
-name = "S3"
-shape = "sphere"
-radius = 0.35
-translate = [0.05, -0.15, 0.0]
-color = "#40a040"
-[[primitive]]
-name = "S2"
-shape = "sphere"
-radius = 0.35
-translate = [0.0, 0.3, 0.05]
-color = "#4060d0"
-[[primitive]]
-name = "S1"
-shape = "sphere"
-radius = 0.35
-translate = [-0.05, 0.75, 0.0]
-color = "#d04040"
-[csg]
-expr = "Block - S3 - S2 - S1"
 "##,
     );
+    let mut expr = String::from("Block");
+    for k in (0..n).rev() {
+        let y = 0.75 - 0.45 * k as f64;
+        let x = [-0.05, 0.0, 0.05, 0.0][k];
+        text += &format!(
+            "[[primitive]]\nname = \"{}\"\nshape = \"sphere\"\nradius = 0.35\ntranslate = [{x}, {y}, {}]\ncolor = \"#{}\"\n",
+            names[k],
+            [0.0, 0.05, 0.0, -0.05][k],
+            ["d04040", "4060d0", "40a040", "a040a0"][k]
+        );
+        expr += &format!(" - {}", names[k]);
+    }
+    text += &format!("[csg]\nexpr = \"{expr}\"\n");
+    load(&text)
+}
+
+/// Three overlapping spheres in a chain (S1 and S3 apart): a path of
+/// overlaps, spelled out as S3 S1 S2 S3 S1 — every chain of it in one
+/// sequence with no rounds, S1 and S3 sharing batches.
+#[test]
+fn a_chain_of_overlapping_cutters_is_one_static_sequence() {
+    let scene = stacked_spheres(3);
     assert!(all_scs(&scene));
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
     assert!(
         reference.prim.iter().any(|&p| p == 2),
         "the deepest sphere's floor shows"
     );
+    let (parity, rounds) = subtraction(&scene);
+    assert!(!rounds, "no loop: {parity:?}");
+    assert_eq!(parity.len(), 5, "{parity:?}");
+    let loops = check(&scene);
+    assert!(loops.is_empty(), "{loops:?}");
+}
+
+/// Four overlapping spheres in a chain: too many for a static sequence, so
+/// rounds, ordered nearest first (the chain moves in the first round; the
+/// second finds nothing to move and ends the loop).
+#[test]
+fn a_longer_chain_takes_rounds_in_ray_order() {
+    let scene = stacked_spheres(4);
+    assert!(all_scs(&scene));
+    let (_, rounds) = subtraction(&scene);
+    assert!(rounds);
     let loops = check(&scene);
     assert_eq!(loops.len(), 1, "one loop of rounds: {loops:?}");
     assert!(
-        loops[0] >= 2,
-        "the chain needs more than one round: {loops:?}"
+        (1..=2).contains(&loops[0]),
+        "rounds in ray order: {loops:?}"
     );
 }
 
@@ -159,8 +200,14 @@ expr = "Block - K1 - K2 - Flush"
     for p in 2..=4u16 {
         assert!(reference.prim.iter().any(|&q| q == p), "cutter {p} shows");
     }
+    // K1 and K2 share a face: apart, K2 on the eye's side, so K2 then K1 in
+    // one pass (no rounds), the exit from K2 continuing into K1.
+    let (parity, rounds) = subtraction(&scene);
+    assert!(!rounds, "{parity:?}");
+    let at = |n: &str| parity.iter().position(|p| p == n).unwrap();
+    assert!(at("K2") < at("K1"), "{parity:?}");
     let loops = check(&scene);
-    assert_eq!(loops, vec![2], "K2 then K1 through their shared face");
+    assert!(loops.is_empty(), "{loops:?}");
 }
 
 /// The eye inside a subtracted sphere (perspective): its parity counted from the

@@ -70,9 +70,13 @@
 //! positive primitive is one draw ([`goldfeather::direct_steps`]).
 #![deny(unsafe_code)]
 
+pub mod hull;
+pub mod order;
+
 use super::goldfeather::{self, Lit, ProductOptions, Region, CLIP_BITS, OUTPUT, SURF, SURFACE};
 use super::step::*;
 use super::{eye, PlanError, Prepared};
+pub use hull::{Hull, Viewpoint};
 
 /// Stencil bits of the surface image that one batch of subtractions uses: one
 /// per subtracted primitive, eight primitives whose boxes are disjoint per batch.
@@ -248,7 +252,10 @@ fn back_face_clip(x: Lit, region: &Region, eps: f32) -> Vec<Step> {
 /// A product's subtraction sequence (module documentation, 2).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sequence {
-    /// Subtracted primitives whose boxes meet no other's: each applied once.
+    /// Applied once, in this order: the subtracted primitives whose boxes meet
+    /// no other's, and the groups of overlapping ones that [`order`] sorts
+    /// along the rays (a primitive of a clump appears more than once),
+    /// interleaved so that batches of disjoint boxes fill up.
     pub once: Vec<Lit>,
     /// One round over every group of overlapping subtracted primitives (the
     /// groups interleaved, so that batches of disjoint boxes fill up).
@@ -283,14 +290,19 @@ pub fn sequence(ys: &[Lit], prep: &Prepared) -> Sequence {
         let r = root(&mut group, i);
         members[r].push(y);
     }
-    let (mut once, mut groups) = (Vec::new(), Vec::new());
+    let (mut sorted, mut groups) = (Vec::new(), Vec::new());
     for m in members.into_iter().filter(|m| !m.is_empty()) {
-        if m.len() == 1 {
-            once.push(m[0]);
-        } else {
-            groups.push(m);
+        match ordered(&m, prep) {
+            Ok(seq) => sorted.push(seq),
+            Err(round) => groups.push(round),
         }
     }
+    // Position by position: consecutive entries of different groups never
+    // overlap, so they share a batch.
+    let longest = sorted.iter().map(Vec::len).max().unwrap_or(0);
+    let once = (0..longest)
+        .flat_map(|k| sorted.iter().filter_map(move |s| s.get(k).copied()))
+        .collect();
     let max_rounds = groups.iter().map(Vec::len).max().unwrap_or(0) as u32;
     let mut rounds = Vec::new();
     for k in 0..max_rounds as usize {
@@ -300,6 +312,42 @@ pub fn sequence(ys: &[Lit], prep: &Prepared) -> Sequence {
         once,
         rounds,
         max_rounds,
+    }
+}
+
+/// The group `m` of cutters with touching boxes applied once each in ray
+/// order ([`order::sequence`]; a single cutter is itself), or, where that
+/// does not apply, one round over it in the order [`order::rounds_order`]
+/// gives (as listed when the view or the hulls are unknown).
+fn ordered(m: &[Lit], prep: &Prepared) -> Result<Vec<Lit>, Vec<Lit>> {
+    let (hulls, view) = match (m, prep.viewpoint) {
+        ([_], _) => return Ok(m.to_vec()),
+        (_, Some(view)) => (
+            m.iter()
+                .map(|l| prep.hulls.get(l.prim as usize))
+                .collect::<Option<Vec<&Hull>>>(),
+            view,
+        ),
+        (_, None) => return Err(m.to_vec()),
+    };
+    let Some(hulls) = hulls else {
+        return Err(m.to_vec());
+    };
+    let boxes = &prep.mesh_bounds;
+    let touch = |i: usize, j: usize| {
+        !super::cst::disjoint(&boxes[m[i].prim as usize], &boxes[m[j].prim as usize])
+    };
+    let pairs = order::pairs(&hulls, touch, view);
+    let pick = |seq: Vec<usize>| seq.into_iter().map(|i| m[i]).collect();
+    match order::sequence(m.len(), &pairs) {
+        Some(seq) => Ok(pick(seq)),
+        None => {
+            let depth: Vec<f64> = m
+                .iter()
+                .map(|l| view.nearest(&boxes[l.prim as usize]))
+                .collect();
+            Err(pick(order::rounds_order(m.len(), &pairs, &depth)))
+        }
     }
 }
 
