@@ -86,7 +86,8 @@ fn subtraction(scene: &Scene) -> (Vec<String>, bool) {
             _ => {}
         }
     }
-    (parity, p.loops().next().is_some())
+    let rounds = p.loops().next().is_some();
+    (parity, rounds)
 }
 
 /// A block minus spheres stacked along the view direction, listed deepest

@@ -297,17 +297,11 @@ pub fn sequence(ys: &[Lit], prep: &Prepared) -> Sequence {
             Err(round) => groups.push(round),
         }
     }
-    // Position by position: consecutive entries of different groups never
-    // overlap, so they share a batch.
-    let longest = sorted.iter().map(Vec::len).max().unwrap_or(0);
-    let once = (0..longest)
-        .flat_map(|k| sorted.iter().filter_map(move |s| s.get(k).copied()))
-        .collect();
+    let touch =
+        |a: Lit, b: Lit| !super::cst::disjoint(&boxes[a.prim as usize], &boxes[b.prim as usize]);
+    let once = order::by_levels(&sorted, touch);
     let max_rounds = groups.iter().map(Vec::len).max().unwrap_or(0) as u32;
-    let mut rounds = Vec::new();
-    for k in 0..max_rounds as usize {
-        rounds.extend(groups.iter().filter_map(|g| g.get(k)));
-    }
+    let rounds = order::by_levels(&groups, touch);
     Sequence {
         once,
         rounds,

@@ -184,6 +184,31 @@ pub fn rounds_order(n: usize, pairs: &[(usize, usize, Pair)], depth: &[f64]) -> 
     out
 }
 
+/// One sequence out of `seqs`, sequences of cutters of different groups (no
+/// cutter of one touches a cutter of another), by *level*: an entry's level is
+/// one more than that of the latest earlier entry of its sequence whose
+/// cutter it touches (0 if none). Entries of one level are pairwise apart, so
+/// they fill one batch (`scs::subtract`); the order of touching entries,
+/// the only order that matters (cutters apart commute: neither exit can land
+/// in the other), is kept, and with it every chain the sequences hold.
+pub fn by_levels<T: Copy>(seqs: &[Vec<T>], touch: impl Fn(T, T) -> bool) -> Vec<T> {
+    let mut entries: Vec<(usize, usize, usize)> = Vec::new();
+    for (s, seq) in seqs.iter().enumerate() {
+        let mut level: Vec<usize> = Vec::with_capacity(seq.len());
+        for (p, &x) in seq.iter().enumerate() {
+            let l = (0..p)
+                .filter(|&q| touch(seq[q], x))
+                .map(|q| level[q] + 1)
+                .max()
+                .unwrap_or(0);
+            level.push(l);
+            entries.push((l, s, p));
+        }
+    }
+    entries.sort_unstable();
+    entries.into_iter().map(|(_, s, p)| seqs[s][p]).collect()
+}
+
 /// A shortest sequence holding every ordering of `members` (at most
 /// [`MAX_CLUMP`]) as a subsequence.
 pub fn all_orders<T: Copy>(members: &[T]) -> Vec<T> {
@@ -308,6 +333,25 @@ mod tests {
         assert_eq!(seq, vec![5, 0, 1, 0, 2, 3, 4, 2, 3, 4, 2]);
         every_chain_holds(6, &tight, &seq);
         every_chain_holds(6, &mixed, &seq);
+    }
+
+    #[test]
+    fn levels_fill_batches_and_keep_the_order_of_touching_cutters() {
+        // complex's holes: H3 apart from H1; the clump H1, CB1, H1; a slot's
+        // ends E1, E2 apart, the box between; EdgeCut alone.
+        let seqs = vec![
+            vec!["H3", "H1", "CB1", "H1"],
+            vec!["E1", "E2", "Box", "E1", "E2"],
+            vec!["Edge"],
+        ];
+        let touching = [("H3", "CB1"), ("H1", "CB1"), ("E1", "Box"), ("E2", "Box")];
+        let touch =
+            |a: &str, b: &str| a == b || touching.contains(&(a, b)) || touching.contains(&(b, a));
+        let out = by_levels(&seqs, touch);
+        assert_eq!(
+            out,
+            vec!["H3", "H1", "E1", "E2", "Edge", "CB1", "Box", "H1", "E1", "E2"]
+        );
     }
 
     #[test]
