@@ -231,13 +231,7 @@ impl Prepared {
         p.mesh_convex = mesh_convex;
         p.eye_inside = eye_inside(scene);
         p.near_cut = eye::near_cut(scene);
-        p.hulls = std::sync::Arc::new(
-            scene
-                .primitives
-                .iter()
-                .map(|q| scs::Hull::of(&q.mesh))
-                .collect(),
-        );
+        p.hulls = std::sync::Arc::new(scs::hull::of_scene(scene));
         p.viewpoint = Some(scs::Viewpoint::of(&scene.camera));
         let first = scene.primitives.len() as MeshId;
         p.surfaces = scene

@@ -37,6 +37,8 @@ pub enum FragmentKind {
     /// colour (sRGB-encoded) so that the format's encoding stores it unchanged.
     ShadeNearDepthHostSrgb,
     NearerThan,
+    /// SCS's clip and merge in one draw (`Fragment::MergeBehind`).
+    MergeBehind,
     ShadeAtDepth,
     /// `ShadeAtDepth` without colour: depth only.
     DepthAtDepth,
@@ -91,9 +93,10 @@ impl FragmentKind {
             | FragmentKind::ShadeNearDepthHost
             | FragmentKind::ShadeNearDepthHostSrgb
             | FragmentKind::ShadeAtDepth => (true, true, false),
-            FragmentKind::Background | FragmentKind::PeelTolerant | FragmentKind::NearerThan => {
-                (true, false, false)
-            }
+            FragmentKind::Background
+            | FragmentKind::PeelTolerant
+            | FragmentKind::NearerThan
+            | FragmentKind::MergeBehind => (true, false, false),
             FragmentKind::Edges => (true, false, true),
             FragmentKind::None
             | FragmentKind::Peel
@@ -136,6 +139,7 @@ impl FragmentKind {
             FragmentKind::ShadeNearDepthHost => spv!("shade_near_depth.frag.host"),
             FragmentKind::ShadeNearDepthHostSrgb => spv!("shade_near_depth.frag.host_srgb"),
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
+            FragmentKind::MergeBehind => spv!("merge_behind.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
             FragmentKind::DepthAtDepth => spv!("depth_at_depth.frag"),
@@ -662,7 +666,7 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 17] = [
+    const SOURCES: [(FragmentKind, &str); 18] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
         (FragmentKind::Paint, "paint.frag"),
@@ -675,6 +679,7 @@ mod tests {
         (FragmentKind::ShadeNearDepth, "shade_near_depth.frag"),
         (FragmentKind::ShadeNearDepthHost, "shade_near_depth.frag"),
         (FragmentKind::NearerThan, "nearer_than.frag"),
+        (FragmentKind::MergeBehind, "merge_behind.frag"),
         (FragmentKind::ShadeAtDepth, "shade_at_depth.frag"),
         (FragmentKind::DepthAtDepth, "depth_at_depth.frag"),
         (FragmentKind::CopyDepth, "copy_depth.frag"),

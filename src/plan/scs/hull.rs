@@ -9,7 +9,7 @@
 
 use glam::DVec3;
 
-use crate::scene::{Aabb, Camera, Mesh, Projection};
+use crate::scene::{Aabb, Camera, Mesh, Projection, Scene};
 
 /// Most triangles of a mesh whose hull is kept: the separating-axis test is
 /// quadratic in them. A larger mesh keeps no hull (and no copy of its
@@ -25,6 +25,19 @@ pub struct Hull {
     normals: Vec<DVec3>,
     /// Scale of the coordinates: the tolerance of "touching" is relative to it.
     scale: f64,
+}
+
+/// Most primitives of a scene whose hulls are kept: past it (a scene of
+/// thousands of primitives, thousands of products) no group is ordered and
+/// SCS keeps its rounds, so planning stays linear in the scene.
+pub const MAX_PRIMITIVES: usize = 4096;
+
+/// The hulls of `scene`'s primitives, none past [`MAX_PRIMITIVES`].
+pub fn of_scene(scene: &Scene) -> Vec<Hull> {
+    if scene.primitives.len() > MAX_PRIMITIVES {
+        return Vec::new();
+    }
+    scene.primitives.iter().map(|p| Hull::of(&p.mesh)).collect()
 }
 
 impl Hull {

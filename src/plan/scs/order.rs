@@ -22,10 +22,20 @@
 //! It does not apply, and the group keeps its rounds (a loop with an early
 //! out), when the precedence has a cycle, a clump has more than
 //! [`MAX_CLUMP`] members (their sequences grow as k² and the rounds' early out
-//! then wins), or the view or the primitives' hulls are unknown.
+//! then wins), the group has more than [`MAX_GROUP`], or the view or the
+//! primitives' hulls are unknown.
 #![deny(unsafe_code)]
 
 use super::hull::{self, Hull, Viewpoint};
+
+/// Largest group ordered: the separating-axis tests are quadratic in it (a
+/// group of thousands of overlapping cutters keeps its rounds as listed).
+pub const MAX_GROUP: usize = 64;
+
+/// Most pairs of cutters one plan tests for a separating plane (each test
+/// projects both hulls on up to a few hundred axes): past it, groups keep
+/// their rounds as listed.
+pub const MAX_PAIR_TESTS: usize = 20_000;
 
 /// Largest clump spelled out statically (its sequence holds `MAX_CLUMP`!
 /// orderings in 7 applications).
