@@ -53,3 +53,28 @@ bool same_slope(vec2 dz, TieTexel t, float eps) {
     bool y = abs(t.diff.y - dz.y) <= tol || abs(t.diff.w - dz.y) <= tol;
     return x && y;
 }
+
+// Whether this fragment is at or in front of the texture's depth plus the
+// signed tolerance `pc.color.a` (normalized depth), ties decided by the slope
+// test: the classification of every tolerant parity test. `dz` are the
+// fragment depth's derivatives and `t` the texel, both taken in uniform
+// control flow.
+bool tie_nearer(vec2 dz, TieTexel t) {
+    float d = t.d;
+    bool reversed = (pc.flags & 1u) != 0u;
+    // Reversed Z: a float buffer with relative precision, so the tolerance scales
+    // with the depth.
+    float eps = reversed ? REVERSED_SCALE * pc.color.a * d : pc.color.a;
+    // The slope term only for a face parallel to the texture's (a coplanar face
+    // snapped differently), not for one crossing it. It moves the bound by
+    // `slope` (the sign of the tolerance); the slope test decides only
+    // the fragments inside that thin band.
+    float slope = sign(pc.color.a) * tie_slope() * (abs(dz.x) + abs(dz.y));
+    bool nearer = reversed ? gl_FragCoord.z >= d - eps : gl_FragCoord.z <= d + eps;
+    bool widened = reversed ? gl_FragCoord.z >= d - (eps + slope)
+                            : gl_FragCoord.z <= d + (eps + slope);
+    if (nearer != widened && same_slope(dz, t, eps)) {
+        nearer = widened;
+    }
+    return nearer;
+}

@@ -1,7 +1,8 @@
 //! SCS (sequenced convex subtraction) on the cases its subtraction sequence and
-//! tie rule exist for, against the exact reference (validation on): a chain of
-//! overlapping cutters that needs several rounds, and cutters whose faces
-//! coincide with each other's and with the block's.
+//! tie rule exist for, against the exact reference (validation on): chains of
+//! overlapping cutters (a static sequence for three, rounds for four), and
+//! cutters whose faces coincide with each other's and with the block's (one
+//! pass in ray order).
 
 use peeltrim::plan::{self, Algo, Prepared, Step};
 use peeltrim::scene::Scene;
@@ -34,34 +35,95 @@ pub fn all_scs(scene: &Scene) -> bool {
     passes.contains(&"scs-front") && !passes.contains(&"surface")
 }
 
-/// A block minus three overlapping spheres stacked along the view direction,
-/// listed deepest first: a ray through the top enters S1, leaves it inside S2,
-/// then S3, so the round S3, S2, S1 needs three rounds (the sequence's bound).
-#[test]
-fn a_chain_of_overlapping_cutters_takes_several_rounds() {
-    let scene = load(
+/// The subtraction draws of `scene`'s SCS plan: the cutters' parity draws in
+/// order (outside loops) and whether a loop of rounds remains.
+fn subtraction(scene: &Scene) -> (Vec<String>, bool) {
+    let prep = Prepared::new(scene).unwrap();
+    let p = plan::build(Algo::Scs, &prep).unwrap();
+    let mut in_subtract = false;
+    let mut parity = Vec::new();
+    for s in &p.steps {
+        match s {
+            Step::Pass(n) => in_subtract = n == "subtract",
+            Step::Draw(d) if in_subtract && d.cull == peeltrim::plan::Cull::None => {
+                let peeltrim::plan::Geometry::Mesh(m) = d.geometry else {
+                    panic!("mesh draws only")
+                };
+                parity.push(scene.primitives[m as usize].name.clone());
+            }
+            _ => {}
+        }
+    }
+    let rounds = p.loops().next().is_some();
+    (parity, rounds)
+}
+
+/// A block minus spheres stacked along the view direction, listed deepest
+/// first: a ray through the top enters the top sphere, leaves it inside the
+/// next, then the next. `n` spheres, each overlapping its neighbours.
+fn stacked_spheres(n: usize) -> Scene {
+    let names = ["S1", "S2", "S3", "S4"];
+    let mut text = String::from(
         r##"
-primitive = [
-  { name = "Block", shape = "box", size = [3.0, 1.6, 2.0] },
-  { name = "S3", shape = "sphere", radius = 0.35, translate = [0.05, -0.15, 0.0], color = "#40a040" },
-  { name = "S2", shape = "sphere", radius = 0.35, translate = [0.0, 0.3, 0.05], color = "#4060d0" },
-  { name = "S1", shape = "sphere", radius = 0.35, translate = [-0.05, 0.75, 0.0], color = "#d04040" },
-]
-camera = { eye = [0.3, 4.0, 1.2], target = [0.0, 0.0, 0.0], fit = true }
-csg = { expr = "Block - S3 - S2 - S1" }
+[camera]
+eye = [0.3, 4.0, 1.2]
+target = [0.0, 0.0, 0.0]
+fit = true
+[[primitive]]
+name = "Block"
+shape = "box"
+size = [3.0, 1.6, 2.0]
 "##,
     );
+    let mut expr = String::from("Block");
+    for k in (0..n).rev() {
+        let y = 0.75 - 0.45 * k as f64;
+        let x = [-0.05, 0.0, 0.05, 0.0][k];
+        text += &format!(
+            "[[primitive]]\nname = \"{}\"\nshape = \"sphere\"\nradius = 0.35\ntranslate = [{x}, {y}, {}]\ncolor = \"#{}\"\n",
+            names[k],
+            [0.0, 0.05, 0.0, -0.05][k],
+            ["d04040", "4060d0", "40a040", "a040a0"][k]
+        );
+        expr += &format!(" - {}", names[k]);
+    }
+    text += &format!("[csg]\nexpr = \"{expr}\"\n");
+    load(&text)
+}
+
+/// Three overlapping spheres in a chain (S1 and S3 apart): a path of
+/// overlaps, spelled out as S3 S1 S2 S3 S1 — every chain of it in one
+/// sequence with no rounds, S1 and S3 sharing batches.
+#[test]
+fn a_chain_of_overlapping_cutters_is_one_static_sequence() {
+    let scene = stacked_spheres(3);
     assert!(all_scs(&scene));
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
     assert!(
         reference.prim.iter().any(|&p| p == 2),
         "the deepest sphere's floor shows"
     );
+    let (parity, rounds) = subtraction(&scene);
+    assert!(!rounds, "no loop: {parity:?}");
+    assert_eq!(parity.len(), 5, "{parity:?}");
+    let loops = check(&scene);
+    assert!(loops.is_empty(), "{loops:?}");
+}
+
+/// Four overlapping spheres in a chain: too many for a static sequence, so
+/// rounds, ordered nearest first (the chain moves in the first round; the
+/// second finds nothing to move and ends the loop).
+#[test]
+fn a_longer_chain_takes_rounds_in_ray_order() {
+    let scene = stacked_spheres(4);
+    assert!(all_scs(&scene));
+    let (_, rounds) = subtraction(&scene);
+    assert!(rounds);
     let loops = check(&scene);
     assert_eq!(loops.len(), 1, "one loop of rounds: {loops:?}");
     assert!(
-        loops[0] >= 2,
-        "the chain needs more than one round: {loops:?}"
+        (1..=2).contains(&loops[0]),
+        "rounds in ray order: {loops:?}"
     );
 }
 
@@ -72,14 +134,34 @@ csg = { expr = "Block - S3 - S2 - S1" }
 fn coincident_cutters_are_tie_correct() {
     let scene = load(
         r##"
-primitive = [
-  { name = "Block", shape = "box", size = [4.0, 1.0, 2.0] },
-  { name = "K1", shape = "box", size = [1.0, 0.6, 2.4], translate = [-1.0, 0.3, 0.0], color = "#d04040" },
-  { name = "K2", shape = "box", size = [0.8, 0.3, 2.4], translate = [-0.1, 0.35, 0.0], color = "#40a040" },
-  { name = "Flush", shape = "box", size = [0.6, 0.5, 0.6], translate = [1.2, 0.25, 0.0], color = "#4060d0" },
-]
-camera = { eye = [3.0, 2.5, 2.0], target = [0.0, 0.0, 0.0], fit = true }
-csg = { expr = "Block - K1 - K2 - Flush" }
+[camera]
+eye = [3.0, 2.5, 2.0]
+target = [0.0, 0.0, 0.0]
+fit = true
+[[primitive]]
+name = "Block"
+shape = "box"
+size = [4.0, 1.0, 2.0]
+[[primitive]]
+name = "K1"
+shape = "box"
+size = [1.0, 0.6, 2.4]
+translate = [-1.0, 0.3, 0.0]
+color = "#d04040"
+[[primitive]]
+name = "K2"
+shape = "box"
+size = [0.8, 0.3, 2.4]
+translate = [-0.1, 0.35, 0.0]
+color = "#40a040"
+[[primitive]]
+name = "Flush"
+shape = "box"
+size = [0.6, 0.5, 0.6]
+translate = [1.2, 0.25, 0.0]
+color = "#4060d0"
+[csg]
+expr = "Block - K1 - K2 - Flush"
 "##,
     );
     assert!(all_scs(&scene));
@@ -87,8 +169,14 @@ csg = { expr = "Block - K1 - K2 - Flush" }
     for p in 2..=4u16 {
         assert!(reference.prim.iter().any(|&q| q == p), "cutter {p} shows");
     }
+    // K1 and K2 share a face: apart, K2 on the eye's side, so K2 then K1 in
+    // one pass (no rounds), the exit from K2 continuing into K1.
+    let (parity, rounds) = subtraction(&scene);
+    assert!(!rounds, "{parity:?}");
+    let at = |n: &str| parity.iter().position(|p| p == n).unwrap();
+    assert!(at("K2") < at("K1"), "{parity:?}");
     let loops = check(&scene);
-    assert_eq!(loops, vec![2], "K2 then K1 through their shared face");
+    assert!(loops.is_empty(), "{loops:?}");
 }
 
 /// The eye inside a subtracted sphere (perspective): its parity counted from the
@@ -99,12 +187,22 @@ csg = { expr = "Block - K1 - K2 - Flush" }
 fn the_eye_inside_a_subtracted_primitive() {
     let scene = load(
         r##"
-primitive = [
-  { name = "Block", shape = "box", size = [2.0, 2.0, 2.0] },
-  { name = "Bubble", shape = "sphere", radius = 2.5, translate = [0.0, 0.0, 3.0], color = "#d04040" },
-]
-camera = { eye = [0.3, 0.4, 3.0], target = [0.0, 0.0, 0.0], fov_y_deg = 60 }
-csg = { expr = "Block - Bubble" }
+[camera]
+eye = [0.3, 0.4, 3.0]
+target = [0.0, 0.0, 0.0]
+fov_y_deg = 60
+[[primitive]]
+name = "Block"
+shape = "box"
+size = [2.0, 2.0, 2.0]
+[[primitive]]
+name = "Bubble"
+shape = "sphere"
+radius = 2.5
+translate = [0.0, 0.0, 3.0]
+color = "#d04040"
+[csg]
+expr = "Block - Bubble"
 "##,
     );
     let prep = Prepared::new(&scene).unwrap();

@@ -302,6 +302,8 @@ pub(crate) mod tests {
             eye_inside: Vec::new(),
             near_cut: Vec::new(),
             surfaces: Vec::new(),
+            hulls: Default::default(),
+            viewpoint: None,
         }
     }
 

@@ -185,6 +185,11 @@ pub struct Prepared {
     pub near_cut: Vec<bool>,
     /// The scene's surfaces, in file order (drawn by the CST plans only).
     pub surfaces: Vec<PreparedSurface>,
+    /// Per primitive: what SCS orders its cutters by ([`scs::Hull`]); none
+    /// from [`Prepared::from_parts`].
+    pub hulls: std::sync::Arc<Vec<scs::Hull>>,
+    /// Where the camera's rays come from; `None` from [`Prepared::from_parts`].
+    pub viewpoint: Option<scs::Viewpoint>,
 }
 
 impl Prepared {
@@ -219,11 +224,15 @@ impl Prepared {
                 eye_inside: Vec::new(),
                 near_cut: Vec::new(),
                 surfaces: Vec::new(),
+                hulls: Default::default(),
+                viewpoint: None,
             },
         };
         p.mesh_convex = mesh_convex;
         p.eye_inside = eye_inside(scene);
         p.near_cut = eye::near_cut(scene);
+        p.hulls = std::sync::Arc::new(scs::hull::of_scene(scene));
+        p.viewpoint = Some(scs::Viewpoint::of(&scene.camera));
         let first = scene.primitives.len() as MeshId;
         p.surfaces = scene
             .surfaces
@@ -249,6 +258,7 @@ impl Prepared {
     /// eye) after `scene`'s camera moved; the meshes are unchanged.
     pub fn camera_moved(&mut self, scene: &Scene) {
         self.eye_inside = eye_inside(scene);
+        self.viewpoint = Some(scs::Viewpoint::of(&scene.camera));
     }
 
     /// `expr` as the parity passes must classify it: literals of primitives that
@@ -304,6 +314,8 @@ impl Prepared {
             eye_inside: Vec::new(),
             near_cut: Vec::new(),
             surfaces: Vec::new(),
+            hulls: Default::default(),
+            viewpoint: None,
         }
     }
 

@@ -17,8 +17,12 @@
 //!    `z` only moves back, and never into a `Yj` it left, so a sequence in which
 //!    every chain of overlapping `Yj` appears in order leaves `z` outside all of
 //!    them. `Yj` whose world boxes meet no other `Yj` need one application each;
-//!    the overlapping ones are repeated in rounds, at most as many as a group has
-//!    members, and a round whose exits moved no pixel (an occlusion query over
+//!    a group of overlapping ones is ordered along the rays ([`order`]: cutters
+//!    with a separating plane in the order every ray meets them, small clumps
+//!    of truly overlapping ones spelled out), one application each again
+//!    (twice or three times within a clump). Where that fails (a cycle, a
+//!    clump of more than three) the group is repeated in rounds, nearest first,
+//!    at most as many as it has members, and a round whose exits moved no pixel (an occlusion query over
 //!    the exit draws, resolved as the executor resolves every [`Loop`]: replayed
 //!    from the previous frame's count and checked on the GPU's results, no CPU
 //!    wait inside the frame) ends them early.
@@ -26,9 +30,10 @@
 //!    (`z` only moved back, and each `Xi` is one interval along the ray, so this
 //!    also rejects rays that miss the intersection), then merged into the output
 //!    depth by a less-than test, and the image is shaded by depth as for
-//!    Goldfeather. With a single `X` (a block minus holes) only its back faces
-//!    are drawn: `z` is at or behind its front face wherever the ray meets it
-//!    ([`back_face_clip`]).
+//!    Goldfeather. With a single `X` (a block minus holes) clip and merge are
+//!    one draw of its back faces into the output depth, no full-screen pass:
+//!    `z` is at or behind its front face wherever the ray meets it
+//!    ([`back_face_merge`]).
 //!
 //! Every draw is cut to the intersection of the `Xi`'s screen rectangles
 //! ([`Region::Intersection`]): the product lies inside each `Xi`, and only the
@@ -70,9 +75,15 @@
 //! positive primitive is one draw ([`goldfeather::direct_steps`]).
 #![deny(unsafe_code)]
 
+pub mod hull;
+pub mod order;
+
+use std::cell::Cell;
+
 use super::goldfeather::{self, Lit, ProductOptions, Region, CLIP_BITS, OUTPUT, SURF, SURFACE};
 use super::step::*;
 use super::{eye, PlanError, Prepared};
+pub use hull::{Hull, Viewpoint};
 
 /// Stencil bits of the surface image that one batch of subtractions uses: one
 /// per subtracted primitive, eight primitives whose boxes are disjoint per batch.
@@ -83,11 +94,12 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let prods = goldfeather::products(prep, opts.limit)?;
     let mut steps = goldfeather::init_steps();
     let mut loops = false;
+    let tests = Cell::new(order::MAX_PAIR_TESTS);
     for p in &prods {
         if let Some(direct) = goldfeather::direct_steps(p, prep) {
             steps.extend(direct);
         } else if applies(p, prep) {
-            steps.extend(product_steps(p, prep, opts.eps));
+            steps.extend(product_steps(p, prep, opts.eps, &tests));
         } else {
             loops |= goldfeather::product_steps(p, prep, opts.eps, &mut steps);
         }
@@ -162,7 +174,7 @@ pub fn fallback_warning(prep: &Prepared) -> Option<String> {
 }
 
 /// The steps of one product of convex primitives (module documentation, 1–3).
-fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
+fn product_steps(p: &[Lit], prep: &Prepared, eps: f32, tests: &Cell<usize>) -> Vec<Step> {
     let (xs, ys): (Vec<Lit>, Vec<Lit>) = p.iter().partition(|l| !l.negated);
     // Where the product can be: inside every positive primitive, so inside the
     // intersection of their rectangles. Only the clip and the merge read `z`,
@@ -197,7 +209,7 @@ fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
             count_samples: false,
         }));
     }
-    let seq = sequence(&ys, prep);
+    let seq = sequence_within(&ys, prep, tests);
     if !seq.once.is_empty() {
         steps.push(Step::Pass("subtract".into()));
         steps.extend(subtract(&seq.once, &region, eps, prep, false));
@@ -214,41 +226,58 @@ fn product_steps(p: &[Lit], prep: &Prepared, eps: f32) -> Vec<Step> {
     let flag = |v: &[bool], m: MeshId| v.get(m as usize).copied().unwrap_or(false);
     let start_inside = |y: &Lit| flag(&prep.eye_inside, y.prim) || flag(&prep.near_cut, y.prim);
     match xs.as_slice() {
-        [x] if !ys.iter().any(start_inside) => steps.extend(back_face_clip(*x, &region, eps)),
-        _ => steps.extend(goldfeather::clip_steps_in(
-            &xs,
-            &region,
-            eps,
-            &prep.eye_inside,
-        )),
+        [x] if !ys.iter().any(start_inside) => steps.extend(back_face_merge(*x, &region, eps)),
+        _ => {
+            steps.extend(goldfeather::clip_steps_in(
+                &xs,
+                &region,
+                eps,
+                &prep.eye_inside,
+            ));
+            steps.extend(goldfeather::merge_steps_in(&region));
+        }
     }
-    steps.extend(goldfeather::merge_steps_in(&region));
     steps
 }
 
-/// The clip of a product with one positive primitive `x` (module
-/// documentation, 3) whose cutters all start outside every ray: half of the
-/// parity clip's fragments. Where the ray meets `x`, `z` is at or behind its
-/// front face (it starts there and only moves back), so the parity draw always
-/// counts the front face and `z` is inside `x` exactly where the back face is
-/// not at or in front of it (the tie rule): one draw of the back faces sets a
-/// bit there, and the sweep rejects where it is set. Where the ray misses `x`,
-/// no front face was drawn and `z` is still the texture's far (no cutter's
-/// parity is odd along a ray starting outside it, so no exit moved it; the
-/// depth-stencil image there holds near, which no face is in front of), and the
-/// merge skips far.
-fn back_face_clip(x: Lit, region: &Region, eps: f32) -> Vec<Step> {
+/// The clip and merge of a product with one positive primitive `x` (module
+/// documentation, 3) whose cutters all start outside every ray, as one draw
+/// of `x`'s back faces into the output depth ([`Fragment::MergeBehind`]) and
+/// no full-screen pass. Where the ray meets `x`, `z` is at or behind its
+/// front face (it starts there and only moves back), so `z` is inside `x`
+/// exactly where the back face is behind it (the tie rule, as the parity
+/// clip's); there the back face's fragment carries `z` into the output with
+/// the less-than test. Where the ray misses `x`, no front face was drawn and
+/// `z` is still the texture's far (no cutter's parity is odd along a ray
+/// starting outside it, so no exit moved it), and no back face is drawn
+/// either. A convex `x` has one back face per pixel, so each pixel merges at
+/// most once.
+fn back_face_merge(x: Lit, region: &Region, eps: f32) -> Vec<Step> {
     vec![
-        Step::Pass("clip".into()),
-        goldfeather::clip_parity_draw(x.prim, Cull::Front, region.cut(x.prim), 1, eps),
-        goldfeather::reject_sweep(1, 0, region.rect()),
+        Step::Pass("merge".into()),
+        Step::Draw(Draw {
+            geometry: Geometry::Mesh(x.prim),
+            scissor: region.cut(x.prim),
+            cull: Cull::Front,
+            ds: OUTPUT,
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: None,
+            fragment: Fragment::MergeBehind { tex: SURF, eps },
+            count_samples: false,
+        }),
     ]
 }
 
 /// A product's subtraction sequence (module documentation, 2).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sequence {
-    /// Subtracted primitives whose boxes meet no other's: each applied once.
+    /// Applied once, in this order: the subtracted primitives whose boxes meet
+    /// no other's, and the groups of overlapping ones that [`order`] sorts
+    /// along the rays (a primitive of a clump appears more than once),
+    /// interleaved so that batches of disjoint boxes fill up.
     pub once: Vec<Lit>,
     /// One round over every group of overlapping subtracted primitives (the
     /// groups interleaved, so that batches of disjoint boxes fill up).
@@ -260,6 +289,11 @@ pub struct Sequence {
 /// Groups `ys` by overlapping world boxes (connected components: an exit from
 /// one `Yj` can only land inside a `Yk` whose box meets its own).
 pub fn sequence(ys: &[Lit], prep: &Prepared) -> Sequence {
+    sequence_within(ys, prep, &Cell::new(order::MAX_PAIR_TESTS))
+}
+
+/// [`sequence`] with at most `tests` pair tests left for ordering groups.
+fn sequence_within(ys: &[Lit], prep: &Prepared, tests: &Cell<usize>) -> Sequence {
     let boxes = &prep.mesh_bounds;
     let mut group: Vec<usize> = (0..ys.len()).collect();
     fn root(g: &mut [usize], mut i: usize) -> usize {
@@ -283,23 +317,62 @@ pub fn sequence(ys: &[Lit], prep: &Prepared) -> Sequence {
         let r = root(&mut group, i);
         members[r].push(y);
     }
-    let (mut once, mut groups) = (Vec::new(), Vec::new());
+    let (mut sorted, mut groups) = (Vec::new(), Vec::new());
     for m in members.into_iter().filter(|m| !m.is_empty()) {
-        if m.len() == 1 {
-            once.push(m[0]);
-        } else {
-            groups.push(m);
+        match ordered(&m, prep, tests) {
+            Ok(seq) => sorted.push(seq),
+            Err(round) => groups.push(round),
         }
     }
+    let touch =
+        |a: Lit, b: Lit| !super::cst::disjoint(&boxes[a.prim as usize], &boxes[b.prim as usize]);
+    let once = order::by_levels(&sorted, touch);
     let max_rounds = groups.iter().map(Vec::len).max().unwrap_or(0) as u32;
-    let mut rounds = Vec::new();
-    for k in 0..max_rounds as usize {
-        rounds.extend(groups.iter().filter_map(|g| g.get(k)));
-    }
+    let rounds = order::by_levels(&groups, touch);
     Sequence {
         once,
         rounds,
         max_rounds,
+    }
+}
+
+/// The group `m` of cutters with touching boxes applied once each in ray
+/// order ([`order::sequence`]; a single cutter is itself), or, where that
+/// does not apply, one round over it in the order [`order::rounds_order`]
+/// gives (as listed when the view or the hulls are unknown, the group is
+/// larger than [`order::MAX_GROUP`], or the plan's [`order::MAX_PAIR_TESTS`]
+/// are spent: thousands of products of overlapping cutters).
+fn ordered(m: &[Lit], prep: &Prepared, tests: &Cell<usize>) -> Result<Vec<Lit>, Vec<Lit>> {
+    let pairs = m.len() * m.len().saturating_sub(1) / 2;
+    let (hulls, view) = match (m, prep.viewpoint) {
+        ([_], _) => return Ok(m.to_vec()),
+        (_, Some(view)) if m.len() <= order::MAX_GROUP && pairs <= tests.get() => (
+            m.iter()
+                .map(|l| prep.hulls.get(l.prim as usize))
+                .collect::<Option<Vec<&Hull>>>(),
+            view,
+        ),
+        _ => return Err(m.to_vec()),
+    };
+    let Some(hulls) = hulls else {
+        return Err(m.to_vec());
+    };
+    tests.set(tests.get() - pairs);
+    let boxes = &prep.mesh_bounds;
+    let touch = |i: usize, j: usize| {
+        !super::cst::disjoint(&boxes[m[i].prim as usize], &boxes[m[j].prim as usize])
+    };
+    let pairs = order::pairs(&hulls, touch, view);
+    let pick = |seq: Vec<usize>| seq.into_iter().map(|i| m[i]).collect();
+    match order::sequence(m.len(), &pairs) {
+        Some(seq) => Ok(pick(seq)),
+        None => {
+            let depth: Vec<f64> = m
+                .iter()
+                .map(|l| view.nearest(&boxes[l.prim as usize]))
+                .collect();
+            Err(pick(order::rounds_order(m.len(), &pairs, &depth)))
+        }
     }
 }
 
@@ -510,20 +583,32 @@ mod tests {
     }
 
     #[test]
-    fn one_positive_primitive_is_clipped_by_its_back_faces() {
+    fn one_positive_primitive_is_clipped_and_merged_by_its_back_faces() {
         let prep = row_of_boxes();
         let built = plan(&prep, &ProductOptions::default()).unwrap();
-        let clip = pass_draws(&built.steps, "clip");
-        // The back faces of box 0 set bit 0 where they are at or in front of
-        // `z`; the sweep rejects where it is set.
-        assert_eq!(clip.len(), 2);
+        // No clip pass: the back faces of box 0 carry `z` into the output
+        // where they lie behind it, one mesh draw and no full-screen pass.
+        assert!(pass_draws(&built.steps, "clip").is_empty());
+        let merge = pass_draws(&built.steps, "merge");
+        assert_eq!(merge.len(), 1);
+        let m = merge[0];
         assert_eq!(
-            (&clip[0].geometry, clip[0].cull),
-            (&Geometry::Mesh(0), Cull::Front)
+            (&m.geometry, m.cull, m.ds, m.depth.compare, m.depth.write),
+            (
+                &Geometry::Mesh(0),
+                Cull::Front,
+                OUTPUT,
+                CompareOp::Less,
+                true
+            )
         );
-        assert!(matches!(clip[0].fragment, Fragment::NearerThan { .. }));
-        let sweep = clip[1].stencil.expect("a stencil test");
-        assert_eq!((sweep.compare_mask, sweep.reference), (1, 0));
+        assert_eq!(
+            m.fragment,
+            Fragment::MergeBehind {
+                tex: SURF,
+                eps: CLIP_EPS
+            }
+        );
         // Every exit moves `z` in the depth-stencil image too (the tie-free
         // parity draws test it there).
         let exits: Vec<&Draw> = pass_draws(&built.steps, "subtract")
@@ -541,6 +626,14 @@ mod tests {
         near.near_cut[4] = true;
         let built = plan(&near, &ProductOptions::default()).unwrap();
         assert_eq!(pass_draws(&built.steps, "clip")[0].cull, Cull::None);
+        let merge = pass_draws(&built.steps, "merge");
+        assert!(matches!(
+            merge[..],
+            [Draw {
+                geometry: Geometry::FullScreen { .. },
+                ..
+            }]
+        ));
     }
 
     #[test]
@@ -586,10 +679,11 @@ mod tests {
         let c = count(&built.steps, &prep);
         let g = goldfeather::plan(&prep, &ProductOptions::default()).unwrap();
         let gc = count(&g.steps, &prep);
-        // 1 front, 16 parity + 16 exits, 1 clip parity draw; then 17 shading draws.
+        // 1 front, 16 parity + 16 exits, 1 merge of the block's back faces;
+        // then 17 shading draws.
         assert_eq!(c.mesh_draws, 1 + 32 + 1 + 17);
-        // Two subtraction batches of 8 bits, one clip sweep, one merge.
-        assert_eq!(c.fullscreen_passes, 2);
+        // Two subtraction batches of 8 bits and no full-screen pass.
+        assert_eq!(c.fullscreen_passes, 0);
         assert!(c.draws * 5 < gc.draws, "scs {c:?} goldfeather {gc:?}");
     }
 }

@@ -183,6 +183,12 @@ pub enum Fragment {
     /// with a documented tolerance, so coincident faces of several primitives all
     /// qualify and the draw order decides which id stays (the last drawn wins).
     ShadeNearDepth { tex: Tex, eps: f32 },
+    /// The depth of texture `tex` as the fragment depth, only where this
+    /// fragment is behind it by more than the tolerance `eps` (the opposite of
+    /// [`Fragment::NearerThan`]'s test, ties decided alike) and `tex` is not
+    /// far; no colour output. SCS's clip and merge of a product with one
+    /// positive primitive in one draw of its back faces (`plan::scs`).
+    MergeBehind { tex: Tex, eps: f32 },
     /// Full-screen copy of texture `src` into the fragment depth (`gl_FragDepth`),
     /// discarding pixels where `src` holds the far value 1.0 (nothing there).
     DepthFromTexture { src: Tex },

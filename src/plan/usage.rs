@@ -63,6 +63,7 @@ pub fn color_targets(f: &Fragment) -> Uses<Resource> {
         Fragment::None
         | Fragment::DepthFromTexture { .. }
         | Fragment::NearerThan { .. }
+        | Fragment::MergeBehind { .. }
         | Fragment::DepthAtDepth { .. } => Uses::of(&[]),
         Fragment::Shade
         | Fragment::Paint { .. }
@@ -86,6 +87,7 @@ pub fn sampled_texture(f: &Fragment) -> Option<Tex> {
         Fragment::DepthFromTexture { src } | Fragment::CopyTexel { src, .. } => Some(src),
         Fragment::ShadeNearDepth { tex, .. }
         | Fragment::NearerThan { tex, .. }
+        | Fragment::MergeBehind { tex, .. }
         | Fragment::ShadeAtDepth { tex }
         | Fragment::DepthAtDepth { tex } => Some(tex),
         Fragment::None

@@ -37,6 +37,8 @@ pub enum FragmentKind {
     /// colour (sRGB-encoded) so that the format's encoding stores it unchanged.
     ShadeNearDepthHostSrgb,
     NearerThan,
+    /// SCS's clip and merge in one draw (`Fragment::MergeBehind`).
+    MergeBehind,
     ShadeAtDepth,
     /// `ShadeAtDepth` drawn into an embedding host's colour and depth
     /// attachments, the texture being the output depth-stencil's depth
@@ -99,9 +101,10 @@ impl FragmentKind {
             | FragmentKind::ShadeAtDepth
             | FragmentKind::ShadeAtDepthHost
             | FragmentKind::ShadeAtDepthHostSrgb => (true, true, false),
-            FragmentKind::Background | FragmentKind::PeelTolerant | FragmentKind::NearerThan => {
-                (true, false, false)
-            }
+            FragmentKind::Background
+            | FragmentKind::PeelTolerant
+            | FragmentKind::NearerThan
+            | FragmentKind::MergeBehind => (true, false, false),
             FragmentKind::Edges => (true, false, true),
             FragmentKind::None
             | FragmentKind::Peel
@@ -144,6 +147,7 @@ impl FragmentKind {
             FragmentKind::ShadeNearDepthHost => spv!("shade_near_depth.frag.host"),
             FragmentKind::ShadeNearDepthHostSrgb => spv!("shade_near_depth.frag.host_srgb"),
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
+            FragmentKind::MergeBehind => spv!("merge_behind.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
             FragmentKind::ShadeAtDepthHost => spv!("shade_at_depth.frag.host"),
@@ -673,7 +677,7 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 18] = [
+    const SOURCES: [(FragmentKind, &str); 19] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
         (FragmentKind::Paint, "paint.frag"),
@@ -686,6 +690,7 @@ mod tests {
         (FragmentKind::ShadeNearDepth, "shade_near_depth.frag"),
         (FragmentKind::ShadeNearDepthHost, "shade_near_depth.frag"),
         (FragmentKind::NearerThan, "nearer_than.frag"),
+        (FragmentKind::MergeBehind, "merge_behind.frag"),
         (FragmentKind::ShadeAtDepth, "shade_at_depth.frag"),
         (FragmentKind::ShadeAtDepthHost, "shade_at_depth.frag"),
         (FragmentKind::DepthAtDepth, "depth_at_depth.frag"),

@@ -174,6 +174,8 @@ mod tests {
             eye_inside: Vec::new(),
             near_cut: Vec::new(),
             surfaces: Vec::new(),
+            hulls: Default::default(),
+            viewpoint: None,
         }
     }
 

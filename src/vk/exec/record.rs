@@ -1044,7 +1044,8 @@ impl<'a> Recorder<'a> {
                     } else {
                         let color = match draw.fragment {
                             Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
-                            Fragment::NearerThan { eps, .. } => [0.0, 0.0, 0.0, eps],
+                            Fragment::NearerThan { eps, .. }
+                            | Fragment::MergeBehind { eps, .. } => [0.0, 0.0, 0.0, eps],
                             _ => [0.0; 4],
                         };
                         (color, 0)
@@ -1091,6 +1092,7 @@ fn fragment_kind(f: &Fragment) -> FragmentKind {
         // The texel copy is the depth-copy shader reading a depth texture.
         Fragment::CopyTexel { .. } => FragmentKind::CopyDepth,
         Fragment::NearerThan { .. } => FragmentKind::NearerThan,
+        Fragment::MergeBehind { .. } => FragmentKind::MergeBehind,
         Fragment::ShadeNearDepth { .. } => FragmentKind::ShadeNearDepth,
         Fragment::DepthAtDepth { .. } => FragmentKind::DepthAtDepth,
     }
