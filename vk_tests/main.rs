@@ -27,6 +27,7 @@ mod setup;
 mod shadow;
 mod stability;
 mod tie_free;
+mod view_convex;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

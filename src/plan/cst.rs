@@ -299,6 +299,7 @@ pub(crate) mod tests {
             mesh_triangles: vec![tris; prims as usize],
             mesh_bounds: vec![b; prims as usize],
             mesh_convex: vec![false; prims as usize],
+            view_convex: Vec::new(),
             eye_inside: Vec::new(),
             near_cut: Vec::new(),
             surfaces: Vec::new(),

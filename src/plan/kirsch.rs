@@ -154,11 +154,7 @@ struct Builder<'a> {
 
 impl Builder<'_> {
     fn convex(&self, prim: MeshId) -> bool {
-        self.prep
-            .mesh_convex
-            .get(prim as usize)
-            .copied()
-            .unwrap_or(false)
+        self.prep.convex(prim)
     }
 
     /// The fragment of a surface draw of layer `i`: everything for layer 1, else

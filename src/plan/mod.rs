@@ -27,9 +27,11 @@ pub mod tie_free;
 pub mod trickle;
 pub mod usage;
 pub mod validate;
+mod view_convex;
 pub use convex::is_convex;
 pub use step::*;
 pub use tie::{shade_near_depth, SHADE_EPS};
+pub use view_convex::view_convex;
 
 use crate::csg::{Expr, Node, PositiveExpr};
 use crate::scene::{Aabb, Keep, Scene};
@@ -175,6 +177,10 @@ pub struct Prepared {
     /// plane, see [`is_convex`]); `false` when unknown. CST stops peeling such a
     /// leaf after one layer (one face orientation) or two (both).
     pub mesh_convex: Vec<bool>,
+    /// Per mesh: not known convex, but proved one front and one back face per
+    /// pixel from this camera ([`view_convex`]); re-derived when the camera
+    /// moves. Read both through [`Prepared::convex`].
+    pub view_convex: Vec<bool>,
     /// Per mesh: the eye (perspective) lies inside this closed mesh. Parity counted
     /// from the near plane is then inverted for it, so the Blister and CST
     /// classifications flip its literals ([`Prepared::classified`]).
@@ -221,6 +227,7 @@ impl Prepared {
                 mesh_triangles,
                 mesh_bounds,
                 mesh_convex: Vec::new(),
+                view_convex: Vec::new(),
                 eye_inside: Vec::new(),
                 near_cut: Vec::new(),
                 surfaces: Vec::new(),
@@ -229,6 +236,7 @@ impl Prepared {
             },
         };
         p.mesh_convex = mesh_convex;
+        p.view_convex = view_convex_meshes(scene, &p.mesh_convex);
         p.eye_inside = eye_inside(scene);
         p.near_cut = eye::near_cut(scene);
         p.hulls = std::sync::Arc::new(scs::hull::of_scene(scene));
@@ -255,10 +263,20 @@ impl Prepared {
     }
 
     /// Re-derives what depends on the camera alone (which primitives contain the
-    /// eye) after `scene`'s camera moved; the meshes are unchanged.
+    /// eye, which meshes are convex in this view) after `scene`'s camera moved;
+    /// the meshes are unchanged.
     pub fn camera_moved(&mut self, scene: &Scene) {
         self.eye_inside = eye_inside(scene);
         self.viewpoint = Some(scs::Viewpoint::of(&scene.camera));
+        self.view_convex = view_convex_meshes(scene, &self.mesh_convex);
+    }
+
+    /// Whether mesh `m` has at most one front and one back face along every
+    /// pixel's ray of this view, the near plane cutting neither: convex
+    /// ([`is_convex`]), or proved so for this camera ([`view_convex`]).
+    pub fn convex(&self, m: MeshId) -> bool {
+        let flag = |v: &[bool]| v.get(m as usize).copied().unwrap_or(false);
+        flag(&self.mesh_convex) || flag(&self.view_convex)
     }
 
     /// `expr` as the parity passes must classify it: literals of primitives that
@@ -311,6 +329,7 @@ impl Prepared {
             mesh_triangles,
             mesh_bounds,
             mesh_convex,
+            view_convex: Vec::new(),
             eye_inside: Vec::new(),
             near_cut: Vec::new(),
             surfaces: Vec::new(),
@@ -436,6 +455,22 @@ fn checked(plan: Plan, prep: &Prepared) -> Plan {
         panic!("the {} plan builder made an invalid plan: {e}", plan.algo);
     }
     plan
+}
+
+/// Per mesh (primitives, then surfaces): not convex ([`is_convex`]) but convex
+/// from `scene`'s camera ([`view_convex`]). Unused primitives are not drawn and
+/// get `false`.
+fn view_convex_meshes(scene: &Scene, convex: &[bool]) -> Vec<bool> {
+    let (w, h) = (scene.render.width, scene.render.height);
+    let used = scene.primitives.iter().map(|p| (&p.mesh, p.used));
+    let surfaces = scene.surfaces.iter().map(|s| (&s.mesh, true));
+    used.chain(surfaces)
+        .enumerate()
+        .map(|(i, (mesh, used))| {
+            used && !convex.get(i).copied().unwrap_or(false)
+                && view_convex(mesh, &scene.camera, w, h)
+        })
+        .collect()
 }
 
 /// Per primitive (then `false` for surfaces): whether a perspective eye lies

@@ -120,7 +120,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
 /// inside a positive one (see the module documentation).
 pub fn applies(p: &[Lit], prep: &Prepared) -> bool {
     let flag = |v: &[bool], m: MeshId| v.get(m as usize).copied().unwrap_or(false);
-    p.iter().all(|l| flag(&prep.mesh_convex, l.prim))
+    p.iter().all(|l| prep.convex(l.prim))
         && !p
             .iter()
             .any(|l| !l.negated && (flag(&prep.eye_inside, l.prim) || flag(&prep.near_cut, l.prim)))
@@ -136,7 +136,7 @@ pub fn fallback_warning(prep: &Prepared) -> Option<String> {
     for p in prods.iter().filter(|p| p.len() > 1 && !applies(p, prep)) {
         fallback += 1;
         for l in p {
-            if !flag(&prep.mesh_convex, l.prim) {
+            if !prep.convex(l.prim) {
                 nonconvex.push(l.prim + 1);
             } else if !l.negated && (flag(&prep.eye_inside, l.prim) || flag(&prep.near_cut, l.prim))
             {
@@ -155,7 +155,7 @@ pub fn fallback_warning(prep: &Prepared) -> Option<String> {
     let mut why = Vec::new();
     if !nonconvex.is_empty() {
         why.push(format!(
-            "non-convex primitive(s) {} (SCS needs one front and one back face per ray)",
+            "non-convex primitive(s) {} (SCS needs one front and one back face per ray; from this camera their faces may overlap on screen)",
             list(&mut nonconvex)
         ));
     }

@@ -23,7 +23,7 @@ pub enum Layers {
 impl Layers {
     /// The bound for the mesh `m` peeled with `cull`.
     pub fn of(prep: &Prepared, m: MeshId, cull: Cull) -> Layers {
-        if prep.mesh_convex.get(m as usize).copied().unwrap_or(false) {
+        if prep.convex(m) {
             Layers::Known(if cull == Cull::None { 2 } else { 1 })
         } else {
             // A front-face (or back-face) peel of a closed mesh has at most half its

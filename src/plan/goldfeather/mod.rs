@@ -182,12 +182,7 @@ pub(crate) fn product_steps(p: &[Lit], prep: &Prepared, eps: f32, steps: &mut Ve
             .collect();
         let mut clip_merge = clip_steps(&others, &[a.prim], eps, &prep.eye_inside);
         clip_merge.extend(merge_steps(&[a.prim]));
-        if prep
-            .mesh_convex
-            .get(a.prim as usize)
-            .copied()
-            .unwrap_or(false)
-        {
+        if prep.convex(a.prim) {
             steps.push(Step::Pass("surface".into()));
             steps.push(clear_surface());
             steps.push(Step::Clear(Clear::Texture {
