@@ -863,6 +863,29 @@ impl Executor {
     /// `None` when no recording of `plan` is kept: execute it until a frame
     /// replays first.
     pub fn time_recording(&mut self, plan: &Plan, reps: u32) -> Result<Option<Vec<f64>>, VkError> {
+        self.time_recordings(plan, reps, true)
+    }
+
+    /// [`Self::time_recording`] with the regions of its clears and copies
+    /// taken from the cache (`plan::memo`): what recording the plan again
+    /// costs when only device objects changed (an interference frame's
+    /// uploads, a replaced image).
+    pub fn time_recording_cached(
+        &mut self,
+        plan: &Plan,
+        reps: u32,
+    ) -> Result<Option<Vec<f64>>, VkError> {
+        self.time_recordings(plan, reps, false)
+    }
+
+    /// `reps` timed recordings of the kept frame of `plan`, each working out
+    /// its reach anew when `fresh`.
+    fn time_recordings(
+        &mut self,
+        plan: &Plan,
+        reps: u32,
+        fresh: bool,
+    ) -> Result<Option<Vec<f64>>, VkError> {
         let _layer = self.shared.layer_use();
         let layers = match &self.recording {
             Some(r) if r.key.epoch == self.epoch && r.key.plan == *plan => r.key.layers.clone(),
@@ -876,7 +899,9 @@ impl Executor {
         let assumed = key.assumed.clone();
         (0..reps)
             .map(|_| {
-                self.reach_memo.clear();
+                if fresh {
+                    self.reach_memo.clear();
+                }
                 self.record_kept(plan, &layers, &assumed)
             })
             .collect::<Result<Vec<f64>, VkError>>()
