@@ -63,6 +63,7 @@ use crate::output::Images;
 use crate::plan::memo::{Memo, PlanIds};
 use crate::plan::reach::{self, FrameReach, KeptImages};
 use crate::plan::tie_free::{TieBand, TieFree};
+use crate::plan::usage::Resource;
 use crate::plan::validate::validate;
 use crate::plan::{Plan, Scissor, Step};
 use crate::scene::{Aabb, Camera, Scene};
@@ -987,11 +988,7 @@ impl Executor {
         };
         let (w, h) = (self.desc.width, self.desc.height);
         let outputs = reach::outputs(plan.output_ds, self.normals);
-        let images = reach::Images {
-            outputs: &outputs,
-            normals: self.normals,
-            size: (w, h),
-        };
+        let images = self.reach_images(&outputs);
         let (rects, scissored) = (&self.rects.rects, self.scissored_clears);
         let reached = self.reach_memo.get_or_insert_with(key, || {
             let unions = RectUnions::new(rects);
@@ -1039,12 +1036,18 @@ impl Executor {
         let unions = RectUnions::new(&self.rects.rects);
         let (w, h) = (self.desc.width, self.desc.height);
         let outputs = reach::outputs(plan.output_ds, self.normals);
-        let images = reach::Images {
-            outputs: &outputs,
-            normals: self.normals,
-            size: (w, h),
-        };
+        let images = self.reach_images(&outputs);
         self.kept = reach::kept_after(&steps, |s| unions.scissor(s, w, h), images, &self.kept);
+    }
+
+    /// The images `plan::reach` plans a frame on: `outputs`, read whole
+    /// after it, the normal buffer with the colour when on, the image size.
+    fn reach_images<'a>(&self, outputs: &'a [Resource]) -> reach::Images<'a> {
+        reach::Images {
+            outputs,
+            normals: self.normals,
+            size: (self.desc.width, self.desc.height),
+        }
     }
 
     /// Adds the GPU times between the timestamps of the last command buffer.

@@ -387,11 +387,7 @@ impl Executor {
         }
         let (w, h) = (self.desc.width, self.desc.height);
         let outputs = reach::outputs(output, normals);
-        let images = reach::Images {
-            outputs: &outputs,
-            normals,
-            size: (w, h),
-        };
+        let images = self.reach_images(&outputs);
         let unions = RectUnions::new(&self.rects.rects);
         reach::sequence_reach(&all, |s| unions.scissor(s, w, h), images)
     }
