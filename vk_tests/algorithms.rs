@@ -32,6 +32,13 @@ pub fn load(path: &Path) -> Scene {
     scene::load(path, &LoadOptions { size: Some(SIZE) }).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The scene file text `text`, named `name` (its meshes resolve against no
+/// folder), at [`SIZE`].
+pub fn load_text(text: &str, name: &str) -> Scene {
+    scene::load_str(text, Path::new(name), &LoadOptions { size: Some(SIZE) })
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// The error a correct rasterizing algorithm may make, in view units: eight
 /// quanta of a 24-bit depth buffer at the far plane, plus the rounding of f32
 /// vertex positions and transforms (a few ulps of the far distance).
@@ -84,6 +91,27 @@ pub fn run_gpu(
     Some((r, frame.stats, depth_ok))
 }
 
+/// Renders `scene` with `algo` in every depth set-up and asserts the bars:
+/// interior coverage mismatches ≤ `cov`, interior primitive mismatches ≤
+/// `prim`, depth within [`depth_tolerance`]. Returns the loop iterations of
+/// the last frame.
+pub fn assert_scene(scene: &Scene, algo: Algo, cov: f64, prim: f64) -> Vec<u32> {
+    let reference = peeltrim::reference::render(scene, SIZE.0, SIZE.1);
+    let tol = depth_tolerance(scene);
+    let mut iterations = Vec::new();
+    for depth in DepthSetup::ALL {
+        let (r, stats, depth_ok) = run_gpu(scene, algo, depth, &reference, tol).expect("a solid");
+        let loops = &stats.exec.counts.loop_iterations;
+        eprintln!("{algo} {}: {r:?} loops {loops:?}", depth.name());
+        let at = format!("{algo} {}: {r:?}", depth.name());
+        assert!(r.coverage_mismatch_interior_frac <= cov, "{at}");
+        assert!(r.prim_mismatch_interior_frac <= prim, "{at}");
+        assert!(depth_ok, "depth, {at}");
+        iterations = loops.clone();
+    }
+    iterations
+}
+
 /// The issue's bars: interior coverage mismatches ≤ `cov`, interior primitive
 /// mismatches ≤ `prim`, depth p99 within a few quanta.
 pub fn check_algo(algo: Algo, depths: &[DepthSetup], cov: f64, prim: f64) {
@@ -123,10 +151,24 @@ pub fn check_algo(algo: Algo, depths: &[DepthSetup], cov: f64, prim: f64) {
     );
 }
 
-#[test]
-fn blister_matches_reference_on_shipped_scenes() {
-    check_algo(Algo::Blister, &DepthSetup::ALL, 0.001, 0.01);
+/// A test of `algo` against the reference on every shipped scene in every
+/// depth set-up, with the bars of [`check_algo`].
+macro_rules! on_shipped_scenes {
+    ($(#[$doc:meta])* $name:ident: $algo:expr, cov $cov:expr, prim $prim:expr) => {
+        $(#[$doc])*
+        #[test]
+        fn $name() {
+            check_algo($algo, &DepthSetup::ALL, $cov, $prim);
+        }
+    };
 }
+
+/// CST's bars (0.05% interior coverage, 0.01% primitive mismatches).
+pub const CST_COV: f64 = 0.0005;
+/// See [`CST_COV`].
+pub const CST_PRIM: f64 = 0.0001;
+
+on_shipped_scenes!(blister_matches_reference_on_shipped_scenes: Algo::Blister, cov 0.001, prim 0.01);
 
 /// Plans are deterministic: two runs give identical counts and images.
 #[test]
@@ -156,27 +198,14 @@ fn blister_counts_are_deterministic() {
     assert!(gpu.validation_messages().is_empty());
 }
 
-#[test]
-fn cst_z_matches_reference_on_shipped_scenes() {
-    check_algo(Algo::CstZ, &DepthSetup::ALL, 0.0005, 0.0001);
-}
-
-#[test]
-fn cst_i_matches_reference_on_shipped_scenes() {
-    check_algo(Algo::CstI, &DepthSetup::ALL, 0.0005, 0.0001);
-}
-
-#[test]
-fn cst_g_matches_reference_on_shipped_scenes() {
-    check_algo(Algo::CstG, &DepthSetup::ALL, 0.0005, 0.0001);
-}
-
-/// SCS on every shipped scene (its products of convex primitives by SCS, the
-/// others by Goldfeather's steps), with CST's bars.
-#[test]
-fn scs_matches_reference_on_shipped_scenes() {
-    check_algo(Algo::Scs, &DepthSetup::ALL, 0.0005, 0.0001);
-}
+on_shipped_scenes!(cst_z_matches_reference_on_shipped_scenes: Algo::CstZ, cov CST_COV, prim CST_PRIM);
+on_shipped_scenes!(cst_i_matches_reference_on_shipped_scenes: Algo::CstI, cov CST_COV, prim CST_PRIM);
+on_shipped_scenes!(cst_g_matches_reference_on_shipped_scenes: Algo::CstG, cov CST_COV, prim CST_PRIM);
+on_shipped_scenes!(
+    /// SCS on every shipped scene (its products of convex primitives by SCS, the
+    /// others by Goldfeather's steps), with CST's bars.
+    scs_matches_reference_on_shipped_scenes: Algo::Scs, cov CST_COV, prim CST_PRIM
+);
 
 /// The paper's Blister (depth-test parity, colour and id from the peel) on every
 /// shipped scene: its speckles are counted and reported, not hidden, next to the
@@ -229,6 +258,19 @@ fn blister_paper_speckles_are_counted() {
     );
 }
 
+/// Asserts `algo`'s interior coverage and primitive mismatches on `scene`
+/// against `reference` within `cov` and `prim`, with D32S8 forward and
+/// reversed (depth not checked); `what` names the case in the log.
+fn assert_d32(scene: &Scene, reference: &Images, what: &str, algo: Algo, cov: f64, prim: f64) {
+    for depth in [DepthSetup::D32S8, DepthSetup::D32S8Reversed] {
+        let (r, _, _) = run_gpu(scene, algo, depth, reference, 0.0).expect("a solid");
+        eprintln!("{what}, {algo} {}: {r:?}", depth.name());
+        let at = format!("{algo} {}: {r:?}", depth.name());
+        assert!(r.coverage_mismatch_interior_frac <= cov, "{at}");
+        assert!(r.prim_mismatch_interior_frac <= prim, "{at}");
+    }
+}
+
 /// The eye inside a primitive (a room minus a pillar, seen from inside): parity
 /// counted from the near plane is inverted for the room, which Blister and CST
 /// correct; the visible points are where rays enter the solid, as the reference
@@ -236,45 +278,21 @@ fn blister_paper_speckles_are_counted() {
 #[test]
 fn eye_inside_a_primitive() {
     let text = r##"
-[camera]
-eye = [0.0, 0.0, 0.5]
-target = [0.0, 0.0, -3.0]
-fov_y_deg = 60
-[[primitive]]
-name = "Room"
-shape = "box"
-size = [4.0, 3.0, 8.0]
-[[primitive]]
-name = "Pillar"
-shape = "cylinder"
-radius = 0.4
-height = 3.5
-translate = [0.5, 0.0, -2.0]
-color = "#a04040"
-[csg]
-expr = "Room - Pillar"
+primitive = [
+  { name = "Room", shape = "box", size = [4.0, 3.0, 8.0] },
+  { name = "Pillar", shape = "cylinder", radius = 0.4, height = 3.5, translate = [0.5, 0.0, -2.0], color = "#a04040" },
+]
+camera = { eye = [0.0, 0.0, 0.5], target = [0.0, 0.0, -3.0], fov_y_deg = 60 }
+csg = { expr = "Room - Pillar" }
 "##;
-    let scene = scene::load_str(
-        text,
-        Path::new("eye_inside.toml"),
-        &LoadOptions { size: Some(SIZE) },
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let scene = load_text(text, "eye_inside.toml");
     let prep = Prepared::new(&scene).unwrap();
     assert_eq!(prep.eye_inside[..2], [true, false]);
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
     assert!(reference.prim.iter().any(|&p| p == 2), "the pillar shows");
-    let algos = [
-        Algo::Blister,
-        Algo::CstZ,
-        Algo::CstI,
-        Algo::CstG,
-        Algo::Goldfeather,
-        Algo::GoldfeatherLayered,
-        Algo::Trickle,
-        Algo::Kirsch,
-        Algo::Scs,
-    ];
+    let algos = Algo::ALL
+        .into_iter()
+        .filter(|&a| a != Algo::Reference && a != Algo::BlisterPaper);
     for algo in algos {
         // The issues' bars: Blister and CST 0.05%, Goldfeather 0.1%.
         let cov = match algo {
@@ -285,20 +303,7 @@ expr = "Room - Pillar"
             | Algo::Scs => 0.001,
             _ => 0.0005,
         };
-        for depth in [DepthSetup::D32S8, DepthSetup::D32S8Reversed] {
-            let (r, _, _) = run_gpu(&scene, algo, depth, &reference, 0.0).expect("a solid");
-            eprintln!("eye inside, {algo} {}: {r:?}", depth.name());
-            assert!(
-                r.coverage_mismatch_interior_frac <= cov,
-                "{algo} {}: {r:?}",
-                depth.name()
-            );
-            assert!(
-                r.prim_mismatch_interior_frac <= 0.0001,
-                "{algo} {}: {r:?}",
-                depth.name()
-            );
-        }
+        assert_d32(&scene, &reference, "eye inside", algo, cov, 0.0001);
     }
 }
 
@@ -309,40 +314,15 @@ expr = "Room - Pillar"
 #[test]
 fn orthographic_eye_plane_cuts_a_primitive() {
     let text = r##"
-[camera]
-eye = [0.0, 0.0, 0.5]
-target = [0.0, 0.0, -3.0]
-projection = "orthographic"
-ortho_height = 4.0
-near = 0.0
-[[primitive]]
-name = "Ball"
-shape = "sphere"
-radius = 1.2
-translate = [-0.4, 0.0, -0.6]
-[[primitive]]
-name = "Pin"
-shape = "cylinder"
-radius = 0.3
-height = 2.0
-rotate_deg = [90.0, 0.0, 0.0]
-translate = [-0.2, 0.2, 0.0]
-color = "#a04040"
-[[primitive]]
-name = "Block"
-shape = "box"
-size = [1.0, 1.0, 1.0]
-translate = [1.3, -0.5, -1.5]
-color = "#4040a0"
-[csg]
-expr = "(Ball - Pin) + Block"
+primitive = [
+  { name = "Ball", shape = "sphere", radius = 1.2, translate = [-0.4, 0.0, -0.6] },
+  { name = "Pin", shape = "cylinder", radius = 0.3, height = 2.0, rotate_deg = [90.0, 0.0, 0.0], translate = [-0.2, 0.2, 0.0], color = "#a04040" },
+  { name = "Block", shape = "box", size = [1.0, 1.0, 1.0], translate = [1.3, -0.5, -1.5], color = "#4040a0" },
+]
+camera = { eye = [0.0, 0.0, 0.5], target = [0.0, 0.0, -3.0], projection = "orthographic", ortho_height = 4.0, near = 0.0 }
+csg = { expr = "(Ball - Pin) + Block" }
 "##;
-    let scene = scene::load_str(
-        text,
-        Path::new("ortho_cut.toml"),
-        &LoadOptions { size: Some(SIZE) },
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let scene = load_text(text, "ortho_cut.toml");
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
     for p in 1..=3u16 {
         assert!(
@@ -352,32 +332,7 @@ expr = "(Ball - Pin) + Block"
     }
     let prep = Prepared::new(&scene).unwrap();
     assert_eq!(prep.near_cut[..3], [true, true, false]);
-    let algos = [
-        Algo::Blister,
-        Algo::BlisterPaper,
-        Algo::CstZ,
-        Algo::CstI,
-        Algo::CstG,
-        Algo::Goldfeather,
-        Algo::GoldfeatherLayered,
-        Algo::Trickle,
-        Algo::Kirsch,
-        Algo::Scs,
-    ];
-    for algo in algos {
-        for depth in [DepthSetup::D32S8, DepthSetup::D32S8Reversed] {
-            let (r, _, _) = run_gpu(&scene, algo, depth, &reference, 0.0).expect("a solid");
-            eprintln!("ortho eye plane, {algo} {}: {r:?}", depth.name());
-            assert!(
-                r.coverage_mismatch_interior_frac <= 0.0005,
-                "{algo} {}: {r:?}",
-                depth.name()
-            );
-            assert!(
-                r.prim_mismatch_interior_frac <= 0.0005,
-                "{algo} {}: {r:?}",
-                depth.name()
-            );
-        }
+    for algo in Algo::ALL.into_iter().filter(|&a| a != Algo::Reference) {
+        assert_d32(&scene, &reference, "ortho eye plane", algo, 0.0005, 0.0005);
     }
 }

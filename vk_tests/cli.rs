@@ -47,6 +47,14 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// The arguments `render SCENE --size SIZE FLAGS… --out OUT`.
+fn render_args<'a>(scene: &'a str, size: &'a str, flags: &[&'a str], out: &'a str) -> Vec<&'a str> {
+    let mut args = vec!["render", scene, "--size", size];
+    args.extend_from_slice(flags);
+    args.extend(["--out", out]);
+    args
+}
+
 /// A failing run: non-zero exit, no panic, and the message contains `want`.
 fn assert_error(o: &Output, want: &[&str]) {
     let e = stderr(o);

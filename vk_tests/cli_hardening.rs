@@ -21,18 +21,12 @@ fn write(dir: &Path, name: &str, text: &str) -> String {
 fn out_naming_a_file_says_a_folder_is_needed() {
     let dir = tmp("outfile");
     let file = write(&dir, "taken", "not a folder");
+    let gear = scene("gear.toml");
     for cmd in [
-        vec![
-            "render",
-            &scene("gear.toml")[..],
-            "--size",
-            "8x8",
-            "--out",
-            &file,
-        ],
+        super::render_args(&gear, "8x8", &[], &file),
         vec![
             "bench",
-            &scene("gear.toml")[..],
+            &gear[..],
             "--algos",
             "reference",
             "--size",
@@ -51,14 +45,7 @@ fn out_naming_a_file_says_a_folder_is_needed() {
     // A folder below a file: the file is named.
     let below = format!("{file}/sub");
     assert_error(
-        &run(&[
-            "render",
-            &scene("gear.toml"),
-            "--size",
-            "8x8",
-            "--out",
-            &below,
-        ]),
+        &run(&super::render_args(&gear, "8x8", &[], &below)),
         &["taken is a file, not a folder"],
     );
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a folder");
@@ -144,6 +131,8 @@ fn expr_scene(dir: &Path, name: &str, expr: &str) -> String {
 #[test]
 fn large_expressions_render_or_are_refused_at_once() {
     let dir = tmp("large");
+    let out = dir.join("o");
+    let out = out.to_str().unwrap();
     let mut deep = String::new();
     for _ in 0..10_000 {
         deep.push_str("(A - ");
@@ -159,16 +148,7 @@ fn large_expressions_render_or_are_refused_at_once() {
         let p = expr_scene(&dir, name, expr);
         for args in [
             vec!["plan", &p[..], "--algo", "cst-i"],
-            vec![
-                "render",
-                &p[..],
-                "--algo",
-                "cst-i",
-                "--size",
-                "16x16",
-                "--out",
-                dir.join("o").to_str().unwrap(),
-            ],
+            super::render_args(&p, "16x16", &["--algo", "cst-i"], out),
         ] {
             let t = Instant::now();
             let o = run(&args);
@@ -193,27 +173,21 @@ fn large_expressions_render_or_are_refused_at_once() {
     assert!(o.status.success(), "{}", stderr(&o));
     eprintln!("union1e5 plan: {:?}", t.elapsed());
     let out = dir.join("u");
-    let o = run(&[
-        "render",
+    let o = run(&super::render_args(
         &p,
-        "--algo",
-        "cst-i",
-        "--size",
         "32x32",
-        "--out",
+        &["--algo", "cst-i"],
         out.to_str().unwrap(),
-    ]);
+    ));
     assert!(o.status.success(), "{}", stderr(&o));
     let refp = dir.join("uref");
     let small = expr_scene(&dir, "union2.toml", "A + B");
-    let o = run(&[
-        "render",
+    let o = run(&super::render_args(
         &small,
-        "--size",
         "32x32",
-        "--out",
+        &[],
         refp.to_str().unwrap(),
-    ]);
+    ));
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run(&["compare", refp.to_str().unwrap(), out.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -266,19 +240,22 @@ fn huge_images_are_refused_clearly_by_every_algorithm() {
 #[test]
 fn bench_finishes_with_its_table_without_system_fonts() {
     let dir = tmp("bench-font");
+    let bench = |out: &std::path::Path| {
+        run(&[
+            "bench",
+            &scene("gear.toml"),
+            "--algos",
+            "reference",
+            "--size",
+            "16x16",
+            "--frames",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
     let out = dir.join("out");
-    let o = run(&[
-        "bench",
-        &scene("gear.toml"),
-        "--algos",
-        "reference",
-        "--size",
-        "16x16",
-        "--frames",
-        "1",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = bench(&out);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("no plots"), "{}", stderr(&o));
     assert!(std::fs::read_to_string(out.join("summary.md"))
@@ -288,18 +265,7 @@ fn bench_finishes_with_its_table_without_system_fonts() {
     let out2 = dir.join("out2");
     std::fs::create_dir_all(&out2).unwrap();
     std::fs::write(out2.join("plots"), "a file in the way").unwrap();
-    let o = run(&[
-        "bench",
-        &scene("gear.toml"),
-        "--algos",
-        "reference",
-        "--size",
-        "16x16",
-        "--frames",
-        "1",
-        "--out",
-        out2.to_str().unwrap(),
-    ]);
+    let o = bench(&out2);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("warning: no plots"), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("reference"));
@@ -321,16 +287,12 @@ fn without_d32s8_render_and_bench_fall_back_to_d24s8() {
             .unwrap()
     };
     let out = dir.join("render");
-    let o = no_d32(&[
-        "render",
+    let o = no_d32(&super::render_args(
         &s,
-        "--algo",
-        "cst-i",
-        "--size",
         "24x24",
-        "--out",
+        &["--algo", "cst-i"],
         out.to_str().unwrap(),
-    ]);
+    ));
     assert!(o.status.success(), "{}", stderr(&o));
     let stats = super::layers_cli::stats(&out);
     assert_eq!(stats["depth_setup"], "d24s8");
@@ -374,17 +336,12 @@ fn without_d32s8_render_and_bench_fall_back_to_d24s8() {
     }
 
     // Asked for by name: not replaced; the run says which flag to change.
-    let o = no_d32(&[
-        "render",
+    let named = dir.join("named");
+    let o = no_d32(&super::render_args(
         &s,
-        "--algo",
-        "cst-i",
-        "--size",
         "24x24",
-        "--depth-format",
-        "d32s8",
-        "--out",
-        dir.join("named").to_str().unwrap(),
-    ]);
+        &["--algo", "cst-i", "--depth-format", "d32s8"],
+        named.to_str().unwrap(),
+    ));
     assert_error(&o, &["D32S8", "--depth-format"]);
 }

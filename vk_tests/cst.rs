@@ -67,33 +67,7 @@ fn scenes() -> Vec<(&'static str, String)> {
     }
     vec![
         // Figure 7 of seed 000 with overlapping boxes and spheres.
-        (
-            "fig7",
-            [
-                b("A", [2.0, 1.0, 1.0], [-0.4, 0.0, 0.0]),
-                b("B", [1.0, 2.0, 1.2], [0.5, 0.2, 0.0]),
-                prim(
-                    "C",
-                    "sphere",
-                    "radius = 1.3\nsegments = 24",
-                    [0.0, 0.0, 0.0],
-                ),
-                prim(
-                    "D",
-                    "cylinder",
-                    "radius = 0.4\nheight = 3.0\nsegments = 24",
-                    [0.2, 0.0, 0.3],
-                ),
-                prim(
-                    "E",
-                    "sphere",
-                    "radius = 0.3\nsegments = 16",
-                    [0.2, 0.5, 0.3],
-                ),
-                "[csg]\nexpr = \"(A+B)(C-(D-E))\"\n".into(),
-            ]
-            .concat(),
-        ),
+        ("fig7", two("(A+B)(C-(D-E))")),
         // Coplanar top faces in a union (A and B), and a flush pocket cut (C - D).
         (
             "coplanar_union_flush_cut",

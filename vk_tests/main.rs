@@ -21,6 +21,7 @@ mod replay;
 mod rounding;
 mod scad_models;
 mod scs;
+mod scs_ortho;
 mod see_inside;
 mod setup;
 mod shadow;
@@ -281,6 +282,35 @@ fn front_face_convention() {
     assert_clean(&ctx);
 }
 
+/// A full-screen draw with the depth test off and no fragment output on
+/// stencil bit 0: `compare` against `reference`, where it passes `op` (both
+/// sides), written where `write` is 1.
+fn bit_draw(compare: CompareOp, op: StencilOp, write: u8, reference: u8) -> Draw {
+    let face = StencilFace {
+        compare,
+        fail: StencilOp::Keep,
+        pass: op,
+        depth_fail: op,
+    };
+    Draw {
+        geometry: Geometry::FullScreen { depth: 0.0 },
+        cull: Cull::None,
+        depth: DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        },
+        stencil: Some(StencilState {
+            front: face,
+            back: face,
+            compare_mask: 1,
+            write_mask: write,
+            reference,
+        }),
+        fragment: Fragment::None,
+        ..shade_draw(0, Cull::None)
+    }
+}
+
 /// Invert a stencil bit where a small box is, then reset those pixels with a
 /// scissored full-screen background pass that tests the bit.
 #[test]
@@ -290,55 +320,16 @@ fn stencil_invert_then_background() {
     let sc = scene(vec![unit_box(), small]);
     let mut steps = clear_all();
     steps.push(Step::Draw(shade_draw(0, Cull::Back)));
-    let invert = StencilFace {
-        compare: CompareOp::Always,
-        fail: StencilOp::Keep,
-        pass: StencilOp::Invert,
-        depth_fail: StencilOp::Invert,
-    };
     steps.push(Step::Draw(Draw {
         geometry: Geometry::Mesh(1),
-        scissor: Scissor::Full,
         cull: Cull::Back,
-        ds: 0,
-        depth: DepthState {
-            compare: CompareOp::Always,
-            write: false,
-        },
-        stencil: Some(StencilState {
-            front: invert,
-            back: invert,
-            compare_mask: 1,
-            write_mask: 1,
-            reference: 0,
-        }),
-        fragment: Fragment::None,
-        count_samples: false,
+        ..bit_draw(CompareOp::Always, StencilOp::Invert, 1, 0)
     }));
-    let equal = StencilFace {
-        compare: CompareOp::Equal,
-        fail: StencilOp::Keep,
-        pass: StencilOp::Keep,
-        depth_fail: StencilOp::Keep,
-    };
     steps.push(Step::Draw(Draw {
         geometry: Geometry::FullScreen { depth: 0.0 },
         scissor: Scissor::BoundsOf(vec![1]),
-        cull: Cull::None,
-        ds: 0,
-        depth: DepthState {
-            compare: CompareOp::Always,
-            write: false,
-        },
-        stencil: Some(StencilState {
-            front: equal,
-            back: equal,
-            compare_mask: 1,
-            write_mask: 0,
-            reference: 1,
-        }),
         fragment: Fragment::Background,
-        count_samples: false,
+        ..bit_draw(CompareOp::Equal, StencilOp::Keep, 0, 1)
     }));
     let f = run(&ctx, std_desc(), &sc, &plan(steps, 0));
     let im = &f.images;
@@ -389,19 +380,13 @@ fn peel_loop_plan(shade: bool) -> Plan {
             Step::Draw(Draw {
                 geometry: Geometry::Meshes(vec![0]),
                 scissor: Scissor::BoundsOf(vec![0]),
-                cull: Cull::None,
-                ds: 0,
-                depth: DepthState {
-                    compare: CompareOp::Less,
-                    write: true,
-                },
-                stencil: None,
                 fragment: Fragment::Peel {
                     prev: 0,
                     out: 1,
                     shade,
                 },
                 count_samples: true,
+                ..shade_draw(0, Cull::None)
             }),
         ],
         tail: vec![Step::CopyTexture { src: 1, dst: 0 }],
@@ -442,6 +427,30 @@ fn peel_loop_stops_after_two_layers() {
     assert_clean(&ctx);
 }
 
+/// Depth-stencil image 1 cleared to `clear`, then texture 0's depths written
+/// into it by a full-screen draw at `depth` (which `DepthFromTexture` replaces),
+/// counting samples with `count`.
+fn restore_depth(clear: f32, depth: f32, count: bool) -> [Step; 2] {
+    [
+        Step::Clear(Clear::DepthStencil {
+            ds: 1,
+            depth: clear,
+            stencil: 0,
+        }),
+        Step::Draw(Draw {
+            geometry: Geometry::FullScreen { depth },
+            ds: 1,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: true,
+            },
+            fragment: Fragment::DepthFromTexture { src: 0 },
+            count_samples: count,
+            ..shade_draw(0, Cull::None)
+        }),
+    ]
+}
+
 /// Peel the first layer, copy it into a depth texture and back into the depth
 /// buffer, then shade with depth Equal: the same picture as a plain shade.
 #[test]
@@ -459,21 +468,7 @@ fn depth_copies_round_trip() {
             ..shade_draw(0, Cull::Back)
         }));
         steps.push(Step::CopyDepthToTexture { ds: 0, dst: 0 });
-        steps.push(Step::Clear(Clear::DepthStencil {
-            ds: 1,
-            depth: 1.0,
-            stencil: 0,
-        }));
-        steps.push(Step::Draw(Draw {
-            geometry: Geometry::FullScreen { depth: 0.5 },
-            ds: 1,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: true,
-            },
-            fragment: Fragment::DepthFromTexture { src: 0 },
-            ..shade_draw(0, Cull::None)
-        }));
+        steps.extend(restore_depth(1.0, 0.5, false));
         steps.push(Step::Draw(Draw {
             ds: 1,
             depth: DepthState {
@@ -564,22 +559,7 @@ fn paint_write_depth_and_restore() {
         fragment: Fragment::WriteDepth { out: 0 },
         ..shade_draw(0, Cull::Back)
     }));
-    steps.push(Step::Clear(Clear::DepthStencil {
-        ds: 1,
-        depth: 0.25,
-        stencil: 0,
-    }));
-    steps.push(Step::Draw(Draw {
-        geometry: Geometry::FullScreen { depth: 0.0 },
-        ds: 1,
-        depth: DepthState {
-            compare: CompareOp::Always,
-            write: true,
-        },
-        fragment: Fragment::DepthFromTexture { src: 0 },
-        count_samples: true,
-        ..shade_draw(0, Cull::None)
-    }));
+    steps.extend(restore_depth(0.25, 0.0, true));
     for reversed_z in [false, true] {
         let mut p = plan(steps.clone(), 1);
         p.depth_stencils = 2;

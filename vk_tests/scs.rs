@@ -3,56 +3,24 @@
 //! overlapping cutters that needs several rounds, and cutters whose faces
 //! coincide with each other's and with the block's.
 
-use std::path::Path;
-
 use peeltrim::plan::{self, Algo, Prepared, Step};
-use peeltrim::render::DepthSetup;
-use peeltrim::scene::{self, LoadOptions, Scene};
+use peeltrim::scene::Scene;
 
-use crate::algorithms::{run_gpu, SIZE};
+use crate::algorithms::{CST_COV, CST_PRIM, SIZE};
 
 fn load(text: &str) -> Scene {
-    scene::load_str(
-        text,
-        Path::new("scs.toml"),
-        &LoadOptions { size: Some(SIZE) },
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
+    crate::algorithms::load_text(text, "scs.toml")
 }
 
 /// Renders with scs in every depth set-up; CST's bars (0.05% interior coverage,
 /// 0.01% primitive mismatches) and the depth tolerance of the shipped scenes.
 /// Returns the loop iterations of the last frame.
 fn check(scene: &Scene) -> Vec<u32> {
-    let reference = peeltrim::reference::render(scene, SIZE.0, SIZE.1);
-    let tol = crate::algorithms::depth_tolerance(scene);
-    let mut iterations = Vec::new();
-    for depth in DepthSetup::ALL {
-        let (r, stats, depth_ok) =
-            run_gpu(scene, Algo::Scs, depth, &reference, tol).expect("a solid");
-        eprintln!(
-            "scs {}: {r:?} loops {:?}",
-            depth.name(),
-            stats.exec.counts.loop_iterations
-        );
-        assert!(
-            r.coverage_mismatch_interior_frac <= 0.0005,
-            "{}: {r:?}",
-            depth.name()
-        );
-        assert!(
-            r.prim_mismatch_interior_frac <= 0.0001,
-            "{}: {r:?}",
-            depth.name()
-        );
-        assert!(depth_ok, "{}: depth {r:?}", depth.name());
-        iterations = stats.exec.counts.loop_iterations.clone();
-    }
-    iterations
+    crate::algorithms::assert_scene(scene, Algo::Scs, CST_COV, CST_PRIM)
 }
 
 /// Whether every product of `scene` is drawn by SCS (no Goldfeather fallback).
-fn all_scs(scene: &Scene) -> bool {
+pub fn all_scs(scene: &Scene) -> bool {
     let prep = Prepared::new(scene).unwrap();
     let p = plan::build(Algo::Scs, &prep).unwrap();
     let passes: Vec<&str> = p
@@ -73,34 +41,14 @@ fn all_scs(scene: &Scene) -> bool {
 fn a_chain_of_overlapping_cutters_takes_several_rounds() {
     let scene = load(
         r##"
-[camera]
-eye = [0.3, 4.0, 1.2]
-target = [0.0, 0.0, 0.0]
-fit = true
-[[primitive]]
-name = "Block"
-shape = "box"
-size = [3.0, 1.6, 2.0]
-[[primitive]]
-name = "S3"
-shape = "sphere"
-radius = 0.35
-translate = [0.05, -0.15, 0.0]
-color = "#40a040"
-[[primitive]]
-name = "S2"
-shape = "sphere"
-radius = 0.35
-translate = [0.0, 0.3, 0.05]
-color = "#4060d0"
-[[primitive]]
-name = "S1"
-shape = "sphere"
-radius = 0.35
-translate = [-0.05, 0.75, 0.0]
-color = "#d04040"
-[csg]
-expr = "Block - S3 - S2 - S1"
+primitive = [
+  { name = "Block", shape = "box", size = [3.0, 1.6, 2.0] },
+  { name = "S3", shape = "sphere", radius = 0.35, translate = [0.05, -0.15, 0.0], color = "#40a040" },
+  { name = "S2", shape = "sphere", radius = 0.35, translate = [0.0, 0.3, 0.05], color = "#4060d0" },
+  { name = "S1", shape = "sphere", radius = 0.35, translate = [-0.05, 0.75, 0.0], color = "#d04040" },
+]
+camera = { eye = [0.3, 4.0, 1.2], target = [0.0, 0.0, 0.0], fit = true }
+csg = { expr = "Block - S3 - S2 - S1" }
 "##,
     );
     assert!(all_scs(&scene));
@@ -124,34 +72,14 @@ expr = "Block - S3 - S2 - S1"
 fn coincident_cutters_are_tie_correct() {
     let scene = load(
         r##"
-[camera]
-eye = [3.0, 2.5, 2.0]
-target = [0.0, 0.0, 0.0]
-fit = true
-[[primitive]]
-name = "Block"
-shape = "box"
-size = [4.0, 1.0, 2.0]
-[[primitive]]
-name = "K1"
-shape = "box"
-size = [1.0, 0.6, 2.4]
-translate = [-1.0, 0.3, 0.0]
-color = "#d04040"
-[[primitive]]
-name = "K2"
-shape = "box"
-size = [0.8, 0.3, 2.4]
-translate = [-0.1, 0.35, 0.0]
-color = "#40a040"
-[[primitive]]
-name = "Flush"
-shape = "box"
-size = [0.6, 0.5, 0.6]
-translate = [1.2, 0.25, 0.0]
-color = "#4060d0"
-[csg]
-expr = "Block - K1 - K2 - Flush"
+primitive = [
+  { name = "Block", shape = "box", size = [4.0, 1.0, 2.0] },
+  { name = "K1", shape = "box", size = [1.0, 0.6, 2.4], translate = [-1.0, 0.3, 0.0], color = "#d04040" },
+  { name = "K2", shape = "box", size = [0.8, 0.3, 2.4], translate = [-0.1, 0.35, 0.0], color = "#40a040" },
+  { name = "Flush", shape = "box", size = [0.6, 0.5, 0.6], translate = [1.2, 0.25, 0.0], color = "#4060d0" },
+]
+camera = { eye = [3.0, 2.5, 2.0], target = [0.0, 0.0, 0.0], fit = true }
+csg = { expr = "Block - K1 - K2 - Flush" }
 "##,
     );
     assert!(all_scs(&scene));
@@ -171,22 +99,12 @@ expr = "Block - K1 - K2 - Flush"
 fn the_eye_inside_a_subtracted_primitive() {
     let scene = load(
         r##"
-[camera]
-eye = [0.3, 0.4, 3.0]
-target = [0.0, 0.0, 0.0]
-fov_y_deg = 60
-[[primitive]]
-name = "Block"
-shape = "box"
-size = [2.0, 2.0, 2.0]
-[[primitive]]
-name = "Bubble"
-shape = "sphere"
-radius = 2.5
-translate = [0.0, 0.0, 3.0]
-color = "#d04040"
-[csg]
-expr = "Block - Bubble"
+primitive = [
+  { name = "Block", shape = "box", size = [2.0, 2.0, 2.0] },
+  { name = "Bubble", shape = "sphere", radius = 2.5, translate = [0.0, 0.0, 3.0], color = "#d04040" },
+]
+camera = { eye = [0.3, 0.4, 3.0], target = [0.0, 0.0, 0.0], fov_y_deg = 60 }
+csg = { expr = "Block - Bubble" }
 "##,
     );
     let prep = Prepared::new(&scene).unwrap();

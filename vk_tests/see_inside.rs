@@ -200,7 +200,7 @@ fn interference_with_opacities_and_layers_matches_the_reference() {
         let st = &got.layer_stats;
         let what = format!("{}: {st:?}", algo.name());
         // The pairs and their pixels (within 2%).
-        let pairs = st.interference.as_ref().expect("pairs");
+        let pairs = &st.interference.as_ref().expect("pairs").pairs;
         assert_eq!(names(pairs), names(&want.pairs), "{what}");
         for (g, r) in pairs.iter().zip(&want.pairs) {
             assert!(g.pixels.abs_diff(r.pixels) * 50 <= r.pixels, "{what}");

@@ -181,12 +181,13 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                                     scene.appearance.style = Style::Opaque;
                                     let l = l?;
                                     let s = &l.layer_stats;
+                                    let g = s.gpu.clone().unwrap_or_default();
                                     (
                                         l.frame.stats.exec.clone(),
                                         s.layers,
-                                        s.stream_layers.unwrap_or(0),
-                                        s.csts.unwrap_or(0),
-                                        s.readback_bytes.unwrap_or(0),
+                                        g.stream_layers,
+                                        g.csts,
+                                        g.readback_bytes,
                                     )
                                 }
                             })

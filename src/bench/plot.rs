@@ -8,6 +8,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::report::error_figures;
@@ -30,6 +31,47 @@ fn font() -> Result<(), BenchError> {
 
 fn err(path: &Path, e: impl std::fmt::Display) -> BenchError {
     BenchError::Other(format!("plotting {}: {e}", path.display()))
+}
+
+/// A white drawing area of `size` pixels for the PNG at `path`.
+fn canvas(
+    path: &Path,
+    size: (u32, u32),
+) -> Result<DrawingArea<BitMapBackend<'_>, Shift>, BenchError> {
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    Ok(root)
+}
+
+/// The chart of a one-panel plot on `root`: captioned with the title and the
+/// depth set-up, room for both axes' labels.
+fn one_panel<'a, 'b>(
+    root: &'a DrawingArea<BitMapBackend<'b>, Shift>,
+    title: &str,
+    depth: &str,
+) -> ChartBuilder<'a, 'b, BitMapBackend<'b>> {
+    let mut chart = ChartBuilder::on(root);
+    chart
+        .caption(format!("{title} ({depth})"), ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70);
+    chart
+}
+
+/// Draws `chart`'s series labels at `at` on a translucent white box.
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    path: &Path,
+    at: SeriesLabelPosition,
+) -> Result<(), BenchError> {
+    chart
+        .configure_series_labels()
+        .position(at)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(path, e))
 }
 
 const PALETTE: [RGBColor; 10] = [
@@ -179,8 +221,7 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
     let mut series: Vec<(&str, &str)> = pts.iter().map(|p| (p.2, p.3)).collect();
     series.sort();
     series.dedup();
-    let root = BitMapBackend::new(path, (1150, 650)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
+    let root = canvas(path, (1150, 650))?;
     let root = root
         .titled(title, ("sans-serif", 22))
         .map_err(|e| err(path, e))?;
@@ -283,13 +324,8 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
         * 1.2
         + 1e-3;
     let n = bars.len().max(1);
-    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(format!("{title} ({depth})"), ("sans-serif", 22))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
+    let root = canvas(path, (900, 600))?;
+    let mut chart = one_panel(&root, title, &depth)
         .build_cartesian_2d(0.0..n as f64, 0.0..ymax)
         .map_err(|e| err(path, e))?;
     chart
@@ -333,12 +369,7 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
             .label(pass.clone())
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled()));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(path, e))?;
+    legend(&mut chart, path, SeriesLabelPosition::MiddleRight)?;
     root.present().map_err(|e| err(path, e))?;
     Ok(())
 }
@@ -363,13 +394,8 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
         .fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
     let ys = lines.values().flatten().map(|p| p.1);
     let (ymin, ymax) = ys.fold((f64::INFINITY, 0.0f64), |(a, b), y| (a.min(y), b.max(y)));
-    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(path, e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(format!("{title} ({depth})"), ("sans-serif", 22))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
+    let root = canvas(path, (900, 600))?;
+    let mut chart = one_panel(&root, title, &depth)
         .build_cartesian_2d(
             (xmin * 0.8..xmax * 1.25).log_scale(),
             (ymin * 0.8..ymax * 1.25).log_scale(),
@@ -392,13 +418,7 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
             .draw_series(pts.iter().map(|&(x, y)| Circle::new((x, y), 3, c.filled())))
             .map_err(|e| err(path, e))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(path, e))?;
+    legend(&mut chart, path, SeriesLabelPosition::UpperLeft)?;
     root.present().map_err(|e| err(path, e))?;
     Ok(())
 }

@@ -14,7 +14,7 @@
 //! operands. We choose, per node, the order that minimises the number of labels the
 //! subtree needs, by an exact bottom-up dynamic programme (a Sethi–Ullman/Strahler
 //! number refined by which of the node's two exits is already holding a label when
-//! the walk enters it), then apply the choices top-down. See [`label_need`] for the
+//! the walk enters it), then apply the choices top-down. See `label_need` for the
 //! recurrence.
 
 use super::positive::{Literal, PNode, PositiveExpr};

@@ -7,6 +7,7 @@
 //! - a product whose positive literals' bounding boxes have an empty common
 //!   intersection is empty;
 //! - a repeated literal is kept once;
+//!
 //! and, at the end, a complemented literal whose box does not meet the product's
 //! positive-box intersection cannot clip anything and is dropped.
 //! Growth is counted before anything is allocated past `limit`, so that expressions

@@ -59,7 +59,7 @@ pub use peel::{cst, Layers, Merge, PAINT_PENDING, SURFACE_MARK};
 pub(crate) use ties::parity_draw;
 pub use ties::{tie_draws, tie_eps, Candidates, Peeled, Relation};
 pub(crate) use trim::BlistTrimmer;
-pub use trim::Trimmer;
+pub use trim::{Codes, Trimmer};
 pub(crate) use zones::disjoint;
 pub use zones::{leaf_csts, LeafCst, TrimVolume};
 
@@ -205,7 +205,7 @@ fn record_jobs(
                         Box::new(grouped.last().unwrap().clone())
                     }
                 };
-                bits = bits.max(trimmer.bits());
+                bits = bits.max(trimmer.codes().bits);
                 cst(
                     p,
                     c.peel_cull,
@@ -705,12 +705,9 @@ pub(crate) mod tests {
                             .map(|m| m == me || inside[m] || rng.gen_bool(0.5))
                             .collect();
                         let want = zone.eval(|l| inside[l.prim as usize]);
-                        let got = run_trim(&steps, trimmer.start(), &inside, &in_rect);
-                        let expect = if want {
-                            trimmer.locked()
-                        } else {
-                            trimmer.rejected()
-                        };
+                        let codes = trimmer.codes();
+                        let got = run_trim(&steps, codes.start, &inside, &in_rect);
+                        let expect = if want { codes.locked } else { codes.rejected };
                         assert_eq!(
                             got, expect,
                             "case {case} {v:?} {src} leaf {me}: {inside:?} {in_rect:?}"

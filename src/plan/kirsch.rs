@@ -8,7 +8,7 @@
 //! intersected, back faces of a subtracted primitive for the product's *front*
 //! surface, the opposite for its *back* surface (layers > 1 only) — clips them by
 //! parity against every other literal of G (the visibility channel: one stencil bit
-//! per primitive, Goldfeather's [`super::goldfeather::clip_steps`]), and merges the
+//! per primitive, Goldfeather's `goldfeather::clip_steps`), and merges the
 //! survivors into the output depth with a less-than test (the visibility
 //! transfer). After all products the output depth is layer i; it becomes the next
 //! layer's map. Layer 1 is exactly Goldfeather's opaque render.

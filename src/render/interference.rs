@@ -7,12 +7,12 @@
 //! pair's pixels, and the nearest pair's visible point is the opaque
 //! interference. The reference ([`crate::reference::interference`]) computes the
 //! same sets exactly. The solids' layers in front of it are the GPU's layers of
-//! the solid (seed 000 §6, [`super::gpu_layers`]), blended semi-transparent.
+//! the solid (seed 000 §6, `render::gpu_layers`), blended semi-transparent.
 #![deny(unsafe_code)]
 
 use super::edges::edge_map;
 use super::gpu_layers::{self, GpuLayers, StreamLimit};
-use super::layers::{LayerOptions, LayerStats, LayeredFrame};
+use super::layers::{GpuLayerFigures, InterferenceFigures, LayerOptions, LayerStats, LayeredFrame};
 use super::sequence::{self, Counted, Layer, Stop, Stream};
 use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::Images;
@@ -176,7 +176,7 @@ fn pairs_on(
 /// §6): each pixel's nearest interference opaque in the interference colour, the
 /// solids' layers in front of it semi-transparent (their `alpha` where below 1,
 /// else [`SOLID_ALPHA`]); where there is none, every layer semi-transparent over
-/// the background. The layers are the GPU's ([`super::gpu_layers`]); depth and
+/// the background. The layers are the GPU's (`render::gpu_layers`); depth and
 /// primitive are layer 1's.
 pub fn render_interference(
     scene: &Scene,
@@ -303,13 +303,13 @@ pub fn layered_frame(
         .collect();
     let layer_stats = LayerStats {
         layers: count as u32,
+        gpu: Some(GpuLayerFigures::of(&peeled)),
         layer_pixels: peeled.pixels,
         transparent: scene.appearance.is_transparent(),
-        interference_pixels: Some(inter.color.iter().filter(|c| c.is_some()).count() as u64),
-        interference: Some(inter.pairs),
-        readback_bytes: Some(peeled.readback_bytes),
-        stream_layers: Some(peeled.stream_layers),
-        csts: Some(peeled.csts),
+        interference: Some(InterferenceFigures {
+            pixels: inter.color.iter().filter(|c| c.is_some()).count() as u64,
+            pairs: inter.pairs,
+        }),
         style: scene.appearance.style.name(),
         edge_pixels: (!edges.is_empty())
             .then(|| edges.iter().map(|e| super::edges::count(e)).collect()),

@@ -2,7 +2,7 @@
 //! the options (`--layers`, `--layer-threshold`, `--layers-out`, `--alpha`), the
 //! frame they produce, and writing `layers/NN/`. The reference computes them
 //! exactly ([`crate::reference::layers`]); CST-Z/I/G peel them on the GPU
-//! ([`super::gpu_layers`]), kirsch by CSG depth peeling ([`super::kirsch`]); the
+//! (`render::gpu_layers`), kirsch by CSG depth peeling (`render::kirsch`); the
 //! other GPU algorithms say they cannot. The reference's layers also have
 //! view-space normals and edge maps ([`super::edges`]), from which the styles
 //! compose `color.png` ([`super::style`]).
@@ -65,6 +65,52 @@ impl LayerOptions {
     }
 }
 
+/// `--highlight`'s figures (keys `highlighted_pixels`, `highlighted_hidden_pixels`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct HighlightFigures {
+    /// Pixels where a highlighted face is the first layer.
+    #[serde(rename = "highlighted_pixels")]
+    pub shown: u64,
+    /// Pixels where one lies hidden behind other faces.
+    #[serde(rename = "highlighted_hidden_pixels")]
+    pub hidden: u64,
+}
+
+/// Interference's figures (keys `interference`, `interference_pixels`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct InterferenceFigures {
+    /// The pairs of solids that intersect, with the pixels whose ray meets
+    /// their intersection.
+    #[serde(rename = "interference")]
+    pub pairs: Vec<InterferingPair>,
+    /// Pixels showing an interference.
+    #[serde(rename = "interference_pixels")]
+    pub pixels: u64,
+}
+
+/// The GPU's layer figures.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct GpuLayerFigures {
+    /// Layer plans run (the entry and exit streams of every solid, seed 000 §6).
+    pub stream_layers: u32,
+    /// CSTs run over all layers (the paper's "CSTs", seed 000 §8).
+    pub csts: u64,
+    /// Bytes read back for the layers and the composite (deterministic; what
+    /// the GPU composite saves, README "What runs where").
+    pub readback_bytes: u64,
+}
+
+impl GpuLayerFigures {
+    /// The figures of `peeled`.
+    pub fn of(peeled: &GpuLayers) -> Self {
+        GpuLayerFigures {
+            stream_layers: peeled.stream_layers,
+            csts: peeled.csts,
+            readback_bytes: peeled.readback_bytes,
+        }
+    }
+}
+
 /// The layer figures of `stats.json`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct LayerStats {
@@ -79,29 +125,15 @@ pub struct LayerStats {
     /// composited on the CPU.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub composited_on_gpu: Option<bool>,
-    /// With `--highlight`: pixels where a highlighted face is the first layer.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub highlighted_pixels: Option<u64>,
-    /// With `--highlight`: pixels where one lies hidden behind other faces.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub highlighted_hidden_pixels: Option<u64>,
-    /// With interference: the pairs of solids that intersect, with the pixels
-    /// whose ray meets their intersection.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub interference: Option<Vec<InterferingPair>>,
-    /// GPU: layer plans run (the entry and exit streams of every solid, seed 000 §6).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub stream_layers: Option<u32>,
-    /// GPU: CSTs run over all layers (the paper's "CSTs", seed 000 §8).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub csts: Option<u64>,
-    /// GPU: bytes read back for the layers and the composite (deterministic;
-    /// what the GPU composite saves, README "What runs where").
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub readback_bytes: Option<u64>,
-    /// With interference: pixels showing an interference.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub interference_pixels: Option<u64>,
+    /// With `--highlight`: where the highlighted faces show.
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub highlight: Option<HighlightFigures>,
+    /// With interference: the intersecting pairs and the pixels showing them.
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub interference: Option<InterferenceFigures>,
+    /// GPU: the work of the layer plans.
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub gpu: Option<GpuLayerFigures>,
     /// The style of `color.png` (`--style`, `[render] style`).
     pub style: &'static str,
     /// With edge maps: edge pixels of each layer, layer 1 first.
@@ -326,9 +358,7 @@ fn render_layered_gpu(
         layer_pixels: peeled.pixels.clone(),
         transparent,
         composited_on_gpu: transparent.then_some(on_gpu),
-        readback_bytes: Some(peeled.readback_bytes),
-        stream_layers: Some(peeled.stream_layers),
-        csts: Some(peeled.csts),
+        gpu: Some(GpuLayerFigures::of(&peeled)),
         style: scene.appearance.style.name(),
         ..Default::default()
     };
@@ -350,16 +380,12 @@ fn render_layered_gpu(
     } else {
         vec![]
     };
-    if !edges.is_empty() {
-        layer_stats.edge_pixels = Some(edges.iter().map(|e| super::edges::count(e)).collect());
-    }
-    if style.layered() {
-        let images: Vec<&Images> = peeled.layers.iter().map(|l| &l.images).collect();
-        frame.images.color = compose_scene(scene, &images, &edges, |k, i| {
-            let prim = (images[k].prim[i] as u32).checked_sub(1)?;
-            Some((prim, peeled.solid[k][i]))
-        });
-    }
+    let images: Vec<&Images> = peeled.layers.iter().map(|l| &l.images).collect();
+    let hit = |k: usize, i: usize| {
+        let prim = (images[k].prim[i] as u32).checked_sub(1)?;
+        Some((prim, peeled.solid[k][i]))
+    };
+    styled(scene, &mut frame, &mut layer_stats, &images, &edges, hit);
     if !lopts.highlight.is_empty() {
         highlight_gpu(
             gpu,
@@ -488,8 +514,10 @@ fn render_layered_reference(
     if interference {
         let img = render_interference(scene, w, h);
         frame.images.color = img.color;
-        layer_stats.interference_pixels = Some(img.mask.iter().filter(|&&m| m).count() as u64);
-        layer_stats.interference = Some(img.pairs);
+        layer_stats.interference = Some(InterferenceFigures {
+            pixels: img.mask.iter().filter(|&&m| m).count() as u64,
+            pairs: img.pairs,
+        });
     }
     let style = scene.appearance.style;
     let edges: Vec<Vec<bool>> = if style.edges() || lopts.write_layers {
@@ -502,15 +530,9 @@ fn render_layered_reference(
     } else {
         vec![]
     };
-    if !edges.is_empty() {
-        layer_stats.edge_pixels = Some(edges.iter().map(|e| super::edges::count(e)).collect());
-    }
-    if style.layered() {
-        let images: Vec<&Images> = stack.layers.iter().collect();
-        frame.images.color = compose_scene(scene, &images, &edges, |k, i| {
-            stack.hits[i].get(k).map(|hit| (hit.prim, hit.solid))
-        });
-    }
+    let images: Vec<&Images> = stack.layers.iter().collect();
+    let hit = |k: usize, i: usize| stack.hits[i].get(k).map(|h| (h.prim, h.solid));
+    styled(scene, &mut frame, &mut layer_stats, &images, &edges, hit);
     if !lopts.highlight.is_empty() {
         let mut chosen = vec![false; scene.primitives.len()];
         for &p in &lopts.highlight {
@@ -526,8 +548,7 @@ fn render_layered_reference(
                 Highlighted::No => {}
             }
         }
-        layer_stats.highlighted_pixels = Some(shown);
-        layer_stats.highlighted_hidden_pixels = Some(hidden);
+        layer_stats.highlight = Some(HighlightFigures { shown, hidden });
     }
     frame.stats.layers = Some(layer_stats.clone());
     Ok(LayeredFrame {
@@ -544,6 +565,25 @@ fn render_layered_reference(
         edges,
         layer_stats,
     })
+}
+
+/// The edge pixels of `edges` (when any are drawn) into `stats`, and with a
+/// layered style `frame`'s colour composed from the layers' `images` and
+/// `edges` (`hit`: the primitive and solid of layer k at pixel i).
+fn styled(
+    scene: &Scene,
+    frame: &mut Frame,
+    stats: &mut LayerStats,
+    images: &[&Images],
+    edges: &[Vec<bool>],
+    hit: impl Fn(usize, usize) -> Option<(u32, u32)>,
+) {
+    if !edges.is_empty() {
+        stats.edge_pixels = Some(edges.iter().map(|e| super::edges::count(e)).collect());
+    }
+    if scene.appearance.style.layered() {
+        frame.images.color = compose_scene(scene, images, edges, hit);
+    }
 }
 
 /// `--highlight` on the GPU's layers: the layers peeled again with the chosen
@@ -591,9 +631,10 @@ fn highlight_gpu(
             Highlighted::No => {}
         }
     }
-    stats.highlighted_pixels = Some(shown);
-    stats.highlighted_hidden_pixels = Some(hidden);
-    stats.readback_bytes = stats.readback_bytes.map(|b| b + again.readback_bytes);
+    stats.highlight = Some(HighlightFigures { shown, hidden });
+    if let Some(g) = &mut stats.gpu {
+        g.readback_bytes += again.readback_bytes;
+    }
     Ok(())
 }
 

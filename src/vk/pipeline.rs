@@ -1,6 +1,6 @@
 //! Graphics pipelines: one per fragment program and attachment formats with the
 //! depth, stencil and cull state dynamic, and variants of them with that state
-//! baked in ([`RasterState`], [`Pipelines::get_fixed`]; `vk::exec::state` says
+//! baked in ([`RasterState`], `Pipelines::get_fixed`; `vk::exec::state` says
 //! why). The scissor is dynamic in all of them: it changes at nearly every draw.
 
 use std::collections::HashMap;
@@ -38,6 +38,12 @@ pub enum FragmentKind {
     ShadeNearDepthHostSrgb,
     NearerThan,
     ShadeAtDepth,
+    /// `ShadeAtDepth` drawn into an embedding host's colour and depth
+    /// attachments, the texture being the output depth-stencil's depth
+    /// (`vk::exec::record::host`): colour only, the raster depth written.
+    ShadeAtDepthHost,
+    /// `ShadeAtDepthHost` for an `_SRGB` host colour format.
+    ShadeAtDepthHostSrgb,
     /// `ShadeAtDepth` without colour: depth only.
     DepthAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
@@ -90,7 +96,9 @@ impl FragmentKind {
             | FragmentKind::ShadeNearDepth
             | FragmentKind::ShadeNearDepthHost
             | FragmentKind::ShadeNearDepthHostSrgb
-            | FragmentKind::ShadeAtDepth => (true, true, false),
+            | FragmentKind::ShadeAtDepth
+            | FragmentKind::ShadeAtDepthHost
+            | FragmentKind::ShadeAtDepthHostSrgb => (true, true, false),
             FragmentKind::Background | FragmentKind::PeelTolerant | FragmentKind::NearerThan => {
                 (true, false, false)
             }
@@ -138,6 +146,8 @@ impl FragmentKind {
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
+            FragmentKind::ShadeAtDepthHost => spv!("shade_at_depth.frag.host"),
+            FragmentKind::ShadeAtDepthHostSrgb => spv!("shade_at_depth.frag.host_srgb"),
             FragmentKind::DepthAtDepth => spv!("depth_at_depth.frag"),
             FragmentKind::Edges => spv!("edges.frag"),
             FragmentKind::Accumulate => spv!("accumulate.frag"),
@@ -160,7 +170,7 @@ pub struct PipelineDesc {
 }
 
 /// The depth, stencil and cull state of a draw, in Vulkan's terms: baked into
-/// a pipeline variant ([`Pipelines::get_fixed`]) or recorded as dynamic state
+/// a pipeline variant (`Pipelines::get_fixed`) or recorded as dynamic state
 /// (`vk::exec::state`, which maps a plan draw to it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct RasterState {
@@ -514,9 +524,10 @@ impl Pipelines {
         let ds_format = desc.depth_stencil_format.unwrap_or(vk::Format::UNDEFINED);
         // A host's depth attachment is bound without its stencil (untouched).
         let stencil_format = match desc.fragment {
-            FragmentKind::ShadeNearDepthHost | FragmentKind::ShadeNearDepthHostSrgb => {
-                vk::Format::UNDEFINED
-            }
+            FragmentKind::ShadeNearDepthHost
+            | FragmentKind::ShadeNearDepthHostSrgb
+            | FragmentKind::ShadeAtDepthHost
+            | FragmentKind::ShadeAtDepthHostSrgb => vk::Format::UNDEFINED,
             _ => ds_format,
         };
         graphics_pipeline(
@@ -662,7 +673,7 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 17] = [
+    const SOURCES: [(FragmentKind, &str); 18] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
         (FragmentKind::Paint, "paint.frag"),
@@ -676,6 +687,7 @@ mod tests {
         (FragmentKind::ShadeNearDepthHost, "shade_near_depth.frag"),
         (FragmentKind::NearerThan, "nearer_than.frag"),
         (FragmentKind::ShadeAtDepth, "shade_at_depth.frag"),
+        (FragmentKind::ShadeAtDepthHost, "shade_at_depth.frag"),
         (FragmentKind::DepthAtDepth, "depth_at_depth.frag"),
         (FragmentKind::CopyDepth, "copy_depth.frag"),
         (FragmentKind::Edges, "edges.frag"),

@@ -33,7 +33,7 @@ use super::super::stencil::{self, Next};
 use super::super::step::*;
 use super::super::{PlanError, Prepared};
 use super::trim::literal_sweeps;
-use super::{parity_draw, tie_draws, LeafCst, Peeled, Relation, Trimmer, WORK};
+use super::{parity_draw, tie_draws, Codes, LeafCst, Peeled, Relation, Trimmer, WORK};
 use crate::csg::groups::{Group, GroupedBlist, Item};
 use crate::scene::Aabb;
 use glam::DVec3;
@@ -195,7 +195,7 @@ pub struct GroupTrimmer {
 /// a counter sweep could not tell pixels moved to such a target from pixels
 /// still to be classified (at most one label over plain reuse). A literal
 /// (`reuse[i]`) frees its label first: its parity sweeps handle a target at
-/// their own label ([`literal_sweeps`]) and leave out that sweep.
+/// their own label (`literal_sweeps`) and leave out that sweep.
 pub fn assign_labels(targets: &[(Next, Next)], reuse: &[bool]) -> Vec<u32> {
     let mut label = vec![u32::MAX; targets.len()];
     let mut used: Vec<bool> = Vec::new();
@@ -346,21 +346,14 @@ impl GroupTrimmer {
 }
 
 impl Trimmer for GroupTrimmer {
-    fn start(&self) -> u8 {
-        self.layout
-            .value(Next::Label(self.labels.first().copied().unwrap_or(0)))
-    }
-    fn locked(&self) -> u8 {
-        self.layout.value(Next::True)
-    }
-    fn rejected(&self) -> u8 {
-        self.layout.value(Next::False)
-    }
-    fn mask(&self) -> u8 {
-        self.layout.all_mask()
-    }
-    fn bits(&self) -> u8 {
-        self.layout.bits()
+    fn codes(&self) -> Codes {
+        let l = &self.layout;
+        Codes::new(
+            Next::Label(self.labels.first().copied().unwrap_or(0)),
+            |n| l.value(n),
+            l.all_mask(),
+            l.bits(),
+        )
     }
     fn trim(&self, steps: &mut Vec<Step>) {
         let l = &self.layout;

@@ -64,11 +64,12 @@ pub fn cst(
         merge.paint(surface, peel_cull, steps);
         return;
     };
+    let codes = t.codes();
     steps.push(Step::Pass("init".into()));
     steps.push(Step::Clear(Clear::DepthStencil {
         ds: WORK,
         depth: FAR,
-        stencil: t.start(),
+        stencil: codes.start,
     }));
     steps.push(match floor {
         None => Step::Clear(Clear::Texture {
@@ -94,7 +95,7 @@ pub fn cst(
                 compare: CompareOp::Less,
                 write: true,
             },
-            stencil: Some(stencil::test_equal(t.start(), t.mask())),
+            stencil: Some(stencil::test_equal(codes.start, codes.mask)),
             // Behind a floor, a face within the tie tolerance of the previous layer
             // is that layer's point again (a coincident face of another primitive,
             // rasterized a few ulps behind), as the reference groups crossings
@@ -129,9 +130,9 @@ pub fn cst(
             write: true,
         },
         stencil: Some(stencil::change_stencil_state(
-            t.rejected(),
-            t.start(),
-            t.mask(),
+            codes.rejected,
+            codes.start,
+            codes.mask,
         )),
         fragment: Fragment::None,
         count_samples: false,
@@ -180,7 +181,7 @@ pub fn cst(
                     compare: CompareOp::Always,
                     write: false,
                 },
-                Some(stencil::test_equal(t.rejected(), t.mask())),
+                Some(stencil::test_equal(codes.rejected, codes.mask)),
             );
         }
         Layers::Known(n) => {

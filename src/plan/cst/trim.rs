@@ -87,17 +87,40 @@ pub(crate) fn entry_targets(e: &BlistEntry) -> (Next, Next) {
     }
 }
 
+/// The stencil values one trim reads and writes, from its layout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Codes {
+    /// Stencil value of an unlocked pixel about to be classified (parity clear).
+    pub start: u8,
+    /// Stencil value of a locked pixel (candidate in V).
+    pub locked: u8,
+    /// Stencil value of a rejected pixel after the trim.
+    pub rejected: u8,
+    /// All stencil bits in use.
+    pub mask: u8,
+    /// How many stencil bits the trim needs.
+    pub bits: u8,
+}
+
+impl Codes {
+    /// The codes of a layout whose walk targets have the stencil values `value`
+    /// gives, starting at `start`.
+    pub fn new(start: Next, value: impl Fn(Next) -> u8, mask: u8, bits: u8) -> Self {
+        Codes {
+            start: value(start),
+            locked: value(Next::True),
+            rejected: value(Next::False),
+            mask,
+            bits,
+        }
+    }
+}
+
 /// How Trim(V) is done for one CST, with the stencil values it needs.
 pub trait Trimmer {
-    /// Stencil value of an unlocked pixel about to be classified (parity clear).
-    fn start(&self) -> u8;
-    /// Stencil value of a locked pixel (candidate in V).
-    fn locked(&self) -> u8;
-    /// Stencil value of a rejected pixel after the trim.
-    fn rejected(&self) -> u8;
-    /// All stencil bits in use.
-    fn mask(&self) -> u8;
-    fn bits(&self) -> u8;
+    /// The stencil values of this trim.
+    fn codes(&self) -> Codes;
+    /// Appends the trim's steps.
     fn trim(&self, steps: &mut Vec<Step>);
 }
 
@@ -105,7 +128,6 @@ pub(crate) struct BlistTrimmer<'a> {
     pub(crate) peeled: Peeled,
     pub(crate) vol: &'a TrimVolume,
     pub(crate) layout: LabelLayout,
-    pub(crate) start: u8,
 }
 
 impl<'a> BlistTrimmer<'a> {
@@ -115,31 +137,23 @@ impl<'a> BlistTrimmer<'a> {
         let layout = LabelLayout::new(vol.blist.num_labels).ok_or(PlanError::TooManyLabels {
             labels: vol.blist.num_labels,
         })?;
-        let start = layout.value(Next::Label(vol.blist.entries[0].label));
         Ok(BlistTrimmer {
             peeled,
             vol,
             layout,
-            start,
         })
     }
 }
 
 impl Trimmer for BlistTrimmer<'_> {
-    fn start(&self) -> u8 {
-        self.start
-    }
-    fn locked(&self) -> u8 {
-        self.layout.value(Next::True)
-    }
-    fn rejected(&self) -> u8 {
-        self.layout.value(Next::False)
-    }
-    fn mask(&self) -> u8 {
-        self.layout.all_mask()
-    }
-    fn bits(&self) -> u8 {
-        self.layout.stencil_bits()
+    fn codes(&self) -> Codes {
+        let l = &self.layout;
+        Codes::new(
+            Next::Label(self.vol.blist.entries[0].label),
+            |n| l.value(n),
+            l.all_mask(),
+            l.stencil_bits(),
+        )
     }
     fn trim(&self, steps: &mut Vec<Step>) {
         trim_blist(&self.peeled, self.vol, &self.layout, steps)
