@@ -461,6 +461,16 @@ impl GpuRenderer {
         Ok(self.exec.time_recording(plan, reps)?)
     }
 
+    /// [`Self::time_recording`] with the executor's cached decisions (see
+    /// [`vk::Executor::time_recording_cached`]).
+    pub fn time_recording_cached(
+        &mut self,
+        plan: &plan::Plan,
+        reps: u32,
+    ) -> Result<Option<Vec<f64>>, RenderError> {
+        Ok(self.exec.time_recording_cached(plan, reps)?)
+    }
+
     /// The images of the last executed frame.
     pub fn read_back(&mut self) -> Result<Images, RenderError> {
         Ok(self.exec.read_back()?)

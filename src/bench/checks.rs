@@ -205,16 +205,22 @@ pub fn section(records: &[Record]) -> String {
     if !recorded.is_empty() {
         let mut per_draw: Vec<f64> = recorded.iter().map(|r| r.rerecord_us_per_draw).collect();
         per_draw.sort_by(f64::total_cmp);
+        let mut cached: Vec<f64> = recorded
+            .iter()
+            .map(|r| r.rerecord_cached_us_per_draw)
+            .collect();
+        cached.sort_by(f64::total_cmp);
         let moved = recorded
             .iter()
             .filter(|r| r.camera_move_record_ms == 0.0)
             .count();
         let _ = writeln!(
             s,
-            "\nRecording anew: median {:.2} µs per draw (max {:.2}) over {} runs; the second frame of an orbit by two steps of {}°/2 replayed without recording in {moved} of them.",
+            "\nRecording anew: median {:.2} µs per draw (max {:.2}) over {} runs ({:.2} with the executor's cached reach and tie decisions); the second frame of an orbit by two steps of {}°/2 replayed without recording in {moved} of them.",
             per_draw[per_draw.len() / 2],
             per_draw[per_draw.len() - 1],
             recorded.len(),
+            cached[cached.len() / 2],
             super::CAMERA_NUDGE_DEG
         );
     }

@@ -104,6 +104,9 @@ pub struct Record {
     pub rerecord_ms: f64,
     /// `rerecord_ms` per executed draw, in microseconds.
     pub rerecord_us_per_draw: f64,
+    /// The same with the executor's cached decisions (only device objects
+    /// changed: `Executor::time_recording_cached`), µs per draw.
+    pub rerecord_cached_us_per_draw: f64,
     /// CPU time recording the frame after the camera orbits by
     /// [`CAMERA_NUDGE_DEG`] in two half steps, of the second step (0: replayed,
     /// only the camera's buffer written).
@@ -172,6 +175,7 @@ impl Record {
             record_ms_median: 0.0,
             rerecord_ms: 0.0,
             rerecord_us_per_draw: 0.0,
+            rerecord_cached_us_per_draw: 0.0,
             camera_move_record_ms: 0.0,
             camera_move: None,
             overhead: None,
@@ -585,6 +589,7 @@ fn finish(
     // original camera: what a moved camera and a new plan cost the CPU (skipped
     // for runs over the time budget).
     let (mut camera_move_record_ms, mut camera_move, mut rerecord_ms) = (0.0, None, 0.0);
+    let mut rerecord_cached_ms = 0.0;
     if !slow {
         let err = |e: crate::render::RenderError| e.to_string();
         // An orbit in two steps: the first records the frame with grown
@@ -608,6 +613,10 @@ fn finish(
         }
         if let Some(mut t) = times {
             rerecord_ms = median_iqr(&mut t).0;
+            let cached = gpu
+                .time_recording_cached(plan, RERECORD_REPS)
+                .map_err(err)?;
+            rerecord_cached_ms = cached.map_or(0.0, |mut t| median_iqr(&mut t).0);
         }
     }
     let images = gpu.read_back().map_err(|e| e.to_string())?;
@@ -670,6 +679,8 @@ fn finish(
         record_ms_median: rm,
         rerecord_ms,
         rerecord_us_per_draw: rerecord_ms * 1e3 / (last.exec.counts.draws.max(1) as f64),
+        rerecord_cached_us_per_draw: rerecord_cached_ms * 1e3
+            / (last.exec.counts.draws.max(1) as f64),
         camera_move_record_ms,
         camera_move,
         overhead: Some(checks::Overhead::of(frames.len() as u32, replayed, gm, fm)),

@@ -16,6 +16,7 @@ pub mod cst;
 pub mod eye;
 pub mod goldfeather;
 pub mod kirsch;
+pub mod memo;
 pub mod print;
 pub mod reach;
 pub mod rect;

@@ -25,7 +25,7 @@ use std::collections::BTreeMap;
 
 use super::rect::Rect;
 use super::step::{Clear, Scissor, Step};
-use super::usage::{Resource, Usage};
+use super::usage::{Resource, Usage, Uses};
 
 /// Pixels beyond a draw's scissor that its fragment programs may read: the tie
 /// test's neighbour fetch (`shaders/tie.glsl`, one texel), which a helper
@@ -88,33 +88,39 @@ pub fn outputs(output_ds: u8, normals: bool) -> Vec<Resource> {
 
 /// The images `clear` clears, in recording order (`normals`: the normal buffer
 /// goes with the colour).
-pub fn cleared(clear: &Clear, normals: bool) -> Vec<Resource> {
+pub fn cleared(clear: &Clear, normals: bool) -> Uses<Resource> {
     match *clear {
-        Clear::DepthStencil { ds, .. } => vec![Resource::DepthStencil(ds)],
-        Clear::Texture { tex, .. } => vec![Resource::Texture(tex)],
+        Clear::DepthStencil { ds, .. } => Uses::of(&[Resource::DepthStencil(ds)]),
+        Clear::Texture { tex, .. } => Uses::of(&[Resource::Texture(tex)]),
         Clear::Color => {
-            let mut v = vec![Resource::Color, Resource::Prim];
-            v.extend(normals.then_some(Resource::Normal));
+            let mut v = Uses::of(&[Resource::Color, Resource::Prim]);
+            if normals {
+                v.push(Resource::Normal);
+            }
             v
         }
     }
 }
 
 /// The images `step` uses and how, the normal buffer with the colour target.
-fn uses(step: &Step, normals: bool) -> Vec<(Resource, Usage)> {
+fn uses(step: &Step, normals: bool) -> Uses<(Resource, Usage)> {
     let mut u = step.usage();
     if normals && u.contains(&(Resource::Color, Usage::ColorTarget)) {
         u.push((Resource::Normal, Usage::ColorTarget));
     }
-    u.to_vec()
+    u
 }
 
-/// Whether `step` may write `r` (a target of a draw or depth copy, or a copy's
-/// destination); clears are not counted.
-fn may_write(step: &Step, r: Resource, normals: bool) -> bool {
-    uses(step, normals)
-        .iter()
+/// Whether a step of usages `uses` may write `r` (a target of a draw or depth
+/// copy, or a copy's destination); clears are not counted.
+fn writes_to(uses: &[(Resource, Usage)], r: Resource) -> bool {
+    uses.iter()
         .any(|&(res, u)| res == r && u.writes() && u != Usage::Clear)
+}
+
+#[cfg(test)]
+fn may_write(step: &Step, r: Resource, normals: bool) -> bool {
+    writes_to(&uses(step, normals), r)
 }
 
 /// The rectangle a step works in, or `None` when it is skipped (a draw with
@@ -126,61 +132,93 @@ fn draw_rect(step: &Step, scissor: &impl Fn(&Scissor) -> Rect) -> Option<Rect> {
     }
 }
 
-/// Which clears of `steps` are [`ClearNeed::Held`], per image cleared: a clear
-/// to the value an earlier clear left, with no write to the image since (CST
-/// clears its floor texture to the same depth for every product and only
-/// samples it).
-fn held_clears(
-    steps: &[&Step],
-    scissor: &impl Fn(&Scissor) -> Rect,
-    normals: bool,
-) -> Vec<Vec<bool>> {
+/// One item of a frame as the passes below read it: a step, or a point
+/// where an image is read whole (a sequence frame's copy of a layer to the
+/// host or its accumulate pass, between its plans).
+#[derive(Clone, Copy, Debug)]
+pub enum Item<'s> {
+    Step(&'s Step),
+    ReadWhole(Resource),
+}
+
+/// What the passes ask of each item, worked out once per frame (recording
+/// a frame again costs ≤ 1 µs per draw, issue 9 §3): a draw's rectangle
+/// (`None`: skipped, or not a draw) and the item's usages.
+struct Info {
+    rect: Option<Rect>,
+    uses: Uses<(Resource, Usage)>,
+}
+
+fn infos(items: &[Item<'_>], scissor: &impl Fn(&Scissor) -> Rect, normals: bool) -> Vec<Info> {
+    items
+        .iter()
+        .map(|it| match it {
+            Item::Step(s) => Info {
+                rect: draw_rect(s, scissor),
+                uses: uses(s, normals),
+            },
+            Item::ReadWhole(_) => Info {
+                rect: None,
+                uses: Uses::default(),
+            },
+        })
+        .collect()
+}
+
+/// Which clears of `items` are [`ClearNeed::Held`], per image cleared, in
+/// order: a clear to the value an earlier clear left, with no write to the
+/// image since (CST clears its floor texture to the same depth for every
+/// product and only samples it).
+fn held_clears(items: &[Item<'_>], infos: &[Info], normals: bool) -> Vec<bool> {
     let mut held: Vec<(Resource, Clear)> = Vec::new();
     let mut out = Vec::new();
-    for s in steps {
-        match s {
-            Step::Clear(c) => out.push(
-                cleared(c, normals)
-                    .into_iter()
-                    .map(|r| {
-                        let h = held.contains(&(r, *c));
-                        if !h {
-                            held.retain(|k| k.0 != r);
-                            held.push((r, *c));
-                        }
-                        h
-                    })
-                    .collect(),
-            ),
-            Step::Draw(_) if draw_rect(s, scissor).is_none() => {}
-            _ => held.retain(|&(r, _)| !may_write(s, r, normals)),
+    for (it, info) in items.iter().zip(infos) {
+        match it {
+            Item::Step(Step::Clear(c)) => {
+                for r in cleared(c, normals) {
+                    let h = held.contains(&(r, *c));
+                    if !h {
+                        held.retain(|k| k.0 != r);
+                        held.push((r, *c));
+                    }
+                    out.push(h);
+                }
+            }
+            Item::Step(Step::Draw(_)) if info.rect.is_none() => {}
+            Item::Step(_) => held.retain(|&(r, _)| !writes_to(&info.uses, r)),
+            Item::ReadWhole(_) => {}
         }
     }
     out
 }
 
-/// The union of the regions `steps` may write in output `r`, and the value of
+/// The union of the regions `items` may write in output `r`, and the value of
 /// its last clear (`None`: not cleared): what the image holds after them, up
 /// to the pixels written after that clear.
 fn writes(
-    steps: &[&Step],
-    scissor: &impl Fn(&Scissor) -> Rect,
+    items: &[Item<'_>],
+    infos: &[Info],
     r: Resource,
     normals: bool,
 ) -> (Rect, Option<Clear>, Rect) {
     let (mut all, mut last, mut after) = (Rect::EMPTY, None, Rect::EMPTY);
-    for s in steps {
-        if let Step::Clear(c) = s {
+    for (it, info) in items.iter().zip(infos) {
+        if let Item::Step(Step::Clear(c)) = it {
             if cleared(c, normals).contains(&r) {
                 last = Some(*c);
                 after = Rect::EMPTY;
             }
-        } else if let Some(rect) = draw_rect(s, scissor).filter(|_| may_write(s, r, normals)) {
+        } else if let Some(rect) = info.rect.filter(|_| writes_to(&info.uses, r)) {
             all = all.union(&rect);
             after = after.union(&rect);
         }
     }
     (all, last, after)
+}
+
+/// The items of a frame of plain steps.
+fn items<'s>(steps: &[&'s Step]) -> Vec<Item<'s>> {
+    steps.iter().map(|&s| Item::Step(s)).collect()
 }
 
 /// For a frame of `steps` (loops unrolled) on `images`, whose outputs hold
@@ -194,16 +232,58 @@ pub fn frame_reach(
     images: Images<'_>,
     before: &KeptImages,
 ) -> FrameReach {
+    let items = items(steps);
+    let infos = infos(&items, &scissor, images.normals);
+    reach_of_items(&items, &infos, images, before)
+}
+
+/// [`frame_reach`] for a recording kept for replays, from outputs that hold
+/// `now`: also what it assumes they hold before it ([`assume`]), for which
+/// the regions are made, so that it also holds after its own frame.
+pub fn recording_reach(
+    steps: &[&Step],
+    scissor: impl Fn(&Scissor) -> Rect,
+    images: Images<'_>,
+    now: &KeptImages,
+) -> (FrameReach, KeptImages) {
+    let items = items(steps);
+    let infos = infos(&items, &scissor, images.normals);
+    let r = reach_of_items(&items, &infos, images, now);
+    let assumed = assume(now, &r.kept);
+    match assumed == *now {
+        true => (r, assumed),
+        false => (reach_of_items(&items, &infos, images, &assumed), assumed),
+    }
+}
+
+/// [`frame_reach`] of a sequence frame's `items` (several plans' steps, with
+/// the images read whole between them), from outputs whose contents are
+/// unknown: a copy one plan makes reaches what the later plans read of it.
+pub fn sequence_reach(
+    items: &[Item<'_>],
+    scissor: impl Fn(&Scissor) -> Rect,
+    images: Images<'_>,
+) -> FrameReach {
+    let infos = infos(items, &scissor, images.normals);
+    reach_of_items(items, &infos, images, &KeptImages::new())
+}
+
+fn reach_of_items(
+    items: &[Item<'_>],
+    infos: &[Info],
+    images: Images<'_>,
+    before: &KeptImages,
+) -> FrameReach {
     let (w, h) = images.size;
     let full = Rect::full(w, h);
     let normals = images.normals;
     let mut live: BTreeMap<Resource, Rect> = BTreeMap::new();
     for &r in images.outputs {
-        let (all, last, _) = writes(steps, &scissor, r, normals);
+        let (all, last, _) = writes(items, infos, r, normals);
         // Every clear of the image must be to the value it keeps for its
         // pixels outside the dirty region to hold that value already.
-        let one_value = steps.iter().all(|s| match s {
-            Step::Clear(c) => !cleared(c, normals).contains(&r) || Some(*c) == last,
+        let one_value = items.iter().all(|it| match it {
+            Item::Step(Step::Clear(c)) => !cleared(c, normals).contains(&r) || Some(*c) == last,
             _ => true,
         });
         let end = match (before.get(&r), last) {
@@ -212,21 +292,26 @@ pub fn frame_reach(
         };
         live.insert(r, end);
     }
-    let held = held_clears(steps, &scissor, normals);
-    let mut clears = Vec::new();
+    let mut held = held_clears(items, infos, normals);
+    let mut clears = Vec::with_capacity(held.len());
     let mut copies = Vec::new();
     let take = |live: &mut BTreeMap<Resource, Rect>, r| live.remove(&r).unwrap_or(Rect::EMPTY);
-    let mut n_clear = held.len();
-    for s in steps.iter().rev() {
+    for (it, info) in items.iter().zip(infos).rev() {
+        let s = match it {
+            Item::Step(s) => s,
+            Item::ReadWhole(r) => {
+                live.insert(*r, full);
+                continue;
+            }
+        };
         match s {
             Step::Clear(c) => {
-                n_clear -= 1;
-                let rs = cleared(c, normals);
-                for (r, h) in rs.into_iter().zip(&held[n_clear]).rev() {
+                for r in cleared(c, normals).iter().rev() {
+                    let h = held.pop().expect("a held flag per cleared image");
                     clears.push(match h {
                         // The earlier clear reaches what is read after this one.
                         true => ClearNeed::Held,
-                        false => ClearNeed::Reach(take(&mut live, r)),
+                        false => ClearNeed::Reach(take(&mut live, *r)),
                     });
                 }
             }
@@ -247,9 +332,9 @@ pub fn frame_reach(
                 copies.push(region);
             }
             _ => {
-                if let Some(rect) = draw_rect(s, &scissor) {
+                if let Some(rect) = info.rect {
                     let read = rect.grown(READ_MARGIN, READ_MARGIN, w, h);
-                    for (r, _) in uses(s, normals) {
+                    for &(r, _) in info.uses.iter() {
                         let l = live.entry(r).or_insert(Rect::EMPTY);
                         *l = l.union(&read);
                     }
@@ -262,7 +347,7 @@ pub fn frame_reach(
     FrameReach {
         clears,
         copies,
-        kept: kept_after(steps, &scissor, images, before),
+        kept: kept_after_items(items, infos, images, before),
     }
 }
 
@@ -280,17 +365,28 @@ pub fn kept_after(
     images: Images<'_>,
     before: &KeptImages,
 ) -> KeptImages {
+    let items = items(steps);
+    let infos = infos(&items, &scissor, images.normals);
+    kept_after_items(&items, &infos, images, before)
+}
+
+fn kept_after_items(
+    items: &[Item<'_>],
+    infos: &[Info],
+    images: Images<'_>,
+    before: &KeptImages,
+) -> KeptImages {
     let normals = images.normals;
     let mut kept = before.clone();
-    for s in steps {
-        for (r, _) in uses(s, normals) {
+    for info in infos {
+        for &(r, _) in info.uses.iter() {
             if !images.outputs.contains(&r) {
                 kept.remove(&r);
             }
         }
     }
     for &r in images.outputs {
-        match writes(steps, &scissor, r, normals) {
+        match writes(items, infos, r, normals) {
             (_, Some(value), after) => {
                 kept.insert(
                     r,
@@ -672,6 +768,41 @@ mod tests {
         assert!(holds(&KeptImages::new(), &KeptImages::new()));
         // Nothing known now: nothing assumed.
         assert_eq!(assume(&KeptImages::new(), &k(b)), KeptImages::new());
+    }
+
+    #[test]
+    fn a_sequence_copy_reaches_what_later_plans_read_and_read_points_read_whole() {
+        // One plan copies its depth; the next reads the copy. Between them the
+        // colour is read whole (a keep).
+        let (first, second) = (
+            vec![
+                clear_tex(1),
+                Step::CopyDepthToTexture { ds: 0, dst: 1 },
+                Step::Clear(Clear::Color),
+            ],
+            vec![draw(Fragment::DepthFromTexture { src: 1 }, 0, 3)],
+        );
+        let mut items: Vec<Item<'_>> = first.iter().map(Item::Step).collect();
+        items.push(Item::ReadWhole(Resource::Color));
+        items.extend(second.iter().map(Item::Step));
+        let images = Images {
+            outputs: &[],
+            normals: false,
+            size: (W, H),
+        };
+        let r = sequence_reach(&items, scissor, images);
+        let full = Rect::full(W, H);
+        // The copy replaces texture 1 where the second plan reads it; the
+        // colour is read whole, the ids by nobody.
+        assert_eq!(r.copies, vec![square(3)]);
+        let reach = |r| ClearNeed::Reach(r);
+        assert_eq!(
+            r.clears,
+            vec![reach(Rect::EMPTY), reach(full), reach(Rect::EMPTY)]
+        );
+        // The first plan alone: nobody reads its copy or its colour.
+        let alone = reach_of(&first, &[], &KeptImages::new());
+        assert_eq!(alone.copies, vec![Rect::EMPTY]);
     }
 
     /// Pixel images of a simulated frame: a value per pixel and image.

@@ -60,10 +60,12 @@ use super::readback::{decode, Raw};
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::output::Images;
-use crate::plan::reach::{self, KeptImages};
+use crate::plan::memo::{Memo, PlanIds};
+use crate::plan::reach::{self, FrameReach, KeptImages};
 use crate::plan::tie_free::{TieBand, TieFree};
+use crate::plan::usage::Resource;
 use crate::plan::validate::validate;
-use crate::plan::{Plan, Step};
+use crate::plan::{Plan, Scissor, Step};
 use crate::scene::{Aabb, Camera, Scene};
 use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 use camera::CameraBuffer;
@@ -101,6 +103,43 @@ struct RecordingKey {
     /// What it assumes the outputs hold before it (`plan::reach::holds`).
     assumed: KeptImages,
 }
+
+/// Everything the tie-free decisions of a plan depend on
+/// ([`Executor::decide_ties`]): the plan, the camera, the scene (`epoch`) and
+/// the settings that choose them.
+#[derive(Clone, Debug, PartialEq)]
+struct TieKey {
+    plan: u64,
+    camera: Camera,
+    epoch: u64,
+    subpixel_bits: u32,
+    tie_free: bool,
+    fixed_shade: bool,
+}
+
+/// Everything a recording's clears and copies depend on
+/// ([`Executor::recording_reach`]): its steps (a plan unrolled to `layers`),
+/// the mesh rectangles of its scissors, what the outputs hold before it, and
+/// the settings that shape them.
+#[derive(Clone, Debug, PartialEq)]
+struct ReachKey {
+    plan: u64,
+    layers: Vec<u32>,
+    rects: Vec<Rect>,
+    now: KeptImages,
+    normals: bool,
+    scissored: bool,
+}
+
+/// A recording's reach (`plan::reach::recording_reach`) and what it assumes
+/// the outputs hold before it.
+type Reached = (FrameReach, KeptImages);
+
+/// How many results each decision cache keeps, and plan ids the executor
+/// remembers: a frame, the bench's moved camera and a layered frame's few
+/// plans fit.
+const MEMO_CAP: usize = 4;
+const PLAN_IDS: usize = 16;
 
 /// The per-mesh screen rectangles a recording's scissors come from: exact for a
 /// still camera, grown by [`Scissors::MARGIN`] of the image after a camera move,
@@ -270,6 +309,13 @@ pub struct Executor {
     /// An embedding recorded a frame someone else submits: what the outputs
     /// hold is no longer known here, and their clears reach whole images.
     kept_unknown: bool,
+    /// Ids of the plans seen lately, for the decision caches' keys.
+    plan_ids: PlanIds,
+    /// `plan::tie_free` decisions, by plan, camera and settings.
+    tie_memo: Memo<TieKey, TieFree>,
+    /// `plan::reach` regions of recordings, by steps, scissors and what the
+    /// outputs hold.
+    reach_memo: Memo<ReachKey, Arc<Reached>>,
 }
 
 impl Executor {
@@ -341,6 +387,9 @@ impl Executor {
             seq: Default::default(),
             kept: KeptImages::new(),
             kept_unknown: false,
+            plan_ids: PlanIds::new(PLAN_IDS),
+            tie_memo: Memo::new(MEMO_CAP),
+            reach_memo: Memo::new(MEMO_CAP),
         })
     }
 
@@ -415,35 +464,30 @@ impl Executor {
         self.recording = None;
     }
 
-    /// The tie-free decisions for `plan` under the scene's current camera.
-    fn decide_ties(&self, plan: &Plan) -> TieFree {
+    /// The tie-free decisions for `plan` under the scene's current camera:
+    /// the kept ones while the plan, camera, scene and settings stay
+    /// (`plan::memo`; a replayed frame decides nothing anew).
+    fn decide_ties(&mut self, plan: &Plan) -> TieFree {
         let Some(scene) = self.scene.as_ref().filter(|_| self.tie_free) else {
             return TieFree::none();
         };
-        let bounds = scene
-            .bounds
-            .iter()
-            .fold(crate::geom::bounds(&[]), |a, b| Aabb {
-                min: a.min.min(b.min),
-                max: a.max.max(b.max),
-            });
-        let band = TieBand::new(
-            &scene.camera,
-            self.desc.width,
-            self.desc.height,
-            self.subpixel_bits(),
-            self.desc.reversed_z,
-            &bounds,
-        );
-        let ties = TieFree::new(&scene.ties, &band, plan);
         // D24: lavapipe's raster depth, quantized, misses the strict depth
         // bar of `vk_tests` `classic_assembly` (p99 4.3e-6 against 3.8e-6 view
         // units), where the plane depth at the pixel centre meets it.
         let d32 = self.desc.depth_format == DepthFormat::D32S8;
-        match self.fixed_shade && self.unsnapped && self.rounding.is_none() && d32 {
-            true => ties,
-            false => ties.keep_shade_rule(),
-        }
+        let fixed_shade = self.fixed_shade && self.unsnapped && self.rounding.is_none() && d32;
+        let key = TieKey {
+            plan: self.plan_ids.id(plan),
+            camera: scene.camera,
+            epoch: self.epoch,
+            subpixel_bits: self.subpixel_bits(),
+            tie_free: self.tie_free,
+            fixed_shade,
+        };
+        let (desc, bits) = (self.desc, key.subpixel_bits);
+        self.tie_memo
+            .get_or_insert_with(key, || tie_decisions(scene, &desc, bits, plan, fixed_shade))
+            .clone()
     }
 
     fn ensure_targets(&mut self, plan: &Plan) -> Result<(), VkError> {
@@ -815,9 +859,34 @@ impl Executor {
     /// what recording this plan costs the CPU (a new plan of its size, issue 9
     /// §3), in the calling thread's CPU ms per recording, free of the GPU's
     /// work and of waiting for a core. The recording stays kept (the same
-    /// commands). `None` when no recording of `plan` is kept: execute it until a
-    /// frame replays first.
+    /// commands). Each recording works out what its clears and copies reach
+    /// anew (the cache of those regions is dropped first, as for a new plan).
+    /// `None` when no recording of `plan` is kept: execute it until a frame
+    /// replays first.
     pub fn time_recording(&mut self, plan: &Plan, reps: u32) -> Result<Option<Vec<f64>>, VkError> {
+        self.time_recordings(plan, reps, true)
+    }
+
+    /// [`Self::time_recording`] with the regions of its clears and copies
+    /// taken from the cache (`plan::memo`): what recording the plan again
+    /// costs when only device objects changed (an interference frame's
+    /// uploads, a replaced image).
+    pub fn time_recording_cached(
+        &mut self,
+        plan: &Plan,
+        reps: u32,
+    ) -> Result<Option<Vec<f64>>, VkError> {
+        self.time_recordings(plan, reps, false)
+    }
+
+    /// `reps` timed recordings of the kept frame of `plan`, each working out
+    /// its reach anew when `fresh`.
+    fn time_recordings(
+        &mut self,
+        plan: &Plan,
+        reps: u32,
+        fresh: bool,
+    ) -> Result<Option<Vec<f64>>, VkError> {
         let _layer = self.shared.layer_use();
         let layers = match &self.recording {
             Some(r) if r.key.epoch == self.epoch && r.key.plan == *plan => r.key.layers.clone(),
@@ -830,7 +899,12 @@ impl Executor {
         // Made for what it assumed, a recording assumes the same.
         let assumed = key.assumed.clone();
         (0..reps)
-            .map(|_| self.record_kept(plan, &layers, &assumed))
+            .map(|_| {
+                if fresh {
+                    self.reach_memo.clear();
+                }
+                self.record_kept(plan, &layers, &assumed)
+            })
             .collect::<Result<Vec<f64>, VkError>>()
             .map(Some)
     }
@@ -858,7 +932,7 @@ impl Executor {
 
     /// [`Self::record_frame`] for outputs that hold `now` before it: also
     /// what the recording assumes they hold and what they hold after it
-    /// (`Recorder::plan_clears`).
+    /// (`Executor::recording_reach`).
     fn record_frame_from(
         &mut self,
         cmd: vk::CommandBuffer,
@@ -869,13 +943,13 @@ impl Executor {
     ) -> Result<FrameRecording, VkError> {
         let flat = unroll(plan, layers);
         self.ensure_queries(&flat)?;
-        let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
-        let scissored_clears = self.scissored_clears;
-        let mut rec = self.recorder();
         let steps: Vec<&Step> = flat.iter().map(|(s, _)| *s).collect();
-        let body = steps.len() - host.map_or(0, |h| h.1);
         // The host's shade reads the body's last depth copy: its draws count.
-        let kept = rec.plan_clears(&steps, plan.output_ds, now, scissored_clears);
+        let reached = self.recording_reach(plan, layers, &steps, now);
+        let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
+        let mut rec = self.recorder();
+        let body = steps.len() - host.map_or(0, |h| h.1);
+        rec.use_reach(&reached.0, plan.output_ds);
         // The host's shade draws decide what the last copy covers, as the
         // standalone shade's do.
         rec.plan_shades(&steps);
@@ -890,7 +964,51 @@ impl Executor {
             None => rec.finish_frame(plan.output_ds),
         }
         rec.end();
+        let kept = (reached.1.clone(), reached.0.kept.clone());
         Ok((rec.stats, rec.queries, rec.marks, kept))
+    }
+
+    /// What the clears and copies of a recording of `steps` (`plan` unrolled
+    /// to `layers`) reach with the current scissors, for outputs that hold
+    /// `now` before it, and what it assumes they hold: the kept result while
+    /// its inputs stay (`plan::memo`). Without scissored clears, clears and
+    /// copies reach whole images.
+    fn recording_reach(
+        &mut self,
+        plan: &Plan,
+        layers: &[u32],
+        steps: &[&Step],
+        now: &KeptImages,
+    ) -> Arc<Reached> {
+        let key = ReachKey {
+            plan: self.plan_ids.id(plan),
+            layers: layers.to_vec(),
+            rects: self.rects.rects.clone(),
+            now: now.clone(),
+            normals: self.normals,
+            scissored: self.scissored_clears,
+        };
+        let (w, h) = (self.desc.width, self.desc.height);
+        let outputs = reach::outputs(plan.output_ds, self.normals);
+        let images = self.reach_images(&outputs);
+        let (rects, scissored) = (&self.rects.rects, self.scissored_clears);
+        let reached = self.reach_memo.get_or_insert_with(key, || {
+            let unions = RectUnions::new(rects);
+            let scissor = |s: &Scissor| unions.scissor(s, w, h);
+            Arc::new(match scissored {
+                true => reach::recording_reach(steps, scissor, images, now),
+                false => {
+                    let kept = reach::kept_after(steps, scissor, images, now);
+                    let whole = FrameReach {
+                        clears: Vec::new(),
+                        copies: Vec::new(),
+                        kept,
+                    };
+                    (whole, KeptImages::new())
+                }
+            })
+        });
+        reached.clone()
     }
 
     /// What a frame recorded now may assume the outputs hold: `kept`, or
@@ -920,12 +1038,18 @@ impl Executor {
         let unions = RectUnions::new(&self.rects.rects);
         let (w, h) = (self.desc.width, self.desc.height);
         let outputs = reach::outputs(plan.output_ds, self.normals);
-        let images = reach::Images {
-            outputs: &outputs,
-            normals: self.normals,
-            size: (w, h),
-        };
+        let images = self.reach_images(&outputs);
         self.kept = reach::kept_after(&steps, |s| unions.scissor(s, w, h), images, &self.kept);
+    }
+
+    /// The images `plan::reach` plans a frame on: `outputs`, read whole
+    /// after it, the normal buffer with the colour when on, the image size.
+    fn reach_images<'a>(&self, outputs: &'a [Resource]) -> reach::Images<'a> {
+        reach::Images {
+            outputs,
+            normals: self.normals,
+            size: (self.desc.width, self.desc.height),
+        }
     }
 
     /// Adds the GPU times between the timestamps of the last command buffer.
@@ -1108,6 +1232,38 @@ impl Executor {
             gpu_scene::convention(&self.desc),
             scene.background,
         ))
+    }
+}
+
+/// `plan`'s tie-free decisions on `scene` under its camera (`plan::tie_free`),
+/// for a device snapping vertices to `subpixel_bits`; every final shade keeps
+/// the tie rule unless `fixed_shade`.
+fn tie_decisions(
+    scene: &GpuScene,
+    desc: &ExecDesc,
+    subpixel_bits: u32,
+    plan: &Plan,
+    fixed_shade: bool,
+) -> TieFree {
+    let bounds = scene
+        .bounds
+        .iter()
+        .fold(crate::geom::bounds(&[]), |a, b| Aabb {
+            min: a.min.min(b.min),
+            max: a.max.max(b.max),
+        });
+    let band = TieBand::new(
+        &scene.camera,
+        desc.width,
+        desc.height,
+        subpixel_bits,
+        desc.reversed_z,
+        &bounds,
+    );
+    let ties = TieFree::new(&scene.ties, &band, plan);
+    match fixed_shade {
+        true => ties,
+        false => ties.keep_shade_rule(),
     }
 }
 

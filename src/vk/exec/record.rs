@@ -215,7 +215,7 @@ pub(super) struct Recorder<'a> {
     shade_copies: VecDeque<ShadeCopy>,
     /// Regions of the copies recorded next, in order (`plan::reach`).
     copy_regions: VecDeque<Rect>,
-    /// The frame's outputs (`plan_clears`).
+    /// The frame's outputs (`use_reach`).
     outputs: Vec<Resource>,
     /// The open block's render area.
     render_area: Rect,
@@ -338,6 +338,17 @@ impl<'a> Recorder<'a> {
         self.flush_clears(&outputs);
         // Clears of other images are read by nobody.
         self.pending_clear.clear();
+        self.rest_all();
+    }
+
+    /// Ends one plan of a sequence frame (`exec::sequence`) the way
+    /// [`Self::finish_frame`] ends a frame, but records every pending clear:
+    /// the sequence's reach (`plan::reach::sequence_reach`) gives a clear a
+    /// region only where a later plan reads it.
+    pub fn finish_plan(&mut self) {
+        self.end_block();
+        let pending: Vec<Resource> = self.pending_clear.keys().copied().collect();
+        self.flush_clears(&pending);
         self.rest_all();
     }
 

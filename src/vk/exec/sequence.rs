@@ -22,12 +22,14 @@ use super::targets::ALPHA_TABLE_SIDE;
 use super::{gpu_scene, Recorded, Scissors};
 use super::{layers_fit, unroll, whole_image_region, Clock, ExecStats, Executor, FrameStart};
 use crate::output::Images;
+use crate::plan::reach;
 use crate::plan::tie_free::TieFree;
+use crate::plan::usage::Resource;
 use crate::plan::{Plan, Step};
 use crate::vk::error::VkError;
 use crate::vk::memory::Buffer;
 use crate::vk::readback::{decode, decode_normals, Raw};
-use crate::vk::scissor::Rect;
+use crate::vk::scissor::{Rect, RectUnions};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
 
@@ -286,10 +288,14 @@ impl Executor {
             normal: t.normal.as_ref().map(|n| n.raw),
         };
         let (w, h) = (self.desc.width, self.desc.height);
+        let reach = scissored_clears.then(|| self.sequence_reach(items, &flat));
         // Out of `self` while the recorder borrows it; put back below.
         let alpha = self.seq.alpha.take();
         self.submit.begin(cmd, false)?;
         let mut rec = self.recorder();
+        if let Some(r) = &reach {
+            rec.use_reach(r, 0);
+        }
         rec.begin(cmd, occ_cap, ts_cap);
         let mut ranges = Vec::new();
         let (mut plan_i, mut slot, mut output) = (0, 0u64, 0u8);
@@ -299,20 +305,14 @@ impl Executor {
                 SeqItem::Plan { plan, .. } => {
                     let steps = &flat[plan_i];
                     plan_i += 1;
-                    if scissored_clears {
-                        let s: Vec<&Step> = steps.iter().map(|(s, _)| *s).collect();
-                        // Outputs taken as unknown: a sequence's plans share
-                        // them, so their clears reach whole images.
-                        rec.plan_clears(&s, plan.output_ds, &Default::default(), true);
-                        rec.whole_copies();
-                    }
+                    rec.set_outputs(plan.output_ds);
                     let q0 = rec.queries.len();
                     let r = steps.iter().try_for_each(|(s, g)| {
                         rec.group = *g;
                         rec.step(s)
                     });
                     rec.group = None;
-                    rec.finish_frame(plan.output_ds);
+                    rec.finish_plan();
                     ranges.push(q0..rec.queries.len());
                     output = plan.output_ds;
                     r
@@ -355,6 +355,41 @@ impl Executor {
             marks,
             ranges,
         })
+    }
+
+    /// What the clears and copies of a sequence frame of `items` (its plans
+    /// unrolled to `flat`) reach, over all its plans' steps as one frame
+    /// (`plan::reach::sequence_reach`): a copy one plan makes reaches what
+    /// later plans read of it, and the images an accumulate pass or a keep
+    /// copies are read whole there. The outputs' contents are taken as
+    /// unknown (a sequence frame does not track them).
+    fn sequence_reach(&self, items: &[SeqItem], flat: &[Vec<(&Step, Group)>]) -> reach::FrameReach {
+        let normals = self.normals;
+        let mut plans = flat.iter();
+        let mut output = 0;
+        let mut all: Vec<reach::Item<'_>> = Vec::new();
+        for item in items {
+            match item {
+                SeqItem::Plan { plan, .. } => {
+                    let steps = plans.next().expect("a step list per plan");
+                    all.extend(steps.iter().map(|(s, _)| reach::Item::Step(s)));
+                    output = plan.output_ds;
+                }
+                SeqItem::Accumulate { .. } => {
+                    all.extend([Resource::Color, Resource::Prim].map(reach::Item::ReadWhole))
+                }
+                SeqItem::Keep => all.extend(
+                    reach::outputs(output, normals)
+                        .into_iter()
+                        .map(reach::Item::ReadWhole),
+                ),
+            }
+        }
+        let (w, h) = (self.desc.width, self.desc.height);
+        let outputs = reach::outputs(output, normals);
+        let images = self.reach_images(&outputs);
+        let unions = RectUnions::new(&self.rects.rects);
+        reach::sequence_reach(&all, |s| unions.scissor(s, w, h), images)
     }
 
     /// A keep buffer of at least `slots` slots (a larger one replaces it).

@@ -26,9 +26,9 @@ use std::collections::VecDeque;
 use ash::vk;
 
 use super::{BlockKey, ClearMode, Recorder};
-use crate::plan::reach::{self, cleared, ClearNeed, Images, KeptImages};
+use crate::plan::reach::{self, cleared, ClearNeed, FrameReach};
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::{Clear, Step};
+use crate::plan::Clear;
 use crate::vk::conv;
 use crate::vk::image::range;
 use crate::vk::scissor::Rect;
@@ -47,46 +47,19 @@ impl Recorder<'_> {
         reach::outputs(output_ds, self.b.normals)
     }
 
-    /// Computes the regions of the clears and copies of `steps`, which the
-    /// recorder then records in this order to the end of the frame (whose
-    /// depth-stencil output is `output_ds`), for outputs that hold `now`
-    /// before it (`scissored`: otherwise clears and copies reach whole images).
-    /// Returns what the recording assumes the outputs hold before it (its
-    /// replays need images that satisfy it, `reach::holds`) and what they hold
-    /// after it.
-    pub fn plan_clears(
-        &mut self,
-        steps: &[&Step],
-        output_ds: u8,
-        now: &KeptImages,
-        scissored: bool,
-    ) -> (KeptImages, KeptImages) {
-        self.outputs = self.outputs(output_ds);
-        let images = Images {
-            outputs: &self.outputs,
-            normals: self.b.normals,
-            size: (self.b.desc.width, self.b.desc.height),
-        };
-        let scissor = |s: &_| self.scissor(s);
-        if !scissored {
-            let after = reach::kept_after(steps, scissor, images, now);
-            return (KeptImages::new(), after);
-        }
-        let mut r = reach::frame_reach(steps, scissor, images, now);
-        // A recording that also holds after its own frame replays unchanged.
-        let assumed = reach::assume(now, &r.kept);
-        if assumed != *now {
-            r = reach::frame_reach(steps, scissor, images, &assumed);
-        }
-        self.clear_regions = VecDeque::from(r.clears);
-        self.copy_regions = VecDeque::from(r.copies);
-        (assumed, r.kept)
+    /// Takes the regions of the clears and copies recorded next, in order to
+    /// the end of the recording (`plan::reach`: empty lists, whole images),
+    /// and the outputs of the frame or plan recorded next (`output_ds`: its
+    /// output depth).
+    pub fn use_reach(&mut self, reach: &FrameReach, output_ds: u8) {
+        self.set_outputs(output_ds);
+        self.clear_regions = VecDeque::from(reach.clears.clone());
+        self.copy_regions = VecDeque::from(reach.copies.clone());
     }
 
-    /// Every copy recorded next copies whole images (a sequence frame's plans
-    /// read each other's textures, which one plan's reach does not see).
-    pub(crate) fn whole_copies(&mut self) {
-        self.copy_regions.clear();
+    /// The outputs of the plan recorded next (`output_ds`: its output depth).
+    pub fn set_outputs(&mut self, output_ds: u8) {
+        self.outputs = self.outputs(output_ds);
     }
 
     /// The region the next texture or depth copy copies (the whole image when
