@@ -548,6 +548,7 @@ mod tests {
             min_gap: vec![f64::INFINITY, 0.0],
             cap: 1.0,
             pairs: vec![(1, 1, 0.0)],
+            zones: vec![],
         };
         TieFree::new(&gaps, &band(800, 8, true), plan)
     }
