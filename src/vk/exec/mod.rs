@@ -55,7 +55,7 @@ use super::cpu_clock::CpuInstant;
 use super::error::VkError;
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
-use super::pipeline::{pipeline_flags, Pipelines};
+use super::pipeline::{pipeline_flags, Pipelines, FLAG_RASTER_DEPTH};
 use super::readback::{decode, Raw};
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
@@ -140,12 +140,17 @@ impl Scissors {
         }
     }
 
-    /// `self` grown by 1/MARGIN of the image on every side, within the image.
-    fn grown(&self, desc: &ExecDesc) -> Scissors {
-        let (mx, my) = (
+    /// The pixels grown rectangles gain on each side, across and down.
+    fn margins(desc: &ExecDesc) -> (u32, u32) {
+        (
             (desc.width / Self::MARGIN).max(1),
             (desc.height / Self::MARGIN).max(1),
-        );
+        )
+    }
+
+    /// `self` grown by 1/MARGIN of the image on every side, within the image.
+    fn grown(&self, desc: &ExecDesc) -> Scissors {
+        let (mx, my) = Self::margins(desc);
         let rects = self
             .rects
             .iter()
@@ -381,7 +386,21 @@ impl Executor {
     /// The push constants' flags: reversed Z, and the subpixel precision the tie
     /// tolerance assumes ([`Self::subpixel_bits`]).
     fn flags(&self) -> u32 {
-        pipeline_flags(self.desc.reversed_z, self.subpixel_bits())
+        let raster = match self.depth_equal_shades() {
+            true => FLAG_RASTER_DEPTH,
+            false => 0,
+        };
+        pipeline_flags(self.desc.reversed_z, self.subpixel_bits()) | raster
+    }
+
+    /// Whether final shades run depth-equal draws where no tie is possible
+    /// ([`Self::set_fixed_shade`]).
+    fn depth_equal_shades(&self) -> bool {
+        // D24: lavapipe's raster depth, quantized, misses the strict depth
+        // bar of `vk_tests` `classic_assembly` (p99 4.3e-6 against 3.8e-6 view
+        // units), where the plane depth at the pixel centre meets it.
+        let d32 = self.desc.depth_format == DepthFormat::D32S8;
+        self.tie_free && self.fixed_shade && self.unsnapped && self.rounding.is_none() && d32
     }
 
     /// The vertex snapping the tie rule allows for: the device's, or the
@@ -435,12 +454,11 @@ impl Executor {
             self.desc.reversed_z,
             &bounds,
         );
-        let ties = TieFree::new(&scene.ties, &band, plan);
-        // D24: lavapipe's raster depth, quantized, misses the strict depth
-        // bar of `vk_tests` `classic_assembly` (p99 4.3e-6 against 3.8e-6 view
-        // units), where the plane depth at the pixel centre meets it.
-        let d32 = self.desc.depth_format == DepthFormat::D32S8;
-        match self.fixed_shade && self.unsnapped && self.rounding.is_none() && d32 {
+        let (w, h) = (self.desc.width, self.desc.height);
+        let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
+        let project = |b: &Aabb| bounds_rect(view, proj, near, std::slice::from_ref(b), w, h);
+        let ties = TieFree::new(&scene.ties, &band, plan, &project);
+        match self.depth_equal_shades() {
             true => ties,
             false => ties.keep_shade_rule(),
         }
@@ -701,7 +719,7 @@ impl Executor {
             // Scissors grown for a moving camera are made exact once it stops.
             Some(r)
                 if r.key.rects.covers(exact)
-                    && r.key.ties == self.ties
+                    && r.key.ties.serves(&self.ties)
                     && reach::holds(&self.kept, &r.key.assumed)
                     && !(still && r.key.rects.grown) =>
             {
@@ -716,6 +734,9 @@ impl Executor {
         };
         if matches!(kind, Recorded::Camera | Recorded::New) {
             self.rects = if kind == Recorded::Camera && !still {
+                // The tie zones' rectangles grow with the scissors.
+                let (mx, my) = Scissors::margins(&self.desc);
+                self.ties = self.ties.grown(mx, my, self.desc.width, self.desc.height);
                 exact.grown(&self.desc)
             } else {
                 exact.clone()
