@@ -26,6 +26,7 @@ mod setup;
 mod shadow;
 mod stability;
 mod tie_free;
+mod tie_zones;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{
