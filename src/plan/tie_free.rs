@@ -258,6 +258,23 @@ impl TieFree {
         }
     }
 
+    /// These decisions with every final shade that keeps the rule keeping it
+    /// over its whole rectangle (A/B measurements, `Executor::set_tie_zones`).
+    pub fn without_zones(self) -> TieFree {
+        let shade = self
+            .shade
+            .into_iter()
+            .map(|(k, rules)| {
+                let rules = rules.into_iter().map(|r| match r {
+                    ShadeRule::Zones(_) => ShadeRule::Everywhere,
+                    other => other,
+                });
+                (k, rules.collect())
+            })
+            .collect();
+        TieFree { shade, ..self }
+    }
+
     /// Whether every mesh of `meshes` is tie-free at tolerance `eps`.
     pub fn meshes_free(&self, meshes: &[MeshId], eps: f32) -> bool {
         all_free(&self.by_eps, meshes, eps)

@@ -259,6 +259,8 @@ pub struct Executor {
     /// Depth-equal final shades where no tie is possible
     /// ([`Executor::set_fixed_shade`]).
     fixed_shade: bool,
+    /// The shade's tie rule only in tie zones ([`Executor::set_tie_zones`]).
+    tie_zones: bool,
     /// The device interpolates depth from unsnapped vertex positions (a CPU
     /// device): only then is the raster depth as exact as the tie rule's
     /// plane depth at the pixel centre ([`Executor::set_fixed_shade`]).
@@ -338,6 +340,7 @@ impl Executor {
             normals: false,
             tie_free: true,
             fixed_shade: true,
+            tie_zones: true,
             // Lavapipe interpolates depth from the unsnapped vertices; hardware
             // GPUs may not (the H200 does not).
             unsnapped: cpu,
@@ -434,6 +437,15 @@ impl Executor {
         self.recording = None;
     }
 
+    /// Whether a final shade's draw of a mesh that can tie runs the tie rule
+    /// only inside its on-screen tie zones (`plan::tie_zones`; the default,
+    /// with [`Self::set_fixed_shade`] on). Off: over its whole rectangle (A/B
+    /// measurements, `examples/tie_ab.rs`).
+    pub fn set_tie_zones(&mut self, on: bool) {
+        self.tie_zones = on;
+        self.recording = None;
+    }
+
     /// The tie-free decisions for `plan` under the scene's current camera.
     fn decide_ties(&self, plan: &Plan) -> TieFree {
         let Some(scene) = self.scene.as_ref().filter(|_| self.tie_free) else {
@@ -458,9 +470,10 @@ impl Executor {
         let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
         let project = |b: &Aabb| bounds_rect(view, proj, near, std::slice::from_ref(b), w, h);
         let ties = TieFree::new(&scene.ties, &band, plan, &project);
-        match self.depth_equal_shades() {
-            true => ties,
-            false => ties.keep_shade_rule(),
+        match (self.depth_equal_shades(), self.tie_zones) {
+            (true, true) => ties,
+            (true, false) => ties.without_zones(),
+            (false, _) => ties.keep_shade_rule(),
         }
     }
 
