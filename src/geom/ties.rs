@@ -37,8 +37,8 @@
 //! in the second's grown by `w` (and `y` the other way round): both lie in the
 //! intersection of the two boxes grown by `w`. A zone keeps that intersection
 //! ungrown (inverted along an axis where the boxes are apart), merged over the
-//! triangle pairs of a mesh pair that lie within the cap of each other, with
-//! the smallest of their gaps; a camera grows it by its band
+//! triangle pairs of a mesh pair that lie within the cap of each other (a few
+//! per pair), with the smallest of their gaps; a camera grows it by its band
 //! ([`TieZone::within`]) and projects it (`plan::tie_zones`: the tie rule only
 //! there, issue 9 §5).
 #![deny(unsafe_code)]
@@ -242,63 +242,51 @@ fn triangles(meshes: &[&Mesh]) -> Vec<Tri> {
     out
 }
 
-/// The zones of one mesh pair's triangle pairs (`hits`): those whose boxes come
-/// within `cap` of each other merged (a sweep along x, union-find), then at
-/// most [`MAX_ZONES_PER_PAIR`] by merging neighbours along the longest axis.
+/// The zones of one mesh pair's triangle pairs (`hits`): swept along x, each
+/// joins the first zone it comes within `cap` of, or starts one (any grouping
+/// is right: the zones only need to cover the hits), then at most
+/// [`MAX_ZONES_PER_PAIR`] ([`fewer`]). `O(k · MAX_ZONES_PER_PAIR)` for `k` hits.
 fn merge_zones(hits: &[TieZone], cap: f64) -> Vec<TieZone> {
-    let n = hits.len();
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
+    let near = |a: &TieZone, b: &TieZone| {
+        let g = DVec3::splat(2.0 * cap);
+        (a.lo - g).cmple(b.hi).all() && (b.lo - g).cmple(a.hi).all()
+    };
+    let mut order: Vec<&TieZone> = hits.iter().collect();
+    order.sort_by(|a, b| a.lo.x.total_cmp(&b.lo.x));
+    let mut zones: Vec<TieZone> = Vec::new();
+    for h in order {
+        match zones.iter_mut().find(|z| near(z, h)) {
+            Some(z) => *z = z.union(h),
+            None => zones.push(*h),
         }
-        i
-    }
-    // The box a zone can grow to: the intersection grown by the cap.
-    let grown = |z: &TieZone| (z.lo - DVec3::splat(cap), z.hi + DVec3::splat(cap));
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&i, &j| grown(&hits[i]).0.x.total_cmp(&grown(&hits[j]).0.x));
-    let mut active: Vec<usize> = Vec::new();
-    for &i in &order {
-        let (lo, hi) = grown(&hits[i]);
-        active.retain(|&j| grown(&hits[j]).1.x >= lo.x);
-        for &j in &active {
-            let (lo_j, hi_j) = grown(&hits[j]);
-            if lo.cmple(hi_j).all() && lo_j.cmple(hi).all() {
-                let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
-                parent[ri] = rj;
-            }
+        if zones.len() > 8 * MAX_ZONES_PER_PAIR {
+            zones = fewer(zones);
         }
-        active.push(i);
     }
-    let mut merged: Vec<Option<TieZone>> = vec![None; n];
-    for i in 0..n {
-        let r = root(&mut parent, i);
-        merged[r] = Some(match merged[r] {
-            Some(z) => z.union(&hits[i]),
-            None => hits[i],
-        });
+    fewer(zones)
+}
+
+/// At most [`MAX_ZONES_PER_PAIR`] zones covering `zones`: runs of neighbours
+/// along their longest axis merged.
+fn fewer(mut zones: Vec<TieZone>) -> Vec<TieZone> {
+    if zones.len() <= MAX_ZONES_PER_PAIR {
+        return zones;
     }
-    let mut zones: Vec<TieZone> = merged.into_iter().flatten().collect();
-    if zones.len() > MAX_ZONES_PER_PAIR {
-        let all = zones[1..].iter().fold(zones[0], |a, z| a.union(z));
-        let e = (all.hi - all.lo).abs();
-        let axis = if e.x >= e.y && e.x >= e.z {
-            0
-        } else if e.y >= e.z {
-            1
-        } else {
-            2
-        };
-        zones.sort_by(|x, y| (x.lo + x.hi)[axis].total_cmp(&(y.lo + y.hi)[axis]));
-        let per = zones.len().div_ceil(MAX_ZONES_PER_PAIR);
-        zones = zones
-            .chunks(per)
-            .map(|c| c[1..].iter().fold(c[0], |a, z| a.union(z)))
-            .collect();
-    }
+    let all = zones[1..].iter().fold(zones[0], |a, z| a.union(z));
+    let e = (all.hi - all.lo).abs();
+    let axis = if e.x >= e.y && e.x >= e.z {
+        0
+    } else if e.y >= e.z {
+        1
+    } else {
+        2
+    };
+    zones.sort_by(|x, y| (x.lo + x.hi)[axis].total_cmp(&(y.lo + y.hi)[axis]));
+    let per = zones.len().div_ceil(MAX_ZONES_PER_PAIR);
     zones
+        .chunks(per)
+        .map(|c| c[1..].iter().fold(c[0], |a, z| a.union(z)))
+        .collect()
 }
 
 /// The gap of triangles `a` and `b` if they could tie within `cap`.
