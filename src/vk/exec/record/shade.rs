@@ -48,7 +48,14 @@ impl Recorder<'_> {
                 });
                 // The tie test also reads the texels next to a fragment's pixel.
                 let grown = read.map(|r| r.grown(READ_MARGIN, READ_MARGIN, w, h));
-                tie_zones::merge(grown.map(|r| r.intersect(&reach)).collect(), MAX_RULE_RECTS)
+                let grown: Vec<Rect> = grown.map(|r| r.intersect(&reach)).collect();
+                // Without zones, one copy of the meshes' bounds (what the
+                // embedding's host pass copies too).
+                let max = match meshes.iter().any(|(_, z)| z.is_some()) {
+                    true => MAX_RULE_RECTS,
+                    false => 1,
+                };
+                tie_zones::merge(grown, max)
             }
         };
         let rects: Vec<Rect> = rects.into_iter().filter(|r| !r.is_empty()).collect();
