@@ -20,7 +20,7 @@ use peeltrim::embed::{CsgExpr, CsgScene, EmbedDesc, LoopCounts, MeshInput};
 use peeltrim::scene::shapes::{make_box, make_sphere};
 use peeltrim::scene::{Camera, Mesh, Projection};
 use peeltrim::vk::embed::HostPath;
-use peeltrim::vk::{Context, HostTargets};
+use peeltrim::vk::{Context, DepthFormat, HostTargets};
 use peeltrim::Algo;
 
 const FLOOR_VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/host_floor.vert.spv"));
@@ -49,6 +49,10 @@ pub struct Report {
     pub last_counts: Vec<u32>,
     /// How each frame's final shading reached the host's targets.
     pub host_paths: Vec<Option<HostPath>>,
+    /// The last frame's direct shade draws at the output depth (no face can
+    /// tie) and with the tie rule.
+    pub shade_fixed_draws: u64,
+    pub shade_rule_draws: u64,
     pub validation: Vec<String>,
 }
 
@@ -492,6 +496,8 @@ pub struct Setup {
     pub frames: u32,
     pub loop_counts: LoopCounts,
     pub algo: Algo,
+    /// peeltrim's own depth-stencil images (D24S8 keeps the tie rule).
+    pub internal_depth: DepthFormat,
 }
 
 impl Setup {
@@ -506,6 +512,7 @@ impl Setup {
             frames: 1,
             loop_counts: LoopCounts::Estimate,
             algo: Algo::Goldfeather,
+            internal_depth: DepthFormat::D32S8,
         }
     }
 }
@@ -561,7 +568,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         frames_in_flight: inflight,
         loop_counts: setup.loop_counts,
         algo: setup.algo,
-        ..EmbedDesc::default()
+        internal_depth: setup.internal_depth,
     };
     let mut csg = host_csg(&ctx, &desc)?;
 
@@ -668,6 +675,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     );
     let mut counts = Vec::new();
     let mut paths = Vec::new();
+    let mut shade_draws = (0, 0);
     for k in 0..setup.frames.max(1) {
         let slot = (k % inflight) as usize;
         let (cmd, fence) = (cmds[slot], fences[slot]);
@@ -743,6 +751,10 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         let stats = unsafe { csg.recorder().record(cmd, &targets) }.map_err(|e| e.to_string())?;
         counts.push(stats.counts.loop_iterations.clone());
         paths.push(stats.host_path);
+        shade_draws = (
+            stats.counts.shade_fixed_draws,
+            stats.counts.shade_rule_draws,
+        );
         // SAFETY: as above.
         unsafe {
             if last {
@@ -778,6 +790,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     report.first_counts = counts.first().cloned().unwrap_or_default();
     report.last_counts = counts.last().cloned().unwrap_or_default();
     report.host_paths = paths;
+    (report.shade_fixed_draws, report.shade_rule_draws) = shade_draws;
     drop(csg);
     drop(ctx);
     // SAFETY: every frame completed; nothing uses these objects any more.

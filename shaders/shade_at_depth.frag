@@ -2,6 +2,10 @@
 // Shades only where the fragment depth equals the texture's depth bit-exactly: the
 // points a CST peel recorded and kept (seed 000 §4, Render(S)). Exact because the
 // vertex shader's gl_Position is invariant, so the same mesh reproduces its depths.
+// With HOST: the embedding's depth-equal final pass (vk::exec::record::host), drawn
+// into a host's attachments with the output depth-stencil's depth bound as the
+// texture: colour only, the raster depth written by the host's depth test; with
+// HOST_SRGB too, for an _SRGB host colour format.
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -19,7 +23,12 @@ layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) in vec3 v_world;
 layout(location = 1) flat in vec3 v_normal;
 layout(location = 0) out vec4 o_color;
+#ifndef HOST
 layout(location = 1) out uint o_prim;
+#endif
+#ifdef HOST_SRGB
+#include "srgb.glsl"
+#endif
 #ifdef NORMALS
 #define NORMAL_LOCATION 2
 #include "seen_normal.glsl"
@@ -36,8 +45,18 @@ void main() {
     if (gl_FragCoord.z != kept) {
         discard;
     }
+#ifdef HOST
+    vec3 c = pc.color.rgb * shade_factor();
+#ifdef HOST_SRGB
+    // An _SRGB host format would encode these (already sRGB-encoded) values
+    // a second time (a variant, not a flag: see shade_near_depth.frag).
+    c = srgb_to_linear(c);
+#endif
+    o_color = vec4(c, 1.0);
+#else
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
+#endif
 #ifdef NORMALS
     o_normal = vec4(seen_normal(), 0.0);
 #endif

@@ -8,6 +8,7 @@
 
 use ash::vk::Format;
 use peeltrim::vk::embed::HostPath;
+use peeltrim::vk::DepthFormat;
 use peeltrim::{Algo, LoopCounts};
 
 #[allow(dead_code)]
@@ -52,9 +53,12 @@ fn host_floor_and_csg_occlude_each_other_like_the_reference_composite() {
 }
 
 /// A default host gets the direct path: every frame's final shade drawn
-/// straight into its targets, no composite. A plan without the depth-equal
-/// shade (`blister-paper` colours from its peel) falls back to the composite,
-/// and its image is as right.
+/// straight into its targets, no composite; its meshes, which no face can tie
+/// with, at the output depth (no tie test, no texture copy), and with the
+/// tie rule where peeltrim's depth is D24S8 (whose shade keeps the rule). A
+/// plan without the depth-equal shade (`blister-paper` colours from its peel)
+/// falls back to the composite, which reads the peel's depth texture. Each
+/// image as right as the reference composite.
 #[test]
 fn default_hosts_get_the_direct_path_and_blister_paper_the_composite() {
     let _only = host_alone();
@@ -65,13 +69,24 @@ fn default_hosts_get_the_direct_path_and_blister_paper_the_composite() {
     let r = example::run(&direct).expect("runs");
     check("direct", &r);
     assert_eq!(r.host_paths, vec![Some(HostPath::Direct); 2], "{r:?}");
-    let paper = example::Setup {
-        algo: Algo::BlisterPaper,
+    assert!(r.shade_fixed_draws > 0 && r.shade_rule_draws == 0, "{r:?}");
+    let rule = example::Setup {
+        internal_depth: DepthFormat::D24S8,
         ..example::Setup::new([160, 120], false)
     };
-    let r = example::run(&paper).expect("runs");
-    check("blister-paper", &r);
-    assert_eq!(r.host_paths, vec![Some(HostPath::CompositePlan)], "{r:?}");
+    let r = example::run(&rule).expect("runs");
+    check("tie rule", &r);
+    assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{r:?}");
+    assert!(r.shade_rule_draws > 0 && r.shade_fixed_draws == 0, "{r:?}");
+    for reversed_z in [false, true] {
+        let paper = example::Setup {
+            algo: Algo::BlisterPaper,
+            ..example::Setup::new([160, 120], reversed_z)
+        };
+        let r = example::run(&paper).expect("runs");
+        check("blister-paper", &r);
+        assert_eq!(r.host_paths, vec![Some(HostPath::CompositePlan)], "{r:?}");
+    }
 }
 
 #[test]

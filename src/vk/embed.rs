@@ -29,7 +29,8 @@ use serde::Serialize;
 use super::composite::{check_host_formats, is_srgb, Composite};
 use super::error::{Check, VkError};
 use super::exec::{
-    copy_counts, final_shade, host_barriers, ExecDesc, ExecStats, Executor, HostShade, Unrolled,
+    copy_counts, final_shade, host_barriers, peel_depth, ExecDesc, ExecStats, Executor, HostShade,
+    Unrolled,
 };
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
@@ -354,7 +355,7 @@ impl Embedder {
                         .record(cmd, &self.exec, &sh.map, &sh.params, rect, None)?;
                 }
                 let mut stats = unrolled.stats.clone();
-                self.composite(cmd, targets, depth_compare, counted, &mut stats)?;
+                self.composite(cmd, plan, targets, depth_compare, counted, &mut stats)?;
                 (unrolled, stats)
             }
         };
@@ -434,6 +435,7 @@ impl Embedder {
     fn composite(
         &mut self,
         cmd: vk::CommandBuffer,
+        plan: &Plan,
         t: &HostTargets,
         depth_compare: vk::CompareOp,
         counted: bool,
@@ -448,9 +450,11 @@ impl Embedder {
             }
             self.composite = Some(Composite::new(&self.shared, formats)?);
         }
+        // A depth texture where the plan has one (lavapipe fetches it faster).
+        let depth_tex = peel_depth(plan);
         let out = self
             .exec
-            .output()
+            .output(depth_tex)
             .expect("record_unrolled leaves an output");
         let views = [out.color.1, out.prim.1, out.depth.1];
         let c = self.composite.as_mut().expect("made above");
@@ -464,7 +468,10 @@ impl Embedder {
             (out.prim.0, vk::ImageAspectFlags::COLOR),
             (
                 out.depth.0,
-                vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                match depth_tex {
+                    Some(_) => vk::ImageAspectFlags::COLOR,
+                    None => vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                },
             ),
         ];
         let transition = |from: Usage, to: Usage| {

@@ -38,6 +38,12 @@ pub enum FragmentKind {
     ShadeNearDepthHostSrgb,
     NearerThan,
     ShadeAtDepth,
+    /// `ShadeAtDepth` drawn into an embedding host's colour and depth
+    /// attachments, the texture being the output depth-stencil's depth
+    /// (`vk::exec::record::host`): colour only, the raster depth written.
+    ShadeAtDepthHost,
+    /// `ShadeAtDepthHost` for an `_SRGB` host colour format.
+    ShadeAtDepthHostSrgb,
     /// `ShadeAtDepth` without colour: depth only.
     DepthAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
@@ -90,7 +96,9 @@ impl FragmentKind {
             | FragmentKind::ShadeNearDepth
             | FragmentKind::ShadeNearDepthHost
             | FragmentKind::ShadeNearDepthHostSrgb
-            | FragmentKind::ShadeAtDepth => (true, true, false),
+            | FragmentKind::ShadeAtDepth
+            | FragmentKind::ShadeAtDepthHost
+            | FragmentKind::ShadeAtDepthHostSrgb => (true, true, false),
             FragmentKind::Background | FragmentKind::PeelTolerant | FragmentKind::NearerThan => {
                 (true, false, false)
             }
@@ -138,6 +146,8 @@ impl FragmentKind {
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
+            FragmentKind::ShadeAtDepthHost => spv!("shade_at_depth.frag.host"),
+            FragmentKind::ShadeAtDepthHostSrgb => spv!("shade_at_depth.frag.host_srgb"),
             FragmentKind::DepthAtDepth => spv!("depth_at_depth.frag"),
             FragmentKind::Edges => spv!("edges.frag"),
             FragmentKind::Accumulate => spv!("accumulate.frag"),
@@ -521,9 +531,10 @@ impl Pipelines {
         let ds_format = desc.depth_stencil_format.unwrap_or(vk::Format::UNDEFINED);
         // A host's depth attachment is bound without its stencil (untouched).
         let stencil_format = match desc.fragment {
-            FragmentKind::ShadeNearDepthHost | FragmentKind::ShadeNearDepthHostSrgb => {
-                vk::Format::UNDEFINED
-            }
+            FragmentKind::ShadeNearDepthHost
+            | FragmentKind::ShadeNearDepthHostSrgb
+            | FragmentKind::ShadeAtDepthHost
+            | FragmentKind::ShadeAtDepthHostSrgb => vk::Format::UNDEFINED,
             _ => ds_format,
         };
         graphics_pipeline(
@@ -669,7 +680,7 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 17] = [
+    const SOURCES: [(FragmentKind, &str); 18] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
         (FragmentKind::Paint, "paint.frag"),
@@ -683,6 +694,7 @@ mod tests {
         (FragmentKind::ShadeNearDepthHost, "shade_near_depth.frag"),
         (FragmentKind::NearerThan, "nearer_than.frag"),
         (FragmentKind::ShadeAtDepth, "shade_at_depth.frag"),
+        (FragmentKind::ShadeAtDepthHost, "shade_at_depth.frag"),
         (FragmentKind::DepthAtDepth, "depth_at_depth.frag"),
         (FragmentKind::CopyDepth, "copy_depth.frag"),
         (FragmentKind::Edges, "edges.frag"),

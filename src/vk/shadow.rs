@@ -391,8 +391,8 @@ impl ShadowPass {
         }
         let no_frame = || VkError::Plan("shadow pass before both frames ran".into());
         let (e, m) = (
-            eye.output().ok_or_else(no_frame)?,
-            map.output().ok_or_else(no_frame)?,
+            eye.output(None).ok_or_else(no_frame)?,
+            map.output(None).ok_or_else(no_frame)?,
         );
         let normal = eye.normal_output().ok_or_else(|| {
             VkError::Plan("shadow pass needs the eye frame's normal buffer".into())

@@ -9,7 +9,7 @@ use super::gpu_scene::GpuScene;
 use super::record::{Group, HostShade};
 use super::{layers_fit, ExecStats, Executor};
 use crate::plan::usage::Resource;
-use crate::plan::{Plan, Step};
+use crate::plan::{Plan, Step, Tex};
 use crate::scene::Mesh;
 use crate::vk::error::VkError;
 use crate::vk::scissor::{bounds_rect, Rect};
@@ -90,8 +90,10 @@ impl Executor {
         layers_fit(plan, &u.layers, &u.groups, samples)
     }
 
-    /// The images the last frame left its colour, ids and depth in.
-    pub(crate) fn output(&self) -> Option<Output> {
+    /// The images the last frame left its colour, ids and depth in: the
+    /// output depth-stencil's depth, or `depth` (a texture holding it wherever
+    /// the ids are not 0).
+    pub(crate) fn output(&self, depth: Option<Tex>) -> Option<Output> {
         let out = self.last_output?;
         let t = self.targets.as_ref()?;
         let pair = |r: Resource| {
@@ -106,7 +108,7 @@ impl Executor {
         Some(Output {
             color: pair(Resource::Color),
             prim: pair(Resource::Prim),
-            depth: pair(Resource::DepthStencil(out)),
+            depth: pair(depth.map_or(Resource::DepthStencil(out), Resource::Texture)),
         })
     }
 

@@ -69,7 +69,7 @@ use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 use camera::CameraBuffer;
 use gpu_scene::{CameraState, GpuScene};
 pub use record::ClearMode;
-pub(crate) use record::{copy_counts, final_shade, host_barriers, HostShade};
+pub(crate) use record::{copy_counts, final_shade, host_barriers, peel_depth, HostShade};
 use record::{Bindings, Group, Recorder};
 use targets::Targets;
 
@@ -910,7 +910,9 @@ impl Executor {
         let body = steps.len() - host.map_or(0, |h| h.1);
         // The host's shade reads the body's last depth copy: its draws count.
         let kept = rec.plan_clears(&steps, plan.output_ds, now, scissored_clears);
-        rec.plan_shades(&steps[..body]);
+        // The host's shade draws decide what the last copy covers, as the
+        // standalone shade's do.
+        rec.plan_shades(&steps);
         let shade = &steps[body..];
         rec.begin(cmd, occ_cap, ts_cap);
         for (s, g) in flat.iter().take(body) {

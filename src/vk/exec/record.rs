@@ -45,7 +45,7 @@ use crate::vk::pipeline::{
 use crate::vk::scissor::{Rect, RectUnions};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
-pub(crate) use host::{copy_counts, final_shade, host_barriers, HostShade};
+pub(crate) use host::{copy_counts, final_shade, host_barriers, peel_depth, HostShade};
 use push::PushTracker;
 
 /// Attachments of a rendering block: plain data (no allocation per draw).

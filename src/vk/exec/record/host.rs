@@ -13,6 +13,13 @@
 //! meshes are drawn in ascending index order under the host's strict test
 //! (`LESS`, reversed `GREATER`): the first writer — the lowest index — stays,
 //! and the host's own geometry keeps exact ties, as with the composite.
+//!
+//! A mesh the standalone frame shades with a plain depth-`EQUAL` test
+//! (`plan::tie_free`: no face can tie with it) is drawn with
+//! `shaders/shade_at_depth.frag` (`HOST`) instead: kept where its raster depth
+//! equals the output depth-stencil's, fetched in the shader, and written by the
+//! host's test, with no copy and no tie test — on lavapipe the tie test and
+//! `gl_FragDepth` cost the embedded frame twice the standalone one's shade.
 
 use ash::vk;
 
@@ -68,9 +75,110 @@ pub(crate) fn final_shade(plan: &Plan) -> Option<usize> {
     None
 }
 
+/// Whether `plan` takes its colour from its peel (`blister-paper`): every draw
+/// that writes colour is a `Peel { shade: true }` draw of meshes into the output
+/// depth-stencil, writing its depth, or a `Background` reset that pushes that
+/// depth to far; nothing else writes it.
+fn colours_from_peel(plan: &Plan) -> bool {
+    let ds = plan.output_ds;
+    let mut peels = false;
+    for s in flat_steps(plan) {
+        let Step::Draw(d) = s else { continue };
+        let writes_ds = d.ds == ds && d.depth.write;
+        match (&d.fragment, &d.geometry) {
+            (Fragment::Peel { shade: true, .. }, Geometry::Mesh(_) | Geometry::Meshes(_))
+                if writes_ds =>
+            {
+                peels = true
+            }
+            (Fragment::Background, Geometry::FullScreen { depth })
+                if writes_ds && *depth == 1.0 => {}
+            (
+                Fragment::Shade
+                | Fragment::Paint { .. }
+                | Fragment::Background
+                | Fragment::Peel { shade: true, .. }
+                | Fragment::ShadeNearDepth { .. }
+                | Fragment::ShadeAtDepth { .. },
+                _,
+            ) => return false,
+            _ if writes_ds => return false,
+            _ => {}
+        }
+    }
+    peels
+}
+
+/// Every step of `plan`, a loop's as its head then its tail.
+fn flat_steps(plan: &Plan) -> Vec<&Step> {
+    plan.steps
+        .iter()
+        .flat_map(|s| match s {
+            Step::Loop(l) => l.head.iter().chain(&l.tail).collect(),
+            s => vec![s],
+        })
+        .collect()
+}
+
+/// The texture that holds, wherever a plan coloured by its peel keeps a colour
+/// ([`colours_from_peel`]: the ids are not 0 there), the depth of the face that
+/// wrote it, as a 32-bit float: the peels' `out` (the peel writes
+/// `gl_FragCoord.z` there with the colour, and a locked pixel is never peeled
+/// again), when every peel writes it and nothing else does but a clear before
+/// the loops. The composite reads it instead of the depth-stencil: lavapipe
+/// fetches a D32S8 texel several times slower than an R32F one.
+pub(crate) fn peel_depth(plan: &Plan) -> Option<Tex> {
+    if !colours_from_peel(plan) {
+        return None;
+    }
+    let mut out: Option<Tex> = None;
+    let peels = plan.steps.iter().flat_map(|s| match s {
+        Step::Loop(l) => l.head.iter().chain(&l.tail).collect::<Vec<_>>(),
+        _ => vec![],
+    });
+    for s in peels.clone() {
+        if let Step::Draw(Draw {
+            fragment:
+                Fragment::Peel {
+                    out: o,
+                    shade: true,
+                    ..
+                },
+            ..
+        }) = s
+        {
+            if out.is_some_and(|t| t != *o) {
+                return None;
+            }
+            out = Some(*o);
+        }
+    }
+    let out = out?;
+    let writes_out = |s: &Step| {
+        s.usage()
+            .iter()
+            .any(|(r, u)| *r == Resource::Texture(out) && u.writes())
+    };
+    let peel = |s: &Step| {
+        matches!(
+            s,
+            Step::Draw(Draw {
+                fragment: Fragment::Peel { shade: true, .. },
+                ..
+            })
+        )
+    };
+    let outside_ok = plan
+        .steps
+        .iter()
+        .all(|s| matches!(s, Step::Loop(_) | Step::Clear(_)) || !writes_out(s));
+    let inside_ok = peels.into_iter().all(|s| peel(s) || !writes_out(s));
+    (outside_ok && inside_ok).then_some(out)
+}
+
 /// Copies the first `n` occlusion queries of `pool`, each with its availability
-/// (two `u64`), into `buffer` (room for `n` pairs). Outside rendering; the
-/// queries were reset and ended in this command buffer.
+/// (two `u64`), into `buffer` (room for `n` pairs), once the device has them.
+/// Outside rendering; the queries were reset and ended in this command buffer.
 pub(crate) fn copy_counts(
     device: &ash::Device,
     cmd: vk::CommandBuffer,
@@ -89,7 +197,13 @@ pub(crate) fn copy_counts(
             buffer,
             0,
             16,
-            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WITH_AVAILABILITY,
+            // WAIT: on the device (no CPU wait), for the last draws may still
+            // be rasterizing (lavapipe), and an unavailable count would leave
+            // the frame unchecked: every query copied was ended in this
+            // recording, so each becomes available.
+            vk::QueryResultFlags::TYPE_64
+                | vk::QueryResultFlags::WITH_AVAILABILITY
+                | vk::QueryResultFlags::WAIT,
         )
     };
 }
@@ -134,9 +248,18 @@ pub(crate) fn host_barriers(
 impl Recorder<'_> {
     /// Records `shade` (the plan's last steps, [`final_shade`]'s draws, in plan
     /// order) into the host's attachments, after the rest of the frame: the
-    /// occlusion counts copied to `h.counts`, one barrier (the shade's texture to
-    /// sampled, the host's attachment writes, the counts for the host), one
-    /// rendering block, then every image back to `REST`.
+    /// occlusion counts copied to `h.counts`, one barrier (what the draws
+    /// sample to sampled, the host's attachment writes, the counts for the
+    /// host), one rendering block, then every image back to `REST`.
+    ///
+    /// A shade draw the standalone frame runs as a plain depth-`EQUAL` draw
+    /// (`TieFree::fixed_function`: no face can tie with it) is drawn with
+    /// `ShadeAtDepthHost` reading the output depth itself: its raster depth
+    /// equal to the visible one there, bit-exactly, as the standalone test
+    /// asks, and written by the host's depth test; no texture copy, no tie
+    /// test. The draws that keep the tie rule use `ShadeNearDepthHost` on the
+    /// copy, and go first: where both pass (faces crossing within the tie band)
+    /// the rule mesh wins, as in the standalone frame.
     pub fn host_shade(&mut self, h: &HostShade, shade: &[&Step]) -> Result<(), VkError> {
         self.end_block();
         let device = self.b.device;
@@ -145,42 +268,63 @@ impl Recorder<'_> {
         if let (true, Some(buffer)) = (counted, h.counts) {
             copy_counts(device, self.cmd, self.b.occlusion, n, buffer);
         }
-        let draws: Vec<&Draw> = shade
+        // (draw, rule): in drawing order, ascending index within each kind.
+        let (mut draws, mut equal) = (Vec::new(), Vec::new());
+        for s in shade.iter().rev() {
+            let Step::Draw(d) = s else {
+                panic!("final_shade selects draws only")
+            };
+            match self.b.ties.fixed_function(d) {
+                Some(_) => equal.push((d.clone(), false)),
+                None => draws.push((d.clone(), true)),
+            }
+        }
+        draws.extend(equal);
+        let rule_tex = draws
             .iter()
-            .map(|s| match s {
-                Step::Draw(d) => d,
-                _ => panic!("final_shade selects draws only"),
-            })
-            .collect();
-        let tex = match draws.first().map(|d| &d.fragment) {
-            Some(&Fragment::ShadeNearDepth { tex, .. }) => tex,
-            _ => panic!("final_shade selects at least one ShadeNearDepth draw"),
-        };
-        let uses = [(Resource::Texture(tex), Usage::Sampled)];
+            .find(|(_, rule)| *rule)
+            .map(|(d, _)| match d.fragment {
+                Fragment::ShadeNearDepth { tex, .. } => tex,
+                _ => panic!("final_shade selects ShadeNearDepth draws"),
+            });
+        let equal_ds = draws.iter().find(|(_, rule)| !*rule).map(|(d, _)| d.ds);
+        let mut uses = Vec::new();
+        uses.extend(rule_tex.map(|t| (Resource::Texture(t), Usage::Sampled)));
+        uses.extend(equal_ds.map(|ds| (Resource::DepthStencil(ds), Usage::Sampled)));
         self.settle_clears(&uses);
         let ((src, dst), images) = self.image_transitions(&uses, false, &[]);
         let ((hsrc, hdst), memory) = host_barriers(counted);
         submit::pipeline_barrier(device, self.cmd, (src | hsrc, dst | hdst), &memory, &images);
         self.stats.counts.barriers += 1;
 
-        let pipeline = self.b.pipelines.get(&PipelineDesc {
-            // The sRGB decode is a variant of its own (`build.rs`).
-            fragment: if h.srgb {
-                FragmentKind::ShadeNearDepthHostSrgb
-            } else {
-                FragmentKind::ShadeNearDepthHost
-            },
+        let pipeline = |fragment| PipelineDesc {
+            fragment,
             color_formats: vec![h.color.1],
             depth_stencil_format: Some(h.depth.1),
             normals: false,
-        })?;
+        };
+        // The sRGB decode is a variant of its own (`build.rs`).
+        let (rule_kind, equal_kind) = match h.srgb {
+            true => (
+                FragmentKind::ShadeNearDepthHostSrgb,
+                FragmentKind::ShadeAtDepthHostSrgb,
+            ),
+            false => (
+                FragmentKind::ShadeNearDepthHost,
+                FragmentKind::ShadeAtDepthHost,
+            ),
+        };
         self.begin_host_block(h);
-        let set = self.b.targets.sampling_set(Resource::Texture(tex));
-        self.bind(pipeline, Some(set));
         let flags = self.flags();
-        // Ascending index: the first writer of a pixel stays (module doc).
-        for draw in draws.iter().rev() {
-            self.host_draw(draw, flags);
+        for (draw, rule) in &draws {
+            let (kind, set) = match rule {
+                true => (rule_kind, rule_tex.map(Resource::Texture)),
+                false => (equal_kind, equal_ds.map(Resource::DepthStencil)),
+            };
+            let set = set.map(|r| self.b.targets.sampling_set(r));
+            let pipeline = self.b.pipelines.get(&pipeline(kind))?;
+            self.bind(pipeline, set);
+            self.host_draw(draw, *rule, flags);
         }
         // SAFETY: closes the block `begin_host_block` opened.
         unsafe { device.cmd_end_rendering(self.cmd) };
@@ -214,12 +358,13 @@ impl Recorder<'_> {
         self.stats.counts.render_passes += 1;
     }
 
-    /// One shade draw of one mesh under the host's strict depth test.
-    fn host_draw(&mut self, draw: &Draw, flags: u32) {
-        let (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) =
-            (&draw.geometry, &draw.fragment)
-        else {
-            panic!("final_shade selects ShadeNearDepth draws of one mesh");
+    /// One shade draw of one mesh under the host's strict depth test: with the
+    /// tie rule (`rule`, `ShadeNearDepthHost`: the visible depth written) or at
+    /// the output depth (`ShadeAtDepthHost`: the raster depth written).
+    fn host_draw(&mut self, draw: &Draw, rule: bool, flags: u32) {
+        let (m, eps) = match (&draw.geometry, &draw.fragment) {
+            (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) => (*m, *eps),
+            _ => panic!("final_shade selects ShadeNearDepth draws of one mesh"),
         };
         let scissor = self.scissor(&draw.scissor);
         if scissor.is_empty() {
@@ -238,16 +383,16 @@ impl Recorder<'_> {
         };
         self.set_state(Some(&host), scissor);
         let scene = self.b.scene;
-        let c = scene.colors[*m as usize].map(|v| v as f32 / 255.0);
+        let c = scene.colors[m as usize].map(|v| v as f32 / 255.0);
         self.push(&PushConstants {
             // The tolerance travels in the colour's alpha, as in the plan's draw.
-            color: [c[0], c[1], c[2], *eps],
+            color: [c[0], c[1], c[2], eps],
             prim: m + 1,
             flags,
             snap: self.b.snap,
             ..Default::default()
         });
-        let (first, count) = scene.ranges[*m as usize];
+        let (first, count) = scene.ranges[m as usize];
         if count > 0 {
             // SAFETY: inside the host block with the pipeline bound; the range
             // lies in the vertex buffer.
@@ -259,6 +404,10 @@ impl Recorder<'_> {
         c.mesh_draws += 1;
         c.mesh_pixels += scissor.area();
         c.triangles += count as u64 / 3;
+        *match rule {
+            true => &mut c.shade_rule_draws,
+            false => &mut c.shade_fixed_draws,
+        } += 1;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
         }
@@ -336,6 +485,11 @@ mod tests {
                 spv!("shade_near_depth.frag.host_srgb"),
             ),
             (
+                "shade_at_depth",
+                spv!("shade_at_depth.frag.host"),
+                spv!("shade_at_depth.frag.host_srgb"),
+            ),
+            (
                 "composite",
                 spv!("composite.frag"),
                 spv!("composite.frag.host_srgb"),
@@ -344,6 +498,32 @@ mod tests {
             assert!(!calls_pow(plain), "{name}'s plain variant decodes sRGB");
             assert!(calls_pow(srgb), "{name}'s _SRGB variant does not decode");
         }
+    }
+
+    /// `blister-paper` keeps its peel's depth in the peel's `out` texture;
+    /// every other GPU algorithm colours in its final shade, and a plan where
+    /// anything else writes that texture has none.
+    #[test]
+    fn only_a_plan_coloured_by_its_peel_has_a_peel_depth() {
+        use crate::plan::{Algo, Prepared};
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let opts = crate::scene::LoadOptions::default();
+        let scene = crate::scene::load(&dir.join("interference.toml"), &opts).unwrap();
+        let prep = Prepared::new(&scene).unwrap();
+        for algo in Algo::ALL.into_iter().filter(|a| *a != Algo::Reference) {
+            let p = crate::plan::build(algo, &prep).unwrap();
+            let depth = peel_depth(&p);
+            match algo {
+                Algo::BlisterPaper => assert_eq!(depth, Some(1), "{p:?}"),
+                _ => assert_eq!(depth, None, "{algo:?}"),
+            }
+        }
+        let mut p = crate::plan::build(Algo::BlisterPaper, &prep).unwrap();
+        let Some(Step::Loop(l)) = p.steps.iter_mut().find(|s| matches!(s, Step::Loop(_))) else {
+            panic!("blister-paper peels in a loop");
+        };
+        l.tail.push(Step::CopyDepthToTexture { ds: 0, dst: 1 });
+        assert_eq!(peel_depth(&p), None);
     }
 
     #[test]
