@@ -13,6 +13,11 @@
 //! with the tie rule (A), or the tie-free meshes' draws as depth-`EQUAL` draws
 //! (B, `Executor::set_fixed_shade`; README "The final shade as depth-equal
 //! draws"); the counts are then the shade's depth-equal and tie-rule draws.
+//! With `TIE_AB=zones`, both frames run the depth-equal shade where no tie is
+//! possible and differ only in where a mesh that can tie runs the rule: over
+//! its whole rectangle (A) or only inside its tie zones (B,
+//! `Executor::set_tie_zones`; README "Tie zones"); the counts are then B's
+//! tie-rule pixels of the shade, and A's.
 
 #[path = "ab_common/mod.rs"]
 mod ab_common;
@@ -21,7 +26,8 @@ use ab_common::{for_each_run, median};
 use peeltrim::vk::Executor;
 
 fn main() {
-    let shade_only = std::env::var("TIE_AB").is_ok_and(|v| v == "shade");
+    let mode = std::env::var("TIE_AB").unwrap_or_default();
+    let (shade_only, zones) = (mode == "shade", mode == "zones");
     println!("scene            algo          tie-rule CPU ms  tie-free CPU ms  ratio  | tie-free draws, tie-rule draws left");
     let mut analysed = String::new();
     for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
@@ -46,7 +52,9 @@ fn main() {
             .iter()
             .map(|&on| {
                 let mut e = Executor::new(ctx, desc).expect("executor");
-                if shade_only {
+                if zones {
+                    e.set_tie_zones(on);
+                } else if shade_only {
                     e.set_fixed_shade(on);
                 } else {
                     e.set_tie_free(on);
@@ -65,10 +73,16 @@ fn main() {
             }
         }
         let c = exs[1].execute(&plan).expect("frame").counts;
+        let a_rule_pixels = exs[0]
+            .execute(&plan)
+            .expect("frame")
+            .counts
+            .shade_rule_pixels;
         let (a, b) = (median(cpu[0].clone()), median(cpu[1].clone()));
-        let (free, rule) = match shade_only {
-            true => (c.shade_fixed_draws, c.shade_rule_draws),
-            false => (c.tie_free_draws, c.tie_rule_draws),
+        let (free, rule) = match (zones, shade_only) {
+            (true, _) => (c.shade_rule_pixels, a_rule_pixels),
+            (false, true) => (c.shade_fixed_draws, c.shade_rule_draws),
+            (false, false) => (c.tie_free_draws, c.tie_rule_draws),
         };
         println!(
             "{:16} {:12} {:15.1} {:16.1} {:6.2}  | {}, {}",

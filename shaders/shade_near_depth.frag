@@ -103,7 +103,10 @@ void main() {
 #endif
     o_color = vec4(c, 1.0);
 #else
-    gl_FragDepth = z;
+    // Bit 1: the raster depth, where the shade's depth-equal draws leave it
+    // (a device that does not snap; vk::pipeline::FLAG_RASTER_DEPTH), so
+    // that the tie rule and those draws agree bit for bit where both can run.
+    gl_FragDepth = (pc.flags & 2u) != 0u ? gl_FragCoord.z : z;
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
     o_prim = pc.prim;
 #endif

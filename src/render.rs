@@ -323,6 +323,12 @@ impl GpuRenderer {
         self.exec.set_fixed_shade(on);
     }
 
+    /// Whether the final shade keeps the tie rule only in on-screen tie zones
+    /// (the default; see `vk::Executor::set_tie_zones`).
+    pub fn set_tie_zones(&mut self, on: bool) {
+        self.exec.set_tie_zones(on);
+    }
+
     pub fn device_name(&self) -> String {
         self.ctx.device_name().to_string()
     }

@@ -27,6 +27,7 @@ mod setup;
 mod shadow;
 mod stability;
 mod tie_free;
+mod tie_zones;
 mod view_convex;
 
 use glam::{DMat4, DVec3};

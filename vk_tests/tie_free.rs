@@ -179,8 +179,10 @@ fn coincident_faces_keep_the_tie_rule_in_the_final_shade() {
             let c = &stats.exec.counts;
             assert!(c.shade_rule_draws > 0, "{name} {algo}: {c:?}");
             if name == "coincident" {
-                // Every primitive shares a face plane with another one.
-                assert_eq!(c.shade_fixed_draws, 0, "{name} {algo}: {c:?}");
+                // Every primitive shares a face plane with another one: each
+                // keeps the rule at least over that face (`plan::tie_zones`;
+                // `vk_tests/tie_zones.rs` compares the pixels).
+                assert!(c.shade_rule_draws >= 6, "{name} {algo}: {c:?}");
             }
         }
     }
@@ -233,9 +235,14 @@ expr = "A + B"
     // A moved camera records with grown scissors, and with exact ones once it
     // stays (`vk_tests/replay.rs`); then it replays.
     gpu.set_camera(&near).unwrap();
-    assert_eq!(counts(&mut gpu), (Recorded::Camera, 0, 2));
-    assert_eq!(counts(&mut gpu), (Recorded::Camera, 0, 2));
-    assert_eq!(counts(&mut gpu), (Recorded::Replayed, 0, 2));
+    // Within the band the boxes tie only where B's bottom face meets A's top
+    // face: one tie-rule draw each there (`plan::tie_zones`), depth-equal
+    // pieces around it.
+    for want in [Recorded::Camera, Recorded::Camera, Recorded::Replayed] {
+        let (kind, fixed, rule) = counts(&mut gpu);
+        assert_eq!((kind, rule), (want, 2));
+        assert!(fixed > 0, "{kind:?}");
+    }
     gpu.set_camera(&scene.camera).unwrap();
     assert_eq!(counts(&mut gpu), (Recorded::Camera, 2, 0));
     let msgs = gpu.validation_messages();

@@ -30,11 +30,22 @@
 //! band reaches. Conservative throughout: a gap is a lower bound of the true
 //! distance between the two triangles; a search past its work budget reports
 //! every mesh as possibly tied.
+//!
+//! It also keeps where each pair of meshes can tie, its [`TieZone`]s: a tie
+//! needs a point `x` of one triangle and a point `y` of the other on one view
+//! ray, at most the band `w` apart, so `x` lies in the first triangle's box and
+//! in the second's grown by `w` (and `y` the other way round): both lie in the
+//! intersection of the two boxes grown by `w`. A zone keeps that intersection
+//! ungrown (inverted along an axis where the boxes are apart), merged over the
+//! triangle pairs of a mesh pair that lie within the cap of each other (a few
+//! per pair), with the smallest of their gaps; a camera grows it by its band
+//! ([`TieZone::within`]) and projects it (`plan::tie_zones`: the tie rule only
+//! there, issue 9 §5).
 #![deny(unsafe_code)]
 
 use glam::DVec3;
 
-use crate::scene::Mesh;
+use crate::scene::{Aabb, Mesh};
 
 /// Faces count as parallel when their normals are within this angle (radians,
 /// either orientation): sixteen times the tie rule's gradient agreement of 1/32
@@ -61,6 +72,54 @@ pub struct TieGaps {
     /// The mesh pairs `(a, b)`, `a <= b`, with a gap of at most `cap`, and that
     /// gap (`a == b`: opposite faces of one mesh), sorted.
     pub pairs: Vec<(u32, u32, f64)>,
+    /// Where those pairs can tie, sorted by `(a, b)`: at most
+    /// [`MAX_ZONES_PER_PAIR`] per pair.
+    pub zones: Vec<TieZone>,
+}
+
+/// The most zones kept per mesh pair: more are merged along their pair's
+/// longest axis (a few screen rectangles per shade draw, `plan::tie_zones`).
+pub const MAX_ZONES_PER_PAIR: usize = 8;
+
+/// Where meshes `a <= b` can tie ([module doc](self)): the intersection of the
+/// boxes of triangle pairs within the cap of each other (`lo > hi` along an axis
+/// where the boxes are apart), and the smallest gap among them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TieZone {
+    pub a: u32,
+    pub b: u32,
+    pub gap: f64,
+    pub lo: DVec3,
+    pub hi: DVec3,
+}
+
+impl TieZone {
+    /// The world box holding every point of either mesh that can tie with the
+    /// other within a band of `band` world units; `None` when none can (the
+    /// gap is wider than the band, or the triangles are more than the band
+    /// apart along an axis).
+    pub fn within(&self, band: f64) -> Option<Aabb> {
+        if !(self.gap <= band) {
+            return None;
+        }
+        let (lo, hi) = (self.lo - DVec3::splat(band), self.hi + DVec3::splat(band));
+        lo.cmple(hi).all().then_some(Aabb { min: lo, max: hi })
+    }
+
+    /// Whether mesh `m` is one of the pair.
+    pub fn has(&self, m: u32) -> bool {
+        self.a == m || self.b == m
+    }
+
+    /// Both zones as one (same pair).
+    fn union(&self, o: &TieZone) -> TieZone {
+        TieZone {
+            gap: self.gap.min(o.gap),
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+            ..*self
+        }
+    }
 }
 
 /// One triangle as the search needs it.
@@ -109,25 +168,33 @@ impl TieGaps {
             min_gap: vec![f64::INFINITY; n],
             cap,
             pairs: Vec::new(),
+            zones: Vec::new(),
         };
         if !(cap > 0.0 && cap.is_finite()) {
             return out;
         }
         match pairs_within(&tris, cap) {
-            Some(mut pairs) => {
-                pairs.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)).then(a.2.total_cmp(&b.2)));
-                pairs.dedup_by(|later, first| (later.0, later.1) == (first.0, first.1));
-                for &(a, b, g) in &pairs {
+            Some(mut hits) => {
+                hits.sort_by(|x, y| (x.a, x.b).cmp(&(y.a, y.b)).then(x.gap.total_cmp(&y.gap)));
+                for run in hits.chunk_by(|x, y| (x.a, x.b) == (y.a, y.b)) {
+                    // Sorted by gap: the first is the pair's smallest.
+                    let (a, b, g) = (run[0].a, run[0].b, run[0].gap);
                     for m in [a, b] {
                         let slot = &mut out.min_gap[m as usize];
                         *slot = slot.min(g);
                     }
+                    out.pairs.push((a, b, g));
+                    out.zones.extend(merge_zones(run, cap));
                 }
-                out.pairs = pairs;
             }
             None => out.min_gap = vec![0.0; n],
         }
         out
+    }
+
+    /// The zones of the pairs mesh `m` is in.
+    pub fn zones_of(&self, m: u32) -> impl Iterator<Item = &TieZone> {
+        self.zones.iter().filter(move |z| z.has(m))
     }
 
     /// No analysis: every mesh possibly tied (e.g. after a mesh moved).
@@ -136,6 +203,7 @@ impl TieGaps {
             min_gap: vec![0.0; meshes],
             cap: 0.0,
             pairs: Vec::new(),
+            zones: Vec::new(),
         }
     }
 
@@ -174,6 +242,53 @@ fn triangles(meshes: &[&Mesh]) -> Vec<Tri> {
     out
 }
 
+/// The zones of one mesh pair's triangle pairs (`hits`): swept along x, each
+/// joins the first zone it comes within `cap` of, or starts one (any grouping
+/// is right: the zones only need to cover the hits), then at most
+/// [`MAX_ZONES_PER_PAIR`] ([`fewer`]). `O(k · MAX_ZONES_PER_PAIR)` for `k` hits.
+fn merge_zones(hits: &[TieZone], cap: f64) -> Vec<TieZone> {
+    let near = |a: &TieZone, b: &TieZone| {
+        let g = DVec3::splat(2.0 * cap);
+        (a.lo - g).cmple(b.hi).all() && (b.lo - g).cmple(a.hi).all()
+    };
+    let mut order: Vec<&TieZone> = hits.iter().collect();
+    order.sort_by(|a, b| a.lo.x.total_cmp(&b.lo.x));
+    let mut zones: Vec<TieZone> = Vec::new();
+    for h in order {
+        match zones.iter_mut().find(|z| near(z, h)) {
+            Some(z) => *z = z.union(h),
+            None => zones.push(*h),
+        }
+        if zones.len() > 8 * MAX_ZONES_PER_PAIR {
+            zones = fewer(zones);
+        }
+    }
+    fewer(zones)
+}
+
+/// At most [`MAX_ZONES_PER_PAIR`] zones covering `zones`: runs of neighbours
+/// along their longest axis merged.
+fn fewer(mut zones: Vec<TieZone>) -> Vec<TieZone> {
+    if zones.len() <= MAX_ZONES_PER_PAIR {
+        return zones;
+    }
+    let all = zones[1..].iter().fold(zones[0], |a, z| a.union(z));
+    let e = (all.hi - all.lo).abs();
+    let axis = if e.x >= e.y && e.x >= e.z {
+        0
+    } else if e.y >= e.z {
+        1
+    } else {
+        2
+    };
+    zones.sort_by(|x, y| (x.lo + x.hi)[axis].total_cmp(&(y.lo + y.hi)[axis]));
+    let per = zones.len().div_ceil(MAX_ZONES_PER_PAIR);
+    zones
+        .chunks(per)
+        .map(|c| c[1..].iter().fold(c[0], |a, z| a.union(z)))
+        .collect()
+}
+
 /// The gap of triangles `a` and `b` if they could tie within `cap`.
 fn tie_gap(a: &Tri, b: &Tri, cap: f64) -> Option<f64> {
     let dot = a.normal.dot(b.normal);
@@ -198,9 +313,9 @@ fn cell(p: DVec3, origin: DVec3, size: f64) -> [i64; 3] {
     [c.x as i64, c.y as i64, c.z as i64]
 }
 
-/// Every mesh pair with a triangle pair of [`tie_gap`] at most `cap`, with that
-/// gap (not deduplicated); `None` past [`MAX_PAIR_TESTS`].
-fn pairs_within(tris: &[Tri], cap: f64) -> Option<Vec<(u32, u32, f64)>> {
+/// Every triangle pair of [`tie_gap`] at most `cap`, as a zone of its meshes
+/// (not merged); `None` past [`MAX_PAIR_TESTS`].
+fn pairs_within(tris: &[Tri], cap: f64) -> Option<Vec<TieZone>> {
     // Boxes grown by half the cap meet when the triangles' boxes are within it.
     let half = DVec3::splat(cap * 0.5);
     let origin = tris
@@ -242,8 +357,14 @@ fn pairs_within(tris: &[Tri], cap: f64) -> Option<Vec<(u32, u32, f64)>> {
                 if cell((a.lo - half).max(b.lo - half), origin, size) != here {
                     continue;
                 }
-                if let Some(g) = tie_gap(a, b, cap) {
-                    pairs.push((a.mesh.min(b.mesh), a.mesh.max(b.mesh), g));
+                if let Some(gap) = tie_gap(a, b, cap) {
+                    pairs.push(TieZone {
+                        a: a.mesh.min(b.mesh),
+                        b: a.mesh.max(b.mesh),
+                        gap,
+                        lo: a.lo.max(b.lo),
+                        hi: a.hi.min(b.hi),
+                    });
                 }
             }
         }
@@ -305,6 +426,89 @@ mod tests {
         let g = gaps(&[a, b]);
         assert_eq!(g.gap(0, 1), Some(0.0));
         assert_eq!(g.min_gap, vec![0.0, 0.0]);
+    }
+
+    #[test]
+    fn the_zone_of_two_flush_boxes_is_the_overlap_of_their_coplanar_faces() {
+        // a's top face (z = 1, x and y in [-0.5, 0.5]) and b's bottom face
+        // (z = 1, x in [-0.2, 0.8], y in [-0.3, 0.7]); their other faces are
+        // parallel only at 0.2 or more, beyond the cap (~0.019).
+        let a = cube(DVec3::new(0.0, 0.0, 0.5), DVec3::splat(0.5));
+        let b = cube(DVec3::new(0.3, 0.2, 1.3), DVec3::new(0.5, 0.5, 0.3));
+        let g = gaps(&[a, b]);
+        assert_eq!(g.zones.len(), 1, "{:?}", g.zones);
+        let z = g.zones[0];
+        assert_eq!((z.a, z.b, z.gap), (0, 1, 0.0));
+        let close = |p: DVec3, q: DVec3| (p - q).abs().max_element() < 1e-12;
+        let overlap = z.within(0.0).expect("they touch");
+        assert!(
+            close(overlap.min, DVec3::new(-0.2, -0.3, 1.0))
+                && close(overlap.max, DVec3::new(0.5, 0.5, 1.0)),
+            "{overlap:?}"
+        );
+        // A camera's band grows it on every side.
+        let grown = z.within(0.01).expect("within the band");
+        assert!(close(grown.min, overlap.min - DVec3::splat(0.01)));
+        assert!(close(grown.max, overlap.max + DVec3::splat(0.01)));
+        assert!(z.has(0) && z.has(1) && !z.has(2));
+        assert_eq!(g.zones_of(1).count(), 1);
+    }
+
+    #[test]
+    fn zones_beyond_the_band_or_apart_are_empty() {
+        // Parallel faces 1e-3 apart: no zone for a band of 1e-4.
+        let z = TieZone {
+            a: 0,
+            b: 1,
+            gap: 1e-3,
+            lo: DVec3::ZERO,
+            hi: DVec3::ONE,
+        };
+        assert_eq!(z.within(1e-4), None);
+        assert!(z.within(1e-3).is_some());
+        // Coplanar triangles whose boxes are 0.01 apart along x: they tie
+        // nowhere within a band of 4e-3, somewhere within 6e-3.
+        let apart = TieZone {
+            gap: 0.0,
+            lo: DVec3::new(0.51, 0.0, 1.0),
+            hi: DVec3::new(0.5, 1.0, 1.0),
+            ..z
+        };
+        assert_eq!(apart.within(4e-3), None);
+        assert!(apart.within(6e-3).is_some());
+    }
+
+    #[test]
+    fn many_zones_of_one_pair_merge_to_a_few() {
+        // A plate under 20 disjoint thin tiles flush with it, in a row.
+        let plate = cube(DVec3::new(0.0, 0.0, -0.5), DVec3::new(20.0, 1.0, 0.5));
+        let mut tiles = Mesh {
+            positions: vec![],
+            triangles: vec![],
+        };
+        for i in 0..20 {
+            let t = cube(
+                DVec3::new(-19.0 + 2.0 * i as f64, 0.0, 0.25),
+                DVec3::new(0.5, 0.5, 0.25),
+            );
+            let base = tiles.positions.len() as u32;
+            tiles.positions.extend(t.positions);
+            tiles
+                .triangles
+                .extend(t.triangles.iter().map(|tr| tr.map(|i| i + base)));
+        }
+        let g = gaps(&[plate, tiles]);
+        let zones: Vec<&TieZone> = g.zones_of(0).collect();
+        assert!((2..=MAX_ZONES_PER_PAIR).contains(&zones.len()), "{zones:?}");
+        // Together they cover every tile's footprint, and little else.
+        for i in 0..20 {
+            let x = -19.0 + 2.0 * i as f64;
+            assert!(
+                zones.iter().any(|z| z.lo.x <= x - 0.5 && x + 0.5 <= z.hi.x),
+                "tile {i}"
+            );
+        }
+        assert!(zones.iter().all(|z| z.hi.y - z.lo.y <= 1.0 + 1e-12));
     }
 
     #[test]

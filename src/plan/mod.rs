@@ -25,6 +25,7 @@ pub mod stencil;
 pub mod step;
 pub mod tie;
 pub mod tie_free;
+pub mod tie_zones;
 pub mod trickle;
 pub mod usage;
 pub mod validate;

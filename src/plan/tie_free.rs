@@ -37,6 +37,11 @@
 //!   copy that opens the shade is scissored to the meshes that keep the rule, or
 //!   dropped when none does ([`TieFree::shade_copies`]).
 //!
+//! A shade draw of a mesh that keeps the rule runs it only inside the screen
+//! rectangles of its tie zones and the depth-equal draw over the rest of its
+//! rectangle ([`ShadeRule`], `plan::tie_zones`); the copy then covers those
+//! rectangles only.
+//!
 //! Which meshes are tie-free comes from [`TieGaps`] (camera-independent: the
 //! smallest distance between a mesh's faces and a parallel, overlapping face)
 //! and [`TieBand`] (the band's width in world units for one camera, image size
@@ -46,8 +51,10 @@
 //! texture holds. [`TieFree`] is those decisions, per tolerance of the plan; the
 //! executor keeps its recording while a moving camera leaves them unchanged.
 
+use super::rect::Rect;
 use super::step::*;
 use super::tie::REVERSED_SCALE;
+pub use super::tie_zones::ShadeRule;
 use crate::geom::ties::TieGaps;
 use crate::scene::{Aabb, Camera, Projection};
 
@@ -173,9 +180,9 @@ pub struct TieFree {
     /// `|eps|` (its bits), then per mesh: no face within that band of a
     /// parallel face. The tolerances of parity and peel draws.
     by_eps: Vec<(u32, Vec<bool>)>,
-    /// The same for the tolerances of the final depth-equal shades
-    /// ([`Fragment::ShadeNearDepth`], [module doc](self)).
-    shade: Vec<(u32, Vec<bool>)>,
+    /// Per tolerance of the final shades ([`Fragment::ShadeNearDepth`],
+    /// [module doc](self)), per mesh: where its shade keeps the rule.
+    shade: Vec<(u32, Vec<ShadeRule>)>,
 }
 
 impl TieFree {
@@ -184,15 +191,62 @@ impl TieFree {
         TieFree::default()
     }
 
-    /// The decisions for the tolerances of `plan`'s tolerant draws.
-    pub fn new(gaps: &TieGaps, band: &TieBand, plan: &Plan) -> TieFree {
+    /// The decisions for the tolerances of `plan`'s tolerant draws; `project`
+    /// gives the screen rectangle of a world box under the camera of `band`
+    /// (the full screen for one crossing the near plane).
+    pub fn new(
+        gaps: &TieGaps,
+        band: &TieBand,
+        plan: &Plan,
+        project: &dyn Fn(&crate::scene::Aabb) -> Rect,
+    ) -> TieFree {
         // The final shade, and since SCS's exits move the depth image with the
         // texture, every plan's parity draws (module doc).
-        let shade = decide(gaps, band, shade_tolerances(&plan.steps));
+        let mut shade_eps = shade_tolerances(&plan.steps);
+        shade_eps.sort_unstable();
+        shade_eps.dedup();
+        let shade = shade_eps
+            .into_iter()
+            .map(|bits| {
+                let b = band.world(f32::from_bits(bits));
+                let rules = (0..gaps.min_gap.len() as u32)
+                    .map(|m| ShadeRule::decide(gaps, m, b, project))
+                    .collect();
+                (bits, rules)
+            })
+            .collect();
         let mut eps: Vec<u32> = Vec::new();
         tolerances(&plan.steps, &mut eps);
         let by_eps = decide(gaps, band, eps);
         TieFree { by_eps, shade }
+    }
+
+    /// Whether a recording made with these decisions is right for `exact`'s
+    /// camera: the same parity and peel decisions, and final shades that draw
+    /// the rule wherever `exact`'s would ([`ShadeRule::serves`]).
+    pub fn serves(&self, exact: &TieFree) -> bool {
+        self.by_eps == exact.by_eps
+            && self.shade.len() == exact.shade.len()
+            && self.shade.iter().zip(&exact.shade).all(|((k, a), (l, b))| {
+                k == l && a.len() == b.len() && a.iter().zip(b).all(|(a, b)| a.serves(b))
+            })
+    }
+
+    /// These decisions with the final shades' rule rectangles grown by `mx`,
+    /// `my` pixels (a moving camera's recording; `Scissors::grown`).
+    pub fn grown(&self, mx: u32, my: u32, width: u32, height: u32) -> TieFree {
+        let shade = self
+            .shade
+            .iter()
+            .map(|(k, rules)| {
+                let rules = rules.iter().map(|r| r.grown(mx, my, width, height));
+                (*k, rules.collect())
+            })
+            .collect();
+        TieFree {
+            by_eps: self.by_eps.clone(),
+            shade,
+        }
     }
 
     /// These decisions with every final shade keeping the tie rule (A/B
@@ -204,6 +258,23 @@ impl TieFree {
         }
     }
 
+    /// These decisions with every final shade that keeps the rule keeping it
+    /// over its whole rectangle (A/B measurements, `Executor::set_tie_zones`).
+    pub fn without_zones(self) -> TieFree {
+        let shade = self
+            .shade
+            .into_iter()
+            .map(|(k, rules)| {
+                let rules = rules.into_iter().map(|r| match r {
+                    ShadeRule::Zones(_) => ShadeRule::Everywhere,
+                    other => other,
+                });
+                (k, rules.collect())
+            })
+            .collect();
+        TieFree { shade, ..self }
+    }
+
     /// Whether every mesh of `meshes` is tie-free at tolerance `eps`.
     pub fn meshes_free(&self, meshes: &[MeshId], eps: f32) -> bool {
         all_free(&self.by_eps, meshes, eps)
@@ -212,7 +283,53 @@ impl TieFree {
     /// Whether the final shade's draws of every mesh of `meshes` at tolerance
     /// `eps` run as depth-equal draws ([module doc](self)).
     pub fn shade_free(&self, meshes: &[MeshId], eps: f32) -> bool {
-        all_free(&self.shade, meshes, eps)
+        let rules = self.shade_rules(eps);
+        !meshes.is_empty()
+            && meshes
+                .iter()
+                .all(|&m| rules.get(m as usize) == Some(&ShadeRule::Free))
+    }
+
+    /// Per mesh, the final shades' rule at tolerance `eps` (empty: not decided,
+    /// the rule everywhere).
+    fn shade_rules(&self, eps: f32) -> &[ShadeRule] {
+        let key = eps.abs().to_bits();
+        self.shade
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map_or(&[], |(_, r)| r.as_slice())
+    }
+
+    /// The screen rectangles to which a final shade's draw keeps the tie rule,
+    /// when that is not its whole rectangle: the draw runs the rule there and
+    /// [`TieFree::depth_equal`] elsewhere ([`ShadeRule::Zones`]). `None` for
+    /// every other draw.
+    pub fn shade_zones(&self, draw: &Draw) -> Option<&[Rect]> {
+        let (Fragment::ShadeNearDepth { eps, .. }, Geometry::Mesh(m)) =
+            (&draw.fragment, &draw.geometry)
+        else {
+            return None;
+        };
+        if !is_final_shade(draw) {
+            return None;
+        }
+        match self.shade_rules(*eps).get(*m as usize) {
+            Some(ShadeRule::Zones(r)) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// A final shade's draw as OpenCSG's depth-`EQUAL` shading ([module
+    /// doc](self)), whatever the decisions: `None` for other draws.
+    pub fn depth_equal(draw: &Draw) -> Option<Draw> {
+        is_final_shade(draw).then(|| Draw {
+            depth: DepthState {
+                compare: CompareOp::Equal,
+                write: false,
+            },
+            fragment: Fragment::Shade,
+            ..draw.clone()
+        })
     }
 
     /// The draw with plain tests in place of the tie rule, when the rule cannot
@@ -258,22 +375,8 @@ impl TieFree {
                     ..draw.clone()
                 })
             }
-            Fragment::ShadeNearDepth { eps, .. } => {
-                let shade = DepthState {
-                    compare: CompareOp::Always,
-                    write: true,
-                };
-                if draw.depth != shade || !self.shade_free(meshes, eps) {
-                    return None;
-                }
-                Some(Draw {
-                    depth: DepthState {
-                        compare: CompareOp::Equal,
-                        write: false,
-                    },
-                    fragment: Fragment::Shade,
-                    ..draw.clone()
-                })
+            Fragment::ShadeNearDepth { eps, .. } if self.shade_free(meshes, eps) => {
+                Self::depth_equal(draw)
             }
             _ => None,
         }
@@ -305,23 +408,35 @@ impl TieFree {
                 out.push(ShadeCopy::AsPlanned);
                 continue;
             }
-            let mut rule: Vec<MeshId> = group
+            let mut rule: Vec<(MeshId, Option<Vec<Rect>>)> = group
                 .into_iter()
                 .filter(|d| self.fixed_function(d).is_none())
-                .flat_map(|d| match &d.geometry {
-                    Geometry::Mesh(m) => vec![*m],
-                    Geometry::Meshes(ms) => ms.clone(),
-                    Geometry::FullScreen { .. } => {
-                        panic!("a final shade draws meshes (plan::tie::shade_near_depth)")
+                .flat_map(|d| {
+                    let zones = self.shade_zones(d).map(<[Rect]>::to_vec);
+                    match &d.geometry {
+                        Geometry::Mesh(m) => vec![(*m, zones)],
+                        Geometry::Meshes(ms) => ms.iter().map(|&m| (m, None)).collect(),
+                        Geometry::FullScreen { .. } => {
+                            panic!("a final shade draws meshes (plan::tie::shade_near_depth)")
+                        }
                     }
                 })
                 .collect();
-            rule.sort_unstable();
-            rule.dedup();
+            rule.sort_unstable_by_key(|r| r.0);
             out.push(ShadeCopy::ReadBy(rule));
         }
         out
     }
+}
+
+/// Whether `draw` is a final shade's draw as `plan::tie::shade_near_depth`
+/// makes it: the tie test in the shader, its depth written.
+fn is_final_shade(draw: &Draw) -> bool {
+    let shade = DepthState {
+        compare: CompareOp::Always,
+        write: true,
+    };
+    matches!(draw.fragment, Fragment::ShadeNearDepth { .. }) && draw.depth == shade
 }
 
 /// What a depth copy must cover ([`TieFree::shade_copies`]).
@@ -331,9 +446,11 @@ pub enum ShadeCopy {
     /// whose texture a later step reads.
     AsPlanned,
     /// The copy opening a final shade, read by nothing but the shade's draws of
-    /// these meshes, which keep the tie rule: the screen bounds of these meshes
-    /// (with the tie test's neighbour fetches). None: nobody reads the copy.
-    ReadBy(Vec<MeshId>),
+    /// these meshes, which keep the tie rule: the screen bounds of these meshes,
+    /// each cut to its rule rectangles where it has them
+    /// ([`TieFree::shade_zones`]; `None`: its whole rectangle), with the tie
+    /// test's neighbour fetches. None: nobody reads the copy.
+    ReadBy(Vec<(MeshId, Option<Vec<Rect>>)>),
 }
 
 /// Whether `step` (or a loop's body) reads texture `tex`.
@@ -474,6 +591,11 @@ mod tests {
         assert!((o.fixed - (4.0 / (1u64 << 24) as f64 + 2.0 / 256.0 * 3.0 / 800.0)).abs() < 1e-12);
     }
 
+    /// A projection of every box to the whole of an 800 × 800 image.
+    fn whole(_: &Aabb) -> Rect {
+        Rect::full(800, 800)
+    }
+
     fn cube(center: DVec3, half: DVec3) -> Mesh {
         let mut m = shapes::make_box(half * 2.0);
         for p in &mut m.positions {
@@ -488,7 +610,7 @@ mod tests {
         let a = cube(DVec3::ZERO, DVec3::splat(0.5));
         let gaps = TieGaps::new(&[&a, &b]);
         let plan = plan_of(vec![parity(0, SHADE_EPS), parity(1, SHADE_EPS)]);
-        let free = TieFree::new(&gaps, &band(size, 8, true), &plan);
+        let free = TieFree::new(&gaps, &band(size, 8, true), &plan, &whole);
         (0..2).map(|m| free.meshes_free(&[m], SHADE_EPS)).collect()
     }
 
@@ -548,8 +670,9 @@ mod tests {
             min_gap: vec![f64::INFINITY, 0.0],
             cap: 1.0,
             pairs: vec![(1, 1, 0.0)],
+            zones: vec![],
         };
-        TieFree::new(&gaps, &band(800, 8, true), plan)
+        TieFree::new(&gaps, &band(800, 8, true), plan, &whole)
     }
 
     #[test]
@@ -670,7 +793,7 @@ mod tests {
         let plan = shaded(Vec::new(), &[0, 1]);
         assert_eq!(
             half_free(&plan).shade_copies(&refs(&plan)),
-            vec![ShadeCopy::ReadBy(vec![1])]
+            vec![ShadeCopy::ReadBy(vec![(1, None)])]
         );
         // Every draw depth-equal: nobody reads the copy.
         let plan = shaded(Vec::new(), &[0]);
@@ -681,7 +804,7 @@ mod tests {
         // Nothing decided: every mesh keeps the rule.
         assert_eq!(
             TieFree::none().shade_copies(&refs(&plan)),
-            vec![ShadeCopy::ReadBy(vec![0])]
+            vec![ShadeCopy::ReadBy(vec![(0, None)])]
         );
         // A copy read by something else (CST layers' floor), or whose texture
         // a later step reads, stays as planned.

@@ -259,6 +259,13 @@ impl Reads {
 pub const PUSH_SIZE: u32 = std::mem::size_of::<PushConstants>() as u32;
 /// `PushConstants::flags` bit: depths are reversed (near 1, far 0).
 pub const FLAG_REVERSED_Z: u32 = 1;
+/// `PushConstants::flags` bit: the final shade's tie-rule draws write their
+/// raster depth, not the plane depth at the pixel centre
+/// (`shaders/shade_near_depth.frag`): set where the shade's depth-equal draws
+/// run (a device that does not snap, where the two agree to f32 rounding), so
+/// that a pixel gets the same depth whichever of the two shaded it
+/// (`plan::tie_zones`).
+pub const FLAG_RASTER_DEPTH: u32 = 2;
 /// The `firstInstance` of a draw of the full-screen quad, which
 /// `shaders/mesh.vert` transforms by the push constants' `mvp` and leaves
 /// unsnapped; meshes are drawn with instance 0 and the camera's matrix. Told

@@ -55,7 +55,7 @@ use super::cpu_clock::CpuInstant;
 use super::error::VkError;
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
-use super::pipeline::{pipeline_flags, Pipelines};
+use super::pipeline::{pipeline_flags, Pipelines, FLAG_RASTER_DEPTH};
 use super::readback::{decode, Raw};
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
@@ -113,8 +113,11 @@ struct TieKey {
     camera: Camera,
     epoch: u64,
     subpixel_bits: u32,
+    size: (u32, u32),
+    reversed_z: bool,
     tie_free: bool,
     fixed_shade: bool,
+    zones: bool,
 }
 
 /// Everything a recording's clears and copies depend on
@@ -179,12 +182,17 @@ impl Scissors {
         }
     }
 
-    /// `self` grown by 1/MARGIN of the image on every side, within the image.
-    fn grown(&self, desc: &ExecDesc) -> Scissors {
-        let (mx, my) = (
+    /// The pixels grown rectangles gain on each side, across and down.
+    fn margins(desc: &ExecDesc) -> (u32, u32) {
+        (
             (desc.width / Self::MARGIN).max(1),
             (desc.height / Self::MARGIN).max(1),
-        );
+        )
+    }
+
+    /// `self` grown by 1/MARGIN of the image on every side, within the image.
+    fn grown(&self, desc: &ExecDesc) -> Scissors {
+        let (mx, my) = Self::margins(desc);
         let rects = self
             .rects
             .iter()
@@ -293,6 +301,8 @@ pub struct Executor {
     /// Depth-equal final shades where no tie is possible
     /// ([`Executor::set_fixed_shade`]).
     fixed_shade: bool,
+    /// The shade's tie rule only in tie zones ([`Executor::set_tie_zones`]).
+    tie_zones: bool,
     /// The device interpolates depth from unsnapped vertex positions (a CPU
     /// device): only then is the raster depth as exact as the tie rule's
     /// plane depth at the pixel centre ([`Executor::set_fixed_shade`]).
@@ -379,6 +389,7 @@ impl Executor {
             normals: false,
             tie_free: true,
             fixed_shade: true,
+            tie_zones: true,
             // Lavapipe interpolates depth from the unsnapped vertices; hardware
             // GPUs may not (the H200 does not).
             unsnapped: cpu,
@@ -430,7 +441,21 @@ impl Executor {
     /// The push constants' flags: reversed Z, and the subpixel precision the tie
     /// tolerance assumes ([`Self::subpixel_bits`]).
     fn flags(&self) -> u32 {
-        pipeline_flags(self.desc.reversed_z, self.subpixel_bits())
+        let raster = match self.depth_equal_shades() {
+            true => FLAG_RASTER_DEPTH,
+            false => 0,
+        };
+        pipeline_flags(self.desc.reversed_z, self.subpixel_bits()) | raster
+    }
+
+    /// Whether final shades run depth-equal draws where no tie is possible
+    /// ([`Self::set_fixed_shade`]).
+    fn depth_equal_shades(&self) -> bool {
+        // D24: lavapipe's raster depth, quantized, misses the strict depth
+        // bar of `vk_tests` `classic_assembly` (p99 4.3e-6 against 3.8e-6 view
+        // units), where the plane depth at the pixel centre meets it.
+        let d32 = self.desc.depth_format == DepthFormat::D32S8;
+        self.tie_free && self.fixed_shade && self.unsnapped && self.rounding.is_none() && d32
     }
 
     /// The vertex snapping the tie rule allows for: the device's, or the
@@ -464,6 +489,15 @@ impl Executor {
         self.recording = None;
     }
 
+    /// Whether a final shade's draw of a mesh that can tie runs the tie rule
+    /// only inside its on-screen tie zones (`plan::tie_zones`; the default,
+    /// with [`Self::set_fixed_shade`] on). Off: over its whole rectangle (A/B
+    /// measurements, `examples/tie_ab.rs`).
+    pub fn set_tie_zones(&mut self, on: bool) {
+        self.tie_zones = on;
+        self.recording = None;
+    }
+
     /// The tie-free decisions for `plan` under the scene's current camera:
     /// the kept ones while the plan, camera, scene and settings stay
     /// (`plan::memo`; a replayed frame decides nothing anew).
@@ -471,22 +505,23 @@ impl Executor {
         let Some(scene) = self.scene.as_ref().filter(|_| self.tie_free) else {
             return TieFree::none();
         };
-        // D24: lavapipe's raster depth, quantized, misses the strict depth
-        // bar of `vk_tests` `classic_assembly` (p99 4.3e-6 against 3.8e-6 view
-        // units), where the plane depth at the pixel centre meets it.
-        let d32 = self.desc.depth_format == DepthFormat::D32S8;
-        let fixed_shade = self.fixed_shade && self.unsnapped && self.rounding.is_none() && d32;
         let key = TieKey {
             plan: self.plan_ids.id(plan),
             camera: scene.camera,
             epoch: self.epoch,
             subpixel_bits: self.subpixel_bits(),
+            size: (self.desc.width, self.desc.height),
+            reversed_z: self.desc.reversed_z,
             tie_free: self.tie_free,
-            fixed_shade,
+            fixed_shade: self.depth_equal_shades(),
+            zones: self.tie_zones,
         };
         let (desc, bits) = (self.desc, key.subpixel_bits);
+        let (fixed, zones) = (key.fixed_shade, key.zones);
         self.tie_memo
-            .get_or_insert_with(key, || tie_decisions(scene, &desc, bits, plan, fixed_shade))
+            .get_or_insert_with(key, || {
+                tie_decisions(scene, &desc, bits, plan, fixed, zones)
+            })
             .clone()
     }
 
@@ -745,7 +780,7 @@ impl Executor {
             // Scissors grown for a moving camera are made exact once it stops.
             Some(r)
                 if r.key.rects.covers(exact)
-                    && r.key.ties == self.ties
+                    && r.key.ties.serves(&self.ties)
                     && reach::holds(&self.kept, &r.key.assumed)
                     && !(still && r.key.rects.grown) =>
             {
@@ -760,6 +795,9 @@ impl Executor {
         };
         if matches!(kind, Recorded::Camera | Recorded::New) {
             self.rects = if kind == Recorded::Camera && !still {
+                // The tie zones' rectangles grow with the scissors.
+                let (mx, my) = Scissors::margins(&self.desc);
+                self.ties = self.ties.grown(mx, my, self.desc.width, self.desc.height);
                 exact.grown(&self.desc)
             } else {
                 exact.clone()
@@ -1244,6 +1282,7 @@ fn tie_decisions(
     subpixel_bits: u32,
     plan: &Plan,
     fixed_shade: bool,
+    zones: bool,
 ) -> TieFree {
     let bounds = scene
         .bounds
@@ -1260,10 +1299,14 @@ fn tie_decisions(
         desc.reversed_z,
         &bounds,
     );
-    let ties = TieFree::new(&scene.ties, &band, plan);
-    match fixed_shade {
-        true => ties,
-        false => ties.keep_shade_rule(),
+    let (w, h) = (desc.width, desc.height);
+    let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
+    let project = |b: &Aabb| bounds_rect(view, proj, near, std::slice::from_ref(b), w, h);
+    let ties = TieFree::new(&scene.ties, &band, plan, &project);
+    match (fixed_shade, zones) {
+        (true, true) => ties,
+        (true, false) => ties.without_zones(),
+        (false, _) => ties.keep_shade_rule(),
     }
 }
 

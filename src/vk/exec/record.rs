@@ -925,6 +925,10 @@ impl<'a> Recorder<'a> {
             self.stats.counts.skipped_steps += 1;
             return Ok(());
         }
+        // A final shade with the tie rule only in its tie zones (`shade.rs`).
+        if let Some(zones) = self.b.ties.shade_zones(draw) {
+            return self.zoned_shade(draw, step, scissor, zones);
+        }
         // Plain depth tests where the tie rule cannot change the result.
         let fast = self.b.ties.fixed_function(draw).map(Step::Draw);
         let shade = matches!(draw.fragment, Fragment::ShadeNearDepth { .. });
@@ -941,6 +945,7 @@ impl<'a> Recorder<'a> {
             _ => {
                 if shade {
                     counts.shade_rule_draws += 1;
+                    counts.shade_rule_pixels += scissor.area();
                 } else if matches!(
                     draw.fragment,
                     Fragment::NearerThan { .. } | Fragment::PeelTolerant { .. }
@@ -950,6 +955,11 @@ impl<'a> Recorder<'a> {
                 (draw, step)
             }
         };
+        self.draw_in(draw, step, scissor)
+    }
+
+    /// Records `draw` (its step `step`) cut to `scissor`, not empty.
+    fn draw_in(&mut self, draw: &Draw, step: &Step, scissor: Rect) -> Result<(), VkError> {
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
             .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));

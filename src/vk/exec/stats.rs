@@ -49,8 +49,14 @@ pub struct Counts {
     /// under this camera (`plan::tie_free`): tested before the shader, no
     /// texture read, no depth written.
     pub shade_fixed_draws: u64,
-    /// Draws of the final shade that keep the tie rule (`shade_near_depth`).
+    /// Draws of the final shade that keep the tie rule (`shade_near_depth`):
+    /// one per mesh, or one per rule rectangle of a mesh whose shade keeps the
+    /// rule only in its tie zones (`plan::tie_zones`; its depth-equal pieces
+    /// count as `shade_fixed_draws`).
     pub shade_rule_draws: u64,
+    /// Sum of the scissor areas of the final shade's tie-rule draws: the pixels
+    /// that may run `shade_near_depth`.
+    pub shade_rule_pixels: u64,
     /// Pipeline barriers recorded (each may carry several image barriers). A
     /// plan's first frame, run loop by loop, records more: each of its
     /// submissions starts a new rendering block.
@@ -192,6 +198,7 @@ impl ExecStats {
         c.tie_rule_draws += o.tie_rule_draws;
         c.shade_fixed_draws += o.shade_fixed_draws;
         c.shade_rule_draws += o.shade_rule_draws;
+        c.shade_rule_pixels += o.shade_rule_pixels;
         c.barriers += o.barriers;
         c.render_passes += o.render_passes;
         c.clear_commands += o.clear_commands;

@@ -3,15 +3,19 @@
 //! final shade (`plan::tie::shade_near_depth`) reaches only the pixels its
 //! tie-rule draws read, and none when every draw of the shade runs as a plain
 //! depth-`EQUAL` draw (issue 9 §4: no pass whose result nobody reads). The
-//! draws themselves are rewritten one by one (`TieFree::fixed_function`).
+//! draws themselves are rewritten one by one (`TieFree::fixed_function`); a draw
+//! of a mesh that can tie only in some zones (`plan::tie_zones`) becomes the
+//! rule draw cut to each of their rectangles and the depth-equal draw cut to
+//! each rectangle of the rest, and the copy reaches only those rule rectangles.
 
 use std::collections::VecDeque;
 
 use super::{BlockKey, Recorder};
 use crate::plan::reach::READ_MARGIN;
-use crate::plan::tie_free::ShadeCopy;
+use crate::plan::tie_free::{ShadeCopy, TieFree};
+use crate::plan::tie_zones::{self, MAX_RULE_RECTS};
 use crate::plan::usage::Resource;
-use crate::plan::{Ds, Scissor, Step, Tex};
+use crate::plan::{Draw, Ds, Step, Tex};
 use crate::vk::error::VkError;
 use crate::vk::pipeline::FragmentKind;
 use crate::vk::scissor::Rect;
@@ -31,22 +35,73 @@ impl Recorder<'_> {
         // What later steps read of the copy (`plan::reach`), within what the
         // shade's tie-rule draws read of it.
         let reach = self.copy_region();
-        let rect = match self.shade_copies.pop_front() {
-            None | Some(ShadeCopy::AsPlanned) => Rect::full(w, h),
-            // The tie test also reads the texels next to a fragment's pixel.
+        let rects = match self.shade_copies.pop_front() {
+            None | Some(ShadeCopy::AsPlanned) => vec![Rect::full(w, h).intersect(&reach)],
             Some(ShadeCopy::ReadBy(meshes)) => {
-                self.scissor(&Scissor::BoundsOf(meshes))
-                    .grown(READ_MARGIN, READ_MARGIN, w, h)
+                let rects = &self.b.mesh_rects;
+                let read = meshes.iter().flat_map(|(m, zones)| {
+                    let r = rects.one(*m);
+                    match zones {
+                        None => vec![r],
+                        Some(z) => z.iter().map(|z| z.intersect(&r)).collect(),
+                    }
+                });
+                // The tie test also reads the texels next to a fragment's pixel.
+                let grown = read.map(|r| r.grown(READ_MARGIN, READ_MARGIN, w, h));
+                let grown: Vec<Rect> = grown.map(|r| r.intersect(&reach)).collect();
+                // Without zones, one copy of the meshes' bounds (what the
+                // embedding's host pass copies too).
+                let max = match meshes.iter().any(|(_, z)| z.is_some()) {
+                    true => MAX_RULE_RECTS,
+                    false => 1,
+                };
+                tie_zones::merge(grown, max)
             }
-        }
-        .intersect(&reach);
-        if rect.is_empty() {
+        };
+        let rects: Vec<Rect> = rects.into_iter().filter(|r| !r.is_empty()).collect();
+        if rects.is_empty() {
             self.stats.counts.skipped_steps += 1;
             return Ok(());
         }
         let key = BlockKey::new(&[Resource::Texture(dst)], None);
         let set = self.b.targets.sampling_set(Resource::DepthStencil(ds));
         self.open(&key, &step.usage());
-        self.fullscreen_internal(&key, FragmentKind::CopyDepth, set, rect)
+        for rect in rects {
+            self.fullscreen_internal(&key, FragmentKind::CopyDepth, set, rect)?;
+        }
+        Ok(())
+    }
+
+    /// A final shade's draw of a mesh that can tie only in `zones` (screen
+    /// rectangles, disjoint): the tie rule cut to each of them within
+    /// `scissor`, the depth-equal draw cut to each rectangle of the rest of
+    /// `scissor` (`plan::tie_zones`: no pixel gets both).
+    pub(super) fn zoned_shade(
+        &mut self,
+        draw: &Draw,
+        step: &Step,
+        scissor: Rect,
+        zones: &[Rect],
+    ) -> Result<(), VkError> {
+        let rule: Vec<Rect> = zones
+            .iter()
+            .map(|z| z.intersect(&scissor))
+            .filter(|r| !r.is_empty())
+            .collect();
+        for &r in &rule {
+            self.stats.counts.shade_rule_draws += 1;
+            self.stats.counts.shade_rule_pixels += r.area();
+            self.draw_in(draw, step, r)?;
+        }
+        let fixed = TieFree::depth_equal(draw).expect("a zoned draw is a final shade's");
+        let fixed = Step::Draw(fixed);
+        let Step::Draw(d) = &fixed else {
+            unreachable!("made a draw above")
+        };
+        for r in tie_zones::subtract(scissor, &rule) {
+            self.stats.counts.shade_fixed_draws += 1;
+            self.draw_in(d, &fixed, r)?;
+        }
+        Ok(())
     }
 }

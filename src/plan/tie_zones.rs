@@ -1,0 +1,328 @@
+//! The final shade's tie rule only where ties can happen on screen (issue 9 §5;
+//! README "Tie zones"). A mesh that keeps the tie rule in the final shade
+//! (`plan::tie_free`: a partner face within the band somewhere) can tie only
+//! inside its [`TieZone`]s (`geom::ties`: where its near-parallel faces overlap
+//! a partner's, grown by the camera's band). Projected to the screen, those
+//! zones are where its shade runs the rule (`shade_near_depth`); over the rest
+//! of its rectangle it is drawn as the depth-`EQUAL` shade of a tie-free mesh,
+//! which passes exactly where its face is the visible one, as the rule does
+//! where no other face is within the band. The two parts cover disjoint pixels
+//! ([`subtract`]), so no pixel is shaded by both; and a depth-equal part of one
+//! mesh and a rule part of another can both pass at a pixel only where the two
+//! tie, which lies in both meshes' zones (a zone belongs to its pair), so both
+//! draw the rule there. Crossing faces, which the zones do not hold, are the
+//! tie-free path's approximation (`plan::tie_free`: a sliver of a pixel at the
+//! crossing line).
+//!
+//! Pure: rectangles come from a projection the executor passes in.
+
+use super::rect::Rect;
+use crate::geom::ties::TieGaps;
+use crate::scene::Aabb;
+
+/// The most rule rectangles of one shade draw (each is a draw; its complement
+/// adds at most a few more).
+pub const MAX_RULE_RECTS: usize = 4;
+
+/// Zone rectangles are first merged down to this many in bulk (along x),
+/// before the pairwise merge (quadratic in what is left).
+const BULK: usize = 16;
+
+/// How the final shade draws one mesh under one camera.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShadeRule {
+    /// No face within the band of another: one depth-equal draw.
+    Free,
+    /// The tie rule inside these disjoint screen rectangles (clipped later to
+    /// the draw's scissor), depth-equal elsewhere. Empty: no zone on screen.
+    Zones(Vec<Rect>),
+    /// The tie rule over the whole mesh (no zones known, or the band wider than
+    /// the analysis reaches).
+    Everywhere,
+}
+
+impl ShadeRule {
+    /// Mesh `m`'s rule for a band of `band` world units; `project` gives the
+    /// screen rectangle of a world box (the full screen for one crossing the
+    /// near plane, `vk::scissor::bounds_rect`).
+    pub fn decide(gaps: &TieGaps, m: u32, band: f64, project: &dyn Fn(&Aabb) -> Rect) -> ShadeRule {
+        let known = band.is_finite() && band <= gaps.cap;
+        let gap = gaps.min_gap.get(m as usize).copied().unwrap_or(0.0);
+        if known && gap > band {
+            return ShadeRule::Free;
+        }
+        if !known || gaps.zones.is_empty() {
+            return ShadeRule::Everywhere;
+        }
+        let rects = gaps
+            .zones_of(m)
+            .filter_map(|z| z.within(band))
+            .map(|b| project(&b))
+            .collect();
+        ShadeRule::Zones(merge(rects, MAX_RULE_RECTS))
+    }
+
+    /// Whether a recording made with `self` draws the rule wherever one made
+    /// with `exact` would: the same rule, the rule everywhere, or rectangles
+    /// that contain each of `exact`'s.
+    pub fn serves(&self, exact: &ShadeRule) -> bool {
+        match (self, exact) {
+            (a, b) if a == b => true,
+            (ShadeRule::Everywhere, ShadeRule::Zones(_)) => true,
+            (ShadeRule::Zones(r), ShadeRule::Zones(e)) => {
+                e.iter().all(|e| r.iter().any(|r| r.contains(e)))
+            }
+            _ => false,
+        }
+    }
+
+    /// The rule rectangles grown by `mx`, `my` pixels within a `width ×
+    /// height` image (a moving camera's recording, like its scissors).
+    pub fn grown(&self, mx: u32, my: u32, width: u32, height: u32) -> ShadeRule {
+        match self {
+            ShadeRule::Zones(r) => ShadeRule::Zones(merge(
+                r.iter().map(|r| r.grown(mx, my, width, height)).collect(),
+                MAX_RULE_RECTS,
+            )),
+            other => other.clone(),
+        }
+    }
+}
+
+/// At most `max` pairwise disjoint rectangles covering `rects` (empty ones
+/// dropped): overlapping ones are merged into their bounding rectangle, then
+/// the pair whose bounding rectangle adds the least area, until `max` are left.
+pub fn merge(mut rects: Vec<Rect>, max: usize) -> Vec<Rect> {
+    assert!(max >= 1, "merge to at least one rectangle");
+    rects.retain(|r| !r.is_empty());
+    if rects.len() > BULK {
+        rects.sort_by_key(|r| r.x0 + r.x1);
+        let per = rects.len().div_ceil(BULK);
+        rects = rects.chunks(per).map(bounding).collect();
+    }
+    loop {
+        let n = rects.len();
+        let pair = (0..n)
+            .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+            .find(|&(i, j)| !rects[i].intersect(&rects[j]).is_empty())
+            .or_else(|| {
+                (n > max)
+                    .then(|| {
+                        (0..n)
+                            .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+                            .min_by_key(|&(i, j)| {
+                                let u = rects[i].union(&rects[j]).area();
+                                u - rects[i].area() - rects[j].area()
+                            })
+                    })
+                    .flatten()
+            });
+        let Some((i, j)) = pair else {
+            return rects;
+        };
+        let u = rects[i].union(&rects[j]);
+        rects[i] = u;
+        rects.swap_remove(j);
+    }
+}
+
+fn bounding(rects: &[Rect]) -> Rect {
+    rects.iter().fold(Rect::EMPTY, |a, r| a.union(r))
+}
+
+/// Disjoint rectangles covering exactly the pixels of `outer` outside every
+/// rectangle of `holes`: horizontal bands between the holes' edges, each cut
+/// where holes cover it, with equal pieces of consecutive bands joined.
+pub fn subtract(outer: Rect, holes: &[Rect]) -> Vec<Rect> {
+    if outer.is_empty() {
+        return Vec::new();
+    }
+    let holes: Vec<Rect> = holes
+        .iter()
+        .map(|h| h.intersect(&outer))
+        .filter(|h| !h.is_empty())
+        .collect();
+    let mut ys: Vec<u32> = holes
+        .iter()
+        .flat_map(|h| [h.y0, h.y1])
+        .chain([outer.y0, outer.y1])
+        .collect();
+    ys.sort_unstable();
+    ys.dedup();
+    let mut out: Vec<Rect> = Vec::new();
+    for band in ys.windows(2) {
+        let (y0, y1) = (band[0], band[1]);
+        let mut cover: Vec<(u32, u32)> = holes
+            .iter()
+            .filter(|h| h.y0 <= y0 && y1 <= h.y1)
+            .map(|h| (h.x0, h.x1))
+            .collect();
+        cover.sort_unstable();
+        let mut x = outer.x0;
+        let mut pieces = Vec::new();
+        for (a, b) in cover.into_iter().chain([(outer.x1, outer.x1)]) {
+            if a > x {
+                pieces.push((x, a));
+            }
+            x = x.max(b);
+        }
+        for (x0, x1) in pieces {
+            match out
+                .iter_mut()
+                .find(|r| r.y1 == y0 && r.x0 == x0 && r.x1 == x1)
+            {
+                Some(r) => r.y1 = y1,
+                None => out.push(Rect { x0, y0, x1, y1 }),
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::ties::TieZone;
+    use glam::DVec3;
+
+    fn r(x0: u32, y0: u32, x1: u32, y1: u32) -> Rect {
+        Rect { x0, y0, x1, y1 }
+    }
+
+    /// Every pixel of `outer` in exactly one of `parts` or in a hole, none
+    /// outside `outer`.
+    fn check_cover(outer: Rect, holes: &[Rect], parts: &[Rect]) {
+        for y in 0..outer.y1 + 2 {
+            for x in 0..outer.x1 + 2 {
+                let p = r(x, y, x + 1, y + 1);
+                let n = parts.iter().filter(|q| q.contains(&p)).count();
+                let hole = holes.iter().any(|h| h.contains(&p));
+                let want = usize::from(outer.contains(&p) && !hole);
+                assert_eq!(n, want, "pixel ({x}, {y}): {parts:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_complement_of_holes_is_an_exact_disjoint_cover() {
+        let outer = r(2, 3, 30, 25);
+        for holes in [
+            vec![],
+            vec![r(5, 5, 10, 10)],
+            vec![r(0, 0, 40, 40)],
+            vec![r(5, 5, 10, 10), r(8, 8, 20, 12), r(25, 0, 40, 30)],
+            vec![r(2, 3, 30, 4), r(2, 24, 30, 25), r(10, 10, 11, 11)],
+        ] {
+            let parts = subtract(outer, &holes);
+            check_cover(outer, &holes, &parts);
+        }
+        // One hole inside: four pieces (above, left, right, below).
+        assert_eq!(subtract(outer, &[r(5, 5, 10, 10)]).len(), 4);
+        assert!(subtract(Rect::EMPTY, &[]).is_empty());
+    }
+
+    #[test]
+    fn merged_rectangles_are_few_disjoint_and_cover_the_input() {
+        let input = vec![
+            r(0, 0, 10, 10),
+            r(5, 5, 15, 15),
+            r(40, 40, 50, 50),
+            r(100, 0, 110, 10),
+            r(0, 100, 10, 110),
+            r(200, 200, 201, 201),
+            Rect::EMPTY,
+        ];
+        for max in [1, 2, 4, 8] {
+            let m = merge(input.clone(), max);
+            assert!(m.len() <= max, "{m:?}");
+            for (i, a) in m.iter().enumerate() {
+                for b in &m[i + 1..] {
+                    assert!(a.intersect(b).is_empty(), "{a:?} {b:?}");
+                }
+            }
+            for a in input.iter().filter(|a| !a.is_empty()) {
+                assert!(m.iter().any(|b| b.contains(a)), "{a:?} lost in {m:?}");
+            }
+        }
+        // The two overlapping ones always merge; with room, the rest stay.
+        assert_eq!(merge(input.clone(), 8).len(), 5);
+        // Many at once: bulk-merged, still covering.
+        let many: Vec<Rect> = (0..100).map(|i| r(3 * i, i, 3 * i + 2, i + 2)).collect();
+        let m = merge(many.clone(), MAX_RULE_RECTS);
+        assert!(m.len() <= MAX_RULE_RECTS);
+        assert!(many.iter().all(|a| m.iter().any(|b| b.contains(a))));
+    }
+
+    fn gaps_with(zones: Vec<TieZone>, min_gap: Vec<f64>) -> TieGaps {
+        TieGaps {
+            min_gap,
+            cap: 1.0,
+            pairs: vec![(0, 1, 0.0)],
+            zones,
+        }
+    }
+
+    /// A projection that maps world x, y to pixels (10 per unit).
+    fn flat(b: &Aabb) -> Rect {
+        let px = |v: f64| (v * 10.0).max(0.0) as u32;
+        r(
+            px(b.min.x),
+            px(b.min.y),
+            px(b.max.x).max(px(b.min.x) + 1),
+            px(b.max.y).max(px(b.min.y) + 1),
+        )
+    }
+
+    #[test]
+    fn a_mesh_keeps_the_rule_only_over_its_zones_within_the_band() {
+        let zone = |a, b, gap, lo: [f64; 3], hi: [f64; 3]| TieZone {
+            a,
+            b,
+            gap,
+            lo: DVec3::from(lo),
+            hi: DVec3::from(hi),
+        };
+        let gaps = gaps_with(
+            vec![
+                zone(0, 1, 0.0, [1.0, 1.0, 0.0], [2.0, 2.0, 0.0]),
+                zone(0, 2, 0.05, [5.0, 5.0, 0.0], [6.0, 6.0, 0.0]),
+            ],
+            vec![0.0, 0.0, 0.05, f64::INFINITY],
+        );
+        let rule = |m, band| ShadeRule::decide(&gaps, m, band, &flat);
+        // Band 0.01: only the flush pair's zone, grown by the band.
+        assert_eq!(rule(0, 0.01), ShadeRule::Zones(vec![r(9, 9, 20, 20)]));
+        assert_eq!(rule(1, 0.01), ShadeRule::Zones(vec![r(9, 9, 20, 20)]));
+        assert_eq!(rule(2, 0.01), ShadeRule::Free);
+        // Band 0.1: mesh 2's zone too; mesh 0 has both.
+        assert_eq!(rule(2, 0.1), ShadeRule::Zones(vec![r(49, 49, 61, 61)]));
+        assert_eq!(
+            rule(0, 0.1),
+            ShadeRule::Zones(vec![r(9, 9, 21, 21), r(49, 49, 61, 61)])
+        );
+        assert_eq!(rule(3, 0.1), ShadeRule::Free);
+        // Beyond the analysis' cap: the rule everywhere (and for every mesh
+        // when nothing is known).
+        assert_eq!(rule(0, 2.0), ShadeRule::Everywhere);
+        assert_eq!(rule(3, 2.0), ShadeRule::Everywhere);
+        let unknown = TieGaps::unknown(2);
+        assert_eq!(
+            ShadeRule::decide(&unknown, 0, 0.01, &flat),
+            ShadeRule::Everywhere
+        );
+    }
+
+    #[test]
+    fn a_recording_serves_a_camera_whose_zones_it_contains() {
+        let exact = ShadeRule::Zones(vec![r(10, 10, 20, 20)]);
+        let grown = exact.grown(5, 5, 100, 100);
+        assert_eq!(grown, ShadeRule::Zones(vec![r(5, 5, 25, 25)]));
+        assert!(grown.serves(&exact));
+        assert!(!exact.serves(&grown));
+        assert!(ShadeRule::Everywhere.serves(&exact));
+        assert!(!exact.serves(&ShadeRule::Everywhere));
+        assert!(!ShadeRule::Free.serves(&exact));
+        assert!(!exact.serves(&ShadeRule::Free));
+        assert!(ShadeRule::Free.serves(&ShadeRule::Free));
+    }
+}
