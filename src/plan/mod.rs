@@ -180,7 +180,7 @@ pub struct Prepared {
     /// leaf after one layer (one face orientation) or two (both).
     pub mesh_convex: Vec<bool>,
     /// Per mesh: not known convex, but proved one front and one back face per
-    /// pixel from this camera ([`view_convex`]); re-derived when the camera
+    /// pixel from this camera (`view_convex`); re-derived when the camera
     /// moves. Read both through [`Prepared::convex`].
     pub view_convex: Vec<bool>,
     /// Per mesh: the eye (perspective) lies inside this closed mesh. Parity counted

@@ -33,10 +33,10 @@
 //!    Goldfeather. With a single `X` (a block minus holes) clip and merge are
 //!    one draw of its back faces into the output depth, no full-screen pass:
 //!    `z` is at or behind its front face wherever the ray meets it
-//!    ([`back_face_merge`]).
+//!    (`back_face_merge`).
 //!
 //! Every draw is cut to the intersection of the `Xi`'s screen rectangles
-//! ([`Region::Intersection`]): the product lies inside each `Xi`, and only the
+//! (`Region::Intersection`): the product lies inside each `Xi`, and only the
 //! clip and the merge, both cut to it, read `z`.
 //!
 //! **Ties** (where OpenCSG's fixed-function depth tests z-fight): "inside `Yj`"
@@ -66,13 +66,13 @@
 //! it, so only the pixels whose `z` moves run it.
 //!
 //! **Where SCS does not apply**, the product is drawn with Goldfeather's steps
-//! ([`goldfeather::product_steps`]) in the same plan, and `scs` says so in its
+//! (`goldfeather::product_steps`) in the same plan, and `scs` says so in its
 //! pass names (`surface`, not `scs-front`): a product with a non-convex
 //! primitive (its faces are not one interval per ray; Goldfeather peels it in
 //! layers), and a product whose ray may start inside a positive primitive (the
 //! eye inside it, or an orthographic near plane cutting it: its nearest front
 //! face is then not where the ray enters the product). A product of one
-//! positive primitive is one draw ([`goldfeather::direct_steps`]).
+//! positive primitive is one draw (`goldfeather::direct_steps`).
 #![deny(unsafe_code)]
 
 pub mod hull;

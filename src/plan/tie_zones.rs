@@ -1,7 +1,7 @@
 //! The final shade's tie rule only where ties can happen on screen (issue 9 §5;
 //! README "Tie zones"). A mesh that keeps the tie rule in the final shade
 //! (`plan::tie_free`: a partner face within the band somewhere) can tie only
-//! inside its [`TieZone`]s (`geom::ties`: where its near-parallel faces overlap
+//! inside its [`TieZone`](crate::geom::ties::TieZone)s (`geom::ties`: where its near-parallel faces overlap
 //! a partner's, grown by the camera's band). Projected to the screen, those
 //! zones are where its shade runs the rule (`shade_near_depth`); over the rest
 //! of its rectangle it is drawn as the depth-`EQUAL` shade of a tie-free mesh,

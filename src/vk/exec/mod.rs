@@ -13,7 +13,7 @@
 //! is kept and replayed as long as the plan and the layer counts stay the same
 //! (`record_ms` is then 0). The camera is a uniform buffer (`camera`), so a moved
 //! camera replays too, unless a mesh's screen rectangle left the one its scissors
-//! were recorded with ([`Scissors`]; see README, "Executor").
+//! were recorded with (`Scissors`; see README, "Executor").
 //!
 //! Modules: `gpu_scene` (vertex buffer, camera state), `camera` (its uniform
 //! buffer), `targets` (images and descriptor sets), `record` (steps to commands,
