@@ -62,7 +62,7 @@ impl Executor {
         // The host's direct shade draws a tied mesh whole with the rule
         // (`record/host.rs`): its depth copy must cover the whole mesh, not
         // only its tie zones (`plan::tie_zones`).
-        self.ties = self.decide_ties(plan).without_zones();
+        self.ties = self.decide_ties(plan, false);
         let scene = self.scene_ref()?;
         let cam = scene.cam;
         self.rects = super::Scissors::exact(scene, &self.desc);
