@@ -65,6 +65,14 @@
 //! merge reads the texture, and with no `discard` the stencil test runs before
 //! it, so only the pixels whose `z` moves run it.
 //!
+//! The exits also test depth `Greater` (and clear their bit whether it passes
+//! or not). Where the whole parity set the bit that test always passes (the
+//! back face lies beyond `z` by more than the tie rule); it lets a tie-free
+//! cutter that every ray starts outside of skip the back faces' half of its
+//! parity ([`Fragment::ParityBeforeExit`]): its front faces at or in front of
+//! `z` set the bit, its back faces behind `z` exit, OpenCSG's two passes per
+//! subtracted primitive, with half the parity fragments.
+//!
 //! **Where SCS does not apply**, the product is drawn with Goldfeather's steps
 //! (`goldfeather::product_steps`) in the same plan, and `scs` says so in its
 //! pass names (`surface`, not `scs-front`): a product with a non-convex
@@ -406,30 +414,39 @@ fn subtract(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bool)
 }
 
 fn batch_steps(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
-    let draw = |y: &Lit, cull, write, stencil, fragment, count_samples| {
+    let draw = |y: &Lit, cull, depth, stencil, fragment, count_samples| {
         Step::Draw(Draw {
             geometry: Geometry::Mesh(y.prim),
             scissor: region.cut(y.prim),
             cull,
             ds: SURFACE,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write,
-            },
+            depth,
             stencil: Some(stencil),
             fragment,
             count_samples,
         })
     };
+    let flag = |v: &[bool], m: MeshId| v.get(m as usize).copied().unwrap_or(false);
     let mut parity = Vec::new();
     for (k, y) in ys.iter().enumerate() {
         let bit = 1u8 << k;
+        // A cutter every ray starts outside of needs its back faces' half of
+        // the parity only where it may tie: its exit's `Greater` test stands
+        // for it elsewhere ([`Fragment::ParityBeforeExit`]).
+        let fragment = if flag(&prep.eye_inside, y.prim) || flag(&prep.near_cut, y.prim) {
+            Fragment::NearerThan { tex: SURF, eps }
+        } else {
+            Fragment::ParityBeforeExit { tex: SURF, eps }
+        };
         parity.push(draw(
             y,
             Cull::None,
-            false,
+            DepthState {
+                compare: CompareOp::Always,
+                write: false,
+            },
             super::stencil::both(CompareOp::Always, StencilOp::Invert, 0, bit, 0),
-            Fragment::NearerThan { tex: SURF, eps },
+            fragment,
             false,
         ));
     }
@@ -444,12 +461,23 @@ fn batch_steps(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bo
         // The exit moves `z` in the depth-stencil image as in the texture, so the
         // image holds `z` wherever a later parity draw reads it, and a tie-free
         // parity draw can test it with the fixed-function depth test
-        // ([`super::tie_free`]).
+        // ([`super::tie_free`]). Where the bit is set by the whole parity the
+        // back face lies behind `z` (beyond the tie rule's tolerance), so the
+        // `Greater` test passes there; it matters where a tie-free cutter's
+        // parity drew its front faces only (set: the front face at or in front
+        // of `z`), and rejects the cutters wholly in front of `z`. The bit is
+        // cleared either way, for the next batch.
+        let mut stencil = super::stencil::both(CompareOp::Equal, StencilOp::Zero, bit, bit, bit);
+        stencil.front.depth_fail = StencilOp::Zero;
+        stencil.back.depth_fail = StencilOp::Zero;
         steps.push(draw(
             y,
             Cull::Front,
-            true,
-            super::stencil::both(CompareOp::Equal, StencilOp::Zero, bit, bit, bit),
+            DepthState {
+                compare: CompareOp::Greater,
+                write: true,
+            },
+            stencil,
             Fragment::WriteDepth { out: SURF },
             count,
         ));
@@ -617,8 +645,20 @@ mod tests {
             .collect();
         assert_eq!(exits.len(), 2);
         assert!(exits.iter().all(|d| d.depth.write
-            && d.depth.compare == CompareOp::Always
+            && d.depth.compare == CompareOp::Greater
+            && d.stencil.unwrap().front.depth_fail == StencilOp::Zero
             && d.fragment == Fragment::WriteDepth { out: SURF }));
+        // Their parity draws may drop the back faces where tie-free.
+        let parity: Vec<&Draw> = pass_draws(&built.steps, "subtract")
+            .into_iter()
+            .filter(|d| d.cull == Cull::None)
+            .collect();
+        assert_eq!(parity.len(), 2);
+        assert!(parity.iter().all(|d| d.fragment
+            == Fragment::ParityBeforeExit {
+                tex: SURF,
+                eps: CLIP_EPS
+            }));
         // A cutter whose rays may start inside it keeps the parity clip (the
         // image and the texture differ where no front face is drawn).
         let mut near = prep.clone();
@@ -626,6 +666,18 @@ mod tests {
         near.near_cut[4] = true;
         let built = plan(&near, &ProductOptions::default()).unwrap();
         assert_eq!(pass_draws(&built.steps, "clip")[0].cull, Cull::None);
+        // Its parity keeps both halves (the ray may start inside it).
+        let cutter4 = pass_draws(&built.steps, "subtract")
+            .into_iter()
+            .find(|d| d.cull == Cull::None && d.geometry == Geometry::Mesh(4))
+            .expect("cutter 4's parity draw");
+        assert_eq!(
+            cutter4.fragment,
+            Fragment::NearerThan {
+                tex: SURF,
+                eps: CLIP_EPS
+            }
+        );
         let merge = pass_draws(&built.steps, "merge");
         assert!(matches!(
             merge[..],

@@ -178,6 +178,15 @@ pub enum Fragment {
     /// face can tie ([`super::tie_free`]) the executor runs it as a plain
     /// `LessOrEqual` (`Less` for a negative `eps`) depth test instead.
     NearerThan { tex: Tex, eps: f32 },
+    /// [`Fragment::NearerThan`] in the parity draw (every face, bit inverted)
+    /// of a convex mesh the rays start outside of, whose bit only its exit
+    /// reads: a draw of its back faces tested depth `Greater` that clears the
+    /// bit whether or not the test passes. That test already rejects a back
+    /// face at or in front of the candidate, so where the mesh is tie-free the
+    /// executor draws only its front faces, tested `LessOrEqual` with no
+    /// fragment shader (OpenCSG's SCS subtraction: front faces, then back
+    /// faces); elsewhere it is `NearerThan` (`plan::scs`).
+    ParityBeforeExit { tex: Tex, eps: f32 },
     /// Shade and write the primitive id only where the fragment's depth is within
     /// `eps` (normalized depth) of texture `tex` at this pixel: depth-equal shading
     /// with a documented tolerance, so coincident faces of several primitives all

@@ -341,7 +341,7 @@ impl TieFree {
             Geometry::FullScreen { .. } => return None,
         };
         match draw.fragment {
-            Fragment::NearerThan { eps, .. } => {
+            Fragment::NearerThan { eps, .. } | Fragment::ParityBeforeExit { eps, .. } => {
                 let off = DepthState {
                     compare: CompareOp::Always,
                     write: false,
@@ -356,7 +356,14 @@ impl TieFree {
                 } else {
                     CompareOp::LessOrEqual
                 };
+                // The exit's `Greater` test stands for the back faces' half of
+                // the parity (`Fragment::ParityBeforeExit`).
+                let cull = match draw.fragment {
+                    Fragment::ParityBeforeExit { .. } => Cull::Back,
+                    _ => draw.cull,
+                };
                 Some(Draw {
+                    cull,
                     depth: DepthState {
                         compare,
                         write: false,
@@ -515,9 +522,9 @@ fn tolerances(steps: &[Step], out: &mut Vec<u32>) {
     for s in steps {
         match s {
             Step::Draw(d) => match d.fragment {
-                Fragment::NearerThan { eps, .. } | Fragment::PeelTolerant { eps, .. } => {
-                    out.push(eps.abs().to_bits())
-                }
+                Fragment::NearerThan { eps, .. }
+                | Fragment::ParityBeforeExit { eps, .. }
+                | Fragment::PeelTolerant { eps, .. } => out.push(eps.abs().to_bits()),
                 _ => {}
             },
             Step::Loop(l) => {
@@ -697,6 +704,33 @@ mod tests {
         assert_eq!(compare(&fast[1]), CompareOp::Less);
         // The possibly tied mesh keeps the tie rule.
         assert_eq!(fast[2], None);
+        assert!(fast.iter().flatten().all(|d| d.cull == Cull::None));
+    }
+
+    #[test]
+    fn a_tie_free_parity_before_an_exit_draws_front_faces_only() {
+        let before_exit = |mesh| {
+            let mut d = draw(parity(mesh, SHADE_EPS));
+            d.fragment = Fragment::ParityBeforeExit {
+                tex: 1,
+                eps: SHADE_EPS,
+            };
+            d
+        };
+        let plan = plan_of(vec![Step::Draw(before_exit(0)), Step::Draw(before_exit(1))]);
+        let free = half_free(&plan);
+        let fast = free.fixed_function(&before_exit(0)).expect("rewritten");
+        assert_eq!(
+            (
+                fast.cull,
+                fast.depth.compare,
+                fast.depth.write,
+                &fast.fragment
+            ),
+            (Cull::Back, CompareOp::LessOrEqual, false, &Fragment::None)
+        );
+        // The possibly tied mesh keeps every face and the tie rule.
+        assert_eq!(free.fixed_function(&before_exit(1)), None);
     }
 
     #[test]

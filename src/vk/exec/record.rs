@@ -948,7 +948,9 @@ impl<'a> Recorder<'a> {
                     counts.shade_rule_pixels += scissor.area();
                 } else if matches!(
                     draw.fragment,
-                    Fragment::NearerThan { .. } | Fragment::PeelTolerant { .. }
+                    Fragment::NearerThan { .. }
+                        | Fragment::ParityBeforeExit { .. }
+                        | Fragment::PeelTolerant { .. }
                 ) {
                     counts.tie_rule_draws += 1;
                 }
@@ -1066,6 +1068,7 @@ impl<'a> Recorder<'a> {
                         let color = match draw.fragment {
                             Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
                             Fragment::NearerThan { eps, .. }
+                            | Fragment::ParityBeforeExit { eps, .. }
                             | Fragment::MergeBehind { eps, .. } => [0.0, 0.0, 0.0, eps],
                             _ => [0.0; 4],
                         };
@@ -1112,7 +1115,7 @@ fn fragment_kind(f: &Fragment) -> FragmentKind {
         Fragment::PeelTolerant { .. } => FragmentKind::PeelTolerant,
         // The texel copy is the depth-copy shader reading a depth texture.
         Fragment::CopyTexel { .. } => FragmentKind::CopyDepth,
-        Fragment::NearerThan { .. } => FragmentKind::NearerThan,
+        Fragment::NearerThan { .. } | Fragment::ParityBeforeExit { .. } => FragmentKind::NearerThan,
         Fragment::MergeBehind { .. } => FragmentKind::MergeBehind,
         Fragment::ShadeNearDepth { .. } => FragmentKind::ShadeNearDepth,
         Fragment::DepthAtDepth { .. } => FragmentKind::DepthAtDepth,
