@@ -4,7 +4,7 @@
 //! cutters whose faces coincide with each other's and with the block's (one
 //! pass in ray order).
 
-use peeltrim::plan::{self, Algo, Prepared, Step};
+use peeltrim::plan::{self, Algo, Fragment, Prepared, Step};
 use peeltrim::scene::Scene;
 
 use crate::algorithms::{CST_COV, CST_PRIM, SIZE};
@@ -211,4 +211,89 @@ expr = "Block - Bubble"
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
     assert!(reference.prim.iter().any(|&p| p == 2), "the bubble shows");
     check(&scene);
+}
+
+/// Tie-free cutters draw only their front faces in the parity
+/// (`Fragment::ParityBeforeExit`), and their exits test depth `Greater`. A
+/// cutter that lies wholly in front of `z` (the sphere F, outside the ball but
+/// inside its box, between the eye and the ball) then sets its bit with its
+/// front faces and fails its exit's depth test: the exit must clear the bit
+/// anyway, or the hole S8, which takes the same bit in the next batch right
+/// behind F on screen, would lose its parity there.
+#[test]
+fn tie_free_cutters_draw_front_faces_and_clear_every_bit() {
+    let mut text = String::from(
+        r##"
+[camera]
+eye = [5.0, 5.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fit = true
+[[primitive]]
+name = "Ball"
+shape = "sphere"
+radius = 1.0
+[[primitive]]
+name = "F"
+shape = "sphere"
+radius = 0.12
+translate = [0.9, 0.9, 0.9]
+color = "#d04040"
+"##,
+    );
+    // Seven holes on the far side, apart from each other, filling F's batch.
+    let back = [
+        [-0.9, 0.0, 0.0],
+        [0.0, -0.9, 0.0],
+        [0.0, 0.0, -0.9],
+        [-0.64, -0.64, 0.0],
+        [-0.64, 0.0, -0.64],
+        [0.0, -0.64, -0.64],
+        [-0.52, -0.52, -0.52],
+    ];
+    let mut expr = String::from("Ball - F");
+    for (k, c) in back.iter().enumerate() {
+        text += &format!(
+            "[[primitive]]\nname = \"S{}\"\nshape = \"sphere\"\nradius = 0.15\ntranslate = [{}, {}, {}]\n",
+            k + 1,
+            c[0],
+            c[1],
+            c[2]
+        );
+        expr += &format!(" - S{}", k + 1);
+    }
+    text += "[[primitive]]\nname = \"S8\"\nshape = \"sphere\"\nradius = 0.25\ntranslate = [0.5, 0.5, 0.5]\ncolor = \"#4060d0\"\n";
+    expr += " - S8";
+    text += &format!("[csg]\nexpr = \"{expr}\"\n");
+    let scene = load(&text);
+    assert!(all_scs(&scene));
+    // F opens the first batch (bit 0), S8 the second (bit 0 again).
+    let (parity, rounds) = subtraction(&scene);
+    assert!(!rounds, "{parity:?}");
+    let order: Vec<String> = ["F", "S1", "S2", "S3", "S4", "S5", "S6", "S7", "S8"]
+        .map(String::from)
+        .to_vec();
+    assert_eq!(parity, order);
+    let prep = Prepared::new(&scene).unwrap();
+    let p = plan::build(Algo::Scs, &prep).unwrap();
+    let before_exit = p
+        .steps
+        .iter()
+        .filter(|s| matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::ParityBeforeExit { .. })))
+        .count();
+    assert_eq!(before_exit, 9);
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    assert!(reference.prim.iter().any(|&q| q == 10), "S8's hole shows");
+    assert!(!reference.prim.contains(&2), "F cuts nothing");
+    let tol = crate::algorithms::depth_tolerance(&scene);
+    for depth in peeltrim::render::DepthSetup::ALL {
+        let (r, stats, depth_ok) =
+            crate::algorithms::run_gpu(&scene, Algo::Scs, depth, &reference, tol).unwrap();
+        let c = &stats.exec.counts;
+        let at = format!("{}: {r:?} {c:?}", depth.name());
+        // Every parity draw ran front faces only, as a plain depth test.
+        assert_eq!((c.tie_free_draws, c.tie_rule_draws), (9, 0), "{at}");
+        assert!(r.coverage_mismatch_interior_frac <= CST_COV, "{at}");
+        assert!(r.prim_mismatch_interior_frac <= CST_PRIM, "{at}");
+        assert!(depth_ok, "depth, {at}");
+    }
 }
