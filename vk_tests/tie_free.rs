@@ -263,7 +263,12 @@ fn scs_subtracts_drilled_block_with_plain_depth_tests() {
     for s in &built.steps {
         match s {
             Step::Pass(p) => pass = p,
-            Step::Draw(d) if matches!(d.fragment, Fragment::NearerThan { .. }) => {
+            Step::Draw(d)
+                if matches!(
+                    d.fragment,
+                    Fragment::NearerThan { .. } | Fragment::ParityBeforeExit { .. }
+                ) =>
+            {
                 match parity.last_mut() {
                     Some((p, n)) if *p == pass => *n += 1,
                     _ => parity.push((pass, 1)),
@@ -273,7 +278,8 @@ fn scs_subtracts_drilled_block_with_plain_depth_tests() {
             _ => {}
         }
     }
-    // One parity draw per hole.
+    // One parity draw per hole; the tie-free frame draws its front faces only
+    // (`Fragment::ParityBeforeExit`), the tie-rule frame all of them.
     assert_eq!(parity, vec![("subtract", 12)]);
     let c = &stats.exec.counts;
     assert_eq!((c.tie_free_draws, c.tie_rule_draws), (12, 0), "{c:?}");
