@@ -12,6 +12,7 @@
 //! (feature `viewer`: a window's surface and swapchain).
 #![warn(unsafe_op_in_unsafe_fn)]
 
+pub mod cmd_arena;
 pub mod composite;
 pub mod conv;
 pub mod cpu_clock;

@@ -805,6 +805,23 @@ impl<'a> Recorder<'a> {
         }
     }
 
+    /// Sets the scissor of a draw of `geometry` that asks for `scissor`,
+    /// unless the one set cuts its meshes alike (`state::scissor_serves`).
+    fn set_draw_scissor(&mut self, geometry: &Geometry, scissor: Rect) {
+        let ids: &[u32] = match geometry {
+            Geometry::Mesh(m) => std::slice::from_ref(m),
+            Geometry::Meshes(ms) => ms,
+            Geometry::FullScreen { .. } => return self.set_scissor(scissor),
+        };
+        let kept = self.scissor.is_some_and(|c| {
+            let covered = self.b.mesh_rects.of(ids);
+            state::scissor_serves(c, scissor, covered, self.render_area)
+        });
+        if !kept {
+            self.set_scissor(scissor);
+        }
+    }
+
     /// Records the fields of `next` that differ from the dynamic state set (a
     /// pipeline with dynamic depth, stencil and cull state is bound).
     fn set_dynamic(&mut self, next: &RasterState) {
@@ -975,7 +992,7 @@ impl<'a> Recorder<'a> {
         self.open(&key, &uses);
         self.check_in_area(scissor);
         self.bind_pipe(pipe, set);
-        self.set_scissor(scissor);
+        self.set_draw_scissor(&draw.geometry, scissor);
         let flags = self.flags();
         let scene = self.b.scene;
         let rgb = |c: [u8; 3]| {
