@@ -207,6 +207,8 @@ pub(super) struct Recorder<'a> {
     /// Pipelines of this recording (a plan uses a few dozen; looked up without
     /// building a `PipelineDesc` per draw).
     pipes: Vec<Pipe>,
+    /// Indices in `pipes` of the two last found by a search, newest first.
+    recent: [usize; 2],
     state: ImageStates,
     pending_clear: BTreeMap<Resource, PendingClear>,
     /// Regions of the clears recorded next, in order (`plan::reach`).
@@ -247,6 +249,7 @@ impl<'a> Recorder<'a> {
             dyn_state: None,
             push: PushTracker::default(),
             pipes: Vec::new(),
+            recent: [usize::MAX; 2],
             state,
             pending_clear: BTreeMap::new(),
             clear_regions: VecDeque::new(),
@@ -716,12 +719,17 @@ impl<'a> Recorder<'a> {
         kind: FragmentKind,
         state: &RasterState,
     ) -> Result<Pipe, VkError> {
-        if let Some(p) = self
-            .pipes
-            .iter()
-            .find(|p| p.kind == kind && p.state == *state && p.block == *key)
-        {
-            return Ok(*p);
+        let hit = |p: &Pipe| p.kind == kind && p.state == *state && p.block == *key;
+        // The last two used first: consecutive draws mostly repeat or
+        // alternate (a trim's mesh draw and sweep).
+        for &i in &self.recent {
+            if self.pipes.get(i).is_some_and(hit) {
+                return Ok(self.pipes[i]);
+            }
+        }
+        if let Some(i) = self.pipes.iter().position(hit) {
+            self.recent = [i, self.recent[0]];
+            return Ok(self.pipes[i]);
         }
         let desc = PipelineDesc {
             fragment: kind,
@@ -745,6 +753,7 @@ impl<'a> Recorder<'a> {
             fixed,
         };
         self.pipes.push(pipe);
+        self.recent = [self.pipes.len() - 1, self.recent[0]];
         Ok(pipe)
     }
 
