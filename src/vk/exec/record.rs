@@ -817,6 +817,9 @@ impl<'a> Recorder<'a> {
     /// Sets the scissor of a draw of `geometry` that asks for `scissor`,
     /// unless the one set cuts its meshes alike (`state::scissor_serves`).
     fn set_draw_scissor(&mut self, geometry: &Geometry, scissor: Rect) {
+        if self.scissor == Some(scissor) {
+            return;
+        }
         let ids: &[u32] = match geometry {
             Geometry::Mesh(m) => std::slice::from_ref(m),
             Geometry::Meshes(ms) => ms,
