@@ -258,6 +258,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
             FINAL,
             CUR,
             stencil,
+            &super::VisibleSides::entries(prep),
         ));
     }
     Ok(Plan {

@@ -52,7 +52,7 @@
 
 use super::{
     CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Scissor, StencilState, Step,
-    Tex,
+    Tex, VisibleSides,
 };
 
 /// Depth tolerance of depth-equal shading and tolerant parity (normalized depth,
@@ -77,12 +77,14 @@ pub const REVERSED_SCALE: f32 = 0.125;
 /// The final depth-equal shading of locked pixels: every mesh with a face within
 /// [`SHADE_EPS`] (+ slope term) of the visible depth (held in `tex`) writes colour,
 /// id and its plane's depth at the pixel centre, the lowest index last so that it
-/// wins.
+/// wins. `sides`: the faces of each mesh that can be the visible ones, which a
+/// draw run as a plain depth-equal draw keeps alone (`plan::tie_free`).
 pub fn shade_near_depth(
     meshes: &[MeshId],
     ds: Ds,
     tex: Tex,
     stencil: Option<StencilState>,
+    sides: &VisibleSides,
 ) -> Vec<Step> {
     let mut steps = vec![
         Step::Pass("shade".into()),
@@ -106,6 +108,7 @@ pub fn shade_near_depth(
             fragment: Fragment::ShadeNearDepth {
                 tex,
                 eps: SHADE_EPS,
+                equal_cull: sides.cull(m),
             },
             count_samples: false,
         })
@@ -151,7 +154,7 @@ mod tests {
 
     #[test]
     fn lowest_index_is_drawn_last_and_writes_depth() {
-        let steps = shade_near_depth(&[3, 0, 7], 1, 2, None);
+        let steps = shade_near_depth(&[3, 0, 7], 1, 2, None, &VisibleSides::none());
         let order: Vec<MeshId> = steps
             .iter()
             .filter_map(|s| match s {

@@ -320,9 +320,17 @@ impl TieFree {
     }
 
     /// A final shade's draw as OpenCSG's depth-`EQUAL` shading ([module
-    /// doc](self)), whatever the decisions: `None` for other draws.
+    /// doc](self)), whatever the decisions: `None` for other draws. It culls
+    /// the faces that are never visible (`equal_cull`,
+    /// [`super::VisibleSides`]): it passes only at its own faces' raster
+    /// depth, so a culled face could pass only where it crosses the visible
+    /// one, and it is drawn only where it cannot tie with it.
     pub fn depth_equal(draw: &Draw) -> Option<Draw> {
+        let Fragment::ShadeNearDepth { equal_cull, .. } = draw.fragment else {
+            return None;
+        };
         is_final_shade(draw).then(|| Draw {
+            cull: equal_cull,
             depth: DepthState {
                 compare: CompareOp::Equal,
                 write: false,
@@ -755,7 +763,13 @@ mod tests {
     /// A final shade of meshes `ms` (depth-stencil 0, texture 1) after `before`.
     fn shaded(before: Vec<Step>, ms: &[MeshId]) -> Plan {
         let mut steps = before;
-        steps.extend(super::super::shade_near_depth(ms, 0, 1, None));
+        steps.extend(super::super::shade_near_depth(
+            ms,
+            0,
+            1,
+            None,
+            &super::super::VisibleSides::none(),
+        ));
         plan_of(steps)
     }
 
@@ -810,7 +824,13 @@ mod tests {
         // a later step reads, stays as planned.
         let floor = Step::CopyDepthToTexture { ds: 0, dst: 1 };
         let mut steps = vec![floor.clone(), Step::Pass("x".into()), floor];
-        steps.extend(super::super::shade_near_depth(&[0], 0, 1, None));
+        steps.extend(super::super::shade_near_depth(
+            &[0],
+            0,
+            1,
+            None,
+            &super::super::VisibleSides::none(),
+        ));
         steps.push(parity(0, SHADE_EPS));
         let plan = plan_of(steps);
         assert_eq!(

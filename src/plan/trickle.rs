@@ -99,7 +99,7 @@ pub fn plan(prep: &Prepared, opts: &TrickleOptions) -> Result<Plan, PlanError> {
     for p in &prods {
         steps.extend(product_steps(prep, p, eps));
     }
-    steps.extend(shade_steps(prep, Z3));
+    steps.extend(shade_steps(prep, Z3, &super::VisibleSides::entries(prep)));
     Ok(Plan {
         algo: "trickle".into(),
         depth_stencils: 2,

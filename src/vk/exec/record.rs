@@ -36,7 +36,7 @@ mod shade;
 use crate::plan::reach::ClearNeed;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::usage::{self, Resource, Usage, Uses};
-use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
+use crate::plan::{Cull, Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{
@@ -935,6 +935,7 @@ impl<'a> Recorder<'a> {
         let counts = &mut self.stats.counts;
         let (draw, step) = match &fast {
             Some(s @ Step::Draw(d)) => {
+                counts.shade_culled_draws += (shade && d.cull != Cull::None) as u64;
                 *if shade {
                     &mut counts.shade_fixed_draws
                 } else {

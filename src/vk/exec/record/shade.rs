@@ -15,7 +15,7 @@ use crate::plan::reach::READ_MARGIN;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::tie_zones::{self, MAX_RULE_RECTS};
 use crate::plan::usage::Resource;
-use crate::plan::{Draw, Ds, Step, Tex};
+use crate::plan::{Cull, Draw, Ds, Step, Tex};
 use crate::vk::error::VkError;
 use crate::vk::pipeline::FragmentKind;
 use crate::vk::scissor::Rect;
@@ -100,6 +100,7 @@ impl Recorder<'_> {
         };
         for r in tie_zones::subtract(scissor, &rule) {
             self.stats.counts.shade_fixed_draws += 1;
+            self.stats.counts.shade_culled_draws += (d.cull != Cull::None) as u64;
             self.draw_in(d, &fixed, r)?;
         }
         Ok(())
