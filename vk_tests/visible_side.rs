@@ -100,8 +100,11 @@ fn culls_right(scene: &Scene, want_culled: u64) {
         if r.coverage_mismatch_interior_frac > 0.001 || r.prim_mismatch_interior_frac > 0.01 {
             failures.push(format!("{algo} against the reference: {r:?}"));
         }
-        // The visible faces culled: most of the surface left unshaded.
-        if w.coverage_mismatch_interior_frac + w.prim_mismatch_interior_frac < 0.2 {
+        // The visible faces culled: most of the surface left unshaded. Not
+        // Blister's: its peel already wrote the locked face's colour and id,
+        // which its shade draws again (it matters only where faces tie).
+        let unseen = w.coverage_mismatch_interior_frac + w.prim_mismatch_interior_frac < 0.2;
+        if algo != Algo::Blister && unseen {
             failures.push(format!(
                 "{algo}: culling the visible side went unseen: {w:?}"
             ));
@@ -133,7 +136,7 @@ name = "block"
 shape = "box"
 size = [2.0, 1.0, 1.5]
 scale = [-1.0, 1.0, 1.0]
-rotate = [0.0, 20.0, 0.0]
+rotate_deg = [0.0, 20.0, 0.0]
 color = "#d08040"
 [[primitive]]
 name = "hole"
@@ -141,7 +144,7 @@ shape = "cylinder"
 radius = 0.3
 height = 3.0
 scale = [1.0, -1.0, -1.0]
-rotate = [10.0, 0.0, 0.0]
+rotate_deg = [10.0, 0.0, 0.0]
 translate = [0.3, 0.0, 0.1]
 color = "#4080d0"
 [csg]
