@@ -2,9 +2,11 @@
 //! (`plan::VisibleSides`, `plan::tie_free`), validation on: on a tie-free
 //! scene every algorithm's shade culls and its images are those of the
 //! unculled shade and match the reference, culling the other side instead
-//! loses the surface, a mirrored primitive culls alike, and the tie-rule draws
-//! keep both sides: where a positive primitive's back face coincides with the
-//! visible face, its lower index wins (CONTRACT §4), which culling would lose.
+//! loses the surface, a mirrored primitive culls alike; a tie-rule draw keeps
+//! both sides where its mesh can win a tie on its hidden faces (a positive
+//! primitive's back face on the visible face, its lower index winning:
+//! CONTRACT §4), and culls where only lower indices tie with it, changing no
+//! pixel.
 
 use std::path::Path;
 
@@ -217,6 +219,52 @@ expr = "(A - C) + B"
         }
         if w.prim_mismatch_interior < a_pixels / 2 {
             failures.push(format!("{algo}: culled rule draws kept A's id: {w:?}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn tied_meshes_cull_where_only_lower_indices_tie_with_them() {
+    // complex: ribs flush on the base, holes and slot cuts sharing planes;
+    // coincident: every primitive shares a plane with another. A mesh whose
+    // tie partners all have lower indices culls in its rule draws too.
+    let mut failures = Vec::new();
+    for name in ["complex", "coincident"] {
+        let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
+        let scene = load(Path::new(&path));
+        let prep = Prepared::new(&scene).expect("prepared");
+        let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+        for algo in [Algo::Scs, Algo::Goldfeather, Algo::CstI, Algo::Blister] {
+            let built = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
+            let (culled, stats) = frame(&scene, &built);
+            let c = &stats.exec.counts;
+            assert!(c.shade_rule_draws > 0, "{name} {algo}: ties: {c:?}");
+            // Some rule draw culled: more culled draws than depth-equal ones.
+            assert!(
+                c.shade_culled_draws > c.shade_fixed_draws,
+                "{name} {algo}: no rule draw culled: {c:?}"
+            );
+            let none = with_shade(&built, |_, cull| *cull = Cull::None);
+            let (plain, plain_stats) = frame(&scene, &none);
+            assert_eq!(plain_stats.exec.counts.shade_culled_draws, 0);
+            let same = interior(&compare(&plain, &culled).expect("same size"));
+            let r = compare(&reference, &culled).expect("same size");
+            eprintln!(
+                "{name} {algo}: culled {} of {} rule and {} depth-equal draws; against the unculled shade {same:?}; reference {:?}",
+                c.shade_culled_draws,
+                c.shade_rule_draws,
+                c.shade_fixed_draws,
+                interior(&r)
+            );
+            if same != (0, 0) {
+                failures.push(format!(
+                    "{name} {algo}: the unculled shade differs: {same:?}"
+                ));
+            }
+            if r.coverage_mismatch_interior_frac > 0.001 || r.prim_mismatch_interior_frac > 0.01 {
+                failures.push(format!("{name} {algo} against the reference: {r:?}"));
+            }
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

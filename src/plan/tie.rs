@@ -48,7 +48,10 @@
 //! evaluated at the pixel centre (`shaders/shade_near_depth.frag`), which removes
 //! the snapping error (1.) from `depth.npy` to first order. Where a mesh cannot
 //! tie under the camera the executor draws it as a plain depth-equal shade
-//! instead (`plan::tie_free`), which leaves the raster depth.
+//! instead (`plan::tie_free`), which leaves the raster depth and culls the
+//! faces that are never visible (`plan::visible_side`). The rule draws cull
+//! nothing: a positive primitive's back face coincident with the visible face
+//! can be the lowest index there (`vk_tests/visible_side.rs`).
 
 use super::{
     CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Scissor, StencilState, Step,

@@ -22,10 +22,34 @@
 //! back face on B's front face shows A). So only draws that cannot tie cull
 //! ([`super::tie_free`]: a depth-equal draw passes only at its own face's
 //! raster depth, and a tie-free mesh has no parallel face of another mesh
-//! within the tie band); the tie-rule draws keep both sides.
+//! within the tie band). A tie-rule draw culls too where its mesh can never
+//! be that lowest index ([`rule_may_cull`]).
 
 use super::step::Cull;
 use super::{MeshId, Prepared};
+use crate::geom::ties::TieGaps;
+
+/// Whether the tie-rule draws of mesh `m` at a band of `band` world units may
+/// cull its faces that are never visible: every other mesh with a face
+/// parallel to one of `m`'s within the band has a lower index.
+///
+/// Why: where a culled face lies on the visible point, some face there crosses
+/// the ray the other way (leaving `m` alone can only take a point out of the
+/// solid: [module doc](self)). If that face is `m`'s own, `m` is drawn there
+/// anyway; otherwise it belongs to a mesh whose face is parallel and within
+/// the band, so of a lower index, which wins over `m` both in the reference
+/// (CONTRACT §4) and in the shade (drawn after `m`, in descending order).
+/// The same holds for any face within the tie band of the visible one, so
+/// culling changes no pixel of the rule draws. Pairs of one mesh's own faces
+/// do not count: they give `m`'s id whichever face is drawn.
+pub fn rule_may_cull(gaps: &TieGaps, m: MeshId, band: f64) -> bool {
+    let known = band.is_finite() && band <= gaps.cap;
+    known
+        && gaps
+            .pairs
+            .iter()
+            .all(|&(a, b, gap)| !(a == m && b > m && gap <= band))
+}
 
 /// Per mesh, the faces the final shade's depth-equal draws may cull: never
 /// visible on the solid (or on one stream of its layers).
@@ -153,6 +177,29 @@ mod tests {
             ]
         );
         assert_eq!(VisibleSides::none().cull(0), Cull::None);
+    }
+
+    #[test]
+    fn rule_draws_cull_only_where_every_tie_partner_has_a_lower_index() {
+        // 0 ties 1 at 0; 1 has opposite faces of its own at 0 and ties 2 at 0.5;
+        // 3 ties nothing.
+        let gaps = TieGaps {
+            min_gap: vec![0.0, 0.0, 0.5, f64::INFINITY],
+            cap: 1.0,
+            pairs: vec![(0, 1, 0.0), (1, 1, 0.0), (1, 2, 0.5)],
+            zones: vec![],
+        };
+        let may = |band| {
+            (0..4)
+                .map(|m| rule_may_cull(&gaps, m, band))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(may(0.1), vec![false, true, true, true]);
+        // A wider band reaches 1's higher partner 2.
+        assert_eq!(may(0.6), vec![false, false, true, true]);
+        // Beyond the analysis' reach nothing is known.
+        assert_eq!(may(2.0), vec![false; 4]);
+        assert!(!rule_may_cull(&TieGaps::unknown(4), 3, 0.0));
     }
 
     /// The analysis names faces by their winding: a mirrored primitive must

@@ -283,7 +283,11 @@ impl Recorder<'_> {
                     },
                     false,
                 )),
-                None => draws.push((d.clone(), true)),
+                // Culling what can never win the tie (`plan::visible_side`).
+                None => draws.push((
+                    self.b.ties.culled_rule(d).unwrap_or_else(|| d.clone()),
+                    true,
+                )),
             }
         }
         draws.extend(equal);
@@ -415,7 +419,7 @@ impl Recorder<'_> {
             true => &mut c.shade_rule_draws,
             false => &mut c.shade_fixed_draws,
         } += 1;
-        c.shade_culled_draws += (!rule && draw.cull != Cull::None) as u64;
+        c.shade_culled_draws += (draw.cull != Cull::None) as u64;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
         }
