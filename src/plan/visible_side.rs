@@ -112,22 +112,11 @@ impl VisibleSides {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::csg::parse;
     use crate::scene::shapes::{apply_transform, make_box, transform};
-    use crate::scene::Aabb;
     use glam::DVec3;
 
     fn prepared(expr: &str, prims: u32) -> Prepared {
-        let names: Vec<String> = (0..prims).map(|i| format!("P{i}")).collect();
-        let e = parse(expr, &mut |n: &str| {
-            names.iter().position(|x| x == n).map(|i| i as u32)
-        })
-        .expect("parses");
-        let b = Aabb {
-            min: DVec3::splat(-1.0),
-            max: DVec3::splat(1.0),
-        };
-        Prepared::from_parts(e, vec![12; prims as usize], vec![b; prims as usize])
+        crate::plan::cst::tests::prepared(expr, prims, 12)
     }
 
     fn sides(expr: &str, prims: u32) -> Vec<Cull> {
