@@ -29,6 +29,7 @@ mod stability;
 mod tie_free;
 mod tie_zones;
 mod view_convex;
+mod visible_side;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

@@ -36,7 +36,7 @@ mod shade;
 use crate::plan::reach::ClearNeed;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::usage::{self, Resource, Usage, Uses};
-use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
+use crate::plan::{Cull, Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{
@@ -958,12 +958,15 @@ impl<'a> Recorder<'a> {
         if let Some(zones) = self.b.ties.shade_zones(draw) {
             return self.zoned_shade(draw, step, scissor, zones);
         }
-        // Plain depth tests where the tie rule cannot change the result.
+        // Plain depth tests where the tie rule cannot change the result; a
+        // shade's rule draw culling what can never win (`plan::visible_side`).
         let fast = self.b.ties.fixed_function(draw).map(Step::Draw);
+        let culled = self.b.ties.culled_rule(draw).map(Step::Draw);
         let shade = matches!(draw.fragment, Fragment::ShadeNearDepth { .. });
         let counts = &mut self.stats.counts;
         let (draw, step) = match &fast {
             Some(s @ Step::Draw(d)) => {
+                counts.shade_culled_draws += (shade && d.cull != Cull::None) as u64;
                 *if shade {
                     &mut counts.shade_fixed_draws
                 } else {
@@ -975,6 +978,10 @@ impl<'a> Recorder<'a> {
                 if shade {
                     counts.shade_rule_draws += 1;
                     counts.shade_rule_pixels += scissor.area();
+                    if let Some(s @ Step::Draw(d)) = &culled {
+                        counts.shade_culled_draws += 1;
+                        return self.draw_in(d, s, scissor);
+                    }
                 } else if matches!(
                     draw.fragment,
                     Fragment::NearerThan { .. } | Fragment::PeelTolerant { .. }
