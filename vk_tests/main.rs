@@ -15,6 +15,7 @@ mod embed;
 mod gpu_layers;
 mod kirsch;
 mod limits;
+mod many_products;
 mod one_submit;
 mod openscad;
 mod replay;

@@ -653,6 +653,27 @@ impl<'a> Recorder<'a> {
         Ok(())
     }
 
+    /// The block a draw of program `kind` into `key` records in: the open
+    /// block when the draw writes depth and stencil only into the same image
+    /// (its pipeline leaves the block's colour attachments unwritten), so a
+    /// parity draw between two draws into the surface and its depth texture
+    /// (SCS's front, parity and exit draws of each product) ends no block;
+    /// otherwise `key`. On lavapipe every block end waits for the rasterizer.
+    /// Only where the open block's render area holds the draw's `scissor`.
+    fn joined(&self, key: BlockKey, kind: FragmentKind, scissor: Rect) -> BlockKey {
+        match self.block {
+            Some(open)
+                if kind == FragmentKind::None
+                    && key.n_colors == 0
+                    && open.ds == key.ds
+                    && self.render_area.contains(&scissor) =>
+            {
+                open
+            }
+            _ => key,
+        }
+    }
+
     /// Makes `key` the open block with every usage in `uses` satisfied.
     fn open(&mut self, key: &BlockKey, uses: &[(Resource, Usage)]) {
         self.settle_clears(uses);
@@ -1005,7 +1026,7 @@ impl<'a> Recorder<'a> {
             // (the programs' `NORMALS` variants write it there).
             uses.push((Resource::Normal, Usage::ColorTarget));
         }
-        let key = BlockKey::of_draw(&uses, draw.ds);
+        let key = self.joined(BlockKey::of_draw(&uses, draw.ds), kind, scissor);
         let raster = state::raster_state(Some(draw), self.b.desc.reversed_z);
         let pipe = self.pipeline_for(&key, kind, &raster)?;
         self.open(&key, &uses);
