@@ -553,7 +553,13 @@ impl Pipelines {
                 depth_format: ds_format,
                 stencil_format,
                 layout: self.layout,
-                blend: (desc.fragment == FragmentKind::Accumulate).then(under_blend),
+                blend: match desc.fragment {
+                    FragmentKind::Accumulate => Some(under_blend()),
+                    // Depth and stencil only, in a block with colour
+                    // attachments (`Recorder::joined`): they keep their values.
+                    FragmentKind::None => Some(no_color_writes()),
+                    _ => None,
+                },
             },
         )
     }
@@ -591,6 +597,15 @@ pub(crate) fn under_blend() -> (vk::PipelineColorBlendAttachmentState, [f32; 4])
         .src_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
         .dst_alpha_blend_factor(vk::BlendFactor::ONE)
         .alpha_blend_op(vk::BlendOp::ADD);
+    (a, [0.0; 4])
+}
+
+/// No colour attachment written (a depth-stencil-only program in a block
+/// with colour attachments).
+pub(crate) fn no_color_writes() -> (vk::PipelineColorBlendAttachmentState, [f32; 4]) {
+    let a = vk::PipelineColorBlendAttachmentState::default()
+        .blend_enable(false)
+        .color_write_mask(vk::ColorComponentFlags::empty());
     (a, [0.0; 4])
 }
 

@@ -25,7 +25,7 @@ use ash::vk;
 
 use super::Recorder;
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::{CompareOp, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
+use crate::plan::{CompareOp, Cull, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
@@ -275,8 +275,19 @@ impl Recorder<'_> {
                 panic!("final_shade selects draws only")
             };
             match self.b.ties.fixed_function(d) {
-                Some(_) => equal.push((d.clone(), false)),
-                None => draws.push((d.clone(), true)),
+                // Culling the faces that are never visible, as standalone.
+                Some(f) => equal.push((
+                    Draw {
+                        cull: f.cull,
+                        ..d.clone()
+                    },
+                    false,
+                )),
+                // Culling what can never win the tie (`plan::visible_side`).
+                None => draws.push((
+                    self.b.ties.culled_rule(d).unwrap_or_else(|| d.clone()),
+                    true,
+                )),
             }
         }
         draws.extend(equal);
@@ -372,7 +383,7 @@ impl Recorder<'_> {
             return;
         }
         // Nearer than what the host's depth holds (mirrored for reversed Z);
-        // no stencil, no culling (the plan's draw culls nothing either).
+        // no stencil; the culling of the standalone frame's draw.
         let host = Draw {
             depth: DepthState {
                 compare: CompareOp::Less,
@@ -408,6 +419,7 @@ impl Recorder<'_> {
             true => &mut c.shade_rule_draws,
             false => &mut c.shade_fixed_draws,
         } += 1;
+        c.shade_culled_draws += (draw.cull != Cull::None) as u64;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
         }
@@ -420,7 +432,8 @@ mod tests {
 
     /// The plan builders' shade draw of mesh `m`.
     fn shade(m: u32, tex: Tex, ds: u8) -> Step {
-        let mut steps = crate::plan::shade_near_depth(&[m], ds, tex, None);
+        let mut steps =
+            crate::plan::shade_near_depth(&[m], ds, tex, None, &crate::plan::VisibleSides::none());
         steps.pop().expect("a pass, a copy and the draw")
     }
 
@@ -447,7 +460,13 @@ mod tests {
         ]);
         assert_eq!(final_shade(&p), Some(3));
         // Built by the plan builders: every GPU algorithm but blister-paper.
-        let p = plan(crate::plan::shade_near_depth(&[0, 1], 1, 1, None));
+        let p = plan(crate::plan::shade_near_depth(
+            &[0, 1],
+            1,
+            1,
+            None,
+            &crate::plan::VisibleSides::none(),
+        ));
         assert_eq!(final_shade(&p), Some(2));
     }
 
