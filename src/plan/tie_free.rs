@@ -13,6 +13,12 @@
 //!   image, which holds the texture's depth wherever the draw's result is read
 //!   (the plans' invariant, documented at [`Fragment::NearerThan`]); llvmpipe then
 //!   tests depth and stencil before an empty shader, as OpenCSG's parity passes;
+//! - SCS's clip by back faces [`Fragment::BehindThan`], the parity test's
+//!   complement, likewise becomes a depth-stencil-only draw tested `Greater`
+//!   (`GreaterOrEqual` for `eps < 0`);
+//! - SCS's merge by back faces [`Fragment::MergeBehind`] keeps its program (it
+//!   writes the texture's depth) with the exact compare (`eps` 0: one texel
+//!   fetch instead of three, no derivatives);
 //! - a tolerant peel [`Fragment::PeelTolerant`] becomes the exact peel
 //!   ([`Fragment::Peel`], one texel fetch instead of three and no derivatives);
 //! - a draw of the final shade [`Fragment::ShadeNearDepth`]
@@ -365,6 +371,37 @@ impl TieFree {
                     ..draw.clone()
                 })
             }
+            Fragment::BehindThan { eps, .. } => {
+                // NearerThan's complement: the opposite plain compare.
+                let off = DepthState {
+                    compare: CompareOp::Always,
+                    write: false,
+                };
+                if draw.depth != off || !self.meshes_free(meshes, eps) {
+                    return None;
+                }
+                let compare = if eps < 0.0 {
+                    CompareOp::GreaterOrEqual
+                } else {
+                    CompareOp::Greater
+                };
+                Some(Draw {
+                    depth: DepthState {
+                        compare,
+                        write: false,
+                    },
+                    fragment: Fragment::None,
+                    ..draw.clone()
+                })
+            }
+            // The merge writes the texture's depth, so it keeps its program,
+            // with the exact compare (one fetch, no derivatives).
+            Fragment::MergeBehind { tex, eps } if eps != 0.0 && self.meshes_free(meshes, eps) => {
+                Some(Draw {
+                    fragment: Fragment::MergeBehind { tex, eps: 0.0 },
+                    ..draw.clone()
+                })
+            }
             Fragment::PeelTolerant { prev, out, eps } if self.meshes_free(meshes, eps) => {
                 Some(Draw {
                     fragment: Fragment::Peel {
@@ -515,9 +552,10 @@ fn tolerances(steps: &[Step], out: &mut Vec<u32>) {
     for s in steps {
         match s {
             Step::Draw(d) => match d.fragment {
-                Fragment::NearerThan { eps, .. } | Fragment::PeelTolerant { eps, .. } => {
-                    out.push(eps.abs().to_bits())
-                }
+                Fragment::NearerThan { eps, .. }
+                | Fragment::BehindThan { eps, .. }
+                | Fragment::MergeBehind { eps, .. }
+                | Fragment::PeelTolerant { eps, .. } => out.push(eps.abs().to_bits()),
                 _ => {}
             },
             Step::Loop(l) => {

@@ -63,6 +63,7 @@ pub fn color_targets(f: &Fragment) -> Uses<Resource> {
         Fragment::None
         | Fragment::DepthFromTexture { .. }
         | Fragment::NearerThan { .. }
+        | Fragment::BehindThan { .. }
         | Fragment::MergeBehind { .. }
         | Fragment::DepthAtDepth { .. } => Uses::of(&[]),
         Fragment::Shade
@@ -87,6 +88,7 @@ pub fn sampled_texture(f: &Fragment) -> Option<Tex> {
         Fragment::DepthFromTexture { src } | Fragment::CopyTexel { src, .. } => Some(src),
         Fragment::ShadeNearDepth { tex, .. }
         | Fragment::NearerThan { tex, .. }
+        | Fragment::BehindThan { tex, .. }
         | Fragment::MergeBehind { tex, .. }
         | Fragment::ShadeAtDepth { tex }
         | Fragment::DepthAtDepth { tex } => Some(tex),

@@ -948,7 +948,10 @@ impl<'a> Recorder<'a> {
                     counts.shade_rule_pixels += scissor.area();
                 } else if matches!(
                     draw.fragment,
-                    Fragment::NearerThan { .. } | Fragment::PeelTolerant { .. }
+                    Fragment::NearerThan { .. }
+                        | Fragment::BehindThan { .. }
+                        | Fragment::MergeBehind { .. }
+                        | Fragment::PeelTolerant { .. }
                 ) {
                     counts.tie_rule_draws += 1;
                 }
@@ -1066,6 +1069,7 @@ impl<'a> Recorder<'a> {
                         let color = match draw.fragment {
                             Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
                             Fragment::NearerThan { eps, .. }
+                            | Fragment::BehindThan { eps, .. }
                             | Fragment::MergeBehind { eps, .. } => [0.0, 0.0, 0.0, eps],
                             _ => [0.0; 4],
                         };
@@ -1113,6 +1117,9 @@ fn fragment_kind(f: &Fragment) -> FragmentKind {
         // The texel copy is the depth-copy shader reading a depth texture.
         Fragment::CopyTexel { .. } => FragmentKind::CopyDepth,
         Fragment::NearerThan { .. } => FragmentKind::NearerThan,
+        Fragment::BehindThan { .. } => FragmentKind::BehindThan,
+        // An exact merge needs none of the tie rule's fetches.
+        Fragment::MergeBehind { eps, .. } if *eps == 0.0 => FragmentKind::MergeBehindExact,
         Fragment::MergeBehind { .. } => FragmentKind::MergeBehind,
         Fragment::ShadeNearDepth { .. } => FragmentKind::ShadeNearDepth,
         Fragment::DepthAtDepth { .. } => FragmentKind::DepthAtDepth,
