@@ -106,7 +106,7 @@ const SUB_BITS: usize = CLIP_BITS as usize;
 pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let prods = goldfeather::products(prep, opts.limit)?;
     let mut steps = goldfeather::init_steps();
-    let mut loops = false;
+    let (mut loops, mut surface) = (false, false);
     let tests = Cell::new(order::MAX_PAIR_TESTS);
     // The first product SCS clips by back faces is drawn first, in the output
     // image itself (`Target::Output`); the output depth is the nearest over the
@@ -129,15 +129,18 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             } else {
                 Target::Surface
             };
+            surface |= target == Target::Surface;
             steps.extend(product_steps(p, prep, opts.eps, &tests, target));
         } else {
+            surface = true;
             loops |= goldfeather::product_steps(p, prep, opts.eps, &mut steps);
         }
     }
     steps.extend(goldfeather::shade_steps(prep, SURF));
     Ok(Plan {
         algo: super::Algo::Scs.name().into(),
-        depth_stencils: 2,
+        // The surface image only for a product that is not drawn in the output.
+        depth_stencils: if surface { 2 } else { 1 },
         // Goldfeather's peel textures only for a fallback product that peels.
         textures: if loops { 3 } else { 1 },
         stencil_bits: CLIP_BITS,
@@ -910,6 +913,8 @@ mod tests {
         let prep = Prepared::new(&block_minus_spheres(16)).unwrap();
         let built = plan(&prep, &ProductOptions::default()).unwrap();
         assert!(!built.steps.iter().any(|s| matches!(s, Step::Loop(_))));
+        // One product, drawn in the output: no surface image.
+        assert_eq!(built.depth_stencils, 1);
         let c = count(&built.steps, &prep);
         let g = goldfeather::plan(&prep, &ProductOptions::default()).unwrap();
         let gc = count(&g.steps, &prep);
