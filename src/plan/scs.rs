@@ -287,13 +287,20 @@ fn product_steps(
         }));
     }
     let seq = sequence_within(&ys, prep, tests);
+    let at = Subtraction {
+        prep,
+        region: &region,
+        eps,
+        count: false,
+        ds,
+    };
     if !seq.once.is_empty() {
         steps.push(Step::Pass("subtract".into()));
-        steps.extend(subtract(&seq.once, &region, eps, prep, false, ds));
+        steps.extend(subtract(&seq.once, at));
     }
     if !seq.rounds.is_empty() {
         let mut head = vec![Step::Pass("subtract".into())];
-        head.extend(subtract(&seq.rounds, &region, eps, prep, true, ds));
+        head.extend(subtract(&seq.rounds, Subtraction { count: true, ..at }));
         steps.push(Step::Loop(Loop {
             head,
             tail: Vec::new(),
@@ -522,16 +529,21 @@ fn ordered(m: &[Lit], prep: &Prepared, tests: &Cell<usize>) -> Result<Vec<Lit>, 
 /// boxes are pairwise disjoint (at most one of them holds a pixel's `z`, and no
 /// exit lands in another, so the batch equals its sequence): per primitive a
 /// parity draw into its bit (inside: odd), then per primitive its back faces
-/// written into `z` where its bit is set, clearing the bit. With `count`, the
-/// exits count samples (the rounds' early out).
-fn subtract(
-    ys: &[Lit],
-    region: &Region,
+/// written into `z` where its bit is set, clearing the bit.
+#[derive(Clone, Copy)]
+struct Subtraction<'a> {
+    prep: &'a Prepared,
+    /// Where the product can be (every draw is cut to it).
+    region: &'a Region,
     eps: f32,
-    prep: &Prepared,
+    /// The exits count samples (the rounds' early out).
     count: bool,
+    /// The image holding `z` ([`Target`]).
     ds: Ds,
-) -> Vec<Step> {
+}
+
+fn subtract(ys: &[Lit], at: Subtraction) -> Vec<Step> {
+    let (prep, region, eps, count, ds) = (at.prep, at.region, at.eps, at.count, at.ds);
     let mut steps = Vec::new();
     let mut batch: Vec<Lit> = Vec::new();
     let flush = |batch: &mut Vec<Lit>, steps: &mut Vec<Step>| {
@@ -669,14 +681,14 @@ mod tests {
         assert_eq!(rounds, vec![lit(1), lit(2), lit(3), lit(6), lit(7)]);
         // A batch never holds two overlapping cutters: the round 1, 6, 2, 7, 3 is
         // cut wherever the next one meets one already in the batch.
-        let steps = subtract(
-            &seq.rounds,
-            &Region::Intersection(vec![0]),
-            CLIP_EPS,
-            &prep,
-            true,
-            SURFACE,
-        );
+        let at = Subtraction {
+            prep: &prep,
+            region: &Region::Intersection(vec![0]),
+            eps: CLIP_EPS,
+            count: true,
+            ds: SURFACE,
+        };
+        let steps = subtract(&seq.rounds, at);
         let mut batch: Vec<MeshId> = Vec::new();
         for s in &steps {
             let Step::Draw(d) = s else { continue };

@@ -348,51 +348,21 @@ impl TieFree {
         };
         match draw.fragment {
             Fragment::NearerThan { eps, .. } => {
-                let off = DepthState {
-                    compare: CompareOp::Always,
-                    write: false,
-                };
-                // One depth test: the shader's compare can replace it only when
-                // the draw has none of its own.
-                if draw.depth != off || !self.meshes_free(meshes, eps) {
-                    return None;
-                }
                 let compare = if eps < 0.0 {
                     CompareOp::Less
                 } else {
                     CompareOp::LessOrEqual
                 };
-                Some(Draw {
-                    depth: DepthState {
-                        compare,
-                        write: false,
-                    },
-                    fragment: Fragment::None,
-                    ..draw.clone()
-                })
+                self.plain_test(draw, meshes, eps, compare)
             }
+            // NearerThan's complement: the opposite plain compare.
             Fragment::BehindThan { eps, .. } => {
-                // NearerThan's complement: the opposite plain compare.
-                let off = DepthState {
-                    compare: CompareOp::Always,
-                    write: false,
-                };
-                if draw.depth != off || !self.meshes_free(meshes, eps) {
-                    return None;
-                }
                 let compare = if eps < 0.0 {
                     CompareOp::GreaterOrEqual
                 } else {
                     CompareOp::Greater
                 };
-                Some(Draw {
-                    depth: DepthState {
-                        compare,
-                        write: false,
-                    },
-                    fragment: Fragment::None,
-                    ..draw.clone()
-                })
+                self.plain_test(draw, meshes, eps, compare)
             }
             // The merge writes the texture's depth, so it keeps its program,
             // with the exact compare (one fetch, no derivatives).
@@ -417,6 +387,34 @@ impl TieFree {
             }
             _ => None,
         }
+    }
+
+    /// A tolerant parity-like `draw` of `meshes` as a depth-stencil draw with
+    /// no program, tested `compare` against its image, when its meshes are
+    /// tie-free at `eps` and it has no depth test of its own (the shader's
+    /// compare can replace only that).
+    fn plain_test(
+        &self,
+        draw: &Draw,
+        meshes: &[MeshId],
+        eps: f32,
+        compare: CompareOp,
+    ) -> Option<Draw> {
+        let off = DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        };
+        if draw.depth != off || !self.meshes_free(meshes, eps) {
+            return None;
+        }
+        Some(Draw {
+            depth: DepthState {
+                compare,
+                write: false,
+            },
+            fragment: Fragment::None,
+            ..draw.clone()
+        })
     }
 
     /// For every [`Step::CopyDepthToTexture`] of `steps`, in order, what it must
