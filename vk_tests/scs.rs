@@ -297,3 +297,147 @@ color = "#d04040"
         assert!(depth_ok, "depth, {at}");
     }
 }
+
+/// Three SCS products side by side: `Block1 − Hole1` (the first: drawn in the
+/// output, clipped by its back faces), `Block2 ∩ Ball − Hole2` (two positive
+/// primitives: a stencil count of their back faces, one sweep, a full-screen
+/// merge) and `Block3 − Hole3` (merged by its back faces). With `flush` the
+/// holes of blocks 1 and 3 end in the blocks' top and bottom faces
+/// (coincident caps: those meshes can tie); else they stick out.
+fn three_products(flush: bool) -> Scene {
+    let hole = if flush { 1.0 } else { 1.6 };
+    load(&format!(
+        r##"
+[camera]
+eye = [1.0, 3.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fit = true
+[[primitive]]
+name = "Block1"
+shape = "box"
+size = [1.2, 1.0, 1.2]
+translate = [-1.6, 0.0, 0.0]
+[[primitive]]
+name = "Hole1"
+shape = "cylinder"
+radius = 0.3
+height = {hole}
+translate = [-1.6, 0.0, 0.0]
+color = "#d04040"
+[[primitive]]
+name = "Block2"
+shape = "box"
+size = [1.2, 1.0, 1.2]
+[[primitive]]
+name = "Ball"
+shape = "sphere"
+radius = 0.75
+translate = [0.0, 0.35, 0.0]
+color = "#40a040"
+[[primitive]]
+name = "Hole2"
+shape = "cylinder"
+radius = 0.2
+height = 1.6
+color = "#4060d0"
+[[primitive]]
+name = "Block3"
+shape = "box"
+size = [1.2, 1.0, 1.2]
+translate = [1.6, 0.0, 0.0]
+[[primitive]]
+name = "Hole3"
+shape = "cylinder"
+radius = 0.3
+height = {hole}
+translate = [1.6, 0.0, 0.0]
+color = "#a040a0"
+[csg]
+expr = "(Block1 - Hole1) + (Block2 * Ball - Hole2) + (Block3 - Hole3)"
+"##
+    ))
+}
+
+/// The clip by back faces and the merge by back faces take the cheap path
+/// where their meshes cannot tie ([`Fragment::BehindThan`] as a plain depth
+/// test, [`Fragment::MergeBehind`] with one fetch) and keep the tie rule where
+/// they can; both scenes match the reference in every depth set-up, and each
+/// matches its own frame with the tie rule everywhere.
+#[test]
+fn back_face_clips_and_merges_are_tie_free_only_where_nothing_ties() {
+    use peeltrim::plan::{Fragment, Geometry};
+    use peeltrim::reference::compare::compare;
+    use peeltrim::render::{DepthSetup, GpuRenderer};
+    for flush in [false, true] {
+        let scene = three_products(flush);
+        assert!(all_scs(&scene));
+        let prep = Prepared::new(&scene).unwrap();
+        let p = plan::build(Algo::Scs, &prep).unwrap();
+        // The tolerant draws, by name of their mesh and kind.
+        let mut tolerant = Vec::new();
+        let (mut merges, mut clips) = (0, 0);
+        for s in &p.steps {
+            let Step::Draw(d) = s else { continue };
+            let Geometry::Mesh(m) = d.geometry else {
+                continue;
+            };
+            let name = scene.primitives[m as usize].name.clone();
+            match d.fragment {
+                Fragment::NearerThan { .. } => tolerant.push(name),
+                Fragment::BehindThan { .. } => {
+                    clips += 1;
+                    tolerant.push(name)
+                }
+                Fragment::MergeBehind { .. } => {
+                    merges += 1;
+                    tolerant.push(name)
+                }
+                _ => {}
+            }
+        }
+        // Three parity draws, Block1's, Block2's and Ball's back-face clips,
+        // and one merge by back faces (the first product needs none).
+        assert_eq!((tolerant.len(), clips, merges), (7, 3, 1), "{tolerant:?}");
+        let tied = tolerant
+            .iter()
+            .filter(|n| ["Block1", "Hole1", "Block3", "Hole3"].contains(&n.as_str()))
+            .count() as u64;
+        assert_eq!(tied, 4, "{tolerant:?}");
+        let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::DEFAULT, true)
+            .expect("a Vulkan device (lavapipe)");
+        let fast = gpu.frame(&p).expect("a frame");
+        gpu.set_tie_free(false);
+        let slow = gpu.frame(&p).expect("a frame");
+        let msgs = gpu.validation_messages();
+        assert!(msgs.is_empty(), "validation messages: {msgs:#?}");
+        let c = &fast.stats.exec.counts;
+        let at = format!("flush {flush}: {c:?}");
+        if flush {
+            // The flush holes and their blocks keep the rule; the middle
+            // product's draws go plain.
+            assert_eq!(
+                (c.tie_rule_draws, c.tie_free_draws),
+                (tied, 7 - tied),
+                "{at}"
+            );
+        } else {
+            assert_eq!((c.tie_rule_draws, c.tie_free_draws), (0, 7), "{at}");
+        }
+        let s = &slow.stats.exec.counts;
+        assert_eq!((s.tie_rule_draws, s.tie_free_draws), (7, 0), "{at}");
+        let d = compare(&slow.images, &fast.images).expect("same size");
+        assert_eq!(
+            (d.coverage_mismatch_interior, d.prim_mismatch_interior),
+            (0, 0),
+            "flush {flush}: the tie-free frame against the tie-rule frame: {d:?}"
+        );
+        let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+        for p in 1..=7u16 {
+            assert!(
+                reference.prim.iter().any(|&q| q == p),
+                "flush {flush}: primitive {p} shows"
+            );
+        }
+        check(&scene);
+    }
+}

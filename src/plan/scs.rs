@@ -30,10 +30,18 @@
 //!    (`z` only moved back, and each `Xi` is one interval along the ray, so this
 //!    also rejects rays that miss the intersection), then merged into the output
 //!    depth by a less-than test, and the image is shaded by depth as for
-//!    Goldfeather. With a single `X` (a block minus holes) clip and merge are
-//!    one draw of its back faces into the output depth, no full-screen pass:
-//!    `z` is at or behind its front face wherever the ray meets it
-//!    (`back_face_merge`).
+//!    Goldfeather. Where every cutter's rays start outside it, `z` is at or
+//!    behind each `Xi`'s front face wherever the ray meets `Xi`, so it is inside
+//!    `Xi` exactly where `Xi`'s back face lies behind it: the clip draws back
+//!    faces only, and a stencil count of those that pass says whether `z` is
+//!    inside all of them (`back_face_clip`: `k` back-face draws and one sweep,
+//!    where Goldfeather's parity draws both sides of each `Xi` and sweeps once
+//!    per eight). The first such product is drawn in the output image itself
+//!    (`Target::Output`: the output still holds far there, so the sweep leaves
+//!    the product's depth in place and no merge follows); the others in the
+//!    surface image. There, with a single `X` (a block minus holes), clip and
+//!    merge are one draw of its back faces into the output depth, no full-screen
+//!    pass (`back_face_merge`).
 //!
 //! Every draw is cut to the intersection of the `Xi`'s screen rectangles
 //! (`Region::Intersection`): the product lies inside each `Xi`, and only the
@@ -53,7 +61,9 @@
 //! **Tie-free cutters** (no face within the tie band of another's,
 //! [`super::tie_free`]) need none of this: the executor runs their parity draws
 //! as plain `LessOrEqual` depth-stencil tests with no fragment shader, against
-//! the surface image, as OpenCSG's SCS does. That image holds `z` wherever a
+//! the surface image, as OpenCSG's SCS does; likewise a tie-free `Xi`'s clip by
+//! back faces ([`Fragment::BehindThan`]) as a plain `Greater` test, and its merge
+//! by back faces with the exact compare (one texel fetch). That image holds `z` wherever a
 //! parity draw's result is read because the front draws and every exit write
 //! `z` into it as into the texture (the exits' depth test is off, their stencil
 //! bit admits one back face per pixel). Where no front face is drawn the image
@@ -61,7 +71,10 @@
 //! ray starts outside of is even, so `z` stays far; a cutter the ray may start
 //! inside (the eye correction) can differ, but the ray misses an `Xi` there,
 //! and the parity clip, always used with such cutters, rejects the pixel
-//! whatever `z` became. The exits keep their one-store shader: the
+//! whatever `z` became. A back face of `Xi` is drawn only where its front face
+//! was, so the image holds `z` wherever the clip by back faces reads it. In the
+//! output image the first front face is drawn `Less` against far, and the image
+//! holds far wherever the texture does. The exits keep their one-store shader: the
 //! merge reads the texture, and with no `discard` the stencil test runs before
 //! it, so only the pixels whose `z` moves run it.
 //!
@@ -101,14 +114,33 @@ const SUB_BITS: usize = CLIP_BITS as usize;
 pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let prods = goldfeather::products(prep, opts.limit)?;
     let mut steps = goldfeather::init_steps();
-    let mut loops = false;
+    let (mut loops, mut surface) = (false, false);
     let tests = Cell::new(order::MAX_PAIR_TESTS);
-    for p in &prods {
+    // The first product SCS clips by back faces is drawn first, in the output
+    // image itself (`Target::Output`); the output depth is the nearest over the
+    // products, whatever their order.
+    let in_place = prods.iter().position(|p| {
+        goldfeather::direct_steps(p, prep).is_none()
+            && applies(p, prep)
+            && back_face_clip_applies(p, prep)
+    });
+    let order = in_place
+        .into_iter()
+        .chain((0..prods.len()).filter(|&i| Some(i) != in_place));
+    for i in order {
+        let p = &prods[i];
         if let Some(direct) = goldfeather::direct_steps(p, prep) {
             steps.extend(direct);
         } else if applies(p, prep) {
-            steps.extend(product_steps(p, prep, opts.eps, &tests));
+            let target = if Some(i) == in_place {
+                Target::Output
+            } else {
+                Target::Surface
+            };
+            surface |= target == Target::Surface;
+            steps.extend(product_steps(p, prep, opts.eps, &tests, target));
         } else {
+            surface = true;
             loops |= goldfeather::product_steps(p, prep, opts.eps, &mut steps);
         }
     }
@@ -119,7 +151,8 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     ));
     Ok(Plan {
         algo: super::Algo::Scs.name().into(),
-        depth_stencils: 2,
+        // The surface image only for a product that is not drawn in the output.
+        depth_stencils: if surface { 2 } else { 1 },
         // Goldfeather's peel textures only for a fallback product that peels.
         textures: if loops { 3 } else { 1 },
         stencil_bits: CLIP_BITS,
@@ -185,35 +218,79 @@ pub fn fallback_warning(prep: &Prepared) -> Option<String> {
     ))
 }
 
+/// Where a product's candidate depth `z` is kept (module documentation, 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Target {
+    /// The surface image (cleared to near), then merged into the output.
+    Surface,
+    /// The output image itself, while it holds far and stencil 0 everywhere
+    /// (the first product drawn): the clip's sweep leaves the product's depth
+    /// there, and no merge is needed.
+    Output,
+}
+
+impl Target {
+    fn ds(self) -> Ds {
+        match self {
+            Target::Surface => SURFACE,
+            Target::Output => OUTPUT,
+        }
+    }
+}
+
+/// Whether the rays of every cutter of `p` start outside it, so that the
+/// clip can go by the positive primitives' back faces ([`back_face_clip`]),
+/// with a stencil count of them that fits the stencil bits.
+fn back_face_clip_applies(p: &[Lit], prep: &Prepared) -> bool {
+    let flag = |v: &[bool], m: MeshId| v.get(m as usize).copied().unwrap_or(false);
+    let start_inside = |y: &Lit| flag(&prep.eye_inside, y.prim) || flag(&prep.near_cut, y.prim);
+    let positives = p.iter().filter(|l| !l.negated).count();
+    !p.iter().any(|l| l.negated && start_inside(l)) && positives < 1 << CLIP_BITS
+}
+
 /// The steps of one product of convex primitives (module documentation, 1–3).
-fn product_steps(p: &[Lit], prep: &Prepared, eps: f32, tests: &Cell<usize>) -> Vec<Step> {
+/// `Target::Output` needs [`back_face_clip_applies`].
+fn product_steps(
+    p: &[Lit],
+    prep: &Prepared,
+    eps: f32,
+    tests: &Cell<usize>,
+    target: Target,
+) -> Vec<Step> {
     let (xs, ys): (Vec<Lit>, Vec<Lit>) = p.iter().partition(|l| !l.negated);
     // Where the product can be: inside every positive primitive, so inside the
     // intersection of their rectangles. Only the clip and the merge read `z`,
     // and both are cut to it, so every draw is.
     let region = Region::Intersection(xs.iter().map(|l| l.prim).collect());
-    let mut steps = vec![
-        Step::Pass("scs-front".into()),
-        Step::Clear(Clear::DepthStencil {
-            ds: SURFACE,
+    let ds = target.ds();
+    let mut steps = vec![Step::Pass("scs-front".into())];
+    if target == Target::Surface {
+        steps.push(Step::Clear(Clear::DepthStencil {
+            ds,
             depth: 0.0,
             stencil: 0,
-        }),
-        Step::Clear(Clear::Texture {
-            tex: SURF,
-            depth: goldfeather::FAR,
-        }),
-    ];
+        }));
+    }
+    steps.push(Step::Clear(Clear::Texture {
+        tex: SURF,
+        depth: goldfeather::FAR,
+    }));
     // The farthest front face; where no front face is drawn `z` stays far, which
-    // no subtraction moves and the clip rejects.
-    for x in &xs {
+    // no subtraction moves and the clip rejects. In the output (far
+    // everywhere) the first one is drawn `Less`: where it is not drawn the
+    // product is empty, and `z` stays far in the image as in the texture.
+    for (i, x) in xs.iter().enumerate() {
+        let compare = match target {
+            Target::Output if i == 0 => CompareOp::Less,
+            _ => CompareOp::Greater,
+        };
         steps.push(Step::Draw(Draw {
             geometry: Geometry::Mesh(x.prim),
             scissor: region.cut(x.prim),
             cull: x.visible_cull(),
-            ds: SURFACE,
+            ds,
             depth: DepthState {
-                compare: CompareOp::Greater,
+                compare,
                 write: true,
             },
             stencil: None,
@@ -222,24 +299,39 @@ fn product_steps(p: &[Lit], prep: &Prepared, eps: f32, tests: &Cell<usize>) -> V
         }));
     }
     let seq = sequence_within(&ys, prep, tests);
+    let at = Subtraction {
+        prep,
+        region: &region,
+        eps,
+        count: false,
+        ds,
+    };
     if !seq.once.is_empty() {
         steps.push(Step::Pass("subtract".into()));
-        steps.extend(subtract(&seq.once, &region, eps, prep, false));
+        steps.extend(subtract(&seq.once, at));
     }
     if !seq.rounds.is_empty() {
         let mut head = vec![Step::Pass("subtract".into())];
-        head.extend(subtract(&seq.rounds, &region, eps, prep, true));
+        head.extend(subtract(&seq.rounds, Subtraction { count: true, ..at }));
         steps.push(Step::Loop(Loop {
             head,
             tail: Vec::new(),
             max_iterations: seq.max_rounds,
         }));
     }
-    let flag = |v: &[bool], m: MeshId| v.get(m as usize).copied().unwrap_or(false);
-    let start_inside = |y: &Lit| flag(&prep.eye_inside, y.prim) || flag(&prep.near_cut, y.prim);
-    match xs.as_slice() {
-        [x] if !ys.iter().any(start_inside) => steps.extend(back_face_merge(*x, &region, eps)),
-        _ => {
+    let back_faces = back_face_clip_applies(p, prep);
+    assert!(
+        back_faces || target == Target::Surface,
+        "a product is drawn in the output only when its clip goes by back faces"
+    );
+    match (xs.as_slice(), target) {
+        ([x], Target::Surface) if back_faces => steps.extend(back_face_merge(*x, &region, eps)),
+        (_, Target::Output) => steps.extend(back_face_clip(&xs, &region, eps, target)),
+        (_, Target::Surface) if back_faces => {
+            steps.extend(back_face_clip(&xs, &region, eps, target));
+            steps.extend(goldfeather::merge_steps_in(&region));
+        }
+        (_, Target::Surface) => {
             steps.extend(goldfeather::clip_steps_in(
                 &xs,
                 &region,
@@ -252,8 +344,65 @@ fn product_steps(p: &[Lit], prep: &Prepared, eps: f32, tests: &Cell<usize>) -> V
     steps
 }
 
+/// The clip of a product whose cutters' rays all start outside them (module
+/// documentation, 3): `z` is at or behind every positive primitive's front
+/// face wherever it is drawn, so it is inside `xi` exactly where `xi`'s back
+/// face lies behind it ([`Fragment::BehindThan`], the tie rule decided as the
+/// parity clip's), and in the product where all `k` back faces pass. Each
+/// passing back face increments the stencil (one back face per pixel and
+/// primitive); one sweep sets far where the count is not `k` (a ray missing
+/// an `xi` draws none of its back faces) and clears the count. In the output
+/// image the sweep writes the image only; in the surface image the texture
+/// too, for the merge that follows.
+fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, target: Target) -> Vec<Step> {
+    let k = xs.len() as u32;
+    assert!(
+        k < 1 << CLIP_BITS,
+        "{k} positive primitives overflow the stencil count"
+    );
+    let inside = k as u8;
+    // The bits the count needs.
+    let mask = (u32::MAX >> (k.leading_zeros())) as u8;
+    let ds = target.ds();
+    let mut steps = vec![Step::Pass("clip".into())];
+    for x in xs {
+        steps.push(Step::Draw(Draw {
+            geometry: Geometry::Mesh(x.prim),
+            scissor: region.cut(x.prim),
+            cull: Cull::Front,
+            ds,
+            depth: DepthState {
+                compare: CompareOp::Always,
+                write: false,
+            },
+            stencil: Some(super::stencil::both(
+                CompareOp::Always,
+                StencilOp::IncrementAndClamp,
+                0,
+                mask,
+                0,
+            )),
+            fragment: Fragment::BehindThan { tex: SURF, eps },
+            count_samples: false,
+        }));
+    }
+    let fragment = match target {
+        Target::Output => Fragment::None,
+        Target::Surface => Fragment::WriteDepth { out: SURF },
+    };
+    steps.push(goldfeather::reject_sweep_into(
+        ds,
+        fragment,
+        mask,
+        inside,
+        region.rect(),
+    ));
+    steps
+}
+
 /// The clip and merge of a product with one positive primitive `x` (module
-/// documentation, 3) whose cutters all start outside every ray, as one draw
+/// documentation, 3) whose cutters all start outside every ray, drawn in the
+/// surface image (not the first such product), as one draw
 /// of `x`'s back faces into the output depth ([`Fragment::MergeBehind`]) and
 /// no full-screen pass. Where the ray meets `x`, `z` is at or behind its
 /// front face (it starts there and only moves back), so `z` is inside `x`
@@ -392,13 +541,25 @@ fn ordered(m: &[Lit], prep: &Prepared, tests: &Cell<usize>) -> Result<Vec<Lit>, 
 /// boxes are pairwise disjoint (at most one of them holds a pixel's `z`, and no
 /// exit lands in another, so the batch equals its sequence): per primitive a
 /// parity draw into its bit (inside: odd), then per primitive its back faces
-/// written into `z` where its bit is set, clearing the bit. With `count`, the
-/// exits count samples (the rounds' early out).
-fn subtract(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
+/// written into `z` where its bit is set, clearing the bit.
+#[derive(Clone, Copy)]
+struct Subtraction<'a> {
+    prep: &'a Prepared,
+    /// Where the product can be (every draw is cut to it).
+    region: &'a Region,
+    eps: f32,
+    /// The exits count samples (the rounds' early out).
+    count: bool,
+    /// The image holding `z` ([`Target`]).
+    ds: Ds,
+}
+
+fn subtract(ys: &[Lit], at: Subtraction) -> Vec<Step> {
+    let (prep, region, eps, count, ds) = (at.prep, at.region, at.eps, at.count, at.ds);
     let mut steps = Vec::new();
     let mut batch: Vec<Lit> = Vec::new();
     let flush = |batch: &mut Vec<Lit>, steps: &mut Vec<Step>| {
-        steps.extend(batch_steps(batch, region, eps, prep, count));
+        steps.extend(batch_steps(batch, region, eps, prep, count, ds));
         batch.clear();
     };
     for &y in ys {
@@ -417,13 +578,20 @@ fn subtract(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bool)
     steps
 }
 
-fn batch_steps(ys: &[Lit], region: &Region, eps: f32, prep: &Prepared, count: bool) -> Vec<Step> {
+fn batch_steps(
+    ys: &[Lit],
+    region: &Region,
+    eps: f32,
+    prep: &Prepared,
+    count: bool,
+    ds: Ds,
+) -> Vec<Step> {
     let draw = |y: &Lit, cull, depth, stencil, fragment, count_samples| {
         Step::Draw(Draw {
             geometry: Geometry::Mesh(y.prim),
             scissor: region.cut(y.prim),
             cull,
-            ds: SURFACE,
+            ds,
             depth,
             stencil: Some(stencil),
             fragment,
@@ -545,13 +713,14 @@ mod tests {
         assert_eq!(rounds, vec![lit(1), lit(2), lit(3), lit(6), lit(7)]);
         // A batch never holds two overlapping cutters: the round 1, 6, 2, 7, 3 is
         // cut wherever the next one meets one already in the batch.
-        let steps = subtract(
-            &seq.rounds,
-            &Region::Intersection(vec![0]),
-            CLIP_EPS,
-            &prep,
-            true,
-        );
+        let at = Subtraction {
+            prep: &prep,
+            region: &Region::Intersection(vec![0]),
+            eps: CLIP_EPS,
+            count: true,
+            ds: SURFACE,
+        };
+        let steps = subtract(&seq.rounds, at);
         let mut batch: Vec<MeshId> = Vec::new();
         for s in &steps {
             let Step::Draw(d) = s else { continue };
@@ -614,20 +783,98 @@ mod tests {
             .collect()
     }
 
+    /// `row_of_boxes`' boxes under `(0 − 4 − 5) ∪ (6 − 7)`: two products of
+    /// one positive primitive each.
+    fn two_products() -> Prepared {
+        use crate::reference::fixtures::ExprBuilder;
+        let boxes = row_of_boxes().mesh_bounds;
+        let mut e = ExprBuilder::default();
+        let l: Vec<u32> = (0..8).map(|i| e.leaf(i)).collect();
+        let a = e.diff(l[0], l[4]);
+        let a = e.diff(a, l[5]);
+        let b = e.diff(l[6], l[7]);
+        let root = e.union(a, b);
+        let mut prep = Prepared::from_parts(e.build(root), vec![12; 8], boxes);
+        prep.mesh_convex = vec![true; 8];
+        prep
+    }
+
     #[test]
-    fn one_positive_primitive_is_clipped_and_merged_by_its_back_faces() {
-        let prep = row_of_boxes();
+    fn the_first_product_is_clipped_by_back_faces_in_the_output() {
+        let prep = two_products();
         let built = plan(&prep, &ProductOptions::default()).unwrap();
-        // No clip pass: the back faces of box 0 carry `z` into the output
-        // where they lie behind it, one mesh draw and no full-screen pass.
-        assert!(pass_draws(&built.steps, "clip").is_empty());
+        // The first product: no surface image, its `z` kept in the output.
+        let first: Vec<&Step> = built
+            .steps
+            .iter()
+            .skip_while(|s| !matches!(s, Step::Pass(p) if p == "scs-front"))
+            .skip(1)
+            .take_while(|s| !matches!(s, Step::Pass(p) if p == "scs-front"))
+            .collect();
+        assert!(first
+            .iter()
+            .all(|s| !matches!(s, Step::Pass(p) if p == "merge")));
+        assert!(!first
+            .iter()
+            .any(|s| matches!(s, Step::Clear(Clear::DepthStencil { .. }))));
+        let front = pass_draws(&built.steps, "scs-front");
+        assert_eq!(
+            (&front[0].geometry, front[0].ds, front[0].depth.compare),
+            (&Geometry::Mesh(0), OUTPUT, CompareOp::Less)
+        );
+        // Every exit moves `z` in the depth-stencil image too (the tie-free
+        // parity draws test it there).
+        let exits: Vec<&Draw> = pass_draws(&built.steps, "subtract")
+            .into_iter()
+            .filter(|d| d.cull == Cull::Front)
+            .collect();
+        assert_eq!(exits.len(), 2);
+        assert!(exits.iter().all(|d| d.ds == OUTPUT
+            && d.depth.write
+            && d.depth.compare == CompareOp::Always
+            && d.fragment == Fragment::WriteDepth { out: SURF }));
+        // The clip: box 0's back faces count where they lie behind `z`, and
+        // one sweep of the output sets far where the count is not 1.
+        let clip = pass_draws(&built.steps, "clip");
+        assert_eq!(clip.len(), 2);
+        let (c, sweep) = (clip[0], clip[1]);
+        assert_eq!(
+            (&c.geometry, c.cull, c.ds, c.depth.write),
+            (&Geometry::Mesh(0), Cull::Front, OUTPUT, false)
+        );
+        assert_eq!(
+            c.fragment,
+            Fragment::BehindThan {
+                tex: SURF,
+                eps: CLIP_EPS
+            }
+        );
+        let st = c.stencil.unwrap();
+        assert_eq!(
+            (st.front.pass, st.write_mask),
+            (StencilOp::IncrementAndClamp, 1)
+        );
+        assert!(matches!(sweep.geometry, Geometry::FullScreen { .. }));
+        assert_eq!((sweep.ds, &sweep.fragment), (OUTPUT, &Fragment::None));
+        let st = sweep.stencil.unwrap();
+        assert_eq!(
+            (
+                st.front.compare,
+                st.reference,
+                st.compare_mask,
+                st.write_mask
+            ),
+            (CompareOp::NotEqual, 1, 1, 1)
+        );
+        // The second product: in the surface image, then one draw of box 6's
+        // back faces carries `z` into the output where they lie behind it.
         let merge = pass_draws(&built.steps, "merge");
         assert_eq!(merge.len(), 1);
         let m = merge[0];
         assert_eq!(
             (&m.geometry, m.cull, m.ds, m.depth.compare, m.depth.write),
             (
-                &Geometry::Mesh(0),
+                &Geometry::Mesh(6),
                 Cull::Front,
                 OUTPUT,
                 CompareOp::Less,
@@ -663,9 +910,15 @@ mod tests {
                 tex: SURF,
                 eps: CLIP_EPS
             }));
-        // A cutter whose rays may start inside it keeps the parity clip (the
-        // image and the texture differ where no front face is drawn).
-        let mut near = prep.clone();
+        assert_eq!(count(&built.steps, &prep).fullscreen_passes, 1);
+    }
+
+    #[test]
+    fn a_cutter_starting_inside_keeps_the_parity_clip() {
+        // The image and the texture differ where no front face is drawn, and
+        // the eye correction needs the parity: the product is drawn in the
+        // surface image, clipped by parity and merged full-screen.
+        let mut near = row_of_boxes();
         near.near_cut = vec![false; 8];
         near.near_cut[4] = true;
         let built = plan(&near, &ProductOptions::default()).unwrap();
@@ -682,6 +935,9 @@ mod tests {
                 eps: CLIP_EPS
             }
         );
+        assert!(pass_draws(&built.steps, "scs-front")
+            .iter()
+            .all(|d| d.ds == SURFACE));
         let merge = pass_draws(&built.steps, "merge");
         assert!(matches!(
             merge[..],
@@ -695,8 +951,8 @@ mod tests {
     #[test]
     fn an_intersection_is_drawn_within_the_overlap_of_its_rectangles() {
         use crate::reference::fixtures::ExprBuilder;
-        // (0 ∩ 1) − 2: every draw, the sweeps and the merge are cut to the
-        // rectangles of both 0 and 1; the clip is Goldfeather's parity.
+        // (0 ∩ 1) − 2: every draw and the sweep are cut to the rectangles of
+        // both 0 and 1; the clip counts the back faces of 0 and 1.
         let mut prep = row_of_boxes();
         let mut e = ExprBuilder::default();
         let (a, b, c) = (e.leaf(0), e.leaf(1), e.leaf(2));
@@ -714,7 +970,8 @@ mod tests {
                 _ => None,
             })
             .collect();
-        assert_eq!(product.len(), 2 + 2 + 2 + 1 + 1);
+        // Fronts, parity and exit, clip, sweep (no merge: drawn in the output).
+        assert_eq!(product.len(), 2 + 2 + 2 + 1);
         for d in product {
             let Scissor::Overlap { of, and } = &d.scissor else {
                 panic!("not cut to the overlap: {d:?}");
@@ -724,7 +981,9 @@ mod tests {
         }
         let clip = pass_draws(&built.steps, "clip");
         assert_eq!(clip.len(), 3);
-        assert!(clip[..2].iter().all(|d| d.cull == Cull::None));
+        assert!(clip[..2].iter().all(|d| d.cull == Cull::Front));
+        let sweep = clip[2].stencil.unwrap();
+        assert_eq!((sweep.reference, sweep.compare_mask), (2, 3));
     }
 
     #[test]
@@ -732,14 +991,17 @@ mod tests {
         let prep = Prepared::new(&block_minus_spheres(16)).unwrap();
         let built = plan(&prep, &ProductOptions::default()).unwrap();
         assert!(!built.steps.iter().any(|s| matches!(s, Step::Loop(_))));
+        // One product, drawn in the output: no surface image.
+        assert_eq!(built.depth_stencils, 1);
         let c = count(&built.steps, &prep);
         let g = goldfeather::plan(&prep, &ProductOptions::default()).unwrap();
         let gc = count(&g.steps, &prep);
-        // 1 front, 16 parity + 16 exits, 1 merge of the block's back faces;
+        // 1 front, 16 parity + 16 exits, 1 clip of the block's back faces;
         // then 17 shading draws.
         assert_eq!(c.mesh_draws, 1 + 32 + 1 + 17);
-        // Two subtraction batches of 8 bits and no full-screen pass.
-        assert_eq!(c.fullscreen_passes, 0);
+        // Two subtraction batches of 8 bits and the clip's one sweep (no
+        // merge: the product is drawn in the output).
+        assert_eq!(c.fullscreen_passes, 1);
         assert!(c.draws * 5 < gc.draws, "scs {c:?} goldfeather {gc:?}");
     }
 }

@@ -201,11 +201,25 @@ pub enum Fragment {
         eps: f32,
         equal_cull: Cull,
     },
+    /// Keep only fragments behind texture `tex` by more than `eps`: the
+    /// complement of [`Fragment::NearerThan`]'s test (ties decided alike); no
+    /// colour output. SCS's clip by back faces (`plan::scs`): where `z` is at or
+    /// behind a convex positive primitive's front face, it is inside the
+    /// primitive exactly where its back face passes, and a stencil count of the
+    /// passes over all positive primitives says whether `z` is in all of them.
+    ///
+    /// Drawn, as `NearerThan`, with the depth test off into a depth-stencil
+    /// image holding `tex`'s depth wherever its result is read, so where no face
+    /// can tie ([`super::tie_free`]) the executor runs it as a plain `Greater`
+    /// (`GreaterOrEqual` for a negative `eps`) depth test.
+    BehindThan { tex: Tex, eps: f32 },
     /// The depth of texture `tex` as the fragment depth, only where this
     /// fragment is behind it by more than the tolerance `eps` (the opposite of
     /// [`Fragment::NearerThan`]'s test, ties decided alike) and `tex` is not
     /// far; no colour output. SCS's clip and merge of a product with one
-    /// positive primitive in one draw of its back faces (`plan::scs`).
+    /// positive primitive in one draw of its back faces (`plan::scs`). With
+    /// `eps` 0 the test is exact and the program fetches one texel (the
+    /// executor's rewrite where no face can tie, [`super::tie_free`]).
     MergeBehind { tex: Tex, eps: f32 },
     /// Full-screen copy of texture `src` into the fragment depth (`gl_FragDepth`),
     /// discarding pixels where `src` holds the far value 1.0 (nothing there).

@@ -13,6 +13,12 @@
 //!   image, which holds the texture's depth wherever the draw's result is read
 //!   (the plans' invariant, documented at [`Fragment::NearerThan`]); llvmpipe then
 //!   tests depth and stencil before an empty shader, as OpenCSG's parity passes;
+//! - SCS's clip by back faces [`Fragment::BehindThan`], the parity test's
+//!   complement, likewise becomes a depth-stencil-only draw tested `Greater`
+//!   (`GreaterOrEqual` for `eps < 0`);
+//! - SCS's merge by back faces [`Fragment::MergeBehind`] keeps its program (it
+//!   writes the texture's depth) with the exact compare (`eps` 0: one texel
+//!   fetch instead of three, no derivatives);
 //! - a tolerant peel [`Fragment::PeelTolerant`] becomes the exact peel
 //!   ([`Fragment::Peel`], one texel fetch instead of three and no derivatives);
 //! - a draw of the final shade [`Fragment::ShadeNearDepth`]
@@ -384,15 +390,6 @@ impl TieFree {
         };
         match draw.fragment {
             Fragment::NearerThan { eps, .. } | Fragment::ParityBeforeExit { eps, .. } => {
-                let off = DepthState {
-                    compare: CompareOp::Always,
-                    write: false,
-                };
-                // One depth test: the shader's compare can replace it only when
-                // the draw has none of its own.
-                if draw.depth != off || !self.meshes_free(meshes, eps) {
-                    return None;
-                }
                 let compare = if eps < 0.0 {
                     CompareOp::Less
                 } else {
@@ -404,13 +401,23 @@ impl TieFree {
                     Fragment::ParityBeforeExit { .. } => Cull::Back,
                     _ => draw.cull,
                 };
+                self.plain_test(draw, meshes, eps, compare)
+                    .map(|d| Draw { cull, ..d })
+            }
+            // NearerThan's complement: the opposite plain compare.
+            Fragment::BehindThan { eps, .. } => {
+                let compare = if eps < 0.0 {
+                    CompareOp::GreaterOrEqual
+                } else {
+                    CompareOp::Greater
+                };
+                self.plain_test(draw, meshes, eps, compare)
+            }
+            // The merge writes the texture's depth, so it keeps its program,
+            // with the exact compare (one fetch, no derivatives).
+            Fragment::MergeBehind { tex, eps } if eps != 0.0 && self.meshes_free(meshes, eps) => {
                 Some(Draw {
-                    cull,
-                    depth: DepthState {
-                        compare,
-                        write: false,
-                    },
-                    fragment: Fragment::None,
+                    fragment: Fragment::MergeBehind { tex, eps: 0.0 },
                     ..draw.clone()
                 })
             }
@@ -429,6 +436,34 @@ impl TieFree {
             }
             _ => None,
         }
+    }
+
+    /// A tolerant parity-like `draw` of `meshes` as a depth-stencil draw with
+    /// no program, tested `compare` against its image, when its meshes are
+    /// tie-free at `eps` and it has no depth test of its own (the shader's
+    /// compare can replace only that).
+    fn plain_test(
+        &self,
+        draw: &Draw,
+        meshes: &[MeshId],
+        eps: f32,
+        compare: CompareOp,
+    ) -> Option<Draw> {
+        let off = DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        };
+        if draw.depth != off || !self.meshes_free(meshes, eps) {
+            return None;
+        }
+        Some(Draw {
+            depth: DepthState {
+                compare,
+                write: false,
+            },
+            fragment: Fragment::None,
+            ..draw.clone()
+        })
     }
 
     /// For every [`Step::CopyDepthToTexture`] of `steps`, in order, what it must
@@ -581,6 +616,8 @@ fn tolerances(steps: &[Step], out: &mut Vec<u32>) {
             Step::Draw(d) => match d.fragment {
                 Fragment::NearerThan { eps, .. }
                 | Fragment::ParityBeforeExit { eps, .. }
+                | Fragment::BehindThan { eps, .. }
+                | Fragment::MergeBehind { eps, .. }
                 | Fragment::PeelTolerant { eps, .. } => out.push(eps.abs().to_bits()),
                 _ => {}
             },

@@ -64,6 +64,7 @@ pub fn color_targets(f: &Fragment) -> Uses<Resource> {
         | Fragment::DepthFromTexture { .. }
         | Fragment::NearerThan { .. }
         | Fragment::ParityBeforeExit { .. }
+        | Fragment::BehindThan { .. }
         | Fragment::MergeBehind { .. }
         | Fragment::DepthAtDepth { .. } => Uses::of(&[]),
         Fragment::Shade
@@ -89,6 +90,7 @@ pub fn sampled_texture(f: &Fragment) -> Option<Tex> {
         Fragment::ShadeNearDepth { tex, .. }
         | Fragment::NearerThan { tex, .. }
         | Fragment::ParityBeforeExit { tex, .. }
+        | Fragment::BehindThan { tex, .. }
         | Fragment::MergeBehind { tex, .. }
         | Fragment::ShadeAtDepth { tex }
         | Fragment::DepthAtDepth { tex } => Some(tex),

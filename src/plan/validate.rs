@@ -85,6 +85,7 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
                     Fragment::ShadeNearDepth { tex: t, .. }
                     | Fragment::NearerThan { tex: t, .. }
                     | Fragment::ParityBeforeExit { tex: t, .. }
+                    | Fragment::BehindThan { tex: t, .. }
                     | Fragment::MergeBehind { tex: t, .. }
                     | Fragment::ShadeAtDepth { tex: t }
                     | Fragment::DepthAtDepth { tex: t } => tex(t)?,

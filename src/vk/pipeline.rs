@@ -37,8 +37,13 @@ pub enum FragmentKind {
     /// colour (sRGB-encoded) so that the format's encoding stores it unchanged.
     ShadeNearDepthHostSrgb,
     NearerThan,
+    /// `NearerThan`'s complement (`Fragment::BehindThan`): SCS's clip by back faces.
+    BehindThan,
     /// SCS's clip and merge in one draw (`Fragment::MergeBehind`).
     MergeBehind,
+    /// `MergeBehind` with an exact compare (eps 0): one texel fetch, no
+    /// derivatives (`plan::tie_free`).
+    MergeBehindExact,
     ShadeAtDepth,
     /// `ShadeAtDepth` drawn into an embedding host's colour and depth
     /// attachments, the texture being the output depth-stencil's depth
@@ -104,12 +109,14 @@ impl FragmentKind {
             FragmentKind::Background
             | FragmentKind::PeelTolerant
             | FragmentKind::NearerThan
+            | FragmentKind::BehindThan
             | FragmentKind::MergeBehind => (true, false, false),
             FragmentKind::Edges => (true, false, true),
             FragmentKind::None
             | FragmentKind::Peel
             | FragmentKind::WriteDepth
             | FragmentKind::DepthFromTexture
+            | FragmentKind::MergeBehindExact
             | FragmentKind::DepthAtDepth
             | FragmentKind::CopyDepth
             | FragmentKind::Accumulate => (false, false, false),
@@ -147,7 +154,9 @@ impl FragmentKind {
             FragmentKind::ShadeNearDepthHost => spv!("shade_near_depth.frag.host"),
             FragmentKind::ShadeNearDepthHostSrgb => spv!("shade_near_depth.frag.host_srgb"),
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
+            FragmentKind::BehindThan => spv!("behind_than.frag"),
             FragmentKind::MergeBehind => spv!("merge_behind.frag"),
+            FragmentKind::MergeBehindExact => spv!("merge_behind_exact.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
             FragmentKind::ShadeAtDepthHost => spv!("shade_at_depth.frag.host"),
@@ -699,7 +708,7 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 19] = [
+    const SOURCES: [(FragmentKind, &str); 21] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
         (FragmentKind::Paint, "paint.frag"),
@@ -712,7 +721,9 @@ mod tests {
         (FragmentKind::ShadeNearDepth, "shade_near_depth.frag"),
         (FragmentKind::ShadeNearDepthHost, "shade_near_depth.frag"),
         (FragmentKind::NearerThan, "nearer_than.frag"),
+        (FragmentKind::BehindThan, "behind_than.frag"),
         (FragmentKind::MergeBehind, "merge_behind.frag"),
+        (FragmentKind::MergeBehindExact, "merge_behind_exact.frag"),
         (FragmentKind::ShadeAtDepth, "shade_at_depth.frag"),
         (FragmentKind::ShadeAtDepthHost, "shade_at_depth.frag"),
         (FragmentKind::DepthAtDepth, "depth_at_depth.frag"),

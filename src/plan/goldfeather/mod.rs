@@ -457,6 +457,24 @@ pub(crate) const CLIP_BITS: u8 = 8;
 /// surface texture `SURF` (the pixel leaves the surface); the bits under `mask`
 /// are cleared on every swept pixel, pass or fail.
 pub(crate) fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
+    reject_sweep_into(
+        SURFACE,
+        Fragment::WriteDepth { out: SURF },
+        mask,
+        inside,
+        scissor,
+    )
+}
+
+/// [`reject_sweep`] of depth-stencil image `ds` with program `fragment` (SCS's
+/// clip in the output image needs no texture written: [`Fragment::None`]).
+pub(crate) fn reject_sweep_into(
+    ds: Ds,
+    fragment: Fragment,
+    mask: u8,
+    inside: u8,
+    scissor: Scissor,
+) -> Step {
     let face = StencilFace {
         compare: CompareOp::NotEqual,
         fail: StencilOp::Zero,
@@ -467,7 +485,7 @@ pub(crate) fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
         geometry: Geometry::FullScreen { depth: FAR },
         scissor,
         cull: Cull::None,
-        ds: SURFACE,
+        ds,
         depth: DepthState {
             compare: CompareOp::Always,
             write: true,
@@ -479,7 +497,7 @@ pub(crate) fn reject_sweep(mask: u8, inside: u8, scissor: Scissor) -> Step {
             write_mask: mask,
             reference: inside,
         }),
-        fragment: Fragment::WriteDepth { out: SURF },
+        fragment,
         count_samples: false,
     })
 }

@@ -1007,6 +1007,8 @@ impl<'a> Recorder<'a> {
                     draw.fragment,
                     Fragment::NearerThan { .. }
                         | Fragment::ParityBeforeExit { .. }
+                        | Fragment::BehindThan { .. }
+                        | Fragment::MergeBehind { .. }
                         | Fragment::PeelTolerant { .. }
                 ) {
                     counts.tie_rule_draws += 1;
@@ -1126,6 +1128,7 @@ impl<'a> Recorder<'a> {
                             Fragment::PeelTolerant { eps, .. } => [eps, 0.0, 0.0, 0.0],
                             Fragment::NearerThan { eps, .. }
                             | Fragment::ParityBeforeExit { eps, .. }
+                            | Fragment::BehindThan { eps, .. }
                             | Fragment::MergeBehind { eps, .. } => [0.0, 0.0, 0.0, eps],
                             _ => [0.0; 4],
                         };
@@ -1173,6 +1176,9 @@ fn fragment_kind(f: &Fragment) -> FragmentKind {
         // The texel copy is the depth-copy shader reading a depth texture.
         Fragment::CopyTexel { .. } => FragmentKind::CopyDepth,
         Fragment::NearerThan { .. } | Fragment::ParityBeforeExit { .. } => FragmentKind::NearerThan,
+        Fragment::BehindThan { .. } => FragmentKind::BehindThan,
+        // An exact merge needs none of the tie rule's fetches.
+        Fragment::MergeBehind { eps, .. } if *eps == 0.0 => FragmentKind::MergeBehindExact,
         Fragment::MergeBehind { .. } => FragmentKind::MergeBehind,
         Fragment::ShadeNearDepth { .. } => FragmentKind::ShadeNearDepth,
         Fragment::DepthAtDepth { .. } => FragmentKind::DepthAtDepth,

@@ -39,10 +39,10 @@ pub struct Counts {
     pub skipped_steps: u64,
     /// Tolerant parity and peel draws run as plain depth tests because no face
     /// they draw can tie under this camera (`plan::tie_free`): a depth-stencil
-    /// draw without a shader, or the exact peel.
+    /// draw without a shader, the exact peel, or SCS's exact merge.
     pub tie_free_draws: u64,
-    /// Parity and peel draws that still run a tie-rule shader (`nearer_than`,
-    /// `peel_tolerant`).
+    /// Parity, clip, merge and peel draws that still run a tie-rule shader
+    /// (`nearer_than`, `behind_than`, `merge_behind`, `peel_tolerant`).
     pub tie_rule_draws: u64,
     /// Draws of the final shade (`plan::tie::shade_near_depth`) run as plain
     /// depth-`EQUAL` draws of the shading program because the mesh cannot tie
