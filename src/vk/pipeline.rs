@@ -28,6 +28,9 @@ pub enum FragmentKind {
     PeelTolerant,
     WriteDepth,
     DepthFromTexture,
+    /// `DepthFromTexture` into an embedding host's depth attachment, its colour
+    /// attachment bound but not written (`vk::exec::record::host`'s depth merge).
+    DepthFromTextureHost,
     ShadeNearDepth,
     /// `ShadeNearDepth` drawn into an embedding host's colour and depth
     /// attachments (`vk::exec::record::host`): colour only, the visible depth
@@ -110,6 +113,7 @@ impl FragmentKind {
             | FragmentKind::Peel
             | FragmentKind::WriteDepth
             | FragmentKind::DepthFromTexture
+            | FragmentKind::DepthFromTextureHost
             | FragmentKind::DepthAtDepth
             | FragmentKind::CopyDepth
             | FragmentKind::Accumulate => (false, false, false),
@@ -142,7 +146,9 @@ impl FragmentKind {
             FragmentKind::PeelShade => spv!("peel_shade.frag"),
             FragmentKind::PeelTolerant => spv!("peel_tolerant.frag"),
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
-            FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
+            FragmentKind::DepthFromTexture | FragmentKind::DepthFromTextureHost => {
+                spv!("depth_from_texture.frag")
+            }
             FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
             FragmentKind::ShadeNearDepthHost => spv!("shade_near_depth.frag.host"),
             FragmentKind::ShadeNearDepthHostSrgb => spv!("shade_near_depth.frag.host_srgb"),
@@ -538,7 +544,8 @@ impl Pipelines {
             FragmentKind::ShadeNearDepthHost
             | FragmentKind::ShadeNearDepthHostSrgb
             | FragmentKind::ShadeAtDepthHost
-            | FragmentKind::ShadeAtDepthHostSrgb => vk::Format::UNDEFINED,
+            | FragmentKind::ShadeAtDepthHostSrgb
+            | FragmentKind::DepthFromTextureHost => vk::Format::UNDEFINED,
             _ => ds_format,
         };
         graphics_pipeline(
@@ -553,7 +560,11 @@ impl Pipelines {
                 depth_format: ds_format,
                 stencil_format,
                 layout: self.layout,
-                blend: (desc.fragment == FragmentKind::Accumulate).then(under_blend),
+                blend: match desc.fragment {
+                    FragmentKind::Accumulate => Some(under_blend()),
+                    FragmentKind::DepthFromTextureHost => Some(no_color_writes()),
+                    _ => None,
+                },
             },
         )
     }
@@ -591,6 +602,14 @@ pub(crate) fn under_blend() -> (vk::PipelineColorBlendAttachmentState, [f32; 4])
         .src_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
         .dst_alpha_blend_factor(vk::BlendFactor::ONE)
         .alpha_blend_op(vk::BlendOp::ADD);
+    (a, [0.0; 4])
+}
+
+/// No colour written (a depth-only draw in a block with colour attachments).
+fn no_color_writes() -> (vk::PipelineColorBlendAttachmentState, [f32; 4]) {
+    let a = vk::PipelineColorBlendAttachmentState::default()
+        .blend_enable(false)
+        .color_write_mask(vk::ColorComponentFlags::empty());
     (a, [0.0; 4])
 }
 
@@ -684,7 +703,7 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 19] = [
+    const SOURCES: [(FragmentKind, &str); 20] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
         (FragmentKind::Paint, "paint.frag"),
@@ -694,6 +713,10 @@ mod tests {
         (FragmentKind::PeelTolerant, "peel_tolerant.frag"),
         (FragmentKind::WriteDepth, "write_depth.frag"),
         (FragmentKind::DepthFromTexture, "depth_from_texture.frag"),
+        (
+            FragmentKind::DepthFromTextureHost,
+            "depth_from_texture.frag",
+        ),
         (FragmentKind::ShadeNearDepth, "shade_near_depth.frag"),
         (FragmentKind::ShadeNearDepthHost, "shade_near_depth.frag"),
         (FragmentKind::NearerThan, "nearer_than.frag"),

@@ -1,31 +1,30 @@
 //! The embedding's direct final pass (README "Embedding"): the plan's last
 //! pass, the depth-equal shade of `plan::tie` (README "Precision and ties"),
-//! drawn straight into the host's colour and depth attachments under the
-//! host's depth test, so that an embedded frame does the standalone frame's
-//! work and no composite pass (`vk::composite`, the fallback) remains.
+//! drawn straight into the host's colour and depth attachments, so that an
+//! embedded frame does the standalone frame's work and no composite pass
+//! (`vk::composite`, the fallback) remains.
 //!
-//! The standalone pass draws the solid's meshes in descending index order with
-//! depth test `Always`, each writing its own plane depth, the last writer (the
-//! lowest index) winning ties. Under the host's test that order cannot work:
-//! coincident faces write slightly different depths. Here every face that
-//! passes the tie test at a pixel writes the same depth, the visible one read
-//! from the pass's texture (`shaders/shade_near_depth.frag`, `HOST`), and the
-//! meshes are drawn in ascending index order under the host's strict test
-//! (`LESS`, reversed `GREATER`): the first writer — the lowest index — stays,
-//! and the host's own geometry keeps exact ties, as with the composite.
-//!
-//! A mesh the standalone frame shades with a plain depth-`EQUAL` test
-//! (`plan::tie_free`: no face can tie with it) is drawn with
-//! `shaders/shade_at_depth.frag` (`HOST`) instead: kept where its raster depth
-//! equals the output depth-stencil's, fetched in the shader, and written by the
-//! host's test, with no copy and no tie test — on lavapipe the tie test and
-//! `gl_FragDepth` cost the embedded frame twice the standalone one's shade.
+//! The standalone pass draws the solid's meshes in descending index order,
+//! the last writer (the lowest index) winning; so does this one. A mesh the
+//! standalone frame shades with a plain depth-`EQUAL` test (`plan::tie_free`:
+//! no face can tie with it) gets the same test here, against the host's depth
+//! after one full-screen depth merge (`DepthFromTextureHost`) wrote the output
+//! depth into it wherever the CSG is nearer: the test runs before the shader
+//! (`shaders/shade_at_depth.frag`, `HOST`), so only the visible fragments run
+//! it; on lavapipe a per-fragment fetch of the output depth for every fragment
+//! cost the embedded frame 20% more than the standalone one on `interference`.
+//! A mesh that keeps the tie rule is drawn with
+//! `shaders/shade_near_depth.frag` (`HOST`) on the depth copy: every face that
+//! passes the tie test at a pixel writes the same depth, the visible one, under
+//! the host's test with equality (`LESS_OR_EQUAL`, reversed
+//! `GREATER_OR_EQUAL`). Exact ties between the host's depth and the CSG's
+//! visible depth go to the CSG, drawn last.
 
 use ash::vk;
 
 use super::Recorder;
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::{CompareOp, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
+use crate::plan::{CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, Plan, Step, Tex};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
@@ -245,6 +244,16 @@ pub(crate) fn host_barriers(
     ((src, dst), memory)
 }
 
+/// The pipeline of host program `kind` for the host's formats.
+fn host_pipeline(h: &HostShade, kind: FragmentKind) -> PipelineDesc {
+    PipelineDesc {
+        fragment: kind,
+        color_formats: vec![h.color.1],
+        depth_stencil_format: Some(h.depth.1),
+        normals: false,
+    }
+}
+
 impl Recorder<'_> {
     /// Records `shade` (the plan's last steps, [`final_shade`]'s draws, in plan
     /// order) into the host's attachments, after the rest of the frame: the
@@ -254,12 +263,15 @@ impl Recorder<'_> {
     ///
     /// A shade draw the standalone frame runs as a plain depth-`EQUAL` draw
     /// (`TieFree::fixed_function`: no face can tie with it) is drawn with
-    /// `ShadeAtDepthHost` reading the output depth itself: its raster depth
-    /// equal to the visible one there, bit-exactly, as the standalone test
-    /// asks, and written by the host's depth test; no texture copy, no tie
-    /// test. The draws that keep the tie rule use `ShadeNearDepthHost` on the
-    /// copy, and go first: where both pass (faces crossing within the tie band)
-    /// the rule mesh wins, as in the standalone frame.
+    /// `ShadeAtDepthHost` depth-`EQUAL` against the host's depth after the
+    /// depth merge ([`Recorder::host_merge`]) put the output depth there
+    /// wherever it is nearer: the test runs before the shader, so only the
+    /// fragments at the visible depth run it (and fetch the output depth, to
+    /// turn away a face that only equals the host's). The draws that keep the
+    /// tie rule use `ShadeNearDepthHost` on the copy, writing the visible depth
+    /// where it is nearer than or equal to the host's. The draws keep the plan's
+    /// order (descending index), so the last writer, the lowest index, stays,
+    /// as in the standalone frame.
     pub fn host_shade(&mut self, h: &HostShade, shade: &[&Step]) -> Result<(), VkError> {
         self.end_block();
         let device = self.b.device;
@@ -268,18 +280,16 @@ impl Recorder<'_> {
         if let (true, Some(buffer)) = (counted, h.counts) {
             copy_counts(device, self.cmd, self.b.occlusion, n, buffer);
         }
-        // (draw, rule): in drawing order, ascending index within each kind.
-        let (mut draws, mut equal) = (Vec::new(), Vec::new());
-        for s in shade.iter().rev() {
-            let Step::Draw(d) = s else {
-                panic!("final_shade selects draws only")
-            };
-            match self.b.ties.fixed_function(d) {
-                Some(_) => equal.push((d.clone(), false)),
-                None => draws.push((d.clone(), true)),
-            }
-        }
-        draws.extend(equal);
+        // (draw, rule), in plan order.
+        let draws: Vec<(Draw, bool)> = shade
+            .iter()
+            .map(|s| {
+                let Step::Draw(d) = s else {
+                    panic!("final_shade selects draws only")
+                };
+                (d.clone(), self.b.ties.fixed_function(d).is_none())
+            })
+            .collect();
         let rule_tex = draws
             .iter()
             .find(|(_, rule)| *rule)
@@ -297,12 +307,6 @@ impl Recorder<'_> {
         submit::pipeline_barrier(device, self.cmd, (src | hsrc, dst | hdst), &memory, &images);
         self.stats.counts.barriers += 1;
 
-        let pipeline = |fragment| PipelineDesc {
-            fragment,
-            color_formats: vec![h.color.1],
-            depth_stencil_format: Some(h.depth.1),
-            normals: false,
-        };
         // The sRGB decode is a variant of its own (`build.rs`).
         let (rule_kind, equal_kind) = match h.srgb {
             true => (
@@ -316,19 +320,70 @@ impl Recorder<'_> {
         };
         self.begin_host_block(h);
         let flags = self.flags();
+        if let Some(ds) = equal_ds {
+            self.host_merge(h, ds, &draws, flags)?;
+        }
         for (draw, rule) in &draws {
             let (kind, set) = match rule {
                 true => (rule_kind, rule_tex.map(Resource::Texture)),
                 false => (equal_kind, equal_ds.map(Resource::DepthStencil)),
             };
             let set = set.map(|r| self.b.targets.sampling_set(r));
-            let pipeline = self.b.pipelines.get(&pipeline(kind))?;
+            let pipeline = self.b.pipelines.get(&host_pipeline(h, kind))?;
             self.bind(pipeline, set);
             self.host_draw(draw, *rule, flags);
         }
         // SAFETY: closes the block `begin_host_block` opened.
         unsafe { device.cmd_end_rendering(self.cmd) };
         self.rest_all();
+        Ok(())
+    }
+
+    /// The depth merge before the depth-equal draws: over their scissors, the
+    /// output depth-stencil `ds`'s depth written into the host's depth where it
+    /// is nearer (the host's strict test; far pixels discarded), so that a
+    /// plain depth-`EQUAL` test against the host's depth keeps a face's
+    /// fragments where it is the visible one and the CSG is in front. One
+    /// full-screen draw with no colour written (`DepthFromTextureHost`).
+    fn host_merge(
+        &mut self,
+        h: &HostShade,
+        ds: Ds,
+        draws: &[(Draw, bool)],
+        flags: u32,
+    ) -> Result<(), VkError> {
+        let equal = draws.iter().filter(|(_, rule)| !*rule);
+        let rect = equal
+            .clone()
+            .map(|(d, _)| self.scissor(&d.scissor))
+            .fold(Rect::EMPTY, |a, r| a.union(&r));
+        let Some((first, _)) = equal.clone().next().filter(|_| !rect.is_empty()) else {
+            return Ok(());
+        };
+        let merge = Draw {
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: None,
+            cull: Cull::None,
+            ..first.clone()
+        };
+        self.set_state(Some(&merge), rect);
+        let kind = FragmentKind::DepthFromTextureHost;
+        let pipeline = self.b.pipelines.get(&host_pipeline(h, kind))?;
+        let set = self.b.targets.sampling_set(Resource::DepthStencil(ds));
+        self.bind(pipeline, Some(set));
+        let pc = PushConstants {
+            mvp: Self::fullscreen_matrix(0.0),
+            flags,
+            snap: self.b.snap,
+            ..Default::default()
+        };
+        self.push_for(kind, true, &pc);
+        self.draw_quad();
+        self.stats.counts.fullscreen_passes += 1;
+        self.stats.counts.fullscreen_pixels += rect.area();
         Ok(())
     }
 
@@ -358,9 +413,10 @@ impl Recorder<'_> {
         self.stats.counts.render_passes += 1;
     }
 
-    /// One shade draw of one mesh under the host's strict depth test: with the
-    /// tie rule (`rule`, `ShadeNearDepthHost`: the visible depth written) or at
-    /// the output depth (`ShadeAtDepthHost`: the raster depth written).
+    /// One shade draw of one mesh into the host's attachments: with the tie
+    /// rule (`rule`, `ShadeNearDepthHost`: the visible depth written) or at the
+    /// output depth (`ShadeAtDepthHost`: depth-`EQUAL` against the merged
+    /// depth, none written).
     fn host_draw(&mut self, draw: &Draw, rule: bool, flags: u32) {
         let (m, eps) = match (&draw.geometry, &draw.fragment) {
             (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) => (*m, *eps),
@@ -371,13 +427,23 @@ impl Recorder<'_> {
             self.stats.counts.skipped_steps += 1;
             return;
         }
-        // Nearer than what the host's depth holds (mirrored for reversed Z);
-        // no stencil, no culling (the plan's draw culls nothing either).
-        let host = Draw {
-            depth: DepthState {
-                compare: CompareOp::Less,
+        // Mirrored for reversed Z. The rule's fragments write the visible
+        // depth where it is nearer than or equal to the host's (the host's
+        // depth there may be the merge's, the same value); the depth-equal
+        // draws test the merged depth and write none. No stencil, no culling
+        // (the plan's draw culls nothing either).
+        let depth = match rule {
+            true => DepthState {
+                compare: CompareOp::LessOrEqual,
                 write: true,
             },
+            false => DepthState {
+                compare: CompareOp::Equal,
+                write: false,
+            },
+        };
+        let host = Draw {
+            depth,
             stencil: None,
             ..draw.clone()
         };
