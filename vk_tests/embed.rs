@@ -179,10 +179,6 @@ fn bench_pairs_time_equal_work() {
     let plan = plan::build(Algo::Goldfeather, &Prepared::new(&scene).unwrap()).unwrap();
     let mut gpu =
         GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true).unwrap();
-    // The host's final shade draws each mesh once, with the tie rule; the
-    // standalone one would split a tied mesh into tie-zone pieces
-    // (`plan::tie_zones`).
-    gpu.set_tie_zones(false);
     // The first frame learns the loop counts, the second records the replay.
     gpu.execute(&plan).unwrap();
     let alone = gpu.execute(&plan).unwrap().exec;

@@ -23,6 +23,7 @@
 use ash::vk;
 
 use super::Recorder;
+use crate::plan::tie_zones;
 use crate::plan::usage::{Resource, Usage};
 use crate::plan::{CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, Plan, Step, Tex};
 use crate::vk::conv;
@@ -280,24 +281,43 @@ impl Recorder<'_> {
         if let (true, Some(buffer)) = (counted, h.counts) {
             copy_counts(device, self.cmd, self.b.occlusion, n, buffer);
         }
-        // (draw, rule), in plan order.
-        let draws: Vec<(Draw, bool)> = shade
-            .iter()
-            .map(|s| {
-                let Step::Draw(d) = s else {
-                    panic!("final_shade selects draws only")
-                };
-                (d.clone(), self.b.ties.fixed_function(d).is_none())
-            })
-            .collect();
+        // (draw, rule, rect), in plan order: a zoned draw as its rule pieces
+        // and its depth-equal pieces (`record/shade.rs`'s `zoned_shade`).
+        let mut draws: Vec<(Draw, bool, Rect)> = Vec::new();
+        for s in shade {
+            let Step::Draw(d) = s else {
+                panic!("final_shade selects draws only")
+            };
+            let scissor = self.scissor(&d.scissor);
+            if scissor.is_empty() {
+                self.stats.counts.skipped_steps += 1;
+                continue;
+            }
+            if let Some(zones) = self.b.ties.shade_zones(d) {
+                let rule: Vec<Rect> = zones
+                    .iter()
+                    .map(|z| z.intersect(&scissor))
+                    .filter(|r| !r.is_empty())
+                    .collect();
+                let rest = tie_zones::subtract(scissor, &rule);
+                draws.extend(rule.into_iter().map(|r| (d.clone(), true, r)));
+                draws.extend(rest.into_iter().map(|r| (d.clone(), false, r)));
+                continue;
+            }
+            let rule = self.b.ties.fixed_function(d).is_none();
+            draws.push((d.clone(), rule, scissor));
+        }
         let rule_tex = draws
             .iter()
-            .find(|(_, rule)| *rule)
-            .map(|(d, _)| match d.fragment {
+            .find(|(_, rule, _)| *rule)
+            .map(|(d, _, _)| match d.fragment {
                 Fragment::ShadeNearDepth { tex, .. } => tex,
                 _ => panic!("final_shade selects ShadeNearDepth draws"),
             });
-        let equal_ds = draws.iter().find(|(_, rule)| !*rule).map(|(d, _)| d.ds);
+        let equal_ds = draws
+            .iter()
+            .find(|(_, rule, _)| !*rule)
+            .map(|(d, _, _)| d.ds);
         let mut uses = Vec::new();
         uses.extend(rule_tex.map(|t| (Resource::Texture(t), Usage::Sampled)));
         uses.extend(equal_ds.map(|ds| (Resource::DepthStencil(ds), Usage::Sampled)));
@@ -323,7 +343,7 @@ impl Recorder<'_> {
         if let Some(ds) = equal_ds {
             self.host_merge(h, ds, &draws, flags)?;
         }
-        for (draw, rule) in &draws {
+        for (draw, rule, rect) in &draws {
             let (kind, set) = match rule {
                 true => (rule_kind, rule_tex.map(Resource::Texture)),
                 false => (equal_kind, equal_ds.map(Resource::DepthStencil)),
@@ -331,7 +351,7 @@ impl Recorder<'_> {
             let set = set.map(|r| self.b.targets.sampling_set(r));
             let pipeline = self.b.pipelines.get(&host_pipeline(h, kind))?;
             self.bind(pipeline, set);
-            self.host_draw(draw, *rule, flags);
+            self.host_draw(draw, *rule, *rect, flags);
         }
         // SAFETY: closes the block `begin_host_block` opened.
         unsafe { device.cmd_end_rendering(self.cmd) };
@@ -349,15 +369,12 @@ impl Recorder<'_> {
         &mut self,
         h: &HostShade,
         ds: Ds,
-        draws: &[(Draw, bool)],
+        draws: &[(Draw, bool, Rect)],
         flags: u32,
     ) -> Result<(), VkError> {
-        let equal = draws.iter().filter(|(_, rule)| !*rule);
-        let rect = equal
-            .clone()
-            .map(|(d, _)| self.scissor(&d.scissor))
-            .fold(Rect::EMPTY, |a, r| a.union(&r));
-        let Some((first, _)) = equal.clone().next().filter(|_| !rect.is_empty()) else {
+        let mut equal = draws.iter().filter(|(_, rule, _)| !*rule);
+        let rect = equal.clone().fold(Rect::EMPTY, |a, (_, _, r)| a.union(r));
+        let Some((first, _, _)) = equal.next().filter(|_| !rect.is_empty()) else {
             return Ok(());
         };
         let merge = Draw {
@@ -417,16 +434,11 @@ impl Recorder<'_> {
     /// rule (`rule`, `ShadeNearDepthHost`: the visible depth written) or at the
     /// output depth (`ShadeAtDepthHost`: depth-`EQUAL` against the merged
     /// depth, none written).
-    fn host_draw(&mut self, draw: &Draw, rule: bool, flags: u32) {
+    fn host_draw(&mut self, draw: &Draw, rule: bool, scissor: Rect, flags: u32) {
         let (m, eps) = match (&draw.geometry, &draw.fragment) {
             (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) => (*m, *eps),
             _ => panic!("final_shade selects ShadeNearDepth draws of one mesh"),
         };
-        let scissor = self.scissor(&draw.scissor);
-        if scissor.is_empty() {
-            self.stats.counts.skipped_steps += 1;
-            return;
-        }
         // Mirrored for reversed Z. The rule's fragments write the visible
         // depth where it is nearer than or equal to the host's (the host's
         // depth there may be the merge's, the same value); the depth-equal
@@ -470,10 +482,13 @@ impl Recorder<'_> {
         c.mesh_draws += 1;
         c.mesh_pixels += scissor.area();
         c.triangles += count as u64 / 3;
-        *match rule {
-            true => &mut c.shade_rule_draws,
-            false => &mut c.shade_fixed_draws,
-        } += 1;
+        match rule {
+            true => {
+                c.shade_rule_draws += 1;
+                c.shade_rule_pixels += scissor.area();
+            }
+            false => c.shade_fixed_draws += 1,
+        }
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
         }
