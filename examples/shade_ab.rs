@@ -11,7 +11,10 @@
 //! final shade pass left out: a wrong image, the rest of the frame's cost);
 //! `plain-shade` (its draws without the tie test: a wrong image, the cost of
 //! rasterizing them); `mesh-merge` (Goldfeather's full-screen merges of the
-//! surface texture as redraws of the surface at that depth).
+//! surface texture as redraws of the surface at that depth); `unculled-shade`
+//! (the shade's depth-equal draws culling nothing, as before
+//! `plan::VisibleSides`: the same image). After the CPU time, the median GPU
+//! time of the final shade pass per variant.
 //! `SHADE_AB=plan,no-shade` picks variants (e.g. one under `perf record`).
 //! README, "The shade and merge passes on lavapipe".
 
@@ -82,6 +85,18 @@ fn plain_shade(plan: &Plan) -> Plan {
     p
 }
 
+fn unculled_shade(plan: &Plan) -> Plan {
+    let mut p = plan.clone();
+    for s in &mut p.steps {
+        if let Step::Draw(d) = s {
+            if let Fragment::ShadeNearDepth { equal_cull, .. } = &mut d.fragment {
+                *equal_cull = Cull::None;
+            }
+        }
+    }
+    p
+}
+
 fn no_shade(plan: &Plan) -> Plan {
     let mut p = plan.clone();
     let at = p
@@ -94,8 +109,9 @@ fn no_shade(plan: &Plan) -> Plan {
 }
 
 fn main() {
-    let all: [(&str, fn(&Plan) -> Plan); 5] = [
+    let all: [(&str, fn(&Plan) -> Plan); 6] = [
         ("plan", |p| p.clone()),
+        ("unculled-shade", unculled_shade),
         ("shaded-merge", shaded_merge),
         ("plain-shade", plain_shade),
         ("mesh-merge", mesh_merge),
@@ -120,14 +136,22 @@ fn main() {
             })
             .collect();
         let mut cpu = vec![Vec::new(); variants.len()];
+        let mut shade = vec![Vec::new(); variants.len()];
         for _ in 0..frames {
             for (i, e) in exs.iter_mut().enumerate() {
-                cpu[i].push(e.execute(&plans[i]).expect("frame").frame_cpu_ms);
+                let stats = e.execute(&plans[i]).expect("frame");
+                cpu[i].push(stats.frame_cpu_ms);
+                let pass = stats.per_pass.iter().rfind(|p| p.name == "shade");
+                shade[i].push(pass.map_or(0.0, |p| p.gpu_ms));
             }
         }
         print!("{:16} {:12}", name, algo.name());
         for (i, v) in variants.iter().enumerate() {
             print!("  {}: {:7.2}", v.0, median(cpu[i].clone()));
+        }
+        print!("  | shade gpu ms");
+        for (i, v) in variants.iter().enumerate() {
+            print!("  {}: {:6.2}", v.0, median(shade[i].clone()));
         }
         println!();
     });

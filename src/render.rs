@@ -456,6 +456,12 @@ impl GpuRenderer {
         self.exec.forget_recording();
     }
 
+    /// What the host allocator of the executor's command buffers served so
+    /// far ([`vk::Executor::command_arena`]).
+    pub fn command_arena(&self) -> vk::cmd_arena::ArenaCounts {
+        self.exec.command_arena()
+    }
+
     /// CPU ms of each of `reps` recordings of `plan`'s kept frame, made anew
     /// without submitting (see [`vk::Executor::time_recording`]); `None` until a
     /// frame of `plan` has replayed.

@@ -15,6 +15,7 @@ mod embed;
 mod gpu_layers;
 mod kirsch;
 mod limits;
+mod many_products;
 mod one_submit;
 mod openscad;
 mod replay;
@@ -29,6 +30,7 @@ mod stability;
 mod tie_free;
 mod tie_zones;
 mod view_convex;
+mod visible_side;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

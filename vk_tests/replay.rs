@@ -98,3 +98,47 @@ fn recording_sets_only_the_state_that_changes() {
     assert!(per_call < 4.0, "{per_call} state commands per draw");
     assert!(gpu.validation_messages().is_empty());
 }
+
+/// A plan recorded anew (issue 9 §3: ≤ 1 µs per draw) draws what its first
+/// recording drew, pixel for pixel, with the same commands; lavapipe's
+/// recorded commands live in the command pool's arena (`vk::cmd_arena`), which
+/// a re-recording reuses without growing.
+#[test]
+fn a_plan_recorded_anew_draws_the_images_of_its_first_recording() {
+    for (name, algo) in [
+        ("gear.toml", Algo::CstI),
+        ("complex.toml", Algo::Goldfeather),
+    ] {
+        let scene = load(&crate::setup::scenes_dir().join(name));
+        let plan = plan::build(algo, &Prepared::new(&scene).unwrap()).unwrap();
+        let mut gpu = renderer(&scene);
+        gpu.execute(&plan).unwrap();
+        let first = gpu.frame(&plan).unwrap();
+        assert_eq!(first.stats.exec.recorded, Recorded::New);
+        // Warm: every chunk a recording needs exists after one.
+        assert!(gpu.time_recording(&plan, 1).unwrap().is_some());
+        let before = gpu.command_arena();
+        let reps = 3;
+        let times = gpu.time_recording(&plan, reps).unwrap().unwrap();
+        assert_eq!(times.len(), reps as usize);
+        let after = gpu.command_arena();
+        let c = &first.stats.exec.counts;
+        // At least one host block per draw and state command, each recording.
+        let per_recording = (after.small + after.large - before.small - before.large) / reps as u64;
+        assert!(
+            per_recording >= c.draws + c.state_commands,
+            "{name}: {per_recording} arena blocks per recording of {} draws",
+            c.draws
+        );
+        assert_eq!(after.chunks, before.chunks, "{name}: the arena grew");
+        let again = gpu.frame(&plan).unwrap();
+        assert_eq!(again.stats.exec.recorded, Recorded::Replayed);
+        assert_eq!(again.stats.exec.counts, first.stats.exec.counts);
+        assert!(
+            again.images == first.images,
+            "{name}: the re-recorded frame differs from the first recording's"
+        );
+        let m = gpu.validation_messages();
+        assert!(m.is_empty(), "validation messages: {m:#?}");
+    }
+}

@@ -523,6 +523,12 @@ fn start(
     if cfg.warmup > 0 && last == Some(crate::vk::Recorded::Stepwise) {
         gpu.execute(&plan).map_err(|e| e.to_string())?;
     }
+    // Timed frames carry the frame's two timestamps only: one per pass cuts
+    // lavapipe's binned scene at every pass (3 per SCS product), which the
+    // frame itself does not need; `finish` takes the per-pass times from one
+    // more frame. The recording made with them is dropped (an untimed round
+    // frame records the timed frames' one).
+    gpu.executor_mut().set_pass_timestamps(false);
     Ok(Started {
         algo,
         plan,
@@ -585,6 +591,15 @@ fn finish(
     } = *started;
     let est = est.clone();
     let replayed = frames.iter().filter(|f| f.exec.record_ms == 0.0).count() as u32;
+    // The per-pass GPU times, from one frame with a timestamp at every pass.
+    let per_pass = match frames.is_empty() {
+        true => Value::Null,
+        false => {
+            gpu.executor_mut().set_pass_timestamps(true);
+            let f = gpu.execute(plan).map_err(|e| e.to_string())?;
+            serde_json::to_value(&f.exec.per_pass).unwrap_or(Value::Null)
+        }
+    };
     // A camera move (a viewer's orbit), then one frame recorded anew at the
     // original camera: what a moved camera and a new plan cost the CPU (skipped
     // for runs over the time budget).
@@ -636,10 +651,6 @@ fn finish(
     }
     let series = |f: fn(&FrameStats) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
     let gpu_ms = series(|s| s.exec.gpu_ms);
-    // The frame whose GPU time is the median, for the per-pass breakdown.
-    let mut order: Vec<usize> = (0..frames.len()).collect();
-    order.sort_by(|&a, &b| gpu_ms[a].total_cmp(&gpu_ms[b]));
-    let mid = &frames[order[order.len() / 2]];
     let last = frames.last().expect("at least one frame");
     let (gm, gmin, gmax, giqr) = median_iqr(&mut gpu_ms.clone());
     let (cm, _, _, ciqr) = median_iqr(&mut series(|s| s.exec.cpu_ms));
@@ -686,7 +697,7 @@ fn finish(
         overhead: Some(checks::Overhead::of(frames.len() as u32, replayed, gm, fm)),
         scaling: None,
         counts: serde_json::to_value(&counts).unwrap_or(Value::Null),
-        per_pass: serde_json::to_value(&mid.exec.per_pass).unwrap_or(Value::Null),
+        per_pass,
         error,
         failure: None,
         estimate: est,

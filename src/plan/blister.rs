@@ -205,6 +205,7 @@ pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
             0,
             PREV,
             Some(stencil::test_equal(locked, label_mask)),
+            &super::VisibleSides::entries(prep),
         ));
     }
     Ok(Plan {

@@ -258,6 +258,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
             FINAL,
             CUR,
             stencil,
+            &super::VisibleSides::entries(prep),
         ));
     }
     Ok(Plan {
@@ -278,7 +279,9 @@ pub(crate) mod tests {
     use crate::plan::SHADE_EPS;
     use crate::scene::Aabb;
 
-    fn prepared(expr: &str, prims: u32, tris: usize) -> Prepared {
+    /// `expr` over primitives `P0`, `P1`, … of `tris` triangles each in a
+    /// unit box (also the other plan modules' tests).
+    pub(crate) fn prepared(expr: &str, prims: u32, tris: usize) -> Prepared {
         let names: Vec<String> = (0..prims).map(|i| format!("P{i}")).collect();
         let e = parse(expr, &mut |n: &str| {
             names.iter().position(|x| x == n).map(|i| i as u32)

@@ -40,7 +40,7 @@ use super::goldfeather::{
     shade_steps, surface_draw_culled, Lit, ProductOptions, CLIP_BITS, CUR, FAR, OUTPUT, PREV, SURF,
 };
 use super::step::*;
-use super::{PlanError, Prepared};
+use super::{PlanError, Prepared, VisibleSides};
 
 /// Texture: the depth layer map of the previous layer.
 pub(crate) const MAP: Tex = 3;
@@ -123,7 +123,13 @@ pub fn plan_layer(
         b.steps.push(Step::Pass("count".into()));
         b.steps.push(count_pass(prep));
     }
-    b.steps.extend(shade_steps(prep, SURF));
+    // Layer 1 is the solid's visible surface; deeper layers hold the products'
+    // back surfaces too (§4.1), where any face may show.
+    let sides = match layer {
+        1 => VisibleSides::entries(prep),
+        _ => VisibleSides::none(),
+    };
+    b.steps.extend(shade_steps(prep, SURF, &sides));
     Ok(Plan {
         algo: super::Algo::Kirsch.name().into(),
         depth_stencils: 2,

@@ -30,10 +30,12 @@ pub mod trickle;
 pub mod usage;
 pub mod validate;
 mod view_convex;
+pub mod visible_side;
 pub use convex::is_convex;
 pub use step::*;
 pub use tie::{shade_near_depth, SHADE_EPS};
 pub use view_convex::view_convex;
+pub use visible_side::VisibleSides;
 
 use crate::csg::{Expr, Node, PositiveExpr};
 use crate::scene::{Aabb, Keep, Scene};

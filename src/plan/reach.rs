@@ -439,7 +439,7 @@ pub fn holds(now: &KeptImages, assumed: &KeptImages) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::{Draw, Fragment, Geometry};
+    use crate::plan::{Cull, Draw, Fragment, Geometry};
 
     const W: u32 = 100;
     const H: u32 = 80;
@@ -609,7 +609,15 @@ mod tests {
             clear_ds(0),
             clear_tex(5),
             Step::CopyDepthToTexture { ds: 0, dst: 5 },
-            draw(Fragment::ShadeNearDepth { tex: 5, eps: 0.0 }, 1, 3),
+            draw(
+                Fragment::ShadeNearDepth {
+                    tex: 5,
+                    eps: 0.0,
+                    equal_cull: Cull::None,
+                },
+                1,
+                3,
+            ),
             clear_tex(6),
             // Off screen (empty scissor): skipped by the recorder.
             off_screen(Fragment::WriteDepth { out: 6 }, 0),

@@ -104,7 +104,11 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             loops |= goldfeather::product_steps(p, prep, opts.eps, &mut steps);
         }
     }
-    steps.extend(goldfeather::shade_steps(prep, SURF));
+    steps.extend(goldfeather::shade_steps(
+        prep,
+        SURF,
+        &super::VisibleSides::entries(prep),
+    ));
     Ok(Plan {
         algo: super::Algo::Scs.name().into(),
         depth_stencils: 2,

@@ -182,7 +182,16 @@ pub enum Fragment {
     /// `eps` (normalized depth) of texture `tex` at this pixel: depth-equal shading
     /// with a documented tolerance, so coincident faces of several primitives all
     /// qualify and the draw order decides which id stays (the last drawn wins).
-    ShadeNearDepth { tex: Tex, eps: f32 },
+    /// `equal_cull`: the faces of the draw's mesh that are never the visible
+    /// surface ([`super::VisibleSides`]), which its depth-equal form (a mesh
+    /// that cannot tie, `plan::tie_free`) culls; the draw itself culls nothing,
+    /// since a culled face may still be the lowest index coincident with the
+    /// visible one.
+    ShadeNearDepth {
+        tex: Tex,
+        eps: f32,
+        equal_cull: Cull,
+    },
     /// The depth of texture `tex` as the fragment depth, only where this
     /// fragment is behind it by more than the tolerance `eps` (the opposite of
     /// [`Fragment::NearerThan`]'s test, ties decided alike) and `tex` is not

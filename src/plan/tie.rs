@@ -48,11 +48,14 @@
 //! evaluated at the pixel centre (`shaders/shade_near_depth.frag`), which removes
 //! the snapping error (1.) from `depth.npy` to first order. Where a mesh cannot
 //! tie under the camera the executor draws it as a plain depth-equal shade
-//! instead (`plan::tie_free`), which leaves the raster depth.
+//! instead (`plan::tie_free`), which leaves the raster depth and culls the
+//! faces that are never visible (`plan::visible_side`). The rule draws cull
+//! nothing: a positive primitive's back face coincident with the visible face
+//! can be the lowest index there (`vk_tests/visible_side.rs`).
 
 use super::{
     CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Scissor, StencilState, Step,
-    Tex,
+    Tex, VisibleSides,
 };
 
 /// Depth tolerance of depth-equal shading and tolerant parity (normalized depth,
@@ -77,12 +80,14 @@ pub const REVERSED_SCALE: f32 = 0.125;
 /// The final depth-equal shading of locked pixels: every mesh with a face within
 /// [`SHADE_EPS`] (+ slope term) of the visible depth (held in `tex`) writes colour,
 /// id and its plane's depth at the pixel centre, the lowest index last so that it
-/// wins.
+/// wins. `sides`: the faces of each mesh that can be the visible ones, which a
+/// draw run as a plain depth-equal draw keeps alone (`plan::tie_free`).
 pub fn shade_near_depth(
     meshes: &[MeshId],
     ds: Ds,
     tex: Tex,
     stencil: Option<StencilState>,
+    sides: &VisibleSides,
 ) -> Vec<Step> {
     let mut steps = vec![
         Step::Pass("shade".into()),
@@ -106,6 +111,7 @@ pub fn shade_near_depth(
             fragment: Fragment::ShadeNearDepth {
                 tex,
                 eps: SHADE_EPS,
+                equal_cull: sides.cull(m),
             },
             count_samples: false,
         })
@@ -151,7 +157,7 @@ mod tests {
 
     #[test]
     fn lowest_index_is_drawn_last_and_writes_depth() {
-        let steps = shade_near_depth(&[3, 0, 7], 1, 2, None);
+        let steps = shade_near_depth(&[3, 0, 7], 1, 2, None, &VisibleSides::none());
         let order: Vec<MeshId> = steps
             .iter()
             .filter_map(|s| match s {

@@ -20,9 +20,11 @@
 //!   shader, `gl_FragDepth` written) becomes OpenCSG's shading: the plain
 //!   [`Fragment::Shade`] program tested `Equal` against the depth-stencil image,
 //!   no depth written, no texture read, so llvmpipe tests depth before the
-//!   shader. The image holds the visible face's raster depth bit-exactly in every
-//!   plan: written by the face's own draw (Blister's peels, CST's
-//!   [`Fragment::DepthAtDepth`] merges), or by a full-screen `gl_FragDepth` copy
+//!   shader, and, as OpenCSG culls, the faces of its mesh that are never
+//!   visible culled (`equal_cull`, [`super::VisibleSides`]). The image holds
+//!   the visible face's raster depth bit-exactly in every plan: written by the
+//!   face's own draw (Blister's peels, CST's [`Fragment::DepthAtDepth`]
+//!   merges), or by a full-screen `gl_FragDepth` copy
 //!   of a texture that holds that draw's `gl_FragCoord.z` (Goldfeather's, Kirsch's,
 //!   SCS's and Trickle's merges), which the depth format rounds as it rounds the
 //!   rasterized depth; `gl_Position` is `invariant`, so the shade's redraw of the
@@ -55,6 +57,7 @@ use super::rect::Rect;
 use super::step::*;
 use super::tie::REVERSED_SCALE;
 pub use super::tie_zones::ShadeRule;
+use super::visible_side::rule_may_cull;
 use crate::geom::ties::TieGaps;
 use crate::scene::{Aabb, Camera, Projection};
 
@@ -183,6 +186,9 @@ pub struct TieFree {
     /// Per tolerance of the final shades ([`Fragment::ShadeNearDepth`],
     /// [module doc](self)), per mesh: where its shade keeps the rule.
     shade: Vec<(u32, Vec<ShadeRule>)>,
+    /// Per tolerance of the final shades, per mesh: its rule draws may cull
+    /// the faces that are never visible (`visible_side::rule_may_cull`).
+    rule_cull: Vec<(u32, Vec<bool>)>,
 }
 
 impl TieFree {
@@ -205,20 +211,19 @@ impl TieFree {
         let mut shade_eps = shade_tolerances(&plan.steps);
         shade_eps.sort_unstable();
         shade_eps.dedup();
-        let shade = shade_eps
-            .into_iter()
-            .map(|bits| {
-                let b = band.world(f32::from_bits(bits));
-                let rules = (0..gaps.min_gap.len() as u32)
-                    .map(|m| ShadeRule::decide(gaps, m, b, project))
-                    .collect();
-                (bits, rules)
-            })
-            .collect();
+        let meshes = gaps.min_gap.len() as u32;
+        let shade = per_mesh(&shade_eps, band, meshes, |m, b| {
+            ShadeRule::decide(gaps, m, b, project)
+        });
+        let rule_cull = per_mesh(&shade_eps, band, meshes, |m, b| rule_may_cull(gaps, m, b));
         let mut eps: Vec<u32> = Vec::new();
         tolerances(&plan.steps, &mut eps);
         let by_eps = decide(gaps, band, eps);
-        TieFree { by_eps, shade }
+        TieFree {
+            by_eps,
+            shade,
+            rule_cull,
+        }
     }
 
     /// Whether a recording made with these decisions is right for `exact`'s
@@ -226,6 +231,7 @@ impl TieFree {
     /// the rule wherever `exact`'s would ([`ShadeRule::serves`]).
     pub fn serves(&self, exact: &TieFree) -> bool {
         self.by_eps == exact.by_eps
+            && self.rule_cull == exact.rule_cull
             && self.shade.len() == exact.shade.len()
             && self.shade.iter().zip(&exact.shade).all(|((k, a), (l, b))| {
                 k == l && a.len() == b.len() && a.iter().zip(b).all(|(a, b)| a.serves(b))
@@ -246,6 +252,7 @@ impl TieFree {
         TieFree {
             by_eps: self.by_eps.clone(),
             shade,
+            rule_cull: self.rule_cull.clone(),
         }
     }
 
@@ -290,6 +297,33 @@ impl TieFree {
                 .all(|&m| rules.get(m as usize) == Some(&ShadeRule::Free))
     }
 
+    /// A final shade's draw that keeps the tie rule, culling the faces of its
+    /// mesh that are never visible where it can never be the lowest index of
+    /// a tie on them (`visible_side::rule_may_cull`); `None` where it culls
+    /// nothing more than `draw`.
+    pub fn culled_rule(&self, draw: &Draw) -> Option<Draw> {
+        let (
+            Fragment::ShadeNearDepth {
+                eps, equal_cull, ..
+            },
+            Geometry::Mesh(m),
+        ) = (&draw.fragment, &draw.geometry)
+        else {
+            return None;
+        };
+        let key = eps.abs().to_bits();
+        let may = self
+            .rule_cull
+            .iter()
+            .find(|(k, _)| *k == key)
+            .and_then(|(_, v)| v.get(*m as usize).copied())
+            .unwrap_or(false);
+        (may && is_final_shade(draw) && *equal_cull != draw.cull).then(|| Draw {
+            cull: *equal_cull,
+            ..draw.clone()
+        })
+    }
+
     /// Per mesh, the final shades' rule at tolerance `eps` (empty: not decided,
     /// the rule everywhere).
     fn shade_rules(&self, eps: f32) -> &[ShadeRule] {
@@ -320,9 +354,17 @@ impl TieFree {
     }
 
     /// A final shade's draw as OpenCSG's depth-`EQUAL` shading ([module
-    /// doc](self)), whatever the decisions: `None` for other draws.
+    /// doc](self)), whatever the decisions: `None` for other draws. It culls
+    /// the faces that are never visible (`equal_cull`,
+    /// [`super::VisibleSides`]): it passes only at its own faces' raster
+    /// depth, so a culled face could pass only where it crosses the visible
+    /// one, and it is drawn only where it cannot tie with it.
     pub fn depth_equal(draw: &Draw) -> Option<Draw> {
+        let Fragment::ShadeNearDepth { equal_cull, .. } = draw.fragment else {
+            return None;
+        };
         is_final_shade(draw).then(|| Draw {
+            cull: equal_cull,
             depth: DepthState {
                 compare: CompareOp::Equal,
                 write: false,
@@ -480,6 +522,21 @@ fn decide(gaps: &TieGaps, band: &TieBand, mut eps: Vec<u32>) -> Vec<(u32, Vec<bo
             (bits, free)
         })
         .collect()
+}
+
+/// Per tolerance of `eps` (bits of `|eps|`), `f(mesh, band)` for each of
+/// `meshes` meshes, the band in world units.
+fn per_mesh<T>(
+    eps: &[u32],
+    band: &TieBand,
+    meshes: u32,
+    f: impl Fn(MeshId, f64) -> T,
+) -> Vec<(u32, Vec<T>)> {
+    let each = |&bits: &u32| {
+        let b = band.world(f32::from_bits(bits));
+        (bits, (0..meshes).map(|m| f(m, b)).collect())
+    };
+    eps.iter().map(each).collect()
 }
 
 /// Whether `meshes` is not empty and each is tie-free at `eps` in `by_eps`
@@ -755,7 +812,13 @@ mod tests {
     /// A final shade of meshes `ms` (depth-stencil 0, texture 1) after `before`.
     fn shaded(before: Vec<Step>, ms: &[MeshId]) -> Plan {
         let mut steps = before;
-        steps.extend(super::super::shade_near_depth(ms, 0, 1, None));
+        steps.extend(super::super::shade_near_depth(
+            ms,
+            0,
+            1,
+            None,
+            &super::super::VisibleSides::none(),
+        ));
         plan_of(steps)
     }
 
@@ -788,6 +851,51 @@ mod tests {
         );
     }
 
+    /// `d` with the culling its depth-equal form may take set to `c`.
+    fn sided(mut d: Draw, c: Cull) -> Draw {
+        if let Fragment::ShadeNearDepth { equal_cull, .. } = &mut d.fragment {
+            *equal_cull = c;
+        }
+        d
+    }
+
+    #[test]
+    fn shade_draws_cull_the_faces_never_visible_where_no_tie_can_need_them() {
+        let plan = shaded(Vec::new(), &[0, 1]);
+        let shade: Vec<Draw> = plan.steps[2..].iter().cloned().map(draw).collect();
+        let (one, zero) = (
+            sided(shade[0].clone(), Cull::Front),
+            sided(shade[1].clone(), Cull::Back),
+        );
+        // Mesh 0 is tie-free: its depth-equal draw culls.
+        let free = half_free(&plan);
+        assert_eq!(free.fixed_function(&zero).map(|d| d.cull), Some(Cull::Back));
+        assert_eq!(free.culled_rule(&zero).map(|d| d.cull), Some(Cull::Back));
+        // Mesh 1 keeps the rule, but ties only with itself: its rule draw culls.
+        assert_eq!(free.fixed_function(&one), None);
+        let rule = free.culled_rule(&one).expect("no other mesh ties with 1");
+        assert_eq!(
+            rule,
+            Draw {
+                cull: Cull::Front,
+                ..one.clone()
+            }
+        );
+        // Nothing to cull, or nothing decided: no culled draw.
+        assert_eq!(free.culled_rule(&shade[0]), None);
+        assert_eq!(TieFree::none().culled_rule(&one), None);
+        // Mesh 0 tied with the higher mesh 1: 0's hidden faces may win a tie.
+        let gaps = TieGaps {
+            min_gap: vec![0.0, 0.0],
+            cap: 1.0,
+            pairs: vec![(0, 1, 0.0)],
+            zones: vec![],
+        };
+        let tied = TieFree::new(&gaps, &band(800, 8, true), &plan, &whole);
+        assert_eq!(tied.culled_rule(&zero), None);
+        assert_eq!(tied.culled_rule(&one).map(|d| d.cull), Some(Cull::Front));
+    }
+
     #[test]
     fn the_shade_copy_reaches_the_rule_meshes_or_nothing() {
         let plan = shaded(Vec::new(), &[0, 1]);
@@ -810,7 +918,13 @@ mod tests {
         // a later step reads, stays as planned.
         let floor = Step::CopyDepthToTexture { ds: 0, dst: 1 };
         let mut steps = vec![floor.clone(), Step::Pass("x".into()), floor];
-        steps.extend(super::super::shade_near_depth(&[0], 0, 1, None));
+        steps.extend(super::super::shade_near_depth(
+            &[0],
+            0,
+            1,
+            None,
+            &super::super::VisibleSides::none(),
+        ));
         steps.push(parity(0, SHADE_EPS));
         let plan = plan_of(steps);
         assert_eq!(

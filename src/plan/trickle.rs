@@ -99,7 +99,10 @@ pub fn plan(prep: &Prepared, opts: &TrickleOptions) -> Result<Plan, PlanError> {
     for p in &prods {
         steps.extend(product_steps(prep, p, eps));
     }
-    steps.extend(shade_steps(prep, Z3));
+    // Culls nothing: the depth is of any face its peels met (both sides), so
+    // at a crossing edge it may be a face that is never visible, which the
+    // shade alone colours (`vk_tests/tie_zones.rs` saw one such pixel).
+    steps.extend(shade_steps(prep, Z3, &super::VisibleSides::none()));
     Ok(Plan {
         algo: "trickle".into(),
         depth_stencils: 2,

@@ -6,12 +6,14 @@
 //! (one per fragment program, all depth/stencil state dynamic); `conv` and
 //! `scissor` (pure mappings, tested without a GPU); `sync` (the pure table from a
 //! step's resource usages to stages, accesses and layouts); `submit` (one-shot
-//! command buffers, barriers, query pools, shared with `present`); `exec` (the plan
+//! command buffers, barriers, query pools, shared with `present`); `cmd_arena`
+//! (the command pools' host allocator: lavapipe's recorded commands); `exec` (the plan
 //! executor and its statistics); `readback` (GPU bytes to output images);
 //! `rounding` (tests: emulating a coarser rasterizer's vertex snapping); `present`
 //! (feature `viewer`: a window's surface and swapchain).
 #![warn(unsafe_op_in_unsafe_fn)]
 
+pub mod cmd_arena;
 pub mod composite;
 pub mod conv;
 pub mod cpu_clock;

@@ -562,7 +562,12 @@ impl Pipelines {
                 layout: self.layout,
                 blend: match desc.fragment {
                     FragmentKind::Accumulate => Some(under_blend()),
-                    FragmentKind::DepthFromTextureHost => Some(no_color_writes()),
+                    // Depth and stencil only, in a block with colour
+                    // attachments (`Recorder::joined`, the host's depth
+                    // merge): they keep their values.
+                    FragmentKind::None | FragmentKind::DepthFromTextureHost => {
+                        Some(no_color_writes())
+                    }
                     _ => None,
                 },
             },
@@ -605,8 +610,9 @@ pub(crate) fn under_blend() -> (vk::PipelineColorBlendAttachmentState, [f32; 4])
     (a, [0.0; 4])
 }
 
-/// No colour written (a depth-only draw in a block with colour attachments).
-fn no_color_writes() -> (vk::PipelineColorBlendAttachmentState, [f32; 4]) {
+/// No colour attachment written (a depth-stencil-only program in a block
+/// with colour attachments).
+pub(crate) fn no_color_writes() -> (vk::PipelineColorBlendAttachmentState, [f32; 4]) {
     let a = vk::PipelineColorBlendAttachmentState::default()
         .blend_enable(false)
         .color_write_mask(vk::ColorComponentFlags::empty());

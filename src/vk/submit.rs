@@ -6,13 +6,19 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::cmd_arena::{ArenaCounts, CmdArena};
 use super::error::{Check, VkError};
 use super::instance::Shared;
 
 /// A resettable command pool with one primary command buffer and a fence.
+/// Its commands live in a [`CmdArena`] (lavapipe allocates each recorded
+/// command on the host).
 pub struct Submitter {
     shared: Arc<Shared>,
     pool: vk::CommandPool,
+    /// The pool's host allocator: boxed (its address is the callbacks' user
+    /// data) and dropped after the pool.
+    arena: Box<CmdArena>,
     pub cmd: vk::CommandBuffer,
     fence: vk::Fence,
 }
@@ -23,12 +29,15 @@ impl Submitter {
         let pci = vk::CommandPoolCreateInfo::default()
             .queue_family_index(shared.queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        // SAFETY: valid create info on a live device.
-        let pool =
-            unsafe { device.create_command_pool(&pci, None) }.check("vkCreateCommandPool")?;
+        let arena = Box::<CmdArena>::default();
+        // SAFETY: valid create info on a live device; the arena outlives the
+        // pool (destroyed in `drop` with the same callbacks).
+        let pool = unsafe { device.create_command_pool(&pci, Some(&arena.callbacks())) }
+            .check("vkCreateCommandPool")?;
         let mut s = Submitter {
             shared: shared.clone(),
             pool,
+            arena,
             cmd: vk::CommandBuffer::null(),
             fence: vk::Fence::null(),
         };
@@ -37,6 +46,11 @@ impl Submitter {
         s.fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
             .check("vkCreateFence")?;
         Ok(s)
+    }
+
+    /// What the pool's host allocator served so far.
+    pub fn arena_counts(&self) -> ArenaCounts {
+        self.arena.counts()
     }
 
     /// Another primary command buffer from this pool (freed with it).
@@ -136,8 +150,8 @@ impl Drop for Submitter {
         // SAFETY: every submission was waited on (`finish`/`wait`), so nothing is
         // pending; destroying the pool frees its command buffers; null is ignored.
         unsafe { d.destroy_fence(self.fence, None) };
-        // SAFETY: as above.
-        unsafe { d.destroy_command_pool(self.pool, None) };
+        // SAFETY: as above; the pool was created with these callbacks.
+        unsafe { d.destroy_command_pool(self.pool, Some(&self.arena.callbacks())) };
     }
 }
 

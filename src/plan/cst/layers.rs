@@ -18,7 +18,7 @@
 #![deny(unsafe_code)]
 
 use super::super::step::*;
-use super::super::{PlanError, Prepared};
+use super::super::{PlanError, Prepared, VisibleSides};
 use super::{init_final, leaf_csts, record_jobs, Candidates, Job, Merge, Variant, CUR, FINAL};
 
 /// The previous layer of the stream: the depth the peels start behind. Kept on
@@ -110,11 +110,18 @@ pub fn layer_plan(
         ds: FINAL,
         dst: floor,
     });
+    // A layer of one stream: its points are that stream's side of the solid.
+    let entries = VisibleSides::entries(prep);
+    let sides = match side {
+        Side::Entry => entries,
+        Side::Exit => entries.exits(),
+    };
     steps.extend(super::super::shade_near_depth(
         &prep.solid_meshes,
         FINAL,
         CUR,
         None,
+        &sides,
     ));
     Ok(LayerPlan {
         plan: Plan {

@@ -82,7 +82,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             max_iterations,
         }));
     }
-    steps.extend(shade_steps(prep, SURF));
+    steps.extend(shade_steps(prep, SURF, &VisibleSides::entries(prep)));
     Ok(Plan {
         algo: "goldfeather-layered".into(),
         depth_stencils: 2,

@@ -38,7 +38,7 @@
 pub mod layered;
 
 use super::step::*;
-use super::{PlanError, Prepared};
+use super::{PlanError, Prepared, VisibleSides};
 use crate::csg::products::{sum_of_products, Literal};
 
 /// Default bound on the number of products of the sum-of-products form.
@@ -156,7 +156,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         }
         loops |= product_steps(p, prep, opts.eps, &mut steps);
     }
-    steps.extend(shade_steps(prep, SURF));
+    steps.extend(shade_steps(prep, SURF, &VisibleSides::entries(prep)));
     Ok(Plan {
         algo: "goldfeather".into(),
         depth_stencils: 2,
@@ -514,9 +514,10 @@ pub(crate) fn merge_steps_in(region: &Region) -> Vec<Step> {
 /// faces) within [`super::SHADE_EPS`] of it, in descending index order, so that on
 /// coincident faces the lowest index is written last and wins. A tolerance rather
 /// than depth-equal, because coincident faces of different triangles rasterize to
-/// depths an ulp or two apart.
-pub(crate) fn shade_steps(prep: &Prepared, tex: Tex) -> Vec<Step> {
-    super::shade_near_depth(&prep.solid_meshes, OUTPUT, tex, None)
+/// depths an ulp or two apart. `sides`: the faces that can be visible on the
+/// output ([`super::VisibleSides`]).
+pub(crate) fn shade_steps(prep: &Prepared, tex: Tex, sides: &VisibleSides) -> Vec<Step> {
+    super::shade_near_depth(&prep.solid_meshes, OUTPUT, tex, None, sides)
 }
 
 #[cfg(test)]

@@ -893,6 +893,12 @@ impl Executor {
         Ok(ms)
     }
 
+    /// What the host allocator of the executor's command buffers served so
+    /// far (`vk::cmd_arena`).
+    pub fn command_arena(&self) -> crate::vk::cmd_arena::ArenaCounts {
+        self.submit.arena_counts()
+    }
+
     /// Records the kept frame of `plan` anew `reps` times without submitting it:
     /// what recording this plan costs the CPU (a new plan of its size, issue 9
     /// §3), in the calling thread's CPU ms per recording, free of the GPU's

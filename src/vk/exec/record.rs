@@ -36,7 +36,7 @@ mod shade;
 use crate::plan::reach::ClearNeed;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::usage::{self, Resource, Usage, Uses};
-use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
+use crate::plan::{Cull, Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{
@@ -207,6 +207,8 @@ pub(super) struct Recorder<'a> {
     /// Pipelines of this recording (a plan uses a few dozen; looked up without
     /// building a `PipelineDesc` per draw).
     pipes: Vec<Pipe>,
+    /// Indices in `pipes` of the two last found by a search, newest first.
+    recent: [usize; 2],
     state: ImageStates,
     pending_clear: BTreeMap<Resource, PendingClear>,
     /// Regions of the clears recorded next, in order (`plan::reach`).
@@ -247,6 +249,7 @@ impl<'a> Recorder<'a> {
             dyn_state: None,
             push: PushTracker::default(),
             pipes: Vec::new(),
+            recent: [usize::MAX; 2],
             state,
             pending_clear: BTreeMap::new(),
             clear_regions: VecDeque::new(),
@@ -650,6 +653,27 @@ impl<'a> Recorder<'a> {
         Ok(())
     }
 
+    /// The block a draw of program `kind` into `key` records in: the open
+    /// block when the draw writes depth and stencil only into the same image
+    /// (its pipeline leaves the block's colour attachments unwritten), so a
+    /// parity draw between two draws into the surface and its depth texture
+    /// (SCS's front, parity and exit draws of each product) ends no block;
+    /// otherwise `key`. On lavapipe every block end waits for the rasterizer.
+    /// Only where the open block's render area holds the draw's `scissor`.
+    fn joined(&self, key: BlockKey, kind: FragmentKind, scissor: Rect) -> BlockKey {
+        match self.block {
+            Some(open)
+                if kind == FragmentKind::None
+                    && key.n_colors == 0
+                    && open.ds == key.ds
+                    && self.render_area.contains(&scissor) =>
+            {
+                open
+            }
+            _ => key,
+        }
+    }
+
     /// Makes `key` the open block with every usage in `uses` satisfied.
     fn open(&mut self, key: &BlockKey, uses: &[(Resource, Usage)]) {
         self.settle_clears(uses);
@@ -716,12 +740,17 @@ impl<'a> Recorder<'a> {
         kind: FragmentKind,
         state: &RasterState,
     ) -> Result<Pipe, VkError> {
-        if let Some(p) = self
-            .pipes
-            .iter()
-            .find(|p| p.kind == kind && p.state == *state && p.block == *key)
-        {
-            return Ok(*p);
+        let hit = |p: &Pipe| p.kind == kind && p.state == *state && p.block == *key;
+        // The last two used first: consecutive draws mostly repeat or
+        // alternate (a trim's mesh draw and sweep).
+        for &i in &self.recent {
+            if self.pipes.get(i).is_some_and(hit) {
+                return Ok(self.pipes[i]);
+            }
+        }
+        if let Some(i) = self.pipes.iter().position(hit) {
+            self.recent = [i, self.recent[0]];
+            return Ok(self.pipes[i]);
         }
         let desc = PipelineDesc {
             fragment: kind,
@@ -745,6 +774,7 @@ impl<'a> Recorder<'a> {
             fixed,
         };
         self.pipes.push(pipe);
+        self.recent = [self.pipes.len() - 1, self.recent[0]];
         Ok(pipe)
     }
 
@@ -802,6 +832,26 @@ impl<'a> Recorder<'a> {
             };
             self.scissor = Some(scissor);
             self.stats.counts.state_commands += 1;
+        }
+    }
+
+    /// Sets the scissor of a draw of `geometry` that asks for `scissor`,
+    /// unless the one set cuts its meshes alike (`state::scissor_serves`).
+    fn set_draw_scissor(&mut self, geometry: &Geometry, scissor: Rect) {
+        if self.scissor == Some(scissor) {
+            return;
+        }
+        let ids: &[u32] = match geometry {
+            Geometry::Mesh(m) => std::slice::from_ref(m),
+            Geometry::Meshes(ms) => ms,
+            Geometry::FullScreen { .. } => return self.set_scissor(scissor),
+        };
+        let kept = self.scissor.is_some_and(|c| {
+            let covered = self.b.mesh_rects.of(ids);
+            state::scissor_serves(c, scissor, covered, self.render_area)
+        });
+        if !kept {
+            self.set_scissor(scissor);
         }
     }
 
@@ -929,12 +979,15 @@ impl<'a> Recorder<'a> {
         if let Some(zones) = self.b.ties.shade_zones(draw) {
             return self.zoned_shade(draw, step, scissor, zones);
         }
-        // Plain depth tests where the tie rule cannot change the result.
+        // Plain depth tests where the tie rule cannot change the result; a
+        // shade's rule draw culling what can never win (`plan::visible_side`).
         let fast = self.b.ties.fixed_function(draw).map(Step::Draw);
+        let culled = self.b.ties.culled_rule(draw).map(Step::Draw);
         let shade = matches!(draw.fragment, Fragment::ShadeNearDepth { .. });
         let counts = &mut self.stats.counts;
         let (draw, step) = match &fast {
             Some(s @ Step::Draw(d)) => {
+                counts.shade_culled_draws += (shade && d.cull != Cull::None) as u64;
                 *if shade {
                     &mut counts.shade_fixed_draws
                 } else {
@@ -946,6 +999,10 @@ impl<'a> Recorder<'a> {
                 if shade {
                     counts.shade_rule_draws += 1;
                     counts.shade_rule_pixels += scissor.area();
+                    if let Some(s @ Step::Draw(d)) = &culled {
+                        counts.shade_culled_draws += 1;
+                        return self.draw_in(d, s, scissor);
+                    }
                 } else if matches!(
                     draw.fragment,
                     Fragment::NearerThan { .. } | Fragment::PeelTolerant { .. }
@@ -969,13 +1026,13 @@ impl<'a> Recorder<'a> {
             // (the programs' `NORMALS` variants write it there).
             uses.push((Resource::Normal, Usage::ColorTarget));
         }
-        let key = BlockKey::of_draw(&uses, draw.ds);
+        let key = self.joined(BlockKey::of_draw(&uses, draw.ds), kind, scissor);
         let raster = state::raster_state(Some(draw), self.b.desc.reversed_z);
         let pipe = self.pipeline_for(&key, kind, &raster)?;
         self.open(&key, &uses);
         self.check_in_area(scissor);
         self.bind_pipe(pipe, set);
-        self.set_scissor(scissor);
+        self.set_draw_scissor(&draw.geometry, scissor);
         let flags = self.flags();
         let scene = self.b.scene;
         let rgb = |c: [u8; 3]| {

@@ -20,6 +20,7 @@ use ash::vk;
 use crate::plan::Draw;
 use crate::vk::conv::{self, StencilFaceOps};
 use crate::vk::pipeline::RasterState;
+use crate::vk::scissor::Rect;
 
 /// One dynamic piece of [`RasterState`]: one command each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -160,6 +161,16 @@ pub(super) fn record(device: &ash::Device, cmd: vk::CommandBuffer, s: &RasterSta
     }
 }
 
+/// Whether the scissor `current`, set in the command buffer, serves a mesh
+/// draw that asks for `want` and whose triangles cover only pixels inside
+/// `covered` (its meshes' screen rectangles), in a block of render area
+/// `area`: both cut the same pixels out of what the meshes can cover, so the
+/// draw needs no scissor command. Shading draws per mesh, each asking for
+/// its own bounds, then keep the first (larger) scissor.
+pub(super) fn scissor_serves(current: Rect, want: Rect, covered: Rect, area: Rect) -> bool {
+    area.contains(&current) && current.intersect(&covered) == want.intersect(&covered)
+}
+
 /// Records the state every draw of a command buffer shares (viewport, front
 /// face; dynamic in every pipeline): once, before its first draw.
 pub(super) fn record_fixed(device: &ash::Device, cmd: vk::CommandBuffer, width: u32, height: u32) {
@@ -230,6 +241,35 @@ mod tests {
         let copy = raster_state(None, false);
         let off: Vec<Field> = changes(&copy, Some(&b)).collect();
         assert!(off.contains(&Field::DepthTest) && off.contains(&Field::StencilTest));
+    }
+
+    #[test]
+    fn a_scissor_serves_a_mesh_draw_that_cuts_its_meshes_alike() {
+        let r = |x0, y0, x1, y1| Rect { x0, y0, x1, y1 };
+        let area = r(0, 0, 100, 100);
+        let mesh = r(10, 10, 30, 30);
+        // A larger scissor serves a draw scissored to its own bounds.
+        assert!(scissor_serves(area, mesh, mesh, area));
+        assert!(scissor_serves(
+            r(5, 5, 40, 40),
+            r(10, 10, 30, 30),
+            mesh,
+            area
+        ));
+        // A scissor that cuts the meshes differently does not.
+        assert!(!scissor_serves(r(20, 0, 100, 100), mesh, mesh, area));
+        assert!(!scissor_serves(area, r(0, 0, 20, 20), mesh, area));
+        // One that cuts them the same way does, even if it differs elsewhere.
+        assert!(scissor_serves(r(0, 0, 20, 50), r(0, 5, 20, 40), mesh, area));
+        // Both cut everything: nothing can be drawn either way.
+        assert!(scissor_serves(
+            r(50, 50, 60, 60),
+            r(70, 70, 80, 80),
+            mesh,
+            area
+        ));
+        // Never a scissor outside the block's render area.
+        assert!(!scissor_serves(area, mesh, mesh, r(0, 0, 50, 50)));
     }
 
     #[test]

@@ -49,6 +49,10 @@ pub struct Counts {
     /// under this camera (`plan::tie_free`): tested before the shader, no
     /// texture read, no depth written.
     pub shade_fixed_draws: u64,
+    /// Draws of the final shade (depth-equal or tie-rule) that cull the side
+    /// of their mesh that is never visible (`plan::VisibleSides`): about half
+    /// its faces.
+    pub shade_culled_draws: u64,
     /// Draws of the final shade that keep the tie rule (`shade_near_depth`):
     /// one per mesh, or one per rule rectangle of a mesh whose shade keeps the
     /// rule only in its tie zones (`plan::tie_zones`; its depth-equal pieces

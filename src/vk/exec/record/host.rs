@@ -300,12 +300,29 @@ impl Recorder<'_> {
                     .filter(|r| !r.is_empty())
                     .collect();
                 let rest = tie_zones::subtract(scissor, &rule);
-                draws.extend(rule.into_iter().map(|r| (d.clone(), true, r)));
+                // Culling what can never win the tie (`plan::visible_side`).
+                let culled = self.b.ties.culled_rule(d).unwrap_or_else(|| d.clone());
+                draws.extend(rule.into_iter().map(|r| (culled.clone(), true, r)));
                 draws.extend(rest.into_iter().map(|r| (d.clone(), false, r)));
                 continue;
             }
-            let rule = self.b.ties.fixed_function(d).is_none();
-            draws.push((d.clone(), rule, scissor));
+            match self.b.ties.fixed_function(d) {
+                // Culling the faces that are never visible, as standalone.
+                Some(f) => draws.push((
+                    Draw {
+                        cull: f.cull,
+                        ..d.clone()
+                    },
+                    false,
+                    scissor,
+                )),
+                // Culling what can never win the tie (`plan::visible_side`).
+                None => draws.push((
+                    self.b.ties.culled_rule(d).unwrap_or_else(|| d.clone()),
+                    true,
+                    scissor,
+                )),
+            }
         }
         let rule_tex = draws
             .iter()
@@ -442,8 +459,8 @@ impl Recorder<'_> {
         // Mirrored for reversed Z. The rule's fragments write the visible
         // depth where it is nearer than or equal to the host's (the host's
         // depth there may be the merge's, the same value); the depth-equal
-        // draws test the merged depth and write none. No stencil, no culling
-        // (the plan's draw culls nothing either).
+        // draws test the merged depth and write none. No stencil; the culling
+        // of the standalone frame's draw.
         let depth = match rule {
             true => DepthState {
                 compare: CompareOp::LessOrEqual,
@@ -489,6 +506,7 @@ impl Recorder<'_> {
             }
             false => c.shade_fixed_draws += 1,
         }
+        c.shade_culled_draws += (draw.cull != Cull::None) as u64;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
         }
@@ -501,7 +519,8 @@ mod tests {
 
     /// The plan builders' shade draw of mesh `m`.
     fn shade(m: u32, tex: Tex, ds: u8) -> Step {
-        let mut steps = crate::plan::shade_near_depth(&[m], ds, tex, None);
+        let mut steps =
+            crate::plan::shade_near_depth(&[m], ds, tex, None, &crate::plan::VisibleSides::none());
         steps.pop().expect("a pass, a copy and the draw")
     }
 
@@ -528,7 +547,13 @@ mod tests {
         ]);
         assert_eq!(final_shade(&p), Some(3));
         // Built by the plan builders: every GPU algorithm but blister-paper.
-        let p = plan(crate::plan::shade_near_depth(&[0, 1], 1, 1, None));
+        let p = plan(crate::plan::shade_near_depth(
+            &[0, 1],
+            1,
+            1,
+            None,
+            &crate::plan::VisibleSides::none(),
+        ));
         assert_eq!(final_shade(&p), Some(2));
     }
 

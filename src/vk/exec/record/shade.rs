@@ -15,7 +15,7 @@ use crate::plan::reach::READ_MARGIN;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::tie_zones::{self, MAX_RULE_RECTS};
 use crate::plan::usage::Resource;
-use crate::plan::{Draw, Ds, Step, Tex};
+use crate::plan::{Cull, Draw, Ds, Step, Tex};
 use crate::vk::error::VkError;
 use crate::vk::pipeline::FragmentKind;
 use crate::vk::scissor::Rect;
@@ -88,10 +88,17 @@ impl Recorder<'_> {
             .map(|z| z.intersect(&scissor))
             .filter(|r| !r.is_empty())
             .collect();
+        // The rule pieces culling what can never win (`plan::visible_side`).
+        let culled = self.b.ties.culled_rule(draw).map(Step::Draw);
+        let (rule_draw, rule_step) = match &culled {
+            Some(s @ Step::Draw(d)) => (d, s),
+            _ => (draw, step),
+        };
         for &r in &rule {
             self.stats.counts.shade_rule_draws += 1;
             self.stats.counts.shade_rule_pixels += r.area();
-            self.draw_in(draw, step, r)?;
+            self.stats.counts.shade_culled_draws += culled.is_some() as u64;
+            self.draw_in(rule_draw, rule_step, r)?;
         }
         let fixed = TieFree::depth_equal(draw).expect("a zoned draw is a final shade's");
         let fixed = Step::Draw(fixed);
@@ -100,6 +107,7 @@ impl Recorder<'_> {
         };
         for r in tie_zones::subtract(scissor, &rule) {
             self.stats.counts.shade_fixed_draws += 1;
+            self.stats.counts.shade_culled_draws += (d.cull != Cull::None) as u64;
             self.draw_in(d, &fixed, r)?;
         }
         Ok(())
