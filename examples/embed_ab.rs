@@ -26,6 +26,10 @@ fn main() {
     };
     for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
         let mut exec = Executor::new(ctx, desc).expect("executor");
+        // `EMBED_AB_ZONES=off`: the standalone frame without tie zones (A/B).
+        if std::env::var("EMBED_AB_ZONES").as_deref() == Ok("off") {
+            exec.set_tie_zones(false);
+        }
         exec.upload(scene).expect("upload");
         let edesc = EmbedDesc {
             extent: [desc.width, desc.height],
@@ -89,11 +93,15 @@ fn main() {
             if let Some(s) = s {
                 let c = &s.counts;
                 print!(
-                    "  | {label}: draws {} barriers {} passes {} fullscreen {} clears {} cleared {:.2} Mpx",
+                    "  | {label}: draws {} (shade rule {} on {:.2} Mpx, fixed {}) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
                     c.draws,
+                    c.shade_rule_draws,
+                    c.shade_rule_pixels as f64 * 1e-6,
+                    c.shade_fixed_draws,
                     c.barriers,
                     c.render_passes,
                     c.fullscreen_passes,
+                    c.fullscreen_pixels as f64 * 1e-6,
                     c.clear_commands,
                     c.cleared_pixels as f64 * 1e-6
                 );

@@ -4,8 +4,8 @@
 // vertex shader's gl_Position is invariant, so the same mesh reproduces its depths.
 // With HOST: the embedding's depth-equal final pass (vk::exec::record::host), drawn
 // into a host's attachments with the output depth-stencil's depth bound as the
-// texture: colour only, the raster depth written by the host's depth test; with
-// HOST_SRGB too, for an _SRGB host colour format.
+// texture, colour only, after the depth merge put that depth into the host's
+// wherever it is nearer; with HOST_SRGB too, for an _SRGB host colour format.
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -18,6 +18,12 @@ layout(push_constant) uniform Push {
     uint flags;
 } pc;
 #include "camera.glsl"
+#ifdef HOST
+// The host draw tests depth-EQUAL against the merged depth and writes none: the
+// test runs before the shader, so only the fragments at the visible depth (or
+// at a host depth they equal, which the fetch below turns away) run it.
+layout(early_fragment_tests) in;
+#endif
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) in vec3 v_world;

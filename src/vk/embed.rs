@@ -270,8 +270,9 @@ impl Embedder {
     ///   to the same stages (attachment reads and writes). After it, one
     ///   rendering block of the host's colour and depth attachments (depth
     ///   aspect only; a stencil aspect is neither bound nor touched) reads and
-    ///   writes them: the last pass's mesh draws (direct) or the composite's
-    ///   full-screen draw, colour writes in `COLOR_ATTACHMENT_OUTPUT` and depth
+    ///   writes them: the depth merge's full-screen draw and the last pass's
+    ///   mesh draws (direct) or the composite's full-screen draw, colour writes
+    ///   in `COLOR_ATTACHMENT_OUTPUT` and depth
     ///   tests and writes in `EARLY/LATE_FRAGMENT_TESTS`, which the host's next
     ///   use must synchronize with, as after any rendering of its own.
     /// - Peeltrim's internal images, its vertex buffer and its query pools are used
@@ -298,11 +299,12 @@ impl Embedder {
             .ok_or_else(|| VkError::Plan("record before set_plan".into()))?;
         let plan = &plan;
         let d = *self.exec.desc();
-        // The host's depth test: nearer wins, the host's geometry on ties.
+        // The composite's depth test: nearer wins, the CSG (drawn after the
+        // host's geometry) on exact ties, as in the direct pass.
         let depth_compare = if d.reversed_z {
-            vk::CompareOp::GREATER
+            vk::CompareOp::GREATER_OR_EQUAL
         } else {
-            vk::CompareOp::LESS
+            vk::CompareOp::LESS_OR_EQUAL
         };
         if targets.extent != [d.width, d.height] {
             return Err(VkError::Plan(format!(

@@ -28,6 +28,9 @@ pub enum FragmentKind {
     PeelTolerant,
     WriteDepth,
     DepthFromTexture,
+    /// `DepthFromTexture` into an embedding host's depth attachment, its colour
+    /// attachment bound but not written (`vk::exec::record::host`'s depth merge).
+    DepthFromTextureHost,
     ShadeNearDepth,
     /// `ShadeNearDepth` drawn into an embedding host's colour and depth
     /// attachments (`vk::exec::record::host`): colour only, the visible depth
@@ -117,6 +120,7 @@ impl FragmentKind {
             | FragmentKind::WriteDepth
             | FragmentKind::DepthFromTexture
             | FragmentKind::MergeBehindExact
+            | FragmentKind::DepthFromTextureHost
             | FragmentKind::DepthAtDepth
             | FragmentKind::CopyDepth
             | FragmentKind::Accumulate => (false, false, false),
@@ -149,7 +153,9 @@ impl FragmentKind {
             FragmentKind::PeelShade => spv!("peel_shade.frag"),
             FragmentKind::PeelTolerant => spv!("peel_tolerant.frag"),
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
-            FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
+            FragmentKind::DepthFromTexture | FragmentKind::DepthFromTextureHost => {
+                spv!("depth_from_texture.frag")
+            }
             FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
             FragmentKind::ShadeNearDepthHost => spv!("shade_near_depth.frag.host"),
             FragmentKind::ShadeNearDepthHostSrgb => spv!("shade_near_depth.frag.host_srgb"),
@@ -547,7 +553,8 @@ impl Pipelines {
             FragmentKind::ShadeNearDepthHost
             | FragmentKind::ShadeNearDepthHostSrgb
             | FragmentKind::ShadeAtDepthHost
-            | FragmentKind::ShadeAtDepthHostSrgb => vk::Format::UNDEFINED,
+            | FragmentKind::ShadeAtDepthHostSrgb
+            | FragmentKind::DepthFromTextureHost => vk::Format::UNDEFINED,
             _ => ds_format,
         };
         graphics_pipeline(
@@ -565,8 +572,11 @@ impl Pipelines {
                 blend: match desc.fragment {
                     FragmentKind::Accumulate => Some(under_blend()),
                     // Depth and stencil only, in a block with colour
-                    // attachments (`Recorder::joined`): they keep their values.
-                    FragmentKind::None => Some(no_color_writes()),
+                    // attachments (`Recorder::joined`, the host's depth
+                    // merge): they keep their values.
+                    FragmentKind::None | FragmentKind::DepthFromTextureHost => {
+                        Some(no_color_writes())
+                    }
                     _ => None,
                 },
             },
@@ -708,7 +718,7 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 21] = [
+    const SOURCES: [(FragmentKind, &str); 22] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
         (FragmentKind::Paint, "paint.frag"),
@@ -718,6 +728,10 @@ mod tests {
         (FragmentKind::PeelTolerant, "peel_tolerant.frag"),
         (FragmentKind::WriteDepth, "write_depth.frag"),
         (FragmentKind::DepthFromTexture, "depth_from_texture.frag"),
+        (
+            FragmentKind::DepthFromTextureHost,
+            "depth_from_texture.frag",
+        ),
         (FragmentKind::ShadeNearDepth, "shade_near_depth.frag"),
         (FragmentKind::ShadeNearDepthHost, "shade_near_depth.frag"),
         (FragmentKind::NearerThan, "nearer_than.frag"),

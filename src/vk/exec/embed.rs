@@ -59,10 +59,9 @@ impl Executor {
         let meshes = self.scene_ref()?.ranges.len() as u32;
         crate::plan::validate::validate(plan, meshes)?;
         self.ensure_targets(plan)?;
-        // The host's direct shade draws a tied mesh whole with the rule
-        // (`record/host.rs`): its depth copy must cover the whole mesh, not
-        // only its tie zones (`plan::tie_zones`).
-        self.ties = self.decide_ties(plan, false);
+        // The same decisions as the standalone frame's: the host's direct
+        // shade draws a tied mesh's rule in its tie zones alone too.
+        self.ties = self.decide_ties(plan);
         let scene = self.scene_ref()?;
         let cam = scene.cam;
         self.rects = super::Scissors::exact(scene, &self.desc);

@@ -500,10 +500,8 @@ impl Executor {
 
     /// The tie-free decisions for `plan` under the scene's current camera:
     /// the kept ones while the plan, camera, scene and settings stay
-    /// (`plan::memo`; a replayed frame decides nothing anew). `zones`: whether
-    /// this frame's shade can draw a tied mesh's rule in its zones alone (the
-    /// embedding's direct shade cannot).
-    fn decide_ties(&mut self, plan: &Plan, zones: bool) -> TieFree {
+    /// (`plan::memo`; a replayed frame decides nothing anew).
+    fn decide_ties(&mut self, plan: &Plan) -> TieFree {
         let Some(scene) = self.scene.as_ref().filter(|_| self.tie_free) else {
             return TieFree::none();
         };
@@ -516,7 +514,7 @@ impl Executor {
             reversed_z: self.desc.reversed_z,
             tie_free: self.tie_free,
             fixed_shade: self.depth_equal_shades(),
-            zones: self.tie_zones && zones,
+            zones: self.tie_zones,
         };
         let (desc, bits) = (self.desc, key.subpixel_bits);
         let (fixed, zones) = (key.fixed_shade, key.zones);
@@ -610,7 +608,7 @@ impl Executor {
             .len() as u32;
         validate(plan, meshes)?;
         self.ensure_targets(plan)?;
-        self.ties = self.decide_ties(plan, true);
+        self.ties = self.decide_ties(plan);
         Ok(())
     }
 

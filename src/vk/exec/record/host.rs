@@ -1,31 +1,31 @@
 //! The embedding's direct final pass (README "Embedding"): the plan's last
 //! pass, the depth-equal shade of `plan::tie` (README "Precision and ties"),
-//! drawn straight into the host's colour and depth attachments under the
-//! host's depth test, so that an embedded frame does the standalone frame's
-//! work and no composite pass (`vk::composite`, the fallback) remains.
+//! drawn straight into the host's colour and depth attachments, so that an
+//! embedded frame does the standalone frame's work and no composite pass
+//! (`vk::composite`, the fallback) remains.
 //!
-//! The standalone pass draws the solid's meshes in descending index order with
-//! depth test `Always`, each writing its own plane depth, the last writer (the
-//! lowest index) winning ties. Under the host's test that order cannot work:
-//! coincident faces write slightly different depths. Here every face that
-//! passes the tie test at a pixel writes the same depth, the visible one read
-//! from the pass's texture (`shaders/shade_near_depth.frag`, `HOST`), and the
-//! meshes are drawn in ascending index order under the host's strict test
-//! (`LESS`, reversed `GREATER`): the first writer — the lowest index — stays,
-//! and the host's own geometry keeps exact ties, as with the composite.
-//!
-//! A mesh the standalone frame shades with a plain depth-`EQUAL` test
-//! (`plan::tie_free`: no face can tie with it) is drawn with
-//! `shaders/shade_at_depth.frag` (`HOST`) instead: kept where its raster depth
-//! equals the output depth-stencil's, fetched in the shader, and written by the
-//! host's test, with no copy and no tie test — on lavapipe the tie test and
-//! `gl_FragDepth` cost the embedded frame twice the standalone one's shade.
+//! The standalone pass draws the solid's meshes in descending index order,
+//! the last writer (the lowest index) winning; so does this one. A mesh the
+//! standalone frame shades with a plain depth-`EQUAL` test (`plan::tie_free`:
+//! no face can tie with it) gets the same test here, against the host's depth
+//! after one full-screen depth merge (`DepthFromTextureHost`) wrote the output
+//! depth into it wherever the CSG is nearer: the test runs before the shader
+//! (`shaders/shade_at_depth.frag`, `HOST`), so only the visible fragments run
+//! it; on lavapipe a per-fragment fetch of the output depth for every fragment
+//! cost the embedded frame 20% more than the standalone one on `interference`.
+//! A mesh that keeps the tie rule is drawn with
+//! `shaders/shade_near_depth.frag` (`HOST`) on the depth copy: every face that
+//! passes the tie test at a pixel writes the same depth, the visible one, under
+//! the host's test with equality (`LESS_OR_EQUAL`, reversed
+//! `GREATER_OR_EQUAL`). Exact ties between the host's depth and the CSG's
+//! visible depth go to the CSG, drawn last.
 
 use ash::vk;
 
 use super::Recorder;
+use crate::plan::tie_zones;
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::{CompareOp, Cull, DepthState, Draw, Fragment, Geometry, Plan, Step, Tex};
+use crate::plan::{CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, Plan, Step, Tex};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
@@ -245,6 +245,16 @@ pub(crate) fn host_barriers(
     ((src, dst), memory)
 }
 
+/// The pipeline of host program `kind` for the host's formats.
+fn host_pipeline(h: &HostShade, kind: FragmentKind) -> PipelineDesc {
+    PipelineDesc {
+        fragment: kind,
+        color_formats: vec![h.color.1],
+        depth_stencil_format: Some(h.depth.1),
+        normals: false,
+    }
+}
+
 impl Recorder<'_> {
     /// Records `shade` (the plan's last steps, [`final_shade`]'s draws, in plan
     /// order) into the host's attachments, after the rest of the frame: the
@@ -254,12 +264,15 @@ impl Recorder<'_> {
     ///
     /// A shade draw the standalone frame runs as a plain depth-`EQUAL` draw
     /// (`TieFree::fixed_function`: no face can tie with it) is drawn with
-    /// `ShadeAtDepthHost` reading the output depth itself: its raster depth
-    /// equal to the visible one there, bit-exactly, as the standalone test
-    /// asks, and written by the host's depth test; no texture copy, no tie
-    /// test. The draws that keep the tie rule use `ShadeNearDepthHost` on the
-    /// copy, and go first: where both pass (faces crossing within the tie band)
-    /// the rule mesh wins, as in the standalone frame.
+    /// `ShadeAtDepthHost` depth-`EQUAL` against the host's depth after the
+    /// depth merge ([`Recorder::host_merge`]) put the output depth there
+    /// wherever it is nearer: the test runs before the shader, so only the
+    /// fragments at the visible depth run it (and fetch the output depth, to
+    /// turn away a face that only equals the host's). The draws that keep the
+    /// tie rule use `ShadeNearDepthHost` on the copy, writing the visible depth
+    /// where it is nearer than or equal to the host's. The draws keep the plan's
+    /// order (descending index), so the last writer, the lowest index, stays,
+    /// as in the standalone frame.
     pub fn host_shade(&mut self, h: &HostShade, shade: &[&Step]) -> Result<(), VkError> {
         self.end_block();
         let device = self.b.device;
@@ -268,37 +281,60 @@ impl Recorder<'_> {
         if let (true, Some(buffer)) = (counted, h.counts) {
             copy_counts(device, self.cmd, self.b.occlusion, n, buffer);
         }
-        // (draw, rule): in drawing order, ascending index within each kind.
-        let (mut draws, mut equal) = (Vec::new(), Vec::new());
-        for s in shade.iter().rev() {
+        // (draw, rule, rect), in plan order: a zoned draw as its rule pieces
+        // and its depth-equal pieces (`record/shade.rs`'s `zoned_shade`).
+        let mut draws: Vec<(Draw, bool, Rect)> = Vec::new();
+        for s in shade {
             let Step::Draw(d) = s else {
                 panic!("final_shade selects draws only")
             };
+            let scissor = self.scissor(&d.scissor);
+            if scissor.is_empty() {
+                self.stats.counts.skipped_steps += 1;
+                continue;
+            }
+            if let Some(zones) = self.b.ties.shade_zones(d) {
+                let rule: Vec<Rect> = zones
+                    .iter()
+                    .map(|z| z.intersect(&scissor))
+                    .filter(|r| !r.is_empty())
+                    .collect();
+                let rest = tie_zones::subtract(scissor, &rule);
+                // Culling what can never win the tie (`plan::visible_side`).
+                let culled = self.b.ties.culled_rule(d).unwrap_or_else(|| d.clone());
+                draws.extend(rule.into_iter().map(|r| (culled.clone(), true, r)));
+                draws.extend(rest.into_iter().map(|r| (d.clone(), false, r)));
+                continue;
+            }
             match self.b.ties.fixed_function(d) {
                 // Culling the faces that are never visible, as standalone.
-                Some(f) => equal.push((
+                Some(f) => draws.push((
                     Draw {
                         cull: f.cull,
                         ..d.clone()
                     },
                     false,
+                    scissor,
                 )),
                 // Culling what can never win the tie (`plan::visible_side`).
                 None => draws.push((
                     self.b.ties.culled_rule(d).unwrap_or_else(|| d.clone()),
                     true,
+                    scissor,
                 )),
             }
         }
-        draws.extend(equal);
         let rule_tex = draws
             .iter()
-            .find(|(_, rule)| *rule)
-            .map(|(d, _)| match d.fragment {
+            .find(|(_, rule, _)| *rule)
+            .map(|(d, _, _)| match d.fragment {
                 Fragment::ShadeNearDepth { tex, .. } => tex,
                 _ => panic!("final_shade selects ShadeNearDepth draws"),
             });
-        let equal_ds = draws.iter().find(|(_, rule)| !*rule).map(|(d, _)| d.ds);
+        let equal_ds = draws
+            .iter()
+            .find(|(_, rule, _)| !*rule)
+            .map(|(d, _, _)| d.ds);
         let mut uses = Vec::new();
         uses.extend(rule_tex.map(|t| (Resource::Texture(t), Usage::Sampled)));
         uses.extend(equal_ds.map(|ds| (Resource::DepthStencil(ds), Usage::Sampled)));
@@ -308,12 +344,6 @@ impl Recorder<'_> {
         submit::pipeline_barrier(device, self.cmd, (src | hsrc, dst | hdst), &memory, &images);
         self.stats.counts.barriers += 1;
 
-        let pipeline = |fragment| PipelineDesc {
-            fragment,
-            color_formats: vec![h.color.1],
-            depth_stencil_format: Some(h.depth.1),
-            normals: false,
-        };
         // The sRGB decode is a variant of its own (`build.rs`).
         let (rule_kind, equal_kind) = match h.srgb {
             true => (
@@ -327,19 +357,67 @@ impl Recorder<'_> {
         };
         self.begin_host_block(h);
         let flags = self.flags();
-        for (draw, rule) in &draws {
+        if let Some(ds) = equal_ds {
+            self.host_merge(h, ds, &draws, flags)?;
+        }
+        for (draw, rule, rect) in &draws {
             let (kind, set) = match rule {
                 true => (rule_kind, rule_tex.map(Resource::Texture)),
                 false => (equal_kind, equal_ds.map(Resource::DepthStencil)),
             };
             let set = set.map(|r| self.b.targets.sampling_set(r));
-            let pipeline = self.b.pipelines.get(&pipeline(kind))?;
+            let pipeline = self.b.pipelines.get(&host_pipeline(h, kind))?;
             self.bind(pipeline, set);
-            self.host_draw(draw, *rule, flags);
+            self.host_draw(draw, *rule, *rect, flags);
         }
         // SAFETY: closes the block `begin_host_block` opened.
         unsafe { device.cmd_end_rendering(self.cmd) };
         self.rest_all();
+        Ok(())
+    }
+
+    /// The depth merge before the depth-equal draws: over their scissors, the
+    /// output depth-stencil `ds`'s depth written into the host's depth where it
+    /// is nearer (the host's strict test; far pixels discarded), so that a
+    /// plain depth-`EQUAL` test against the host's depth keeps a face's
+    /// fragments where it is the visible one and the CSG is in front. One
+    /// full-screen draw with no colour written (`DepthFromTextureHost`).
+    fn host_merge(
+        &mut self,
+        h: &HostShade,
+        ds: Ds,
+        draws: &[(Draw, bool, Rect)],
+        flags: u32,
+    ) -> Result<(), VkError> {
+        let mut equal = draws.iter().filter(|(_, rule, _)| !*rule);
+        let rect = equal.clone().fold(Rect::EMPTY, |a, (_, _, r)| a.union(r));
+        let Some((first, _, _)) = equal.next().filter(|_| !rect.is_empty()) else {
+            return Ok(());
+        };
+        let merge = Draw {
+            depth: DepthState {
+                compare: CompareOp::Less,
+                write: true,
+            },
+            stencil: None,
+            cull: Cull::None,
+            ..first.clone()
+        };
+        self.set_state(Some(&merge), rect);
+        let kind = FragmentKind::DepthFromTextureHost;
+        let pipeline = self.b.pipelines.get(&host_pipeline(h, kind))?;
+        let set = self.b.targets.sampling_set(Resource::DepthStencil(ds));
+        self.bind(pipeline, Some(set));
+        let pc = PushConstants {
+            mvp: Self::fullscreen_matrix(0.0),
+            flags,
+            snap: self.b.snap,
+            ..Default::default()
+        };
+        self.push_for(kind, true, &pc);
+        self.draw_quad();
+        self.stats.counts.fullscreen_passes += 1;
+        self.stats.counts.fullscreen_pixels += rect.area();
         Ok(())
     }
 
@@ -369,26 +447,32 @@ impl Recorder<'_> {
         self.stats.counts.render_passes += 1;
     }
 
-    /// One shade draw of one mesh under the host's strict depth test: with the
-    /// tie rule (`rule`, `ShadeNearDepthHost`: the visible depth written) or at
-    /// the output depth (`ShadeAtDepthHost`: the raster depth written).
-    fn host_draw(&mut self, draw: &Draw, rule: bool, flags: u32) {
+    /// One shade draw of one mesh into the host's attachments: with the tie
+    /// rule (`rule`, `ShadeNearDepthHost`: the visible depth written) or at the
+    /// output depth (`ShadeAtDepthHost`: depth-`EQUAL` against the merged
+    /// depth, none written).
+    fn host_draw(&mut self, draw: &Draw, rule: bool, scissor: Rect, flags: u32) {
         let (m, eps) = match (&draw.geometry, &draw.fragment) {
             (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) => (*m, *eps),
             _ => panic!("final_shade selects ShadeNearDepth draws of one mesh"),
         };
-        let scissor = self.scissor(&draw.scissor);
-        if scissor.is_empty() {
-            self.stats.counts.skipped_steps += 1;
-            return;
-        }
-        // Nearer than what the host's depth holds (mirrored for reversed Z);
-        // no stencil; the culling of the standalone frame's draw.
-        let host = Draw {
-            depth: DepthState {
-                compare: CompareOp::Less,
+        // Mirrored for reversed Z. The rule's fragments write the visible
+        // depth where it is nearer than or equal to the host's (the host's
+        // depth there may be the merge's, the same value); the depth-equal
+        // draws test the merged depth and write none. No stencil; the culling
+        // of the standalone frame's draw.
+        let depth = match rule {
+            true => DepthState {
+                compare: CompareOp::LessOrEqual,
                 write: true,
             },
+            false => DepthState {
+                compare: CompareOp::Equal,
+                write: false,
+            },
+        };
+        let host = Draw {
+            depth,
             stencil: None,
             ..draw.clone()
         };
@@ -415,10 +499,13 @@ impl Recorder<'_> {
         c.mesh_draws += 1;
         c.mesh_pixels += scissor.area();
         c.triangles += count as u64 / 3;
-        *match rule {
-            true => &mut c.shade_rule_draws,
-            false => &mut c.shade_fixed_draws,
-        } += 1;
+        match rule {
+            true => {
+                c.shade_rule_draws += 1;
+                c.shade_rule_pixels += scissor.area();
+            }
+            false => c.shade_fixed_draws += 1,
+        }
         c.shade_culled_draws += (draw.cull != Cull::None) as u64;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
