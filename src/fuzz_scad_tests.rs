@@ -67,6 +67,12 @@ fn value() -> BoxedStrategy<(String, bool)> {
     .boxed()
 }
 
+/// Whether `value()` text is a size that makes a primitive empty (zero,
+/// negative or below OpenSCAD's grid).
+fn empty_size(v: &str) -> bool {
+    matches!(v, "0" | "-0" | "1e-300" | "-3")
+}
+
 fn vec3() -> BoxedStrategy<(String, bool)> {
     prop::collection::vec(value(), 3)
         .prop_map(|v| {
@@ -98,9 +104,17 @@ fn primitive() -> BoxedStrategy<Scad> {
     let scad = |text: String, bad: bool| Scad { text, bad };
     prop_oneof![
         4 => (vec3(), any::<bool>()).prop_map(move |((s, bad), c)| scad(format!("cube(size = {s}, center = {c});"), bad)),
-        3 => (fragments(), value()).prop_map(move |((f, b1), (r, b2))| scad(format!("sphere({f}, r = {r});"), b1 || b2)),
+        // A fragment count is only an error where it is used: an empty
+        // primitive (a zero or negative radius or height) never asks for one
+        // (OpenSCAD's `get_fragments_from_r` gives 3 below GRID_FINE).
+        3 => (fragments(), value()).prop_map(move |((f, b1), (r, b2))| {
+            let bad = b2 || (b1 && !empty_size(&r));
+            scad(format!("sphere({f}, r = {r});"), bad)
+        }),
         3 => (fragments(), value(), value(), value()).prop_map(move |((f, b1), (h, b2), (r1, b3), (r2, b4))| {
-            scad(format!("cylinder({f}, h = {h}, r1 = {r1}, r2 = {r2}, center = true);"), b1 || b2 || b3 || b4)
+            let empty = empty_size(&h) || (empty_size(&r1) && empty_size(&r2));
+            let bad = b2 || b3 || b4 || (b1 && !empty);
+            scad(format!("cylinder({f}, h = {h}, r1 = {r1}, r2 = {r2}, center = true);"), bad)
         }),
         1 => Just(scad(
             "polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]], convexity = 1);".into(),

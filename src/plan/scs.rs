@@ -829,9 +829,10 @@ mod tests {
             .filter(|d| d.cull == Cull::Front)
             .collect();
         assert_eq!(exits.len(), 2);
+        // They test `Greater` (subtract's front-face parity) in the output too.
         assert!(exits.iter().all(|d| d.ds == OUTPUT
             && d.depth.write
-            && d.depth.compare == CompareOp::Always
+            && d.depth.compare == CompareOp::Greater
             && d.fragment == Fragment::WriteDepth { out: SURF }));
         // The clip: box 0's back faces count where they lie behind `z`, and
         // one sweep of the output sets far where the count is not 1.
