@@ -404,10 +404,7 @@ impl<'a> Recorder<'a> {
             snap: self.b.snap,
             ..Default::default()
         };
-        self.push_for(FragmentKind::Edges, true, &pc);
-        self.draw_quad();
-        self.stats.counts.fullscreen_passes += 1;
-        self.stats.counts.fullscreen_pixels += full.area();
+        self.quad_pass(FragmentKind::Edges, &pc, full.area());
         self.end_block();
         self.rest_all();
         Ok(())
@@ -907,13 +904,17 @@ impl<'a> Recorder<'a> {
         self.stats.counts.state_commands += 1;
     }
 
-    /// Draws the full-screen quad (inside a block, with a pipeline bound and its
-    /// push constants pushed).
-    fn draw_quad(&mut self) {
+    /// Pushes `pc` for `kind` and draws the full-screen quad (inside a block,
+    /// with the pipeline bound), counted as a full-screen pass over `area`
+    /// pixels (its scissor).
+    fn quad_pass(&mut self, kind: FragmentKind, pc: &PushConstants, area: u64) {
+        self.push_for(kind, true, pc);
         let first = self.b.scene.quad_first;
         // SAFETY: inside a block with a bound pipeline and vertex buffer; the
         // quad's six vertices lie in it.
         unsafe { self.b.device.cmd_draw(self.cmd, 6, 1, first, QUAD_INSTANCE) };
+        self.stats.counts.fullscreen_passes += 1;
+        self.stats.counts.fullscreen_pixels += area;
     }
 
     fn flags(&self) -> u32 {
@@ -947,10 +948,7 @@ impl<'a> Recorder<'a> {
             snap: self.b.snap,
             ..Default::default()
         };
-        self.push_for(kind, true, &pc);
-        self.draw_quad();
-        self.stats.counts.fullscreen_passes += 1;
-        self.stats.counts.fullscreen_pixels += rect.area();
+        self.quad_pass(kind, &pc, rect.area());
         Ok(())
     }
 
@@ -1083,10 +1081,7 @@ impl<'a> Recorder<'a> {
                     snap: self.b.snap,
                     ..Default::default()
                 };
-                self.push_for(kind, true, &pc);
-                self.draw_quad();
-                self.stats.counts.fullscreen_passes += 1;
-                self.stats.counts.fullscreen_pixels += scissor.area();
+                self.quad_pass(kind, &pc, scissor.area());
             }
             Geometry::Mesh(_) | Geometry::Meshes(_) => {
                 let ids: &[u32] = match &draw.geometry {

@@ -414,10 +414,7 @@ impl Recorder<'_> {
             snap: self.b.snap,
             ..Default::default()
         };
-        self.push_for(kind, true, &pc);
-        self.draw_quad();
-        self.stats.counts.fullscreen_passes += 1;
-        self.stats.counts.fullscreen_pixels += rect.area();
+        self.quad_pass(kind, &pc, rect.area());
         Ok(())
     }
 
