@@ -16,7 +16,14 @@
 //! - lie within a small world distance of each other (the band, converted for a
 //!   camera by `plan::tie_free`): two points on one ray are at least as far apart
 //!   as the faces;
-//! - and overlap (their boxes, grown by that distance).
+//! - and overlap (their boxes, grown by that distance);
+//! - with their interiors: seen along the normal, no edge of either separates
+//!   them ([`apart_in_plane`]). Faces that only touch along an edge (the flush
+//!   sides of two stacked boxes, a box's cap next to another's) cover no pixel
+//!   centre in common but on a sliver along that edge (vertex snapping; faces
+//!   a band apart add a band of lateral offset for an oblique ray), where the
+//!   reference's ray meets one of them and the rule is no more right than the
+//!   plain test, as for crossing faces.
 //!
 //! Faces of one mesh that face the same way never tie: where a ray crosses two
 //! of them it crosses an opposite face in between, and adjacent faces of a
@@ -37,10 +44,12 @@
 //! in the second's grown by `w` (and `y` the other way round): both lie in the
 //! intersection of the two boxes grown by `w`. A zone keeps that intersection
 //! ungrown (inverted along an axis where the boxes are apart), merged over the
-//! triangle pairs of a mesh pair that lie within the cap of each other (a few
+//! triangle pairs of a mesh pair whose faces face the same way or opposite
+//! ways ([`TieZone::opposite`]) and lie within the cap of each other (a few
 //! per pair), with the smallest of their gaps; a camera grows it by its band
 //! ([`TieZone::within`]) and projects it (`plan::tie_zones`: the tie rule only
-//! there, issue 9 §5).
+//! there, issue 9 §5). Which zones can hold a visible point of the solid is
+//! the plan's question (`plan::visible_ties`).
 #![deny(unsafe_code)]
 
 use glam::DVec3;
@@ -57,6 +66,11 @@ pub const PARALLEL_ANGLE: f64 = 1.0 / 16.0;
 /// near plane very close to the eye) makes every mesh possibly tied.
 pub const CAP_FRACTION: f64 = 1.0 / 128.0;
 
+/// Faces whose projections overlap by at most this fraction of the cap across
+/// an edge only touch ([`apart_in_plane`]): f64 rounding of the tessellation
+/// (about 1e-9 of the scene's size).
+pub const TOUCH_FRACTION: f64 = 1e-7;
+
 /// The most candidate pairs tested before the search gives up (then every mesh
 /// counts as possibly tied: correct, only slower).
 pub const MAX_PAIR_TESTS: u64 = 50_000_000;
@@ -72,12 +86,12 @@ pub struct TieGaps {
     /// The mesh pairs `(a, b)`, `a <= b`, with a gap of at most `cap`, and that
     /// gap (`a == b`: opposite faces of one mesh), sorted.
     pub pairs: Vec<(u32, u32, f64)>,
-    /// Where those pairs can tie, sorted by `(a, b)`: at most
-    /// [`MAX_ZONES_PER_PAIR`] per pair.
+    /// Where those pairs can tie, sorted by `(a, b, opposite)`: at most
+    /// [`MAX_ZONES_PER_PAIR`] per pair and orientation.
     pub zones: Vec<TieZone>,
 }
 
-/// The most zones kept per mesh pair: more are merged along their pair's
+/// The most zones kept per mesh pair and orientation: more are merged along their pair's
 /// longest axis (a few screen rectangles per shade draw, `plan::tie_zones`).
 pub const MAX_ZONES_PER_PAIR: usize = 8;
 
@@ -88,6 +102,10 @@ pub const MAX_ZONES_PER_PAIR: usize = 8;
 pub struct TieZone {
     pub a: u32,
     pub b: u32,
+    /// The faces face opposite ways (solids on either side of the contact, or
+    /// a thin wall); `false`: the same way (flush faces of overlapping
+    /// solids). A zone holds one kind only.
+    pub opposite: bool,
     pub gap: f64,
     pub lo: DVec3,
     pub hi: DVec3,
@@ -111,7 +129,7 @@ impl TieZone {
         self.a == m || self.b == m
     }
 
-    /// Both zones as one (same pair).
+    /// Both zones as one (same pair and orientation).
     fn union(&self, o: &TieZone) -> TieZone {
         TieZone {
             gap: self.gap.min(o.gap),
@@ -175,21 +193,48 @@ impl TieGaps {
         }
         match pairs_within(&tris, cap) {
             Some(mut hits) => {
-                hits.sort_by(|x, y| (x.a, x.b).cmp(&(y.a, y.b)).then(x.gap.total_cmp(&y.gap)));
-                for run in hits.chunk_by(|x, y| (x.a, x.b) == (y.a, y.b)) {
-                    // Sorted by gap: the first is the pair's smallest.
-                    let (a, b, g) = (run[0].a, run[0].b, run[0].gap);
-                    for m in [a, b] {
-                        let slot = &mut out.min_gap[m as usize];
-                        *slot = slot.min(g);
-                    }
-                    out.pairs.push((a, b, g));
-                    out.zones.extend(merge_zones(run, cap));
-                }
+                hits.sort_by(|x, y| (x.a, x.b, x.opposite).cmp(&(y.a, y.b, y.opposite)));
+                let key = |z: &TieZone| (z.a, z.b, z.opposite);
+                let zones = hits
+                    .chunk_by(|x, y| key(x) == key(y))
+                    .flat_map(|run| merge_zones(run, cap))
+                    .collect();
+                out.set_zones(zones);
             }
             None => out.min_gap = vec![0.0; n],
         }
         out
+    }
+
+    /// These gaps with only the zones `keep` accepts: the pairs and smallest
+    /// gaps are those of the zones left. Gaps without zones (none found, or
+    /// the search gave up) are returned as they are.
+    pub fn with_zones(&self, keep: impl Fn(&TieZone) -> bool) -> TieGaps {
+        let mut out = TieGaps {
+            min_gap: vec![f64::INFINITY; self.min_gap.len()],
+            cap: self.cap,
+            pairs: Vec::new(),
+            zones: Vec::new(),
+        };
+        if self.zones.is_empty() {
+            return self.clone();
+        }
+        out.set_zones(self.zones.iter().filter(|z| keep(z)).copied().collect());
+        out
+    }
+
+    /// `zones` (sorted by pair), with the pairs and smallest gaps they give.
+    fn set_zones(&mut self, zones: Vec<TieZone>) {
+        for run in zones.chunk_by(|x, y| (x.a, x.b) == (y.a, y.b)) {
+            let (a, b) = (run[0].a, run[0].b);
+            let g = run.iter().map(|z| z.gap).fold(f64::INFINITY, f64::min);
+            for m in [a, b] {
+                let slot = &mut self.min_gap[m as usize];
+                *slot = slot.min(g);
+            }
+            self.pairs.push((a, b, g));
+        }
+        self.zones = zones;
     }
 
     /// The zones of the pairs mesh `m` is in.
@@ -304,7 +349,31 @@ fn tie_gap(a: &Tri, b: &Tri, cap: f64) -> Option<f64> {
         return None;
     }
     let gap = a.gap_to_plane_of(b).max(b.gap_to_plane_of(a));
-    (gap <= cap).then_some(gap)
+    (gap <= cap && !apart_in_plane(a, b, cap * TOUCH_FRACTION)).then_some(gap)
+}
+
+/// Whether the projections of `a` and `b` onto `a`'s plane overlap by at most
+/// `slack` across one of their edges (a separating axis): their interiors are
+/// apart, or they only touch along an edge ([module doc](self)).
+fn apart_in_plane(a: &Tri, b: &Tri, slack: f64) -> bool {
+    let u = a.normal.any_orthonormal_vector();
+    let v = a.normal.cross(u);
+    let flat = |t: &Tri| t.v.map(|p| glam::DVec2::new(u.dot(p), v.dot(p)));
+    let (p, q) = (flat(a), flat(b));
+    let span = |pts: &[glam::DVec2; 3], axis: glam::DVec2| {
+        let d = pts.map(|x| axis.dot(x));
+        (d[0].min(d[1]).min(d[2]), d[0].max(d[1]).max(d[2]))
+    };
+    [p, q].iter().any(|tri| {
+        (0..3).any(|k| {
+            let e = tri[(k + 1) % 3] - tri[k];
+            let Some(axis) = glam::DVec2::new(-e.y, e.x).try_normalize() else {
+                return false;
+            };
+            let ((p0, p1), (q0, q1)) = (span(&p, axis), span(&q, axis));
+            p1 <= q0 + slack || q1 <= p0 + slack
+        })
+    })
 }
 
 /// Cell of a point in a grid of cell size `size` anchored at `origin`.
@@ -361,6 +430,7 @@ fn pairs_within(tris: &[Tri], cap: f64) -> Option<Vec<TieZone>> {
                     pairs.push(TieZone {
                         a: a.mesh.min(b.mesh),
                         b: a.mesh.max(b.mesh),
+                        opposite: a.normal.dot(b.normal) < 0.0,
                         gap,
                         lo: a.lo.max(b.lo),
                         hi: a.hi.min(b.hi),
@@ -460,6 +530,7 @@ mod tests {
         let z = TieZone {
             a: 0,
             b: 1,
+            opposite: false,
             gap: 1e-3,
             lo: DVec3::ZERO,
             hi: DVec3::ONE,
@@ -539,6 +610,40 @@ mod tests {
     }
 
     #[test]
+    fn faces_that_only_touch_along_an_edge_do_not_tie() {
+        // Two stacked boxes, one footprint: their side faces share planes and
+        // touch along y = 1 only; their contact faces (opposite ways) tie.
+        let a = cube(DVec3::new(0.0, 0.5, 0.0), DVec3::splat(0.5));
+        let b = cube(DVec3::new(0.0, 1.5, 0.0), DVec3::splat(0.5));
+        let g = gaps(&[a.clone(), b]);
+        assert_eq!(g.zones.len(), 1, "{:?}", g.zones);
+        let z = g.zones[0];
+        assert!(z.opposite && z.lo.y == 1.0 && z.hi.y == 1.0, "{z:?}");
+        // Sunk 0.01 into `a`, the side faces overlap on a strip (the same
+        // way, coincident); the contact faces are 0.01 apart.
+        let sunk = cube(DVec3::new(0.0, 1.49, 0.0), DVec3::splat(0.5));
+        let g = gaps(&[a, sunk]);
+        assert!(
+            g.zones.iter().any(|z| !z.opposite && z.gap == 0.0),
+            "{:?}",
+            g.zones
+        );
+        // Two slabs tilted 45° about x, 0.3 apart (beyond the cap): their end
+        // faces share the planes x = ±1 and their boxes overlap, but the faces
+        // lie apart in those planes.
+        let r = glam::DQuat::from_rotation_x(std::f64::consts::FRAC_PI_4);
+        let slab = |offset: f64| {
+            let mut m = cube(DVec3::new(0.0, 0.0, offset), DVec3::new(1.0, 0.5, 0.1));
+            for p in &mut m.positions {
+                *p = r * *p;
+            }
+            m
+        };
+        let g = gaps(&[slab(0.0), slab(0.5)]);
+        assert!(g.pairs.is_empty(), "{:?}", g.pairs);
+    }
+
+    #[test]
     fn crossing_faces_do_not_tie() {
         // b rotated 45° about z: its faces cross a's, none is parallel to a side
         // face... except top and bottom, which lie 0.3 away from a's.
@@ -580,5 +685,39 @@ mod tests {
         };
         assert_eq!(gaps(&[empty]).min_gap, vec![f64::INFINITY]);
         assert_eq!(TieGaps::unknown(2).min_gap, vec![0.0, 0.0]);
+    }
+}
+
+#[cfg(test)]
+mod diag {
+    #[test]
+    #[ignore]
+    fn dump_scene_ties() {
+        let path = std::env::var("TIE_SCENE").unwrap();
+        let s = crate::scene::load(std::path::Path::new(&path), &Default::default()).unwrap();
+        let meshes: Vec<&crate::scene::Mesh> = s.primitives.iter().map(|p| &p.mesh).collect();
+        let g = super::TieGaps::new(&meshes);
+        let names: Vec<String> = s.primitives.iter().map(|p| p.name.clone()).collect();
+        eprintln!("cap {}", g.cap);
+        for (a, b, gap) in &g.pairs {
+            eprintln!(
+                "pair {}({a}) {}({b}) gap {gap}",
+                names[*a as usize], names[*b as usize]
+            );
+        }
+        for z in &g.zones {
+            eprintln!(
+                "zone {} {} opp {} gap {} lo {:?} hi {:?}",
+                names[z.a as usize], names[z.b as usize], z.opposite, z.gap, z.lo, z.hi
+            );
+        }
+        let expr = crate::plan::union_of_solids(&s);
+        let v = crate::plan::visible_ties::visible_ties(&g, &meshes, expr.as_ref(), meshes.len());
+        for z in &v.zones {
+            eprintln!(
+                "visible zone {} {} opp {} gap {} lo {:?} hi {:?}",
+                names[z.a as usize], names[z.b as usize], z.opposite, z.gap, z.lo, z.hi
+            );
+        }
     }
 }

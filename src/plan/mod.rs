@@ -31,6 +31,7 @@ pub mod usage;
 pub mod validate;
 mod view_convex;
 pub mod visible_side;
+pub mod visible_ties;
 pub use convex::is_convex;
 pub use step::*;
 pub use tie::{shade_near_depth, SHADE_EPS};

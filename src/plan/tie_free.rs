@@ -203,11 +203,14 @@ impl TieFree {
         TieFree::default()
     }
 
-    /// The decisions for the tolerances of `plan`'s tolerant draws; `project`
-    /// gives the screen rectangle of a world box under the camera of `band`
-    /// (the full screen for one crossing the near plane).
+    /// The decisions for the tolerances of `plan`'s tolerant draws; the final
+    /// shades' from `shade_gaps`, the zones of `gaps` that may hold a visible
+    /// point (`plan::visible_ties`); `project` gives the screen rectangle of a
+    /// world box under the camera of `band` (the full screen for one crossing
+    /// the near plane).
     pub fn new(
         gaps: &TieGaps,
+        shade_gaps: &TieGaps,
         band: &TieBand,
         plan: &Plan,
         project: &dyn Fn(&crate::scene::Aabb) -> Rect,
@@ -217,11 +220,13 @@ impl TieFree {
         let mut shade_eps = shade_tolerances(&plan.steps);
         shade_eps.sort_unstable();
         shade_eps.dedup();
-        let meshes = gaps.min_gap.len() as u32;
+        let meshes = shade_gaps.min_gap.len() as u32;
         let shade = per_mesh(&shade_eps, band, meshes, |m, b| {
-            ShadeRule::decide(gaps, m, b, project)
+            ShadeRule::decide(shade_gaps, m, b, project)
         });
-        let rule_cull = per_mesh(&shade_eps, band, meshes, |m, b| rule_may_cull(gaps, m, b));
+        let rule_cull = per_mesh(&shade_eps, band, meshes, |m, b| {
+            rule_may_cull(shade_gaps, m, b)
+        });
         let mut eps: Vec<u32> = Vec::new();
         tolerances(&plan.steps, &mut eps);
         let by_eps = decide(gaps, band, eps);
@@ -711,7 +716,7 @@ mod tests {
         let a = cube(DVec3::ZERO, DVec3::splat(0.5));
         let gaps = TieGaps::new(&[&a, &b]);
         let plan = plan_of(vec![parity(0, SHADE_EPS), parity(1, SHADE_EPS)]);
-        let free = TieFree::new(&gaps, &band(size, 8, true), &plan, &whole);
+        let free = TieFree::new(&gaps, &gaps, &band(size, 8, true), &plan, &whole);
         (0..2).map(|m| free.meshes_free(&[m], SHADE_EPS)).collect()
     }
 
@@ -773,7 +778,7 @@ mod tests {
             pairs: vec![(1, 1, 0.0)],
             zones: vec![],
         };
-        TieFree::new(&gaps, &band(800, 8, true), plan, &whole)
+        TieFree::new(&gaps, &gaps, &band(800, 8, true), plan, &whole)
     }
 
     #[test]
@@ -962,7 +967,7 @@ mod tests {
             pairs: vec![(0, 1, 0.0)],
             zones: vec![],
         };
-        let tied = TieFree::new(&gaps, &band(800, 8, true), &plan, &whole);
+        let tied = TieFree::new(&gaps, &gaps, &band(800, 8, true), &plan, &whole);
         assert_eq!(tied.culled_rule(&zero), None);
         assert_eq!(tied.culled_rule(&one).map(|d| d.cull), Some(Cull::Front));
     }

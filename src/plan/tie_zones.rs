@@ -278,6 +278,7 @@ mod tests {
         let zone = |a, b, gap, lo: [f64; 3], hi: [f64; 3]| TieZone {
             a,
             b,
+            opposite: false,
             gap,
             lo: DVec3::from(lo),
             hi: DVec3::from(hi),

@@ -10,6 +10,7 @@ use gpu_allocator::MemoryLocation;
 
 use super::ExecDesc;
 use crate::geom::ties::TieGaps;
+use crate::plan::visible_ties::visible_ties;
 use crate::scene::camera::DepthConvention;
 use crate::scene::{Aabb, Camera, Projection, Scene};
 use crate::vk::error::VkError;
@@ -34,6 +35,9 @@ pub(super) struct GpuScene {
     /// Which meshes' faces could meet the tie rule (`geom::ties`); unknown
     /// (every mesh possibly tied) once a mesh was moved.
     pub ties: TieGaps,
+    /// Those of `ties` that may hold a visible point of the solid, which the
+    /// final shade reads (`plan::visible_ties`); unknown with `ties`.
+    pub shade_ties: TieGaps,
 }
 
 /// What the shaders and scissors derive from the camera.
@@ -126,6 +130,10 @@ impl GpuScene {
             MemoryLocation::CpuToGpu,
         )?;
         vertices.mapped_mut()?.copy_from_slice(&bytes);
+        let refs: Vec<&crate::scene::Mesh> = meshes.iter().map(|(m, _)| *m).collect();
+        let ties = TieGaps::new(&refs);
+        let expr = crate::plan::union_of_solids(scene);
+        let shade_ties = visible_ties(&ties, &refs, expr.as_ref(), scene.primitives.len());
         Ok(GpuScene {
             vertices,
             ranges,
@@ -136,7 +144,8 @@ impl GpuScene {
             origin,
             cam: camera_state(&scene.camera, desc, origin),
             quad_first,
-            ties: TieGaps::new(&meshes.iter().map(|(m, _)| *m).collect::<Vec<_>>()),
+            ties,
+            shade_ties,
         })
     }
 }
@@ -192,6 +201,7 @@ impl GpuScene {
         scene.bounds[i] = mesh_bounds(mesh);
         // The gaps were the old geometry's: no draw is taken as tie-free now.
         scene.ties = TieGaps::unknown(scene.ranges.len());
+        scene.shade_ties = scene.ties.clone();
         Ok(())
     }
 }

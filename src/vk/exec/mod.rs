@@ -1308,7 +1308,7 @@ fn tie_decisions(
     let (w, h) = (desc.width, desc.height);
     let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
     let project = |b: &Aabb| bounds_rect(view, proj, near, std::slice::from_ref(b), w, h);
-    let ties = TieFree::new(&scene.ties, &band, plan, &project);
+    let ties = TieFree::new(&scene.ties, &scene.shade_ties, &band, plan, &project);
     match (fixed_shade, zones) {
         (true, true) => ties,
         (true, false) => ties.without_zones(),
