@@ -31,6 +31,7 @@ mod tie_free;
 mod tie_zones;
 mod view_convex;
 mod visible_side;
+mod visible_ties;
 
 use glam::{DMat4, DVec3};
 use peeltrim::plan::{

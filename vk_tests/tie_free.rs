@@ -173,17 +173,14 @@ fn a_depth_equal_final_shade_gives_the_tie_rule_frames_pixels() {
 
 #[test]
 fn coincident_faces_keep_the_tie_rule_in_the_final_shade() {
-    for name in ["coincident", "speckle"] {
+    // Visible coincident faces: C's flush with A's where B removed A
+    // (speckle), the flange's with the block's (assembly). `coincident`'s
+    // are never visible (`vk_tests/visible_ties.rs`).
+    for name in ["speckle", "assembly"] {
         for algo in tolerant() {
             let (_, stats, _) = frame(name, algo, true);
             let c = &stats.exec.counts;
             assert!(c.shade_rule_draws > 0, "{name} {algo}: {c:?}");
-            if name == "coincident" {
-                // Every primitive shares a face plane with another one: each
-                // keeps the rule at least over that face (`plan::tie_zones`;
-                // `vk_tests/tie_zones.rs` compares the pixels).
-                assert!(c.shade_rule_draws >= 6, "{name} {algo}: {c:?}");
-            }
         }
     }
 }

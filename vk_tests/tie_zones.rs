@@ -14,7 +14,7 @@ use crate::algorithms::{load, SIZE};
 #[test]
 fn zone_scissored_shading_gives_the_all_rule_frames_pixels() {
     let mut failures = Vec::new();
-    for name in ["shadow_block", "coincident"] {
+    for name in ["speckle", "assembly"] {
         let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
         let scene = load(Path::new(&path));
         let prep = Prepared::new(&scene).expect("prepared");

@@ -25,7 +25,7 @@ fn shaded() -> impl Iterator<Item = Algo> {
         .filter(|a| !matches!(a, Algo::Reference | Algo::BlisterPaper))
 }
 
-fn frame(scene: &Scene, plan: &Plan) -> (Images, FrameStats) {
+pub(crate) fn frame(scene: &Scene, plan: &Plan) -> (Images, FrameStats) {
     let mut gpu = GpuRenderer::new(scene, crate::setup::device(), DepthSetup::DEFAULT, true)
         .expect("a Vulkan device (lavapipe)");
     let f = gpu
@@ -59,7 +59,7 @@ fn with_shade(plan: &Plan, f: impl Fn(&mut plan::Draw, &mut Cull)) -> Plan {
     p
 }
 
-fn interior(r: &CompareReport) -> (u64, u64) {
+pub(crate) fn interior(r: &CompareReport) -> (u64, u64) {
     (r.coverage_mismatch_interior, r.prim_mismatch_interior)
 }
 
@@ -232,11 +232,11 @@ expr = "(A - C) + B"
 
 #[test]
 fn tied_meshes_cull_where_only_lower_indices_tie_with_them() {
-    // complex: ribs flush on the base, holes and slot cuts sharing planes;
-    // coincident: every primitive shares a plane with another. A mesh whose
-    // tie partners all have lower indices culls in its rule draws too.
+    // speckle: C fills a half of A that B removes, their faces flush;
+    // assembly: the flange flush on the block. A mesh whose tie partners all
+    // have lower indices culls in its rule draws too.
     let mut failures = Vec::new();
-    for name in ["complex", "coincident"] {
+    for name in ["speckle", "assembly"] {
         let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
         let scene = load(Path::new(&path));
         let prep = Prepared::new(&scene).expect("prepared");

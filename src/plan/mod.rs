@@ -24,6 +24,7 @@ pub mod scs;
 pub mod stencil;
 pub mod step;
 pub mod tie;
+pub mod tie_context;
 pub mod tie_free;
 pub mod tie_zones;
 pub mod trickle;

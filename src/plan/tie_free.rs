@@ -56,12 +56,18 @@
 //! and vertex snapping): a mesh is tie-free for a tolerance when its smallest gap
 //! is wider than the band. The texture's faces come from meshes of the same scene,
 //! so a mesh with no partner at all within the band cannot tie whatever the
-//! texture holds. [`TieFree`] is those decisions, per tolerance of the plan; the
-//! executor keeps its recording while a moving camera leaves them unchanged.
+//! texture holds. A draw whose meshes have partners is tie-free still where no
+//! image it reads can hold a partner's faces (`plan::tie_context`: the plan
+//! says which meshes each image may hold). [`TieFree`] is those decisions, per
+//! tolerance of the plan; the executor keeps its recording while a moving
+//! camera leaves them unchanged.
+
+use std::collections::HashMap;
 
 use super::rect::Rect;
 use super::step::*;
 use super::tie::REVERSED_SCALE;
+use super::tie_context::{self, DrawKey};
 pub use super::tie_zones::ShadeRule;
 use super::visible_side::rule_may_cull;
 use crate::geom::ties::TieGaps;
@@ -195,6 +201,9 @@ pub struct TieFree {
     /// Per tolerance of the final shades, per mesh: its rule draws may cull
     /// the faces that are never visible (`visible_side::rule_may_cull`).
     rule_cull: Vec<(u32, Vec<bool>)>,
+    /// Per tolerant draw of the plan: no image it reads holds a partner face
+    /// of its meshes (`plan::tie_context`).
+    by_draw: HashMap<DrawKey, bool>,
 }
 
 impl TieFree {
@@ -230,10 +239,16 @@ impl TieFree {
         let mut eps: Vec<u32> = Vec::new();
         tolerances(&plan.steps, &mut eps);
         let by_eps = decide(gaps, band, eps);
+        // Unknown beyond the gaps' cap: every pair may tie.
+        let tied = |m: MeshId, p: MeshId, eps: f32| {
+            let b = band.world(eps);
+            !(b.is_finite() && b <= gaps.cap) || gaps.gap(m, p).is_some_and(|g| g <= b)
+        };
         TieFree {
             by_eps,
             shade,
             rule_cull,
+            by_draw: tie_context::decide(&plan.steps, &tied),
         }
     }
 
@@ -242,6 +257,7 @@ impl TieFree {
     /// the rule wherever `exact`'s would ([`ShadeRule::serves`]).
     pub fn serves(&self, exact: &TieFree) -> bool {
         self.by_eps == exact.by_eps
+            && self.by_draw == exact.by_draw
             && self.rule_cull == exact.rule_cull
             && self.shade.len() == exact.shade.len()
             && self.shade.iter().zip(&exact.shade).all(|((k, a), (l, b))| {
@@ -264,6 +280,7 @@ impl TieFree {
             by_eps: self.by_eps.clone(),
             shade,
             rule_cull: self.rule_cull.clone(),
+            by_draw: self.by_draw.clone(),
         }
     }
 
@@ -296,6 +313,14 @@ impl TieFree {
     /// Whether every mesh of `meshes` is tie-free at tolerance `eps`.
     pub fn meshes_free(&self, meshes: &[MeshId], eps: f32) -> bool {
         all_free(&self.by_eps, meshes, eps)
+    }
+
+    /// Whether tolerant `draw` of `meshes` cannot meet a tie at `eps`: its
+    /// meshes are tie-free, or nothing it reads holds a partner face of
+    /// theirs (`plan::tie_context`).
+    fn draw_free(&self, draw: &Draw, meshes: &[MeshId], eps: f32) -> bool {
+        self.meshes_free(meshes, eps)
+            || DrawKey::of(draw).is_some_and(|k| self.by_draw.get(&k) == Some(&true))
     }
 
     /// Whether the final shade's draws of every mesh of `meshes` at tolerance
@@ -420,13 +445,15 @@ impl TieFree {
             }
             // The merge writes the texture's depth, so it keeps its program,
             // with the exact compare (one fetch, no derivatives).
-            Fragment::MergeBehind { tex, eps } if eps != 0.0 && self.meshes_free(meshes, eps) => {
+            Fragment::MergeBehind { tex, eps }
+                if eps != 0.0 && self.draw_free(draw, meshes, eps) =>
+            {
                 Some(Draw {
                     fragment: Fragment::MergeBehind { tex, eps: 0.0 },
                     ..draw.clone()
                 })
             }
-            Fragment::PeelTolerant { prev, out, eps } if self.meshes_free(meshes, eps) => {
+            Fragment::PeelTolerant { prev, out, eps } if self.draw_free(draw, meshes, eps) => {
                 Some(Draw {
                     fragment: Fragment::Peel {
                         prev,
@@ -458,7 +485,7 @@ impl TieFree {
             compare: CompareOp::Always,
             write: false,
         };
-        if draw.depth != off || !self.meshes_free(meshes, eps) {
+        if draw.depth != off || !self.draw_free(draw, meshes, eps) {
             return None;
         }
         Some(Draw {
