@@ -687,37 +687,3 @@ mod tests {
         assert_eq!(TieGaps::unknown(2).min_gap, vec![0.0, 0.0]);
     }
 }
-
-#[cfg(test)]
-mod diag {
-    #[test]
-    #[ignore]
-    fn dump_scene_ties() {
-        let path = std::env::var("TIE_SCENE").unwrap();
-        let s = crate::scene::load(std::path::Path::new(&path), &Default::default()).unwrap();
-        let meshes: Vec<&crate::scene::Mesh> = s.primitives.iter().map(|p| &p.mesh).collect();
-        let g = super::TieGaps::new(&meshes);
-        let names: Vec<String> = s.primitives.iter().map(|p| p.name.clone()).collect();
-        eprintln!("cap {}", g.cap);
-        for (a, b, gap) in &g.pairs {
-            eprintln!(
-                "pair {}({a}) {}({b}) gap {gap}",
-                names[*a as usize], names[*b as usize]
-            );
-        }
-        for z in &g.zones {
-            eprintln!(
-                "zone {} {} opp {} gap {} lo {:?} hi {:?}",
-                names[z.a as usize], names[z.b as usize], z.opposite, z.gap, z.lo, z.hi
-            );
-        }
-        let expr = crate::plan::union_of_solids(&s);
-        let v = crate::plan::visible_ties::visible_ties(&g, &meshes, expr.as_ref(), meshes.len());
-        for z in &v.zones {
-            eprintln!(
-                "visible zone {} {} opp {} gap {} lo {:?} hi {:?}",
-                names[z.a as usize], names[z.b as usize], z.opposite, z.gap, z.lo, z.hi
-            );
-        }
-    }
-}
