@@ -229,6 +229,14 @@ impl TieFree {
         let mut shade_eps = shade_tolerances(&plan.steps);
         shade_eps.sort_unstable();
         shade_eps.dedup();
+        // Only a shade of the solid's boundary, which it says by culling
+        // (`VisibleSides` comes from the solid), may use the zones the solid
+        // shows; Kirsch's deeper layers show the products' boundaries.
+        let shade_gaps = if shows_solid(&plan.steps) {
+            shade_gaps
+        } else {
+            gaps
+        };
         let meshes = shade_gaps.min_gap.len() as u32;
         let shade = per_mesh(&shade_eps, band, meshes, |m, b| {
             ShadeRule::decide(shade_gaps, m, b, project)
@@ -639,6 +647,19 @@ fn shade_tolerances(steps: &[Step]) -> Vec<u32> {
             _ => None,
         })
         .collect()
+}
+
+/// Whether the final shade of `steps` shows the solid's boundary: some draw
+/// of it culls a side (`VisibleSides::entries` or `exits`, derived from the
+/// solid); a shade that culls nothing may show anything (Kirsch's deeper
+/// layers: the products' boundaries).
+fn shows_solid(steps: &[Step]) -> bool {
+    steps.iter().any(|s| {
+        matches!(s, Step::Draw(Draw {
+            fragment: Fragment::ShadeNearDepth { equal_cull, .. },
+            ..
+        }) if *equal_cull != Cull::None)
+    })
 }
 
 /// The `|eps|` bits of every tolerant parity or peel draw in `steps`.

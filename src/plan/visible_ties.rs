@@ -61,18 +61,15 @@ pub const COINCIDENT: f64 = 1e-9;
 pub const MAX_UNKNOWNS: usize = 12;
 
 /// The gaps the final shade needs ([`TieGaps::with_zones`]): the zones of
-/// `gaps` that may hold a visible point of `expr` (module doc); `prims`:
-/// how many meshes are primitives (surfaces follow: their zones are kept).
-/// Without a solid, `gaps` as they are.
-pub fn visible_ties(
-    gaps: &TieGaps,
-    meshes: &[&Mesh],
-    expr: Option<&Expr>,
-    prims: usize,
-) -> TieGaps {
-    let Some(expr) = expr else {
+/// `gaps` where the membership of one of `exprs` may change (module doc):
+/// the union of the solids, whose visible surface the opaque shade shows, and
+/// each solid, whose boundary the layers count on its own (README "Layers of
+/// the solid"). `prims`: how many meshes are primitives (surfaces follow:
+/// their zones are kept). Without a solid, `gaps` as they are.
+pub fn visible_ties(gaps: &TieGaps, meshes: &[&Mesh], exprs: &[Expr], prims: usize) -> TieGaps {
+    if exprs.is_empty() {
         return gaps.clone();
-    };
+    }
     let bounds: Vec<Aabb> = meshes
         .iter()
         .map(|m| crate::geom::bounds(&m.positions))
@@ -86,7 +83,7 @@ pub fn visible_ties(
         return gaps.clone();
     }
     let mut named = vec![false; prims];
-    for p in expr.leaves() {
+    for p in exprs.iter().flat_map(Expr::leaves) {
         if let Some(n) = named.get_mut(p as usize) {
             *n = true;
         }
@@ -99,7 +96,7 @@ pub fn visible_ties(
         gaps,
         diag,
     };
-    gaps.with_zones(|z| scene.may_show(z, expr))
+    gaps.with_zones(|z| exprs.iter().any(|e| scene.may_show(z, e)))
 }
 
 /// What the test of one zone reads of the scene.
@@ -282,7 +279,7 @@ mod tests {
         let refs: Vec<&Mesh> = meshes.iter().collect();
         let gaps = TieGaps::new(&refs);
         let e = expr(src);
-        let shade = visible_ties(&gaps, &refs, Some(&e), meshes.len());
+        let shade = visible_ties(&gaps, &refs, &[e], meshes.len());
         let key = |g: &TieGaps| g.pairs.iter().map(|p| (p.0, p.1)).collect();
         (key(&shade), key(&gaps))
     }
@@ -366,9 +363,13 @@ mod tests {
         let meshes = stacked();
         let refs: Vec<&Mesh> = meshes.iter().collect();
         let gaps = TieGaps::new(&refs);
-        let shade = visible_ties(&gaps, &refs, Some(&expr("P0")), 1);
+        let shade = visible_ties(&gaps, &refs, &[expr("P0")], 1);
         assert_eq!(shade, gaps);
         // No solid: nothing known.
-        assert_eq!(visible_ties(&gaps, &refs, None, 2), gaps);
+        assert_eq!(visible_ties(&gaps, &refs, &[], 2), gaps);
+        // Two solids: a contact inside their union is still the boundary of
+        // each (an assembly's layers count each solid on its own).
+        let two = [expr("P0 + P1"), expr("P0"), expr("P1")];
+        assert_eq!(visible_ties(&gaps, &refs, &two, 2), gaps);
     }
 }

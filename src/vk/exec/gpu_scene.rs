@@ -132,8 +132,12 @@ impl GpuScene {
         vertices.mapped_mut()?.copy_from_slice(&bytes);
         let refs: Vec<&crate::scene::Mesh> = meshes.iter().map(|(m, _)| *m).collect();
         let ties = TieGaps::new(&refs);
-        let expr = crate::plan::union_of_solids(scene);
-        let shade_ties = visible_ties(&ties, &refs, expr.as_ref(), scene.primitives.len());
+        // The solids' union (the opaque shade) and each solid (the layers).
+        let mut exprs: Vec<_> = crate::plan::union_of_solids(scene).into_iter().collect();
+        if scene.solids.len() > 1 {
+            exprs.extend(scene.solids.iter().map(|s| s.expr.clone()));
+        }
+        let shade_ties = visible_ties(&ties, &refs, &exprs, scene.primitives.len());
         Ok(GpuScene {
             vertices,
             ranges,
