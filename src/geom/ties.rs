@@ -91,8 +91,9 @@ pub struct TieGaps {
     pub zones: Vec<TieZone>,
 }
 
-/// The most zones kept per mesh pair and orientation: more are merged along their pair's
-/// longest axis (a few screen rectangles per shade draw, `plan::tie_zones`).
+/// The most zones kept per mesh pair and orientation: more are merged along
+/// their pair's longest axis (a few screen rectangles per shade draw,
+/// `plan::tie_zones`).
 pub const MAX_ZONES_PER_PAIR: usize = 8;
 
 /// Where meshes `a <= b` can tie ([module doc](self)): the intersection of the
@@ -210,15 +211,15 @@ impl TieGaps {
     /// gaps are those of the zones left. Gaps without zones (none found, or
     /// the search gave up) are returned as they are.
     pub fn with_zones(&self, keep: impl Fn(&TieZone) -> bool) -> TieGaps {
+        if self.zones.is_empty() {
+            return self.clone();
+        }
         let mut out = TieGaps {
             min_gap: vec![f64::INFINITY; self.min_gap.len()],
             cap: self.cap,
             pairs: Vec::new(),
             zones: Vec::new(),
         };
-        if self.zones.is_empty() {
-            return self.clone();
-        }
         out.set_zones(self.zones.iter().filter(|z| keep(z)).copied().collect());
         out
     }
