@@ -75,24 +75,27 @@ impl DrawKey {
 type Faces = Option<BTreeSet<MeshId>>;
 
 /// Per tolerant draw of a plan, whether no image it reads can hold a face of
-/// a partner of its meshes ([module doc](self)).
+/// a partner of its meshes ([module doc](self)); `partners(m, eps)`: the
+/// meshes with a face within the band of tolerance `eps` of one of `m`'s
+/// (`m` itself for a thin wall of its own), `None` when unknown.
 pub fn decide(
     steps: &[Step],
-    tied: &dyn Fn(MeshId, MeshId, f32) -> bool,
+    partners: &dyn Fn(MeshId, f32) -> Option<Vec<MeshId>>,
 ) -> HashMap<DrawKey, bool> {
     let mut walk = Walk {
         held: HashMap::new(),
         free: HashMap::new(),
-        tied,
+        partners,
     };
     walk.steps(steps);
     walk.free
 }
 
 struct Walk<'a> {
+    /// Absent: unknown, as `None`.
     held: HashMap<Resource, Faces>,
     free: HashMap<DrawKey, bool>,
-    tied: &'a dyn Fn(MeshId, MeshId, f32) -> bool,
+    partners: &'a dyn Fn(MeshId, f32) -> Option<Vec<MeshId>>,
 }
 
 impl Walk<'_> {
@@ -168,15 +171,20 @@ impl Walk<'_> {
         let Some(key) = DrawKey::of(d) else {
             return;
         };
-        let mut held = self.faces(Resource::Texture(key.tex));
+        let mut read = vec![Resource::Texture(key.tex)];
         if key.reads_ds() {
-            held = join(held, self.faces(Resource::DepthStencil(d.ds)));
+            read.push(Resource::DepthStencil(d.ds));
         }
+        let sets: Option<Vec<&BTreeSet<MeshId>>> = read
+            .iter()
+            .map(|r| self.held.get(r).and_then(Option::as_ref))
+            .collect();
         let eps = f32::from_bits(key.eps);
-        let free = held.is_some_and(|held| {
-            key.meshes
-                .iter()
-                .all(|&m| held.iter().all(|&p| !(self.tied)(m, p, eps)))
+        let free = sets.is_some_and(|sets| {
+            key.meshes.iter().all(|&m| {
+                (self.partners)(m, eps)
+                    .is_some_and(|ps| ps.iter().all(|p| sets.iter().all(|s| !s.contains(p))))
+            })
         });
         let slot = self.free.entry(key).or_insert(true);
         *slot &= free;
@@ -201,8 +209,13 @@ impl Walk<'_> {
             targets.push(Resource::DepthStencil(d.ds));
         }
         for r in targets {
-            let now = join(self.faces(r), meshes.clone());
-            self.held.insert(r, now);
+            // In place: unknown stays unknown.
+            if let Some(slot) = self.held.get_mut(&r) {
+                match (slot.as_mut(), &meshes) {
+                    (Some(set), Some(ms)) => set.extend(ms),
+                    _ => *slot = None,
+                }
+            }
         }
     }
 }
@@ -261,8 +274,12 @@ mod tests {
     }
 
     /// Meshes 0 and 1 are flush (partners); 2 ties with nothing.
-    fn flush(a: MeshId, b: MeshId, _: f32) -> bool {
-        (a.min(b), a.max(b)) == (0, 1)
+    fn flush(m: MeshId, _: f32) -> Option<Vec<MeshId>> {
+        Some(match m {
+            0 => vec![1],
+            1 => vec![0],
+            _ => vec![],
+        })
     }
 
     fn free(steps: &[Step], d: &Step) -> Option<bool> {

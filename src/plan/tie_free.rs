@@ -247,16 +247,22 @@ impl TieFree {
         let mut eps: Vec<u32> = Vec::new();
         tolerances(&plan.steps, &mut eps);
         let by_eps = decide(gaps, band, eps);
-        // Unknown beyond the gaps' cap: every pair may tie.
-        let tied = |m: MeshId, p: MeshId, eps: f32| {
+        // Unknown beyond the gaps' cap.
+        let partners = |m: MeshId, eps: f32| {
             let b = band.world(eps);
-            !(b.is_finite() && b <= gaps.cap) || gaps.gap(m, p).is_some_and(|g| g <= b)
+            (b.is_finite() && b <= gaps.cap).then(|| {
+                let pairs = gaps
+                    .pairs
+                    .iter()
+                    .filter(|&&(x, y, g)| g <= b && (x == m || y == m));
+                pairs.map(|&(x, y, _)| if x == m { y } else { x }).collect()
+            })
         };
         TieFree {
             by_eps,
             shade,
             rule_cull,
-            by_draw: tie_context::decide(&plan.steps, &tied),
+            by_draw: tie_context::decide(&plan.steps, &partners),
         }
     }
 
