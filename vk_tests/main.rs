@@ -14,6 +14,7 @@ mod cst;
 mod embed;
 mod gpu_layers;
 mod kirsch;
+mod lighting;
 mod limits;
 mod many_products;
 mod one_submit;
