@@ -20,23 +20,17 @@ const DIRECT: [Algo; 4] = [
     Algo::Kirsch,
 ];
 
-/// A housing (block minus a bore), a ball sticking out of its front face (in
-/// front of the housing at some pixels, behind its front face at others) and
-/// a cube behind it (hidden by the housing at some pixels): two direct
-/// products overlapping another product in both depth orders, no two faces
-/// coincident.
-const OVERLAP: &str = r##"
-name = "overlap"
+/// The camera of both scenes.
+const CAMERA: &str = r##"
+name = "direct"
 [camera]
 eye = [3.0, 2.5, 4.0]
 target = [0.0, 0.0, 0.0]
 fit = true
-[[primitive]]
-name = "Ball"
-shape = "sphere"
-radius = 0.45
-translate = [0.55, 0.2, 0.45]
-color = "#4080c0"
+"##;
+
+/// A housing: a block minus a bore, primitives 1 and 2 of both scenes.
+const HOUSING: &str = r##"
 [[primitive]]
 name = "Block"
 shape = "box"
@@ -50,18 +44,38 @@ height = 2.0
 rotate_deg = [90.0, 0.0, 0.0]
 translate = [-0.4, 0.0, 0.0]
 color = "#805020"
+[[solid]]
+name = "housing"
+expr = "Block - Bore"
+"##;
+
+/// The housing with `first` (primitive 0) before it and `last` after it.
+fn scene(first: &str, last: &str) -> String {
+    format!("{CAMERA}{first}{HOUSING}{last}")
+}
+
+/// A ball sticking out of the housing's front face (in front of the housing
+/// at some pixels, behind its front face at others) and a cube behind it
+/// (hidden by the housing at some pixels): two direct products overlapping
+/// another product in both depth orders, no two faces coincident.
+const BALL: &str = r##"
+[[primitive]]
+name = "Ball"
+shape = "sphere"
+radius = 0.45
+translate = [0.55, 0.2, 0.45]
+color = "#4080c0"
+[[solid]]
+name = "ball"
+expr = "Ball"
+"##;
+const CUBE: &str = r##"
 [[primitive]]
 name = "Cube"
 shape = "box"
 size = [0.7, 0.7, 0.7]
 translate = [-1.05, 0.45, -0.55]
 color = "#60a060"
-[[solid]]
-name = "housing"
-expr = "Block - Bore"
-[[solid]]
-name = "ball"
-expr = "Ball"
 [[solid]]
 name = "cube"
 expr = "Cube"
@@ -70,34 +84,21 @@ expr = "Cube"
 /// A lid (index 0) whose front face lies in the housing's front face plane,
 /// over a wide strip: the tie rule gives those pixels to the lid, the lowest
 /// index, which the final shade draws last. Its product must keep the old
-/// path (shaded after the housing's shade draw, were it shaded directly, the
-/// housing's tie-rule draw would overwrite it there). A post far from both is
-/// tie-free and shades in its direct draw.
-const COINCIDENT: &str = r##"
-name = "lid"
-[camera]
-eye = [3.0, 2.5, 4.0]
-target = [0.0, 0.0, 0.0]
-fit = true
+/// path (shaded in its direct draw, before the final shade, the housing's
+/// tie-rule draw would overwrite it there). A post far from both is tie-free
+/// and shades in its direct draw.
+const LID: &str = r##"
 [[primitive]]
 name = "Lid"
 shape = "box"
 size = [0.8, 1.0, 0.6]
 translate = [0.5, 0.45, 0.2]
 color = "#4080c0"
-[[primitive]]
-name = "Block"
-shape = "box"
-size = [2.0, 1.5, 1.0]
-color = "#c0a060"
-[[primitive]]
-name = "Bore"
-shape = "cylinder"
-radius = 0.3
-height = 2.0
-rotate_deg = [90.0, 0.0, 0.0]
-translate = [-0.4, 0.0, 0.0]
-color = "#805020"
+[[solid]]
+name = "lid"
+expr = "Lid"
+"##;
+const POST: &str = r##"
 [[primitive]]
 name = "Post"
 shape = "cylinder"
@@ -105,12 +106,6 @@ radius = 0.15
 height = 1.0
 translate = [-1.5, 0.3, -1.2]
 color = "#60a060"
-[[solid]]
-name = "lid"
-expr = "Lid"
-[[solid]]
-name = "housing"
-expr = "Block - Bore"
 [[solid]]
 name = "post"
 expr = "Post"
@@ -189,12 +184,12 @@ fn check(text: &str, name: &str, shading: impl Fn(u64) -> u64) {
 
 #[test]
 fn direct_products_in_front_of_and_behind_another_shade_in_their_own_draw() {
-    check(OVERLAP, "overlap", |direct| direct);
+    check(&scene(BALL, CUBE), "overlap", |direct| direct);
 }
 
 #[test]
 fn a_direct_product_with_a_coincident_face_keeps_the_tie_rule() {
     // The lid keeps its depth-only draw and its final shade draw; the post
     // shades directly.
-    check(COINCIDENT, "lid", |direct| direct - 1);
+    check(&scene(LID, POST), "lid", |direct| direct - 1);
 }
