@@ -7,7 +7,3 @@ layout(set = 1, binding = 0) uniform Camera {
     vec4 view;
 } cam;
 
-// From the eye towards `world` (perspective), or the view direction (orthographic).
-vec3 view_dir(vec3 world) {
-    return cam.view.w > 0.5 ? normalize(world - cam.view.xyz) : cam.view.xyz;
-}

@@ -23,12 +23,18 @@ layout(location = 1) in vec3 a_normal;
 
 layout(location = 0) out vec3 v_world;
 layout(location = 1) flat out vec3 v_normal;
+// The headlight's ray and the normal's component along it (light.glsl).
+layout(location = 2) out vec4 v_light;
 
 invariant gl_Position;
 
 void main() {
     v_world = a_pos;
     v_normal = a_normal;
+    // Perspective (w = 1): from the eye to the vertex; orthographic (w = 0):
+    // the view direction, the same at every vertex.
+    vec3 ray = mix(cam.view.xyz, a_pos - cam.view.xyz, cam.view.w);
+    v_light = vec4(ray, dot(a_normal, ray));
     // The full-screen quad is drawn as instance 1 (vk::pipeline::QUAD_INSTANCE)
     // with its own matrix and stays unsnapped; meshes use the camera's matrix.
     // Not a push-constant flag: alternating mesh and quad draws share one push.

@@ -11,21 +11,13 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
-#include "camera.glsl"
-layout(location = 0) in vec3 v_world;
-layout(location = 1) flat in vec3 v_normal;
+#include "light.glsl"
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
 #ifdef NORMALS
 #define NORMAL_LOCATION 2
 #include "seen_normal.glsl"
 #endif
-
-float shade_factor() {
-    vec3 n = normalize(v_normal);
-    vec3 v = view_dir(v_world);
-    return 0.25 + 0.75 * abs(dot(n, v));
-}
 
 void main() {
     o_color = vec4(pc.color.rgb * shade_factor(), 1.0);

@@ -11,11 +11,9 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
-#include "camera.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
-layout(location = 0) in vec3 v_world;
-layout(location = 1) flat in vec3 v_normal;
+#include "light.glsl"
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
 layout(location = 2) out float o_depth;
@@ -27,12 +25,6 @@ layout(location = 2) out float o_depth;
 bool behind_prev() {
     float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
     return (pc.flags & 1u) != 0u ? gl_FragCoord.z < prev : gl_FragCoord.z > prev;
-}
-
-float shade_factor() {
-    vec3 n = normalize(v_normal);
-    vec3 v = view_dir(v_world);
-    return 0.25 + 0.75 * abs(dot(n, v));
 }
 
 void main() {

@@ -17,7 +17,6 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
-#include "camera.glsl"
 #ifdef HOST
 // The host draw tests depth-EQUAL against the merged depth and writes none: the
 // test runs before the shader, so only the fragments at the visible depth (or
@@ -26,8 +25,7 @@ layout(early_fragment_tests) in;
 #endif
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
-layout(location = 0) in vec3 v_world;
-layout(location = 1) flat in vec3 v_normal;
+#include "light.glsl"
 layout(location = 0) out vec4 o_color;
 #ifndef HOST
 layout(location = 1) out uint o_prim;
@@ -39,12 +37,6 @@ layout(location = 1) out uint o_prim;
 #define NORMAL_LOCATION 2
 #include "seen_normal.glsl"
 #endif
-
-float shade_factor() {
-    vec3 n = normalize(v_normal);
-    vec3 v = view_dir(v_world);
-    return 0.25 + 0.75 * abs(dot(n, v));
-}
 
 void main() {
     float kept = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;

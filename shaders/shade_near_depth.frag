@@ -21,7 +21,7 @@ layout(push_constant) uniform Push {
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) in vec3 v_world;
-layout(location = 1) flat in vec3 v_normal;
+#include "light.glsl"
 layout(location = 0) out vec4 o_color;
 #ifndef HOST
 layout(location = 1) out uint o_prim;
@@ -67,12 +67,6 @@ float plane_depth(vec2 dz) {
     vec4 clip = cam.mvp * vec4(v_world, 1.0);
     vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * size;
     return clamp(gl_FragCoord.z + dot(dz, gl_FragCoord.xy - at), 0.0, 1.0);
-}
-
-float shade_factor() {
-    vec3 n = normalize(v_normal);
-    vec3 v = view_dir(v_world);
-    return 0.25 + 0.75 * abs(dot(n, v));
 }
 
 void main() {
