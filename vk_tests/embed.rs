@@ -179,9 +179,14 @@ fn bench_pairs_time_equal_work() {
     let plan = plan::build(Algo::Goldfeather, &Prepared::new(&scene).unwrap()).unwrap();
     let mut gpu =
         GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true).unwrap();
+    // The work to compare with: the host path keeps every final-shade draw,
+    // where a standalone frame shades one-primitive products in their own
+    // draw (`plan::direct_shade`), so count a standalone frame without it.
+    gpu.set_direct_shade(false);
     // The first frame learns the loop counts, the second records the replay.
     gpu.execute(&plan).unwrap();
     let alone = gpu.execute(&plan).unwrap().exec;
+    gpu.set_direct_shade(true);
     let t = measure(&mut gpu, &plan, &scene, Algo::Goldfeather, (1, 3)).unwrap();
     assert_eq!(t.pairs, MIN_PAIRS);
     assert_eq!(t.host_path, Some(HostPath::Direct), "{t:?}");
