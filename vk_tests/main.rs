@@ -13,6 +13,7 @@ mod concurrency;
 mod cst;
 mod embed;
 mod gpu_layers;
+mod joined_blocks;
 mod kirsch;
 mod limits;
 mod many_products;

@@ -10,7 +10,7 @@
 use peeltrim::plan::{build, Algo, Prepared};
 use peeltrim::reference::compare::compare;
 use peeltrim::scene::Scene;
-use peeltrim::vk::{ClearMode, DepthFormat, ExecDesc, Executor};
+use peeltrim::vk::{BlockJoin, ClearMode, DepthFormat, ExecDesc, Executor};
 
 use crate::algorithms::{load_text, CST_COV, CST_PRIM};
 use crate::{assert_clean, context};
@@ -75,6 +75,8 @@ fn products_sharing_blocks_match_the_reference_and_the_unshared_frame() {
                 .map(|&per_pass| {
                     let mut e = Executor::new(&ctx, &desc).expect("executor");
                     e.set_clear_mode(mode);
+                    // The shared blocks under test (the default).
+                    e.set_block_join(BlockJoin::Masked);
                     e.set_pass_timestamps(per_pass);
                     e.upload(&sc).expect("upload");
                     e

@@ -27,8 +27,10 @@ use super::state;
 use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
+use ahead::Ahead;
 use clears::PendingClear;
 
+mod ahead;
 mod clears;
 mod host;
 mod push;
@@ -157,6 +159,7 @@ pub(super) struct Bindings<'a> {
     /// `None` when the queue has no timestamps.
     pub timestamps: Option<vk::QueryPool>,
     pub clears: ClearMode,
+    pub join: BlockJoin,
     /// A timestamp at every `Step::Pass` (per-pass GPU times); otherwise only
     /// around the command buffer.
     pub pass_timestamps: bool,
@@ -189,6 +192,22 @@ pub enum ClearMode {
     Command,
 }
 
+/// Which blocks a draw whose program writes no colour may record in
+/// (`record/ahead.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BlockJoin {
+    /// Any open block on its depth-stencil image, the block's colour writes
+    /// masked, and a block it opens takes the attachments of the colour draws
+    /// that follow (the look-ahead): fewer blocks and barriers (the default).
+    Masked,
+    /// Only blocks without colour attachments. llvmpipe (Mesa 22.3) loads,
+    /// blends and stores every bound colour attachment for every fragment
+    /// even with its writes masked, so on lavapipe a masked draw over many
+    /// pixels can cost more than the block end it saves (README, "One block
+    /// for the depth-only draws and the shade").
+    DepthOnly,
+}
+
 /// Records steps into command buffers; its image states persist from one
 /// command buffer to the next of the same frame.
 pub(super) struct Recorder<'a> {
@@ -219,6 +238,10 @@ pub(super) struct Recorder<'a> {
     copy_regions: VecDeque<Rect>,
     /// The frame's outputs (`use_reach`).
     outputs: Vec<Resource>,
+    /// What each step recorded next does to the open block (`ahead.rs`), and
+    /// the index in it of the step after the one being recorded.
+    ahead: Vec<Ahead>,
+    next: usize,
     /// The open block's render area.
     render_area: Rect,
     /// Group of each occlusion query of the current command buffer.
@@ -256,6 +279,8 @@ impl<'a> Recorder<'a> {
             shade_copies: VecDeque::new(),
             copy_regions: VecDeque::new(),
             outputs: Vec::new(),
+            ahead: Vec::new(),
+            next: 0,
             render_area: Rect::EMPTY,
             queries: Vec::new(),
             group: None,
@@ -578,6 +603,7 @@ impl<'a> Recorder<'a> {
     }
 
     pub fn step(&mut self, step: &Step) -> Result<(), VkError> {
+        self.next += 1;
         match step {
             Step::Pass(name) => {
                 self.stats.pass_entry(name);
@@ -648,27 +674,6 @@ impl<'a> Recorder<'a> {
             }
         }
         Ok(())
-    }
-
-    /// The block a draw of program `kind` into `key` records in: the open
-    /// block when the draw writes depth and stencil only into the same image
-    /// (its pipeline leaves the block's colour attachments unwritten), so a
-    /// parity draw between two draws into the surface and its depth texture
-    /// (SCS's front, parity and exit draws of each product) ends no block;
-    /// otherwise `key`. On lavapipe every block end waits for the rasterizer.
-    /// Only where the open block's render area holds the draw's `scissor`.
-    fn joined(&self, key: BlockKey, kind: FragmentKind, scissor: Rect) -> BlockKey {
-        match self.block {
-            Some(open)
-                if kind == FragmentKind::None
-                    && key.n_colors == 0
-                    && open.ds == key.ds
-                    && self.render_area.contains(&scissor) =>
-            {
-                open
-            }
-            _ => key,
-        }
     }
 
     /// Makes `key` the open block with every usage in `uses` satisfied.
@@ -1022,13 +1027,16 @@ impl<'a> Recorder<'a> {
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
             .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));
-        let mut uses = step.usage();
-        if self.b.normals && uses.contains(&(Resource::Color, Usage::ColorTarget)) {
-            // The normal buffer goes with the colour, as the last attachment
-            // (the programs' `NORMALS` variants write it there).
-            uses.push((Resource::Normal, Usage::ColorTarget));
+        let mut uses = self.draw_uses(step);
+        let own = BlockKey::of_draw(&uses, draw.ds);
+        let key = self.block_for(own, kind.writes_color(), scissor, &uses);
+        if key != own {
+            // Attached though not written (masked): a new block needs their
+            // barriers too.
+            for &c in key.colors() {
+                uses.push((c, Usage::ColorTarget));
+            }
         }
-        let key = self.joined(BlockKey::of_draw(&uses, draw.ds), kind, scissor);
         let raster = state::raster_state(Some(draw), self.b.desc.reversed_z);
         let pipe = self.pipeline_for(&key, kind, &raster)?;
         self.open(&key, &uses);
