@@ -10,11 +10,10 @@
 //! every pass ends the look-ahead).
 
 use peeltrim::plan::{build, Algo, Prepared};
-use peeltrim::reference::compare::compare;
 use peeltrim::scene::Scene;
 use peeltrim::vk::{BlockJoin, ClearMode, DepthFormat, ExecDesc, Executor};
 
-use crate::algorithms::{load, load_text, CST_COV, CST_PRIM};
+use crate::algorithms::{assert_within_cst_bars, load, load_text};
 use crate::{assert_clean, context};
 
 /// One box seen whole (a single direct product: its depth-only draw, then the
@@ -89,12 +88,7 @@ fn joined_frames_agree(name: &str, sc: &Scene, algo: Algo) -> [u64; 3] {
                         "{what}: joined blocks change the normals"
                     );
                 }
-                let r = compare(&reference, &f[0].images).expect("same size");
-                assert!(
-                    r.coverage_mismatch_interior_frac <= CST_COV,
-                    "{what}: {r:?}"
-                );
-                assert!(r.prim_mismatch_interior_frac <= CST_PRIM, "{what}: {r:?}");
+                assert_within_cst_bars(&reference, &f[0].images, &what);
                 let c: Vec<_> = f.iter().map(|f| &f.stats.counts).collect();
                 eprintln!(
                     "{what}: blocks (barriers) joined {} ({}), depth-only {} ({}), per pass {} ({})",

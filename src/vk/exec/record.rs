@@ -200,11 +200,11 @@ pub enum BlockJoin {
     /// masked, and a block it opens takes the attachments of the colour draws
     /// that follow (the look-ahead): fewer blocks and barriers (the default).
     Masked,
-    /// Only blocks without colour attachments. llvmpipe (Mesa 22.3) loads,
-    /// blends and stores every bound colour attachment for every fragment
-    /// even with its writes masked, so on lavapipe a masked draw over many
-    /// pixels can cost more than the block end it saves (README, "One block
-    /// for the depth-only draws and the shade").
+    /// Only blocks without colour attachments. On lavapipe a masked draw
+    /// over many pixels can cost more than the block end it saves (llvmpipe
+    /// of Mesa 22.3 seems to blend into every bound colour buffer, writes
+    /// masked or not; README, "One block for the depth-only draws and the
+    /// shade").
     DepthOnly,
 }
 
@@ -762,7 +762,9 @@ impl<'a> Recorder<'a> {
                 .map(|r| targets::format(*r, &self.b.desc))
                 .collect(),
             depth_stencil_format: key.ds.map(|_| self.b.desc.depth_format.vk()),
-            normals: key.colors().contains(&Resource::Normal),
+            // A program that writes no colour runs as is, the normal buffer
+            // masked with the other attachments.
+            normals: kind.writes_color() && key.colors().contains(&Resource::Normal),
         };
         let (pipeline, fixed) = match self.b.pipelines.get_fixed(&desc, state)? {
             Some(p) => (p, true),
