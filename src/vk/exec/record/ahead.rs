@@ -100,8 +100,9 @@ pub(super) fn widened(
 
 impl Recorder<'_> {
     /// Summarizes `steps`, the steps recorded next and in this order, for
-    /// the look-ahead (after `use_reach` and `plan_shades`, whose regions
-    /// decide which copies record nothing). Without this, no block widens.
+    /// the look-ahead (after `use_reach`, `plan_shades` and
+    /// `plan_direct_shades`, which decide which copies and draws record
+    /// nothing). Without this, no block widens.
     pub fn plan_blocks(&mut self, steps: &[&Step]) {
         let full = Rect::full(self.b.desc.width, self.b.desc.height);
         let (mut copies, mut depth_copies) = (0, 0);
@@ -137,17 +138,20 @@ impl Recorder<'_> {
         self.next = 0;
     }
 
-    /// A draw as `draw` will record it (`Recorder::draw`): off screen, or
-    /// lowered to a plain depth test where `plan::tie_free` says so. A shade
-    /// cut into tie zones keeps its rule draw's usages (it samples the copy).
+    /// A draw as `draw` will record it (`Recorder::draw`): off screen or
+    /// replaced by a direct product's shading draw (`plan::direct_shade`),
+    /// that shading draw, or lowered to a plain depth test where
+    /// `plan::tie_free` says so. A shade cut into tie zones keeps its rule
+    /// draw's usages (it samples the copy).
     fn ahead_draw(&self, draw: &Draw, step: &Step) -> Ahead {
         let scissor = self.scissor(&draw.scissor);
-        if scissor.is_empty() {
+        if scissor.is_empty() || self.direct.drops(draw) {
             return Ahead::Nothing;
         }
-        let fast = match self.b.ties.shade_zones(draw) {
-            Some(_) => None,
-            None => self.b.ties.fixed_function(draw).map(Step::Draw),
+        let fast = match (self.direct.shaded(draw), self.b.ties.shade_zones(draw)) {
+            (Some(d), _) => Some(Step::Draw(d)),
+            (None, Some(_)) => None,
+            (None, None) => self.b.ties.fixed_function(draw).map(Step::Draw),
         };
         let (d, s) = match &fast {
             Some(s @ Step::Draw(d)) => (d, s),
