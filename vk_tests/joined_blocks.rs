@@ -31,8 +31,11 @@ fn one_box() -> Scene {
 /// with a block per pass, in both clear modes, with and without normals,
 /// three times each (loop by loop, recorded, replayed): the images (and
 /// normals) agree, match the reference, and the joined frame has at most as
-/// many blocks as the others. Returns the render passes of the last frames.
-fn joined_frames_agree(name: &str, sc: &Scene, algo: Algo) -> [u64; 3] {
+/// many blocks as the others. `direct`: one-primitive products shaded in
+/// their direct draw (`Executor::set_direct_shade`, the default; the first,
+/// loop-by-loop frame keeps the depth draw and the shade). Returns the render
+/// passes of the last frames.
+fn joined_frames_agree(name: &str, sc: &Scene, algo: Algo, direct: bool) -> [u64; 3] {
     let (w, h) = (sc.render.width, sc.render.height);
     let reference = peeltrim::reference::render(sc, w, h);
     let prep = Prepared::new(sc).expect("a solid");
@@ -61,12 +64,14 @@ fn joined_frames_agree(name: &str, sc: &Scene, algo: Algo) -> [u64; 3] {
                     e.set_block_join(join);
                     e.set_pass_timestamps(per_pass);
                     e.set_normals(normals);
+                    e.set_direct_shade(direct);
                     e.upload(sc).expect("upload");
                     e
                 })
                 .collect();
             for i in 0..3 {
-                let what = format!("{name} {algo} {mode:?} normals {normals} frame {i}");
+                let what =
+                    format!("{name} {algo} {mode:?} normals {normals} direct {direct} frame {i}");
                 let f: Vec<_> = ex
                     .iter_mut()
                     .map(|e| e.frame(&plan).expect("frame"))
@@ -118,7 +123,8 @@ fn joined_frames_agree(name: &str, sc: &Scene, algo: Algo) -> [u64; 3] {
 
 #[test]
 fn a_direct_product_and_its_shade_share_one_block() {
-    let [joined, depth_only, per_pass] = joined_frames_agree("one box", &one_box(), Algo::Scs);
+    let box_frames = |direct| joined_frames_agree("one box", &one_box(), Algo::Scs, direct);
+    let [joined, depth_only, per_pass] = box_frames(false);
     // The direct draw's block opens with the shade's attachments.
     assert_eq!(joined, 1, "one block for the box and its shade");
     assert_eq!(
@@ -126,21 +132,23 @@ fn a_direct_product_and_its_shade_share_one_block() {
         "depth-only blocks: the direct draw, the shade"
     );
     assert_eq!(per_pass, 2, "a block per pass: the direct draw, the shade");
+    // Shaded in its direct draw: one colour block whichever way.
+    assert_eq!(box_frames(true), [1, 1, 1]);
 }
 
 #[test]
 fn a_clip_sweep_and_direct_draws_share_the_shade_block() {
-    // SCS on interference: the tie-free parity and clip draws, the clip's
-    // whole-screen depth sweep and two direct products' depth draws run in
-    // the surface texture's block, its colour masked: were the sweep to
-    // write it, the depth the clip reads would differ.
+    // SCS on interference: the tie-free parity and clip draws and the
+    // clip's whole-screen depth sweep run in the surface texture's block,
+    // its colour masked: were the sweep to write it, the depth the clip
+    // reads would differ.
     let sc = load(&crate::setup::scenes_dir().join("interference.toml"));
-    let [joined, depth_only, per_pass] = joined_frames_agree("interference", &sc, Algo::Scs);
+    let [joined, depth_only, per_pass] = joined_frames_agree("interference", &sc, Algo::Scs, true);
     assert!(
         joined < depth_only && joined < per_pass,
         "{joined} blocks joined, {depth_only} depth-only, {per_pass} per pass"
     );
     for algo in [Algo::Goldfeather, Algo::CstI] {
-        joined_frames_agree("interference", &sc, algo);
+        joined_frames_agree("interference", &sc, algo, true);
     }
 }
