@@ -168,6 +168,16 @@ pub const CST_COV: f64 = 0.0005;
 /// See [`CST_COV`].
 pub const CST_PRIM: f64 = 0.0001;
 
+/// `images` match `reference` within CST's bars ([`CST_COV`], [`CST_PRIM`]).
+pub fn assert_within_cst_bars(reference: &Images, images: &Images, what: &str) {
+    let r = compare(reference, images).expect("same size");
+    assert!(
+        r.coverage_mismatch_interior_frac <= CST_COV,
+        "{what}: {r:?}"
+    );
+    assert!(r.prim_mismatch_interior_frac <= CST_PRIM, "{what}: {r:?}");
+}
+
 on_shipped_scenes!(blister_matches_reference_on_shipped_scenes: Algo::Blister, cov 0.001, prim 0.01);
 
 /// Plans are deterministic: two runs give identical counts and images.

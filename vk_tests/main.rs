@@ -14,6 +14,7 @@ mod cst;
 mod direct_shade;
 mod embed;
 mod gpu_layers;
+mod joined_blocks;
 mod kirsch;
 mod lighting;
 mod limits;

@@ -66,6 +66,23 @@ pub enum FragmentKind {
 }
 
 impl FragmentKind {
+    /// Whether the program writes a colour output. One that does not runs in
+    /// a block with colour attachments with every colour write masked
+    /// (`vk::exec::record::ahead`).
+    pub fn writes_color(self) -> bool {
+        !matches!(
+            self,
+            FragmentKind::None
+                | FragmentKind::DepthFromTexture
+                | FragmentKind::DepthFromTextureHost
+                | FragmentKind::NearerThan
+                | FragmentKind::BehindThan
+                | FragmentKind::MergeBehind
+                | FragmentKind::MergeBehindExact
+                | FragmentKind::DepthAtDepth
+        )
+    }
+
     /// Whether the program has a variant that also writes the normal buffer
     /// (`shaders/seen_normal.glsl`; the shading programs).
     pub fn writes_normals(self) -> bool {
@@ -572,11 +589,9 @@ impl Pipelines {
                 blend: match desc.fragment {
                     FragmentKind::Accumulate => Some(under_blend()),
                     // Depth and stencil only, in a block with colour
-                    // attachments (`Recorder::joined`, the host's depth
+                    // attachments (`Recorder::block_for`, the host's depth
                     // merge): they keep their values.
-                    FragmentKind::None | FragmentKind::DepthFromTextureHost => {
-                        Some(no_color_writes())
-                    }
+                    k if !k.writes_color() => Some(no_color_writes()),
                     _ => None,
                 },
             },
@@ -769,6 +784,25 @@ mod tests {
                 );
             }
             assert!(!r.mvp, "only the quad's vertex shader reads mvp");
+        }
+    }
+
+    /// A program that writes colour but claimed not to would run with its
+    /// writes masked; one that does not but claimed to would leave undefined
+    /// values in a joined block's colour attachments.
+    #[test]
+    fn writes_color_matches_the_shader_sources() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        for (kind, file) in SOURCES {
+            let text = std::fs::read_to_string(dir.join(file)).expect("shader source");
+            let outputs = text
+                .lines()
+                .any(|l| l.starts_with("layout(location") && l.contains(") out "));
+            assert_eq!(
+                outputs,
+                kind.writes_color(),
+                "{kind:?} ({file}) and `writes_color` disagree"
+            );
         }
     }
 

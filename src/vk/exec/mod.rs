@@ -70,9 +70,9 @@ use crate::scene::{Aabb, Camera, Scene};
 use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 use camera::CameraBuffer;
 use gpu_scene::{CameraState, GpuScene};
-pub use record::ClearMode;
 pub(crate) use record::{copy_counts, final_shade, host_barriers, peel_depth, HostShade};
 use record::{Bindings, Group, Recorder};
+pub use record::{BlockJoin, ClearMode};
 use targets::Targets;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -288,6 +288,7 @@ pub struct Executor {
     /// Output depth-stencil of the last executed plan (what `read_back` copies).
     last_output: Option<u8>,
     clears: ClearMode,
+    join: BlockJoin,
     /// Timestamps at every pass (per-pass GPU times) or only around the frame.
     pass_timestamps: bool,
     /// Clears reach only what later steps read ([`Executor::set_scissored_clears`]).
@@ -386,6 +387,7 @@ impl Executor {
             epoch: 0,
             last_output: None,
             clears,
+            join: BlockJoin::Masked,
             pass_timestamps: true,
             scissored_clears: true,
             rounding: None,
@@ -698,6 +700,15 @@ impl Executor {
         self.recording = None;
     }
 
+    /// Which blocks a draw that writes no colour may share (default:
+    /// [`BlockJoin::Masked`]; on lavapipe neither wins everywhere, README
+    /// "One block for the depth-only draws and the shade"). Both give the
+    /// same images.
+    pub fn set_block_join(&mut self, join: BlockJoin) {
+        self.join = join;
+        self.recording = None;
+    }
+
     /// Whether clears reach only the part of an image later steps read (the
     /// default) or the whole image. Both give the same images.
     pub fn set_scissored_clears(&mut self, on: bool) {
@@ -747,6 +758,7 @@ impl Executor {
             occlusion: self.occlusion.pool,
             timestamps: (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool),
             clears: self.clears,
+            join: self.join,
             pass_timestamps: self.pass_timestamps,
             flags,
             snap,
@@ -1016,6 +1028,7 @@ impl Executor {
         if direct_shade {
             rec.plan_direct_shades(&steps, plan.output_ds);
         }
+        rec.plan_blocks(&steps[..body]);
         let shade = &steps[body..];
         rec.begin(cmd, occ_cap, ts_cap);
         for (s, g) in flat.iter().take(body) {
@@ -1161,7 +1174,9 @@ impl Executor {
          -> Result<u64, VkError> {
             let t = CpuInstant::now();
             sub.begin(cmd, true)?;
-            rec.plan_shades(&steps.iter().collect::<Vec<_>>());
+            let listed: Vec<&Step> = steps.iter().collect();
+            rec.plan_shades(&listed);
+            rec.plan_blocks(&listed);
             rec.begin(cmd, occ_cap, ts_cap);
             for s in steps {
                 rec.step(s)?;

@@ -27,8 +27,10 @@ use super::state;
 use super::stats::ExecStats;
 use super::targets::{self, Targets};
 use super::ExecDesc;
+use ahead::Ahead;
 use clears::PendingClear;
 
+mod ahead;
 mod clears;
 mod host;
 mod push;
@@ -158,6 +160,7 @@ pub(super) struct Bindings<'a> {
     /// `None` when the queue has no timestamps.
     pub timestamps: Option<vk::QueryPool>,
     pub clears: ClearMode,
+    pub join: BlockJoin,
     /// A timestamp at every `Step::Pass` (per-pass GPU times); otherwise only
     /// around the command buffer.
     pub pass_timestamps: bool,
@@ -188,6 +191,22 @@ pub enum ClearMode {
     /// Lavapipe clears on load far more slowly (README, "Executor"), so CPU
     /// devices use this.
     Command,
+}
+
+/// Which blocks a draw whose program writes no colour may record in
+/// (`record/ahead.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BlockJoin {
+    /// Any open block on its depth-stencil image, the block's colour writes
+    /// masked, and a block it opens takes the attachments of the colour draws
+    /// that follow (the look-ahead): fewer blocks and barriers (the default).
+    Masked,
+    /// Only blocks without colour attachments. On lavapipe a masked draw
+    /// over many pixels can cost more than the block end it saves (llvmpipe
+    /// of Mesa 22.3 seems to blend into every bound colour buffer, writes
+    /// masked or not; README, "One block for the depth-only draws and the
+    /// shade").
+    DepthOnly,
 }
 
 /// Records steps into command buffers; its image states persist from one
@@ -223,6 +242,10 @@ pub(super) struct Recorder<'a> {
     copy_regions: VecDeque<Rect>,
     /// The frame's outputs (`use_reach`).
     outputs: Vec<Resource>,
+    /// What each step recorded next does to the open block (`ahead.rs`), and
+    /// the index in it of the step after the one being recorded.
+    ahead: Vec<Ahead>,
+    next: usize,
     /// The open block's render area.
     render_area: Rect,
     /// Group of each occlusion query of the current command buffer.
@@ -261,6 +284,8 @@ impl<'a> Recorder<'a> {
             direct: DirectShades::none(),
             copy_regions: VecDeque::new(),
             outputs: Vec::new(),
+            ahead: Vec::new(),
+            next: 0,
             render_area: Rect::EMPTY,
             queries: Vec::new(),
             group: None,
@@ -583,6 +608,7 @@ impl<'a> Recorder<'a> {
     }
 
     pub fn step(&mut self, step: &Step) -> Result<(), VkError> {
+        self.next += 1;
         match step {
             Step::Pass(name) => {
                 self.stats.pass_entry(name);
@@ -653,27 +679,6 @@ impl<'a> Recorder<'a> {
             }
         }
         Ok(())
-    }
-
-    /// The block a draw of program `kind` into `key` records in: the open
-    /// block when the draw writes depth and stencil only into the same image
-    /// (its pipeline leaves the block's colour attachments unwritten), so a
-    /// parity draw between two draws into the surface and its depth texture
-    /// (SCS's front, parity and exit draws of each product) ends no block;
-    /// otherwise `key`. On lavapipe every block end waits for the rasterizer.
-    /// Only where the open block's render area holds the draw's `scissor`.
-    fn joined(&self, key: BlockKey, kind: FragmentKind, scissor: Rect) -> BlockKey {
-        match self.block {
-            Some(open)
-                if kind == FragmentKind::None
-                    && key.n_colors == 0
-                    && open.ds == key.ds
-                    && self.render_area.contains(&scissor) =>
-            {
-                open
-            }
-            _ => key,
-        }
     }
 
     /// Makes `key` the open block with every usage in `uses` satisfied.
@@ -762,7 +767,9 @@ impl<'a> Recorder<'a> {
                 .map(|r| targets::format(*r, &self.b.desc))
                 .collect(),
             depth_stencil_format: key.ds.map(|_| self.b.desc.depth_format.vk()),
-            normals: key.colors().contains(&Resource::Normal),
+            // A program that writes no colour runs as is, the normal buffer
+            // masked with the other attachments.
+            normals: kind.writes_color() && key.colors().contains(&Resource::Normal),
         };
         let (pipeline, fixed) = match self.b.pipelines.get_fixed(&desc, state)? {
             Some(p) => (p, true),
@@ -1035,13 +1042,16 @@ impl<'a> Recorder<'a> {
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
             .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));
-        let mut uses = step.usage();
-        if self.b.normals && uses.contains(&(Resource::Color, Usage::ColorTarget)) {
-            // The normal buffer goes with the colour, as the last attachment
-            // (the programs' `NORMALS` variants write it there).
-            uses.push((Resource::Normal, Usage::ColorTarget));
+        let mut uses = self.draw_uses(step);
+        let own = BlockKey::of_draw(&uses, draw.ds);
+        let key = self.block_for(own, kind.writes_color(), scissor, &uses);
+        if key != own {
+            // Attached though not written (masked): a new block needs their
+            // barriers too.
+            for &c in key.colors() {
+                uses.push((c, Usage::ColorTarget));
+            }
         }
-        let key = self.joined(BlockKey::of_draw(&uses, draw.ds), kind, scissor);
         let raster = state::raster_state(Some(draw), self.b.desc.reversed_z);
         let pipe = self.pipeline_for(&key, kind, &raster)?;
         self.open(&key, &uses);

@@ -82,10 +82,18 @@ struct SeqKey {
     rects: Vec<Rect>,
     epoch: u64,
     ties: TieFree,
-    /// Normals, transparency, clear mode, pass timestamps, scissored clears and
+    /// Normals, transparency, clear mode and block joining, pass timestamps, scissored clears and
     /// the push-constant flags, the emulated vertex snapping: every setting
     /// the recording depends on.
-    settings: (bool, bool, super::ClearMode, bool, bool, u32, [u32; 2]),
+    settings: (
+        bool,
+        bool,
+        (super::ClearMode, super::BlockJoin),
+        bool,
+        bool,
+        u32,
+        [u32; 2],
+    ),
     keep: Option<vk::Buffer>,
     alpha: Option<vk::Buffer>,
 }
@@ -191,7 +199,7 @@ impl Executor {
             settings: (
                 self.normals,
                 self.transparency,
-                self.clears,
+                (self.clears, self.join),
                 self.pass_timestamps,
                 self.scissored_clears,
                 self.flags(),
@@ -306,6 +314,7 @@ impl Executor {
                     let steps = &flat[plan_i];
                     plan_i += 1;
                     rec.set_outputs(plan.output_ds);
+                    rec.plan_blocks(&steps.iter().map(|(s, _)| *s).collect::<Vec<_>>());
                     let q0 = rec.queries.len();
                     let r = steps.iter().try_for_each(|(s, g)| {
                         rec.group = *g;

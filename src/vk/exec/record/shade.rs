@@ -46,11 +46,29 @@ impl Recorder<'_> {
     /// `Step::CopyDepthToTexture`: depth-stencil `ds` into texture `dst`, where
     /// it is read.
     pub(super) fn copy_depth(&mut self, step: &Step, ds: Ds, dst: Tex) -> Result<(), VkError> {
-        let (w, h) = (self.b.desc.width, self.b.desc.height);
-        // What later steps read of the copy (`plan::reach`), within what the
-        // shade's tie-rule draws read of it.
+        // What later steps read of the copy (`plan::reach`).
         let reach = self.copy_region();
-        let rects = match self.shade_copies.pop_front() {
+        let shade = self.shade_copies.pop_front();
+        let rects = self.depth_copy_rects(reach, shade.as_ref());
+        if rects.is_empty() {
+            self.stats.counts.skipped_steps += 1;
+            return Ok(());
+        }
+        let key = BlockKey::new(&[Resource::Texture(dst)], None);
+        let set = self.b.targets.sampling_set(Resource::DepthStencil(ds));
+        self.open(&key, &step.usage());
+        for rect in rects {
+            self.fullscreen_internal(&key, FragmentKind::CopyDepth, set, rect)?;
+        }
+        Ok(())
+    }
+
+    /// The rectangles the next depth copy copies (none: it records nothing):
+    /// `reach`, what later steps read of it (`plan::reach`), within what the
+    /// shade's tie-rule draws read of it (`shade`; `None`: all of it).
+    pub(super) fn depth_copy_rects(&self, reach: Rect, shade: Option<&ShadeCopy>) -> Vec<Rect> {
+        let (w, h) = (self.b.desc.width, self.b.desc.height);
+        let rects = match shade {
             None | Some(ShadeCopy::AsPlanned) => vec![Rect::full(w, h).intersect(&reach)],
             Some(ShadeCopy::ReadBy(meshes)) => {
                 let rects = &self.b.mesh_rects;
@@ -73,18 +91,7 @@ impl Recorder<'_> {
                 tie_zones::merge(grown, max)
             }
         };
-        let rects: Vec<Rect> = rects.into_iter().filter(|r| !r.is_empty()).collect();
-        if rects.is_empty() {
-            self.stats.counts.skipped_steps += 1;
-            return Ok(());
-        }
-        let key = BlockKey::new(&[Resource::Texture(dst)], None);
-        let set = self.b.targets.sampling_set(Resource::DepthStencil(ds));
-        self.open(&key, &step.usage());
-        for rect in rects {
-            self.fullscreen_internal(&key, FragmentKind::CopyDepth, set, rect)?;
-        }
-        Ok(())
+        rects.into_iter().filter(|r| !r.is_empty()).collect()
     }
 
     /// A final shade's draw of a mesh that can tie only in `zones` (screen
