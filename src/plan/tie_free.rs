@@ -438,6 +438,19 @@ impl TieFree {
         }
     }
 
+    /// `step` as the executor records it, for what it reads
+    /// (`plan::reach`): a draw [`TieFree::fixed_function`] rewrites, rewritten;
+    /// the final shades' draws as planned (what their depth copy must cover
+    /// is [`TieFree::shade_copies`]' to decide); any other step as it is.
+    pub fn lowered(&self, step: &Step) -> Step {
+        match step {
+            Step::Draw(d) if !matches!(d.fragment, Fragment::ShadeNearDepth { .. }) => self
+                .fixed_function(d)
+                .map_or_else(|| step.clone(), Step::Draw),
+            _ => step.clone(),
+        }
+    }
+
     /// A tolerant parity-like `draw` of `meshes` as a depth-stencil draw with
     /// no program, tested `compare` against its image, when its meshes are
     /// tie-free at `eps` and it has no depth test of its own (the shader's

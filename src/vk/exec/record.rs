@@ -217,6 +217,9 @@ pub(super) struct Recorder<'a> {
     shade_copies: VecDeque<ShadeCopy>,
     /// Regions of the copies recorded next, in order (`plan::reach`).
     copy_regions: VecDeque<Rect>,
+    /// Whether the texture writes of the draws recorded next are read, in
+    /// order (`plan::reach::FrameReach::texture_writes`).
+    texture_writes: VecDeque<bool>,
     /// The frame's outputs (`use_reach`).
     outputs: Vec<Resource>,
     /// The open block's render area.
@@ -255,6 +258,7 @@ impl<'a> Recorder<'a> {
             clear_regions: VecDeque::new(),
             shade_copies: VecDeque::new(),
             copy_regions: VecDeque::new(),
+            texture_writes: VecDeque::new(),
             outputs: Vec::new(),
             render_area: Rect::EMPTY,
             queries: Vec::new(),
@@ -967,6 +971,18 @@ impl<'a> Recorder<'a> {
     }
 
     fn draw(&mut self, draw: &Draw, step: &Step) -> Result<(), VkError> {
+        // A depth texture written for nobody (`plan::reach`): the draw
+        // tests and writes depth and stencil only.
+        let depth_only = self.dead_texture_write(draw).map(|fragment| {
+            Step::Draw(Draw {
+                fragment,
+                ..draw.clone()
+            })
+        });
+        let (draw, step) = match &depth_only {
+            Some(s @ Step::Draw(d)) => (d, s),
+            _ => (draw, step),
+        };
         let scissor = self.scissor(&draw.scissor);
         if scissor.is_empty() {
             // Nothing on screen: no pixel could change and no sample could pass.

@@ -44,6 +44,10 @@ pub struct Counts {
     /// Parity, clip, merge and peel draws that still run a tie-rule shader
     /// (`nearer_than`, `behind_than`, `merge_behind`, `peel_tolerant`).
     pub tie_rule_draws: u64,
+    /// Draws recorded depth-only because nobody reads the depth texture they
+    /// write (`plan::reach`): SCS's front and exit draws once every draw
+    /// that sampled their texture is tie-free.
+    pub dead_texture_writes: u64,
     /// Draws of the final shade (`plan::tie::shade_near_depth`) run as plain
     /// depth-`EQUAL` draws of the shading program because the mesh cannot tie
     /// under this camera (`plan::tie_free`): tested before the shader, no
@@ -199,6 +203,7 @@ impl ExecStats {
         c.fullscreen_pixels += o.fullscreen_pixels;
         c.skipped_steps += o.skipped_steps;
         c.tie_free_draws += o.tie_free_draws;
+        c.dead_texture_writes += o.dead_texture_writes;
         c.tie_rule_draws += o.tie_rule_draws;
         c.shade_fixed_draws += o.shade_fixed_draws;
         c.shade_rule_draws += o.shade_rule_draws;
