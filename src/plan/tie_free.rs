@@ -386,7 +386,7 @@ impl TieFree {
         let meshes: &[MeshId] = match &draw.geometry {
             Geometry::Mesh(m) => std::slice::from_ref(m),
             Geometry::Meshes(ms) => ms,
-            Geometry::FullScreen { .. } => return None,
+            Geometry::FullScreen { .. } | Geometry::Footprint { .. } => return None,
         };
         match draw.fragment {
             Fragment::NearerThan { eps, .. } | Fragment::ParityBeforeExit { eps, .. } => {
@@ -513,7 +513,7 @@ impl TieFree {
                     match &d.geometry {
                         Geometry::Mesh(m) => vec![(*m, zones)],
                         Geometry::Meshes(ms) => ms.iter().map(|&m| (m, None)).collect(),
-                        Geometry::FullScreen { .. } => {
+                        Geometry::FullScreen { .. } | Geometry::Footprint { .. } => {
                             panic!("a final shade draws meshes (plan::tie::shade_near_depth)")
                         }
                     }

@@ -842,10 +842,9 @@ impl<'a> Recorder<'a> {
         if self.scissor == Some(scissor) {
             return;
         }
-        let ids: &[u32] = match geometry {
-            Geometry::Mesh(m) => std::slice::from_ref(m),
-            Geometry::Meshes(ms) => ms,
+        let ids = match geometry {
             Geometry::FullScreen { .. } => return self.set_scissor(scissor),
+            g => g.meshes(),
         };
         let kept = self.scissor.is_some_and(|c| {
             let covered = self.b.mesh_rects.of(ids);
@@ -1099,12 +1098,16 @@ impl<'a> Recorder<'a> {
                 };
                 self.quad_pass(kind, &pc, scissor.area());
             }
-            Geometry::Mesh(_) | Geometry::Meshes(_) => {
-                let ids: &[u32] = match &draw.geometry {
-                    Geometry::Mesh(m) => std::slice::from_ref(m),
-                    Geometry::Meshes(ms) => ms,
-                    Geometry::FullScreen { .. } => &[],
-                };
+            Geometry::Mesh(_) | Geometry::Meshes(_) | Geometry::Footprint { .. } => {
+                let ids = draw.geometry.meshes();
+                let (w, h) = (self.b.desc.width, self.b.desc.height);
+                if let Geometry::Footprint { depth, .. } = draw.geometry {
+                    // Every fragment at `depth`; clipping is the mesh's own.
+                    let d = conv::depth_value(depth, self.b.desc.reversed_z);
+                    state::set_viewport(device, self.cmd, w, h, d..=d);
+                    self.stats.counts.state_commands += 1;
+                    self.stats.counts.footprint_passes += 1;
+                }
                 self.stats.counts.mesh_draws += 1;
                 self.stats.counts.mesh_pixels += scissor.area();
                 // A program that reads the primitive id needs each mesh's own
@@ -1161,6 +1164,10 @@ impl<'a> Recorder<'a> {
                     }
                     self.stats.counts.triangles += count as u64 / 3;
                     i = j;
+                }
+                if let Geometry::Footprint { .. } = draw.geometry {
+                    state::set_viewport(device, self.cmd, w, h, 0.0..=1.0);
+                    self.stats.counts.state_commands += 1;
                 }
             }
         }

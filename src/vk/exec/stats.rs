@@ -35,6 +35,10 @@ pub struct Counts {
     /// Sum of the scissor areas of mesh draws: a bound on the pixels their
     /// fragments can cover (the per-fragment work of a software rasterizer).
     pub mesh_pixels: u64,
+    /// Mesh draws at a constant depth (`Geometry::Footprint`): full-screen
+    /// passes cut to a mesh's footprint, counted in `mesh_draws` and
+    /// `mesh_pixels` too.
+    pub footprint_passes: u64,
     /// Plan steps not recorded because their scissor is empty on screen.
     pub skipped_steps: u64,
     /// Tolerant parity and peel draws run as plain depth tests because no face
@@ -201,6 +205,7 @@ impl ExecStats {
         c.fullscreen_passes += o.fullscreen_passes;
         c.triangles += o.triangles;
         c.fullscreen_pixels += o.fullscreen_pixels;
+        c.footprint_passes += o.footprint_passes;
         c.skipped_steps += o.skipped_steps;
         c.tie_free_draws += o.tie_free_draws;
         c.dead_texture_writes += o.dead_texture_writes;
