@@ -415,33 +415,23 @@ fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, target: Target) -> Vec<
 /// covered twice, its second fragment must not reject it), and nothing reads
 /// the output's stencil after the clip.
 fn footprint_sweep(x: Lit, region: &Region, mask: u8, inside: u8) -> Step {
-    let face = StencilFace {
-        compare: CompareOp::NotEqual,
-        fail: StencilOp::Keep,
-        pass: StencilOp::Zero,
-        depth_fail: StencilOp::Zero,
+    let scissor = region.cut(x.prim);
+    let Step::Draw(sweep) =
+        goldfeather::reject_sweep_into(OUTPUT, Fragment::None, mask, inside, scissor)
+    else {
+        unreachable!("a reject sweep is a draw")
     };
+    let mut stencil = sweep.stencil.expect("a reject sweep tests the stencil");
+    stencil.front.fail = StencilOp::Keep;
+    stencil.back.fail = StencilOp::Keep;
     Step::Draw(Draw {
         geometry: Geometry::Footprint {
             mesh: x.prim,
             depth: goldfeather::FAR,
         },
-        scissor: region.cut(x.prim),
         cull: x.visible_cull(),
-        ds: OUTPUT,
-        depth: DepthState {
-            compare: CompareOp::Always,
-            write: true,
-        },
-        stencil: Some(StencilState {
-            front: face,
-            back: face,
-            compare_mask: mask,
-            write_mask: mask,
-            reference: inside,
-        }),
-        fragment: Fragment::None,
-        count_samples: false,
+        stencil: Some(stencil),
+        ..sweep
     })
 }
 
