@@ -17,7 +17,12 @@
 //! possible and differ only in where a mesh that can tie runs the rule: over
 //! its whole rectangle (A) or only inside its tie zones (B,
 //! `Executor::set_tie_zones`; README "Tie zones"); the counts are then B's
-//! tie-rule pixels of the shade, and A's.
+//! tie-rule pixels of the shade, and A's. With `TIE_AB=direct`, both frames
+//! run everything tie-free and differ only in one-primitive products: drawn
+//! depth-only and shaded again in the final shade (A), or shaded in their
+//! direct draw (B, `Executor::set_direct_shade`; README "One-primitive
+//! products shaded in their own draw"); the counts are then B's direct draws
+//! that shade, and B's mesh pixels against A's.
 
 #[path = "ab_common/mod.rs"]
 mod ab_common;
@@ -27,7 +32,7 @@ use peeltrim::vk::Executor;
 
 fn main() {
     let mode = std::env::var("TIE_AB").unwrap_or_default();
-    let (shade_only, zones) = (mode == "shade", mode == "zones");
+    let (shade_only, zones, direct) = (mode == "shade", mode == "zones", mode == "direct");
     println!("scene            algo          tie-rule CPU ms  tie-free CPU ms  ratio  | tie-free draws, tie-rule draws left");
     let mut analysed = String::new();
     for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
@@ -52,7 +57,9 @@ fn main() {
             .iter()
             .map(|&on| {
                 let mut e = Executor::new(ctx, desc).expect("executor");
-                if zones {
+                if direct {
+                    e.set_direct_shade(on);
+                } else if zones {
                     e.set_tie_zones(on);
                 } else if shade_only {
                     e.set_fixed_shade(on);
@@ -73,13 +80,23 @@ fn main() {
             }
         }
         let c = exs[1].execute(&plan).expect("frame").counts;
-        let a_rule_pixels = exs[0]
-            .execute(&plan)
-            .expect("frame")
-            .counts
-            .shade_rule_pixels;
+        let ac = exs[0].execute(&plan).expect("frame").counts;
+        let a_rule_pixels = ac.shade_rule_pixels;
         let (a, b) = (median(cpu[0].clone()), median(cpu[1].clone()));
+        if direct {
+            println!(
+                "{name:16} {:12} mesh pixels {} -> {}, draws {} -> {}, render passes {} -> {}",
+                algo.name(),
+                ac.mesh_pixels,
+                c.mesh_pixels,
+                ac.draws,
+                c.draws,
+                ac.render_passes,
+                c.render_passes
+            );
+        }
         let (free, rule) = match (zones, shade_only) {
+            _ if direct => (c.direct_shade_draws, c.shade_fixed_draws),
             (true, _) => (c.shade_rule_pixels, a_rule_pixels),
             (false, true) => (c.shade_fixed_draws, c.shade_rule_draws),
             (false, false) => (c.tie_free_draws, c.tie_rule_draws),

@@ -329,6 +329,12 @@ impl GpuRenderer {
         self.exec.set_tie_zones(on);
     }
 
+    /// Whether one-primitive products are shaded in their direct draw where
+    /// no tie is possible (the default; see `vk::Executor::set_direct_shade`).
+    pub fn set_direct_shade(&mut self, on: bool) {
+        self.exec.set_direct_shade(on);
+    }
+
     pub fn device_name(&self) -> String {
         self.ctx.device_name().to_string()
     }

@@ -220,14 +220,20 @@ expr = "A + B"
     let plan = plan::build(Algo::Goldfeather, &Prepared::new(&scene).unwrap()).unwrap();
     let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true)
         .expect("a Vulkan device (lavapipe)");
+    // Both boxes are one-primitive products: tie-free, each shades in its
+    // direct draw (`plan::direct_shade`) and the final shade draws neither;
+    // within the band both keep the old path.
     let counts = |gpu: &mut GpuRenderer| {
         let s = gpu.execute(&plan).unwrap().exec;
         let c = &s.counts;
-        (s.recorded, c.shade_fixed_draws, c.shade_rule_draws)
+        let depth_equal = c.shade_fixed_draws + c.direct_shade_draws;
+        (s.recorded, depth_equal, c.shade_rule_draws)
     };
     counts(&mut gpu);
     assert_eq!(counts(&mut gpu), (Recorded::New, 2, 0));
     assert_eq!(counts(&mut gpu), (Recorded::Replayed, 2, 0));
+    let direct = |gpu: &mut GpuRenderer| gpu.execute(&plan).unwrap().exec.counts.direct_shade_draws;
+    assert_eq!(direct(&mut gpu), 2);
     let near = peeltrim::scene::Camera {
         near: 0.01,
         ..scene.camera
@@ -243,6 +249,7 @@ expr = "A + B"
         assert_eq!((kind, rule), (want, 2));
         assert!(fixed > 0, "{kind:?}");
     }
+    assert_eq!(direct(&mut gpu), 0);
     gpu.set_camera(&scene.camera).unwrap();
     assert_eq!(counts(&mut gpu), (Recorded::Camera, 2, 0));
     let msgs = gpu.validation_messages();

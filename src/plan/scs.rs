@@ -127,11 +127,11 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let order = in_place
         .into_iter()
         .chain((0..prods.len()).filter(|&i| Some(i) != in_place));
+    // Products of one primitive last (`goldfeather::direct_last`).
+    let (order, direct) = goldfeather::direct_last(&prods, order, prep);
     for i in order {
         let p = &prods[i];
-        if let Some(direct) = goldfeather::direct_steps(p, prep) {
-            steps.extend(direct);
-        } else if applies(p, prep) {
+        if applies(p, prep) {
             let target = if Some(i) == in_place {
                 Target::Output
             } else {
@@ -144,6 +144,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             loops |= goldfeather::product_steps(p, prep, opts.eps, &mut steps);
         }
     }
+    steps.extend(direct);
     steps.extend(goldfeather::shade_steps(
         prep,
         SURF,

@@ -303,6 +303,18 @@ impl TieFree {
                 .all(|&m| rules.get(m as usize) == Some(&ShadeRule::Free))
     }
 
+    /// Whether the final shade's draw of mesh `m` at tolerance `eps` runs
+    /// depth-`EQUAL` over its whole rectangle: tie-free, or its tie zones all
+    /// off screen (what `plan::direct_shade` needs to shade `m` in its
+    /// direct draw instead).
+    pub fn shade_depth_equal(&self, m: MeshId, eps: f32) -> bool {
+        match self.shade_rules(eps).get(m as usize) {
+            Some(ShadeRule::Free) => true,
+            Some(ShadeRule::Zones(z)) => z.is_empty(),
+            _ => false,
+        }
+    }
+
     /// A final shade's draw that keeps the tie rule, culling the faces of its
     /// mesh that are never visible where it can never be the lowest index of
     /// a tie on them (`visible_side::rule_may_cull`); `None` where it culls

@@ -27,11 +27,8 @@ use super::*;
 pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let prods = products(prep, opts.limit)?;
     let mut steps = init_steps();
-    for p in &prods {
-        if let Some(direct) = direct_steps(p, prep) {
-            steps.extend(direct);
-            continue;
-        }
+    let (order, direct) = direct_last(&prods, 0..prods.len(), prep);
+    for p in order.iter().map(|&i| &prods[i]) {
         let pos: Vec<MeshId> = p.iter().filter(|l| !l.negated).map(|l| l.prim).collect();
         let neg: Vec<MeshId> = p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
         let all: Vec<MeshId> = p.iter().map(|l| l.prim).collect();
@@ -82,6 +79,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             max_iterations,
         }));
     }
+    steps.extend(direct);
     steps.extend(shade_steps(prep, SURF, &VisibleSides::entries(prep)));
     Ok(Plan {
         algo: "goldfeather-layered".into(),

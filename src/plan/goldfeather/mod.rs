@@ -149,13 +149,11 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
     let prods = products(prep, opts.limit)?;
     let mut steps = init_steps();
     let mut loops = false;
-    for p in &prods {
-        if let Some(direct) = direct_steps(p, prep) {
-            steps.extend(direct);
-            continue;
-        }
-        loops |= product_steps(p, prep, opts.eps, &mut steps);
+    let (order, direct) = direct_last(&prods, 0..prods.len(), prep);
+    for i in order {
+        loops |= product_steps(&prods[i], prep, opts.eps, &mut steps);
     }
+    steps.extend(direct);
     steps.extend(shade_steps(prep, SURF, &VisibleSides::entries(prep)));
     Ok(Plan {
         algo: "goldfeather".into(),
@@ -266,6 +264,29 @@ pub(crate) fn direct_steps(p: &[Lit], prep: &Prepared) -> Option<Vec<Step>> {
             count_samples: false,
         }),
     ])
+}
+
+/// The products of `order` (indices into `prods`) that are not drawn
+/// directly, in that order, and the direct steps of the others, in that order
+/// too: a plan draws them after every other product. The output depth is the
+/// nearest over the products whatever their order, and drawn last, after the
+/// other products' merges, a direct draw is the last to write where its mesh
+/// is visible: the executor can then shade it in that draw
+/// (`plan::direct_shade`), whose depth test also rejects the pixels the
+/// others already cover nearer before the shading program runs.
+pub(crate) fn direct_last(
+    prods: &[Vec<Lit>],
+    order: impl Iterator<Item = usize>,
+    prep: &Prepared,
+) -> (Vec<usize>, Vec<Step>) {
+    let (mut rest, mut direct) = (Vec::new(), Vec::new());
+    for i in order {
+        match direct_steps(&prods[i], prep) {
+            Some(d) => direct.extend(d),
+            None => rest.push(i),
+        }
+    }
+    (rest, direct)
 }
 
 pub(crate) fn init_steps() -> Vec<Step> {

@@ -306,6 +306,9 @@ pub struct Executor {
     fixed_shade: bool,
     /// The shade's tie rule only in tie zones ([`Executor::set_tie_zones`]).
     tie_zones: bool,
+    /// One-primitive products shaded in their direct draw
+    /// ([`Executor::set_direct_shade`]).
+    direct_shade: bool,
     /// The device interpolates depth from unsnapped vertex positions (a CPU
     /// device): only then is the raster depth as exact as the tie rule's
     /// plane depth at the pixel centre ([`Executor::set_fixed_shade`]).
@@ -393,6 +396,7 @@ impl Executor {
             tie_free: true,
             fixed_shade: true,
             tie_zones: true,
+            direct_shade: true,
             // Lavapipe interpolates depth from the unsnapped vertices; hardware
             // GPUs may not (the H200 does not).
             unsnapped: cpu,
@@ -498,6 +502,17 @@ impl Executor {
     /// measurements, `examples/tie_ab.rs`).
     pub fn set_tie_zones(&mut self, on: bool) {
         self.tie_zones = on;
+        self.recording = None;
+    }
+
+    /// Whether a one-primitive product whose final shade draw would run
+    /// depth-`EQUAL` everywhere is shaded in its direct draw, that shade draw
+    /// dropped (`plan::direct_shade`; the default). Off: drawn depth-only and
+    /// shaded again (A/B measurements, `examples/tie_ab.rs`). Frames shaded
+    /// into an embedding host's targets and frames run loop by loop keep the
+    /// old path.
+    pub fn set_direct_shade(&mut self, on: bool) {
+        self.direct_shade = on;
         self.recording = None;
     }
 
@@ -994,12 +1009,16 @@ impl Executor {
         // The host's shade reads the body's last depth copy: its draws count.
         let reached = self.recording_reach(plan, layers, &steps, now);
         let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
+        let direct_shade = self.direct_shade && host.is_none();
         let mut rec = self.recorder();
         let body = steps.len() - host.map_or(0, |h| h.1);
         rec.use_reach(&reached.0, plan.output_ds);
         // The host's shade draws decide what the last copy covers, as the
         // standalone shade's do.
         rec.plan_shades(&steps);
+        if direct_shade {
+            rec.plan_direct_shades(&steps, plan.output_ds);
+        }
         let shade = &steps[body..];
         rec.begin(cmd, occ_cap, ts_cap);
         for (s, g) in flat.iter().take(body) {

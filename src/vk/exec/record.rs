@@ -33,6 +33,7 @@ mod clears;
 mod host;
 mod push;
 mod shade;
+use crate::plan::direct_shade::DirectShades;
 use crate::plan::reach::ClearNeed;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::usage::{self, Resource, Usage, Uses};
@@ -215,6 +216,9 @@ pub(super) struct Recorder<'a> {
     clear_regions: VecDeque<ClearNeed>,
     /// What the depth copies recorded next cover, in order (`shade.rs`).
     shade_copies: VecDeque<ShadeCopy>,
+    /// The direct draws that shade, and the final shade draws they replace
+    /// (`plan::direct_shade`, `shade.rs`).
+    direct: DirectShades,
     /// Regions of the copies recorded next, in order (`plan::reach`).
     copy_regions: VecDeque<Rect>,
     /// Whether the texture writes of the draws recorded next are read, in
@@ -257,6 +261,7 @@ impl<'a> Recorder<'a> {
             pending_clear: BTreeMap::new(),
             clear_regions: VecDeque::new(),
             shade_copies: VecDeque::new(),
+            direct: DirectShades::none(),
             copy_regions: VecDeque::new(),
             texture_writes: VecDeque::new(),
             outputs: Vec::new(),
@@ -987,6 +992,14 @@ impl<'a> Recorder<'a> {
             // Nothing on screen: no pixel could change and no sample could pass.
             self.stats.counts.skipped_steps += 1;
             return Ok(());
+        }
+        // A one-primitive product shaded in its direct draw (`shade.rs`).
+        if self.direct.drops(draw) {
+            return Ok(());
+        }
+        if let Some(s @ Step::Draw(d)) = &self.direct.shaded(draw).map(Step::Draw) {
+            self.stats.counts.direct_shade_draws += 1;
+            return self.draw_in(d, s, scissor);
         }
         // A final shade with the tie rule only in its tie zones (`shade.rs`).
         if let Some(zones) = self.b.ties.shade_zones(draw) {

@@ -57,6 +57,10 @@ pub struct Counts {
     /// under this camera (`plan::tie_free`): tested before the shader, no
     /// texture read, no depth written.
     pub shade_fixed_draws: u64,
+    /// Direct draws of one-primitive products recorded with the shading
+    /// program, colour and id written with their depth, each replacing its
+    /// mesh's draw in the final shade (`plan::direct_shade`).
+    pub direct_shade_draws: u64,
     /// Draws of the final shade (depth-equal or tie-rule) that cull the side
     /// of their mesh that is never visible (`plan::VisibleSides`): about half
     /// its faces.
@@ -211,6 +215,7 @@ impl ExecStats {
         c.dead_texture_writes += o.dead_texture_writes;
         c.tie_rule_draws += o.tie_rule_draws;
         c.shade_fixed_draws += o.shade_fixed_draws;
+        c.direct_shade_draws += o.direct_shade_draws;
         c.shade_rule_draws += o.shade_rule_draws;
         c.shade_rule_pixels += o.shade_rule_pixels;
         c.barriers += o.barriers;

@@ -7,10 +7,14 @@
 //! of a mesh that can tie only in some zones (`plan::tie_zones`) becomes the
 //! rule draw cut to each of their rectangles and the depth-equal draw cut to
 //! each rectangle of the rest, and the copy reaches only those rule rectangles.
+//! A one-primitive product whose shade draw would run depth-equal everywhere
+//! is shaded in its direct draw instead, and that shade draw is not recorded
+//! (`plan::direct_shade`).
 
 use std::collections::VecDeque;
 
 use super::{BlockKey, Recorder};
+use crate::plan::direct_shade::DirectShades;
 use crate::plan::reach::READ_MARGIN;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::tie_zones::{self, MAX_RULE_RECTS};
@@ -26,6 +30,17 @@ impl Recorder<'_> {
     /// covers the whole image.
     pub fn plan_shades(&mut self, steps: &[&Step]) {
         self.shade_copies = VecDeque::from(self.b.ties.shade_copies(steps));
+    }
+
+    /// Decides which direct draws of a whole frame's `steps` shade in place
+    /// of their meshes' final shade draws (`plan::direct_shade`): those whose
+    /// shade draw runs depth-`EQUAL` over its whole rectangle under these
+    /// tie decisions. Only for a frame recorded whole, shaded into the
+    /// executor's own targets.
+    pub fn plan_direct_shades(&mut self, steps: &[&Step], output_ds: Ds) {
+        let ties = self.b.ties;
+        self.direct =
+            DirectShades::decide(steps, output_ds, |m, eps| ties.shade_depth_equal(m, eps));
     }
 
     /// `Step::CopyDepthToTexture`: depth-stencil `ds` into texture `dst`, where
