@@ -444,3 +444,123 @@ fn back_face_clips_and_merges_are_tie_free_only_where_nothing_ties() {
         check(&scene);
     }
 }
+
+/// The L-bracket of `nonconvex_obj` (convex from above) drilled through
+/// along the view by two cylinders: through the holes `z` exits the bracket,
+/// the clip's count stays 0 and only the reject sweep sets far there. The
+/// sweep covers the bracket's footprint (its front faces at the far depth,
+/// `plan::scs::footprint_sweep`), not the whole image: without it the holes
+/// show the cylinders' exits (the control below), with it the image has 0
+/// interior mismatches in every depth set-up, validation on. The candidate
+/// texture is read by nobody once the parity and clip draws are tie-free
+/// (`plan::reach`): the front and exit draws are depth-only and its clear is
+/// dropped.
+#[test]
+fn the_clip_sweep_covers_the_footprint_of_a_drilled_nonconvex_bracket() {
+    use peeltrim::plan::{Geometry, StencilOp};
+    use peeltrim::render::{DepthSetup, GpuRenderer};
+    let text = r##"
+[camera]
+eye = [0.9, 0.8, 6.0]
+target = [0.8, 0.8, 0.5]
+fit = true
+[[primitive]]
+name = "L"
+shape = "mesh"
+path = "meshes/l_bracket.obj"
+[[primitive]]
+name = "H1"
+shape = "cylinder"
+radius = 0.2
+height = 2.0
+segments = 24
+rotate_deg = [90.0, 0.0, 0.0]
+translate = [1.4, 0.25, 0.5]
+color = "#d06040"
+[[primitive]]
+name = "H2"
+shape = "cylinder"
+radius = 0.2
+height = 2.0
+segments = 24
+rotate_deg = [90.0, 0.0, 0.0]
+translate = [0.25, 1.4, 0.5]
+color = "#d06040"
+[csg]
+expr = "L - H1 - H2"
+"##;
+    let path = crate::setup::scenes_dir().join("drilled_bracket.toml");
+    let scene = peeltrim::scene::load_str(
+        text,
+        &path,
+        &peeltrim::scene::LoadOptions { size: Some(SIZE) },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(all_scs(&scene), "the bracket is convex from above");
+    let prep = Prepared::new(&scene).unwrap();
+    let p = plan::build(Algo::Scs, &prep).unwrap();
+    let sweeps: Vec<usize> = (0..p.steps.len())
+        .filter(|&i| {
+            matches!(&p.steps[i], Step::Draw(d) if matches!(d.geometry, Geometry::Footprint { mesh: 0, .. })
+                && d.stencil.is_some_and(|s| s.front.pass == StencilOp::Zero))
+        })
+        .collect();
+    assert_eq!(sweeps.len(), 1, "one sweep, over the bracket's footprint");
+    // Seen through: the reference shows the background inside the
+    // bracket's silhouette, where the sweep rejects `z`.
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    let (w, h) = (SIZE.0 as usize, SIZE.1 as usize);
+    let centre = |x: f64, y: f64| {
+        let p = glam::DVec3::new(x, y, 0.5);
+        let (px, py) = scene.camera.pixel_of(p, SIZE.0, SIZE.1);
+        reference.prim[(py as usize).min(h - 1) * w + (px as usize).min(w - 1)]
+    };
+    assert_eq!(centre(1.4, 0.25), 0, "the background through hole 1");
+    assert_eq!(centre(0.25, 1.4), 0, "the background through hole 2");
+    let tol = crate::algorithms::depth_tolerance(&scene);
+    let mut depth_only = 0;
+    for depth in DepthSetup::ALL {
+        let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+            .expect("a Vulkan device (lavapipe)");
+        // Loop by loop, recorded, replayed (only recordings plan the
+        // clears and the texture writes, `plan::reach`).
+        for frame in 0..3 {
+            let f = gpu.frame(&p).unwrap();
+            let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
+            let c = &f.stats.exec.counts;
+            let at = format!("{} frame {frame}: {r:?} {c:?}", depth.name());
+            assert_eq!(c.footprint_passes, 1, "{at}");
+            assert_eq!(r.coverage_mismatch_interior, 0, "{at}");
+            assert_eq!(r.prim_mismatch_interior, 0, "{at}");
+            let depth_ok = crate::setup::depth_passes(
+                r.depth_abs_err_p99_interior <= tol,
+                &gpu,
+                &scene,
+                &reference,
+                &f.images,
+            );
+            assert!(depth_ok, "depth, {at}");
+            // Every parity and clip draw tie-free: the front draw and both
+            // exits write no texture.
+            if frame > 0 && c.tie_rule_draws == 0 {
+                assert_eq!(c.dead_texture_writes, 3, "{at}");
+                depth_only += 1;
+            }
+        }
+        let msgs = gpu.validation_messages();
+        assert!(msgs.is_empty(), "{}: {msgs:#?}", depth.name());
+    }
+    assert!(
+        depth_only > 0,
+        "some set-up draws the texture writes depth-only"
+    );
+    // The control: without the sweep the holes keep the cylinders' exits.
+    let mut unswept = p.clone();
+    unswept.steps.remove(sweeps[0]);
+    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::ALL[0], true)
+        .expect("a Vulkan device (lavapipe)");
+    let frame = gpu.frame(&unswept).unwrap();
+    let r = peeltrim::reference::compare::compare(&reference, &frame.images).expect("same size");
+    assert!(r.coverage_mismatch_interior > 100, "{r:?}");
+    assert!(gpu.validation_messages().is_empty());
+}

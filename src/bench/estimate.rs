@@ -223,13 +223,12 @@ impl SceneCosts {
                     }
                     c.draws += 1;
                     let meshes: &[MeshId] = match &d.geometry {
-                        Geometry::Mesh(m) => std::slice::from_ref(m),
-                        Geometry::Meshes(ms) => ms,
                         Geometry::FullScreen { .. } => {
                             c.fullscreen_passes += 1;
                             c.fullscreen_pixels += rect.area();
                             continue;
                         }
+                        g => g.meshes(),
                     };
                     c.mesh_draws += 1;
                     c.triangles += prep.triangles_in(meshes) as u64;

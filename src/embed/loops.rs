@@ -11,7 +11,7 @@
 //! layers: the ring then doubles the count (README "Embedding", loop counts).
 
 use crate::geom::bvh::{Line, SceneBvh};
-use crate::plan::{Cull, Geometry, Loop, Plan, Step};
+use crate::plan::{Cull, Loop, Plan, Step};
 use crate::scene::Scene;
 
 /// Rays per side of the estimate's grid (2,304 rays).
@@ -74,11 +74,7 @@ fn drawn(steps: &[Step]) -> Vec<(u32, Cull)> {
     let mut out = Vec::new();
     for s in steps {
         let Step::Draw(d) = s else { continue };
-        let meshes: &[u32] = match &d.geometry {
-            Geometry::Mesh(m) => std::slice::from_ref(m),
-            Geometry::Meshes(ms) => ms,
-            Geometry::FullScreen { .. } => &[],
-        };
+        let meshes = d.geometry.meshes();
         for &m in meshes {
             if !out.contains(&(m, d.cull)) {
                 out.push((m, d.cull));

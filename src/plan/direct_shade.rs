@@ -82,7 +82,7 @@ impl DirectShades {
         let mut drawn: BTreeMap<MeshId, u32> = BTreeMap::new();
         for (s, times) in &leaves {
             if let Step::Draw(d) = s {
-                for m in meshes_of(&d.geometry) {
+                for m in d.geometry.meshes() {
                     *drawn.entry(*m).or_default() += times;
                 }
             }
@@ -154,14 +154,6 @@ fn flatten<'a>(step: &'a Step, times: u32, out: &mut Vec<(&'a Step, u32)>) {
             }
         }
         s => out.push((s, times)),
-    }
-}
-
-fn meshes_of(g: &Geometry) -> &[MeshId] {
-    match g {
-        Geometry::Mesh(m) => std::slice::from_ref(m),
-        Geometry::Meshes(ms) => ms,
-        Geometry::FullScreen { .. } => &[],
     }
 }
 

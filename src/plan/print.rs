@@ -13,6 +13,9 @@ pub struct StaticCounts {
     pub draws: u64,
     pub mesh_draws: u64,
     pub fullscreen_passes: u64,
+    /// Full-screen passes cut to a mesh's footprint ([`Geometry::Footprint`]),
+    /// counted in `mesh_draws` too.
+    pub footprint_passes: u64,
     pub triangles: u64,
 }
 
@@ -21,6 +24,7 @@ impl StaticCounts {
         self.draws += o.draws;
         self.mesh_draws += o.mesh_draws;
         self.fullscreen_passes += o.fullscreen_passes;
+        self.footprint_passes += o.footprint_passes;
         self.triangles += o.triangles;
     }
 }
@@ -41,6 +45,13 @@ pub fn count(steps: &[Step], prep: &Prepared) -> StaticCounts {
                         c.triangles += prep.triangles_in(ms) as u64;
                     }
                     Geometry::FullScreen { .. } => c.fullscreen_passes += 1,
+                    // A full-screen pass over a mesh's footprint: a mesh draw,
+                    // as the executor counts it.
+                    Geometry::Footprint { mesh, .. } => {
+                        c.mesh_draws += 1;
+                        c.footprint_passes += 1;
+                        c.triangles += prep.mesh_triangles[*mesh as usize] as u64;
+                    }
                 }
             }
             Step::Loop(l) => {
@@ -68,6 +79,13 @@ pub fn print(plan: &Plan, prep: &Prepared, names: &[String]) -> String {
         "static counts (loops once): {} draws, {} mesh draws, {} full-screen passes, {} triangles",
         c.draws, c.mesh_draws, c.fullscreen_passes, c.triangles
     );
+    if c.footprint_passes > 0 {
+        let _ = writeln!(
+            out,
+            "  and {} full-screen passes cut to a mesh's footprint",
+            c.footprint_passes
+        );
+    }
     out
 }
 
@@ -106,6 +124,9 @@ fn print_steps(out: &mut String, steps: &[Step], prep: &Prepared, names: &[Strin
                         format!("meshes [{}]", n.join(" "))
                     }
                     Geometry::FullScreen { depth } => format!("screen@{depth}"),
+                    Geometry::Footprint { mesh, depth } => {
+                        format!("footprint {}@{depth}", mesh_name(names, *mesh))
+                    }
                 };
                 let st = match &d.stencil {
                     None => "stencil off".to_string(),

@@ -20,11 +20,19 @@
 //! the background, the far depth and id 0 (the GPU test
 //! `outside_the_csg_the_outputs_hold_the_background` checks it frame after
 //! frame).
+//!
+//! The same pass finds the texture writes nobody reads: a draw that writes
+//! a depth texture ([`Fragment::WriteDepth`]) where no later step reads it
+//! before it is cleared or replaced ([`FrameReach::texture_writes`]). Run on
+//! the steps as the executor draws them, tie-free draws lowered to plain
+//! depth tests (`plan::tie_free`), this is SCS's candidate texture once
+//! every parity and clip draw that sampled it tests the depth image instead:
+//! its front and exit draws become depth-only, and its clear reaches nothing.
 
 use std::collections::BTreeMap;
 
 use super::rect::Rect;
-use super::step::{Clear, Scissor, Step};
+use super::step::{Clear, Draw, Fragment, Scissor, Step};
 use super::usage::{Resource, Usage, Uses};
 
 /// Pixels beyond a draw's scissor that its fragment programs may read: the tie
@@ -70,6 +78,10 @@ pub struct FrameReach {
     /// For every `CopyTexture` and `CopyDepthToTexture`, in order: the region
     /// to copy (empty: nobody reads the copy).
     pub copies: Vec<Rect>,
+    /// For every draw that writes a depth texture ([`written_texture`]), in
+    /// order: whether a later step may read what it writes (`false`: the
+    /// write is dead, and the draw may leave the texture alone).
+    pub texture_writes: Vec<bool>,
     /// What the outputs hold after the frame.
     pub kept: KeptImages,
 }
@@ -99,6 +111,15 @@ pub fn cleared(clear: &Clear, normals: bool) -> Uses<Resource> {
             }
             v
         }
+    }
+}
+
+/// The depth texture a draw writes and nothing else reads from its
+/// program: the write [`FrameReach::texture_writes`] decides on.
+pub fn written_texture(draw: &Draw) -> Option<super::step::Tex> {
+    match draw.fragment {
+        Fragment::WriteDepth { out } => Some(out),
+        _ => None,
     }
 }
 
@@ -294,7 +315,7 @@ fn reach_of_items(
     }
     let mut held = held_clears(items, infos, normals);
     let mut clears = Vec::with_capacity(held.len());
-    let mut copies = Vec::new();
+    let (mut copies, mut texture_writes) = (Vec::new(), Vec::new());
     let take = |live: &mut BTreeMap<Resource, Rect>, r| live.remove(&r).unwrap_or(Rect::EMPTY);
     for (it, info) in items.iter().zip(infos).rev() {
         let s = match it {
@@ -332,9 +353,28 @@ fn reach_of_items(
                 copies.push(region);
             }
             _ => {
+                // A texture write no later step reads within the draw's
+                // rectangle: dead, and the draw needs none of its pixels.
+                let written = match s {
+                    Step::Draw(d) => written_texture(d).map(Resource::Texture),
+                    _ => None,
+                };
+                let dead = match (written, info.rect) {
+                    (Some(t), Some(rect)) => {
+                        let read = live.get(&t).map_or(Rect::EMPTY, |l| l.intersect(&rect));
+                        read.is_empty()
+                    }
+                    _ => false,
+                };
+                if written.is_some() {
+                    texture_writes.push(!dead);
+                }
                 if let Some(rect) = info.rect {
                     let read = rect.grown(READ_MARGIN, READ_MARGIN, w, h);
                     for &(r, _) in info.uses.iter() {
+                        if dead && Some(r) == written {
+                            continue;
+                        }
                         let l = live.entry(r).or_insert(Rect::EMPTY);
                         *l = l.union(&read);
                     }
@@ -344,9 +384,11 @@ fn reach_of_items(
     }
     clears.reverse();
     copies.reverse();
+    texture_writes.reverse();
     FrameReach {
         clears,
         copies,
+        texture_writes,
         kept: kept_after_items(items, infos, images, before),
     }
 }
@@ -673,9 +715,12 @@ mod tests {
             floor.clone(),
             peel(0, 1, 3),
         ];
+        // (The write itself is dead, nobody reading it before the second
+        // clear: the first clear reaches only what peel 1 reads.)
+        assert_eq!(regions(&steps, &[]), vec![square(1), square(3)]);
         assert_eq!(
-            regions(&steps, &[]),
-            vec![square(1).union(&square(2)), square(3)]
+            reach_of(&steps, &[], &KeptImages::new()).texture_writes,
+            vec![false]
         );
         // A write that is skipped (empty scissor) writes nothing.
         let skipped = off_screen(Fragment::WriteDepth { out: 0 }, 0);
@@ -813,6 +858,37 @@ mod tests {
         assert_eq!(alone.copies, vec![Rect::EMPTY]);
     }
 
+    /// SCS's candidate texture: written by the front and exit draws, read by
+    /// the parity and clip draws. Once those test the depth image instead
+    /// (`plan::tie_free`, [`Fragment::None`]), nobody reads it before the
+    /// shade's depth copy replaces it: its writes are dead and its clear
+    /// reaches nothing; one draw still sampling it keeps every write before it.
+    #[test]
+    fn a_texture_only_tie_free_draws_read_is_written_for_nobody() {
+        let front = draw(Fragment::WriteDepth { out: 0 }, 0, 1);
+        let exit = draw(Fragment::WriteDepth { out: 0 }, 0, 2);
+        let lowered = draw(Fragment::None, 0, 2);
+        let shade = [
+            Step::CopyDepthToTexture { ds: 0, dst: 0 },
+            draw(Fragment::DepthFromTexture { src: 0 }, 1, 1),
+        ];
+        let mut steps = vec![clear_tex(0), front.clone(), lowered.clone(), exit.clone()];
+        steps.push(lowered.clone());
+        steps.extend(shade.clone());
+        let r = reach_of(&steps, &[], &KeptImages::new());
+        assert_eq!(r.texture_writes, vec![false, false]);
+        assert_eq!(r.clears, vec![ClearNeed::Reach(Rect::EMPTY)]);
+        assert_eq!(r.copies, vec![square(1)]);
+        // A parity draw that keeps its shader samples the texture after the
+        // front draw: the front write is read, the exit's is not.
+        let parity = draw(Fragment::NearerThan { tex: 0, eps: 1e-6 }, 0, 1);
+        let mut steps = vec![clear_tex(0), front, parity, exit, lowered];
+        steps.extend(shade);
+        let r = reach_of(&steps, &[], &KeptImages::new());
+        assert_eq!(r.texture_writes, vec![true, false]);
+        assert_eq!(r.clears, vec![ClearNeed::Reach(square(1))]);
+    }
+
     /// Pixel images of a simulated frame: a value per pixel and image.
     type Pixels = BTreeMap<Resource, Vec<u64>>;
 
@@ -848,6 +924,7 @@ mod tests {
         let full = Rect::full(W, H);
         let mut clears = reach.map(|r| r.clears.iter());
         let mut copies = reach.map(|r| r.copies.iter());
+        let mut texture_writes = reach.map(|r| r.texture_writes.iter());
         let get = |px: &mut Pixels, r| {
             px.entry(r)
                 .or_insert(vec![u64::MAX; (W * H) as usize])
@@ -880,17 +957,30 @@ mod tests {
                     each(rect, |p| to[p] = from[p]);
                     px.insert(Resource::Texture(*dst), to);
                 }
-                Step::Draw(_) => {
+                Step::Draw(d) => {
+                    // The texture a draw only writes: not read by it, and
+                    // left alone where nobody reads it after (`dead`).
+                    let written = written_texture(d).map(Resource::Texture);
+                    let dead = written.is_some()
+                        && texture_writes
+                            .as_mut()
+                            .is_some_and(|w| !*w.next().expect("a flag per texture write"));
                     let Some(rect) = draw_rect(s, &scissor) else {
                         continue;
                     };
                     for (r, _) in uses(s, false) {
+                        if Some(r) == written {
+                            continue;
+                        }
                         let img = get(px, r);
                         each(rect.grown(READ_MARGIN, READ_MARGIN, W, H), |p| {
                             reads.push(img[p])
                         });
                     }
                     for (r, _) in uses(s, false) {
+                        if dead && Some(r) == written {
+                            continue;
+                        }
                         if may_write(s, r, false) {
                             let mut img = get(px, r);
                             each(rect, |p| img[p] = tag << 20 | i as u64);
@@ -954,12 +1044,16 @@ mod tests {
     #[test]
     fn cut_clears_and_copies_read_and_leave_what_whole_ones_do() {
         let outputs = [Resource::Color, Resource::Prim, Resource::DepthStencil(0)];
+        let mut writes = [0; 2];
         for seed in 0..300 {
             let steps = random_frame(seed);
             let (mut whole, mut cut) = (Pixels::new(), Pixels::new());
             let mut kept = KeptImages::new();
             for frame in 0..3 {
                 let r = reach_of(&steps, &outputs, &kept);
+                for &w in &r.texture_writes {
+                    writes[w as usize] += 1;
+                }
                 let (mut a, mut b) = (Vec::new(), Vec::new());
                 simulate(&steps, None, &mut whole, frame, &mut a);
                 simulate(&steps, Some(&r), &mut cut, frame, &mut b);
@@ -978,5 +1072,7 @@ mod tests {
             // From the second frame on, the outputs' clears are cut.
             assert!(kept.contains_key(&Resource::Color), "seed {seed}");
         }
+        // Both dead and read texture writes were exercised.
+        assert!(writes[0] > 0 && writes[1] > 0, "{writes:?}");
     }
 }

@@ -353,8 +353,9 @@ fn product_steps(
 /// passing back face increments the stencil (one back face per pixel and
 /// primitive); one sweep sets far where the count is not `k` (a ray missing
 /// an `xi` draws none of its back faces) and clears the count. In the output
-/// image the sweep writes the image only; in the surface image the texture
-/// too, for the merge that follows.
+/// image the sweep writes the image only, over the first primitive's
+/// footprint ([`footprint_sweep`]); in the surface image the texture too, for
+/// the merge that follows, over the product's rectangle.
 fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, target: Target) -> Vec<Step> {
     let k = xs.len() as u32;
     assert!(
@@ -387,18 +388,52 @@ fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, target: Target) -> Vec<
             count_samples: false,
         }));
     }
-    let fragment = match target {
-        Target::Output => Fragment::None,
-        Target::Surface => Fragment::WriteDepth { out: SURF },
-    };
-    steps.push(goldfeather::reject_sweep_into(
-        ds,
-        fragment,
-        mask,
-        inside,
-        region.rect(),
-    ));
+    steps.push(match target {
+        Target::Output => footprint_sweep(xs[0], region, mask, inside),
+        Target::Surface => goldfeather::reject_sweep_into(
+            ds,
+            Fragment::WriteDepth { out: SURF },
+            mask,
+            inside,
+            region.rect(),
+        ),
+    });
     steps
+}
+
+/// The clip's sweep of a product drawn in the output (`Target::Output`): far
+/// where the count of `mask` bits is not `inside`, over the footprint of the
+/// product's first positive primitive `x` only (a quad over the product's
+/// rectangle covered the whole image on nonconvex_obj, four times the
+/// pixels). Only there can `z` be other than far: the output held far
+/// everywhere, `x`'s front faces wrote the first `z` with `Less`, and every
+/// later front face (`Greater`) and exit (`Greater`, behind `z`) passes only
+/// where one was written, so elsewhere the count is 0 and far is what the
+/// image holds. `x` is convex from the eye, so its front faces, drawn with
+/// the cull and scissor of its front draw ([`Geometry::Footprint`]: at the
+/// far depth, clipped as that draw), cover each of those pixels once; the
+/// count is kept where it passes (stencil `fail` keeps it: were a pixel
+/// covered twice, its second fragment must not reject it), and nothing reads
+/// the output's stencil after the clip.
+fn footprint_sweep(x: Lit, region: &Region, mask: u8, inside: u8) -> Step {
+    let scissor = region.cut(x.prim);
+    let Step::Draw(sweep) =
+        goldfeather::reject_sweep_into(OUTPUT, Fragment::None, mask, inside, scissor)
+    else {
+        unreachable!("a reject sweep is a draw")
+    };
+    let mut stencil = sweep.stencil.expect("a reject sweep tests the stencil");
+    stencil.front.fail = StencilOp::Keep;
+    stencil.back.fail = StencilOp::Keep;
+    Step::Draw(Draw {
+        geometry: Geometry::Footprint {
+            mesh: x.prim,
+            depth: goldfeather::FAR,
+        },
+        cull: x.visible_cull(),
+        stencil: Some(stencil),
+        ..sweep
+    })
 }
 
 /// The clip and merge of a product with one positive primitive `x` (module
@@ -836,7 +871,8 @@ mod tests {
             && d.depth.compare == CompareOp::Greater
             && d.fragment == Fragment::WriteDepth { out: SURF }));
         // The clip: box 0's back faces count where they lie behind `z`, and
-        // one sweep of the output sets far where the count is not 1.
+        // one sweep of the output sets far where the count is not 1, over
+        // box 0's footprint: its front faces as its front draw has them.
         let clip = pass_draws(&built.steps, "clip");
         assert_eq!(clip.len(), 2);
         let (c, sweep) = (clip[0], clip[1]);
@@ -856,8 +892,19 @@ mod tests {
             (st.front.pass, st.write_mask),
             (StencilOp::IncrementAndClamp, 1)
         );
-        assert!(matches!(sweep.geometry, Geometry::FullScreen { .. }));
+        assert_eq!(
+            sweep.geometry,
+            Geometry::Footprint {
+                mesh: 0,
+                depth: goldfeather::FAR
+            }
+        );
+        assert_eq!(
+            (&sweep.scissor, sweep.cull),
+            (&front[0].scissor, front[0].cull)
+        );
         assert_eq!((sweep.ds, &sweep.fragment), (OUTPUT, &Fragment::None));
+        assert_eq!(sweep.depth.compare, CompareOp::Always);
         let st = sweep.stencil.unwrap();
         assert_eq!(
             (
@@ -868,6 +915,18 @@ mod tests {
             ),
             (CompareOp::NotEqual, 1, 1, 1)
         );
+        // A pixel its front faces covered twice stays kept: a failing test
+        // keeps the count; a rejected pixel's count is cleared.
+        assert_eq!(
+            (st.front.fail, st.back.fail, st.front.pass),
+            (StencilOp::Keep, StencilOp::Keep, StencilOp::Zero)
+        );
+        let twice = |count: u8| {
+            let once = crate::plan::stencil::simulate(&st, count, true);
+            crate::plan::stencil::simulate(&st, once, true)
+        };
+        assert_eq!(twice(1), 1);
+        assert_eq!(twice(0), 0);
         // The second product: in the surface image, then one draw of box 6's
         // back faces carries `z` into the output where they lie behind it.
         let merge = pass_draws(&built.steps, "merge");
@@ -912,7 +971,9 @@ mod tests {
                 tex: SURF,
                 eps: CLIP_EPS
             }));
-        assert_eq!(count(&built.steps, &prep).fullscreen_passes, 1);
+        // The second product's merge is a draw of its back faces: no quad.
+        let c = count(&built.steps, &prep);
+        assert_eq!((c.fullscreen_passes, c.footprint_passes), (0, 1));
     }
 
     #[test]
@@ -998,12 +1059,12 @@ mod tests {
         let c = count(&built.steps, &prep);
         let g = goldfeather::plan(&prep, &ProductOptions::default()).unwrap();
         let gc = count(&g.steps, &prep);
-        // 1 front, 16 parity + 16 exits, 1 clip of the block's back faces;
-        // then 17 shading draws.
-        assert_eq!(c.mesh_draws, 1 + 32 + 1 + 17);
-        // Two subtraction batches of 8 bits and the clip's one sweep (no
-        // merge: the product is drawn in the output).
-        assert_eq!(c.fullscreen_passes, 1);
+        // 1 front, 16 parity + 16 exits, 1 clip of the block's back faces
+        // and its sweep over the block's front faces; then 17 shading draws.
+        assert_eq!(c.mesh_draws, 1 + 32 + 1 + 1 + 17);
+        // Two subtraction batches of 8 bits and the clip's one sweep over
+        // the block's footprint (no merge: the product is drawn in the output).
+        assert_eq!((c.fullscreen_passes, c.footprint_passes), (0, 1));
         assert!(c.draws * 5 < gc.draws, "scs {c:?} goldfeather {gc:?}");
     }
 }

@@ -81,6 +81,24 @@ pub enum Geometry {
     /// A rectangle covering the (scissored) screen at constant normalized depth
     /// (`0.0` near, `1.0` far).
     FullScreen { depth: f32 },
+    /// The pixels the faces of mesh `mesh` that the draw's cull keeps cover,
+    /// at constant normalized depth `depth`: a full-screen pass cut to the
+    /// mesh's footprint. The executor collapses the viewport's depth range to
+    /// `depth`, so the mesh is clipped, and covers the pixels, exactly as its
+    /// own draws with the same cull and scissor (`gl_Position` is invariant).
+    /// SCS's reject sweep of a product drawn in the output (`plan::scs`).
+    Footprint { mesh: MeshId, depth: f32 },
+}
+
+impl Geometry {
+    /// The meshes whose triangles the draw rasterizes (none for the quad).
+    pub fn meshes(&self) -> &[MeshId] {
+        match self {
+            Geometry::Mesh(m) | Geometry::Footprint { mesh: m, .. } => std::slice::from_ref(m),
+            Geometry::Meshes(ms) => ms,
+            Geometry::FullScreen { .. } => &[],
+        }
+    }
 }
 
 /// Where a draw may touch pixels. The executor turns mesh bounds into the

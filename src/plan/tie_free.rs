@@ -442,7 +442,7 @@ impl TieFree {
         let meshes: &[MeshId] = match &draw.geometry {
             Geometry::Mesh(m) => std::slice::from_ref(m),
             Geometry::Meshes(ms) => ms,
-            Geometry::FullScreen { .. } => return None,
+            Geometry::FullScreen { .. } | Geometry::Footprint { .. } => return None,
         };
         match draw.fragment {
             Fragment::NearerThan { eps, .. } | Fragment::ParityBeforeExit { eps, .. } => {
@@ -493,6 +493,19 @@ impl TieFree {
                 Self::depth_equal(draw)
             }
             _ => None,
+        }
+    }
+
+    /// `step` as the executor records it, for what it reads
+    /// (`plan::reach`): a draw [`TieFree::fixed_function`] rewrites, rewritten;
+    /// the final shades' draws as planned (what their depth copy must cover
+    /// is [`TieFree::shade_copies`]' to decide); any other step as it is.
+    pub fn lowered(&self, step: &Step) -> Step {
+        match step {
+            Step::Draw(d) if !matches!(d.fragment, Fragment::ShadeNearDepth { .. }) => self
+                .fixed_function(d)
+                .map_or_else(|| step.clone(), Step::Draw),
+            _ => step.clone(),
         }
     }
 
@@ -558,7 +571,7 @@ impl TieFree {
                     match &d.geometry {
                         Geometry::Mesh(m) => vec![(*m, zones)],
                         Geometry::Meshes(ms) => ms.iter().map(|&m| (m, None)).collect(),
-                        Geometry::FullScreen { .. } => {
+                        Geometry::FullScreen { .. } | Geometry::Footprint { .. } => {
                             panic!("a final shade draws meshes (plan::tie::shade_near_depth)")
                         }
                     }

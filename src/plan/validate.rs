@@ -64,9 +64,8 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
             Step::Draw(d) => {
                 ds(d.ds)?;
                 match &d.geometry {
-                    Geometry::Mesh(m) => mesh(*m)?,
-                    Geometry::Meshes(ms) => ms.iter().try_for_each(|m| mesh(*m))?,
                     Geometry::FullScreen { .. } => {}
+                    g => g.meshes().iter().try_for_each(|m| mesh(*m))?,
                 }
                 match d.scissor {
                     // A run by its last id: O(1) where listing it is O(n), and

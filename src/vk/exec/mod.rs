@@ -132,6 +132,9 @@ struct ReachKey {
     now: KeptImages,
     normals: bool,
     scissored: bool,
+    /// The tie-free decisions its draws are lowered with: a texture only
+    /// the lowered draws sampled is written for nobody.
+    ties: TieFree,
 }
 
 /// A recording's reach (`plan::reach::recording_reach`) and what it assumes
@@ -1063,21 +1066,29 @@ impl Executor {
             now: now.clone(),
             normals: self.normals,
             scissored: self.scissored_clears,
+            ties: self.ties.clone(),
         };
         let (w, h) = (self.desc.width, self.desc.height);
         let outputs = reach::outputs(plan.output_ds, self.normals);
         let images = self.reach_images(&outputs);
-        let (rects, scissored) = (&self.rects.rects, self.scissored_clears);
+        let (rects, scissored, ties) = (&self.rects.rects, self.scissored_clears, &self.ties);
         let reached = self.reach_memo.get_or_insert_with(key, || {
             let unions = RectUnions::new(rects);
             let scissor = |s: &Scissor| unions.scissor(s, w, h);
             Arc::new(match scissored {
-                true => reach::recording_reach(steps, scissor, images, now),
+                true => {
+                    // What the draws read as recorded: a texture only tie-free
+                    // draws sampled is read by nobody.
+                    let lowered: Vec<Step> = steps.iter().map(|s| ties.lowered(s)).collect();
+                    let lowered: Vec<&Step> = lowered.iter().collect();
+                    reach::recording_reach(&lowered, scissor, images, now)
+                }
                 false => {
                     let kept = reach::kept_after(steps, scissor, images, now);
                     let whole = FrameReach {
                         clears: Vec::new(),
                         copies: Vec::new(),
+                        texture_writes: Vec::new(),
                         kept,
                     };
                     (whole, KeptImages::new())

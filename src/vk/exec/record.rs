@@ -240,6 +240,9 @@ pub(super) struct Recorder<'a> {
     direct: DirectShades,
     /// Regions of the copies recorded next, in order (`plan::reach`).
     copy_regions: VecDeque<Rect>,
+    /// Whether the texture writes of the draws recorded next are read, in
+    /// order (`plan::reach::FrameReach::texture_writes`).
+    texture_writes: VecDeque<bool>,
     /// The frame's outputs (`use_reach`).
     outputs: Vec<Resource>,
     /// What each step recorded next does to the open block (`ahead.rs`), and
@@ -283,6 +286,7 @@ impl<'a> Recorder<'a> {
             shade_copies: VecDeque::new(),
             direct: DirectShades::none(),
             copy_regions: VecDeque::new(),
+            texture_writes: VecDeque::new(),
             outputs: Vec::new(),
             ahead: Vec::new(),
             next: 0,
@@ -850,10 +854,9 @@ impl<'a> Recorder<'a> {
         if self.scissor == Some(scissor) {
             return;
         }
-        let ids: &[u32] = match geometry {
-            Geometry::Mesh(m) => std::slice::from_ref(m),
-            Geometry::Meshes(ms) => ms,
+        let ids = match geometry {
             Geometry::FullScreen { .. } => return self.set_scissor(scissor),
+            g => g.meshes(),
         };
         let kept = self.scissor.is_some_and(|c| {
             let covered = self.b.mesh_rects.of(ids);
@@ -979,6 +982,18 @@ impl<'a> Recorder<'a> {
     }
 
     fn draw(&mut self, draw: &Draw, step: &Step) -> Result<(), VkError> {
+        // A depth texture written for nobody (`plan::reach`): the draw
+        // tests and writes depth and stencil only.
+        let depth_only = self.dead_texture_write(draw).map(|fragment| {
+            Step::Draw(Draw {
+                fragment,
+                ..draw.clone()
+            })
+        });
+        let (draw, step) = match &depth_only {
+            Some(s @ Step::Draw(d)) => (d, s),
+            _ => (draw, step),
+        };
         let scissor = self.scissor(&draw.scissor);
         if scissor.is_empty() {
             // Nothing on screen: no pixel could change and no sample could pass.
@@ -1106,12 +1121,16 @@ impl<'a> Recorder<'a> {
                 };
                 self.quad_pass(kind, &pc, scissor.area());
             }
-            Geometry::Mesh(_) | Geometry::Meshes(_) => {
-                let ids: &[u32] = match &draw.geometry {
-                    Geometry::Mesh(m) => std::slice::from_ref(m),
-                    Geometry::Meshes(ms) => ms,
-                    Geometry::FullScreen { .. } => &[],
-                };
+            Geometry::Mesh(_) | Geometry::Meshes(_) | Geometry::Footprint { .. } => {
+                let ids = draw.geometry.meshes();
+                let (w, h) = (self.b.desc.width, self.b.desc.height);
+                if let Geometry::Footprint { depth, .. } = draw.geometry {
+                    // Every fragment at `depth`; clipping is the mesh's own.
+                    let d = conv::depth_value(depth, self.b.desc.reversed_z);
+                    state::set_viewport(device, self.cmd, w, h, d..=d);
+                    self.stats.counts.state_commands += 1;
+                    self.stats.counts.footprint_passes += 1;
+                }
                 self.stats.counts.mesh_draws += 1;
                 self.stats.counts.mesh_pixels += scissor.area();
                 // A program that reads the primitive id needs each mesh's own
@@ -1168,6 +1187,10 @@ impl<'a> Recorder<'a> {
                     }
                     self.stats.counts.triangles += count as u64 / 3;
                     i = j;
+                }
+                if let Geometry::Footprint { .. } = draw.geometry {
+                    state::set_viewport(device, self.cmd, w, h, 0.0..=1.0);
+                    self.stats.counts.state_commands += 1;
                 }
             }
         }

@@ -174,18 +174,31 @@ pub(super) fn scissor_serves(current: Rect, want: Rect, covered: Rect, area: Rec
 /// Records the state every draw of a command buffer shares (viewport, front
 /// face; dynamic in every pipeline): once, before its first draw.
 pub(super) fn record_fixed(device: &ash::Device, cmd: vk::CommandBuffer, width: u32, height: u32) {
+    set_viewport(device, cmd, width, height, 0.0..=1.0);
+    // SAFETY: recording; the pipelines declare the front face dynamic.
+    unsafe { device.cmd_set_front_face(cmd, conv::FRONT_FACE) };
+}
+
+/// Sets the viewport: the whole image, framebuffer depths `depths` (a
+/// single value for a `Geometry::Footprint` draw, whose fragments all lie
+/// at it).
+pub(super) fn set_viewport(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    width: u32,
+    height: u32,
+    depths: std::ops::RangeInclusive<f32>,
+) {
     let vp = vk::Viewport {
         x: 0.0,
         y: 0.0,
         width: width as f32,
         height: height as f32,
-        min_depth: 0.0,
-        max_depth: 1.0,
+        min_depth: *depths.start(),
+        max_depth: *depths.end(),
     };
-    // SAFETY: recording; the pipelines declare viewport and front face dynamic.
+    // SAFETY: recording; the pipelines declare the viewport dynamic.
     unsafe { device.cmd_set_viewport(cmd, 0, &[vp]) };
-    // SAFETY: as above.
-    unsafe { device.cmd_set_front_face(cmd, conv::FRONT_FACE) };
 }
 
 #[cfg(test)]

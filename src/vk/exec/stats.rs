@@ -35,6 +35,10 @@ pub struct Counts {
     /// Sum of the scissor areas of mesh draws: a bound on the pixels their
     /// fragments can cover (the per-fragment work of a software rasterizer).
     pub mesh_pixels: u64,
+    /// Mesh draws at a constant depth (`Geometry::Footprint`): full-screen
+    /// passes cut to a mesh's footprint, counted in `mesh_draws` and
+    /// `mesh_pixels` too.
+    pub footprint_passes: u64,
     /// Plan steps not recorded because their scissor is empty on screen.
     pub skipped_steps: u64,
     /// Tolerant parity and peel draws run as plain depth tests because no face
@@ -44,6 +48,10 @@ pub struct Counts {
     /// Parity, clip, merge and peel draws that still run a tie-rule shader
     /// (`nearer_than`, `behind_than`, `merge_behind`, `peel_tolerant`).
     pub tie_rule_draws: u64,
+    /// Draws recorded depth-only because nobody reads the depth texture they
+    /// write (`plan::reach`): SCS's front and exit draws once every draw
+    /// that sampled their texture is tie-free.
+    pub dead_texture_writes: u64,
     /// Draws of the final shade (`plan::tie::shade_near_depth`) run as plain
     /// depth-`EQUAL` draws of the shading program because the mesh cannot tie
     /// under this camera (`plan::tie_free`): tested before the shader, no
@@ -201,8 +209,10 @@ impl ExecStats {
         c.fullscreen_passes += o.fullscreen_passes;
         c.triangles += o.triangles;
         c.fullscreen_pixels += o.fullscreen_pixels;
+        c.footprint_passes += o.footprint_passes;
         c.skipped_steps += o.skipped_steps;
         c.tie_free_draws += o.tie_free_draws;
+        c.dead_texture_writes += o.dead_texture_writes;
         c.tie_rule_draws += o.tie_rule_draws;
         c.shade_fixed_draws += o.shade_fixed_draws;
         c.direct_shade_draws += o.direct_shade_draws;

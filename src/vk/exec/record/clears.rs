@@ -28,7 +28,7 @@ use ash::vk;
 use super::{BlockKey, ClearMode, Recorder};
 use crate::plan::reach::{self, cleared, ClearNeed, FrameReach};
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::Clear;
+use crate::plan::{Clear, Draw, Fragment};
 use crate::vk::conv;
 use crate::vk::image::range;
 use crate::vk::scissor::Rect;
@@ -55,6 +55,20 @@ impl Recorder<'_> {
         self.set_outputs(output_ds);
         self.clear_regions = VecDeque::from(reach.clears.clone());
         self.copy_regions = VecDeque::from(reach.copies.clone());
+        self.texture_writes = VecDeque::from(reach.texture_writes.clone());
+    }
+
+    /// [`Fragment::None`] for a draw whose texture write nobody reads
+    /// (`plan::reach`; unknown without planned regions: kept), counted.
+    pub(super) fn dead_texture_write(&mut self, draw: &Draw) -> Option<Fragment> {
+        reach::written_texture(draw)?;
+        match self.texture_writes.pop_front() {
+            Some(false) => {
+                self.stats.counts.dead_texture_writes += 1;
+                Some(Fragment::None)
+            }
+            _ => None,
+        }
     }
 
     /// The outputs of the plan recorded next (`output_ds`: its output depth).
