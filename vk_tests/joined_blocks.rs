@@ -139,13 +139,14 @@ fn a_direct_product_and_its_shade_share_one_block() {
 #[test]
 fn a_clip_sweep_and_direct_draws_share_the_shade_block() {
     // SCS on interference: the tie-free parity and clip draws and the
-    // clip's whole-screen depth sweep run in the surface texture's block,
-    // its colour masked: were the sweep to write it, the depth the clip
-    // reads would differ.
+    // clip's footprint sweep join one block, colour masked: were the sweep
+    // to write colour, the images would differ. Since the front draw's
+    // texture write is dead (nobody reads it, `plan::reach`), the front
+    // draw is depth-only too, so depth-only blocks join as well.
     let sc = load(&crate::setup::scenes_dir().join("interference.toml"));
     let [joined, depth_only, per_pass] = joined_frames_agree("interference", &sc, Algo::Scs, true);
     assert!(
-        joined < depth_only && joined < per_pass,
+        joined <= depth_only && joined < per_pass,
         "{joined} blocks joined, {depth_only} depth-only, {per_pass} per pass"
     );
     for algo in [Algo::Goldfeather, Algo::CstI] {

@@ -45,7 +45,8 @@ impl DrawKey {
         let meshes = match &d.geometry {
             Geometry::Mesh(m) => vec![*m],
             Geometry::Meshes(ms) => ms.clone(),
-            Geometry::FullScreen { .. } => return None,
+            // Constant-depth sweeps are never tolerant draws.
+            Geometry::FullScreen { .. } | Geometry::Footprint { .. } => return None,
         };
         let (kind, tex, eps) = match d.fragment {
             Fragment::NearerThan { tex, eps } => (0, tex, eps),
@@ -199,7 +200,9 @@ impl Walk<'_> {
                 Geometry::FullScreen { .. },
                 Fragment::DepthFromTexture { src } | Fragment::CopyTexel { src, .. },
             ) => self.faces(Resource::Texture(*src)),
-            (Geometry::FullScreen { .. }, _) => None,
+            // A constant depth (SCS's reject sweep writes the far plane):
+            // unknown, as a full-screen pass's.
+            (Geometry::FullScreen { .. } | Geometry::Footprint { .. }, _) => None,
         };
         let mut targets: Vec<Resource> = color_targets(&d.fragment)
             .into_iter()
