@@ -16,8 +16,9 @@
 //! The decision over the steps' summaries ([`Ahead`]) is pure ([`widened`]).
 
 use super::{BlockJoin, BlockKey, Recorder};
+use crate::plan::reach;
 use crate::plan::usage::{Resource, Usage, Uses};
-use crate::plan::{Draw, Step};
+use crate::plan::{Draw, Fragment, Step};
 use crate::vk::scissor::Rect;
 use crate::vk::sync;
 
@@ -105,7 +106,7 @@ impl Recorder<'_> {
     /// nothing). Without this, no block widens.
     pub fn plan_blocks(&mut self, steps: &[&Step]) {
         let full = Rect::full(self.b.desc.width, self.b.desc.height);
-        let (mut copies, mut depth_copies) = (0, 0);
+        let (mut copies, mut depth_copies, mut writes) = (0, 0, 0);
         let mut ahead = Vec::with_capacity(steps.len());
         for s in steps {
             let a = match s {
@@ -130,7 +131,24 @@ impl Recorder<'_> {
                         false => Ahead::Other,
                     }
                 }
-                Step::Draw(d) => self.ahead_draw(d, s),
+                Step::Draw(d) => {
+                    // As `Recorder::draw` takes `dead_texture_write`'s
+                    // answers: one per draw that writes a texture, in order.
+                    let dead = reach::written_texture(d).is_some() && {
+                        writes += 1;
+                        self.texture_writes.get(writes - 1) == Some(&false)
+                    };
+                    match dead {
+                        true => {
+                            let d = Draw {
+                                fragment: Fragment::None,
+                                ..d.clone()
+                            };
+                            self.ahead_draw(&d, &Step::Draw(d.clone()))
+                        }
+                        false => self.ahead_draw(d, s),
+                    }
+                }
             };
             ahead.push(a);
         }
@@ -138,7 +156,8 @@ impl Recorder<'_> {
         self.next = 0;
     }
 
-    /// A draw as `draw` will record it (`Recorder::draw`): off screen or
+    /// A draw as `draw` will record it (`Recorder::draw`; a dead texture
+    /// write is already depth-only here, `plan_blocks`): off screen or
     /// replaced by a direct product's shading draw (`plan::direct_shade`),
     /// that shading draw, or lowered to a plain depth test where
     /// `plan::tie_free` says so. A shade cut into tie zones keeps its rule
