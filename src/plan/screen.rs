@@ -1,0 +1,128 @@
+//! Where each primitive's world box projects on the scene's image: continuous
+//! pixel coordinates at `scene.render`'s size, unclamped. SCS draws products
+//! whose pixels cannot meet in one block ([`super::scs::batch`]); unlike the
+//! executor's scissors, which only bound work (a recording may grow them
+//! after a camera move), these boxes decide correctness, so two of them count
+//! as apart only with [`MARGIN_PX`] pixels between them. Re-derived with the
+//! camera, as [`super::view_convex`] is.
+#![deny(unsafe_code)]
+
+use glam::{DVec2, DVec3};
+
+use crate::scene::camera::DepthConvention;
+use crate::scene::{Aabb, Camera, Scene};
+
+/// Pixels two boxes must be apart by: a fragment lies within its triangle's
+/// projection up to the vertex snapping (1/16 pixel at the coarsest
+/// precision Vulkan allows) and `f32` rounding, far below this.
+pub const MARGIN_PX: f64 = 2.0;
+
+/// A box on screen, in pixels (y downward), as the rectangle of its corners'
+/// projections.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScreenBox {
+    pub lo: DVec2,
+    pub hi: DVec2,
+}
+
+impl ScreenBox {
+    /// The smallest box holding both.
+    pub fn union(&self, o: &ScreenBox) -> ScreenBox {
+        ScreenBox {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+
+    /// Whether no pixel can be drawn in both: at least [`MARGIN_PX`] between
+    /// them along x or y.
+    pub fn apart(&self, o: &ScreenBox) -> bool {
+        let gap = (o.lo - self.hi).max(self.lo - o.hi);
+        gap.max_element() >= MARGIN_PX
+    }
+}
+
+/// Per primitive of `scene` (`boxes`: world boxes per mesh, primitives
+/// first), the screen box of its world box under the scene's camera and image
+/// size; `None` where a corner lies at or in front of the near plane (its
+/// projection is unbounded there).
+pub fn of_scene(scene: &Scene, boxes: &[Aabb]) -> Vec<Option<ScreenBox>> {
+    let (w, h) = (scene.render.width as f64, scene.render.height as f64);
+    boxes[..scene.primitives.len()]
+        .iter()
+        .map(|b| project(b, &scene.camera, w, h))
+        .collect()
+}
+
+/// The screen box of `b` on a `w × h` image seen by `cam`.
+fn project(b: &Aabb, cam: &Camera, w: f64, h: f64) -> Option<ScreenBox> {
+    let m = cam.proj(w / h, DepthConvention::Standard) * cam.view();
+    // Far enough in front of the near plane that `w` is positive and the
+    // projection finite (the f32 clipping on the GPU agrees).
+    let near = cam.near * (1.0 + 1e-6) + 1e-9;
+    let mut out: Option<ScreenBox> = None;
+    for i in 0..8 {
+        let pick = |bit: usize, lo: f64, hi: f64| if i & bit == 0 { lo } else { hi };
+        let c = DVec3::new(
+            pick(1, b.min.x, b.max.x),
+            pick(2, b.min.y, b.max.y),
+            pick(4, b.min.z, b.max.z),
+        );
+        if cam.view_depth(c) <= near {
+            return None;
+        }
+        let q = m * c.extend(1.0);
+        let p = DVec2::new((q.x / q.w + 1.0) * 0.5 * w, (q.y / q.w + 1.0) * 0.5 * h);
+        if !p.is_finite() || q.w <= 0.0 {
+            return None;
+        }
+        let one = ScreenBox { lo: p, hi: p };
+        out = Some(out.map_or(one, |o| o.union(&one)));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Projection;
+
+    fn camera() -> Camera {
+        Camera {
+            eye: DVec3::new(0.0, 0.0, 10.0),
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            projection: Projection::Perspective { fov_y_deg: 60.0 },
+            near: 0.1,
+            far: 100.0,
+        }
+    }
+
+    fn cube(x: f64, z: f64, r: f64) -> Aabb {
+        Aabb {
+            min: DVec3::new(x - r, -r, z - r),
+            max: DVec3::new(x + r, r, z + r),
+        }
+    }
+
+    #[test]
+    fn boxes_side_by_side_are_apart_and_boxes_in_line_are_not() {
+        let cam = camera();
+        let at = |x, z| project(&cube(x, z, 0.5), &cam, 200.0, 200.0).unwrap();
+        assert!(at(-2.0, 0.0).apart(&at(2.0, 0.0)));
+        // One behind the other along the view: they overlap on screen.
+        assert!(!at(0.0, 0.0).apart(&at(0.0, -5.0)));
+        // Touching boxes are never apart.
+        assert!(!at(0.0, 0.0).apart(&at(1.0, 0.0)));
+        // The projection widens toward the eye: the nearer box is larger.
+        let (near, far) = (at(0.0, 5.0), at(0.0, -5.0));
+        assert!(near.hi.x - near.lo.x > far.hi.x - far.lo.x);
+    }
+
+    #[test]
+    fn a_box_reaching_the_near_plane_has_no_screen_box() {
+        let cam = camera();
+        assert_eq!(project(&cube(0.0, 9.95, 0.5), &cam, 200.0, 200.0), None);
+        assert!(project(&cube(0.0, 8.0, 0.5), &cam, 200.0, 200.0).is_some());
+    }
+}
