@@ -74,7 +74,12 @@ fn products_apart_on_screen_share_the_output_and_one_behind_another_does_not() {
     let p = plan::build(Algo::Scs, &prep).unwrap();
     // B0, B1, B2 in the output in one pass; B3 (behind B1) alone, in the
     // surface image, then merged.
-    assert_eq!(front_groups(&p), vec![vec![0, 0, 0], vec![1]], "{p:#?}");
+    assert_eq!(
+        front_groups(&p),
+        vec![vec![0, 0, 0], vec![1]],
+        "{:?}",
+        prep.screen
+    );
     crate::scs::check(&scene);
 }
 
@@ -88,18 +93,18 @@ fn forcing_overlapping_products_side_by_side_breaks_the_image() {
     // surface image, although B3 lies behind B1 on screen.
     let far = |k: f64| {
         Some(ScreenBox {
-            lo: glam::DVec2::new(1e5 * k, 0.0),
-            hi: glam::DVec2::new(1e5 * k + 10.0, 10.0),
+            lo: glam::DVec2::new(1e10 * k, 0.0),
+            hi: glam::DVec2::new(1e10 * k + 10.0, 10.0),
         })
     };
     prep.screen = vec![
         Some(ScreenBox {
-            lo: glam::DVec2::splat(-1e4),
-            hi: glam::DVec2::splat(1e4),
+            lo: glam::DVec2::splat(-1e12),
+            hi: glam::DVec2::splat(1e12),
         }),
         Some(ScreenBox {
-            lo: glam::DVec2::splat(-1e4),
-            hi: glam::DVec2::splat(1e4),
+            lo: glam::DVec2::splat(-1e12),
+            hi: glam::DVec2::splat(1e12),
         }),
     ];
     for k in 1..4 {

@@ -204,7 +204,7 @@ pub struct Prepared {
     pub hulls: std::sync::Arc<Vec<scs::Hull>>,
     /// Where the camera's rays come from; `None` from [`Prepared::from_parts`].
     pub viewpoint: Option<scs::Viewpoint>,
-    /// Per primitive: where its world box projects at the scene's image size
+    /// Per primitive: where it projects at the scene's image size
     /// ([`screen`]); empty from [`Prepared::from_parts`].
     pub screen: Vec<Option<screen::ScreenBox>>,
 }
@@ -253,7 +253,7 @@ impl Prepared {
         p.near_cut = eye::near_cut(scene);
         p.hulls = std::sync::Arc::new(scs::hull::of_scene(scene));
         p.viewpoint = Some(scs::Viewpoint::of(&scene.camera));
-        p.screen = screen::of_scene(scene, &p.mesh_bounds);
+        p.screen = screen::of_scene(scene);
         let first = scene.primitives.len() as MeshId;
         p.surfaces = scene
             .surfaces
@@ -281,7 +281,7 @@ impl Prepared {
     pub fn camera_moved(&mut self, scene: &Scene) {
         self.eye_inside = eye_inside(scene);
         self.viewpoint = Some(scs::Viewpoint::of(&scene.camera));
-        self.screen = screen::of_scene(scene, &self.mesh_bounds);
+        self.screen = screen::of_scene(scene);
         self.view_convex = view_convex_meshes(scene, &self.mesh_convex);
     }
 

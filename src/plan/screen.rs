@@ -1,5 +1,7 @@
-//! Where each primitive's world box projects on the scene's image: continuous
-//! pixel coordinates at `scene.render`'s size, unclamped. SCS draws products
+//! Where each primitive projects on the scene's image: the box of its
+//! vertices' projections, in continuous pixel coordinates at `scene.render`'s
+//! size, unclamped (a world box's corners reach the near plane of a fitted
+//! camera long before the primitive does). SCS draws products
 //! whose pixels cannot meet in one block ([`super::scs::batch`]); unlike the
 //! executor's scissors, which only bound work (a recording may grow them
 //! after a camera move), these boxes decide correctness, so two of them count
@@ -7,10 +9,10 @@
 //! camera, as [`super::view_convex`] is.
 #![deny(unsafe_code)]
 
-use glam::{DVec2, DVec3};
+use glam::{DMat4, DVec2, DVec3};
 
 use crate::scene::camera::DepthConvention;
-use crate::scene::{Aabb, Camera, Scene};
+use crate::scene::{Camera, Scene};
 
 /// Pixels two boxes must be apart by: a fragment lies within its triangle's
 /// projection up to the vertex snapping (1/16 pixel at the coarsest
@@ -42,32 +44,28 @@ impl ScreenBox {
     }
 }
 
-/// Per primitive of `scene` (`boxes`: world boxes per mesh, primitives
-/// first), the screen box of its world box under the scene's camera and image
-/// size; `None` where a corner lies at or in front of the near plane (its
-/// projection is unbounded there).
-pub fn of_scene(scene: &Scene, boxes: &[Aabb]) -> Vec<Option<ScreenBox>> {
+/// Per primitive of `scene`, the screen box of its vertices under the scene's
+/// camera and image size (a box around the projections of the vertices holds
+/// every triangle's); `None` where a vertex lies at or in front of the near
+/// plane (its projection is unbounded there, or clipped).
+pub fn of_scene(scene: &Scene) -> Vec<Option<ScreenBox>> {
     let (w, h) = (scene.render.width as f64, scene.render.height as f64);
-    boxes[..scene.primitives.len()]
+    let m = scene.camera.proj(w / h, DepthConvention::Standard) * scene.camera.view();
+    scene
+        .primitives
         .iter()
-        .map(|b| project(b, &scene.camera, w, h))
+        .map(|p| project(&p.mesh.positions, &scene.camera, m, (w, h)))
         .collect()
 }
 
-/// The screen box of `b` on a `w × h` image seen by `cam`.
-fn project(b: &Aabb, cam: &Camera, w: f64, h: f64) -> Option<ScreenBox> {
-    let m = cam.proj(w / h, DepthConvention::Standard) * cam.view();
+/// The screen box of `points` on a `w × h` image seen by `cam` (`m`: its
+/// world → clip matrix).
+fn project(points: &[DVec3], cam: &Camera, m: DMat4, (w, h): (f64, f64)) -> Option<ScreenBox> {
     // Far enough in front of the near plane that `w` is positive and the
     // projection finite (the f32 clipping on the GPU agrees).
     let near = cam.near * (1.0 + 1e-6) + 1e-9;
     let mut out: Option<ScreenBox> = None;
-    for i in 0..8 {
-        let pick = |bit: usize, lo: f64, hi: f64| if i & bit == 0 { lo } else { hi };
-        let c = DVec3::new(
-            pick(1, b.min.x, b.max.x),
-            pick(2, b.min.y, b.max.y),
-            pick(4, b.min.z, b.max.z),
-        );
+    for &c in points {
         if cam.view_depth(c) <= near {
             return None;
         }
@@ -98,17 +96,25 @@ mod tests {
         }
     }
 
-    fn cube(x: f64, z: f64, r: f64) -> Aabb {
-        Aabb {
-            min: DVec3::new(x - r, -r, z - r),
-            max: DVec3::new(x + r, r, z + r),
-        }
+    /// The corners of a cube of half-size `r` at `(x, 0, z)`.
+    fn cube(x: f64, z: f64, r: f64) -> Vec<DVec3> {
+        (0..8)
+            .map(|i| {
+                let s = |bit: usize| if i & bit == 0 { -r } else { r };
+                DVec3::new(x + s(1), s(2), z + s(4))
+            })
+            .collect()
+    }
+
+    fn at(cam: &Camera, points: &[DVec3]) -> Option<ScreenBox> {
+        let m = cam.proj(1.0, DepthConvention::Standard) * cam.view();
+        project(points, cam, m, (200.0, 200.0))
     }
 
     #[test]
     fn boxes_side_by_side_are_apart_and_boxes_in_line_are_not() {
         let cam = camera();
-        let at = |x, z| project(&cube(x, z, 0.5), &cam, 200.0, 200.0).unwrap();
+        let at = |x, z| at(&cam, &cube(x, z, 0.5)).unwrap();
         assert!(at(-2.0, 0.0).apart(&at(2.0, 0.0)));
         // One behind the other along the view: they overlap on screen.
         assert!(!at(0.0, 0.0).apart(&at(0.0, -5.0)));
@@ -122,7 +128,7 @@ mod tests {
     #[test]
     fn a_box_reaching_the_near_plane_has_no_screen_box() {
         let cam = camera();
-        assert_eq!(project(&cube(0.0, 9.95, 0.5), &cam, 200.0, 200.0), None);
-        assert!(project(&cube(0.0, 8.0, 0.5), &cam, 200.0, 200.0).is_some());
+        assert_eq!(at(&cam, &cube(0.0, 9.95, 0.5)), None);
+        assert!(at(&cam, &cube(0.0, 8.0, 0.5)).is_some());
     }
 }
