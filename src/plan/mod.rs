@@ -24,6 +24,8 @@ pub mod rect;
 pub mod scs;
 pub mod stencil;
 pub mod step;
+#[cfg(test)]
+pub(crate) mod testing;
 pub mod tie;
 pub mod tie_context;
 pub mod tie_free;

@@ -125,11 +125,7 @@ pub fn written_texture(draw: &Draw) -> Option<super::step::Tex> {
 
 /// The images `step` uses and how, the normal buffer with the colour target.
 fn uses(step: &Step, normals: bool) -> Uses<(Resource, Usage)> {
-    let mut u = step.usage();
-    if normals && u.contains(&(Resource::Color, Usage::ColorTarget)) {
-        u.push((Resource::Normal, Usage::ColorTarget));
-    }
-    u
+    super::usage::with_normals(step.usage(), normals)
 }
 
 /// Whether a step of usages `uses` may write `r` (a target of a draw or depth

@@ -716,35 +716,13 @@ fn tolerances(steps: &[Step], out: &mut Vec<u32>) {
 
 #[cfg(test)]
 mod tests {
+    use super::super::testing::{
+        band, camera, half_free, parity, plan_of, the_draw as draw, unit, whole,
+    };
     use super::super::SHADE_EPS;
     use super::*;
     use crate::scene::{shapes, Mesh};
     use glam::DVec3;
-
-    fn camera(eye: DVec3, projection: Projection) -> Camera {
-        Camera {
-            eye,
-            target: DVec3::ZERO,
-            up: DVec3::Y,
-            projection,
-            near: 3.0,
-            far: 7.0,
-        }
-    }
-
-    const PERSPECTIVE: Projection = Projection::Perspective { fov_y_deg: 45.0 };
-
-    fn unit() -> Aabb {
-        Aabb {
-            min: DVec3::splat(-1.0),
-            max: DVec3::splat(1.0),
-        }
-    }
-
-    fn band(size: u32, bits: u32, reversed: bool) -> TieBand {
-        let cam = camera(DVec3::new(0.0, 0.0, 5.0), PERSPECTIVE);
-        TieBand::new(&cam, size, size, bits, reversed, &unit())
-    }
 
     #[test]
     fn the_band_scales_with_the_pixel_and_the_snapping() {
@@ -774,11 +752,6 @@ mod tests {
         // Orthographic standard Z: (f - n) per unit of eps; snapping 2^-7 of 3/800.
         assert!((o.per_eps - 4.0).abs() < 1e-12);
         assert!((o.fixed - (4.0 / (1u64 << 24) as f64 + 2.0 / 256.0 * 3.0 / 800.0)).abs() < 1e-12);
-    }
-
-    /// A projection of every box to the whole of an 800 × 800 image.
-    fn whole(_: &Aabb) -> Rect {
-        Rect::full(800, 800)
     }
 
     fn cube(center: DVec3, half: DVec3) -> Mesh {
@@ -813,51 +786,6 @@ mod tests {
         let wall = cube(DVec3::new(0.2, 0.301, 0.0), DVec3::new(0.5, 0.2, 0.4));
         assert_eq!(decide(wall.clone(), 800), vec![true, true]);
         assert_eq!(decide(wall, 32), vec![false, false]);
-    }
-
-    fn parity(mesh: MeshId, eps: f32) -> Step {
-        Step::Draw(Draw {
-            geometry: Geometry::Mesh(mesh),
-            scissor: Scissor::BoundsOf(vec![mesh]),
-            cull: Cull::None,
-            ds: 0,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: false,
-            },
-            stencil: None,
-            fragment: Fragment::NearerThan { tex: 1, eps },
-            count_samples: false,
-        })
-    }
-
-    fn plan_of(steps: Vec<Step>) -> Plan {
-        Plan {
-            algo: "t".into(),
-            depth_stencils: 1,
-            textures: 2,
-            stencil_bits: 1,
-            output_ds: 0,
-            steps,
-        }
-    }
-
-    fn draw(s: Step) -> Draw {
-        match s {
-            Step::Draw(d) => d,
-            _ => unreachable!(),
-        }
-    }
-
-    /// Mesh 0 tie-free, mesh 1 not, at every tolerance of the plan.
-    fn half_free(plan: &Plan) -> TieFree {
-        let gaps = TieGaps {
-            min_gap: vec![f64::INFINITY, 0.0],
-            cap: 1.0,
-            pairs: vec![(1, 1, 0.0)],
-            zones: vec![],
-        };
-        TieFree::new(&gaps, &gaps, &band(800, 8, true), plan, &whole)
     }
 
     #[test]
