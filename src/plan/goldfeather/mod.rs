@@ -289,16 +289,10 @@ pub(crate) fn direct_last(
     (rest, direct)
 }
 
+/// The first steps: the output depth-stencil image and the colour targets
+/// cleared.
 pub(crate) fn init_steps() -> Vec<Step> {
-    vec![
-        Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil {
-            ds: OUTPUT,
-            depth: FAR,
-            stencil: 0,
-        }),
-        Step::Clear(Clear::Color),
-    ]
+    super::common::init_output(OUTPUT, FAR)
 }
 
 /// The head of a layer-peeling loop: fresh surface image, the current layer
@@ -336,9 +330,28 @@ pub(crate) fn surface_draw_culled(
     fragment: Fragment,
     count_samples: bool,
 ) -> Step {
+    let one = Geometry::Mesh(a.prim);
+    into_surface(
+        one,
+        Scissor::BoundsOf(vec![a.prim]),
+        cull,
+        fragment,
+        count_samples,
+    )
+}
+
+/// A draw of `geometry` in `scissor`, the faces `cull` keeps, into the
+/// surface image, nearest wins.
+pub(crate) fn into_surface(
+    geometry: Geometry,
+    scissor: Scissor,
+    cull: Cull,
+    fragment: Fragment,
+    count_samples: bool,
+) -> Step {
     Step::Draw(Draw {
-        geometry: Geometry::Mesh(a.prim),
-        scissor: Scissor::BoundsOf(vec![a.prim]),
+        geometry,
+        scissor,
         cull,
         ds: SURFACE,
         depth: DepthState {
