@@ -32,6 +32,19 @@ pub fn load(path: &Path) -> Scene {
     scene::load(path, &LoadOptions { size: Some(SIZE) }).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The shipped scene `scenes/NAME.toml` (`setup::scenes_dir`) at [`SIZE`].
+pub fn shipped(name: &str) -> Scene {
+    load(&crate::setup::scenes_dir().join(format!("{name}.toml")))
+}
+
+/// [`shipped`] scene `name`, prepared, and its reference image at [`SIZE`].
+pub fn shipped_with_reference(name: &str) -> (Scene, Prepared, Images) {
+    let scene = shipped(name);
+    let prep = Prepared::new(&scene).expect("prepared");
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    (scene, prep, reference)
+}
+
 /// The scene file text `text`, named `name` (its meshes resolve against no
 /// folder), at [`SIZE`].
 pub fn load_text(text: &str, name: &str) -> Scene {

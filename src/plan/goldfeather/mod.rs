@@ -616,16 +616,9 @@ pub(crate) mod tests {
         assert!(is_convex(&b));
         assert!(is_convex(&fixtures::sphere_mesh(DVec3::ZERO, 1.0, 16, 8)));
         // An L-shaped union of two boxes glued into one mesh is not.
-        let mut l = fixtures::box_mesh(DVec3::ZERO, DVec3::ONE);
+        let l = fixtures::box_mesh(DVec3::ZERO, DVec3::ONE);
         let other = fixtures::box_mesh(DVec3::new(1.0, 0.0, 0.0), DVec3::new(2.0, 3.0, 1.0));
-        let off = l.positions.len() as u32;
-        l.positions.extend(other.positions);
-        l.triangles.extend(
-            other
-                .triangles
-                .iter()
-                .map(|t| [t[0] + off, t[1] + off, t[2] + off]),
-        );
+        let l = fixtures::joined(l, other);
         assert!(!is_convex(&l));
     }
 
@@ -736,16 +729,9 @@ pub(crate) mod tests {
     #[test]
     fn non_convex_literal_is_peeled_in_a_loop() {
         let mut scene = block_minus_spheres(2);
-        let mut l = fixtures::box_mesh(DVec3::new(-3.0, -1.0, -1.0), DVec3::new(-1.0, 1.0, 1.0));
+        let l = fixtures::box_mesh(DVec3::new(-3.0, -1.0, -1.0), DVec3::new(-1.0, 1.0, 1.0));
         let other = fixtures::box_mesh(DVec3::new(-1.0, -1.0, -1.0), DVec3::new(0.0, 2.0, 1.0));
-        let off = l.positions.len() as u32;
-        l.positions.extend(other.positions);
-        l.triangles.extend(
-            other
-                .triangles
-                .iter()
-                .map(|t| [t[0] + off, t[1] + off, t[2] + off]),
-        );
+        let l = fixtures::joined(l, other);
         scene.primitives[0].mesh = l;
         let prep = Prepared::new(&scene).unwrap();
         assert!(!prep.mesh_convex[0]);

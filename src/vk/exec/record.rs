@@ -29,7 +29,7 @@ use super::targets::{self, Targets};
 use super::ExecDesc;
 use ahead::Ahead;
 use clears::PendingClear;
-use lower::Recorded;
+use lower::RecordedDraw;
 
 mod ahead;
 mod clears;
@@ -988,16 +988,16 @@ impl<'a> Recorder<'a> {
         let dead = self.dead_texture_write(draw);
         let scissor = self.scissor(&draw.scissor);
         match lower::lower(draw, dead, scissor, self.b.ties, &self.direct) {
-            Recorded::OffScreen => {
+            RecordedDraw::OffScreen => {
                 self.stats.counts.skipped_steps += 1;
                 Ok(())
             }
-            Recorded::Dropped => Ok(()),
-            Recorded::One(d, how) => {
+            RecordedDraw::Dropped => Ok(()),
+            RecordedDraw::One(d, how) => {
                 how.count(&d, scissor, &mut self.stats.counts);
                 self.draw_in(&d, scissor)
             }
-            Recorded::Zoned {
+            RecordedDraw::Zoned {
                 rule,
                 culled,
                 fixed,

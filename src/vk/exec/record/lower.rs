@@ -28,7 +28,7 @@ use crate::vk::scissor::Rect;
 
 /// What the recorder records for one plan draw.
 #[derive(Clone, Debug, PartialEq)]
-pub(super) enum Recorded<'a> {
+pub(super) enum RecordedDraw<'a> {
     /// Nothing: its scissor is empty on screen (no pixel could change, no
     /// sample could pass).
     OffScreen,
@@ -64,14 +64,14 @@ pub(super) enum Lowering {
     ShadeRule { culled: bool },
 }
 
-impl Recorded<'_> {
+impl RecordedDraw<'_> {
     /// The draw whose usages say which block this one records in first: the
     /// draw itself, or a zoned shade's rule draw (which samples the copy);
     /// `None` when nothing is recorded.
     pub fn block_draw(&self) -> Option<&Draw> {
         match self {
-            Recorded::OffScreen | Recorded::Dropped => None,
-            Recorded::One(d, _) | Recorded::Zoned { rule: d, .. } => Some(d),
+            RecordedDraw::OffScreen | RecordedDraw::Dropped => None,
+            RecordedDraw::One(d, _) | RecordedDraw::Zoned { rule: d, .. } => Some(d),
         }
     }
 }
@@ -113,7 +113,7 @@ pub(super) fn lower<'a>(
     scissor: Rect,
     ties: &'a TieFree,
     direct: &DirectShades,
-) -> Recorded<'a> {
+) -> RecordedDraw<'a> {
     let draw = match dead_write {
         true => Cow::Owned(Draw {
             fragment: Fragment::None,
@@ -122,13 +122,13 @@ pub(super) fn lower<'a>(
         false => Cow::Borrowed(draw),
     };
     if scissor.is_empty() {
-        return Recorded::OffScreen;
+        return RecordedDraw::OffScreen;
     }
     if direct.drops(&draw) {
-        return Recorded::Dropped;
+        return RecordedDraw::Dropped;
     }
     if let Some(d) = direct.shaded(&draw) {
-        return Recorded::One(Cow::Owned(d), Lowering::DirectShade);
+        return RecordedDraw::One(Cow::Owned(d), Lowering::DirectShade);
     }
     if let Some(zones) = ties.shade_zones(&draw) {
         let fixed = TieFree::depth_equal(&draw).expect("a zoned draw is a final shade's");
@@ -136,7 +136,7 @@ pub(super) fn lower<'a>(
             Some(c) => (Cow::Owned(c), true),
             None => (draw, false),
         };
-        return Recorded::Zoned {
+        return RecordedDraw::Zoned {
             rule,
             culled,
             fixed,
@@ -145,12 +145,12 @@ pub(super) fn lower<'a>(
     }
     let shade = matches!(draw.fragment, Fragment::ShadeNearDepth { .. });
     if let Some(d) = ties.fixed_function(&draw) {
-        return Recorded::One(Cow::Owned(d), Lowering::FixedFunction { shade });
+        return RecordedDraw::One(Cow::Owned(d), Lowering::FixedFunction { shade });
     }
     if shade {
         return match ties.culled_rule(&draw) {
-            Some(c) => Recorded::One(Cow::Owned(c), Lowering::ShadeRule { culled: true }),
-            None => Recorded::One(draw, Lowering::ShadeRule { culled: false }),
+            Some(c) => RecordedDraw::One(Cow::Owned(c), Lowering::ShadeRule { culled: true }),
+            None => RecordedDraw::One(draw, Lowering::ShadeRule { culled: false }),
         };
     }
     let rule = matches!(
@@ -165,7 +165,7 @@ pub(super) fn lower<'a>(
         true => Lowering::TieRule,
         false => Lowering::Planned,
     };
-    Recorded::One(draw, why)
+    RecordedDraw::One(draw, why)
 }
 
 #[cfg(test)]
@@ -205,10 +205,10 @@ mod tests {
         let live = lower(&front, false, ON, &ties, &none());
         assert_eq!(
             live,
-            Recorded::One(Cow::Borrowed(&front), Lowering::Planned)
+            RecordedDraw::One(Cow::Borrowed(&front), Lowering::Planned)
         );
         let dead = lower(&front, true, ON, &ties, &none());
-        let Recorded::One(d, Lowering::Planned) = &dead else {
+        let RecordedDraw::One(d, Lowering::Planned) = &dead else {
             panic!("{dead:?}")
         };
         assert_eq!(
@@ -220,7 +220,7 @@ mod tests {
         );
         assert_eq!(
             lower(&front, true, Rect::EMPTY, &ties, &none()),
-            Recorded::OffScreen
+            RecordedDraw::OffScreen
         );
         // Only a draw that writes a texture takes an answer.
         let mut answers = vec![Some(false), Some(true)].into_iter();
@@ -239,7 +239,7 @@ mod tests {
         let steps = vec![parity(0, SHADE_EPS), parity(1, SHADE_EPS)];
         let ties = half_free(&plan_of(steps.clone()));
         let (free, tied) = (the_draw(steps[0].clone()), the_draw(steps[1].clone()));
-        let Recorded::One(d, how) = lower(&free, false, ON, &ties, &none()) else {
+        let RecordedDraw::One(d, how) = lower(&free, false, ON, &ties, &none()) else {
             panic!("one draw")
         };
         assert_eq!(how, Lowering::FixedFunction { shade: false });
@@ -249,7 +249,7 @@ mod tests {
         );
         assert_eq!(
             lower(&tied, false, ON, &ties, &none()),
-            Recorded::One(Cow::Borrowed(&tied), Lowering::TieRule)
+            RecordedDraw::One(Cow::Borrowed(&tied), Lowering::TieRule)
         );
     }
 
@@ -259,7 +259,7 @@ mod tests {
         let ties = half_free(&plan);
         let shade = shade_draws(&[0, 1]);
         let (one, zero) = (&shade[0], &shade[1]);
-        let Recorded::One(d, how) = lower(zero, false, ON, &ties, &none()) else {
+        let RecordedDraw::One(d, how) = lower(zero, false, ON, &ties, &none()) else {
             panic!("one draw")
         };
         assert_eq!(how, Lowering::FixedFunction { shade: true });
@@ -269,7 +269,7 @@ mod tests {
         );
         assert_eq!(
             lower(one, false, ON, &ties, &none()),
-            Recorded::One(Cow::Borrowed(one), Lowering::ShadeRule { culled: false })
+            RecordedDraw::One(Cow::Borrowed(one), Lowering::ShadeRule { culled: false })
         );
         // Mesh 1 ties only with itself: its rule draw may cull its hidden side.
         let sided = Draw {
@@ -281,7 +281,7 @@ mod tests {
             ..one.clone()
         };
         let culled = lower(&sided, false, ON, &ties, &none());
-        let Recorded::One(d, Lowering::ShadeRule { culled: true }) = &culled else {
+        let RecordedDraw::One(d, Lowering::ShadeRule { culled: true }) = &culled else {
             panic!("{culled:?}")
         };
         assert_eq!(d.cull, Cull::Front);
@@ -297,13 +297,16 @@ mod tests {
         let shades = DirectShades::decide(&refs, 0, |_, _| true);
         let ties = TieFree::none();
         let lowered = lower(&direct, false, ON, &ties, &shades);
-        let Recorded::One(d, Lowering::DirectShade) = &lowered else {
+        let RecordedDraw::One(d, Lowering::DirectShade) = &lowered else {
             panic!("{lowered:?}")
         };
         assert_eq!(d.fragment, Fragment::Shade);
         let shade = &shade_draws(&[0])[0];
-        assert_eq!(lower(shade, false, ON, &ties, &shades), Recorded::Dropped);
-        assert_eq!(Recorded::Dropped.block_draw(), None);
+        assert_eq!(
+            lower(shade, false, ON, &ties, &shades),
+            RecordedDraw::Dropped
+        );
+        assert_eq!(RecordedDraw::Dropped.block_draw(), None);
     }
 
     fn cube(center: DVec3, half: DVec3) -> Mesh {
@@ -330,7 +333,7 @@ mod tests {
             )
         };
         let lowered = lower(shade, false, ON, &ties, &none());
-        let Recorded::Zoned {
+        let RecordedDraw::Zoned {
             rule,
             fixed,
             zones: z,
