@@ -6,7 +6,7 @@ use super::step::*;
 use super::tie_free::{TieBand, TieFree};
 use crate::geom::ties::TieGaps;
 use crate::plan::rect::Rect;
-use crate::scene::{Aabb, Camera, Projection};
+use crate::scene::{shapes, Aabb, Camera, Mesh, Projection};
 use glam::DVec3;
 
 /// A draw of mesh `mesh` in its bounds into depth-stencil 0, no depth test,
@@ -97,4 +97,32 @@ pub(crate) fn half_free(plan: &Plan) -> TieFree {
         zones: vec![],
     };
     TieFree::new(&gaps, &gaps, &band(800, 8, true), plan, &whole)
+}
+
+/// A box centred at `center` with half extents `half`.
+pub(crate) fn cube(center: DVec3, half: DVec3) -> Mesh {
+    let mut m = shapes::make_box(half * 2.0);
+    for p in &mut m.positions {
+        *p += center;
+    }
+    m
+}
+
+/// A plan of `before`, then a final shade of meshes `ms` (depth-stencil 0,
+/// texture 1).
+pub(crate) fn shaded(before: Vec<Step>, ms: &[MeshId]) -> Plan {
+    let mut steps = before;
+    steps.extend(super::shade_near_depth(
+        ms,
+        0,
+        1,
+        None,
+        &super::VisibleSides::none(),
+    ));
+    plan_of(steps)
+}
+
+/// The steps of `plan`, as the executor's decisions take them.
+pub(crate) fn refs(plan: &Plan) -> Vec<&Step> {
+    plan.steps.iter().collect()
 }

@@ -172,10 +172,11 @@ pub(super) fn lower<'a>(
 mod tests {
     use super::*;
     use crate::geom::ties::TieGaps;
-    use crate::plan::testing::{band, half_free, mesh_draw, parity, plan_of, the_draw, whole};
+    use crate::plan::testing::{
+        band, cube, half_free, mesh_draw, parity, plan_of, the_draw, whole,
+    };
     use crate::plan::tie_free::ShadeRule;
     use crate::plan::{shade_near_depth, CompareOp, Geometry, Step, VisibleSides, SHADE_EPS};
-    use crate::scene::{shapes, Mesh};
     use glam::DVec3;
 
     const ON: Rect = Rect {
@@ -307,14 +308,6 @@ mod tests {
             RecordedDraw::Dropped
         );
         assert_eq!(RecordedDraw::Dropped.block_draw(), None);
-    }
-
-    fn cube(center: DVec3, half: DVec3) -> Mesh {
-        let mut m = shapes::make_box(half * 2.0);
-        for p in &mut m.positions {
-            *p += center;
-        }
-        m
     }
 
     #[test]
