@@ -23,7 +23,7 @@ pub struct Kept {
 pub type KeptImages = BTreeMap<Resource, Kept>;
 
 /// What the outputs hold after `steps` run from `before`, whether their clears
-/// reach what [`frame_reach`] says or whole images: an output cleared in the
+/// reach what [`super::frame_reach`] says or whole images: an output cleared in the
 /// frame holds its last clear's value outside what is written after it (that
 /// clear reaches every pixel earlier frames and this one dirtied); one not
 /// cleared gains the frame's writes. Images the frame uses other than as
