@@ -49,7 +49,7 @@ fn background_outside(img: &Images, bg: [u8; 3], what: &str) -> usize {
 /// background again.
 fn frames_agree(sc: &Scene, a: &Plan, b: &Plan, cams: [Camera; 2], mode: ClearMode, what: &str) {
     let ctx = context();
-    let desc = crate::scene_desc(&sc);
+    let desc = crate::scene_desc(sc);
     let mut ex: Vec<Executor> = [false, true]
         .iter()
         .map(|&cut| {

@@ -438,7 +438,7 @@ pub(crate) fn clip_steps_in(
         for (k, &b) in chunk.iter().enumerate() {
             let bit = 1u8 << k;
             mask |= bit;
-            if !b.negated != eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
+            if b.negated == eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
                 inside |= bit;
             }
             steps.push(clip_parity_draw(
