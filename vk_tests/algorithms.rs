@@ -32,6 +32,19 @@ pub fn load(path: &Path) -> Scene {
     scene::load(path, &LoadOptions { size: Some(SIZE) }).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The shipped scene `scenes/NAME.toml` (`setup::scenes_dir`) at [`SIZE`].
+pub fn shipped(name: &str) -> Scene {
+    load(&crate::setup::scenes_dir().join(format!("{name}.toml")))
+}
+
+/// [`shipped`] scene `name`, prepared, and its reference image at [`SIZE`].
+pub fn shipped_with_reference(name: &str) -> (Scene, Prepared, Images) {
+    let scene = shipped(name);
+    let prep = Prepared::new(&scene).expect("prepared");
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    (scene, prep, reference)
+}
+
 /// The scene file text `text`, named `name` (its meshes resolve against no
 /// folder), at [`SIZE`].
 pub fn load_text(text: &str, name: &str) -> Scene {
@@ -299,7 +312,7 @@ csg = { expr = "Room - Pillar" }
     let prep = Prepared::new(&scene).unwrap();
     assert_eq!(prep.eye_inside[..2], [true, false]);
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
-    assert!(reference.prim.iter().any(|&p| p == 2), "the pillar shows");
+    assert!(reference.prim.contains(&2), "the pillar shows");
     let algos = Algo::ALL
         .into_iter()
         .filter(|&a| a != Algo::Reference && a != Algo::BlisterPaper);
@@ -335,10 +348,7 @@ csg = { expr = "(Ball - Pin) + Block" }
     let scene = load_text(text, "ortho_cut.toml");
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
     for p in 1..=3u16 {
-        assert!(
-            reference.prim.iter().any(|&q| q == p),
-            "primitive {p} shows"
-        );
+        assert!(reference.prim.contains(&p), "primitive {p} shows");
     }
     let prep = Prepared::new(&scene).unwrap();
     assert_eq!(prep.near_cut[..3], [true, true, false]);

@@ -7,7 +7,7 @@
 use peeltrim::output::Images;
 use peeltrim::plan::{build, Algo, Plan, Prepared};
 use peeltrim::scene::{Camera, Projection, Scene};
-use peeltrim::vk::{ClearMode, DepthFormat, ExecDesc, Executor};
+use peeltrim::vk::{ClearMode, Executor};
 
 use crate::{algorithms, assert_clean, context};
 
@@ -49,12 +49,7 @@ fn background_outside(img: &Images, bg: [u8; 3], what: &str) -> usize {
 /// background again.
 fn frames_agree(sc: &Scene, a: &Plan, b: &Plan, cams: [Camera; 2], mode: ClearMode, what: &str) {
     let ctx = context();
-    let desc = ExecDesc {
-        width: sc.render.width,
-        height: sc.render.height,
-        depth_format: DepthFormat::D32S8,
-        reversed_z: true,
-    };
+    let desc = crate::scene_desc(sc);
     let mut ex: Vec<Executor> = [false, true]
         .iter()
         .map(|&cut| {

@@ -11,7 +11,7 @@
 
 use peeltrim::plan::{build, Algo, Prepared};
 use peeltrim::scene::Scene;
-use peeltrim::vk::{BlockJoin, ClearMode, DepthFormat, ExecDesc, Executor};
+use peeltrim::vk::{BlockJoin, ClearMode, Executor};
 
 use crate::algorithms::{assert_within_cst_bars, load, load_text};
 use crate::{assert_clean, context};
@@ -41,12 +41,7 @@ fn joined_frames_agree(name: &str, sc: &Scene, algo: Algo, direct: bool) -> [u64
     let prep = Prepared::new(sc).expect("a solid");
     let plan = build(algo, &prep).expect("plan");
     let ctx = context();
-    let desc = ExecDesc {
-        width: w,
-        height: h,
-        depth_format: DepthFormat::D32S8,
-        reversed_z: true,
-    };
+    let desc = crate::scene_desc(sc);
     let mut passes = [0; 3];
     for mode in [ClearMode::Command, ClearMode::LoadOp] {
         for normals in [false, true] {

@@ -211,6 +211,17 @@ fn std_desc() -> ExecDesc {
     }
 }
 
+/// The executor of a scene's frame as the renderer sets it up by default:
+/// the scene's size, D32S8, reversed Z.
+fn scene_desc(sc: &Scene) -> ExecDesc {
+    ExecDesc {
+        width: sc.render.width,
+        height: sc.render.height,
+        depth_format: DepthFormat::D32S8,
+        reversed_z: true,
+    }
+}
+
 fn one_box_plan(cull: Cull) -> Plan {
     let mut steps = vec![Step::Pass("shade".into())];
     steps.extend(clear_all());
@@ -786,12 +797,7 @@ fn scissored_clears_match_whole_clears() {
             let p = peeltrim::plan::build(algo, &prep).expect("plan");
             let mut frames = Vec::new();
             for scissored in [false, true] {
-                let desc = ExecDesc {
-                    width: sc.render.width,
-                    height: sc.render.height,
-                    depth_format: DepthFormat::D32S8,
-                    reversed_z: true,
-                };
+                let desc = scene_desc(&sc);
                 let mut ex = Executor::new(&ctx, &desc).expect("executor");
                 ex.set_scissored_clears(scissored);
                 ex.upload(&sc).expect("upload");

@@ -9,7 +9,7 @@
 
 use peeltrim::plan::{build, Algo, Prepared};
 use peeltrim::scene::Scene;
-use peeltrim::vk::{BlockJoin, ClearMode, DepthFormat, ExecDesc, Executor};
+use peeltrim::vk::{BlockJoin, ClearMode, Executor};
 
 use crate::algorithms::{assert_within_cst_bars, load_text};
 use crate::{assert_clean, context};
@@ -59,12 +59,7 @@ fn products_sharing_blocks_match_the_reference_and_the_unshared_frame() {
     let reference = peeltrim::reference::render(&sc, w, h);
     let prep = Prepared::new(&sc).expect("a solid");
     let ctx = context();
-    let desc = ExecDesc {
-        width: w,
-        height: h,
-        depth_format: DepthFormat::D32S8,
-        reversed_z: true,
-    };
+    let desc = crate::scene_desc(&sc);
     for algo in [Algo::Scs, Algo::Goldfeather, Algo::CstI] {
         let plan = build(algo, &prep).expect("plan");
         for mode in [ClearMode::Command, ClearMode::LoadOp] {

@@ -3,8 +3,6 @@
 //! depth test, the images match the reference and the tie-rule frame; on one
 //! with coincident faces the draws that can meet a tie keep the tie rule.
 
-use std::path::Path;
-
 use peeltrim::plan::step::{Fragment, Step};
 use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::reference::compare::compare;
@@ -12,7 +10,7 @@ use peeltrim::reference::precision::spec_depth_check;
 use peeltrim::render::{DepthSetup, FrameStats, GpuRenderer};
 use peeltrim::vk::Recorded;
 
-use crate::algorithms::{load, SIZE};
+use crate::algorithms::{load, shipped, shipped_with_reference, SIZE};
 
 /// The GPU algorithms with tolerant parity or peel draws (all but the
 /// reference and the paper's depth-test Blister).
@@ -28,8 +26,7 @@ fn frame(
     algo: Algo,
     tie_free: bool,
 ) -> (peeltrim::output::Images, FrameStats, peeltrim::scene::Scene) {
-    let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
-    let scene = load(Path::new(&path));
+    let scene = shipped(name);
     let prep = Prepared::new(&scene).expect("prepared");
     let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
     let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::DEFAULT, true)
@@ -114,10 +111,7 @@ fn a_depth_equal_final_shade_gives_the_tie_rule_frames_pixels() {
     // depths bit-exactly for the depth-equal shade to find them: on every
     // depth set-up, and with an 8-bit device's vertex snapping emulated.
     let name = "drilled_block";
-    let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
-    let scene = load(Path::new(&path));
-    let prep = Prepared::new(&scene).expect("prepared");
-    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    let (scene, prep, reference) = shipped_with_reference(name);
     // Under emulated snapping and on D24S8 the shade keeps the rule (its depth
     // output; `Executor::set_fixed_shade`); its pixels held there too (0
     // interior mismatches) before those were switched off.

@@ -3,22 +3,17 @@
 //! depth-equal shade over the rest of each mesh, gives the pixels of the frame
 //! whose shade runs the rule on every draw, and the reference's.
 
-use std::path::Path;
-
-use peeltrim::plan::{self, Algo, Prepared};
+use peeltrim::plan::{self, Algo};
 use peeltrim::reference::compare::compare;
 use peeltrim::render::{DepthSetup, GpuRenderer};
 
-use crate::algorithms::{load, SIZE};
+use crate::algorithms::shipped_with_reference;
 
 #[test]
 fn zone_scissored_shading_gives_the_all_rule_frames_pixels() {
     let mut failures = Vec::new();
     for name in ["speckle", "assembly"] {
-        let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
-        let scene = load(Path::new(&path));
-        let prep = Prepared::new(&scene).expect("prepared");
-        let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+        let (scene, prep, reference) = shipped_with_reference(name);
         for depth in [DepthSetup::DEFAULT, DepthSetup::D32S8] {
             for algo in Algo::ALL
                 .into_iter()

@@ -8,15 +8,13 @@
 //! CONTRACT §4), and culls where only lower indices tie with it, changing no
 //! pixel.
 
-use std::path::Path;
-
 use peeltrim::output::Images;
 use peeltrim::plan::{self, Algo, Cull, Fragment, Plan, Prepared, Step};
 use peeltrim::reference::compare::{compare, CompareReport};
 use peeltrim::render::{DepthSetup, FrameStats, GpuRenderer};
 use peeltrim::scene::Scene;
 
-use crate::algorithms::{load, load_text, SIZE};
+use crate::algorithms::{load_text, shipped, shipped_with_reference, SIZE};
 
 /// The GPU algorithms whose plans end with the final shade.
 fn shaded() -> impl Iterator<Item = Algo> {
@@ -124,8 +122,7 @@ fn culls_right(scene: &Scene, want_culled: u64) {
 #[test]
 fn the_depth_equal_shade_culls_the_side_never_visible() {
     // A block (positive) minus twelve cylinders (subtracted), no ties.
-    let path = crate::setup::scenes_dir().join("drilled_block.toml");
-    culls_right(&load(Path::new(&path)), 13);
+    culls_right(&shipped("drilled_block"), 13);
 }
 
 #[test]
@@ -237,10 +234,7 @@ fn tied_meshes_cull_where_only_lower_indices_tie_with_them() {
     // have lower indices culls in its rule draws too.
     let mut failures = Vec::new();
     for name in ["speckle", "assembly"] {
-        let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
-        let scene = load(Path::new(&path));
-        let prep = Prepared::new(&scene).expect("prepared");
-        let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+        let (scene, prep, reference) = shipped_with_reference(name);
         for algo in [Algo::Scs, Algo::Goldfeather, Algo::CstI, Algo::Blister] {
             let built = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
             let (culled, stats) = frame(&scene, &built);

@@ -10,7 +10,7 @@ use peeltrim::plan::{self, Algo, Plan, Prepared, Step};
 use peeltrim::reference::compare::compare;
 use peeltrim::scene::Scene;
 
-use crate::algorithms::{load, load_text, SIZE};
+use crate::algorithms::{load_text, shipped, SIZE};
 use crate::visible_side::{frame, interior};
 
 const ALGOS: [Algo; 4] = [Algo::Scs, Algo::Goldfeather, Algo::CstI, Algo::Blister];
@@ -112,8 +112,7 @@ fn contacts_never_visible_are_shaded_depth_equal() {
     // flush with the top of what it cuts, one flush with its sides.
     let mut scenes = vec![("union".to_string(), stacked("Bottom + Top"))];
     for name in ["complex", "coincident"] {
-        let path = crate::setup::scenes_dir().join(format!("{name}.toml"));
-        scenes.push((name.to_string(), load(&path)));
+        scenes.push((name.to_string(), shipped(name)));
     }
     let mut failures = Vec::new();
     for (name, scene) in &scenes {

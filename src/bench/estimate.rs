@@ -284,6 +284,7 @@ mod tests {
 
     use super::*;
     use crate::plan::step::{Draw, Fragment, Scissor};
+    use crate::plan::testing::plan_of;
     use crate::plan::{self, Algo};
     use crate::reference::fixtures::{box_mesh, camera, prim, scene, union_all};
 
@@ -317,17 +318,6 @@ mod tests {
             d.count_samples = count;
         }
         s
-    }
-
-    fn plan_of(steps: Vec<Step>) -> Plan {
-        Plan {
-            algo: "test".into(),
-            depth_stencils: 1,
-            textures: 2,
-            stencil_bits: 1,
-            output_ds: 0,
-            steps,
-        }
     }
 
     #[test]

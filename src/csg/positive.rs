@@ -48,6 +48,25 @@ pub enum PNode {
     Universe,
 }
 
+impl PNode {
+    /// A leaf complemented when `flip` says so of its primitive; any other
+    /// node as it is.
+    fn complemented_if(self, flip: impl FnOnce(u32) -> bool) -> PNode {
+        match self {
+            PNode::Leaf {
+                prim,
+                leaf,
+                negated,
+            } => PNode::Leaf {
+                prim,
+                leaf,
+                negated: negated != flip(prim),
+            },
+            other => other,
+        }
+    }
+}
+
 /// A CSG expression in positive form, stored in an arena.
 ///
 /// Invariant (relied upon by every pass, and kept by every constructor in this
@@ -233,15 +252,7 @@ impl PositiveExpr {
         let mut stack: Vec<(PNodeId, bool)> = vec![(node, false)];
         while let Some((n, expanded)) = stack.pop() {
             let new = match src.nodes[n as usize] {
-                PNode::Leaf {
-                    prim,
-                    leaf,
-                    negated,
-                } => PNode::Leaf {
-                    prim,
-                    leaf,
-                    negated: negated != complement,
-                },
+                leaf @ PNode::Leaf { .. } => leaf.complemented_if(|_| complement),
                 PNode::Union(a, b) | PNode::Inter(a, b) if !expanded => {
                     stack.push((n, true));
                     stack.push((b, false));
@@ -356,18 +367,7 @@ impl PositiveExpr {
         let nodes = self
             .nodes
             .iter()
-            .map(|n| match *n {
-                PNode::Leaf {
-                    prim,
-                    leaf,
-                    negated,
-                } => PNode::Leaf {
-                    prim,
-                    leaf,
-                    negated: negated != flip(prim),
-                },
-                other => other,
-            })
+            .map(|n| n.complemented_if(&flip))
             .collect();
         PositiveExpr {
             nodes,

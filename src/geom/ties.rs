@@ -18,7 +18,7 @@
 //!   as the faces;
 //! - and overlap (their boxes, grown by that distance);
 //! - with their interiors: seen along the normal, no edge of either separates
-//!   them ([`apart_in_plane`]). Faces that only touch along an edge (the flush
+//!   them (`apart_in_plane`). Faces that only touch along an edge (the flush
 //!   sides of two stacked boxes, a box's cap next to another's) cover no pixel
 //!   centre in common but on a sliver along that edge (vertex snapping; faces
 //!   a band apart add a band of lateral offset for an oblique ray), where the
@@ -67,7 +67,7 @@ pub const PARALLEL_ANGLE: f64 = 1.0 / 16.0;
 pub const CAP_FRACTION: f64 = 1.0 / 128.0;
 
 /// Faces whose projections overlap by at most this fraction of the cap across
-/// an edge only touch ([`apart_in_plane`]): f64 rounding of the tessellation
+/// an edge only touch (`apart_in_plane`): f64 rounding of the tessellation
 /// (about 1e-9 of the scene's size).
 pub const TOUCH_FRACTION: f64 = 1e-7;
 

@@ -20,7 +20,7 @@
 //! regularized; features thinner than that tolerance are lost instead.
 #![deny(unsafe_code)]
 
-use super::common::{next, sweep};
+use super::common::{next, peel_loop, sweep};
 use super::stencil::{self, LabelLayout, Next};
 use super::step::*;
 use super::{PlanError, Prepared, SHADE_EPS};
@@ -185,18 +185,8 @@ pub fn plan_with(prep: &Prepared, parity: Parity) -> Result<Plan, PlanError> {
         fragment: Fragment::Background,
         count_samples: false,
     }));
-    tail.push(Step::CopyTexture {
-        src: CUR,
-        dst: PREV,
-    });
-
-    // Each layer of the union of faces is peeled once; the face count bounds them.
-    let max_layers = prep.triangles_in(&all).max(1) as u32 + 1;
-    steps.push(Step::Loop(Loop {
-        head,
-        tail,
-        max_iterations: max_layers,
-    }));
+    // Each layer of the union of faces is peeled once.
+    steps.push(peel_loop(prep, &all, head, tail, CUR, PREV));
     // Coincident faces: the peel kept whichever was nearest by a rounding error;
     // re-shade the locked pixels so the lowest index within tolerance wins.
     if parity == Parity::Tolerant {

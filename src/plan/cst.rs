@@ -150,15 +150,7 @@ fn surface_jobs(prep: &Prepared) -> Vec<Job> {
 
 /// A plan's first steps: *FinalColorDepth* and the colour targets cleared.
 fn init_final() -> Vec<Step> {
-    vec![
-        Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil {
-            ds: FINAL,
-            depth: FAR,
-            stencil: 0,
-        }),
-        Step::Clear(Clear::Color),
-    ]
+    super::common::init_output(FINAL, FAR)
 }
 
 /// Records every job's CST into `steps` (peeling behind `floor` when given, see
@@ -287,29 +279,11 @@ pub(crate) mod tests {
             names.iter().position(|x| x == n).map(|i| i as u32)
         })
         .unwrap();
-        let positive = PositiveExpr::from_expr(&e);
-        let mut solid_meshes = e.leaves();
-        solid_meshes.sort_unstable();
-        solid_meshes.dedup();
         let b = Aabb {
             min: glam::DVec3::splat(-1.0),
             max: glam::DVec3::splat(1.0),
         };
-        Prepared {
-            expr: Some(e),
-            positive,
-            solid_meshes,
-            mesh_triangles: vec![tris; prims as usize],
-            mesh_bounds: vec![b; prims as usize],
-            mesh_convex: vec![false; prims as usize],
-            view_convex: Vec::new(),
-            eye_inside: Vec::new(),
-            near_cut: Vec::new(),
-            surfaces: Vec::new(),
-            hulls: Default::default(),
-            viewpoint: None,
-            screen: Vec::new(),
-        }
+        Prepared::from_parts(e, vec![tris; prims as usize], vec![b; prims as usize])
     }
 
     /// A gear: a disc plus 12 teeth, minus an axle hole.

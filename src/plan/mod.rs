@@ -25,6 +25,8 @@ pub mod screen;
 pub mod scs;
 pub mod stencil;
 pub mod step;
+#[cfg(test)]
+pub(crate) mod testing;
 pub mod tie;
 pub mod tie_context;
 pub mod tie_free;
@@ -231,21 +233,13 @@ impl Prepared {
         }
         let mut p = match expr {
             Some(expr) => Self::from_parts(expr, mesh_triangles, mesh_bounds),
-            None => Prepared {
-                expr: None,
-                positive: PositiveExpr::universe(),
-                solid_meshes: Vec::new(),
+            None => Self::bare(
+                None,
+                PositiveExpr::universe(),
+                Vec::new(),
                 mesh_triangles,
                 mesh_bounds,
-                mesh_convex: Vec::new(),
-                view_convex: Vec::new(),
-                eye_inside: Vec::new(),
-                near_cut: Vec::new(),
-                surfaces: Vec::new(),
-                hulls: Default::default(),
-                viewpoint: None,
-                screen: Vec::new(),
-            },
+            ),
         };
         p.mesh_convex = mesh_convex;
         p.view_convex = view_convex_meshes(scene, &p.mesh_convex);
@@ -335,14 +329,31 @@ impl Prepared {
         let mut solid_meshes: Vec<MeshId> = expr.leaves();
         solid_meshes.sort_unstable();
         solid_meshes.dedup();
-        let mesh_convex = vec![false; mesh_triangles.len()];
-        Prepared {
-            expr: Some(expr),
+        Self::bare(
+            Some(expr),
             positive,
             solid_meshes,
             mesh_triangles,
             mesh_bounds,
-            mesh_convex,
+        )
+    }
+
+    /// The solid's parts and per-mesh triangle counts and bounds, nothing
+    /// else known: no mesh convex, no view, no surface.
+    fn bare(
+        expr: Option<Expr>,
+        positive: PositiveExpr,
+        solid_meshes: Vec<MeshId>,
+        mesh_triangles: Vec<usize>,
+        mesh_bounds: Vec<Aabb>,
+    ) -> Self {
+        Prepared {
+            expr,
+            positive,
+            solid_meshes,
+            mesh_convex: vec![false; mesh_triangles.len()],
+            mesh_triangles,
+            mesh_bounds,
             view_convex: Vec::new(),
             eye_inside: Vec::new(),
             near_cut: Vec::new(),

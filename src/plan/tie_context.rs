@@ -232,28 +232,22 @@ fn join(a: Faces, b: Faces) -> Faces {
 
 #[cfg(test)]
 mod tests {
+    use super::super::testing::mesh_draw;
     use super::*;
 
     const EPS: f32 = 1e-6;
 
+    /// Mesh `mesh`'s draw of `fragment`, depth-tested `Less` and written
+    /// when `write`.
     fn draw(mesh: MeshId, fragment: Fragment, write: bool) -> Step {
-        Step::Draw(Draw {
-            geometry: Geometry::Mesh(mesh),
-            scissor: Scissor::BoundsOf(vec![mesh]),
-            cull: Cull::None,
-            ds: 0,
-            depth: DepthState {
-                compare: if write {
-                    CompareOp::Less
-                } else {
-                    CompareOp::Always
-                },
+        let mut d = mesh_draw(mesh, fragment);
+        if write {
+            d.depth = DepthState {
+                compare: CompareOp::Less,
                 write,
-            },
-            stencil: None,
-            fragment,
-            count_samples: false,
-        })
+            };
+        }
+        Step::Draw(d)
     }
 
     /// Mesh `m`'s front faces into texture 0 and depth-stencil 0.

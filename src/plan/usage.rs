@@ -102,6 +102,23 @@ pub fn sampled_texture(f: &Fragment) -> Option<Tex> {
     }
 }
 
+impl Draw {
+    /// The resources this draw touches and how ([`Step::usage`] of a draw).
+    pub fn usage(&self) -> Uses<(Resource, Usage)> {
+        draw_usage(self)
+    }
+}
+
+/// `uses` with the normal buffer as a colour target after the colour target,
+/// when the normal buffer is on (the executor's programs write it there
+/// wherever they write colour, seed 001 §5.2).
+pub fn with_normals(mut uses: Uses<(Resource, Usage)>, normals: bool) -> Uses<(Resource, Usage)> {
+    if normals && uses.contains(&(Resource::Color, Usage::ColorTarget)) {
+        uses.push((Resource::Normal, Usage::ColorTarget));
+    }
+    uses
+}
+
 fn draw_usage(d: &Draw) -> Uses<(Resource, Usage)> {
     let mut u = Uses::default();
     for r in color_targets(&d.fragment) {

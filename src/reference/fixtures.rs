@@ -101,6 +101,18 @@ pub fn sphere_mesh(center: DVec3, radius: f64, segments: u32, rings: u32) -> Mes
     }
 }
 
+/// One mesh of the triangles of `a` and `b` (a non-convex mesh of two boxes).
+pub fn joined(mut a: Mesh, b: Mesh) -> Mesh {
+    let off = a.positions.len() as u32;
+    a.positions.extend(b.positions);
+    let shifted = b
+        .triangles
+        .iter()
+        .map(|t| [t[0] + off, t[1] + off, t[2] + off]);
+    a.triangles.extend(shifted);
+    a
+}
+
 /// A primitive from a mesh (shape and transform are placeholders).
 pub fn prim(name: &str, mesh: Mesh, color: [u8; 3]) -> Primitive {
     Primitive {

@@ -234,16 +234,7 @@ impl Composite {
         let frag = shader_module(shared, if srgb { FRAG_SRGB } else { FRAG });
         let device = &shared.device;
         let made = frag.and_then(|frag| {
-            let stages = [
-                vk::PipelineShaderStageCreateInfo::default()
-                    .stage(vk::ShaderStageFlags::VERTEX)
-                    .module(vert)
-                    .name(c"main"),
-                vk::PipelineShaderStageCreateInfo::default()
-                    .stage(vk::ShaderStageFlags::FRAGMENT)
-                    .module(frag)
-                    .name(c"main"),
-            ];
+            let stages = super::stages::vert_frag(vert, frag);
             let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
                 .depth_test_enable(true)
                 .depth_write_enable(true);

@@ -33,6 +33,7 @@ pub mod readback;
 pub mod rounding;
 pub mod scissor;
 pub mod shadow;
+mod stages;
 pub(crate) mod submit;
 pub mod sync;
 

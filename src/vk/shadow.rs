@@ -209,16 +209,7 @@ impl ShadowPass {
         let vert = shader_module(&self.shared, VERT)?;
         let device = &self.shared.device;
         let made = shader_module(&self.shared, FRAG).and_then(|frag| {
-            let stages = [
-                (vk::ShaderStageFlags::VERTEX, vert),
-                (vk::ShaderStageFlags::FRAGMENT, frag),
-            ]
-            .map(|(stage, module)| {
-                vk::PipelineShaderStageCreateInfo::default()
-                    .stage(stage)
-                    .module(module)
-                    .name(c"main")
-            });
+            let stages = super::stages::vert_frag(vert, frag);
             let made = graphics_pipeline(
                 device,
                 &Graphics {

@@ -157,35 +157,10 @@ pub fn coverage_plan() -> Plan {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::csg::{parse, PositiveExpr};
     use crate::plan::cst::{tie_draws, Peeled, Relation};
-    use crate::scene::Aabb;
 
     fn prepared(expr: &str, prims: u32) -> Prepared {
-        let names: Vec<String> = (0..prims).map(|i| format!("P{i}")).collect();
-        let e = parse(expr, &mut |n: &str| {
-            names.iter().position(|x| x == n).map(|i| i as u32)
-        })
-        .unwrap();
-        let b = Aabb {
-            min: glam::DVec3::splat(-1.0),
-            max: glam::DVec3::splat(1.0),
-        };
-        Prepared {
-            positive: PositiveExpr::from_expr(&e),
-            expr: Some(e),
-            solid_meshes: (0..prims).collect(),
-            mesh_triangles: vec![12; prims as usize],
-            mesh_bounds: vec![b; prims as usize],
-            mesh_convex: vec![false; prims as usize],
-            view_convex: Vec::new(),
-            eye_inside: Vec::new(),
-            near_cut: Vec::new(),
-            surfaces: Vec::new(),
-            hulls: Default::default(),
-            viewpoint: None,
-            screen: Vec::new(),
-        }
+        crate::plan::cst::tests::prepared(expr, prims, 12)
     }
 
     fn peels(plan: &Plan) -> Vec<(Cull, Fragment)> {

@@ -42,23 +42,19 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             if meshes.is_empty() {
                 continue;
             }
-            draws.push(Step::Draw(Draw {
-                geometry: Geometry::Meshes(meshes.clone()),
-                scissor: Scissor::BoundsOf(meshes),
+            let peel = Fragment::Peel {
+                prev: PREV,
+                out: CUR,
+                shade: false,
+            };
+            let geometry = Geometry::Meshes(meshes.clone());
+            draws.push(into_surface(
+                geometry,
+                Scissor::BoundsOf(meshes),
                 cull,
-                ds: SURFACE,
-                depth: DepthState {
-                    compare: CompareOp::Less,
-                    write: true,
-                },
-                stencil: None,
-                fragment: Fragment::Peel {
-                    prev: PREV,
-                    out: CUR,
-                    shade: false,
-                },
-                count_samples: true,
-            }));
+                peel,
+                true,
+            ));
         }
         let head = peel_head(draws);
         let mut tail = vec![Step::CopyTexture {
@@ -67,17 +63,9 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         }];
         tail.extend(clip_steps(p, &all, opts.eps, &prep.eye_inside));
         tail.extend(merge_steps(&all));
-        tail.push(Step::CopyTexture {
-            src: CUR,
-            dst: PREV,
-        });
-        // Each layer holds at least one face per pixel it reaches.
-        let max_iterations = prep.triangles_in(&all).max(1) as u32 + 1;
-        steps.push(Step::Loop(Loop {
-            head,
-            tail,
-            max_iterations,
-        }));
+        steps.push(super::super::common::peel_loop(
+            prep, &all, head, tail, CUR, PREV,
+        ));
     }
     steps.extend(direct);
     steps.extend(shade_steps(prep, SURF, &VisibleSides::entries(prep)));

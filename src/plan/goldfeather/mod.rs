@@ -289,16 +289,10 @@ pub(crate) fn direct_last(
     (rest, direct)
 }
 
+/// The first steps: the output depth-stencil image and the colour targets
+/// cleared.
 pub(crate) fn init_steps() -> Vec<Step> {
-    vec![
-        Step::Pass("init".into()),
-        Step::Clear(Clear::DepthStencil {
-            ds: OUTPUT,
-            depth: FAR,
-            stencil: 0,
-        }),
-        Step::Clear(Clear::Color),
-    ]
+    super::common::init_output(OUTPUT, FAR)
 }
 
 /// The head of a layer-peeling loop: fresh surface image, the current layer
@@ -336,9 +330,28 @@ pub(crate) fn surface_draw_culled(
     fragment: Fragment,
     count_samples: bool,
 ) -> Step {
+    let one = Geometry::Mesh(a.prim);
+    into_surface(
+        one,
+        Scissor::BoundsOf(vec![a.prim]),
+        cull,
+        fragment,
+        count_samples,
+    )
+}
+
+/// A draw of `geometry` in `scissor`, the faces `cull` keeps, into the
+/// surface image, nearest wins.
+pub(crate) fn into_surface(
+    geometry: Geometry,
+    scissor: Scissor,
+    cull: Cull,
+    fragment: Fragment,
+    count_samples: bool,
+) -> Step {
     Step::Draw(Draw {
-        geometry: Geometry::Mesh(a.prim),
-        scissor: Scissor::BoundsOf(vec![a.prim]),
+        geometry,
+        scissor,
         cull,
         ds: SURFACE,
         depth: DepthState {
@@ -425,7 +438,7 @@ pub(crate) fn clip_steps_in(
         for (k, &b) in chunk.iter().enumerate() {
             let bit = 1u8 << k;
             mask |= bit;
-            if !b.negated != eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
+            if b.negated == eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
                 inside |= bit;
             }
             steps.push(clip_parity_draw(
@@ -603,16 +616,9 @@ pub(crate) mod tests {
         assert!(is_convex(&b));
         assert!(is_convex(&fixtures::sphere_mesh(DVec3::ZERO, 1.0, 16, 8)));
         // An L-shaped union of two boxes glued into one mesh is not.
-        let mut l = fixtures::box_mesh(DVec3::ZERO, DVec3::ONE);
+        let l = fixtures::box_mesh(DVec3::ZERO, DVec3::ONE);
         let other = fixtures::box_mesh(DVec3::new(1.0, 0.0, 0.0), DVec3::new(2.0, 3.0, 1.0));
-        let off = l.positions.len() as u32;
-        l.positions.extend(other.positions);
-        l.triangles.extend(
-            other
-                .triangles
-                .iter()
-                .map(|t| [t[0] + off, t[1] + off, t[2] + off]),
-        );
+        let l = fixtures::joined(l, other);
         assert!(!is_convex(&l));
     }
 
@@ -723,16 +729,9 @@ pub(crate) mod tests {
     #[test]
     fn non_convex_literal_is_peeled_in_a_loop() {
         let mut scene = block_minus_spheres(2);
-        let mut l = fixtures::box_mesh(DVec3::new(-3.0, -1.0, -1.0), DVec3::new(-1.0, 1.0, 1.0));
+        let l = fixtures::box_mesh(DVec3::new(-3.0, -1.0, -1.0), DVec3::new(-1.0, 1.0, 1.0));
         let other = fixtures::box_mesh(DVec3::new(-1.0, -1.0, -1.0), DVec3::new(0.0, 2.0, 1.0));
-        let off = l.positions.len() as u32;
-        l.positions.extend(other.positions);
-        l.triangles.extend(
-            other
-                .triangles
-                .iter()
-                .map(|t| [t[0] + off, t[1] + off, t[2] + off]),
-        );
+        let l = fixtures::joined(l, other);
         scene.primitives[0].mesh = l;
         let prep = Prepared::new(&scene).unwrap();
         assert!(!prep.mesh_convex[0]);

@@ -29,17 +29,19 @@ use super::targets::{self, Targets};
 use super::ExecDesc;
 use ahead::Ahead;
 use clears::PendingClear;
+use lower::RecordedDraw;
 
 mod ahead;
 mod clears;
 mod host;
+mod lower;
 mod push;
 mod shade;
 use crate::plan::direct_shade::DirectShades;
 use crate::plan::reach::ClearNeed;
 use crate::plan::tie_free::{ShadeCopy, TieFree};
 use crate::plan::usage::{self, Resource, Usage, Uses};
-use crate::plan::{Cull, Draw, Fragment, Geometry, Scissor, Step};
+use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{
@@ -677,7 +679,7 @@ impl<'a> Recorder<'a> {
                 };
             }
             Step::CopyDepthToTexture { ds, dst } => self.copy_depth(step, *ds, *dst)?,
-            Step::Draw(draw) => self.draw(draw, step)?,
+            Step::Draw(draw) => self.draw(draw)?,
             Step::Loop(_) => {
                 panic!("loops are unrolled by the executor (plan::validate forbids nesting)")
             }
@@ -981,83 +983,35 @@ impl<'a> Recorder<'a> {
         self.b.mesh_rects.scissor(s, w, h)
     }
 
-    fn draw(&mut self, draw: &Draw, step: &Step) -> Result<(), VkError> {
-        // A depth texture written for nobody (`plan::reach`): the draw
-        // tests and writes depth and stencil only.
-        let depth_only = self.dead_texture_write(draw).map(|fragment| {
-            Step::Draw(Draw {
-                fragment,
-                ..draw.clone()
-            })
-        });
-        let (draw, step) = match &depth_only {
-            Some(s @ Step::Draw(d)) => (d, s),
-            _ => (draw, step),
-        };
+    fn draw(&mut self, draw: &Draw) -> Result<(), VkError> {
+        // One lowering, shared with the look-ahead (`record/lower.rs`).
+        let dead = self.dead_texture_write(draw);
         let scissor = self.scissor(&draw.scissor);
-        if scissor.is_empty() {
-            // Nothing on screen: no pixel could change and no sample could pass.
-            self.stats.counts.skipped_steps += 1;
-            return Ok(());
-        }
-        // A one-primitive product shaded in its direct draw (`shade.rs`).
-        if self.direct.drops(draw) {
-            return Ok(());
-        }
-        if let Some(s @ Step::Draw(d)) = &self.direct.shaded(draw).map(Step::Draw) {
-            self.stats.counts.direct_shade_draws += 1;
-            return self.draw_in(d, s, scissor);
-        }
-        // A final shade with the tie rule only in its tie zones (`shade.rs`).
-        if let Some(zones) = self.b.ties.shade_zones(draw) {
-            return self.zoned_shade(draw, step, scissor, zones);
-        }
-        // Plain depth tests where the tie rule cannot change the result; a
-        // shade's rule draw culling what can never win (`plan::visible_side`).
-        let fast = self.b.ties.fixed_function(draw).map(Step::Draw);
-        let culled = self.b.ties.culled_rule(draw).map(Step::Draw);
-        let shade = matches!(draw.fragment, Fragment::ShadeNearDepth { .. });
-        let counts = &mut self.stats.counts;
-        let (draw, step) = match &fast {
-            Some(s @ Step::Draw(d)) => {
-                counts.shade_culled_draws += (shade && d.cull != Cull::None) as u64;
-                *if shade {
-                    &mut counts.shade_fixed_draws
-                } else {
-                    &mut counts.tie_free_draws
-                } += 1;
-                (d, s)
+        match lower::lower(draw, dead, scissor, self.b.ties, &self.direct) {
+            RecordedDraw::OffScreen => {
+                self.stats.counts.skipped_steps += 1;
+                Ok(())
             }
-            _ => {
-                if shade {
-                    counts.shade_rule_draws += 1;
-                    counts.shade_rule_pixels += scissor.area();
-                    if let Some(s @ Step::Draw(d)) = &culled {
-                        counts.shade_culled_draws += 1;
-                        return self.draw_in(d, s, scissor);
-                    }
-                } else if matches!(
-                    draw.fragment,
-                    Fragment::NearerThan { .. }
-                        | Fragment::ParityBeforeExit { .. }
-                        | Fragment::BehindThan { .. }
-                        | Fragment::MergeBehind { .. }
-                        | Fragment::PeelTolerant { .. }
-                ) {
-                    counts.tie_rule_draws += 1;
-                }
-                (draw, step)
+            RecordedDraw::Dropped => Ok(()),
+            RecordedDraw::One(d, how) => {
+                how.count(&d, scissor, &mut self.stats.counts);
+                self.draw_in(&d, scissor)
             }
-        };
-        self.draw_in(draw, step, scissor)
+            RecordedDraw::Zoned {
+                rule,
+                culled,
+                fixed,
+                zones,
+            } => self.zoned_shade(&rule, culled, &fixed, scissor, zones),
+        }
     }
 
-    /// Records `draw` (its step `step`) cut to `scissor`, not empty.
-    fn draw_in(&mut self, draw: &Draw, step: &Step, scissor: Rect) -> Result<(), VkError> {
+    /// Records `draw` cut to `scissor`, not empty.
+    fn draw_in(&mut self, draw: &Draw, scissor: Rect) -> Result<(), VkError> {
         let kind = fragment_kind(&draw.fragment);
         let set = usage::sampled_texture(&draw.fragment)
             .map(|t| self.b.targets.sampling_set(Resource::Texture(t)));
-        let mut uses = self.draw_uses(step);
+        let mut uses = self.draw_uses(draw);
         let own = BlockKey::of_draw(&uses, draw.ds);
         let key = self.block_for(own, kind.writes_color(), scissor, &uses);
         if key != own {

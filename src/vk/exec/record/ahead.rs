@@ -15,10 +15,9 @@
 //! the final shade's depth-equal draws (one render pass where there were two).
 //! The decision over the steps' summaries ([`Ahead`]) is pure ([`widened`]).
 
-use super::{BlockJoin, BlockKey, Recorder};
-use crate::plan::reach;
-use crate::plan::usage::{Resource, Usage, Uses};
-use crate::plan::{Draw, Fragment, Step};
+use super::{lower, BlockJoin, BlockKey, Recorder};
+use crate::plan::usage::{self, Resource, Usage, Uses};
+use crate::plan::{Draw, Step};
 use crate::vk::scissor::Rect;
 use crate::vk::sync;
 
@@ -106,7 +105,8 @@ impl Recorder<'_> {
     /// nothing). Without this, no block widens.
     pub fn plan_blocks(&mut self, steps: &[&Step]) {
         let full = Rect::full(self.b.desc.width, self.b.desc.height);
-        let (mut copies, mut depth_copies, mut writes) = (0, 0, 0);
+        let (mut copies, mut depth_copies) = (0, 0);
+        let mut writes = self.texture_writes.iter();
         let mut ahead = Vec::with_capacity(steps.len());
         for s in steps {
             let a = match s {
@@ -132,22 +132,9 @@ impl Recorder<'_> {
                     }
                 }
                 Step::Draw(d) => {
-                    // As `Recorder::draw` takes `dead_texture_write`'s
-                    // answers: one per draw that writes a texture, in order.
-                    let dead = reach::written_texture(d).is_some() && {
-                        writes += 1;
-                        self.texture_writes.get(writes - 1) == Some(&false)
-                    };
-                    match dead {
-                        true => {
-                            let d = Draw {
-                                fragment: Fragment::None,
-                                ..d.clone()
-                            };
-                            self.ahead_draw(&d, &Step::Draw(d.clone()))
-                        }
-                        false => self.ahead_draw(d, s),
-                    }
+                    // As `Recorder::draw` takes `dead_texture_write`'s answers.
+                    let dead = lower::dead_write(d, || writes.next().copied());
+                    self.ahead_draw(d, dead)
                 }
             };
             ahead.push(a);
@@ -156,27 +143,16 @@ impl Recorder<'_> {
         self.next = 0;
     }
 
-    /// A draw as `draw` will record it (`Recorder::draw`; a dead texture
-    /// write is already depth-only here, `plan_blocks`): off screen or
-    /// replaced by a direct product's shading draw (`plan::direct_shade`),
-    /// that shading draw, or lowered to a plain depth test where
-    /// `plan::tie_free` says so. A shade cut into tie zones keeps its rule
-    /// draw's usages (it samples the copy).
-    fn ahead_draw(&self, draw: &Draw, step: &Step) -> Ahead {
+    /// A draw as `Recorder::draw` will record it: the same lowering
+    /// (`record/lower.rs`), summarized by the block its first recorded draw
+    /// asks for.
+    fn ahead_draw(&self, draw: &Draw, dead_write: bool) -> Ahead {
         let scissor = self.scissor(&draw.scissor);
-        if scissor.is_empty() || self.direct.drops(draw) {
+        let lowered = lower::lower(draw, dead_write, scissor, self.b.ties, &self.direct);
+        let Some(d) = lowered.block_draw() else {
             return Ahead::Nothing;
-        }
-        let fast = match (self.direct.shaded(draw), self.b.ties.shade_zones(draw)) {
-            (Some(d), _) => Some(Step::Draw(d)),
-            (None, Some(_)) => None,
-            (None, None) => self.b.ties.fixed_function(draw).map(Step::Draw),
         };
-        let (d, s) = match &fast {
-            Some(s @ Step::Draw(d)) => (d, s),
-            _ => (draw, step),
-        };
-        let uses = self.draw_uses(s);
+        let uses = self.draw_uses(d);
         Ahead::Draw {
             key: BlockKey::of_draw(&uses, d.ds),
             scissor,
@@ -251,15 +227,11 @@ impl Recorder<'_> {
         }
     }
 
-    /// A step's usages as the recorder records them: the normal buffer goes
+    /// A draw's usages as the recorder records them: the normal buffer goes
     /// with the colour, as the last attachment (the programs' `NORMALS`
     /// variants write it there).
-    pub(super) fn draw_uses(&self, step: &Step) -> Uses<(Resource, Usage)> {
-        let mut uses = step.usage();
-        if self.b.normals && uses.contains(&(Resource::Color, Usage::ColorTarget)) {
-            uses.push((Resource::Normal, Usage::ColorTarget));
-        }
-        uses
+    pub(super) fn draw_uses(&self, draw: &Draw) -> Uses<(Resource, Usage)> {
+        usage::with_normals(draw.usage(), self.b.normals)
     }
 }
 

@@ -25,10 +25,10 @@ use std::collections::VecDeque;
 
 use ash::vk;
 
-use super::{BlockKey, ClearMode, Recorder};
+use super::{lower, BlockKey, ClearMode, Recorder};
 use crate::plan::reach::{self, cleared, ClearNeed, FrameReach};
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::{Clear, Draw, Fragment};
+use crate::plan::{Clear, Draw};
 use crate::vk::conv;
 use crate::vk::image::range;
 use crate::vk::scissor::Rect;
@@ -58,17 +58,13 @@ impl Recorder<'_> {
         self.texture_writes = VecDeque::from(reach.texture_writes.clone());
     }
 
-    /// [`Fragment::None`] for a draw whose texture write nobody reads
-    /// (`plan::reach`; unknown without planned regions: kept), counted.
-    pub(super) fn dead_texture_write(&mut self, draw: &Draw) -> Option<Fragment> {
-        reach::written_texture(draw)?;
-        match self.texture_writes.pop_front() {
-            Some(false) => {
-                self.stats.counts.dead_texture_writes += 1;
-                Some(Fragment::None)
-            }
-            _ => None,
-        }
+    /// Whether `draw`'s texture write is read by nobody (`plan::reach`;
+    /// unknown without planned regions: kept), counted; the draw then tests
+    /// and writes depth and stencil only (`record/lower.rs`).
+    pub(super) fn dead_texture_write(&mut self, draw: &Draw) -> bool {
+        let dead = lower::dead_write(draw, || self.texture_writes.pop_front());
+        self.stats.counts.dead_texture_writes += dead as u64;
+        dead
     }
 
     /// The outputs of the plan recorded next (`output_ds`: its output depth).

@@ -13,13 +13,14 @@
 
 use std::collections::VecDeque;
 
+use super::lower::Lowering;
 use super::{BlockKey, Recorder};
 use crate::plan::direct_shade::DirectShades;
 use crate::plan::reach::READ_MARGIN;
-use crate::plan::tie_free::{ShadeCopy, TieFree};
+use crate::plan::tie_free::ShadeCopy;
 use crate::plan::tie_zones::{self, MAX_RULE_RECTS};
 use crate::plan::usage::Resource;
-use crate::plan::{Cull, Draw, Ds, Step, Tex};
+use crate::plan::{Draw, Ds, Step, Tex};
 use crate::vk::error::VkError;
 use crate::vk::pipeline::FragmentKind;
 use crate::vk::scissor::Rect;
@@ -102,42 +103,30 @@ impl Recorder<'_> {
     }
 
     /// A final shade's draw of a mesh that can tie only in `zones` (screen
-    /// rectangles, disjoint): the tie rule cut to each of them within
-    /// `scissor`, the depth-equal draw cut to each rectangle of the rest of
-    /// `scissor` (`plan::tie_zones`: no pixel gets both).
+    /// rectangles, disjoint): the tie rule `rule` (culling what never wins
+    /// when `culled`, `plan::visible_side`) cut to each of them within
+    /// `scissor`, the depth-equal draw `fixed` cut to each rectangle of the
+    /// rest of `scissor` (`plan::tie_zones`: no pixel gets both).
     pub(super) fn zoned_shade(
         &mut self,
-        draw: &Draw,
-        step: &Step,
+        rule: &Draw,
+        culled: bool,
+        fixed: &Draw,
         scissor: Rect,
         zones: &[Rect],
     ) -> Result<(), VkError> {
-        let rule: Vec<Rect> = zones
+        let rects: Vec<Rect> = zones
             .iter()
             .map(|z| z.intersect(&scissor))
             .filter(|r| !r.is_empty())
             .collect();
-        // The rule pieces culling what can never win (`plan::visible_side`).
-        let culled = self.b.ties.culled_rule(draw).map(Step::Draw);
-        let (rule_draw, rule_step) = match &culled {
-            Some(s @ Step::Draw(d)) => (d, s),
-            _ => (draw, step),
-        };
-        for &r in &rule {
-            self.stats.counts.shade_rule_draws += 1;
-            self.stats.counts.shade_rule_pixels += r.area();
-            self.stats.counts.shade_culled_draws += culled.is_some() as u64;
-            self.draw_in(rule_draw, rule_step, r)?;
+        for &r in &rects {
+            Lowering::ShadeRule { culled }.count(rule, r, &mut self.stats.counts);
+            self.draw_in(rule, r)?;
         }
-        let fixed = TieFree::depth_equal(draw).expect("a zoned draw is a final shade's");
-        let fixed = Step::Draw(fixed);
-        let Step::Draw(d) = &fixed else {
-            unreachable!("made a draw above")
-        };
-        for r in tie_zones::subtract(scissor, &rule) {
-            self.stats.counts.shade_fixed_draws += 1;
-            self.stats.counts.shade_culled_draws += (d.cull != Cull::None) as u64;
-            self.draw_in(d, &fixed, r)?;
+        for r in tie_zones::subtract(scissor, &rects) {
+            Lowering::FixedFunction { shade: true }.count(fixed, r, &mut self.stats.counts);
+            self.draw_in(fixed, r)?;
         }
         Ok(())
     }

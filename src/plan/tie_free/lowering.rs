@@ -1,0 +1,373 @@
+//! The tie-free lowering of one draw ([module doc](super), issue 9 §5): a
+//! tolerant parity, clip, merge or peel draw, or a final shade's draw, with
+//! plain fixed-function tests in place of the tie rule where the decisions
+//! say the rule cannot change its result; a final shade's draw as OpenCSG's
+//! depth-`EQUAL` shading, cut to the rule's zones, or culling what never wins.
+
+use super::super::rect::Rect;
+use super::super::step::*;
+use super::{ShadeRule, TieFree};
+
+impl TieFree {
+    /// A final shade's draw that keeps the tie rule, culling the faces of its
+    /// mesh that are never visible where it can never be the lowest index of
+    /// a tie on them (`visible_side::rule_may_cull`); `None` where it culls
+    /// nothing more than `draw`.
+    pub fn culled_rule(&self, draw: &Draw) -> Option<Draw> {
+        let (
+            Fragment::ShadeNearDepth {
+                eps, equal_cull, ..
+            },
+            Geometry::Mesh(m),
+        ) = (&draw.fragment, &draw.geometry)
+        else {
+            return None;
+        };
+        let key = eps.abs().to_bits();
+        let may = self
+            .rule_cull
+            .iter()
+            .find(|(k, _)| *k == key)
+            .and_then(|(_, v)| v.get(*m as usize).copied())
+            .unwrap_or(false);
+        (may && is_final_shade(draw) && *equal_cull != draw.cull).then(|| Draw {
+            cull: *equal_cull,
+            ..draw.clone()
+        })
+    }
+
+    /// The screen rectangles to which a final shade's draw keeps the tie rule,
+    /// when that is not its whole rectangle: the draw runs the rule there and
+    /// [`TieFree::depth_equal`] elsewhere ([`ShadeRule::Zones`]). `None` for
+    /// every other draw.
+    pub fn shade_zones(&self, draw: &Draw) -> Option<&[Rect]> {
+        let (Fragment::ShadeNearDepth { eps, .. }, Geometry::Mesh(m)) =
+            (&draw.fragment, &draw.geometry)
+        else {
+            return None;
+        };
+        if !is_final_shade(draw) {
+            return None;
+        }
+        match self.shade_rules(*eps).get(*m as usize) {
+            Some(ShadeRule::Zones(r)) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// A final shade's draw as OpenCSG's depth-`EQUAL` shading ([module
+    /// doc](self)), whatever the decisions: `None` for other draws. It culls
+    /// the faces that are never visible (`equal_cull`,
+    /// [`super::VisibleSides`]): it passes only at its own faces' raster
+    /// depth, so a culled face could pass only where it crosses the visible
+    /// one, and it is drawn only where it cannot tie with it.
+    pub fn depth_equal(draw: &Draw) -> Option<Draw> {
+        let Fragment::ShadeNearDepth { equal_cull, .. } = draw.fragment else {
+            return None;
+        };
+        is_final_shade(draw).then(|| Draw {
+            cull: equal_cull,
+            depth: DepthState {
+                compare: CompareOp::Equal,
+                write: false,
+            },
+            fragment: Fragment::Shade,
+            ..draw.clone()
+        })
+    }
+
+    /// The draw with plain tests in place of the tie rule, when the rule cannot
+    /// change its result ([module doc](self)); `None` otherwise.
+    pub fn fixed_function(&self, draw: &Draw) -> Option<Draw> {
+        let meshes: &[MeshId] = match &draw.geometry {
+            Geometry::Mesh(m) => std::slice::from_ref(m),
+            Geometry::Meshes(ms) => ms,
+            Geometry::FullScreen { .. } | Geometry::Footprint { .. } => return None,
+        };
+        match draw.fragment {
+            Fragment::NearerThan { eps, .. } | Fragment::ParityBeforeExit { eps, .. } => {
+                let compare = if eps < 0.0 {
+                    CompareOp::Less
+                } else {
+                    CompareOp::LessOrEqual
+                };
+                // The exit's `Greater` test stands for the back faces' half of
+                // the parity (`Fragment::ParityBeforeExit`).
+                let cull = match draw.fragment {
+                    Fragment::ParityBeforeExit { .. } => Cull::Back,
+                    _ => draw.cull,
+                };
+                self.plain_test(draw, meshes, eps, compare)
+                    .map(|d| Draw { cull, ..d })
+            }
+            // NearerThan's complement: the opposite plain compare.
+            Fragment::BehindThan { eps, .. } => {
+                let compare = if eps < 0.0 {
+                    CompareOp::GreaterOrEqual
+                } else {
+                    CompareOp::Greater
+                };
+                self.plain_test(draw, meshes, eps, compare)
+            }
+            // The merge writes the texture's depth, so it keeps its program,
+            // with the exact compare (one fetch, no derivatives).
+            Fragment::MergeBehind { tex, eps }
+                if eps != 0.0 && self.draw_free(draw, meshes, eps) =>
+            {
+                Some(Draw {
+                    fragment: Fragment::MergeBehind { tex, eps: 0.0 },
+                    ..draw.clone()
+                })
+            }
+            Fragment::PeelTolerant { prev, out, eps } if self.draw_free(draw, meshes, eps) => {
+                Some(Draw {
+                    fragment: Fragment::Peel {
+                        prev,
+                        out,
+                        shade: false,
+                    },
+                    ..draw.clone()
+                })
+            }
+            Fragment::ShadeNearDepth { eps, .. } if self.shade_free(meshes, eps) => {
+                Self::depth_equal(draw)
+            }
+            _ => None,
+        }
+    }
+
+    /// `step` as the executor records it, for what it reads
+    /// (`plan::reach`): a draw [`TieFree::fixed_function`] rewrites, rewritten;
+    /// the final shades' draws as planned (what their depth copy must cover
+    /// is [`TieFree::shade_copies`]' to decide); any other step as it is.
+    pub fn lowered(&self, step: &Step) -> Step {
+        match step {
+            Step::Draw(d) if !matches!(d.fragment, Fragment::ShadeNearDepth { .. }) => self
+                .fixed_function(d)
+                .map_or_else(|| step.clone(), Step::Draw),
+            _ => step.clone(),
+        }
+    }
+
+    /// A tolerant parity-like `draw` of `meshes` as a depth-stencil draw with
+    /// no program, tested `compare` against its image, when its meshes are
+    /// tie-free at `eps` and it has no depth test of its own (the shader's
+    /// compare can replace only that).
+    fn plain_test(
+        &self,
+        draw: &Draw,
+        meshes: &[MeshId],
+        eps: f32,
+        compare: CompareOp,
+    ) -> Option<Draw> {
+        let off = DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        };
+        if draw.depth != off || !self.draw_free(draw, meshes, eps) {
+            return None;
+        }
+        Some(Draw {
+            depth: DepthState {
+                compare,
+                write: false,
+            },
+            fragment: Fragment::None,
+            ..draw.clone()
+        })
+    }
+}
+
+/// Whether `draw` is a final shade's draw as `plan::tie::shade_near_depth`
+/// makes it: the tie test in the shader, its depth written.
+fn is_final_shade(draw: &Draw) -> bool {
+    let shade = DepthState {
+        compare: CompareOp::Always,
+        write: true,
+    };
+    matches!(draw.fragment, Fragment::ShadeNearDepth { .. }) && draw.depth == shade
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::super::testing::{
+        band, half_free, parity, plan_of, shaded, the_draw as draw, whole,
+    };
+    use super::super::super::SHADE_EPS;
+    use super::*;
+    use crate::geom::ties::TieGaps;
+
+    #[test]
+    fn tie_free_parity_draws_become_plain_depth_tests() {
+        let steps = vec![
+            parity(0, SHADE_EPS),
+            parity(0, -SHADE_EPS),
+            parity(1, SHADE_EPS),
+        ];
+        let free = half_free(&plan_of(steps.clone()));
+        let fast: Vec<Option<Draw>> = steps
+            .into_iter()
+            .map(|s| free.fixed_function(&draw(s)))
+            .collect();
+        let compare = |d: &Option<Draw>| {
+            let d = d.as_ref().expect("rewritten");
+            assert_eq!(d.fragment, Fragment::None);
+            assert!(!d.depth.write);
+            d.depth.compare
+        };
+        assert_eq!(compare(&fast[0]), CompareOp::LessOrEqual);
+        assert_eq!(compare(&fast[1]), CompareOp::Less);
+        // The possibly tied mesh keeps the tie rule.
+        assert_eq!(fast[2], None);
+        assert!(fast.iter().flatten().all(|d| d.cull == Cull::None));
+    }
+
+    #[test]
+    fn a_tie_free_parity_before_an_exit_draws_front_faces_only() {
+        let before_exit = |mesh| {
+            let mut d = draw(parity(mesh, SHADE_EPS));
+            d.fragment = Fragment::ParityBeforeExit {
+                tex: 1,
+                eps: SHADE_EPS,
+            };
+            d
+        };
+        let plan = plan_of(vec![Step::Draw(before_exit(0)), Step::Draw(before_exit(1))]);
+        let free = half_free(&plan);
+        let fast = free.fixed_function(&before_exit(0)).expect("rewritten");
+        assert_eq!(
+            (
+                fast.cull,
+                fast.depth.compare,
+                fast.depth.write,
+                &fast.fragment
+            ),
+            (Cull::Back, CompareOp::LessOrEqual, false, &Fragment::None)
+        );
+        // The possibly tied mesh keeps every face and the tie rule.
+        assert_eq!(free.fixed_function(&before_exit(1)), None);
+    }
+
+    #[test]
+    fn only_draws_without_a_depth_test_and_known_tolerances_are_rewritten() {
+        let free = half_free(&plan_of(vec![parity(0, SHADE_EPS)]));
+        let mut d = draw(parity(0, SHADE_EPS));
+        d.depth.compare = CompareOp::Less;
+        assert_eq!(free.fixed_function(&d), None);
+        // A tolerance the plan did not have was never decided.
+        assert_eq!(free.fixed_function(&draw(parity(0, 1e-3))), None);
+        assert_eq!(
+            TieFree::none().fixed_function(&draw(parity(0, SHADE_EPS))),
+            None
+        );
+        // Several meshes: all must be tie-free.
+        let mut d = draw(parity(0, SHADE_EPS));
+        d.geometry = Geometry::Meshes(vec![0, 1]);
+        assert_eq!(free.fixed_function(&d), None);
+    }
+
+    #[test]
+    fn tie_free_tolerant_peels_become_exact_peels() {
+        let peel = |mesh| {
+            Step::Draw(Draw {
+                fragment: Fragment::PeelTolerant {
+                    prev: 0,
+                    out: 1,
+                    eps: SHADE_EPS,
+                },
+                depth: DepthState {
+                    compare: CompareOp::Less,
+                    write: true,
+                },
+                ..draw(parity(mesh, SHADE_EPS))
+            })
+        };
+        let plan = plan_of(vec![Step::Loop(Loop {
+            head: vec![peel(0), peel(1)],
+            tail: vec![],
+            max_iterations: 3,
+        })]);
+        let free = half_free(&plan);
+        let fast = free.fixed_function(&draw(peel(0))).expect("tie-free");
+        assert_eq!(
+            fast.fragment,
+            Fragment::Peel {
+                prev: 0,
+                out: 1,
+                shade: false
+            }
+        );
+        assert_eq!(fast.depth, draw(peel(0)).depth);
+        assert_eq!(free.fixed_function(&draw(peel(1))), None);
+    }
+
+    #[test]
+    fn tie_free_shade_draws_become_depth_equal_shading() {
+        let plan = shaded(vec![parity(0, SHADE_EPS)], &[0, 1]);
+        let free = half_free(&plan);
+        let shade: Vec<Draw> = plan.steps[3..].iter().cloned().map(draw).collect();
+        // Descending order: mesh 1 (can tie) first, then mesh 0.
+        assert_eq!(shade[0].geometry, Geometry::Mesh(1));
+        assert_eq!(free.fixed_function(&shade[0]), None);
+        let fast = free.fixed_function(&shade[1]).expect("mesh 0 is tie-free");
+        assert_eq!(fast.fragment, Fragment::Shade);
+        assert_eq!(
+            fast.depth,
+            DepthState {
+                compare: CompareOp::Equal,
+                write: false
+            }
+        );
+        assert_eq!((fast.ds, fast.stencil, fast.cull), (0, None, Cull::None));
+        // The A/B switch keeps the rule.
+        assert_eq!(
+            free.clone().keep_shade_rule().fixed_function(&shade[1]),
+            None
+        );
+    }
+
+    /// `d` with the culling its depth-equal form may take set to `c`.
+    fn sided(mut d: Draw, c: Cull) -> Draw {
+        if let Fragment::ShadeNearDepth { equal_cull, .. } = &mut d.fragment {
+            *equal_cull = c;
+        }
+        d
+    }
+
+    #[test]
+    fn shade_draws_cull_the_faces_never_visible_where_no_tie_can_need_them() {
+        let plan = shaded(Vec::new(), &[0, 1]);
+        let shade: Vec<Draw> = plan.steps[2..].iter().cloned().map(draw).collect();
+        let (one, zero) = (
+            sided(shade[0].clone(), Cull::Front),
+            sided(shade[1].clone(), Cull::Back),
+        );
+        // Mesh 0 is tie-free: its depth-equal draw culls.
+        let free = half_free(&plan);
+        assert_eq!(free.fixed_function(&zero).map(|d| d.cull), Some(Cull::Back));
+        assert_eq!(free.culled_rule(&zero).map(|d| d.cull), Some(Cull::Back));
+        // Mesh 1 keeps the rule, but ties only with itself: its rule draw culls.
+        assert_eq!(free.fixed_function(&one), None);
+        let rule = free.culled_rule(&one).expect("no other mesh ties with 1");
+        assert_eq!(
+            rule,
+            Draw {
+                cull: Cull::Front,
+                ..one.clone()
+            }
+        );
+        // Nothing to cull, or nothing decided: no culled draw.
+        assert_eq!(free.culled_rule(&shade[0]), None);
+        assert_eq!(TieFree::none().culled_rule(&one), None);
+        // Mesh 0 tied with the higher mesh 1: 0's hidden faces may win a tie.
+        let gaps = TieGaps {
+            min_gap: vec![0.0, 0.0],
+            cap: 1.0,
+            pairs: vec![(0, 1, 0.0)],
+            zones: vec![],
+        };
+        let tied = TieFree::new(&gaps, &gaps, &band(800, 8, true), &plan, &whole);
+        assert_eq!(tied.culled_rule(&zero), None);
+        assert_eq!(tied.culled_rule(&one).map(|d| d.cull), Some(Cull::Front));
+    }
+}
