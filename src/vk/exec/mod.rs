@@ -625,6 +625,11 @@ impl Executor {
         self.depth_only = on && self.depth_only_usable;
     }
 
+    /// The format of the current depth images (`None` before a frame).
+    pub fn depth_images_format(&self) -> Option<vk::Format> {
+        self.targets.as_ref().map(|t| t.ds_format)
+    }
+
     /// Executes `plan` on the uploaded scene; the images stay on the GPU.
     pub fn execute(&mut self, plan: &Plan) -> Result<ExecStats, VkError> {
         let _layer = self.shared.layer_use();
