@@ -14,15 +14,10 @@ use peeltrim::scene::Scene;
 use peeltrim::vk::{DepthFormat, ExecDesc, Executor, Frame};
 
 use crate::algorithms::load_text;
+// A block minus a bore (the subtraction counts parity in the stencil), and
+// the camera of both scenes.
+use crate::direct_shade::{CAMERA, HOUSING};
 use crate::{assert_clean, context};
-
-const CAMERA: &str = r##"
-name = "depth-only"
-[camera]
-eye = [3.0, 2.5, 4.0]
-target = [0.0, 0.0, 0.0]
-fit = true
-"##;
 
 /// One box: every product algorithm draws it directly, no stencil.
 const ONE_BOX: &str = r##"
@@ -33,24 +28,6 @@ size = [2.0, 1.5, 1.0]
 [[solid]]
 name = "b"
 expr = "Block"
-"##;
-
-/// A block minus a bore: the subtraction counts parity in the stencil.
-const HOUSING: &str = r##"
-[[primitive]]
-name = "Block"
-shape = "box"
-size = [2.0, 1.5, 1.0]
-[[primitive]]
-name = "Bore"
-shape = "cylinder"
-radius = 0.3
-height = 2.0
-rotate_deg = [90.0, 0.0, 0.0]
-translate = [-0.4, 0.0, 0.0]
-[[solid]]
-name = "housing"
-expr = "Block - Bore"
 "##;
 
 fn executor(ctx: &peeltrim::vk::Context, scene: &Scene, depth_only: bool) -> Executor {
