@@ -26,6 +26,7 @@ mod replay;
 mod rounding;
 mod scad_models;
 mod scs;
+mod scs_batch;
 mod scs_ortho;
 mod see_inside;
 mod setup;

@@ -308,6 +308,7 @@ pub(crate) mod tests {
             surfaces: Vec::new(),
             hulls: Default::default(),
             viewpoint: None,
+            screen: Vec::new(),
         }
     }
 

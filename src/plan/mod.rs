@@ -22,6 +22,7 @@ pub mod memo;
 pub mod print;
 pub mod reach;
 pub mod rect;
+pub mod screen;
 pub mod scs;
 pub mod stencil;
 pub mod step;
@@ -204,6 +205,9 @@ pub struct Prepared {
     pub hulls: std::sync::Arc<Vec<scs::Hull>>,
     /// Where the camera's rays come from; `None` from [`Prepared::from_parts`].
     pub viewpoint: Option<scs::Viewpoint>,
+    /// Per primitive: where it projects at the scene's image size
+    /// ([`screen`]); empty from [`Prepared::from_parts`].
+    pub screen: Vec<Option<screen::ScreenBox>>,
 }
 
 impl Prepared {
@@ -241,6 +245,7 @@ impl Prepared {
                 surfaces: Vec::new(),
                 hulls: Default::default(),
                 viewpoint: None,
+                screen: Vec::new(),
             },
         };
         p.mesh_convex = mesh_convex;
@@ -249,6 +254,7 @@ impl Prepared {
         p.near_cut = eye::near_cut(scene);
         p.hulls = std::sync::Arc::new(scs::hull::of_scene(scene));
         p.viewpoint = Some(scs::Viewpoint::of(&scene.camera));
+        p.screen = screen::of_scene(scene);
         let first = scene.primitives.len() as MeshId;
         p.surfaces = scene
             .surfaces
@@ -276,6 +282,7 @@ impl Prepared {
     pub fn camera_moved(&mut self, scene: &Scene) {
         self.eye_inside = eye_inside(scene);
         self.viewpoint = Some(scs::Viewpoint::of(&scene.camera));
+        self.screen = screen::of_scene(scene);
         self.view_convex = view_convex_meshes(scene, &self.mesh_convex);
     }
 
@@ -343,6 +350,7 @@ impl Prepared {
             surfaces: Vec::new(),
             hulls: Default::default(),
             viewpoint: None,
+            screen: Vec::new(),
         }
     }
 

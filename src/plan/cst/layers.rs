@@ -184,6 +184,7 @@ mod tests {
             surfaces: Vec::new(),
             hulls: Default::default(),
             viewpoint: None,
+            screen: Vec::new(),
         }
     }
 

@@ -1,0 +1,379 @@
+//! Unit tests of the SCS plan builder (module documentation of [`super`]).
+use super::*;
+use crate::plan::goldfeather::{tests::block_minus_spheres, CLIP_EPS};
+use crate::plan::print::count;
+
+/// Boxes along x: 1–2 overlap, 2–3 touch, 4 and 5 stand alone; 6–7 overlap.
+fn row_of_boxes() -> Prepared {
+    use crate::reference::fixtures::ExprBuilder;
+    use crate::scene::Aabb;
+    use glam::DVec3;
+    let spans = [
+        (-10.0, 10.0),
+        (0.0, 1.5),
+        (1.0, 2.0),
+        (2.0, 3.0),
+        (4.0, 5.0),
+        (6.0, 7.0),
+        (8.0, 9.0),
+        (8.5, 9.5),
+    ];
+    let bounds = spans
+        .iter()
+        .map(|&(a, b)| Aabb {
+            min: DVec3::new(a, -1.0, -1.0),
+            max: DVec3::new(b, 1.0, 1.0),
+        })
+        .collect();
+    let mut e = ExprBuilder::default();
+    let mut acc = e.leaf(0);
+    for i in 1..spans.len() as u32 {
+        let l = e.leaf(i);
+        acc = e.diff(acc, l);
+    }
+    let mut prep = Prepared::from_parts(e.build(acc), vec![12; spans.len()], bounds);
+    prep.mesh_convex = vec![true; spans.len()];
+    prep
+}
+
+#[test]
+fn sequence_repeats_only_overlapping_cutters() {
+    let prep = row_of_boxes();
+    let lit = |prim| Lit {
+        prim,
+        negated: true,
+    };
+    let ys: Vec<Lit> = (1..8).map(lit).collect();
+    let seq = sequence(&ys, &prep);
+    assert_eq!(seq.once, vec![lit(4), lit(5)]);
+    // Groups {1, 2, 3} and {6, 7}, interleaved, three rounds.
+    assert_eq!(seq.max_rounds, 3);
+    let mut rounds = seq.rounds.clone();
+    rounds.sort_by_key(|l| l.prim);
+    assert_eq!(rounds, vec![lit(1), lit(2), lit(3), lit(6), lit(7)]);
+    // A batch never holds two overlapping cutters: the round 1, 6, 2, 7, 3 is
+    // cut wherever the next one meets one already in the batch.
+    let at = Subtraction {
+        prep: &prep,
+        region: &Region::Intersection(vec![0]),
+        eps: CLIP_EPS,
+        count: true,
+        ds: SURFACE,
+    };
+    let steps = subtract(&seq.rounds, at);
+    let mut batch: Vec<MeshId> = Vec::new();
+    for s in &steps {
+        let Step::Draw(d) = s else { continue };
+        let Geometry::Mesh(m) = d.geometry else {
+            panic!("mesh draws only")
+        };
+        if d.cull == Cull::None {
+            if batch
+                .last()
+                .is_some_and(|_| d.stencil.unwrap().write_mask == 1)
+            {
+                batch.clear();
+            }
+            for &b in &batch {
+                let (x, y) = (&prep.mesh_bounds[b as usize], &prep.mesh_bounds[m as usize]);
+                assert!(
+                    crate::plan::cst::disjoint(x, y),
+                    "{b} and {m} share a batch"
+                );
+            }
+            batch.push(m);
+        } else {
+            assert!(d.count_samples, "the rounds' exits are counted");
+        }
+    }
+}
+
+#[test]
+fn the_plan_repeats_the_groups_in_a_bounded_loop() {
+    let prep = row_of_boxes();
+    let built = plan(&prep, &ProductOptions::default()).unwrap();
+    let loops: Vec<&Loop> = built.loops().collect();
+    assert_eq!(loops.len(), 1);
+    assert_eq!(loops[0].max_iterations, 3);
+    assert!(loops[0].tail.is_empty());
+    assert_eq!(fallback_warning(&prep), None);
+    // A non-convex cutter sends the product to Goldfeather's steps, said once.
+    let mut nc = prep.clone();
+    nc.mesh_convex[3] = false;
+    let w = fallback_warning(&nc).expect("a warning");
+    assert!(w.contains("non-convex primitive(s) 4"), "{w}");
+    let built = plan(&nc, &ProductOptions::default()).unwrap();
+    assert!(!built
+        .steps
+        .iter()
+        .any(|s| matches!(s, Step::Pass(p) if p == "scs-front")));
+}
+
+/// The draws of the pass named `name` (the first such pass).
+fn pass_draws<'a>(steps: &'a [Step], name: &str) -> Vec<&'a Draw> {
+    steps
+        .iter()
+        .skip_while(|s| !matches!(s, Step::Pass(p) if p == name))
+        .skip(1)
+        .take_while(|s| !matches!(s, Step::Pass(_)))
+        .filter_map(|s| match s {
+            Step::Draw(d) => Some(d),
+            _ => None,
+        })
+        .collect()
+}
+
+/// `row_of_boxes`' boxes under `(0 − 4 − 5) ∪ (6 − 7)`: two products of
+/// one positive primitive each.
+fn two_products() -> Prepared {
+    use crate::reference::fixtures::ExprBuilder;
+    let boxes = row_of_boxes().mesh_bounds;
+    let mut e = ExprBuilder::default();
+    let l: Vec<u32> = (0..8).map(|i| e.leaf(i)).collect();
+    let a = e.diff(l[0], l[4]);
+    let a = e.diff(a, l[5]);
+    let b = e.diff(l[6], l[7]);
+    let root = e.union(a, b);
+    let mut prep = Prepared::from_parts(e.build(root), vec![12; 8], boxes);
+    prep.mesh_convex = vec![true; 8];
+    prep
+}
+
+#[test]
+fn the_first_product_is_clipped_by_back_faces_in_the_output() {
+    let prep = two_products();
+    let built = plan(&prep, &ProductOptions::default()).unwrap();
+    // The first product: no surface image, its `z` kept in the output.
+    let first: Vec<&Step> = built
+        .steps
+        .iter()
+        .skip_while(|s| !matches!(s, Step::Pass(p) if p == "scs-front"))
+        .skip(1)
+        .take_while(|s| !matches!(s, Step::Pass(p) if p == "scs-front"))
+        .collect();
+    assert!(first
+        .iter()
+        .all(|s| !matches!(s, Step::Pass(p) if p == "merge")));
+    assert!(!first
+        .iter()
+        .any(|s| matches!(s, Step::Clear(Clear::DepthStencil { .. }))));
+    let front = pass_draws(&built.steps, "scs-front");
+    assert_eq!(
+        (&front[0].geometry, front[0].ds, front[0].depth.compare),
+        (&Geometry::Mesh(0), OUTPUT, CompareOp::Less)
+    );
+    // Every exit moves `z` in the depth-stencil image too (the tie-free
+    // parity draws test it there).
+    let exits: Vec<&Draw> = pass_draws(&built.steps, "subtract")
+        .into_iter()
+        .filter(|d| d.cull == Cull::Front)
+        .collect();
+    assert_eq!(exits.len(), 2);
+    // They test `Greater` (subtract's front-face parity) in the output too.
+    assert!(exits.iter().all(|d| d.ds == OUTPUT
+        && d.depth.write
+        && d.depth.compare == CompareOp::Greater
+        && d.fragment == Fragment::WriteDepth { out: SURF }));
+    // The clip: box 0's back faces count where they lie behind `z`, and
+    // one sweep of the output sets far where the count is not 1, over
+    // box 0's footprint: its front faces, culled as its front draw.
+    let clip = pass_draws(&built.steps, "clip");
+    assert_eq!(clip.len(), 2);
+    let (c, sweep) = (clip[0], clip[1]);
+    assert_eq!(
+        (&c.geometry, c.cull, c.ds, c.depth.write),
+        (&Geometry::Mesh(0), Cull::Front, OUTPUT, false)
+    );
+    assert_eq!(
+        c.fragment,
+        Fragment::BehindThan {
+            tex: SURF,
+            eps: CLIP_EPS
+        }
+    );
+    let st = c.stencil.unwrap();
+    assert_eq!(
+        (st.front.pass, st.write_mask),
+        (StencilOp::IncrementAndClamp, 1)
+    );
+    assert_eq!(
+        sweep.geometry,
+        Geometry::Footprint {
+            mesh: 0,
+            depth: goldfeather::FAR
+        }
+    );
+    // Both only where an exit may have moved `z`: box 0's rectangle cut
+    // to its cutters' (elsewhere `z` is box 0's front face, inside it).
+    let moved = Scissor::Within {
+        meshes: vec![0],
+        within: vec![4, 5],
+    };
+    assert_eq!(
+        (&c.scissor, &sweep.scissor, sweep.cull),
+        (&moved, &moved, front[0].cull)
+    );
+    assert_eq!((sweep.ds, &sweep.fragment), (OUTPUT, &Fragment::None));
+    assert_eq!(sweep.depth.compare, CompareOp::Always);
+    let st = sweep.stencil.unwrap();
+    assert_eq!(
+        (
+            st.front.compare,
+            st.reference,
+            st.compare_mask,
+            st.write_mask
+        ),
+        (CompareOp::NotEqual, 1, 1, 1)
+    );
+    // A pixel its front faces covered twice stays kept: a failing test
+    // keeps the count; a rejected pixel's count is cleared.
+    assert_eq!(
+        (st.front.fail, st.back.fail, st.front.pass),
+        (StencilOp::Keep, StencilOp::Keep, StencilOp::Zero)
+    );
+    let twice = |count: u8| {
+        let once = crate::plan::stencil::simulate(&st, count, true);
+        crate::plan::stencil::simulate(&st, once, true)
+    };
+    assert_eq!(twice(1), 1);
+    assert_eq!(twice(0), 0);
+    // The second product: in the surface image, then one draw of box 6's
+    // back faces carries `z` into the output where they lie behind it.
+    let merge = pass_draws(&built.steps, "merge");
+    assert_eq!(merge.len(), 1);
+    let m = merge[0];
+    assert_eq!(
+        (&m.geometry, m.cull, m.ds, m.depth.compare, m.depth.write),
+        (
+            &Geometry::Mesh(6),
+            Cull::Front,
+            OUTPUT,
+            CompareOp::Less,
+            true
+        )
+    );
+    assert_eq!(
+        m.fragment,
+        Fragment::MergeBehind {
+            tex: SURF,
+            eps: CLIP_EPS
+        }
+    );
+    // Every exit moves `z` in the depth-stencil image too (the tie-free
+    // parity draws test it there).
+    let exits: Vec<&Draw> = pass_draws(&built.steps, "subtract")
+        .into_iter()
+        .filter(|d| d.cull == Cull::Front)
+        .collect();
+    assert_eq!(exits.len(), 2);
+    assert!(exits.iter().all(|d| d.depth.write
+        && d.depth.compare == CompareOp::Greater
+        && d.stencil.unwrap().front.depth_fail == StencilOp::Zero
+        && d.fragment == Fragment::WriteDepth { out: SURF }));
+    // Their parity draws may drop the back faces where tie-free.
+    let parity: Vec<&Draw> = pass_draws(&built.steps, "subtract")
+        .into_iter()
+        .filter(|d| d.cull == Cull::None)
+        .collect();
+    assert_eq!(parity.len(), 2);
+    assert!(parity.iter().all(|d| d.fragment
+        == Fragment::ParityBeforeExit {
+            tex: SURF,
+            eps: CLIP_EPS
+        }));
+    // The second product's merge is a draw of its back faces: no quad.
+    let c = count(&built.steps, &prep);
+    assert_eq!((c.fullscreen_passes, c.footprint_passes), (0, 1));
+}
+
+#[test]
+fn a_cutter_starting_inside_keeps_the_parity_clip() {
+    // The image and the texture differ where no front face is drawn, and
+    // the eye correction needs the parity: the product is drawn in the
+    // surface image, clipped by parity and merged full-screen.
+    let mut near = row_of_boxes();
+    near.near_cut = vec![false; 8];
+    near.near_cut[4] = true;
+    let built = plan(&near, &ProductOptions::default()).unwrap();
+    assert_eq!(pass_draws(&built.steps, "clip")[0].cull, Cull::None);
+    // Its parity keeps both halves (the ray may start inside it).
+    let cutter4 = pass_draws(&built.steps, "subtract")
+        .into_iter()
+        .find(|d| d.cull == Cull::None && d.geometry == Geometry::Mesh(4))
+        .expect("cutter 4's parity draw");
+    assert_eq!(
+        cutter4.fragment,
+        Fragment::NearerThan {
+            tex: SURF,
+            eps: CLIP_EPS
+        }
+    );
+    assert!(pass_draws(&built.steps, "scs-front")
+        .iter()
+        .all(|d| d.ds == SURFACE));
+    let merge = pass_draws(&built.steps, "merge");
+    assert!(matches!(
+        merge[..],
+        [Draw {
+            geometry: Geometry::FullScreen { .. },
+            ..
+        }]
+    ));
+}
+
+#[test]
+fn an_intersection_is_drawn_within_the_overlap_of_its_rectangles() {
+    use crate::reference::fixtures::ExprBuilder;
+    // (0 ∩ 1) − 2: every draw and the sweep are cut to the rectangles of
+    // both 0 and 1; the clip counts the back faces of 0 and 1.
+    let mut prep = row_of_boxes();
+    let mut e = ExprBuilder::default();
+    let (a, b, c) = (e.leaf(0), e.leaf(1), e.leaf(2));
+    let ab = e.inter(a, b);
+    let root = e.diff(ab, c);
+    prep = Prepared::from_parts(e.build(root), vec![12; 8], prep.mesh_bounds.clone());
+    prep.mesh_convex = vec![true; 8];
+    let built = plan(&prep, &ProductOptions::default()).unwrap();
+    let product: Vec<&Draw> = built
+        .steps
+        .iter()
+        .take_while(|s| !matches!(s, Step::Pass(p) if p == "shade"))
+        .filter_map(|s| match s {
+            Step::Draw(d) => Some(d),
+            _ => None,
+        })
+        .collect();
+    // Fronts, parity and exit, clip, sweep (no merge: drawn in the output).
+    assert_eq!(product.len(), 2 + 2 + 2 + 1);
+    for d in product {
+        let Scissor::Overlap { of, and } = &d.scissor else {
+            panic!("not cut to the overlap: {d:?}");
+        };
+        assert!(of.len() == 1 && and.contains(&1), "{d:?}");
+        assert!(of.contains(&0) || and.contains(&0), "{d:?}");
+    }
+    let clip = pass_draws(&built.steps, "clip");
+    assert_eq!(clip.len(), 3);
+    assert!(clip[..2].iter().all(|d| d.cull == Cull::Front));
+    let sweep = clip[2].stencil.unwrap();
+    assert_eq!((sweep.reference, sweep.compare_mask), (2, 3));
+}
+
+#[test]
+fn block_minus_disjoint_spheres_subtracts_each_once() {
+    let prep = Prepared::new(&block_minus_spheres(16)).unwrap();
+    let built = plan(&prep, &ProductOptions::default()).unwrap();
+    assert!(!built.steps.iter().any(|s| matches!(s, Step::Loop(_))));
+    // One product, drawn in the output: no surface image.
+    assert_eq!(built.depth_stencils, 1);
+    let c = count(&built.steps, &prep);
+    let g = goldfeather::plan(&prep, &ProductOptions::default()).unwrap();
+    let gc = count(&g.steps, &prep);
+    // 1 front, 16 parity + 16 exits, 1 clip of the block's back faces
+    // and its sweep over the block's front faces; then 17 shading draws.
+    assert_eq!(c.mesh_draws, 1 + 32 + 1 + 1 + 17);
+    // Two subtraction batches of 8 bits and the clip's one sweep over
+    // the block's footprint (no merge: the product is drawn in the output).
+    assert_eq!((c.fullscreen_passes, c.footprint_passes), (0, 1));
+    assert!(c.draws * 5 < gc.draws, "scs {c:?} goldfeather {gc:?}");
+}
