@@ -8,6 +8,7 @@ use ash::vk;
 
 use super::ExecDesc;
 use crate::plan::usage::Resource;
+use crate::vk::conv;
 use crate::vk::error::{Check, VkError};
 use crate::vk::image::{Image, ImageDesc};
 use crate::vk::instance::Shared;
@@ -90,8 +91,13 @@ impl Targets {
         normals: bool,
         transparency: bool,
     ) -> bool {
+        // Depth-stencil images serve a stencil-free plan too: a sequence of
+        // plans of both kinds (layers, a count then a frame) keeps its images
+        // rather than making them again at each change.
+        let format_fits = self.ds_format == ds_format
+            || (conv::has_stencil(self.ds_format) && !conv::has_stencil(ds_format));
         self.ds.len() >= n_ds
-            && self.ds_format == ds_format
+            && format_fits
             && self.tex.len() >= n_tex
             && self.normal.is_some() == normals
             && self.transparency.is_some() == transparency
