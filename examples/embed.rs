@@ -53,6 +53,9 @@ pub struct Report {
     /// tie) and with the tie rule.
     pub shade_fixed_draws: u64,
     pub shade_rule_draws: u64,
+    /// The last frame's depth-equal draws of one-primitive products, which
+    /// skip the check of the output depth (`plan::direct_shade`).
+    pub direct_shade_draws: u64,
     pub validation: Vec<String>,
 }
 
@@ -428,9 +431,13 @@ unsafe fn begin_frame(
     };
 }
 
-/// The host's CSG scene on `ctx`: [`host_meshes`] combined as `m0 - m1`.
-fn host_csg(ctx: &Context, desc: &EmbedDesc) -> Result<CsgScene, String> {
-    let meshes = host_meshes();
+/// The host's CSG scene on `ctx`: [`host_meshes`] combined as `m0 - m1`, or
+/// with `ball` as `m0 - m1 + m2`.
+fn host_csg(ctx: &Context, desc: &EmbedDesc, ball: bool) -> Result<CsgScene, String> {
+    let mut meshes = host_meshes();
+    if !ball {
+        meshes.truncate(2);
+    }
     let inputs: Vec<MeshInput<'_>> = meshes
         .iter()
         .map(|(p, i, t, c)| MeshInput {
@@ -440,11 +447,13 @@ fn host_csg(ctx: &Context, desc: &EmbedDesc) -> Result<CsgScene, String> {
             color: *c,
         })
         .collect();
-    CsgScene::new(ctx, &inputs, CsgExpr::Text("m0 - m1"), &camera(), desc)
-        .map_err(|e| e.to_string())
+    let expr = if ball { "m0 - m1 + m2" } else { "m0 - m1" };
+    CsgScene::new(ctx, &inputs, CsgExpr::Text(expr), &camera(), desc).map_err(|e| e.to_string())
 }
 
-/// The host's CSG: a box with a spherical bite, as plain f32 meshes.
+/// The host's CSG: a box with a spherical bite, as plain f32 meshes, and a
+/// ball beside the box, half below the floor (a product of one primitive,
+/// which the standalone frame shades in its direct draw, `plan::direct_shade`).
 fn host_meshes() -> Vec<(Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3])> {
     let f32s = |m: &Mesh| {
         m.positions
@@ -466,6 +475,13 @@ fn host_meshes() -> Vec<(Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3])> {
             ball.triangles.clone(),
             Mat4::from_translation([0.6, 0.7, 0.6].into()),
             [220, 90, 60],
+        ),
+        (
+            f32s(&ball),
+            ball.triangles.clone(),
+            Mat4::from_translation([-1.9, FLOOR_Y, 1.2].into())
+                * Mat4::from_scale(glam::Vec3::splat(0.5)),
+            [90, 200, 110],
         ),
     ]
 }
@@ -498,6 +514,8 @@ pub struct Setup {
     pub algo: Algo,
     /// peeltrim's own depth-stencil images (D24S8 keeps the tie rule).
     pub internal_depth: DepthFormat,
+    /// Adds the ball beside the box (`m0 - m1 + m2`, [`host_meshes`]).
+    pub ball: bool,
 }
 
 impl Setup {
@@ -513,6 +531,7 @@ impl Setup {
             loop_counts: LoopCounts::Estimate,
             algo: Algo::Goldfeather,
             internal_depth: DepthFormat::D32S8,
+            ball: false,
         }
     }
 }
@@ -570,7 +589,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         algo: setup.algo,
         internal_depth: setup.internal_depth,
     };
-    let mut csg = host_csg(&ctx, &desc)?;
+    let mut csg = host_csg(&ctx, &desc, setup.ball)?;
 
     let (color_format, depth_format) = (setup.color_format, setup.depth_format);
     let srgb = matches!(
@@ -675,7 +694,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     );
     let mut counts = Vec::new();
     let mut paths = Vec::new();
-    let mut shade_draws = (0, 0);
+    let mut shade_draws = (0, 0, 0);
     for k in 0..setup.frames.max(1) {
         let slot = (k % inflight) as usize;
         let (cmd, fence) = (cmds[slot], fences[slot]);
@@ -754,6 +773,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         shade_draws = (
             stats.counts.shade_fixed_draws,
             stats.counts.shade_rule_draws,
+            stats.counts.direct_shade_draws,
         );
         // SAFETY: as above.
         unsafe {
@@ -790,7 +810,11 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     report.first_counts = counts.first().cloned().unwrap_or_default();
     report.last_counts = counts.last().cloned().unwrap_or_default();
     report.host_paths = paths;
-    (report.shade_fixed_draws, report.shade_rule_draws) = shade_draws;
+    (
+        report.shade_fixed_draws,
+        report.shade_rule_draws,
+        report.direct_shade_draws,
+    ) = shade_draws;
     drop(csg);
     drop(ctx);
     // SAFETY: every frame completed; nothing uses these objects any more.
@@ -1169,7 +1193,7 @@ pub fn record_with_formats(color: vk::Format, depth: vk::Format) -> Result<Optio
             extent: [32, 32],
             ..EmbedDesc::default()
         };
-        let mut csg = host_csg(&ctx, &desc)?;
+        let mut csg = host_csg(&ctx, &desc, false)?;
         let targets = HostTargets {
             color_view: vk::ImageView::null(),
             color_format: color,

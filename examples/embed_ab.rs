@@ -93,8 +93,12 @@ fn main() {
             if let Some(s) = s {
                 let c = &s.counts;
                 print!(
-                    "  | {label}: draws {} (shade rule {} on {:.2} Mpx, fixed {}) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
+                    "  | {label}: draws {} (mesh {:.2} Mpx; direct-shade {} dead-tex {} footprint {}; shade rule {} on {:.2} Mpx, fixed {}) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
                     c.draws,
+                    c.mesh_pixels as f64 * 1e-6,
+                    c.direct_shade_draws,
+                    c.dead_texture_writes,
+                    c.footprint_passes,
                     c.shade_rule_draws,
                     c.shade_rule_pixels as f64 * 1e-6,
                     c.shade_fixed_draws,

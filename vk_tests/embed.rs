@@ -89,6 +89,38 @@ fn default_hosts_get_the_direct_path_and_blister_paper_the_composite() {
     }
 }
 
+/// A one-primitive product (the ball beside the box, half below the floor)
+/// is one the standalone frame shades in its direct draw; the host path takes
+/// the same decision and draws its depth-equal piece without the check of
+/// the output depth. The floor must still hide the ball's lower half and the
+/// ball hide the floor behind it, as the reference composite says, in every
+/// depth convention, with depth buffers that round (D24S8, D16) and an
+/// `_SRGB` colour format (the decoding variant).
+#[test]
+fn a_host_floor_hides_a_directly_shaded_product_where_it_is_in_front() {
+    let _only = host_alone();
+    for (color_format, depth_format, reversed_z) in [
+        (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, false),
+        (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, true),
+        (Format::B8G8R8A8_SRGB, Format::D24_UNORM_S8_UINT, true),
+        (Format::R8G8B8A8_UNORM, Format::D16_UNORM, false),
+    ] {
+        let setup = example::Setup {
+            ball: true,
+            color_format,
+            depth_format,
+            ..example::Setup::new([160, 120], reversed_z)
+        };
+        let name = format!("ball, {color_format:?}+{depth_format:?}, reversed {reversed_z}");
+        let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
+        check(&name, &r);
+        assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
+        // The ball's piece took the decision; the box's two meshes did not.
+        assert_eq!(r.direct_shade_draws, 1, "{name}: {r:?}");
+        assert!(r.shade_fixed_draws >= 3, "{name}: {r:?}");
+    }
+}
+
 #[test]
 fn loop_counts_guessed_too_low_are_doubled_by_the_ring_and_too_high_are_shrunk() {
     let _only = host_alone();

@@ -32,9 +32,14 @@
 //!   clip does, would leave `m`'s colour on a background pixel). `Less`,
 //!   `LessOrEqual`, `Equal` and `Never` tests only bring it nearer.
 //!
-//! The embedding's host shade draws into the host's targets, and the
-//! loop-by-loop frame records its steps in pieces; both keep the old path
-//! (the executor never asks this module there).
+//! The loop-by-loop frame records its steps in pieces and keeps the old path
+//! (the executor never asks this module there). The embedding's host shade
+//! draws into the host's targets after the frame, so it keeps the direct draw
+//! depth-only and the shade draw, but takes the same decision: a chosen
+//! product's shade draw needs no check of the output depth there
+//! (`vk::exec::record::host`), since no face of it lies nearer than that depth
+//! (the conditions above: its direct draw wrote its nearest face's depth and
+//! nothing after it moved the output depth farther).
 #![deny(unsafe_code)]
 
 use std::collections::BTreeMap;

@@ -20,6 +20,13 @@ use super::instance::Shared;
 pub enum FragmentKind {
     None,
     Shade,
+    /// `Shade` drawn into an embedding host's colour and depth attachments
+    /// (`vk::exec::record::host`): colour only, the depth attachment bound
+    /// without its stencil aspect; a one-primitive product's depth-equal
+    /// final-shade draw, which needs no check of the output depth.
+    ShadeHost,
+    /// `ShadeHost` for an `_SRGB` host colour format.
+    ShadeHostSrgb,
     Paint,
     Background,
     Peel,
@@ -118,6 +125,8 @@ impl FragmentKind {
     pub fn reads(self) -> Reads {
         let (color, prim, view) = match self {
             FragmentKind::Shade
+            | FragmentKind::ShadeHost
+            | FragmentKind::ShadeHostSrgb
             | FragmentKind::Paint
             | FragmentKind::PeelShade
             | FragmentKind::ShadeNearDepth
@@ -164,15 +173,16 @@ impl FragmentKind {
         match self {
             FragmentKind::None => spv!("none.frag"),
             FragmentKind::Shade => spv!("shade.frag"),
+            FragmentKind::ShadeHost => spv!("shade.frag.host"),
+            FragmentKind::ShadeHostSrgb => spv!("shade.frag.host_srgb"),
             FragmentKind::Paint => spv!("paint.frag"),
             FragmentKind::Background => spv!("background.frag"),
             FragmentKind::Peel => spv!("peel.frag"),
             FragmentKind::PeelShade => spv!("peel_shade.frag"),
             FragmentKind::PeelTolerant => spv!("peel_tolerant.frag"),
             FragmentKind::WriteDepth => spv!("write_depth.frag"),
-            FragmentKind::DepthFromTexture | FragmentKind::DepthFromTextureHost => {
-                spv!("depth_from_texture.frag")
-            }
+            FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
+            FragmentKind::DepthFromTextureHost => spv!("depth_from_texture.frag.host"),
             FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
             FragmentKind::ShadeNearDepthHost => spv!("shade_near_depth.frag.host"),
             FragmentKind::ShadeNearDepthHostSrgb => spv!("shade_near_depth.frag.host_srgb"),
@@ -568,7 +578,9 @@ impl Pipelines {
         // A host's depth attachment is bound without its stencil (untouched);
         // a depth-only format has none.
         let stencil_format = match desc.fragment {
-            FragmentKind::ShadeNearDepthHost
+            FragmentKind::ShadeHost
+            | FragmentKind::ShadeHostSrgb
+            | FragmentKind::ShadeNearDepthHost
             | FragmentKind::ShadeNearDepthHostSrgb
             | FragmentKind::ShadeAtDepthHost
             | FragmentKind::ShadeAtDepthHostSrgb
@@ -735,9 +747,10 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 22] = [
+    const SOURCES: [(FragmentKind, &str); 23] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
+        (FragmentKind::ShadeHost, "shade.frag"),
         (FragmentKind::Paint, "paint.frag"),
         (FragmentKind::Background, "background.frag"),
         (FragmentKind::Peel, "peel.frag"),

@@ -60,6 +60,7 @@ use super::readback::{decode, Raw};
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::output::Images;
+use crate::plan::direct_shade::DirectShades;
 use crate::plan::formats::needs_stencil;
 use crate::plan::memo::{Memo, PlanIds};
 use crate::plan::reach::{self, FrameReach, KeptImages};
@@ -518,9 +519,10 @@ impl Executor {
     /// Whether a one-primitive product whose final shade draw would run
     /// depth-`EQUAL` everywhere is shaded in its direct draw, that shade draw
     /// dropped (`plan::direct_shade`; the default). Off: drawn depth-only and
-    /// shaded again (A/B measurements, `examples/tie_ab.rs`). Frames shaded
-    /// into an embedding host's targets and frames run loop by loop keep the
-    /// old path.
+    /// shaded again (A/B measurements, `examples/tie_ab.rs`). Frames run
+    /// loop by loop keep the old path; frames shaded into an embedding host's
+    /// targets draw those products' final shade draws without a check of the
+    /// output depth instead (`record::host`).
     pub fn set_direct_shade(&mut self, on: bool) {
         self.direct_shade = on;
         self.recording = None;
@@ -1052,14 +1054,14 @@ impl Executor {
         // The host's shade reads the body's last depth copy: its draws count.
         let reached = self.recording_reach(plan, layers, &steps, now);
         let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
-        let direct_shade = self.direct_shade && host.is_none();
+        let direct_shade = self.direct_shade;
         let mut rec = self.recorder();
         let body = steps.len() - host.map_or(0, |h| h.1);
         rec.use_reach(&reached.0, plan.output_ds);
         // The host's shade draws decide what the last copy covers, as the
         // standalone shade's do.
         rec.plan_shades(&steps);
-        if direct_shade {
+        if direct_shade && host.is_none() {
             rec.plan_direct_shades(&steps, plan.output_ds);
         }
         rec.plan_blocks(&steps[..body]);
@@ -1070,7 +1072,14 @@ impl Executor {
             rec.step(s)?;
         }
         match host {
-            Some((h, _)) => rec.host_shade(h, shade)?,
+            Some((h, _)) => {
+                // The same products as the standalone frame's direct shades.
+                let direct = match direct_shade {
+                    true => rec.direct_shades(&steps, plan.output_ds),
+                    false => DirectShades::none(),
+                };
+                rec.host_shade(h, shade, &direct)?
+            }
             None => rec.finish_frame(plan.output_ds),
         }
         rec.end();

@@ -59,7 +59,10 @@ pub struct Counts {
     pub shade_fixed_draws: u64,
     /// Direct draws of one-primitive products recorded with the shading
     /// program, colour and id written with their depth, each replacing its
-    /// mesh's draw in the final shade (`plan::direct_shade`).
+    /// mesh's draw in the final shade (`plan::direct_shade`). In an embedded
+    /// frame: those products' depth-equal final-shade draws into the host's
+    /// targets, drawn without a check of the output depth (`record::host`;
+    /// also counted in `shade_fixed_draws`).
     pub direct_shade_draws: u64,
     /// Draws of the final shade (depth-equal or tie-rule) that cull the side
     /// of their mesh that is never visible (`plan::VisibleSides`): about half

@@ -19,10 +19,19 @@
 //! the host's test with equality (`LESS_OR_EQUAL`, reversed
 //! `GREATER_OR_EQUAL`). Exact ties between the host's depth and the CSG's
 //! visible depth go to the CSG, drawn last.
+//!
+//! The shader of a depth-equal piece fetches the output depth once per
+//! visible fragment, to turn away a hidden face that merely equals a host
+//! depth nearer than the CSG. A one-primitive product the standalone frame
+//! shades in its direct draw (`plan::direct_shade`, the same decision) has
+//! no face nearer than the output depth, so its piece skips that fetch
+//! (`shaders/shade.frag`, `HOST`). The merge keeps no discard of far
+//! pixels: a far depth fails the host's strict test by itself.
 
 use ash::vk;
 
 use super::Recorder;
+use crate::plan::direct_shade::DirectShades;
 use crate::plan::tie_zones;
 use crate::plan::usage::{Resource, Usage};
 use crate::plan::{CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, Plan, Step, Tex};
@@ -245,6 +254,22 @@ pub(crate) fn host_barriers(
     ((src, dst), memory)
 }
 
+/// How one piece of the host's final shade is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Piece {
+    /// With the tie rule on the depth copy (`ShadeNearDepthHost`), the
+    /// visible depth written.
+    Rule,
+    /// Depth-`EQUAL` against the merged depth, the output depth fetched to
+    /// turn away a face that only equals the host's (`ShadeAtDepthHost`).
+    AtDepth,
+    /// Depth-`EQUAL` against the merged depth with no fetch (`ShadeHost`): a
+    /// one-primitive product the standalone frame shades in its direct draw
+    /// (`plan::direct_shade`), none of whose faces lies nearer than the
+    /// output depth, so none can equal a host depth nearer than it.
+    Direct,
+}
+
 /// The pipeline of host program `kind` for the host's formats.
 fn host_pipeline(h: &HostShade, kind: FragmentKind) -> PipelineDesc {
     PipelineDesc {
@@ -273,7 +298,21 @@ impl Recorder<'_> {
     /// where it is nearer than or equal to the host's. The draws keep the plan's
     /// order (descending index), so the last writer, the lowest index, stays,
     /// as in the standalone frame.
-    pub fn host_shade(&mut self, h: &HostShade, shade: &[&Step]) -> Result<(), VkError> {
+    ///
+    /// The meshes of `direct` (one-primitive products, `plan::direct_shade`:
+    /// the standalone frame shades them in their direct draws) are drawn
+    /// depth-`EQUAL` too, with `ShadeHost`, which fetches nothing: their
+    /// direct draw wrote their nearest face's depth into the output depth
+    /// and nothing after it moved that depth farther, so no face of theirs
+    /// lies nearer than the output depth, and a fragment that equals the
+    /// merged depth is at the output depth, visible, in front of the host's
+    /// geometry or tied with it.
+    pub fn host_shade(
+        &mut self,
+        h: &HostShade,
+        shade: &[&Step],
+        direct: &DirectShades,
+    ) -> Result<(), VkError> {
         self.end_block();
         let device = self.b.device;
         let n = self.queries.len() as u32;
@@ -281,9 +320,9 @@ impl Recorder<'_> {
         if let (true, Some(buffer)) = (counted, h.counts) {
             copy_counts(device, self.cmd, self.b.occlusion, n, buffer);
         }
-        // (draw, rule, rect), in plan order: a zoned draw as its rule pieces
+        // (draw, piece, rect), in plan order: a zoned draw as its rule pieces
         // and its depth-equal pieces (`record/shade.rs`'s `zoned_shade`).
-        let mut draws: Vec<(Draw, bool, Rect)> = Vec::new();
+        let mut draws: Vec<(Draw, Piece, Rect)> = Vec::new();
         for s in shade {
             let Step::Draw(d) = s else {
                 panic!("final_shade selects draws only")
@@ -302,8 +341,8 @@ impl Recorder<'_> {
                 let rest = tie_zones::subtract(scissor, &rule);
                 // Culling what can never win the tie (`plan::visible_side`).
                 let culled = self.b.ties.culled_rule(d).unwrap_or_else(|| d.clone());
-                draws.extend(rule.into_iter().map(|r| (culled.clone(), true, r)));
-                draws.extend(rest.into_iter().map(|r| (d.clone(), false, r)));
+                draws.extend(rule.into_iter().map(|r| (culled.clone(), Piece::Rule, r)));
+                draws.extend(rest.into_iter().map(|r| (d.clone(), Piece::AtDepth, r)));
                 continue;
             }
             match self.b.ties.fixed_function(d) {
@@ -313,27 +352,31 @@ impl Recorder<'_> {
                         cull: f.cull,
                         ..d.clone()
                     },
-                    false,
+                    match direct.drops(d) {
+                        true => Piece::Direct,
+                        false => Piece::AtDepth,
+                    },
                     scissor,
                 )),
                 // Culling what can never win the tie (`plan::visible_side`).
                 None => draws.push((
                     self.b.ties.culled_rule(d).unwrap_or_else(|| d.clone()),
-                    true,
+                    Piece::Rule,
                     scissor,
                 )),
             }
         }
         let rule_tex = draws
             .iter()
-            .find(|(_, rule, _)| *rule)
+            .find(|(_, piece, _)| *piece == Piece::Rule)
             .map(|(d, _, _)| match d.fragment {
                 Fragment::ShadeNearDepth { tex, .. } => tex,
                 _ => panic!("final_shade selects ShadeNearDepth draws"),
             });
+        // The output depth the merge reads (and the `AtDepth` pieces).
         let equal_ds = draws
             .iter()
-            .find(|(_, rule, _)| !*rule)
+            .find(|(_, piece, _)| *piece != Piece::Rule)
             .map(|(d, _, _)| d.ds);
         let mut uses = Vec::new();
         uses.extend(rule_tex.map(|t| (Resource::Texture(t), Usage::Sampled)));
@@ -345,14 +388,16 @@ impl Recorder<'_> {
         self.stats.counts.barriers += 1;
 
         // The sRGB decode is a variant of its own (`build.rs`).
-        let (rule_kind, equal_kind) = match h.srgb {
+        let (rule_kind, equal_kind, direct_kind) = match h.srgb {
             true => (
                 FragmentKind::ShadeNearDepthHostSrgb,
                 FragmentKind::ShadeAtDepthHostSrgb,
+                FragmentKind::ShadeHostSrgb,
             ),
             false => (
                 FragmentKind::ShadeNearDepthHost,
                 FragmentKind::ShadeAtDepthHost,
+                FragmentKind::ShadeHost,
             ),
         };
         self.begin_host_block(h);
@@ -360,15 +405,16 @@ impl Recorder<'_> {
         if let Some(ds) = equal_ds {
             self.host_merge(h, ds, &draws, flags)?;
         }
-        for (draw, rule, rect) in &draws {
-            let (kind, set) = match rule {
-                true => (rule_kind, rule_tex.map(Resource::Texture)),
-                false => (equal_kind, equal_ds.map(Resource::DepthStencil)),
+        for (draw, piece, rect) in &draws {
+            let (kind, set) = match piece {
+                Piece::Rule => (rule_kind, rule_tex.map(Resource::Texture)),
+                Piece::AtDepth => (equal_kind, equal_ds.map(Resource::DepthStencil)),
+                Piece::Direct => (direct_kind, None),
             };
             let set = set.map(|r| self.b.targets.sampling_set(r));
             let pipeline = self.b.pipelines.get(&host_pipeline(h, kind))?;
             self.bind(pipeline, set);
-            self.host_draw(draw, *rule, *rect, flags);
+            self.host_draw(draw, *piece, *rect, flags);
         }
         // SAFETY: closes the block `begin_host_block` opened.
         unsafe { device.cmd_end_rendering(self.cmd) };
@@ -386,10 +432,10 @@ impl Recorder<'_> {
         &mut self,
         h: &HostShade,
         ds: Ds,
-        draws: &[(Draw, bool, Rect)],
+        draws: &[(Draw, Piece, Rect)],
         flags: u32,
     ) -> Result<(), VkError> {
-        let mut equal = draws.iter().filter(|(_, rule, _)| !*rule);
+        let mut equal = draws.iter().filter(|(_, piece, _)| *piece != Piece::Rule);
         let rect = equal.clone().fold(Rect::EMPTY, |a, (_, _, r)| a.union(r));
         let Some((first, _, _)) = equal.next().filter(|_| !rect.is_empty()) else {
             return Ok(());
@@ -445,10 +491,10 @@ impl Recorder<'_> {
     }
 
     /// One shade draw of one mesh into the host's attachments: with the tie
-    /// rule (`rule`, `ShadeNearDepthHost`: the visible depth written) or at the
-    /// output depth (`ShadeAtDepthHost`: depth-`EQUAL` against the merged
-    /// depth, none written).
-    fn host_draw(&mut self, draw: &Draw, rule: bool, scissor: Rect, flags: u32) {
+    /// rule (`Piece::Rule`, `ShadeNearDepthHost`: the visible depth written)
+    /// or at the output depth (depth-`EQUAL` against the merged depth, none
+    /// written).
+    fn host_draw(&mut self, draw: &Draw, piece: Piece, scissor: Rect, flags: u32) {
         let (m, eps) = match (&draw.geometry, &draw.fragment) {
             (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) => (*m, *eps),
             _ => panic!("final_shade selects ShadeNearDepth draws of one mesh"),
@@ -458,6 +504,7 @@ impl Recorder<'_> {
         // depth there may be the merge's, the same value); the depth-equal
         // draws test the merged depth and write none. No stencil; the culling
         // of the standalone frame's draw.
+        let rule = piece == Piece::Rule;
         let depth = match rule {
             true => DepthState {
                 compare: CompareOp::LessOrEqual,
@@ -503,6 +550,7 @@ impl Recorder<'_> {
             }
             false => c.shade_fixed_draws += 1,
         }
+        c.direct_shade_draws += (piece == Piece::Direct) as u64;
         c.shade_culled_draws += (draw.cull != Cull::None) as u64;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
@@ -591,6 +639,11 @@ mod tests {
                 "shade_at_depth",
                 spv!("shade_at_depth.frag.host"),
                 spv!("shade_at_depth.frag.host_srgb"),
+            ),
+            (
+                "shade",
+                spv!("shade.frag.host"),
+                spv!("shade.frag.host_srgb"),
             ),
             (
                 "composite",

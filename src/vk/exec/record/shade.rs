@@ -38,9 +38,16 @@ impl Recorder<'_> {
     /// tie decisions. Only for a frame recorded whole, shaded into the
     /// executor's own targets.
     pub fn plan_direct_shades(&mut self, steps: &[&Step], output_ds: Ds) {
+        self.direct = self.direct_shades(steps, output_ds);
+    }
+
+    /// The one-primitive products of a whole frame's `steps` that
+    /// [`Self::plan_direct_shades`] would shade in their direct draws (the
+    /// embedding's host shade draws them without a check of the output
+    /// depth, `record/host.rs`).
+    pub fn direct_shades(&self, steps: &[&Step], output_ds: Ds) -> DirectShades {
         let ties = self.b.ties;
-        self.direct =
-            DirectShades::decide(steps, output_ds, |m, eps| ties.shade_depth_equal(m, eps));
+        DirectShades::decide(steps, output_ds, |m, eps| ties.shade_depth_equal(m, eps))
     }
 
     /// `Step::CopyDepthToTexture`: depth-stencil `ds` into texture `dst`, where
