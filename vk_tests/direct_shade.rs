@@ -21,7 +21,7 @@ const DIRECT: [Algo; 4] = [
 ];
 
 /// The camera of both scenes.
-const CAMERA: &str = r##"
+pub(crate) const CAMERA: &str = r##"
 name = "direct"
 [camera]
 eye = [3.0, 2.5, 4.0]
@@ -30,7 +30,7 @@ fit = true
 "##;
 
 /// A housing: a block minus a bore, primitives 1 and 2 of both scenes.
-const HOUSING: &str = r##"
+pub(crate) const HOUSING: &str = r##"
 [[primitive]]
 name = "Block"
 shape = "box"

@@ -11,6 +11,7 @@ mod classic;
 mod clears;
 mod concurrency;
 mod cst;
+mod depth_only;
 mod direct_shade;
 mod embed;
 mod gpu_layers;

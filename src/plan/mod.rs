@@ -15,6 +15,7 @@ mod convex;
 pub mod cst;
 pub mod direct_shade;
 pub mod eye;
+pub mod formats;
 pub mod goldfeather;
 pub mod kirsch;
 pub mod memo;

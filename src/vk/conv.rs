@@ -24,6 +24,62 @@ impl DepthFormat {
             DepthFormat::D32S8 => vk::Format::D32_SFLOAT_S8_UINT,
         }
     }
+
+    /// The format of a plan's depth images: [`Self::vk`] where the plan uses
+    /// stencil (`plan::formats::needs_stencil`); where it does not, `D32S8`
+    /// becomes `D32_SFLOAT`, the same 32-bit float depth (reversed Z keeps its
+    /// precision) in half the bytes on lavapipe, which stores `D32S8` as
+    /// z32f + s8x24. `D24S8` stays: its depth-only twin `X8_D24` is as wide.
+    pub fn vk_for(self, stencil: bool) -> vk::Format {
+        match (self, stencil) {
+            (DepthFormat::D32S8, false) => vk::Format::D32_SFLOAT,
+            _ => self.vk(),
+        }
+    }
+}
+
+/// Whether `format` is one of the depth formats the executor uses (with or
+/// without stencil).
+pub fn is_depth(format: vk::Format) -> bool {
+    matches!(
+        format,
+        vk::Format::D24_UNORM_S8_UINT | vk::Format::D32_SFLOAT_S8_UINT | vk::Format::D32_SFLOAT
+    )
+}
+
+/// Whether `format` has a stencil aspect (to bind, clear and barrier).
+pub fn has_stencil(format: vk::Format) -> bool {
+    matches!(
+        format,
+        vk::Format::D24_UNORM_S8_UINT | vk::Format::D32_SFLOAT_S8_UINT
+    )
+}
+
+/// The aspects of an image of `format`: depth (and stencil where it has one),
+/// or colour.
+pub fn aspects(format: vk::Format) -> vk::ImageAspectFlags {
+    match (is_depth(format), has_stencil(format)) {
+        (true, true) => vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+        (true, false) => vk::ImageAspectFlags::DEPTH,
+        _ => vk::ImageAspectFlags::COLOR,
+    }
+}
+
+/// Bytes per pixel lavapipe stores for the executor's formats (what a clear
+/// fills): `D32_SFLOAT_S8_UINT` is a 32-bit float and a 32-bit stencil word.
+/// For the `cleared_bytes` count; a format the executor does not use panics.
+pub fn texel_bytes(format: vk::Format) -> u64 {
+    match format {
+        vk::Format::R8_UNORM => 1,
+        vk::Format::R8G8B8A8_UNORM
+        | vk::Format::R32_UINT
+        | vk::Format::R32_SFLOAT
+        | vk::Format::D24_UNORM_S8_UINT
+        | vk::Format::D32_SFLOAT => 4,
+        vk::Format::D32_SFLOAT_S8_UINT => 8,
+        vk::Format::R32G32B32A32_SFLOAT => 16,
+        other => panic!("texel_bytes: {other:?} is not an executor format"),
+    }
 }
 
 /// `op` in the standard convention (smaller is nearer) as the op to use with
@@ -205,6 +261,35 @@ mod tests {
         assert_eq!(f.pass, vk::StencilOp::REPLACE);
         assert_eq!(f.depth_fail, vk::StencilOp::ZERO);
         assert_eq!(depth_value(0.25, true), 0.75);
+    }
+
+    /// Only D32S8 has a depth-only twin; a plan that needs stencil keeps
+    /// the set-up's format.
+    #[test]
+    fn depth_only_format_where_no_stencil_is_used() {
+        use vk::Format as F;
+        assert_eq!(DepthFormat::D32S8.vk_for(true), F::D32_SFLOAT_S8_UINT);
+        assert_eq!(DepthFormat::D32S8.vk_for(false), F::D32_SFLOAT);
+        assert_eq!(DepthFormat::D24S8.vk_for(true), F::D24_UNORM_S8_UINT);
+        assert_eq!(DepthFormat::D24S8.vk_for(false), F::D24_UNORM_S8_UINT);
+        for (f, stencil) in [
+            (F::D32_SFLOAT, false),
+            (F::D32_SFLOAT_S8_UINT, true),
+            (F::D24_UNORM_S8_UINT, true),
+        ] {
+            assert!(is_depth(f));
+            assert_eq!(has_stencil(f), stencil, "{f:?}");
+            assert_eq!(
+                aspects(f).contains(vk::ImageAspectFlags::STENCIL),
+                stencil,
+                "{f:?}"
+            );
+            assert!(aspects(f).contains(vk::ImageAspectFlags::DEPTH));
+        }
+        assert!(!is_depth(F::R32_SFLOAT) && !has_stencil(F::R32_UINT));
+        assert_eq!(aspects(F::R8G8B8A8_UNORM), vk::ImageAspectFlags::COLOR);
+        assert_eq!(texel_bytes(F::D32_SFLOAT), 4);
+        assert_eq!(texel_bytes(F::D32_SFLOAT_S8_UINT), 8);
     }
 
     #[test]

@@ -32,19 +32,13 @@ impl ImageDesc {
         self
     }
 
+    /// A depth attachment, with or without stencil (`conv::is_depth`).
     pub fn is_depth_stencil(&self) -> bool {
-        matches!(
-            self.format,
-            vk::Format::D24_UNORM_S8_UINT | vk::Format::D32_SFLOAT_S8_UINT
-        )
+        super::conv::is_depth(self.format)
     }
 
     pub fn aspect(&self) -> vk::ImageAspectFlags {
-        if self.is_depth_stencil() {
-            vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL
-        } else {
-            vk::ImageAspectFlags::COLOR
-        }
+        super::conv::aspects(self.format)
     }
 }
 

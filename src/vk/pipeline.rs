@@ -575,7 +575,8 @@ impl Pipelines {
             ]);
         }
         let ds_format = desc.depth_stencil_format.unwrap_or(vk::Format::UNDEFINED);
-        // A host's depth attachment is bound without its stencil (untouched).
+        // A host's depth attachment is bound without its stencil (untouched);
+        // a depth-only format has none.
         let stencil_format = match desc.fragment {
             FragmentKind::ShadeHost
             | FragmentKind::ShadeHostSrgb
@@ -584,6 +585,7 @@ impl Pipelines {
             | FragmentKind::ShadeAtDepthHost
             | FragmentKind::ShadeAtDepthHostSrgb
             | FragmentKind::DepthFromTextureHost => vk::Format::UNDEFINED,
+            _ if !super::conv::has_stencil(ds_format) => vk::Format::UNDEFINED,
             _ => ds_format,
         };
         graphics_pipeline(

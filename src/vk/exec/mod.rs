@@ -61,6 +61,7 @@ use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::output::Images;
 use crate::plan::direct_shade::DirectShades;
+use crate::plan::formats::needs_stencil;
 use crate::plan::memo::{Memo, PlanIds};
 use crate::plan::reach::{self, FrameReach, KeptImages};
 use crate::plan::tie_free::{TieBand, TieFree};
@@ -319,6 +320,10 @@ pub struct Executor {
     ties: TieFree,
     /// Keep the accumulate pass's images ([`Executor::set_transparency`]).
     transparency: bool,
+    /// Stencil-free plans get depth-only images ([`Executor::set_depth_only`]).
+    depth_only: bool,
+    /// The device can use the set-up's depth-only twin.
+    depth_only_usable: bool,
     /// Sequence frames' recording and buffers ([`Executor::execute_sequence`]).
     seq: sequence::SeqState,
     /// What the outputs hold now, outside the pixels frames dirtied
@@ -361,6 +366,7 @@ impl Executor {
         } else {
             ClearMode::LoadOp
         };
+        let depth_only_usable = ctx.depth_format_usable(desc.depth_format.vk_for(false));
         let pipelines = Pipelines::new(&shared)?;
         let camera = CameraBuffer::new(&shared, pipelines.camera_set_layout)?;
         let submit = Submitter::new(&shared)?;
@@ -405,6 +411,8 @@ impl Executor {
             unsnapped: cpu,
             ties: TieFree::none(),
             transparency: false,
+            depth_only: depth_only_usable,
+            depth_only_usable,
             seq: Default::default(),
             kept: KeptImages::new(),
             kept_unknown: false,
@@ -551,10 +559,11 @@ impl Executor {
         let n_ds = plan.depth_stencils.max(1) as usize;
         let n_tex = plan.textures as usize;
         let (normals, transparency) = (self.normals, self.transparency);
+        let ds_format = self.ds_format(plan);
         if self
             .targets
             .as_ref()
-            .is_some_and(|t| t.fits(n_ds, n_tex, normals, transparency))
+            .is_some_and(|t| t.fits(n_ds, ds_format, n_tex, normals, transparency))
         {
             return Ok(());
         }
@@ -564,6 +573,7 @@ impl Executor {
             &self.pipelines,
             &self.desc,
             n_ds,
+            ds_format,
             n_tex,
             normals,
             transparency,
@@ -599,6 +609,27 @@ impl Executor {
         self.kept.clear();
         self.epoch += 1;
         Ok(())
+    }
+
+    /// The format of `plan`'s depth images: the set-up's, or its depth-only
+    /// twin where no step uses stencil (`plan::formats`) and the device can
+    /// use it ([`Executor::set_depth_only`]).
+    fn ds_format(&self, plan: &Plan) -> vk::Format {
+        let stencil = !self.depth_only || needs_stencil(plan);
+        self.desc.depth_format.vk_for(stencil)
+    }
+
+    /// Depth images without a stencil aspect for plans that use no stencil
+    /// (the default where the device supports `D32_SFLOAT`): half the bytes
+    /// to clear and test on lavapipe, the same depths. Off: every plan gets
+    /// the set-up's depth-stencil format (the A/B of README "Per-pixel cost").
+    pub fn set_depth_only(&mut self, on: bool) {
+        self.depth_only = on && self.depth_only_usable;
+    }
+
+    /// The format of the current depth images (`None` before a frame).
+    pub fn depth_images_format(&self) -> Option<vk::Format> {
+        self.targets.as_ref().map(|t| t.ds_format)
     }
 
     /// Executes `plan` on the uploaded scene; the images stay on the GPU.

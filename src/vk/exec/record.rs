@@ -733,7 +733,10 @@ impl<'a> Recorder<'a> {
             .layer_count(1)
             .color_attachments(colors);
         if let Some(a) = ds_att.as_ref() {
-            ri = ri.depth_attachment(a).stencil_attachment(a);
+            ri = ri.depth_attachment(a);
+            if conv::has_stencil(self.b.targets.ds_format) {
+                ri = ri.stencil_attachment(a);
+            }
         }
         // SAFETY: recording outside rendering; all views are live and, after the
         // recorder's barriers, in the attachment layouts given.
@@ -767,12 +770,8 @@ impl<'a> Recorder<'a> {
         }
         let desc = PipelineDesc {
             fragment: kind,
-            color_formats: key
-                .colors()
-                .iter()
-                .map(|r| targets::format(*r, &self.b.desc))
-                .collect(),
-            depth_stencil_format: key.ds.map(|_| self.b.desc.depth_format.vk()),
+            color_formats: key.colors().iter().map(|r| targets::format(*r)).collect(),
+            depth_stencil_format: key.ds.map(|_| self.b.targets.ds_format),
             // A program that writes no colour runs as is, the normal buffer
             // masked with the other attachments.
             normals: kind.writes_color() && key.colors().contains(&Resource::Normal),

@@ -8,16 +8,7 @@ use crate::plan::usage::Resource;
 
 /// The format of every executor's colour target (the shadow pass blends into it).
 pub(crate) fn color_format() -> vk::Format {
-    // The colour format does not depend on the set-up; any desc gives it.
-    targets::format(
-        Resource::Color,
-        &super::ExecDesc {
-            width: 1,
-            height: 1,
-            depth_format: super::DepthFormat::D32S8,
-            reversed_z: false,
-        },
-    )
+    targets::format(Resource::Color)
 }
 
 impl Executor {

@@ -96,6 +96,9 @@ pub struct Counts {
     /// Pixels cleared, by clear commands (their rectangles) and load ops (whole
     /// images).
     pub cleared_pixels: u64,
+    /// Bytes those clears fill (`conv::texel_bytes` of each image's format):
+    /// a depth-only plan's depth images are half as wide (`plan::formats`).
+    pub cleared_bytes: u64,
     /// Pixels copied between textures (`CopyTexture`).
     pub copied_pixels: u64,
     /// GPU timestamps written (per pass, or only around the frame).
@@ -226,6 +229,7 @@ impl ExecStats {
         c.clear_commands += o.clear_commands;
         c.load_op_clears += o.load_op_clears;
         c.cleared_pixels += o.cleared_pixels;
+        c.cleared_bytes += o.cleared_bytes;
         c.copied_pixels += o.copied_pixels;
         c.timestamps += o.timestamps;
         c.state_commands += o.state_commands;

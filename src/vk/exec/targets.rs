@@ -8,6 +8,7 @@ use ash::vk;
 
 use super::ExecDesc;
 use crate::plan::usage::Resource;
+use crate::vk::conv;
 use crate::vk::error::{Check, VkError};
 use crate::vk::image::{Image, ImageDesc};
 use crate::vk::instance::Shared;
@@ -31,6 +32,9 @@ pub(super) struct Targets {
     /// executor composites layers ([`Transparency`]).
     pub transparency: Option<Transparency>,
     pub ds: Vec<Image>,
+    /// The depth images' format: the set-up's, or its depth-only twin where
+    /// the plan uses no stencil (`DepthFormat::vk_for`).
+    pub ds_format: vk::Format,
     pub tex: Vec<Image>,
 }
 
@@ -57,7 +61,7 @@ pub(super) struct Transparency {
 /// Side of the square opacity table: every 16-bit primitive id has a texel.
 pub(super) const ALPHA_TABLE_SIDE: u32 = 256;
 
-pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
+pub(super) fn format(r: Resource) -> vk::Format {
     match r {
         Resource::Color => vk::Format::R8G8B8A8_UNORM,
         Resource::Prim => vk::Format::R32_UINT,
@@ -70,14 +74,30 @@ pub(super) fn format(r: Resource, desc: &ExecDesc) -> vk::Format {
         Resource::Accum => vk::Format::R32G32B32A32_SFLOAT,
         Resource::AlphaTable => vk::Format::R32_SFLOAT,
         Resource::Texture(_) => vk::Format::R32_SFLOAT,
-        Resource::DepthStencil(_) => desc.depth_format.vk(),
+        Resource::DepthStencil(_) => {
+            panic!("depth images take the plan's format (Targets::ds_format), not a fixed one")
+        }
     }
 }
 
 impl Targets {
-    /// Fits `n_ds` depth-stencil images and `n_tex` textures of `desc`'s size.
-    pub fn fits(&self, n_ds: usize, n_tex: usize, normals: bool, transparency: bool) -> bool {
+    /// Fits `n_ds` depth-stencil images of `ds_format` and `n_tex` textures
+    /// of `desc`'s size.
+    pub fn fits(
+        &self,
+        n_ds: usize,
+        ds_format: vk::Format,
+        n_tex: usize,
+        normals: bool,
+        transparency: bool,
+    ) -> bool {
+        // Depth-stencil images serve a stencil-free plan too: a sequence of
+        // plans of both kinds (layers, a count then a frame) keeps its images
+        // rather than making them again at each change.
+        let format_fits = self.ds_format == ds_format
+            || (conv::has_stencil(self.ds_format) && !conv::has_stencil(ds_format));
         self.ds.len() >= n_ds
+            && format_fits
             && self.tex.len() >= n_tex
             && self.normal.is_some() == normals
             && self.transparency.is_some() == transparency
@@ -88,6 +108,7 @@ impl Targets {
         pipelines: &Pipelines,
         desc: &ExecDesc,
         n_ds: usize,
+        ds_format: vk::Format,
         n_tex: usize,
         normals: bool,
         transparency: bool,
@@ -102,25 +123,25 @@ impl Targets {
         let color = Image::new(
             sh,
             "color",
-            ImageDesc::new_2d(format(Resource::Color, desc), [w, h]).usage(out_usage),
+            ImageDesc::new_2d(format(Resource::Color), [w, h]).usage(out_usage),
         )?;
         let prim = Image::new(
             sh,
             "prim",
-            ImageDesc::new_2d(format(Resource::Prim, desc), [w, h]).usage(out_usage),
+            ImageDesc::new_2d(format(Resource::Prim), [w, h]).usage(out_usage),
         )?;
         let (normal, edges) = if normals {
             (
                 Some(Image::new(
                     sh,
                     "normal",
-                    ImageDesc::new_2d(format(Resource::Normal, desc), [w, h])
+                    ImageDesc::new_2d(format(Resource::Normal), [w, h])
                         .usage(color_usage | vk::ImageUsageFlags::SAMPLED),
                 )?),
                 Some(Image::new(
                     sh,
                     "edges",
-                    ImageDesc::new_2d(format(Resource::Edges, desc), [w, h]).usage(color_usage),
+                    ImageDesc::new_2d(format(Resource::Edges), [w, h]).usage(color_usage),
                 )?),
             )
         } else {
@@ -131,7 +152,7 @@ impl Targets {
             ds.push(Image::new(
                 sh,
                 &format!("ds{i}"),
-                ImageDesc::new_2d(desc.depth_format.vk(), [w, h]).usage(
+                ImageDesc::new_2d(ds_format, [w, h]).usage(
                     vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
                         | vk::ImageUsageFlags::SAMPLED
                         | vk::ImageUsageFlags::TRANSFER_SRC
@@ -154,12 +175,12 @@ impl Targets {
                 Image::new(
                     sh,
                     "accum",
-                    ImageDesc::new_2d(format(Resource::Accum, desc), [w, h]).usage(color_usage),
+                    ImageDesc::new_2d(format(Resource::Accum), [w, h]).usage(color_usage),
                 )?,
                 Image::new(
                     sh,
                     "alpha table",
-                    ImageDesc::new_2d(format(Resource::AlphaTable, desc), [side, side]).usage(
+                    ImageDesc::new_2d(format(Resource::AlphaTable), [side, side]).usage(
                         vk::ImageUsageFlags::SAMPLED
                             | vk::ImageUsageFlags::TRANSFER_SRC
                             | vk::ImageUsageFlags::TRANSFER_DST,
@@ -200,6 +221,7 @@ impl Targets {
             normal_set: None,
             transparency: None,
             ds,
+            ds_format,
             tex,
         };
         let layouts = vec![pipelines.set_layout; n_sets as usize];

@@ -18,7 +18,7 @@ impl Executor {
     /// caller then composites on the CPU).
     pub fn set_transparency(&mut self, on: bool) -> Result<bool, VkError> {
         let _layer = self.shared.layer_use();
-        let fmt = format(Resource::Accum, &self.desc);
+        let fmt = format(Resource::Accum);
         // SAFETY: physical device of this instance; plain query.
         let props = unsafe {
             self.shared

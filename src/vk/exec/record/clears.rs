@@ -189,7 +189,7 @@ impl Recorder<'_> {
             }
             let img = self.b.targets.image(r);
             self.stats.counts.clear_commands += 1;
-            self.stats.counts.cleared_pixels += c.rect.area();
+            self.count_cleared(r, c.rect.area());
             if img.desc.is_depth_stencil() {
                 // SAFETY: outside rendering; the image allows transfer dst and is in `layout`;
                 // a depth-stencil clear value was stored for it.
@@ -235,7 +235,7 @@ impl Recorder<'_> {
         match self.b.clears {
             ClearMode::LoadOp => {
                 self.stats.counts.load_op_clears += 1;
-                self.stats.counts.cleared_pixels += area.area();
+                self.count_cleared(r, area.area());
                 (vk::AttachmentLoadOp::CLEAR, c.value)
             }
             ClearMode::Command => {
@@ -287,7 +287,14 @@ impl Recorder<'_> {
                     .cmd_clear_attachments(self.cmd, &[att], &[rect])
             };
             self.stats.counts.clear_commands += 1;
-            self.stats.counts.cleared_pixels += c.rect.area();
+            self.count_cleared(*r, c.rect.area());
         }
+    }
+
+    /// Counts `pixels` of `r` cleared, and their bytes in `r`'s format.
+    fn count_cleared(&mut self, r: Resource, pixels: u64) {
+        let format = self.b.targets.image(r).desc.format;
+        self.stats.counts.cleared_pixels += pixels;
+        self.stats.counts.cleared_bytes += pixels * conv::texel_bytes(format);
     }
 }
