@@ -171,7 +171,13 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         depth_stencils: if surface { 2 } else { 1 },
         // Goldfeather's peel textures only for a fallback product that peels.
         textures: if loops { 3 } else { 1 },
-        stencil_bits: CLIP_BITS,
+        // Only what a draw uses: a plan of one-primitive products draws no
+        // stencil (and runs on a depth-only format, plan::formats).
+        stencil_bits: if super::formats::steps_need_stencil(&steps) {
+            CLIP_BITS
+        } else {
+            0
+        },
         output_ds: OUTPUT,
         steps,
     })

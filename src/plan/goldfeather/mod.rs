@@ -159,7 +159,13 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         algo: "goldfeather".into(),
         depth_stencils: 2,
         textures: if loops { 3 } else { 1 },
-        stencil_bits: CLIP_BITS,
+        // Only what a draw uses: a plan of one-primitive products draws no
+        // stencil (and runs on a depth-only format, plan::formats).
+        stencil_bits: if super::formats::steps_need_stencil(&steps) {
+            CLIP_BITS
+        } else {
+            0
+        },
         output_ds: OUTPUT,
         steps,
     })
