@@ -56,12 +56,10 @@ impl Executor {
         host: Option<(&HostShade, usize)>,
     ) -> Result<Unrolled, VkError> {
         let _layer = self.shared.layer_use();
-        let meshes = self.scene_ref()?.ranges.len() as u32;
-        crate::plan::validate::validate(plan, meshes)?;
-        self.ensure_targets(plan)?;
-        // The same decisions as the standalone frame's: the host's direct
-        // shade draws a tied mesh's rule in its tie zones alone too.
-        self.ties = self.decide_ties(plan);
+        // The same checks, images and tie decisions as the standalone frame's:
+        // the host's direct shade draws a tied mesh's rule in its tie zones
+        // alone too.
+        self.prepare_plan(plan)?;
         let scene = self.scene_ref()?;
         let cam = scene.cam;
         self.rects = super::Scissors::exact(scene, &self.desc);
