@@ -9,7 +9,9 @@
 //! `<name>.<stage>.host.spv`: the variant drawing into an embedding host's
 //! attachments (`vk::exec::record::host`), and `#ifdef HOST_SRGB` gives
 //! `<name>.<stage>.host_srgb.spv` (`HOST` and `HOST_SRGB` defined): the variant
-//! for an `_SRGB` host colour format, which decodes the colour it writes. A
+//! for an `_SRGB` host colour format, which decodes the colour it writes;
+//! `#ifdef HOST_WRITE` gives `host_write` and `host_write_srgb` (the host draw
+//! that writes its depth, with no merge before it). A
 //! variant rather than a push-constant branch because lavapipe runs both sides
 //! of a uniform branch for every fragment.
 
@@ -40,15 +42,19 @@ fn main() {
             &[],
             &Path::new(&out_dir).join(format!("{name}.spv")),
         );
-        // (defines, suffix): compiled when the source tests the last define.
-        let variants: [(&[&str], &str); 3] = [
+        // (defines, suffix): compiled when the source tests each define the
+        // variant adds to a leading `HOST` (`composite.frag` tests only `HOST_SRGB`).
+        let variants: [(&[&str], &str); 5] = [
             (&["NORMALS"], "normals"),
             (&["HOST"], "host"),
             (&["HOST", "HOST_SRGB"], "host_srgb"),
+            (&["HOST", "HOST_WRITE"], "host_write"),
+            (&["HOST", "HOST_WRITE", "HOST_SRGB"], "host_write_srgb"),
         ];
         for (defines, suffix) in variants {
-            let last = defines.last().expect("a variant has a define");
-            if source.lines().any(|l| l.trim() == format!("#ifdef {last}")) {
+            let tests = |d: &&str| source.lines().any(|l| l.trim() == format!("#ifdef {d}"));
+            let added = &defines[usize::from(defines.len() > 1)..];
+            if added.iter().all(tests) {
                 let out = Path::new(&out_dir).join(format!("{name}.{suffix}.spv"));
                 compile(&path, stage, &source, defines, &out);
             }

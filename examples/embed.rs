@@ -56,6 +56,9 @@ pub struct Report {
     /// The last frame's depth-equal draws of one-primitive products, which
     /// skip the check of the output depth (`plan::direct_shade`).
     pub direct_shade_draws: u64,
+    /// The last frame's depth-equal draws that wrote their own depth, with
+    /// no depth merge before them.
+    pub shade_written_draws: u64,
     pub validation: Vec<String>,
 }
 
@@ -431,12 +434,28 @@ unsafe fn begin_frame(
     };
 }
 
-/// The host's CSG scene on `ctx`: [`host_meshes`] combined as `m0 - m1`, or
-/// with `ball` as `m0 - m1 + m2`.
-fn host_csg(ctx: &Context, desc: &EmbedDesc, ball: bool) -> Result<CsgScene, String> {
+/// The host's CSG scene on `ctx`: [`host_meshes`] combined as `m0 - m1`,
+/// with `ball` as `m0 - m1 + m2`, and with `bites` the box's three other top
+/// corners bitten too (three more balls, numbered on, subtracted before the
+/// ball is added).
+fn host_csg(ctx: &Context, desc: &EmbedDesc, ball: bool, bites: bool) -> Result<CsgScene, String> {
     let mut meshes = host_meshes();
+    let mut expr = String::from("m0 - m1");
+    if !bites {
+        meshes.truncate(3);
+    }
     if !ball {
-        meshes.truncate(2);
+        meshes.remove(2);
+    }
+    if bites {
+        let first = 2 + usize::from(ball);
+        for m in first..first + 3 {
+            expr += &format!(" - m{m}");
+        }
+    }
+    // Last: the ball stays a product of one primitive.
+    if ball {
+        expr += " + m2";
     }
     let inputs: Vec<MeshInput<'_>> = meshes
         .iter()
@@ -447,8 +466,7 @@ fn host_csg(ctx: &Context, desc: &EmbedDesc, ball: bool) -> Result<CsgScene, Str
             color: *c,
         })
         .collect();
-    let expr = if ball { "m0 - m1 + m2" } else { "m0 - m1" };
-    CsgScene::new(ctx, &inputs, CsgExpr::Text(expr), &camera(), desc).map_err(|e| e.to_string())
+    CsgScene::new(ctx, &inputs, CsgExpr::Text(&expr), &camera(), desc).map_err(|e| e.to_string())
 }
 
 /// The host's CSG: a box with a spherical bite, as plain f32 meshes, and a
@@ -483,6 +501,27 @@ fn host_meshes() -> Vec<(Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3])> {
                 * Mat4::from_scale(glam::Vec3::splat(0.5)),
             [90, 200, 110],
         ),
+        (
+            f32s(&ball),
+            ball.triangles.clone(),
+            Mat4::from_translation([-0.7, 0.8, 0.7].into())
+                * Mat4::from_scale(glam::Vec3::splat(0.7)),
+            [220, 180, 60],
+        ),
+        (
+            f32s(&ball),
+            ball.triangles.clone(),
+            Mat4::from_translation([0.7, 0.8, -0.7].into())
+                * Mat4::from_scale(glam::Vec3::splat(0.7)),
+            [200, 80, 200],
+        ),
+        (
+            f32s(&ball),
+            ball.triangles.clone(),
+            Mat4::from_translation([-0.7, 0.8, -0.7].into())
+                * Mat4::from_scale(glam::Vec3::splat(0.7)),
+            [60, 200, 220],
+        ),
     ]
 }
 
@@ -516,6 +555,8 @@ pub struct Setup {
     pub internal_depth: DepthFormat,
     /// Adds the ball beside the box (`m0 - m1 + m2`, [`host_meshes`]).
     pub ball: bool,
+    /// Bites the box's three other top corners too ([`host_csg`]).
+    pub bites: bool,
 }
 
 impl Setup {
@@ -532,6 +573,7 @@ impl Setup {
             algo: Algo::Goldfeather,
             internal_depth: DepthFormat::D32S8,
             ball: false,
+            bites: false,
         }
     }
 }
@@ -589,7 +631,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         algo: setup.algo,
         internal_depth: setup.internal_depth,
     };
-    let mut csg = host_csg(&ctx, &desc, setup.ball)?;
+    let mut csg = host_csg(&ctx, &desc, setup.ball, setup.bites)?;
 
     let (color_format, depth_format) = (setup.color_format, setup.depth_format);
     let srgb = matches!(
@@ -694,7 +736,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     );
     let mut counts = Vec::new();
     let mut paths = Vec::new();
-    let mut shade_draws = (0, 0, 0);
+    let mut shade_draws = (0, 0, 0, 0);
     for k in 0..setup.frames.max(1) {
         let slot = (k % inflight) as usize;
         let (cmd, fence) = (cmds[slot], fences[slot]);
@@ -774,6 +816,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
             stats.counts.shade_fixed_draws,
             stats.counts.shade_rule_draws,
             stats.counts.direct_shade_draws,
+            stats.counts.shade_written_draws,
         );
         // SAFETY: as above.
         unsafe {
@@ -814,6 +857,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         report.shade_fixed_draws,
         report.shade_rule_draws,
         report.direct_shade_draws,
+        report.shade_written_draws,
     ) = shade_draws;
     drop(csg);
     drop(ctx);
@@ -1193,7 +1237,7 @@ pub fn record_with_formats(color: vk::Format, depth: vk::Format) -> Result<Optio
             extent: [32, 32],
             ..EmbedDesc::default()
         };
-        let mut csg = host_csg(&ctx, &desc, false)?;
+        let mut csg = host_csg(&ctx, &desc, false, false)?;
         let targets = HostTargets {
             color_view: vk::ImageView::null(),
             color_format: color,

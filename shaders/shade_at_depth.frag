@@ -5,7 +5,8 @@
 // With HOST: the embedding's depth-equal final pass (vk::exec::record::host), drawn
 // into a host's attachments with the output depth-stencil's depth bound as the
 // texture, colour only, after the depth merge put that depth into the host's
-// wherever it is nearer; with HOST_SRGB too, for an _SRGB host colour format.
+// wherever it is nearer; with HOST_WRITE, with no merge, the visible face's raster
+// depth written; with HOST_SRGB too, for an _SRGB host colour format.
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)
@@ -18,10 +19,18 @@ layout(push_constant) uniform Push {
     uint flags;
 } pc;
 #ifdef HOST
+#ifdef HOST_WRITE
+// The host draw with no merge before it: it tests the host's depth with
+// equality and writes its raster depth. No early_fragment_tests (they would
+// write the depth of the faces discarded below), but a shader that discards and
+// writes no gl_FragDepth still gets the depth test before it on lavapipe (the
+// write comes after), so the fragments behind the host's geometry run nothing.
+#else
 // The host draw tests depth-EQUAL against the merged depth and writes none: the
 // test runs before the shader, so only the fragments at the visible depth (or
 // at a host depth they equal, which the fetch below turns away) run it.
 layout(early_fragment_tests) in;
+#endif
 #endif
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;

@@ -61,6 +61,12 @@ pub enum FragmentKind {
     ShadeAtDepthHost,
     /// `ShadeAtDepthHost` for an `_SRGB` host colour format.
     ShadeAtDepthHostSrgb,
+    /// `ShadeAtDepthHost` with no depth merge before it: tested against the
+    /// host's depth with equality (before the shader on lavapipe), its raster
+    /// depth written where it is the visible face (`HOST_WRITE`).
+    ShadeAtDepthHostWrite,
+    /// `ShadeAtDepthHostWrite` for an `_SRGB` host colour format.
+    ShadeAtDepthHostWriteSrgb,
     /// `ShadeAtDepth` without colour: depth only.
     DepthAtDepth,
     /// Samples the depth aspect of a depth-stencil image into a depth texture.
@@ -134,7 +140,9 @@ impl FragmentKind {
             | FragmentKind::ShadeNearDepthHostSrgb
             | FragmentKind::ShadeAtDepth
             | FragmentKind::ShadeAtDepthHost
-            | FragmentKind::ShadeAtDepthHostSrgb => (true, true, false),
+            | FragmentKind::ShadeAtDepthHostSrgb
+            | FragmentKind::ShadeAtDepthHostWrite
+            | FragmentKind::ShadeAtDepthHostWriteSrgb => (true, true, false),
             FragmentKind::Background
             | FragmentKind::PeelTolerant
             | FragmentKind::NearerThan
@@ -194,6 +202,10 @@ impl FragmentKind {
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
             FragmentKind::ShadeAtDepthHost => spv!("shade_at_depth.frag.host"),
             FragmentKind::ShadeAtDepthHostSrgb => spv!("shade_at_depth.frag.host_srgb"),
+            FragmentKind::ShadeAtDepthHostWrite => spv!("shade_at_depth.frag.host_write"),
+            FragmentKind::ShadeAtDepthHostWriteSrgb => {
+                spv!("shade_at_depth.frag.host_write_srgb")
+            }
             FragmentKind::DepthAtDepth => spv!("depth_at_depth.frag"),
             FragmentKind::Edges => spv!("edges.frag"),
             FragmentKind::Accumulate => spv!("accumulate.frag"),
@@ -584,6 +596,8 @@ impl Pipelines {
             | FragmentKind::ShadeNearDepthHostSrgb
             | FragmentKind::ShadeAtDepthHost
             | FragmentKind::ShadeAtDepthHostSrgb
+            | FragmentKind::ShadeAtDepthHostWrite
+            | FragmentKind::ShadeAtDepthHostWriteSrgb
             | FragmentKind::DepthFromTextureHost => vk::Format::UNDEFINED,
             _ if !super::conv::has_stencil(ds_format) => vk::Format::UNDEFINED,
             _ => ds_format,
@@ -747,7 +761,7 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 23] = [
+    const SOURCES: [(FragmentKind, &str); 24] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
         (FragmentKind::ShadeHost, "shade.frag"),
@@ -770,6 +784,7 @@ mod tests {
         (FragmentKind::MergeBehindExact, "merge_behind_exact.frag"),
         (FragmentKind::ShadeAtDepth, "shade_at_depth.frag"),
         (FragmentKind::ShadeAtDepthHost, "shade_at_depth.frag"),
+        (FragmentKind::ShadeAtDepthHostWrite, "shade_at_depth.frag"),
         (FragmentKind::DepthAtDepth, "depth_at_depth.frag"),
         (FragmentKind::CopyDepth, "copy_depth.frag"),
         (FragmentKind::Edges, "edges.frag"),

@@ -64,6 +64,10 @@ pub struct Counts {
     /// targets, drawn without a check of the output depth (`record::host`;
     /// also counted in `shade_fixed_draws`).
     pub direct_shade_draws: u64,
+    /// In an embedded frame: depth-equal final-shade draws into the host's
+    /// targets that write their own depth, with no depth merge before them
+    /// (`record::host`'s `writes_depth`; also counted in `shade_fixed_draws`).
+    pub shade_written_draws: u64,
     /// Draws of the final shade (depth-equal or tie-rule) that cull the side
     /// of their mesh that is never visible (`plan::VisibleSides`): about half
     /// its faces.
@@ -222,6 +226,7 @@ impl ExecStats {
         c.tie_rule_draws += o.tie_rule_draws;
         c.shade_fixed_draws += o.shade_fixed_draws;
         c.direct_shade_draws += o.direct_shade_draws;
+        c.shade_written_draws += o.shade_written_draws;
         c.shade_rule_draws += o.shade_rule_draws;
         c.shade_rule_pixels += o.shade_rule_pixels;
         c.barriers += o.barriers;

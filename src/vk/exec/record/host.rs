@@ -27,6 +27,15 @@
 //! no face nearer than the output depth, so its piece skips that fetch
 //! (`shaders/shade.frag`, `HOST`). The merge keeps no discard of far
 //! pixels: a far depth fails the host's strict test by itself.
+//!
+//! The merge's shader writes `gl_FragDepth`, so lavapipe tests it late and
+//! runs it on every pixel of its rectangle. Where the pieces' own fragments
+//! are fewer ([`writes_depth`], a pure choice from their scissors and
+//! culling), there is no merge: each depth-equal piece tests the host's depth
+//! with equality and writes its raster depth, its shader
+//! (`shade_at_depth.frag`, `HOST_WRITE`) discarding every fragment not at the
+//! output depth; a shader that discards but writes no depth keeps the test
+//! before it on lavapipe, so fragments behind the host's geometry cost little.
 
 use ash::vk;
 
@@ -268,6 +277,44 @@ enum Piece {
     /// (`plan::direct_shade`), none of whose faces lies nearer than the
     /// output depth, so none can equal a host depth nearer than it.
     Direct,
+    /// With no merge: `LESS_OR_EQUAL` against the host's depth (before the
+    /// shader), the output depth fetched and every fragment not at it
+    /// discarded, the raster depth of the rest (the visible face's) written
+    /// (`ShadeAtDepthHostWrite`).
+    Written,
+}
+
+/// Whether the final shade's depth-equal pieces (each one's scissor and
+/// culling) are drawn `Written`, each testing the host's depth with equality
+/// and writing its own, rather than after the depth merge: whichever runs the
+/// shader on fewer pixels, as lavapipe prices them (README "Embedding", "The
+/// depth merge or the pieces' own depth").
+///
+/// The merge runs its shader (a depth fetch and `gl_FragDepth`, tested late)
+/// on every pixel of its rectangle, the bounds of the pieces' scissors; the
+/// pieces after it test depth-`EQUAL` before their shader, so their hidden
+/// fragments cost little. A `Written` piece runs its shader (a depth fetch and
+/// a compare) on every fragment in front of the host's depth, hidden or not.
+/// A mesh drawn with its back faces culled shows mostly the faces it draws:
+/// about one fragment per pixel of its scissor. The back faces a front cull
+/// keeps (a subtracted mesh's inside) and a mesh drawn whole lie mostly behind
+/// the solid's faces, which the plan's order (descending index) draws after
+/// them: two. One merge pixel costs as much as 2.5 such fragments (fitted on
+/// `examples/embed_ab`, SCS, 800×800: the merge wins on `drilled_block`, the
+/// pieces on `nonconvex_obj`, `shadow_block`, `interference`).
+pub(crate) fn writes_depth(pieces: &[(Rect, Cull)]) -> bool {
+    let written: u64 = pieces
+        .iter()
+        .map(|(r, cull)| match cull {
+            Cull::Back => r.area(),
+            Cull::Front | Cull::None => 2 * r.area(),
+        })
+        .sum();
+    let merged = pieces
+        .iter()
+        .fold(Rect::EMPTY, |a, (r, _)| a.union(r))
+        .area();
+    2 * written <= 5 * merged
 }
 
 /// The pipeline of host program `kind` for the host's formats.
@@ -298,6 +345,9 @@ impl Recorder<'_> {
     /// where it is nearer than or equal to the host's. The draws keep the plan's
     /// order (descending index), so the last writer, the lowest index, stays,
     /// as in the standalone frame.
+    ///
+    /// Where [`writes_depth`] says the pieces cost fewer pixels than the
+    /// merge, every depth-equal piece is drawn `Written` instead, with no merge.
     ///
     /// The meshes of `direct` (one-primitive products, `plan::direct_shade`:
     /// the standalone frame shades them in their direct draws) are drawn
@@ -366,6 +416,20 @@ impl Recorder<'_> {
                 )),
             }
         }
+        // The merge, or each depth-equal piece writing its own depth: which
+        // costs fewer shaded pixels (`writes_depth`).
+        let equal: Vec<(Rect, Cull)> = draws
+            .iter()
+            .filter(|(_, piece, _)| *piece != Piece::Rule)
+            .map(|(d, _, r)| (*r, d.cull))
+            .collect();
+        if writes_depth(&equal) {
+            for (_, piece, _) in draws.iter_mut() {
+                if *piece != Piece::Rule {
+                    *piece = Piece::Written;
+                }
+            }
+        }
         let rule_tex = draws
             .iter()
             .find(|(_, piece, _)| *piece == Piece::Rule)
@@ -388,16 +452,18 @@ impl Recorder<'_> {
         self.stats.counts.barriers += 1;
 
         // The sRGB decode is a variant of its own (`build.rs`).
-        let (rule_kind, equal_kind, direct_kind) = match h.srgb {
+        let (rule_kind, equal_kind, direct_kind, written_kind) = match h.srgb {
             true => (
                 FragmentKind::ShadeNearDepthHostSrgb,
                 FragmentKind::ShadeAtDepthHostSrgb,
                 FragmentKind::ShadeHostSrgb,
+                FragmentKind::ShadeAtDepthHostWriteSrgb,
             ),
             false => (
                 FragmentKind::ShadeNearDepthHost,
                 FragmentKind::ShadeAtDepthHost,
                 FragmentKind::ShadeHost,
+                FragmentKind::ShadeAtDepthHostWrite,
             ),
         };
         self.begin_host_block(h);
@@ -410,6 +476,7 @@ impl Recorder<'_> {
                 Piece::Rule => (rule_kind, rule_tex.map(Resource::Texture)),
                 Piece::AtDepth => (equal_kind, equal_ds.map(Resource::DepthStencil)),
                 Piece::Direct => (direct_kind, None),
+                Piece::Written => (written_kind, equal_ds.map(Resource::DepthStencil)),
             };
             let set = set.map(|r| self.b.targets.sampling_set(r));
             let pipeline = self.b.pipelines.get(&host_pipeline(h, kind))?;
@@ -427,7 +494,8 @@ impl Recorder<'_> {
     /// is nearer (the host's strict test; far pixels discarded), so that a
     /// plain depth-`EQUAL` test against the host's depth keeps a face's
     /// fragments where it is the visible one and the CSG is in front. One
-    /// full-screen draw with no colour written (`DepthFromTextureHost`).
+    /// full-screen draw with no colour written (`DepthFromTextureHost`);
+    /// none when every depth-equal piece writes its own depth.
     fn host_merge(
         &mut self,
         h: &HostShade,
@@ -435,7 +503,9 @@ impl Recorder<'_> {
         draws: &[(Draw, Piece, Rect)],
         flags: u32,
     ) -> Result<(), VkError> {
-        let mut equal = draws.iter().filter(|(_, piece, _)| *piece != Piece::Rule);
+        let mut equal = draws
+            .iter()
+            .filter(|(_, piece, _)| matches!(piece, Piece::AtDepth | Piece::Direct));
         let rect = equal.clone().fold(Rect::EMPTY, |a, (_, _, r)| a.union(r));
         let Some((first, _, _)) = equal.next().filter(|_| !rect.is_empty()) else {
             return Ok(());
@@ -491,9 +561,11 @@ impl Recorder<'_> {
     }
 
     /// One shade draw of one mesh into the host's attachments: with the tie
-    /// rule (`Piece::Rule`, `ShadeNearDepthHost`: the visible depth written)
-    /// or at the output depth (depth-`EQUAL` against the merged depth, none
-    /// written).
+    /// rule (`Piece::Rule`, `ShadeNearDepthHost`: the visible depth written),
+    /// at the output depth (depth-`EQUAL` against the merged depth, none
+    /// written), or at the output depth with no merge (`Piece::Written`: the
+    /// host's test with equality, the raster depth of the fragments the shader
+    /// keeps written).
     fn host_draw(&mut self, draw: &Draw, piece: Piece, scissor: Rect, flags: u32) {
         let (m, eps) = match (&draw.geometry, &draw.fragment) {
             (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) => (*m, *eps),
@@ -501,11 +573,12 @@ impl Recorder<'_> {
         };
         // Mirrored for reversed Z. The rule's fragments write the visible
         // depth where it is nearer than or equal to the host's (the host's
-        // depth there may be the merge's, the same value); the depth-equal
-        // draws test the merged depth and write none. No stencil; the culling
-        // of the standalone frame's draw.
+        // depth there may be the merge's, the same value), and so do the
+        // written pieces' (their raster depth, the visible one, or discarded);
+        // the depth-equal draws after a merge test the merged depth and write
+        // none. No stencil; the culling of the standalone frame's draw.
         let rule = piece == Piece::Rule;
-        let depth = match rule {
+        let depth = match matches!(piece, Piece::Rule | Piece::Written) {
             true => DepthState {
                 compare: CompareOp::LessOrEqual,
                 write: true,
@@ -551,6 +624,7 @@ impl Recorder<'_> {
             false => c.shade_fixed_draws += 1,
         }
         c.direct_shade_draws += (piece == Piece::Direct) as u64;
+        c.shade_written_draws += (piece == Piece::Written) as u64;
         c.shade_culled_draws += (draw.cull != Cull::None) as u64;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
@@ -680,6 +754,39 @@ mod tests {
         };
         l.tail.push(Step::CopyDepthToTexture { ds: 0, dst: 1 });
         assert_eq!(peel_depth(&p), None);
+    }
+
+    /// The pieces write their own depth where their fragments are fewer than
+    /// the merge's pixels: a few meshes on a large screen rectangle (one
+    /// drawn whole counting twice), not many subtracted meshes inside one
+    /// solid's rectangle, whose hidden back faces the merge turns away early.
+    #[test]
+    fn the_pieces_write_their_depth_where_they_cost_fewer_pixels_than_the_merge() {
+        let r = |x0, y0, x1, y1| Rect { x0, y0, x1, y1 };
+        // One solid: its pixels once (or twice) against its rectangle.
+        assert!(writes_depth(&[(r(0, 0, 100, 100), Cull::Back)]));
+        assert!(writes_depth(&[(r(0, 0, 100, 100), Cull::None)]));
+        // Two apart: the merge's bounds hold the gap too.
+        let apart = [
+            (r(0, 0, 10, 10), Cull::Back),
+            (r(90, 90, 100, 100), Cull::Front),
+        ];
+        assert!(writes_depth(&apart));
+        // A block and twelve holes inside its rectangle (`drilled_block`).
+        let mut drilled = vec![(r(0, 40, 200, 180), Cull::Back)];
+        drilled.extend((0..12).map(|i| (r(10 * i, 50, 10 * i + 35, 120), Cull::Front)));
+        assert!(!writes_depth(&drilled));
+        // Exactly 2.5 fragments per merge pixel: written (ties go to no merge).
+        let edge = [
+            (r(0, 0, 100, 100), Cull::Front),
+            (r(0, 0, 50, 100), Cull::Back),
+        ];
+        assert!(writes_depth(&edge));
+        let over = [
+            (r(0, 0, 100, 100), Cull::Front),
+            (r(0, 0, 51, 100), Cull::Back),
+        ];
+        assert!(!writes_depth(&over));
     }
 
     #[test]
