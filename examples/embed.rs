@@ -1196,26 +1196,30 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
 /// both depth conventions, one to three frames in flight.
 pub fn setups() -> Vec<(String, Setup)> {
     use vk::Format as F;
+    // The last field: the box bitten at four corners, whose depth-equal
+    // pieces follow the depth merge (the others write their own depth).
     let cases = [
-        (F::R8G8B8A8_UNORM, F::D32_SFLOAT, false, 1, 1),
-        (F::R8G8B8A8_UNORM, F::D32_SFLOAT, true, 1, 1),
-        (F::B8G8R8A8_UNORM, F::D24_UNORM_S8_UINT, false, 2, 4),
-        (F::B8G8R8A8_SRGB, F::D32_SFLOAT_S8_UINT, true, 3, 5),
-        (F::R8G8B8A8_SRGB, F::D24_UNORM_S8_UINT, true, 2, 3),
-        (F::B8G8R8A8_UNORM, F::D32_SFLOAT_S8_UINT, false, 2, 3),
+        (F::R8G8B8A8_UNORM, F::D32_SFLOAT, false, 1, 1, false),
+        (F::R8G8B8A8_UNORM, F::D32_SFLOAT, true, 1, 1, false),
+        (F::B8G8R8A8_UNORM, F::D24_UNORM_S8_UINT, false, 2, 4, true),
+        (F::B8G8R8A8_SRGB, F::D32_SFLOAT_S8_UINT, true, 3, 5, false),
+        (F::R8G8B8A8_SRGB, F::D24_UNORM_S8_UINT, true, 2, 3, true),
+        (F::B8G8R8A8_UNORM, F::D32_SFLOAT_S8_UINT, false, 2, 3, false),
     ];
     cases
         .into_iter()
-        .map(|(color, depth, reversed_z, inflight, frames)| {
+        .map(|(color, depth, reversed_z, inflight, frames, bites)| {
             let name = format!(
-                "{color:?}+{depth:?} {} z, {inflight} in flight",
-                if reversed_z { "reversed" } else { "standard" }
+                "{color:?}+{depth:?} {} z, {inflight} in flight{}",
+                if reversed_z { "reversed" } else { "standard" },
+                if bites { ", four bites" } else { "" }
             );
             let setup = Setup {
                 color_format: color,
                 depth_format: depth,
                 frames_in_flight: inflight,
                 frames,
+                bites,
                 ..Setup::new([160, 120], reversed_z)
             };
             (name, setup)
@@ -1295,8 +1299,8 @@ fn main() {
                     && r.floor_hides_csg > 0
                     && r.csg_hides_floor > 0;
                 println!(
-                    "{name}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; loop counts {:?} -> {:?}; {} validation messages",
-                    r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.first_counts, r.last_counts, r.validation.len()
+                    "{name}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; loop counts {:?} -> {:?}; depth-equal draws {} ({} writing their depth); {} validation messages",
+                    r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.first_counts, r.last_counts, r.shade_fixed_draws, r.shade_written_draws, r.validation.len()
                 );
                 for m in &r.validation {
                     println!("  validation: {m}");

@@ -93,7 +93,7 @@ fn main() {
             if let Some(s) = s {
                 let c = &s.counts;
                 print!(
-                    "  | {label}: draws {} (mesh {:.2} Mpx; direct-shade {} dead-tex {} footprint {}; shade rule {} on {:.2} Mpx, fixed {}) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
+                    "  | {label}: draws {} (mesh {:.2} Mpx; direct-shade {} dead-tex {} footprint {}; shade rule {} on {:.2} Mpx, fixed {}, written {}) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
                     c.draws,
                     c.mesh_pixels as f64 * 1e-6,
                     c.direct_shade_draws,
@@ -102,6 +102,7 @@ fn main() {
                     c.shade_rule_draws,
                     c.shade_rule_pixels as f64 * 1e-6,
                     c.shade_fixed_draws,
+                    c.shade_written_draws,
                     c.barriers,
                     c.render_passes,
                     c.fullscreen_passes,
