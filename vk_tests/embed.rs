@@ -133,8 +133,8 @@ fn a_host_floor_hides_a_directly_shaded_product_where_it_is_in_front() {
 /// the box's rectangle, whose back faces the merge turns away before their
 /// shader) the merge comes first. Either way the floor hides the CSG and the
 /// CSG the floor as the reference composite says, in both depth conventions,
-/// with a rounding depth buffer and an `_SRGB` colour format (the decoding
-/// variant).
+/// with depth buffers that round (D24S8, D16) and an `_SRGB` colour format
+/// (the decoding variant).
 #[test]
 fn written_pieces_and_the_merge_each_meet_the_host_floor_like_the_reference() {
     let _only = host_alone();
@@ -146,6 +146,7 @@ fn written_pieces_and_the_merge_each_meet_the_host_floor_like_the_reference() {
         for (color_format, depth_format, reversed_z) in [
             (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, false),
             (Format::B8G8R8A8_SRGB, Format::D24_UNORM_S8_UINT, true),
+            (Format::R8G8B8A8_UNORM, Format::D16_UNORM, false),
         ] {
             let setup = example::Setup {
                 ball,
