@@ -14,6 +14,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 
@@ -22,7 +23,7 @@ void main() {
 #ifdef HOST
     // A far depth fails the host's strict test by itself.
 #else
-    bool empty = (pc.flags & 1u) != 0u ? d <= 0.0 : d >= 1.0;
+    bool empty = (d_flags & 1u) != 0u ? d <= 0.0 : d >= 1.0;
     if (empty) {
         discard;
     }

@@ -14,6 +14,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 
@@ -23,7 +24,7 @@ void main() {
     // Derivatives before any discard (they need the whole quad).
     vec2 dz = vec2(dFdx(gl_FragCoord.z), dFdy(gl_FragCoord.z));
     TieTexel t = tie_texel();
-    bool empty = (pc.flags & 1u) != 0u ? t.d <= 0.0 : t.d >= 1.0;
+    bool empty = (d_flags & 1u) != 0u ? t.d <= 0.0 : t.d >= 1.0;
     if (empty || tie_nearer(dz, t)) {
         discard;
     }

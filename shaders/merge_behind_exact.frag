@@ -11,12 +11,13 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 
 void main() {
     float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
-    bool reversed = (pc.flags & 1u) != 0u;
+    bool reversed = (d_flags & 1u) != 0u;
     bool empty = reversed ? d <= 0.0 : d >= 1.0;
     bool behind = reversed ? gl_FragCoord.z < d : gl_FragCoord.z > d;
     if (empty || !behind) {

@@ -25,12 +25,20 @@ layout(location = 0) out vec3 v_world;
 layout(location = 1) flat out vec3 v_normal;
 // The headlight's ray and the normal's component along it (light.glsl).
 layout(location = 2) out vec4 v_light;
+// The push constants fragment programs read, per vertex (draw.glsl: llvmpipe
+// reads a push constant lane by lane in a fragment shader).
+layout(location = 3) flat out vec4 d_color;
+layout(location = 4) flat out uint d_prim;
+layout(location = 5) flat out uint d_flags;
 
 invariant gl_Position;
 
 void main() {
     v_world = a_pos;
     v_normal = a_normal;
+    d_color = pc.color;
+    d_prim = pc.prim;
+    d_flags = pc.flags;
     // Perspective (w = 1): from the eye to the vertex; orthographic (w = 0):
     // the view direction, the same at every vertex.
     vec3 ray = mix(cam.view.xyz, a_pos - cam.view.xyz, cam.view.w);

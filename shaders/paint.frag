@@ -11,6 +11,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 #include "light.glsl"
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
@@ -20,8 +21,8 @@ layout(location = 1) out uint o_prim;
 #endif
 
 void main() {
-    o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
-    o_prim = pc.prim;
+    o_color = vec4(d_color.rgb * shade_factor(), 1.0);
+    o_prim = d_prim;
 #ifdef NORMALS
     o_normal = vec4(seen_normal(), 0.0);
 #endif

@@ -11,13 +11,14 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) out float o_depth;
 
 bool behind_prev() {
     float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
-    return (pc.flags & 1u) != 0u ? gl_FragCoord.z < prev : gl_FragCoord.z > prev;
+    return (d_flags & 1u) != 0u ? gl_FragCoord.z < prev : gl_FragCoord.z > prev;
 }
 
 void main() {

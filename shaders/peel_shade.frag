@@ -11,6 +11,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 #include "light.glsl"
@@ -24,15 +25,15 @@ layout(location = 2) out float o_depth;
 
 bool behind_prev() {
     float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
-    return (pc.flags & 1u) != 0u ? gl_FragCoord.z < prev : gl_FragCoord.z > prev;
+    return (d_flags & 1u) != 0u ? gl_FragCoord.z < prev : gl_FragCoord.z > prev;
 }
 
 void main() {
     if (!behind_prev()) {
         discard;
     }
-    o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
-    o_prim = pc.prim;
+    o_color = vec4(d_color.rgb * shade_factor(), 1.0);
+    o_prim = d_prim;
     o_depth = gl_FragCoord.z;
 #ifdef NORMALS
     o_normal = vec4(seen_normal(), 0.0);

@@ -12,6 +12,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(location = 0) out float o_depth;
@@ -25,13 +26,13 @@ void main() {
     float prev = t.d;
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
     // with the depth.
-    float eps = (pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.x * prev : pc.color.x;
+    float eps = (d_flags & 1u) != 0u ? REVERSED_SCALE * d_color.x * prev : d_color.x;
     // The slope term only for a face parallel to the texture's (a coplanar face
     // snapped differently), not for one crossing it. It moves the bound by
     // `slope`; the slope test decides only the
     // fragments inside that thin band.
-    float slope = sign(pc.color.x) * tie_slope() * (abs(dz.x) + abs(dz.y));
-    bool reversed = (pc.flags & 1u) != 0u;
+    float slope = sign(d_color.x) * tie_slope() * (abs(dz.x) + abs(dz.y));
+    bool reversed = (d_flags & 1u) != 0u;
     bool behind = reversed ? gl_FragCoord.z + eps < prev : gl_FragCoord.z - eps > prev;
     bool widened = reversed ? gl_FragCoord.z + (eps + slope) < prev
                             : gl_FragCoord.z - (eps + slope) > prev;

@@ -16,6 +16,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 #ifdef HOST
 layout(early_fragment_tests) in;
 #endif
@@ -34,7 +35,7 @@ layout(location = 1) out uint o_prim;
 
 void main() {
 #ifdef HOST
-    vec3 c = pc.color.rgb * shade_factor();
+    vec3 c = d_color.rgb * shade_factor();
 #ifdef HOST_SRGB
     // An _SRGB host format would encode these (already sRGB-encoded) values
     // a second time (a variant, not a flag: see shade_near_depth.frag).
@@ -42,8 +43,8 @@ void main() {
 #endif
     o_color = vec4(c, 1.0);
 #else
-    o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
-    o_prim = pc.prim;
+    o_color = vec4(d_color.rgb * shade_factor(), 1.0);
+    o_prim = d_prim;
 #endif
 #ifdef NORMALS
     o_normal = vec4(seen_normal(), 0.0);

@@ -17,6 +17,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 #include "camera.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_tex;
 layout(set = 0, binding = 1) uniform sampler u_samp;
@@ -46,7 +47,7 @@ bool near_depth(float z, TieTexel t, vec2 dz) {
     float d = t.d;
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
     // with the depth.
-    float eps = (pc.flags & 1u) != 0u ? REVERSED_SCALE * pc.color.a * d : pc.color.a;
+    float eps = (d_flags & 1u) != 0u ? REVERSED_SCALE * d_color.a * d : d_color.a;
     if (abs(gl_FragCoord.z - d) <= eps) {
         return true;
     }
@@ -81,14 +82,14 @@ void main() {
     // Nothing visible here (the far clear value); this also stands in for a
     // stencil test of the plan's, which the host's depth attachment cannot
     // hold: Blister's unlocked pixels are pushed back to far.
-    if (t.d == ((pc.flags & 1u) != 0u ? 0.0 : 1.0)) {
+    if (t.d == ((d_flags & 1u) != 0u ? 0.0 : 1.0)) {
         discard;
     }
     // Every face drawn here writes the same depth, the visible one, so that the
     // host's strict depth test keeps the first writer: the lowest index, drawn
     // first (the host's geometry wins exact ties).
     gl_FragDepth = t.d;
-    vec3 c = pc.color.rgb * shade_factor();
+    vec3 c = d_color.rgb * shade_factor();
 #ifdef HOST_SRGB
     // An _SRGB host format, whose hardware encoding would encode these
     // (already sRGB-encoded) values a second time. A shader variant, not a
@@ -100,9 +101,9 @@ void main() {
     // Bit 1: the raster depth, where the shade's depth-equal draws leave it
     // (a device that does not snap; vk::pipeline::FLAG_RASTER_DEPTH), so
     // that the tie rule and those draws agree bit for bit where both can run.
-    gl_FragDepth = (pc.flags & 2u) != 0u ? gl_FragCoord.z : z;
-    o_color = vec4(pc.color.rgb * shade_factor(), 1.0);
-    o_prim = pc.prim;
+    gl_FragDepth = (d_flags & 2u) != 0u ? gl_FragCoord.z : z;
+    o_color = vec4(d_color.rgb * shade_factor(), 1.0);
+    o_prim = d_prim;
 #endif
 #ifdef NORMALS
     o_normal = vec4(seen_normal(), 0.0);

@@ -1,6 +1,6 @@
 // The tie tolerance of every tolerant shader (plan::tie), included by build.rs
-// (`#include "tie.glsl"`) after the including shader declares `pc` (with
-// `flags`), `u_tex` and `u_samp`. Not a shader of its own.
+// (`#include "tie.glsl"`) after the including shader includes `draw.glsl`
+// and declares `u_tex` and `u_samp`. Not a shader of its own.
 
 // plan::tie: the slope part of a tolerance is TIE_SLOPES steps of the device's
 // vertex snapping (2^-bits pixel, bits in flags 8..16) times fwidth(z); with
@@ -12,7 +12,7 @@ const float SLOPE_AGREEMENT = 0.03125;
 float tie_slope() {
     // 2^-bits built from its float bits (bits is 4..16): exact, and no exp2
     // per fragment (lavapipe evaluates it as a polynomial).
-    return TIE_SLOPES * uintBitsToFloat((127u - ((pc.flags >> 8) & 0xffu)) << 23);
+    return TIE_SLOPES * uintBitsToFloat((127u - ((d_flags >> 8) & 0xffu)) << 23);
 }
 
 // The texture at `p`, clamped to the image: a helper invocation past the edge
@@ -55,21 +55,21 @@ bool same_slope(vec2 dz, TieTexel t, float eps) {
 }
 
 // Whether this fragment is at or in front of the texture's depth plus the
-// signed tolerance `pc.color.a` (normalized depth), ties decided by the slope
+// signed tolerance `d_color.a` (normalized depth), ties decided by the slope
 // test: the classification of every tolerant parity test. `dz` are the
 // fragment depth's derivatives and `t` the texel, both taken in uniform
 // control flow.
 bool tie_nearer(vec2 dz, TieTexel t) {
     float d = t.d;
-    bool reversed = (pc.flags & 1u) != 0u;
+    bool reversed = (d_flags & 1u) != 0u;
     // Reversed Z: a float buffer with relative precision, so the tolerance scales
     // with the depth.
-    float eps = reversed ? REVERSED_SCALE * pc.color.a * d : pc.color.a;
+    float eps = reversed ? REVERSED_SCALE * d_color.a * d : d_color.a;
     // The slope term only for a face parallel to the texture's (a coplanar face
     // snapped differently), not for one crossing it. It moves the bound by
     // `slope` (the sign of the tolerance); the slope test decides only
     // the fragments inside that thin band.
-    float slope = sign(pc.color.a) * tie_slope() * (abs(dz.x) + abs(dz.y));
+    float slope = sign(d_color.a) * tie_slope() * (abs(dz.x) + abs(dz.y));
     bool nearer = reversed ? gl_FragCoord.z >= d - eps : gl_FragCoord.z <= d + eps;
     bool widened = reversed ? gl_FragCoord.z >= d - (eps + slope)
                             : gl_FragCoord.z <= d + (eps + slope);
