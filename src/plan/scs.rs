@@ -352,14 +352,17 @@ fn product_steps(
     let mut finish = Vec::new();
     match (xs.as_slice(), target) {
         ([x], Target::Surface) if back_faces => finish.extend(back_face_merge(*x, &region, eps)),
-        (_, Target::Output) => finish.extend(back_face_clip(
-            &xs,
-            &moved(p).unwrap_or(region),
-            eps,
-            target,
-        )),
+        (_, Target::Output) => {
+            let over = output_sweep(p, &region, prep);
+            finish.extend(back_face_clip(
+                &xs,
+                &moved(p).unwrap_or(region),
+                eps,
+                Sweep::Output(over),
+            ))
+        }
         (_, Target::Surface) if back_faces => {
-            finish.extend(back_face_clip(&xs, &region, eps, target));
+            finish.extend(back_face_clip(&xs, &region, eps, Sweep::Surface));
             finish.extend(goldfeather::merge_steps_in(&region));
         }
         (_, Target::Surface) => {
@@ -397,6 +400,66 @@ fn moved(p: &[Lit]) -> Option<Region> {
     (!ys.is_empty()).then_some(Region::Union(ys))
 }
 
+/// Pixels one triangle costs on lavapipe, for choosing what a sweep draws:
+/// about 0.4 µs of setup per triangle (many_50: 54 k triangles take ~20 ms of
+/// its frame, README "SCS products side by side") against ~6 ns per
+/// depth-only fragment.
+const TRIANGLE_PIXELS: f64 = 64.0;
+
+/// The footprints the clip's sweep of product `p`, drawn in the output,
+/// covers ([`footprint_sweep`]), each with its scissor. By default the first
+/// positive primitive's front faces over the clip's rectangle. With one
+/// positive primitive `x` the sweep need only reach where an exit moved `z`
+/// ([`moved`]): elsewhere `z` is `x`'s front face, which the count keeps, or
+/// far, which the sweep would write again. Every exit draws its cutter's back
+/// faces within the product's region, so the cutters' back faces, culled and
+/// cut as the exits, cover those pixels; they are swept instead where they
+/// cost less ([`TRIANGLE_PIXELS`]: a sphere drilled by a cylinder sweeps the
+/// cylinder's 96 triangles, not the sphere's 528; a box drilled by twelve
+/// holes keeps the box's 12). A pixel covered twice is swept twice, which the
+/// sweep's stencil allows (its second fragment sees the count it left).
+fn output_sweep(p: &[Lit], region: &Region, prep: &Prepared) -> Vec<(Lit, Scissor)> {
+    let x = *p
+        .iter()
+        .find(|l| !l.negated)
+        .expect("a product has a positive primitive");
+    let Some(clipped) = moved(p) else {
+        return vec![(x, region.cut(x.prim))];
+    };
+    let ys = negated(p);
+    let screen = |m: MeshId| prep.screen.get(m as usize).copied().flatten();
+    let triangles = |ls: &[Lit]| -> f64 {
+        ls.iter()
+            .map(|l| prep.mesh_triangles[l.prim as usize] as f64)
+            .sum()
+    };
+    // Pixels each choice reaches, by the screen boxes (none known: 0 both).
+    let boxes: Option<Vec<_>> = ys.iter().map(|y| screen(y.prim)).collect();
+    let (x_px, ys_px) = match (screen(x.prim), boxes) {
+        (Some(bx), Some(bys)) => {
+            let all = bys.iter().copied().reduce(|a, b| a.union(&b));
+            let x_px = all.map_or(0.0, |a| bx.overlap_area(&a));
+            (x_px, bys.iter().map(|b| bx.overlap_area(b)).sum())
+        }
+        _ => (0.0, 0.0),
+    };
+    let x_cost = triangles(&[x]) * TRIANGLE_PIXELS + x_px;
+    let ys_cost = triangles(&ys) * TRIANGLE_PIXELS + ys_px;
+    if ys_cost < x_cost {
+        ys.into_iter().map(|y| (y, region.cut(y.prim))).collect()
+    } else {
+        vec![(x, clipped.cut(x.prim))]
+    }
+}
+
+/// Where the clip by back faces leaves its result: in the output, swept over
+/// the footprints given ([`output_sweep`]), or in the surface image
+/// ([`Target`]).
+enum Sweep {
+    Output(Vec<(Lit, Scissor)>),
+    Surface,
+}
+
 /// The clip of a product whose cutters' rays all start outside them (module
 /// documentation, 3): `z` is at or behind every positive primitive's front
 /// face wherever it is drawn, so it is inside `xi` exactly where `xi`'s back
@@ -405,10 +468,14 @@ fn moved(p: &[Lit]) -> Option<Region> {
 /// passing back face increments the stencil (one back face per pixel and
 /// primitive); one sweep sets far where the count is not `k` (a ray missing
 /// an `xi` draws none of its back faces) and clears the count. In the output
-/// image the sweep writes the image only, over the first primitive's
-/// footprint ([`footprint_sweep`]); in the surface image the texture too, for
-/// the merge that follows, over the product's rectangle.
-fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, target: Target) -> Vec<Step> {
+/// image the sweep writes the image only, over footprints
+/// ([`footprint_sweep`], [`output_sweep`]); in the surface image the texture
+/// too, for the merge that follows, over the product's rectangle.
+fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, sweep: Sweep) -> Vec<Step> {
+    let target = match sweep {
+        Sweep::Output(_) => Target::Output,
+        Sweep::Surface => Target::Surface,
+    };
     let k = xs.len() as u32;
     assert!(
         k < 1 << CLIP_BITS,
@@ -440,36 +507,41 @@ fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, target: Target) -> Vec<
             count_samples: false,
         }));
     }
-    steps.push(match target {
-        Target::Output => footprint_sweep(xs[0], region, mask, inside),
-        Target::Surface => goldfeather::reject_sweep_into(
+    match sweep {
+        Sweep::Output(over) => steps.extend(
+            over.into_iter()
+                .map(|(l, scissor)| footprint_sweep(l, scissor, mask, inside)),
+        ),
+        Sweep::Surface => steps.push(goldfeather::reject_sweep_into(
             ds,
             Fragment::WriteDepth { out: SURF },
             mask,
             inside,
             region.rect(),
-        ),
-    });
+        )),
+    }
     steps
 }
 
-/// The clip's sweep of a product drawn in the output (`Target::Output`): far
-/// where the count of `mask` bits is not `inside`, over the footprint of the
-/// product's first positive primitive `x` only (a quad over the product's
-/// rectangle covered the whole image on nonconvex_obj, four times the
-/// pixels). Only there can `z` be other than far: the output held far
-/// everywhere, `x`'s front faces wrote the first `z` with `Less`, and every
-/// later front face (`Greater`) and exit (`Greater`, behind `z`) passes only
-/// where one was written, so elsewhere the count is 0 and far is what the
-/// image holds. `x` is convex from the eye, so its front faces, drawn with
-/// the cull of its front draw and the clip's scissor (the front draw's, or
-/// less: [`moved`]) ([`Geometry::Footprint`]: at the far depth, clipped as
-/// that draw), cover each of those pixels once; the count is kept where it
-/// passes (stencil `fail` keeps it: were a pixel covered twice, its second
-/// fragment must not reject it), and nothing reads the output's stencil there
-/// after the clip (products side by side, [`batch`], clip other pixels).
-fn footprint_sweep(x: Lit, region: &Region, mask: u8, inside: u8) -> Step {
-    let scissor = region.cut(x.prim);
+/// One draw of the clip's sweep of a product drawn in the output
+/// (`Target::Output`): far where the count of `mask` bits is not `inside`,
+/// over the footprint of literal `l` within `scissor` only (a quad over the
+/// product's rectangle covered the whole image on nonconvex_obj, four times
+/// the pixels). By default `l` is the product's first positive primitive `x`:
+/// only there can `z` be other than far. The output held far everywhere,
+/// `x`'s front faces wrote the first `z` with `Less`, and every later front
+/// face (`Greater`) and exit (`Greater`, behind `z`) passes only where one
+/// was written, so elsewhere the count is 0 and far is what the image holds.
+/// `x` is convex from the eye, so its front faces, drawn with the cull of
+/// its front draw and the clip's scissor (the front draw's, or less:
+/// [`moved`]) ([`Geometry::Footprint`]: at the far depth, clipped as that
+/// draw), cover each of those pixels once. With one positive primitive the
+/// cutters' back faces may stand in ([`output_sweep`]). The count is kept
+/// where it passes (stencil `fail` keeps it: where a pixel is covered twice,
+/// its second fragment must not reject it), and nothing reads the output's
+/// stencil there after the clip (products side by side, [`batch`], clip
+/// other pixels).
+fn footprint_sweep(l: Lit, scissor: Scissor, mask: u8, inside: u8) -> Step {
     let Step::Draw(sweep) =
         goldfeather::reject_sweep_into(OUTPUT, Fragment::None, mask, inside, scissor)
     else {
@@ -480,10 +552,10 @@ fn footprint_sweep(x: Lit, region: &Region, mask: u8, inside: u8) -> Step {
     stencil.back.fail = StencilOp::Keep;
     Step::Draw(Draw {
         geometry: Geometry::Footprint {
-            mesh: x.prim,
+            mesh: l.prim,
             depth: goldfeather::FAR,
         },
-        cull: x.visible_cull(),
+        cull: l.visible_cull(),
         stencil: Some(stencil),
         ..sweep
     })
