@@ -603,8 +603,8 @@ fn clip_sweeps(p: &plan::Plan) -> Vec<(usize, u32, plan::Cull)> {
 
 #[test]
 fn a_drilled_sphere_is_swept_over_its_cutters_back_faces() {
-    // A fine sphere (528 triangles) drilled along the view and across it by
-    // cylinders of 96: the clip's sweep draws the cylinders' back faces
+    // A fine sphere (3968 triangles) drilled along the view and across it
+    // by cylinders of 96: the clip's sweep draws the cylinders' back faces
     // where their exits ran, not the sphere's front faces. Seen through the
     // first bore, the background; the bores cross, so some pixels are swept
     // twice.
@@ -618,8 +618,8 @@ fit = true
 name = "S"
 shape = "sphere"
 radius = 1.0
-segments = 24
-rings = 12
+segments = 64
+rings = 32
 [[primitive]]
 name = "Along"
 shape = "cylinder"

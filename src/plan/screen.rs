@@ -36,14 +36,6 @@ impl ScreenBox {
         }
     }
 
-    /// The pixels of the box both cover (0 when they do not meet): what a
-    /// draw of one cut to the other's rectangle can reach, for cost
-    /// estimates only.
-    pub fn overlap_area(&self, o: &ScreenBox) -> f64 {
-        let size = (self.hi.min(o.hi) - self.lo.max(o.lo)).max(DVec2::ZERO);
-        size.x * size.y
-    }
-
     /// Whether no pixel can be drawn in both: at least [`MARGIN_PX`] between
     /// them along x or y.
     pub fn apart(&self, o: &ScreenBox) -> bool {
@@ -131,22 +123,6 @@ mod tests {
         // The projection widens toward the eye: the nearer box is larger.
         let (near, far) = (at(0.0, 5.0), at(0.0, -5.0));
         assert!(near.hi.x - near.lo.x > far.hi.x - far.lo.x);
-    }
-
-    #[test]
-    fn overlap_area_is_the_shared_rectangle() {
-        let b = |x0, y0, x1, y1| ScreenBox {
-            lo: DVec2::new(x0, y0),
-            hi: DVec2::new(x1, y1),
-        };
-        assert_eq!(
-            b(0.0, 0.0, 4.0, 4.0).overlap_area(&b(2.0, 1.0, 8.0, 2.0)),
-            2.0
-        );
-        assert_eq!(
-            b(0.0, 0.0, 4.0, 4.0).overlap_area(&b(5.0, 0.0, 8.0, 4.0)),
-            0.0
-        );
     }
 
     #[test]

@@ -47,7 +47,9 @@
 //! (`Region::Intersection`): the product lies inside each `Xi`, and only the
 //! clip and the merge, both cut to it, read `z`. The clip of a product of one
 //! `X` drawn in the output is cut further, to where an exit may have moved
-//! `z` ([`moved`]): elsewhere `z` is `X`'s front face, which the clip keeps.
+//! `z` ([`moved`]): elsewhere `z` is `X`'s front face, which the clip keeps;
+//! its sweep may then draw the cutters' back faces instead of `X`'s front
+//! faces, where they cost less ([`output_sweep`]).
 //!
 //! **Products side by side** ([`batch`]): products whose pixels cannot meet
 //! on screen share one clear and one block per phase, and those apart from
@@ -400,11 +402,13 @@ fn moved(p: &[Lit]) -> Option<Region> {
     (!ys.is_empty()).then_some(Region::Union(ys))
 }
 
-/// Pixels one triangle costs on lavapipe, for choosing what a sweep draws:
-/// about 0.4 µs of setup per triangle (many_50: 54 k triangles take ~20 ms of
-/// its frame, README "SCS products side by side") against ~6 ns per
-/// depth-only fragment.
-const TRIANGLE_PIXELS: f64 = 64.0;
+/// Triangles one more draw is counted as, for choosing what a sweep draws:
+/// a guess, not a calibration. A one-frame callgrind run of nonconvex_obj's
+/// bracket (12 triangles) swept over its two bores instead (248, two draws)
+/// ran 2 M more instructions in lavapipe, where many_50's 6048 fewer
+/// triangles (one draw for one) ran 7.9 M fewer (README "The output clip's
+/// sweep over the cutters").
+const DRAW_TRIANGLES: usize = 1024;
 
 /// The footprints the clip's sweep of product `p`, drawn in the output,
 /// covers ([`footprint_sweep`]), each with its scissor. By default the first
@@ -414,7 +418,7 @@ const TRIANGLE_PIXELS: f64 = 64.0;
 /// far, which the sweep would write again. Every exit draws its cutter's back
 /// faces within the product's region, so the cutters' back faces, culled and
 /// cut as the exits, cover those pixels; they are swept instead where they
-/// cost less ([`TRIANGLE_PIXELS`]: a sphere drilled by a cylinder sweeps the
+/// cost less ([`DRAW_TRIANGLES`]: a sphere drilled by a cylinder sweeps the
 /// cylinder's 96 triangles, not the sphere's 528; a box drilled by twelve
 /// holes keeps the box's 12). A pixel covered twice is swept twice, which the
 /// sweep's stencil allows (its second fragment sees the count it left).
@@ -427,25 +431,12 @@ fn output_sweep(p: &[Lit], region: &Region, prep: &Prepared) -> Vec<(Lit, Scisso
         return vec![(x, region.cut(x.prim))];
     };
     let ys = negated(p);
-    let screen = |m: MeshId| prep.screen.get(m as usize).copied().flatten();
-    let triangles = |ls: &[Lit]| -> f64 {
+    let cost = |ls: &[Lit]| -> usize {
         ls.iter()
-            .map(|l| prep.mesh_triangles[l.prim as usize] as f64)
+            .map(|l| prep.mesh_triangles[l.prim as usize] + DRAW_TRIANGLES)
             .sum()
     };
-    // Pixels each choice reaches, by the screen boxes (none known: 0 both).
-    let boxes: Option<Vec<_>> = ys.iter().map(|y| screen(y.prim)).collect();
-    let (x_px, ys_px) = match (screen(x.prim), boxes) {
-        (Some(bx), Some(bys)) => {
-            let all = bys.iter().copied().reduce(|a, b| a.union(&b));
-            let x_px = all.map_or(0.0, |a| bx.overlap_area(&a));
-            (x_px, bys.iter().map(|b| bx.overlap_area(b)).sum())
-        }
-        _ => (0.0, 0.0),
-    };
-    let x_cost = triangles(&[x]) * TRIANGLE_PIXELS + x_px;
-    let ys_cost = triangles(&ys) * TRIANGLE_PIXELS + ys_px;
-    if ys_cost < x_cost {
+    if cost(&ys) < cost(&[x]) {
         ys.into_iter().map(|y| (y, region.cut(y.prim))).collect()
     } else {
         vec![(x, clipped.cut(x.prim))]
