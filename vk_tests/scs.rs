@@ -460,8 +460,6 @@ fn back_face_clips_and_merges_are_tie_free_only_where_nothing_ties() {
 /// dropped.
 #[test]
 fn the_clip_sweep_covers_the_footprint_of_a_drilled_nonconvex_bracket() {
-    use peeltrim::plan::{Geometry, StencilOp};
-    use peeltrim::render::{DepthSetup, GpuRenderer};
     let text = r##"
 [camera]
 eye = [0.9, 0.8, 6.0]
@@ -502,13 +500,14 @@ expr = "L - H1 - H2"
     assert!(all_scs(&scene), "the bracket is convex from above");
     let prep = Prepared::new(&scene).unwrap();
     let p = plan::build(Algo::Scs, &prep).unwrap();
-    let sweeps: Vec<usize> = (0..p.steps.len())
-        .filter(|&i| {
-            matches!(&p.steps[i], Step::Draw(d) if matches!(d.geometry, Geometry::Footprint { mesh: 0, .. })
-                && d.stencil.is_some_and(|s| s.front.pass == StencilOp::Zero))
-        })
-        .collect();
-    assert_eq!(sweeps.len(), 1, "one sweep, over the bracket's footprint");
+    let sweeps = clip_sweeps(&p);
+    let swept: Vec<(u32, plan::Cull)> = sweeps.iter().map(|&(_, m, c)| (m, c)).collect();
+    assert_eq!(
+        swept,
+        vec![(0, plan::Cull::Back)],
+        "one sweep, over the bracket's front faces (its 8 faces cost less than the holes')"
+    );
+    let sweeps: Vec<usize> = sweeps.iter().map(|s| s.0).collect();
     // Seen through: the reference shows the background inside the
     // bracket's silhouette, where the sweep rejects `z`.
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
@@ -520,50 +519,144 @@ expr = "L - H1 - H2"
     };
     assert_eq!(centre(1.4, 0.25), 0, "the background through hole 1");
     assert_eq!(centre(0.25, 1.4), 0, "the background through hole 2");
-    let tol = crate::algorithms::depth_tolerance(&scene);
+    // Every parity and clip draw tie-free: the front draw and both exits
+    // write no texture.
+    let depth_only = assert_swept(&scene, &reference, &p, &sweeps, 3);
+    assert!(
+        depth_only > 0,
+        "some set-up draws the texture writes depth-only"
+    );
+}
+
+/// Renders plan `p` of `scene` in every depth set-up, three frames each
+/// (loop by loop, recorded, replayed: only recordings plan the clears and
+/// the texture writes, `plan::reach`), against the reference: 0 interior
+/// mismatches, the depth tolerance, `sweeps.len()` footprint passes, no
+/// validation message. The control: without the sweeps (steps `sweeps`) the
+/// holes keep the cutters' exits. Returns the frames that drew
+/// `dead_writes` texture writes depth-only (those with no tie-rule draw).
+fn assert_swept(
+    scene: &Scene,
+    reference: &peeltrim::output::Images,
+    p: &plan::Plan,
+    sweeps: &[usize],
+    dead_writes: u64,
+) -> u32 {
+    use peeltrim::render::{DepthSetup, GpuRenderer};
+    let tol = crate::algorithms::depth_tolerance(scene);
     let mut depth_only = 0;
     for depth in DepthSetup::ALL {
-        let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+        let mut gpu = GpuRenderer::new(scene, crate::setup::device(), depth, true)
             .expect("a Vulkan device (lavapipe)");
-        // Loop by loop, recorded, replayed (only recordings plan the
-        // clears and the texture writes, `plan::reach`).
         for frame in 0..3 {
-            let f = gpu.frame(&p).unwrap();
-            let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
+            let f = gpu.frame(p).unwrap();
+            let r = peeltrim::reference::compare::compare(reference, &f.images).unwrap();
             let c = &f.stats.exec.counts;
             let at = format!("{} frame {frame}: {r:?} {c:?}", depth.name());
-            assert_eq!(c.footprint_passes, 1, "{at}");
+            assert_eq!(c.footprint_passes, sweeps.len() as u64, "{at}");
             assert_eq!(r.coverage_mismatch_interior, 0, "{at}");
             assert_eq!(r.prim_mismatch_interior, 0, "{at}");
             let depth_ok = crate::setup::depth_passes(
                 r.depth_abs_err_p99_interior <= tol,
                 &gpu,
-                &scene,
-                &reference,
+                scene,
+                reference,
                 &f.images,
             );
             assert!(depth_ok, "depth, {at}");
-            // Every parity and clip draw tie-free: the front draw and both
-            // exits write no texture.
             if frame > 0 && c.tie_rule_draws == 0 {
-                assert_eq!(c.dead_texture_writes, 3, "{at}");
+                assert_eq!(c.dead_texture_writes, dead_writes, "{at}");
                 depth_only += 1;
             }
         }
         let msgs = gpu.validation_messages();
         assert!(msgs.is_empty(), "{}: {msgs:#?}", depth.name());
     }
-    assert!(
-        depth_only > 0,
-        "some set-up draws the texture writes depth-only"
-    );
-    // The control: without the sweep the holes keep the cylinders' exits.
     let mut unswept = p.clone();
-    unswept.steps.remove(sweeps[0]);
-    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::ALL[0], true)
+    for &i in sweeps.iter().rev() {
+        unswept.steps.remove(i);
+    }
+    let mut gpu = GpuRenderer::new(scene, crate::setup::device(), DepthSetup::ALL[0], true)
         .expect("a Vulkan device (lavapipe)");
     let frame = gpu.frame(&unswept).unwrap();
-    let r = peeltrim::reference::compare::compare(&reference, &frame.images).expect("same size");
+    let r = peeltrim::reference::compare::compare(reference, &frame.images).expect("same size");
     assert!(r.coverage_mismatch_interior > 100, "{r:?}");
     assert!(gpu.validation_messages().is_empty());
+    depth_only
+}
+
+/// The indices of `p`'s clip sweeps (footprints that clear the count).
+fn clip_sweeps(p: &plan::Plan) -> Vec<(usize, u32, plan::Cull)> {
+    use peeltrim::plan::{Geometry, StencilOp};
+    (0..p.steps.len())
+        .filter_map(|i| match &p.steps[i] {
+            Step::Draw(d) if d.stencil.is_some_and(|s| s.front.pass == StencilOp::Zero) => {
+                match d.geometry {
+                    Geometry::Footprint { mesh, .. } => Some((i, mesh, d.cull)),
+                    _ => None,
+                }
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_drilled_sphere_is_swept_over_its_cutters_back_faces() {
+    // A fine sphere (3968 triangles) drilled along the view and across it
+    // by cylinders of 96: the clip's sweep draws the cylinders' back faces
+    // where their exits ran, not the sphere's front faces. Seen through the
+    // first bore, the background; the bores cross, so some pixels are swept
+    // twice.
+    let scene = load(
+        r##"
+[camera]
+eye = [0.3, 0.4, 5.0]
+target = [0.0, 0.0, 0.0]
+fit = true
+[[primitive]]
+name = "S"
+shape = "sphere"
+radius = 1.0
+segments = 64
+rings = 32
+[[primitive]]
+name = "Along"
+shape = "cylinder"
+radius = 0.3
+height = 3.0
+segments = 24
+rotate_deg = [90.0, 0.0, 0.0]
+[[primitive]]
+name = "Across"
+shape = "cylinder"
+radius = 0.25
+height = 3.0
+segments = 24
+rotate_deg = [0.0, 0.0, 90.0]
+translate = [0.0, 0.2, 0.3]
+[csg]
+expr = "S - Along - Across"
+"##,
+    );
+    assert!(all_scs(&scene));
+    let prep = Prepared::new(&scene).unwrap();
+    let p = plan::build(Algo::Scs, &prep).unwrap();
+    let sweeps = clip_sweeps(&p);
+    let meshes: Vec<(u32, plan::Cull)> = sweeps.iter().map(|&(_, m, c)| (m, c)).collect();
+    assert_eq!(
+        meshes,
+        vec![(1, plan::Cull::Front), (2, plan::Cull::Front)],
+        "one sweep per cutter, over its back faces"
+    );
+    let at: Vec<usize> = sweeps.iter().map(|s| s.0).collect();
+    // The bores cross: a clump, one of them applied twice. Every front and
+    // exit draw writes no texture where nothing ties.
+    let writes = p
+        .steps
+        .iter()
+        .filter(|s| matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::WriteDepth { .. })))
+        .count();
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    assert_swept(&scene, &reference, &p, &at, writes as u64);
 }

@@ -47,7 +47,9 @@
 //! (`Region::Intersection`): the product lies inside each `Xi`, and only the
 //! clip and the merge, both cut to it, read `z`. The clip of a product of one
 //! `X` drawn in the output is cut further, to where an exit may have moved
-//! `z` ([`moved`]): elsewhere `z` is `X`'s front face, which the clip keeps.
+//! `z` ([`moved`]): elsewhere `z` is `X`'s front face, which the clip keeps;
+//! its sweep may then draw the cutters' back faces instead of `X`'s front
+//! faces, where they cost less ([`output_sweep`]).
 //!
 //! **Products side by side** ([`batch`]): products whose pixels cannot meet
 //! on screen share one clear and one block per phase, and those apart from
@@ -352,14 +354,17 @@ fn product_steps(
     let mut finish = Vec::new();
     match (xs.as_slice(), target) {
         ([x], Target::Surface) if back_faces => finish.extend(back_face_merge(*x, &region, eps)),
-        (_, Target::Output) => finish.extend(back_face_clip(
-            &xs,
-            &moved(p).unwrap_or(region),
-            eps,
-            target,
-        )),
+        (_, Target::Output) => {
+            let over = output_sweep(p, &region, prep);
+            finish.extend(back_face_clip(
+                &xs,
+                &moved(p).unwrap_or(region),
+                eps,
+                Sweep::Output(over),
+            ))
+        }
         (_, Target::Surface) if back_faces => {
-            finish.extend(back_face_clip(&xs, &region, eps, target));
+            finish.extend(back_face_clip(&xs, &region, eps, Sweep::Surface));
             finish.extend(goldfeather::merge_steps_in(&region));
         }
         (_, Target::Surface) => {
@@ -397,6 +402,55 @@ fn moved(p: &[Lit]) -> Option<Region> {
     (!ys.is_empty()).then_some(Region::Union(ys))
 }
 
+/// Triangles one more draw is counted as, for choosing what a sweep draws:
+/// a guess, not a calibration. A one-frame callgrind run of nonconvex_obj's
+/// bracket (12 triangles) swept over its two bores instead (248, two draws)
+/// ran 2 M more instructions in lavapipe, where many_50's 6048 fewer
+/// triangles (one draw for one) ran 7.9 M fewer (README "The output clip's
+/// sweep over the cutters").
+const DRAW_TRIANGLES: usize = 1024;
+
+/// The footprints the clip's sweep of product `p`, drawn in the output,
+/// covers ([`footprint_sweep`]), each with its scissor. By default the first
+/// positive primitive's front faces over the clip's rectangle. With one
+/// positive primitive `x` the sweep need only reach where an exit moved `z`
+/// ([`moved`]): elsewhere `z` is `x`'s front face, which the count keeps, or
+/// far, which the sweep would write again. Every exit draws its cutter's back
+/// faces within the product's region, so the cutters' back faces, culled and
+/// cut as the exits, cover those pixels; they are swept instead where they
+/// cost less ([`DRAW_TRIANGLES`]: a sphere drilled by a cylinder sweeps the
+/// cylinder's 96 triangles, not the sphere's 528; a box drilled by twelve
+/// holes keeps the box's 12). A pixel covered twice is swept twice, which the
+/// sweep's stencil allows (its second fragment sees the count it left).
+fn output_sweep(p: &[Lit], region: &Region, prep: &Prepared) -> Vec<(Lit, Scissor)> {
+    let x = *p
+        .iter()
+        .find(|l| !l.negated)
+        .expect("a product has a positive primitive");
+    let Some(clipped) = moved(p) else {
+        return vec![(x, region.cut(x.prim))];
+    };
+    let ys = negated(p);
+    let cost = |ls: &[Lit]| -> usize {
+        ls.iter()
+            .map(|l| prep.mesh_triangles[l.prim as usize] + DRAW_TRIANGLES)
+            .sum()
+    };
+    if cost(&ys) < cost(&[x]) {
+        ys.into_iter().map(|y| (y, region.cut(y.prim))).collect()
+    } else {
+        vec![(x, clipped.cut(x.prim))]
+    }
+}
+
+/// Where the clip by back faces leaves its result: in the output, swept over
+/// the footprints given ([`output_sweep`]), or in the surface image
+/// ([`Target`]).
+enum Sweep {
+    Output(Vec<(Lit, Scissor)>),
+    Surface,
+}
+
 /// The clip of a product whose cutters' rays all start outside them (module
 /// documentation, 3): `z` is at or behind every positive primitive's front
 /// face wherever it is drawn, so it is inside `xi` exactly where `xi`'s back
@@ -405,10 +459,14 @@ fn moved(p: &[Lit]) -> Option<Region> {
 /// passing back face increments the stencil (one back face per pixel and
 /// primitive); one sweep sets far where the count is not `k` (a ray missing
 /// an `xi` draws none of its back faces) and clears the count. In the output
-/// image the sweep writes the image only, over the first primitive's
-/// footprint ([`footprint_sweep`]); in the surface image the texture too, for
-/// the merge that follows, over the product's rectangle.
-fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, target: Target) -> Vec<Step> {
+/// image the sweep writes the image only, over footprints
+/// ([`footprint_sweep`], [`output_sweep`]); in the surface image the texture
+/// too, for the merge that follows, over the product's rectangle.
+fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, sweep: Sweep) -> Vec<Step> {
+    let target = match sweep {
+        Sweep::Output(_) => Target::Output,
+        Sweep::Surface => Target::Surface,
+    };
     let k = xs.len() as u32;
     assert!(
         k < 1 << CLIP_BITS,
@@ -440,36 +498,41 @@ fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, target: Target) -> Vec<
             count_samples: false,
         }));
     }
-    steps.push(match target {
-        Target::Output => footprint_sweep(xs[0], region, mask, inside),
-        Target::Surface => goldfeather::reject_sweep_into(
+    match sweep {
+        Sweep::Output(over) => steps.extend(
+            over.into_iter()
+                .map(|(l, scissor)| footprint_sweep(l, scissor, mask, inside)),
+        ),
+        Sweep::Surface => steps.push(goldfeather::reject_sweep_into(
             ds,
             Fragment::WriteDepth { out: SURF },
             mask,
             inside,
             region.rect(),
-        ),
-    });
+        )),
+    }
     steps
 }
 
-/// The clip's sweep of a product drawn in the output (`Target::Output`): far
-/// where the count of `mask` bits is not `inside`, over the footprint of the
-/// product's first positive primitive `x` only (a quad over the product's
-/// rectangle covered the whole image on nonconvex_obj, four times the
-/// pixels). Only there can `z` be other than far: the output held far
-/// everywhere, `x`'s front faces wrote the first `z` with `Less`, and every
-/// later front face (`Greater`) and exit (`Greater`, behind `z`) passes only
-/// where one was written, so elsewhere the count is 0 and far is what the
-/// image holds. `x` is convex from the eye, so its front faces, drawn with
-/// the cull of its front draw and the clip's scissor (the front draw's, or
-/// less: [`moved`]) ([`Geometry::Footprint`]: at the far depth, clipped as
-/// that draw), cover each of those pixels once; the count is kept where it
-/// passes (stencil `fail` keeps it: were a pixel covered twice, its second
-/// fragment must not reject it), and nothing reads the output's stencil there
-/// after the clip (products side by side, [`batch`], clip other pixels).
-fn footprint_sweep(x: Lit, region: &Region, mask: u8, inside: u8) -> Step {
-    let scissor = region.cut(x.prim);
+/// One draw of the clip's sweep of a product drawn in the output
+/// (`Target::Output`): far where the count of `mask` bits is not `inside`,
+/// over the footprint of literal `l` within `scissor` only (a quad over the
+/// product's rectangle covered the whole image on nonconvex_obj, four times
+/// the pixels). By default `l` is the product's first positive primitive `x`:
+/// only there can `z` be other than far. The output held far everywhere,
+/// `x`'s front faces wrote the first `z` with `Less`, and every later front
+/// face (`Greater`) and exit (`Greater`, behind `z`) passes only where one
+/// was written, so elsewhere the count is 0 and far is what the image holds.
+/// `x` is convex from the eye, so its front faces, drawn with the cull of
+/// its front draw and the clip's scissor (the front draw's, or less:
+/// [`moved`]) ([`Geometry::Footprint`]: at the far depth, clipped as that
+/// draw), cover each of those pixels once. With one positive primitive the
+/// cutters' back faces may stand in ([`output_sweep`]). The count is kept
+/// where it passes (stencil `fail` keeps it: where a pixel is covered twice,
+/// its second fragment must not reject it), and nothing reads the output's
+/// stencil there after the clip (products side by side, [`batch`], clip
+/// other pixels).
+fn footprint_sweep(l: Lit, scissor: Scissor, mask: u8, inside: u8) -> Step {
     let Step::Draw(sweep) =
         goldfeather::reject_sweep_into(OUTPUT, Fragment::None, mask, inside, scissor)
     else {
@@ -480,10 +543,10 @@ fn footprint_sweep(x: Lit, region: &Region, mask: u8, inside: u8) -> Step {
     stencil.back.fail = StencilOp::Keep;
     Step::Draw(Draw {
         geometry: Geometry::Footprint {
-            mesh: x.prim,
+            mesh: l.prim,
             depth: goldfeather::FAR,
         },
-        cull: x.visible_cull(),
+        cull: l.visible_cull(),
         stencil: Some(stencil),
         ..sweep
     })

@@ -286,6 +286,67 @@ fn the_first_product_is_clipped_by_back_faces_in_the_output() {
     assert_eq!((c.fullscreen_passes, c.footprint_passes), (0, 1));
 }
 
+/// The first product's clip draws of [`two_products`] with these triangle
+/// counts for box 0 and its cutters 4 and 5, and its exits.
+fn first_clip(tris: [usize; 3]) -> (Vec<Draw>, Vec<Draw>) {
+    let mut prep = two_products();
+    for (m, t) in [0, 4, 5].into_iter().zip(tris) {
+        prep.mesh_triangles[m] = t;
+    }
+    let built = plan(&prep, &ProductOptions::default()).unwrap();
+    let exits = pass_draws(&built.steps, "subtract")
+        .into_iter()
+        .filter(|d| d.cull == Cull::Front)
+        .cloned()
+        .collect();
+    let clip = pass_draws(&built.steps, "clip").into_iter().cloned();
+    (clip.collect(), exits)
+}
+
+#[test]
+fn a_fine_positive_is_swept_over_its_cutters_back_faces() {
+    // Box 0 a fine sphere (4000 triangles), its cutters 96 each: the sweep
+    // covers where an exit ran, the cutters' back faces cut as the exits.
+    let (clip, exits) = first_clip([4000, 96, 96]);
+    assert_eq!(clip.len(), 3, "one count draw and one sweep per cutter");
+    assert_eq!(clip[0].geometry, Geometry::Mesh(0));
+    for (sweep, exit) in clip[1..].iter().zip(&exits) {
+        let Geometry::Mesh(y) = exit.geometry else {
+            panic!("an exit draws its cutter")
+        };
+        assert_eq!(
+            sweep.geometry,
+            Geometry::Footprint {
+                mesh: y,
+                depth: goldfeather::FAR
+            }
+        );
+        assert_eq!((sweep.cull, &sweep.scissor), (exit.cull, &exit.scissor));
+        assert_eq!((sweep.ds, &sweep.fragment), (OUTPUT, &Fragment::None));
+        // Covered twice where the cutters overlap on screen: the second
+        // fragment sees the count the first left, kept or cleared.
+        let st = sweep.stencil.unwrap();
+        assert_eq!(
+            (st.front.fail, st.front.pass),
+            (StencilOp::Keep, StencilOp::Zero)
+        );
+    }
+}
+
+#[test]
+fn a_sweep_over_the_cutters_pays_for_its_draws() {
+    // Fewer triangles (2 × 96 against 528) but one draw more: box 0's front
+    // faces, one draw (as for boxes of 12 triangles each).
+    for tris in [[528, 96, 96], [12, 12, 12]] {
+        let (clip, _) = first_clip(tris);
+        assert_eq!(clip.len(), 2, "{tris:?}");
+        assert!(matches!(
+            clip[1].geometry,
+            Geometry::Footprint { mesh: 0, .. }
+        ));
+    }
+}
+
 #[test]
 fn a_cutter_starting_inside_keeps_the_parity_clip() {
     // The image and the texture differ where no front face is drawn, and
