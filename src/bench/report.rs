@@ -32,12 +32,18 @@ pub fn error_figures(r: &Record) -> (f64, f64, f64) {
 
 /// A count of a GPU run's last frame, as written; `None` for a run without
 /// frame counts (failed, skipped, the reference, a baseline).
-pub fn frame_count(r: &Record, of: fn(&Counts) -> u64) -> Option<String> {
+pub fn frame_count(r: &Record, of: CountOf) -> Option<String> {
     Some(of(r.counts.as_ref()?.frame()?).to_string())
 }
 
+/// A figure read off a frame's counts.
+type CountOf = fn(&Counts) -> u64;
+
+/// A figure read off a compare report.
+type ErrorOf = fn(&CompareReport) -> f64;
+
 /// The frame counts the CSV and summary tables show, by column name.
-const FRAME_COUNTS: [(&str, fn(&Counts) -> u64); 6] = [
+const FRAME_COUNTS: [(&str, CountOf); 6] = [
     ("draws", |c| c.draws),
     ("mesh_draws", |c| c.mesh_draws),
     ("fullscreen_passes", |c| c.fullscreen_passes),
@@ -47,7 +53,7 @@ const FRAME_COUNTS: [(&str, fn(&Counts) -> u64); 6] = [
 ];
 
 /// The error columns of the CSV, by column name.
-const CSV_ERRORS: [(&str, fn(&CompareReport) -> f64); 7] = [
+const CSV_ERRORS: [(&str, ErrorOf); 7] = [
     ("coverage_mismatch_frac", |e| e.coverage_mismatch_frac),
     ("prim_mismatch_frac", |e| e.prim_mismatch_frac),
     ("coverage_mismatch_interior_frac", |e| {
@@ -224,7 +230,7 @@ pub fn summary(records: &[Record]) -> String {
                 continue;
             }
             let (cov, prim, d99) = error_figures(r);
-            let c = |of: fn(&Counts) -> u64| frame_count(r, of).unwrap_or_else(|| "-".into());
+            let c = |of: CountOf| frame_count(r, of).unwrap_or_else(|| "-".into());
             let _ = writeln!(
                 s,
                 "| {} | {} | {:.2} ± {:.2} | {:.2} | {:.2} | {:.1} | {} | {} | {} | {:.3} | {:.3} | {:.2e} |",
