@@ -25,11 +25,10 @@ use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use serde_json::Value;
 
 use crate::output::Images;
 use crate::plan::{self, Algo, Prepared};
-use crate::reference::compare::compare;
+use crate::reference::compare::{compare, CompareReport};
 use crate::render::{DepthSetup, FrameStats, GpuRenderer};
 use crate::scene::{self, LoadOptions, Scene};
 use crate::vk::DeviceChoice;
@@ -119,11 +118,11 @@ pub struct Record {
     /// family's sizes.
     pub scaling: Option<scaling::ScalingFit>,
     /// Deterministic counts of the last frame (identical across frames and runs).
-    pub counts: Value,
-    /// Per-pass GPU time of the median frame.
-    pub per_pass: Value,
+    pub counts: Option<RunCounts>,
+    /// Per-pass GPU time of one frame with a timestamp at every pass.
+    pub per_pass: Option<Vec<crate::vk::PassStats>>,
     /// Error against the reference (the `compare` report).
-    pub error: Value,
+    pub error: Option<CompareReport>,
     /// Set when the run could not be made (e.g. too many products); other
     /// figures are then zero.
     pub failure: Option<String>,
@@ -180,9 +179,9 @@ impl Record {
             camera_move: None,
             overhead: None,
             scaling: None,
-            counts: Value::Null,
-            per_pass: Value::Null,
-            error: Value::Null,
+            counts: None,
+            per_pass: None,
+            error: None,
             failure: None,
             estimate: None,
             skipped: None,
@@ -300,11 +299,10 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 r.device = format!("cpu ({} threads)", rayon::current_num_threads());
                 r.frames = 1;
                 r.cpu_ms_median = ref_ms;
-                r.error = serde_json::to_value(
+                r.error = Some(
                     compare(&reference, &reference)
                         .map_err(|e| BenchError::Other(e.to_string()))?,
-                )
-                .unwrap_or(Value::Null);
+                );
                 if cfg.save_images {
                     let shown = modes::shadowed_reference(&scene, &reference);
                     save(cfg, &label, w, h, "reference", "f64", &shown)?;
@@ -593,11 +591,11 @@ fn finish(
     let replayed = frames.iter().filter(|f| f.exec.record_ms == 0.0).count() as u32;
     // The per-pass GPU times, from one frame with a timestamp at every pass.
     let per_pass = match frames.is_empty() {
-        true => Value::Null,
+        true => None,
         false => {
             gpu.executor_mut().set_pass_timestamps(true);
             let f = gpu.execute(plan).map_err(|e| e.to_string())?;
-            serde_json::to_value(&f.exec.per_pass).unwrap_or(Value::Null)
+            Some(f.exec.per_pass)
         }
     };
     // A camera move (a viewer's orbit), then one frame recorded anew at the
@@ -657,12 +655,11 @@ fn finish(
     let (fm, _, _, fiqr) = median_iqr(&mut series(|s| s.exec.frame_ms));
     let (rm, _, _, _) = median_iqr(&mut series(|s| s.exec.record_ms));
     let (pm, _, _, _) = median_iqr(&mut series(|s| s.exec.frame_cpu_ms));
-    let counts = RunCounts {
+    let counts = RunCounts::Frame(Box::new(FrameCounts {
         stencil_bits: last.stencil_bits.unwrap_or(0),
-        counts: &last.exec.counts,
-    };
-    let error = serde_json::to_value(compare(reference, &images).map_err(|e| e.to_string())?)
-        .unwrap_or(Value::Null);
+        counts: last.exec.counts.clone(),
+    }));
+    let error = compare(reference, &images).map_err(|e| e.to_string())?;
     // With a `[light]`: the light's map and the shadow pass timed too; the saved
     // images are shadowed, the error above is the opaque frame's.
     let shadowed = modes::shadows(cfg, scene, algo, plan, gpu, gm)?;
@@ -696,9 +693,9 @@ fn finish(
         camera_move,
         overhead: Some(checks::Overhead::of(frames.len() as u32, replayed, gm, fm)),
         scaling: None,
-        counts: serde_json::to_value(&counts).unwrap_or(Value::Null),
+        counts: Some(counts),
         per_pass,
-        error,
+        error: Some(error),
         failure: None,
         estimate: est,
         skipped: None,
@@ -740,12 +737,36 @@ fn nudged(cam: &crate::scene::Camera, fraction: f64) -> crate::scene::Camera {
     }
 }
 
-/// The deterministic counts a record keeps of its last frame.
-#[derive(Serialize)]
-struct RunCounts<'a> {
-    stencil_bits: u8,
+/// The deterministic counts a record keeps: of a GPU run's last frame, or of
+/// the plan an OpenCSG baseline run draws. Written as the one set's fields.
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum RunCounts {
+    /// A GPU run's last frame (boxed: some 30 counts against four).
+    Frame(Box<FrameCounts>),
+    /// An OpenCSG baseline run ([`opencsg`]).
+    OpenCsg(opencsg::ProductCounts),
+}
+
+impl RunCounts {
+    /// The frame's counts of a GPU run (`None` for a baseline run).
+    pub fn frame(&self) -> Option<&crate::vk::Counts> {
+        match self {
+            RunCounts::Frame(f) => Some(&f.counts),
+            RunCounts::OpenCsg(_) => None,
+        }
+    }
+}
+
+/// A GPU run's last frame: the executor's counts and the stencil bits its
+/// draws use.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameCounts {
+    /// Stencil bits the plan's draws use (0: depth-only images possible).
+    pub stencil_bits: u8,
+    /// The executor's counts of the frame.
     #[serde(flatten)]
-    counts: &'a crate::vk::Counts,
+    pub counts: crate::vk::Counts,
 }
 
 /// Runs the matrix and writes every output into `cfg.out`.
@@ -764,6 +785,7 @@ pub fn run_and_report(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Re
 #[cfg(test)]
 pub(crate) mod tests {
     use super::Record;
+    use crate::reference::compare::CompareReport;
 
     /// A run of `algo` on a scaling family's scene of size `n`, correct (no
     /// mismatch), every time zero.
@@ -774,10 +796,7 @@ pub(crate) mod tests {
             n,
             width: 800,
             height: 800,
-            error: serde_json::json!({
-                "coverage_mismatch_interior_frac": 0.0,
-                "prim_mismatch_interior_frac": 0.0,
-            }),
+            error: Some(CompareReport::default()),
             ..Record::blank(algo, "d32s8")
         }
     }

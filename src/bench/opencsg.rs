@@ -18,10 +18,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::{DMat4, DVec4};
-use serde_json::json;
+use serde::Serialize;
 
 use super::report::error_figures;
-use super::{median_iqr, Record};
+use super::{median_iqr, Record, RunCounts};
 use crate::csg::normalize::{normalize, ScadProduct, OPENSCAD_NODE_LIMIT};
 use crate::output::Images;
 use crate::plan::Prepared;
@@ -373,19 +373,19 @@ pub fn run_scene(
         r.gpu_ms_min = v.min_ms;
         r.gpu_ms_max = v.max_ms;
         r.cpu_ms_median = v.median_ms;
-        r.counts = json!({
-            "products": products.len(),
-            "single_primitive_products": single,
-            "product_literals": literals,
-            "max_convexity": convexity.iter().copied().max().unwrap_or(0),
-        });
+        r.counts = Some(RunCounts::OpenCsg(ProductCounts {
+            products: products.len(),
+            single_primitive_products: single,
+            product_literals: literals,
+            max_convexity: convexity.iter().copied().max().unwrap_or(0),
+        }));
         match read_images(work, &v.name, scene, w, h).and_then(|img| {
             compare(reference, &img)
                 .map(|c| (c, img))
                 .map_err(|e| e.to_string())
         }) {
             Ok((c, img)) => {
-                r.error = serde_json::to_value(c).unwrap_or_default();
+                r.error = Some(c);
                 rows.push((r, Some(img)));
             }
             Err(e) => {
@@ -397,6 +397,19 @@ pub fn run_scene(
     rows
 }
 
+/// The counts of a baseline run: the normalized expression OpenCSG draws.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct ProductCounts {
+    /// Products of the normalized expression.
+    pub products: usize,
+    /// Products of one primitive and no subtraction.
+    pub single_primitive_products: usize,
+    /// Primitives over all products, each counted per product it appears in.
+    pub product_literals: usize,
+    /// The largest convexity (front faces a ray may cross) of a primitive,
+    /// as the program took it (given convex, or measured).
+    pub max_convexity: u32,
+}
 /// One scene's two baseline runs, made before and after our timed rounds, as
 /// one: per variant the median of the two runs' medians (their mean), the
 /// extremes of both, the frames of both; errors and images from the later run

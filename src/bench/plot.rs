@@ -301,19 +301,11 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
     let mut bars: Vec<(String, BTreeMap<String, f64>)> = Vec::new();
     for r in &rows {
         let mut m = BTreeMap::new();
-        if let Some(arr) = r.per_pass.as_array() {
-            for p in arr {
-                let name = p
-                    .get("name")
-                    .and_then(|v| v.as_str())
-                    .unwrap_or("?")
-                    .to_string();
-                let ms = p.get("gpu_ms").and_then(|v| v.as_f64()).unwrap_or(0.0);
-                if !pass_names.contains(&name) {
-                    pass_names.push(name.clone());
-                }
-                *m.entry(name).or_insert(0.0) += ms;
+        for p in r.per_pass.iter().flatten() {
+            if !pass_names.contains(&p.name) {
+                pass_names.push(p.name.clone());
             }
+            *m.entry(p.name.clone()).or_insert(0.0) += p.gpu_ms;
         }
         bars.push((r.algo.clone(), m));
     }

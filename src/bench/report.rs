@@ -7,9 +7,9 @@
 use std::fmt::Write;
 use std::path::Path;
 
-use serde_json::Value;
-
 use super::{BenchError, Record};
+use crate::reference::compare::CompareReport;
+use crate::vk::Counts;
 
 /// The CST paper's §8 table (GeForce 6800 GT, 800×800): Prims, Blister, Z, I, G in ms.
 pub const PAPER_TABLE: [(&str, u32, [f64; 4]); 2] = [
@@ -17,18 +17,55 @@ pub const PAPER_TABLE: [(&str, u32, [f64; 4]); 2] = [
     ("gear", 48, [481.0, 382.0, 312.0, 179.0]),
 ];
 
-fn num(v: &Value, key: &str) -> f64 {
-    v.get(key).and_then(Value::as_f64).unwrap_or(f64::NAN)
+/// Interior coverage and primitive mismatches (fractions) and depth p99 of a
+/// run; NaN for a run without an error report.
+pub fn error_figures(r: &Record) -> (f64, f64, f64) {
+    match &r.error {
+        Some(e) => (
+            e.coverage_mismatch_interior_frac,
+            e.prim_mismatch_interior_frac,
+            e.depth_abs_err_p99,
+        ),
+        None => (f64::NAN, f64::NAN, f64::NAN),
+    }
 }
 
-/// Interior coverage and primitive mismatches (fractions) and depth p99 of a run.
-pub fn error_figures(r: &Record) -> (f64, f64, f64) {
-    (
-        num(&r.error, "coverage_mismatch_interior_frac"),
-        num(&r.error, "prim_mismatch_interior_frac"),
-        num(&r.error, "depth_abs_err_p99"),
-    )
+/// A count of a GPU run's last frame, as written; `None` for a run without
+/// frame counts (failed, skipped, the reference, a baseline).
+pub fn frame_count(r: &Record, of: CountOf) -> Option<String> {
+    Some(of(r.counts.as_ref()?.frame()?).to_string())
 }
+
+/// A figure read off a frame's counts.
+type CountOf = fn(&Counts) -> u64;
+
+/// A figure read off a compare report.
+type ErrorOf = fn(&CompareReport) -> f64;
+
+/// The frame counts the CSV and summary tables show, by column name.
+const FRAME_COUNTS: [(&str, CountOf); 6] = [
+    ("draws", |c| c.draws),
+    ("mesh_draws", |c| c.mesh_draws),
+    ("fullscreen_passes", |c| c.fullscreen_passes),
+    ("triangles", |c| c.triangles),
+    ("fullscreen_pixels", |c| c.fullscreen_pixels),
+    ("samples_counted", |c| c.samples_counted),
+];
+
+/// The error columns of the CSV, by column name.
+const CSV_ERRORS: [(&str, ErrorOf); 7] = [
+    ("coverage_mismatch_frac", |e| e.coverage_mismatch_frac),
+    ("prim_mismatch_frac", |e| e.prim_mismatch_frac),
+    ("coverage_mismatch_interior_frac", |e| {
+        e.coverage_mismatch_interior_frac
+    }),
+    ("prim_mismatch_interior_frac", |e| {
+        e.prim_mismatch_interior_frac
+    }),
+    ("depth_abs_err_max", |e| e.depth_abs_err_max),
+    ("depth_abs_err_p99", |e| e.depth_abs_err_p99),
+    ("depth_abs_err_mean", |e| e.depth_abs_err_mean),
+];
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> BenchError + '_ {
     move |source| BenchError::Io {
@@ -49,23 +86,19 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<(), BenchError> {
     Ok(())
 }
 
-const CSV_COUNTS: [&str; 6] = [
-    "draws",
-    "mesh_draws",
-    "fullscreen_passes",
-    "triangles",
-    "fullscreen_pixels",
-    "samples_counted",
-];
-
 pub fn csv(records: &[Record]) -> String {
     let mut s = String::from(
         "scene,family,n,prims,width,height,algo,depth_setup,device,frames,gpu_ms_median,gpu_ms_min,gpu_ms_max,gpu_ms_iqr,cpu_ms_median,cpu_ms_iqr,frame_ms_median,frame_ms_iqr,record_ms_median,rerecord_ms",
     );
-    for c in CSV_COUNTS {
+    for (c, _) in FRAME_COUNTS {
         let _ = write!(s, ",{c}");
     }
-    s.push_str(",coverage_mismatch_frac,prim_mismatch_frac,coverage_mismatch_interior_frac,prim_mismatch_interior_frac,depth_abs_err_max,depth_abs_err_p99,depth_abs_err_mean,failure,embedded_frame_ms_median,embedded_ratio,embedded_cpu_ratio,est_s,skipped\n");
+    for (e, _) in CSV_ERRORS {
+        let _ = write!(s, ",{e}");
+    }
+    s.push_str(
+        ",failure,embedded_frame_ms_median,embedded_ratio,embedded_cpu_ratio,est_s,skipped\n",
+    );
     for r in records {
         let _ = write!(
             s,
@@ -91,24 +124,13 @@ pub fn csv(records: &[Record]) -> String {
             r.record_ms_median,
             r.rerecord_ms
         );
-        for c in CSV_COUNTS {
-            let v = r.counts.get(c).map(|v| v.to_string()).unwrap_or_default();
-            let _ = write!(s, ",{v}");
+        for (_, of) in FRAME_COUNTS {
+            let _ = write!(s, ",{}", frame_count(r, of).unwrap_or_default());
         }
-        for k in [
-            "coverage_mismatch_frac",
-            "prim_mismatch_frac",
-            "coverage_mismatch_interior_frac",
-            "prim_mismatch_interior_frac",
-            "depth_abs_err_max",
-            "depth_abs_err_p99",
-            "depth_abs_err_mean",
-        ] {
-            let _ = write!(
-                s,
-                ",{}",
-                r.error.get(k).map(|v| v.to_string()).unwrap_or_default()
-            );
+        for (_, of) in CSV_ERRORS {
+            // As JSON writes the figure: `null` where it is not finite.
+            let v = r.error.as_ref().map(|e| serde_json::Value::from(of(e)));
+            let _ = write!(s, ",{}", v.map(|v| v.to_string()).unwrap_or_default());
         }
         let (e_ms, e_ratio, e_cpu) = match &r.embedded {
             Some(e) => (
@@ -208,12 +230,7 @@ pub fn summary(records: &[Record]) -> String {
                 continue;
             }
             let (cov, prim, d99) = error_figures(r);
-            let c = |k: &str| {
-                r.counts
-                    .get(k)
-                    .map(|v| v.to_string())
-                    .unwrap_or_else(|| "-".into())
-            };
+            let c = |of: CountOf| frame_count(r, of).unwrap_or_else(|| "-".into());
             let _ = writeln!(
                 s,
                 "| {} | {} | {:.2} ± {:.2} | {:.2} | {:.2} | {:.1} | {} | {} | {} | {:.3} | {:.3} | {:.2e} |",
@@ -224,9 +241,9 @@ pub fn summary(records: &[Record]) -> String {
                 r.frame_ms_median,
                 r.record_ms_median,
                 r.cpu_ms_median,
-                c("draws"),
-                c("triangles"),
-                c("fullscreen_passes"),
+                c(|c| c.draws),
+                c(|c| c.triangles),
+                c(|c| c.fullscreen_passes),
                 cov * 100.0,
                 prim * 100.0,
                 d99

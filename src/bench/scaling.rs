@@ -11,6 +11,7 @@ use std::fmt::Write;
 use serde::Serialize;
 
 use super::checks::correct;
+use super::report::frame_count;
 use super::Record;
 
 /// How one algorithm's cost grows over one scaling family.
@@ -252,11 +253,7 @@ fn runs(rows: &[&Record]) -> String {
             );
             continue;
         }
-        let draws = r
-            .counts
-            .get("draws")
-            .map(|v| v.to_string())
-            .unwrap_or_else(|| "-".into());
+        let draws = frame_count(r, |c| c.draws).unwrap_or_else(|| "-".into());
         let note = if correct(r) { "" } else { "incorrect" };
         let _ = writeln!(
             s,

@@ -2,11 +2,11 @@
 //! vertices' projections, in continuous pixel coordinates at `scene.render`'s
 //! size, unclamped (a world box's corners reach the near plane of a fitted
 //! camera long before the primitive does). SCS draws products
-//! whose pixels cannot meet in one block ([`super::scs::batch`]); unlike the
+//! whose pixels cannot meet in one block (`scs::batch`); unlike the
 //! executor's scissors, which only bound work (a recording may grow them
 //! after a camera move), these boxes decide correctness, so two of them count
 //! as apart only with [`MARGIN_PX`] pixels between them. Re-derived with the
-//! camera, as [`super::view_convex`] is.
+//! camera, as `plan::view_convex` is.
 #![deny(unsafe_code)]
 
 use glam::{DMat4, DVec2, DVec3};

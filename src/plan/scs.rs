@@ -47,11 +47,11 @@
 //! (`Region::Intersection`): the product lies inside each `Xi`, and only the
 //! clip and the merge, both cut to it, read `z`. The clip of a product of one
 //! `X` drawn in the output is cut further, to where an exit may have moved
-//! `z` ([`moved`]): elsewhere `z` is `X`'s front face, which the clip keeps;
+//! `z` (`moved`): elsewhere `z` is `X`'s front face, which the clip keeps;
 //! its sweep may then draw the cutters' back faces instead of `X`'s front
-//! faces, where they cost less ([`output_sweep`]).
+//! faces, where they cost less (`output_sweep`).
 //!
-//! **Products side by side** ([`batch`]): products whose pixels cannot meet
+//! **Products side by side** (`batch`): products whose pixels cannot meet
 //! on screen share one clear and one block per phase, and those apart from
 //! the first product drawn in the output are drawn there too.
 //!

@@ -18,7 +18,7 @@ pub enum CompareError {
 
 /// The `compare` output. Depth errors are over pixels covered in both images (0 when
 /// there are none); fractions are over all `pixels`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CompareReport {
     pub pixels: u64,
     pub coverage_mismatch: u64,

@@ -526,16 +526,7 @@ impl Pipelines {
         fragment: vk::ShaderModule,
         state: Option<&RasterState>,
     ) -> Result<vk::Pipeline, VkError> {
-        let stages = [
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::VERTEX)
-                .module(self.vertex)
-                .name(c"main"),
-            vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::FRAGMENT)
-                .module(fragment)
-                .name(c"main"),
-        ];
+        let stages = super::stages::vert_frag(self.vertex, fragment);
         let vb = [vk::VertexInputBindingDescription {
             binding: 0,
             stride: VERTEX_STRIDE,

@@ -1,0 +1,134 @@
+//! The executor's switches (`set_*`): settings that choose how a plan is
+//! recorded — clears, block joins, timestamps, the tie-free draws, depth-only
+//! images, the emulated vertex snapping — and the push-constant flags they
+//! imply. Each drops the kept recording where it changes what is recorded
+//! (README "Executor"; the A/B switches are measured in README "Per-pixel cost"
+//! and "The final shade as depth-equal draws").
+
+use super::{BlockJoin, ClearMode, DepthFormat, Executor};
+use crate::vk::pipeline::{pipeline_flags, FLAG_RASTER_DEPTH};
+
+impl Executor {
+    /// Emulates a coarser device's vertex snapping in every later mesh draw.
+    pub fn set_rounding_emulation(&mut self, rounding: Option<crate::vk::RoundingEmulation>) {
+        self.rounding = rounding;
+        self.recording = None;
+    }
+
+    /// The push constants' flags: reversed Z, and the subpixel precision the tie
+    /// tolerance assumes ([`Self::subpixel_bits`]).
+    pub(super) fn flags(&self) -> u32 {
+        let raster = match self.depth_equal_shades() {
+            true => FLAG_RASTER_DEPTH,
+            false => 0,
+        };
+        pipeline_flags(self.desc.reversed_z, self.subpixel_bits()) | raster
+    }
+
+    /// Whether final shades run depth-equal draws where no tie is possible
+    /// ([`Self::set_fixed_shade`]).
+    pub(super) fn depth_equal_shades(&self) -> bool {
+        // D24: lavapipe's raster depth, quantized, misses the strict depth
+        // bar of `vk_tests` `classic_assembly` (p99 4.3e-6 against 3.8e-6 view
+        // units), where the plane depth at the pixel centre meets it.
+        let d32 = self.desc.depth_format == DepthFormat::D32S8;
+        self.tie_free && self.fixed_shade && self.unsnapped && self.rounding.is_none() && d32
+    }
+
+    /// The vertex snapping the tie rule allows for: the device's, or the
+    /// emulated device's.
+    pub(super) fn subpixel_bits(&self) -> u32 {
+        match self.rounding {
+            Some(r) => r.subpixel_bits,
+            None => self.shared.limits.sub_pixel_precision_bits,
+        }
+    }
+
+    /// Whether tolerant parity and peel draws whose meshes cannot tie under the
+    /// current camera run as plain depth tests (`plan::tie_free`; the default).
+    /// Off: every one runs its tie-rule shader (A/B measurements). Both give the
+    /// same images up to crossings of faces within a depth quantum.
+    pub fn set_tie_free(&mut self, on: bool) {
+        self.tie_free = on;
+        self.recording = None;
+    }
+
+    /// Whether the final shade's draws of meshes that cannot tie run as plain
+    /// depth-`EQUAL` draws (`plan::tie_free`; the default, with
+    /// [`Self::set_tie_free`] on). Off: they keep the tie rule (A/B
+    /// measurements). Only on a device that does not snap vertices before
+    /// interpolating depth (lavapipe; not under the rounding emulation): a
+    /// depth-equal shade leaves the raster depth in the depth output, which
+    /// carries the snapping error that the tie rule's plane depth removes
+    /// (README "The final shade as depth-equal draws").
+    pub fn set_fixed_shade(&mut self, on: bool) {
+        self.fixed_shade = on;
+        self.recording = None;
+    }
+
+    /// Whether a final shade's draw of a mesh that can tie runs the tie rule
+    /// only inside its on-screen tie zones (`plan::tie_zones`; the default,
+    /// with [`Self::set_fixed_shade`] on). Off: over its whole rectangle (A/B
+    /// measurements, `examples/tie_ab.rs`).
+    pub fn set_tie_zones(&mut self, on: bool) {
+        self.tie_zones = on;
+        self.recording = None;
+    }
+
+    /// Whether a one-primitive product whose final shade draw would run
+    /// depth-`EQUAL` everywhere is shaded in its direct draw, that shade draw
+    /// dropped (`plan::direct_shade`; the default). Off: drawn depth-only and
+    /// shaded again (A/B measurements, `examples/tie_ab.rs`). Frames run
+    /// loop by loop keep the old path; frames shaded into an embedding host's
+    /// targets draw those products' final shade draws without a check of the
+    /// output depth instead (`record::host`).
+    pub fn set_direct_shade(&mut self, on: bool) {
+        self.direct_shade = on;
+        self.recording = None;
+    }
+
+    /// Depth images without a stencil aspect for plans that use no stencil
+    /// (the default where the device supports `D32_SFLOAT`): half the bytes
+    /// to clear and test on lavapipe, the same depths. Off: every plan gets
+    /// the set-up's depth-stencil format (the A/B of README "Per-pixel cost").
+    pub fn set_depth_only(&mut self, on: bool) {
+        self.depth_only = on && self.depth_only_usable;
+    }
+
+    /// How clears are recorded (default: clear commands on CPU devices, load ops
+    /// elsewhere). Both give the same images.
+    pub fn set_clear_mode(&mut self, clears: ClearMode) {
+        self.clears = clears;
+        self.recording = None;
+    }
+
+    /// Which blocks a draw that writes no colour may share (default:
+    /// [`BlockJoin::Masked`]; on lavapipe neither wins everywhere, README
+    /// "One block for the depth-only draws and the shade"). Both give the
+    /// same images.
+    pub fn set_block_join(&mut self, join: BlockJoin) {
+        self.join = join;
+        self.recording = None;
+    }
+
+    /// Whether clears reach only the part of an image later steps read (the
+    /// default) or the whole image. Both give the same images.
+    pub fn set_scissored_clears(&mut self, on: bool) {
+        self.scissored_clears = on;
+        self.recording = None;
+    }
+
+    /// Per-pass GPU times (a timestamp at every `Step::Pass`; the default) or
+    /// only the frame's (two timestamps, so that lavapipe's scenes are not cut
+    /// at pass boundaries).
+    pub fn set_pass_timestamps(&mut self, on: bool) {
+        self.pass_timestamps = on;
+        self.recording = None;
+    }
+
+    /// Drops the kept recording: the next frame records again (what a new plan or
+    /// camera costs; the bench measures it with this).
+    pub fn forget_recording(&mut self) {
+        self.recording = None;
+    }
+}

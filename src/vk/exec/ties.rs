@@ -1,0 +1,93 @@
+//! The tie-free decisions of a frame (`plan::tie_free`; README "GPU work per
+//! frame: where the tie rule's cost went" and "Tie zones"): which parity, peel
+//! and shade draws may run as plain depth tests under the current camera,
+//! decided once per plan, camera, scene and settings and kept (`plan::memo`).
+
+use super::gpu_scene::GpuScene;
+use super::{ExecDesc, Executor};
+use crate::plan::tie_free::{TieBand, TieFree};
+use crate::plan::Plan;
+use crate::scene::{Aabb, Camera};
+use crate::vk::scissor::bounds_rect;
+
+/// Everything the tie-free decisions of a plan depend on
+/// ([`Executor::decide_ties`]): the plan, the camera, the scene (`epoch`) and
+/// the settings that choose them.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct TieKey {
+    plan: u64,
+    camera: Camera,
+    epoch: u64,
+    subpixel_bits: u32,
+    size: (u32, u32),
+    reversed_z: bool,
+    tie_free: bool,
+    fixed_shade: bool,
+    zones: bool,
+}
+
+impl Executor {
+    /// The tie-free decisions for `plan` under the scene's current camera:
+    /// the kept ones while the plan, camera, scene and settings stay
+    /// (`plan::memo`; a replayed frame decides nothing anew).
+    pub(super) fn decide_ties(&mut self, plan: &Plan) -> TieFree {
+        let Some(scene) = self.scene.as_ref().filter(|_| self.tie_free) else {
+            return TieFree::none();
+        };
+        let key = TieKey {
+            plan: self.plan_ids.id(plan),
+            camera: scene.camera,
+            epoch: self.epoch,
+            subpixel_bits: self.subpixel_bits(),
+            size: (self.desc.width, self.desc.height),
+            reversed_z: self.desc.reversed_z,
+            tie_free: self.tie_free,
+            fixed_shade: self.depth_equal_shades(),
+            zones: self.tie_zones,
+        };
+        let (desc, bits) = (self.desc, key.subpixel_bits);
+        let (fixed, zones) = (key.fixed_shade, key.zones);
+        self.tie_memo
+            .get_or_insert_with(key, || {
+                tie_decisions(scene, &desc, bits, plan, fixed, zones)
+            })
+            .clone()
+    }
+}
+
+/// `plan`'s tie-free decisions on `scene` under its camera (`plan::tie_free`),
+/// for a device snapping vertices to `subpixel_bits`; every final shade keeps
+/// the tie rule unless `fixed_shade`.
+fn tie_decisions(
+    scene: &GpuScene,
+    desc: &ExecDesc,
+    subpixel_bits: u32,
+    plan: &Plan,
+    fixed_shade: bool,
+    zones: bool,
+) -> TieFree {
+    let bounds = scene
+        .bounds
+        .iter()
+        .fold(crate::geom::bounds(&[]), |a, b| Aabb {
+            min: a.min.min(b.min),
+            max: a.max.max(b.max),
+        });
+    let band = TieBand::new(
+        &scene.camera,
+        desc.width,
+        desc.height,
+        subpixel_bits,
+        desc.reversed_z,
+        &bounds,
+    );
+    let (w, h) = (desc.width, desc.height);
+    let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
+    let project = |b: &Aabb| bounds_rect(view, proj, near, std::slice::from_ref(b), w, h);
+    let ties = TieFree::new(&scene.ties, &scene.shade_ties, &band, plan, &project);
+    match (fixed_shade, zones) {
+        (true, true) => ties,
+        (true, false) => ties.without_zones(),
+        (false, _) => ties.keep_shade_rule(),
+    }
+}
