@@ -284,8 +284,9 @@ impl Host {
             .expect("module")
         };
         let (vs, fs) = (module(FLOOR_VERT), module(FLOOR_FRAG));
+        // Only the vertex shader reads them (it passes the colour on flat).
         let ranges = [vk::PushConstantRange {
-            stage_flags: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            stage_flags: vk::ShaderStageFlags::VERTEX,
             offset: 0,
             size: 96,
         }];
@@ -796,13 +797,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
             );
             d.cmd_set_scissor(cmd, 0, &[ext.into()]);
             d.cmd_set_depth_compare_op(cmd, nearer);
-            d.cmd_push_constants(
-                cmd,
-                layout,
-                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                0,
-                &push,
-            );
+            d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::VERTEX, 0, &push);
             d.cmd_draw(cmd, 6, 1, 0, 0);
             d.cmd_end_rendering(cmd);
         }

@@ -11,6 +11,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
 #ifdef NORMALS
@@ -19,7 +20,7 @@ layout(location = 2) out vec4 o_normal;
 #endif
 
 void main() {
-    o_color = vec4(pc.color.rgb, 1.0);
+    o_color = vec4(d_color.rgb, 1.0);
     o_prim = 0u;
 #ifdef NORMALS
     o_normal = vec4(0.0);

@@ -4,7 +4,10 @@
 // was drawn) and the depth buffer (set 2; set 1 is the camera). Both pixels of a 4-neighbour pair are
 // edges when coverage differs, when their view depths differ by more than
 // color.x of the nearer one, or when their normals' dot product is below color.y;
-// the image border is never an edge. Writes 1 on edges, 0 elsewhere.
+// the image border is never an edge. Writes 1 on edges, 0 elsewhere. Colour
+// and flags are draw.glsl's flat copies; `view` is still read from the push
+// constants (mesh.vert passes no flat copy of it; this pass runs once a frame,
+// only when an edge map is asked for).
 layout(push_constant) uniform Push {
     mat4 mvp;
     // x: near, y: far, z: 1 for orthographic (view depth is affine in depth)
@@ -15,6 +18,7 @@ layout(push_constant) uniform Push {
     // bit 0: reversed Z (near = 1, far = 0)
     uint flags;
 } pc;
+#include "draw.glsl"
 layout(set = 0, binding = 0) uniform texture2D u_normal;
 layout(set = 0, binding = 1) uniform sampler u_samp;
 layout(set = 2, binding = 0) uniform texture2D u_depth;
@@ -25,7 +29,7 @@ layout(location = 0) out vec4 o_edge;
 float view_depth(float z) {
     float n = pc.view.x;
     float f = pc.view.y;
-    bool reversed = (pc.flags & 1u) != 0u;
+    bool reversed = (d_flags & 1u) != 0u;
     if (pc.view.z > 0.5) {
         return reversed ? f - z * (f - n) : n + z * (f - n);
     }
@@ -53,10 +57,10 @@ bool discontinuous(ivec2 a, ivec2 b) {
     }
     float da = depth_at(a);
     float db = depth_at(b);
-    if (abs(da - db) > pc.color.x * min(abs(da), abs(db))) {
+    if (abs(da - db) > d_color.x * min(abs(da), abs(db))) {
         return true;
     }
-    return dot(na, nb) < pc.color.y;
+    return dot(na, nb) < d_color.y;
 }
 
 void main() {

@@ -1,12 +1,10 @@
 #version 450
-// The example host's floor colour (examples/embed.rs).
-layout(push_constant) uniform Push {
-    mat4 mvp;
-    vec4 floor_;
-    vec4 color;
-} pc;
+// The example host's floor colour (examples/embed.rs), a flat input that
+// host_floor.vert copies from the push constants: llvmpipe reads a push
+// constant lane by lane in a fragment shader (shaders/draw.glsl says why).
+layout(location = 0) flat in vec4 d_color;
 layout(location = 0) out vec4 o_color;
 
 void main() {
-    o_color = vec4(pc.color.rgb, 1.0);
+    o_color = vec4(d_color.rgb, 1.0);
 }

@@ -6,8 +6,12 @@ layout(push_constant) uniform Push {
     vec4 floor_;
     vec4 color;
 } pc;
+// The floor colour for host_floor.frag, per vertex rather than a push constant
+// read per fragment (shaders/draw.glsl).
+layout(location = 0) flat out vec4 d_color;
 
 void main() {
+    d_color = pc.color;
     int i = int(gl_VertexIndex);
     float x = (i == 1 || i == 2 || i == 4) ? 1.0 : -1.0;
     float z = (i == 2 || i == 4 || i == 5) ? 1.0 : -1.0;
