@@ -142,3 +142,33 @@ fn a_plan_recorded_anew_draws_the_images_of_its_first_recording() {
         assert!(m.is_empty(), "validation messages: {m:#?}");
     }
 }
+
+/// The loop-by-loop first frame (several submissions) and the unrolled second
+/// one (one) time the same passes from their timestamps (`add_gpu_times`):
+/// the same passes in the same order, each a share of the frame's GPU time.
+#[test]
+fn stepwise_and_unrolled_frames_time_the_same_passes() {
+    let scene = load(&crate::setup::scenes_dir().join("gear.toml"));
+    let plan = plan::build(Algo::Blister, &Prepared::new(&scene).unwrap()).unwrap();
+    let mut gpu = renderer(&scene);
+    let frames: Vec<_> = (0..2).map(|_| gpu.execute(&plan).unwrap().exec).collect();
+    assert_eq!(frames[0].recorded, Recorded::Stepwise);
+    assert_eq!(frames[1].recorded, Recorded::New);
+    assert!(
+        !frames[0].counts.loop_iterations.is_empty() && frames[0].counts.submits > 1,
+        "{:?}",
+        frames[0].counts
+    );
+    let names =
+        |i: usize| -> Vec<&str> { frames[i].per_pass.iter().map(|p| p.name.as_str()).collect() };
+    assert!(names(0).len() > 1, "{:?}", names(0));
+    assert_eq!(names(0), names(1));
+    for s in &frames {
+        let passes: f64 = s.per_pass.iter().map(|p| p.gpu_ms).sum();
+        assert!(passes > 0.0, "{:?}", s.per_pass);
+        // Work before the first pass counts in the frame's time only.
+        assert!(passes <= s.gpu_ms * (1.0 + 1e-9), "{passes} > {}", s.gpu_ms);
+        assert!(s.per_pass.iter().all(|p| p.gpu_ms >= 0.0));
+    }
+    assert!(gpu.validation_messages().is_empty());
+}

@@ -91,7 +91,7 @@ use recording::Recording;
 use scissors::Scissors;
 use targets::Targets;
 use ties::TieKey;
-use unrolled::{layers_fit, unroll};
+use unrolled::{add_gpu_times, layers_fit, unroll};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ExecDesc {

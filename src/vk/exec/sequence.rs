@@ -19,8 +19,10 @@ use gpu_allocator::MemoryLocation;
 
 use super::record::Group;
 use super::targets::ALPHA_TABLE_SIDE;
+use super::{
+    add_gpu_times, layers_fit, unroll, whole_image_region, Clock, ExecStats, Executor, FrameStart,
+};
 use super::{gpu_scene, Recorded, Scissors};
-use super::{layers_fit, unroll, whole_image_region, Clock, ExecStats, Executor, FrameStart};
 use crate::output::Images;
 use crate::plan::reach;
 use crate::plan::tie_free::TieFree;
@@ -260,8 +262,7 @@ impl Executor {
         stats.counts.loop_iterations = plans.iter().flat_map(|p| p.1.to_vec()).collect();
         stats.counts.samples_counted = counts.iter().map(|c| c.samples).sum();
         stats.counts.final_samples = counts.last().map_or(0, |c| c.final_samples);
-        let marks = rec.marks.clone();
-        self.add_gpu_times(&mut stats, &marks)?;
+        add_gpu_times(&mut stats, &self.shared, self.timestamps.pool, &rec.marks)?;
         let stats = self.end_frame(last, f, Some(stats))?;
         Ok(Some(SeqFrame {
             stats,

@@ -5,7 +5,7 @@
 
 use super::record::{Group, Recorder};
 use super::stats::{ExecStats, Recorded};
-use super::{Clock, Executor};
+use super::{add_gpu_times, Clock, Executor};
 use crate::plan::{Plan, Step};
 use crate::vk::cpu_clock::CpuInstant;
 use crate::vk::error::VkError;
@@ -31,7 +31,6 @@ impl Executor {
         self.ensure_queries(&all)?;
         let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
         let cmd = self.submit.cmd;
-        let mut gpu = ExecStats::default();
         let mut loops = Vec::new();
         let mut samples_counted = 0;
         // The recorder borrows the executor's resources; submission and queries
@@ -65,17 +64,7 @@ impl Executor {
             let samples: u64 = submit::query_results(&shared.device, occ_pool, rec.queries.len())?
                 .iter()
                 .sum();
-            if shared.timestamp_valid_bits > 0 && rec.marks.len() >= 2 {
-                let ts = submit::query_results(&shared.device, ts_pool, rec.marks.len())?;
-                let period = shared.limits.timestamp_period as f64;
-                for i in 0..rec.marks.len() - 1 {
-                    let ms = ts[i + 1].saturating_sub(ts[i]) as f64 * period * 1e-6;
-                    gpu.gpu_ms += ms;
-                    if let Some(p) = gpu.pass_entry(&rec.marks[i]) {
-                        p.gpu_ms += ms;
-                    }
-                }
-            }
+            add_gpu_times(&mut rec.stats, &shared, ts_pool, &rec.marks)?;
             Ok(samples)
         };
         let (mut rec, submit) = self.recorder_and_submitter();
@@ -105,13 +94,6 @@ impl Executor {
         samples_counted += final_samples;
         let mut stats = rec.stats;
         stats.recorded = Recorded::Stepwise;
-        // Per-pass draws come from the recorder, GPU times from the timestamps.
-        for p in &gpu.per_pass {
-            if let Some(e) = stats.pass_entry(&p.name) {
-                e.gpu_ms += p.gpu_ms;
-            }
-        }
-        stats.gpu_ms = gpu.gpu_ms;
         stats.counts.loop_iterations = loops;
         stats.counts.samples_counted = samples_counted;
         stats.counts.final_samples = final_samples;

@@ -10,6 +10,7 @@ use super::{Executor, FrameStart};
 use crate::plan::reach;
 use crate::plan::{Plan, Step};
 use crate::vk::error::VkError;
+use crate::vk::instance::Shared;
 use crate::vk::submit;
 
 impl Executor {
@@ -91,31 +92,35 @@ impl Executor {
             .rposition(Option::is_some)
             .map_or(0, |i| i + 1);
         stats.counts.final_samples = samples[after..].iter().sum();
-        let marks = rec.marks.clone();
-        self.add_gpu_times(&mut stats, &marks)?;
+        add_gpu_times(&mut stats, &self.shared, self.timestamps.pool, &rec.marks)?;
         Ok(Some(stats))
     }
+}
 
-    /// Adds the GPU times between the timestamps of the last command buffer.
-    pub(super) fn add_gpu_times(
-        &self,
-        stats: &mut ExecStats,
-        marks: &[String],
-    ) -> Result<(), VkError> {
-        if self.shared.timestamp_valid_bits == 0 || marks.len() < 2 {
-            return Ok(());
-        }
-        let ts = submit::query_results(&self.shared.device, self.timestamps.pool, marks.len())?;
-        let period = self.shared.limits.timestamp_period as f64;
-        for i in 0..marks.len() - 1 {
-            let ms = ts[i + 1].saturating_sub(ts[i]) as f64 * period * 1e-6;
-            stats.gpu_ms += ms;
-            if let Some(p) = stats.pass_entry(&marks[i]) {
-                p.gpu_ms += ms;
-            }
-        }
-        Ok(())
+/// Adds to `stats` the GPU times between the timestamps of the last completed
+/// submission: the first `marks.len()` queries of `pool`, each tagged with the
+/// pass it starts (`Recorder::marks`). The frame's total and each pass's.
+/// A free function over handles, not a method, because the stepwise frame
+/// calls it while its recorder borrows the executor.
+pub(super) fn add_gpu_times(
+    stats: &mut ExecStats,
+    shared: &Shared,
+    pool: ash::vk::QueryPool,
+    marks: &[String],
+) -> Result<(), VkError> {
+    if shared.timestamp_valid_bits == 0 || marks.len() < 2 {
+        return Ok(());
     }
+    let ts = submit::query_results(&shared.device, pool, marks.len())?;
+    let period = shared.limits.timestamp_period as f64;
+    for (i, pair) in ts.windows(2).enumerate() {
+        let ms = pair[1].saturating_sub(pair[0]) as f64 * period * 1e-6;
+        stats.gpu_ms += ms;
+        if let Some(p) = stats.pass_entry(&marks[i]) {
+            p.gpu_ms += ms;
+        }
+    }
+    Ok(())
 }
 
 /// Whether a frame unrolled to `layers` was right, by the GPU's occlusion
