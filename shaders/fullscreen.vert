@@ -1,6 +1,7 @@
 #version 450
 // One triangle covering the viewport, from the vertex index alone (no vertex
-// buffer): the embedding's composite pass (src/vk/embed.rs).
+// buffer): the full-screen pipelines of src/vk/stages.rs (the embedding's
+// composite pass, the shadow pass).
 void main() {
     vec2 uv = vec2(float((gl_VertexIndex << 1) & 2), float(gl_VertexIndex & 2));
     gl_Position = vec4(uv * 2.0 - 1.0, 0.0, 1.0);

@@ -10,12 +10,11 @@ use ash::vk;
 
 use super::error::{Check, VkError};
 use super::instance::Shared;
-use super::pipeline::{graphics_pipeline, shader_module, Graphics};
+use super::pipeline::{graphics_pipeline, Graphics};
 use super::sync;
 use super::HostTargets;
 use crate::plan::usage::Usage;
 
-const VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fullscreen.vert.spv"));
 const FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/composite.frag.spv"));
 /// The variant for an `_SRGB` host colour format (decodes before writing).
 const FRAG_SRGB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/composite.frag.host_srgb.spv"));
@@ -229,19 +228,19 @@ impl Composite {
     }
 
     fn make_pipeline(&self, shared: &Shared) -> Result<vk::Pipeline, VkError> {
-        let vert = shader_module(shared, VERT)?;
-        let srgb = is_srgb(self.formats.0);
-        let frag = shader_module(shared, if srgb { FRAG_SRGB } else { FRAG });
-        let device = &shared.device;
-        let made = frag.and_then(|frag| {
-            let stages = super::stages::vert_frag(vert, frag);
-            let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
-                .depth_test_enable(true)
-                .depth_write_enable(true);
-            let made = graphics_pipeline(
-                device,
+        let frag = if is_srgb(self.formats.0) {
+            FRAG_SRGB
+        } else {
+            FRAG
+        };
+        let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(true)
+            .depth_write_enable(true);
+        super::stages::fullscreen_pipeline(shared, frag, |stages| {
+            graphics_pipeline(
+                &shared.device,
                 &Graphics {
-                    stages: &stages,
+                    stages,
                     vertex_input: &vk::PipelineVertexInputStateCreateInfo::default(),
                     cull: vk::CullModeFlags::NONE,
                     depth_stencil: &depth_stencil,
@@ -257,14 +256,8 @@ impl Composite {
                     layout: self.layout,
                     blend: None,
                 },
-            );
-            // SAFETY: modules are only needed while creating the pipeline.
-            unsafe { device.destroy_shader_module(frag, None) };
-            made
-        });
-        // SAFETY: as above.
-        unsafe { device.destroy_shader_module(vert, None) };
-        made
+            )
+        })
     }
 
     /// Points the set at the executor's current output images.

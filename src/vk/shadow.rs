@@ -18,13 +18,12 @@ use super::exec::{copy_to_host, Executor};
 use super::image::{Image, ImageDesc};
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
-use super::pipeline::{graphics_pipeline, shader_module, Graphics};
+use super::pipeline::{graphics_pipeline, Graphics};
 use super::scissor::Rect;
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::plan::usage::Usage;
 
-const VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fullscreen.vert.spv"));
 const FRAG: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/shadow.frag.spv"));
 
 /// The mask image's format: 1 where the pass found a shadow, 0 elsewhere.
@@ -206,14 +205,11 @@ impl ShadowPass {
         // rounds it up, as the CPU's `round` does, and leaves even values'
         // halves exact (255 · 2^-10 < 0.25).
         let keep = (crate::render::shadow::SHADOW_KEEP + 1.0 / 1024.0) as f32;
-        let vert = shader_module(&self.shared, VERT)?;
-        let device = &self.shared.device;
-        let made = shader_module(&self.shared, FRAG).and_then(|frag| {
-            let stages = super::stages::vert_frag(vert, frag);
-            let made = graphics_pipeline(
-                device,
+        super::stages::fullscreen_pipeline(&self.shared, FRAG, |stages| {
+            graphics_pipeline(
+                &self.shared.device,
                 &Graphics {
-                    stages: &stages,
+                    stages,
                     vertex_input: &vk::PipelineVertexInputStateCreateInfo::default(),
                     cull: vk::CullModeFlags::NONE,
                     depth_stencil: &vk::PipelineDepthStencilStateCreateInfo::default(),
@@ -224,14 +220,8 @@ impl ShadowPass {
                     layout: self.layout,
                     blend: Some((one, [keep; 4])),
                 },
-            );
-            // SAFETY: modules are only needed while creating the pipeline.
-            unsafe { device.destroy_shader_module(frag, None) };
-            made
-        });
-        // SAFETY: as above.
-        unsafe { device.destroy_shader_module(vert, None) };
-        made
+            )
+        })
     }
 
     /// The eye image size the pass was made for.
