@@ -470,10 +470,13 @@ fn host_csg(ctx: &Context, desc: &EmbedDesc, ball: bool, bites: bool) -> Result<
     CsgScene::new(ctx, &inputs, CsgExpr::Text(&expr), &camera(), desc).map_err(|e| e.to_string())
 }
 
+/// A host mesh: positions, triangles, model matrix, colour.
+type HostMesh = (Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3]);
+
 /// The host's CSG: a box with a spherical bite, as plain f32 meshes, and a
 /// ball beside the box, half below the floor (a product of one primitive,
 /// which the standalone frame shades in its direct draw, `plan::direct_shade`).
-fn host_meshes() -> Vec<(Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3])> {
+fn host_meshes() -> Vec<HostMesh> {
     let f32s = |m: &Mesh| {
         m.positions
             .iter()

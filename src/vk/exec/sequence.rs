@@ -35,6 +35,10 @@ use crate::vk::scissor::{Rect, RectUnions};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
 
+/// A layer's view-space unit normals, row-major (zero where nothing was drawn;
+/// `readback::decode_normals`).
+type Normals = Vec<[f32; 3]>;
+
 /// One item of a sequence frame.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SeqItem {
@@ -433,7 +437,7 @@ impl Executor {
 
     /// Slot `slot` of the last sequence frame's keeps: the layer's images and,
     /// when normals were on, its view-space normals.
-    pub fn read_kept(&self, slot: u64) -> Result<(Images, Option<Vec<[f32; 3]>>), VkError> {
+    pub fn read_kept(&self, slot: u64) -> Result<(Images, Option<Normals>), VkError> {
         let buf = self
             .seq
             .keep
