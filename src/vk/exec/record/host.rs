@@ -36,6 +36,10 @@
 //! (`shade_at_depth.frag`, `HOST_WRITE`) discarding every fragment not at the
 //! output depth; a shader that discards but writes no depth keeps the test
 //! before it on lavapipe, so fragments behind the host's geometry cost little.
+//! A directly shaded product's piece needs no fetch there either
+//! (`Piece::WrittenDirect`): tested and written before its shader, as in the
+//! standalone frame, since any fragment of it that is not the visible one lies
+//! behind the visible face, whose piece overwrites it.
 
 use ash::vk;
 
