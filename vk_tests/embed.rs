@@ -131,7 +131,11 @@ fn a_host_floor_hides_a_directly_shaded_product_where_it_is_in_front() {
 /// their own depth with no merge: the box with one bite writes, and so does it
 /// with the ball beside it; with four bites (three more subtracted balls in
 /// the box's rectangle, whose back faces the merge turns away before their
-/// shader) the merge comes first. Either way the floor hides the CSG and the
+/// shader) the merge comes first. The ball, a one-primitive product
+/// (`plan::direct_shade`), writes its depth with no fetch of the output depth
+/// (`Piece::WrittenDirect`: none of its faces lies nearer than it, so a
+/// hidden fragment it writes is overwritten by the visible face's piece),
+/// half below the floor. Either way the floor hides the CSG and the
 /// CSG the floor as the reference composite says, in both depth conventions,
 /// with depth buffers that round (D24S8, D16) and an `_SRGB` colour format
 /// (the decoding variant).
@@ -164,6 +168,8 @@ fn written_pieces_and_the_merge_each_meet_the_host_floor_like_the_reference() {
             assert!(r.shade_fixed_draws >= 2, "{name}: {r:?}");
             let written = if writes { r.shade_fixed_draws } else { 0 };
             assert_eq!(r.shade_written_draws, written, "{name}: {r:?}");
+            // The ball's piece took the direct decision on either path.
+            assert_eq!(r.direct_shade_draws, ball as u64, "{name}: {r:?}");
         }
     }
 }

@@ -36,6 +36,10 @@
 //! (`shade_at_depth.frag`, `HOST_WRITE`) discarding every fragment not at the
 //! output depth; a shader that discards but writes no depth keeps the test
 //! before it on lavapipe, so fragments behind the host's geometry cost little.
+//! A directly shaded product's piece needs no fetch there either
+//! (`Piece::WrittenDirect`): tested and written before its shader, as in the
+//! standalone frame, since any fragment of it that is not the visible one lies
+//! behind the visible face, whose piece overwrites it.
 
 use ash::vk;
 
@@ -282,13 +286,32 @@ enum Piece {
     /// discarded, the raster depth of the rest (the visible face's) written
     /// (`ShadeAtDepthHostWrite`).
     Written,
+    /// With no merge, a `Direct` piece: `LESS_OR_EQUAL` against the host's
+    /// depth, tested and written before the shader, which fetches nothing
+    /// (`ShadeHost`). None of its faces lies nearer than the output depth, so
+    /// a fragment of it that is not the visible one lies behind the visible
+    /// face, whose piece passes wherever the CSG is in front of the host and
+    /// overwrites it, drawn before or after; ties keep the plan's order.
+    WrittenDirect,
 }
 
-/// Whether the final shade's depth-equal pieces (each one's scissor and
-/// culling) are drawn `Written`, each testing the host's depth with equality
-/// and writing its own, rather than after the depth merge: whichever runs the
-/// shader on fewer pixels, as lavapipe prices them (README "Embedding", "The
-/// depth merge or the pieces' own depth").
+/// One depth-equal piece of the final shade as [`writes_depth`] prices it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Priced {
+    /// Its scissor.
+    pub rect: Rect,
+    /// Its culling.
+    pub cull: Cull,
+    /// A one-primitive product's piece (`Piece::Direct`), which fetches
+    /// nothing and is tested before its shader on either path.
+    pub direct: bool,
+}
+
+/// Whether the final shade's depth-equal pieces are drawn `Written`, each
+/// testing the host's depth with equality and writing its own, rather than
+/// after the depth merge: whichever runs the shader on fewer pixels, as
+/// lavapipe prices them (README "Embedding", "The depth merge or the pieces'
+/// own depth").
 ///
 /// The merge runs its shader (a depth fetch and `gl_FragDepth`, tested late)
 /// on every pixel of its rectangle, the bounds of the pieces' scissors; the
@@ -299,22 +322,28 @@ enum Piece {
 /// about one fragment per pixel of its scissor. The back faces a front cull
 /// keeps (a subtracted mesh's inside) and a mesh drawn whole lie mostly behind
 /// the solid's faces, which the plan's order (descending index) draws after
-/// them: two. One merge pixel costs as much as 2.5 such fragments (fitted on
-/// `examples/embed_ab`, SCS, 800×800: the merge wins on `drilled_block`, the
-/// pieces on `nonconvex_obj`, `shadow_block`, `interference`).
-pub(crate) fn writes_depth(pieces: &[(Rect, Cull)]) -> bool {
+/// them: two. A direct piece costs nothing on either side: written
+/// (`Piece::WrittenDirect`) or after the merge, its fragments are tested
+/// before a shader that fetches nothing, as in the standalone frame. One
+/// merge pixel costs as much as 4 such fragments (fitted on
+/// `examples/embed_ab`, SCS and Goldfeather, 800×800, with the direct pieces
+/// written: the pieces win on `complex` (3.5 fragments per merge pixel) and
+/// `drilled_block` (2.7), which took the merge at 2.5, and on the rest of the
+/// bench's scenes; the example's box with four bites, at 4.2, keeps it).
+pub(crate) fn writes_depth(pieces: &[Priced]) -> bool {
     let written: u64 = pieces
         .iter()
-        .map(|(r, cull)| match cull {
-            Cull::Back => r.area(),
-            Cull::Front | Cull::None => 2 * r.area(),
+        .map(|p| match (p.direct, p.cull) {
+            (true, _) => 0,
+            (false, Cull::Back) => p.rect.area(),
+            (false, Cull::Front | Cull::None) => 2 * p.rect.area(),
         })
         .sum();
     let merged = pieces
         .iter()
-        .fold(Rect::EMPTY, |a, (r, _)| a.union(r))
+        .fold(Rect::EMPTY, |a, p| a.union(&p.rect))
         .area();
-    2 * written <= 5 * merged
+    written <= 4 * merged
 }
 
 /// The pipeline of host program `kind` for the host's formats.
@@ -418,16 +447,22 @@ impl Recorder<'_> {
         }
         // The merge, or each depth-equal piece writing its own depth: which
         // costs fewer shaded pixels (`writes_depth`).
-        let equal: Vec<(Rect, Cull)> = draws
+        let equal: Vec<Priced> = draws
             .iter()
             .filter(|(_, piece, _)| *piece != Piece::Rule)
-            .map(|(d, _, r)| (*r, d.cull))
+            .map(|(d, piece, r)| Priced {
+                rect: *r,
+                cull: d.cull,
+                direct: *piece == Piece::Direct,
+            })
             .collect();
         if writes_depth(&equal) {
             for (_, piece, _) in draws.iter_mut() {
-                if *piece != Piece::Rule {
-                    *piece = Piece::Written;
-                }
+                *piece = match *piece {
+                    Piece::Direct => Piece::WrittenDirect,
+                    Piece::AtDepth => Piece::Written,
+                    p => p,
+                };
             }
         }
         let rule_tex = draws
@@ -475,7 +510,7 @@ impl Recorder<'_> {
             let (kind, set) = match piece {
                 Piece::Rule => (rule_kind, rule_tex.map(Resource::Texture)),
                 Piece::AtDepth => (equal_kind, equal_ds.map(Resource::DepthStencil)),
-                Piece::Direct => (direct_kind, None),
+                Piece::Direct | Piece::WrittenDirect => (direct_kind, None),
                 Piece::Written => (written_kind, equal_ds.map(Resource::DepthStencil)),
             };
             let set = set.map(|r| self.b.targets.sampling_set(r));
@@ -578,7 +613,7 @@ impl Recorder<'_> {
         // the depth-equal draws after a merge test the merged depth and write
         // none. No stencil; the culling of the standalone frame's draw.
         let rule = piece == Piece::Rule;
-        let depth = match matches!(piece, Piece::Rule | Piece::Written) {
+        let depth = match matches!(piece, Piece::Rule | Piece::Written | Piece::WrittenDirect) {
             true => DepthState {
                 compare: CompareOp::LessOrEqual,
                 write: true,
@@ -623,8 +658,10 @@ impl Recorder<'_> {
             }
             false => c.shade_fixed_draws += 1,
         }
-        c.direct_shade_draws += (piece == Piece::Direct) as u64;
-        c.shade_written_draws += (piece == Piece::Written) as u64;
+        let direct = matches!(piece, Piece::Direct | Piece::WrittenDirect);
+        c.direct_shade_draws += direct as u64;
+        let written = matches!(piece, Piece::Written | Piece::WrittenDirect);
+        c.shade_written_draws += written as u64;
         c.shade_culled_draws += (draw.cull != Cull::None) as u64;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
@@ -763,30 +800,45 @@ mod tests {
     #[test]
     fn the_pieces_write_their_depth_where_they_cost_fewer_pixels_than_the_merge() {
         let r = |x0, y0, x1, y1| Rect { x0, y0, x1, y1 };
+        let p = |rect, cull| Priced {
+            rect,
+            cull,
+            direct: false,
+        };
         // One solid: its pixels once (or twice) against its rectangle.
-        assert!(writes_depth(&[(r(0, 0, 100, 100), Cull::Back)]));
-        assert!(writes_depth(&[(r(0, 0, 100, 100), Cull::None)]));
+        assert!(writes_depth(&[p(r(0, 0, 100, 100), Cull::Back)]));
+        assert!(writes_depth(&[p(r(0, 0, 100, 100), Cull::None)]));
         // Two apart: the merge's bounds hold the gap too.
         let apart = [
-            (r(0, 0, 10, 10), Cull::Back),
-            (r(90, 90, 100, 100), Cull::Front),
+            p(r(0, 0, 10, 10), Cull::Back),
+            p(r(90, 90, 100, 100), Cull::Front),
         ];
         assert!(writes_depth(&apart));
-        // A block and twelve holes inside its rectangle (`drilled_block`).
-        let mut drilled = vec![(r(0, 40, 200, 180), Cull::Back)];
-        drilled.extend((0..12).map(|i| (r(10 * i, 50, 10 * i + 35, 120), Cull::Front)));
+        // A block and twelve holes inside its rectangle (`drilled_block`);
+        // twice as many holes, each one's inside behind the block, cost more
+        // shaded fragments than the merge's pixels.
+        let block = p(r(0, 40, 200, 180), Cull::Back);
+        let holes = |n: u32| (0..n).map(move |i| p(r(5 * i, 50, 5 * i + 35, 120), Cull::Front));
+        let drilled: Vec<Priced> = std::iter::once(block).chain(holes(12)).collect();
+        assert!(writes_depth(&drilled));
+        let drilled: Vec<Priced> = std::iter::once(block).chain(holes(24)).collect();
         assert!(!writes_depth(&drilled));
-        // Exactly 2.5 fragments per merge pixel: written (ties go to no merge).
+        // Exactly 4 fragments per merge pixel: written (ties go to no merge).
         let edge = [
-            (r(0, 0, 100, 100), Cull::Front),
-            (r(0, 0, 50, 100), Cull::Back),
+            p(r(0, 0, 100, 100), Cull::Front),
+            p(r(0, 0, 100, 100), Cull::Front),
         ];
         assert!(writes_depth(&edge));
-        let over = [
-            (r(0, 0, 100, 100), Cull::Front),
-            (r(0, 0, 51, 100), Cull::Back),
-        ];
+        let over = [edge[0], edge[1], p(r(0, 0, 1, 100), Cull::Back)];
         assert!(!writes_depth(&over));
+        // A direct piece costs nothing: the merge's rectangle grows, the
+        // written pieces' fragments do not.
+        let direct = Priced {
+            rect: r(100, 0, 200, 100),
+            cull: Cull::Back,
+            direct: true,
+        };
+        assert!(writes_depth(&[over[0], over[1], over[2], direct]));
     }
 
     #[test]
