@@ -660,3 +660,121 @@ expr = "S - Along - Across"
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
     assert_swept(&scene, &reference, &p, &at, writes as u64);
 }
+
+/// A slab turned 45° about y and drilled by a bore longer than the slab is
+/// high, with a ball added beside it: under the fitted camera the slab's
+/// world box has a corner in front of the near plane, and the bore reaches
+/// far beyond the slab on screen.
+fn drilled_turned_slab() -> Scene {
+    load(
+        r##"
+[camera]
+eye = [3.0, 2.5, 4.0]
+target = [0.0, 0.0, 0.0]
+fit = true
+[[primitive]]
+name = "Slab"
+shape = "box"
+size = [2.4, 0.6, 2.4]
+rotate_deg = [0.0, 45.0, 0.0]
+[[primitive]]
+name = "Bore"
+shape = "cylinder"
+radius = 0.25
+height = 4.0
+segments = 24
+translate = [0.3, 0.0, 0.3]
+[[primitive]]
+name = "Ball"
+shape = "sphere"
+radius = 0.45
+segments = 24
+rings = 12
+translate = [-1.9, 0.2, 1.1]
+[csg]
+expr = "Slab - Bore + Ball"
+"##,
+    )
+}
+
+/// `p` with every final shade draw's scissor replaced by `scissor(mesh)`.
+fn with_shade_scissors(p: &plan::Plan, scissor: impl Fn(u32) -> plan::Scissor) -> plan::Plan {
+    let mut p = p.clone();
+    for s in &mut p.steps {
+        if let Step::Draw(d) = s {
+            if let (Fragment::ShadeNearDepth { .. }, plan::Geometry::Mesh(m)) =
+                (&d.fragment, &d.geometry)
+            {
+                d.scissor = scissor(*m);
+            }
+        }
+    }
+    p
+}
+
+#[test]
+fn the_shade_and_the_output_clears_are_cut_to_the_products() {
+    // The final shade draws each mesh within the rectangles of the slab and
+    // the ball only (the bore shows inside the slab), and the outputs'
+    // clears follow what the frames write: the same images as the shade over
+    // each mesh's whole rectangle, over three frames in every depth set-up,
+    // with fewer pixels scissored and cleared. Cut to the ball alone, the
+    // slab would not be shaded: the test fails then.
+    use peeltrim::render::{DepthSetup, GpuRenderer};
+    let scene = drilled_turned_slab();
+    assert!(all_scs(&scene));
+    let prep = Prepared::new(&scene).unwrap();
+    let p = plan::build(Algo::Scs, &prep).unwrap();
+    let within = |ids: Vec<u32>| {
+        move |m| plan::Scissor::Within {
+            meshes: vec![m],
+            within: ids.clone(),
+        }
+    };
+    assert_eq!(
+        p,
+        with_shade_scissors(&p, within(vec![0, 2])),
+        "cut to slab and ball"
+    );
+    let whole = with_shade_scissors(&p, |m| plan::Scissor::BoundsOf(vec![m]));
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    let tol = crate::algorithms::depth_tolerance(&scene);
+    for depth in DepthSetup::ALL {
+        let mut cut = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+            .expect("a Vulkan device (lavapipe)");
+        let mut old = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+            .expect("a Vulkan device (lavapipe)");
+        for frame in 0..3 {
+            let (f, o) = (cut.frame(&p).unwrap(), old.frame(&whole).unwrap());
+            let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
+            let (c, oc) = (&f.stats.exec.counts, &o.stats.exec.counts);
+            let at = format!("{} frame {frame}: {r:?} {c:?} / {oc:?}", depth.name());
+            assert_eq!(r.coverage_mismatch_interior, 0, "{at}");
+            assert_eq!(r.prim_mismatch_interior, 0, "{at}");
+            let depth_ok = crate::setup::depth_passes(
+                r.depth_abs_err_p99_interior <= tol,
+                &cut,
+                &scene,
+                &reference,
+                &f.images,
+            );
+            assert!(depth_ok, "depth, {at}");
+            assert!(f.images.color == o.images.color, "colour, {at}");
+            assert!(f.images.prim == o.images.prim, "ids, {at}");
+            assert!(c.mesh_pixels < oc.mesh_pixels, "{at}");
+            if frame > 0 {
+                assert!(c.cleared_pixels < oc.cleared_pixels, "{at}");
+            }
+        }
+        for gpu in [&cut, &old] {
+            let msgs = gpu.validation_messages();
+            assert!(msgs.is_empty(), "{}: {msgs:#?}", depth.name());
+        }
+    }
+    let ball_only = with_shade_scissors(&p, within(vec![2]));
+    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::ALL[0], true)
+        .expect("a Vulkan device (lavapipe)");
+    let f = gpu.frame(&ball_only).unwrap();
+    let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
+    assert!(r.coverage_mismatch_interior > 100, "{r:?}");
+}

@@ -162,10 +162,10 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         steps.extend(batch::steps(parts.collect()));
     }
     steps.extend(direct);
-    steps.extend(goldfeather::shade_steps(
+    steps.extend(shade_within_products(
+        goldfeather::shade_steps(prep, SURF, &super::VisibleSides::entries(prep)),
+        &prods,
         prep,
-        SURF,
-        &super::VisibleSides::entries(prep),
     ));
     Ok(Plan {
         algo: super::Algo::Scs.name().into(),
@@ -183,6 +183,60 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         output_ds: OUTPUT,
         steps,
     })
+}
+
+/// The final shade's draws cut to where the solid can be: within the
+/// rectangle of one positive primitive of each product (the one with the
+/// smallest screen box), since every product lies inside each of its
+/// positives and the output holds far elsewhere, which no face is shaded
+/// against. A cutter's box may reach far beyond the products it cuts
+/// (complex's chamfer box `RibCut`, nonconvex_obj's bores below the
+/// bracket): its shade drew its faces there, and the output's clears
+/// reached every pixel a frame wrote or might write (`plan::reach`). A mesh
+/// still draws wherever it can tie with the visible surface of any product
+/// (the tie rule names every primitive with a face there, README "Precision
+/// and ties"), not only within the products that name it. With surfaces in
+/// the scene (drawn outside the products) the shade is left whole.
+fn shade_within_products(shade: Vec<Step>, prods: &[Vec<Lit>], prep: &Prepared) -> Vec<Step> {
+    if !prep.surfaces.is_empty() {
+        return shade;
+    }
+    let area = |m: MeshId| {
+        prep.screen
+            .get(m as usize)
+            .copied()
+            .flatten()
+            .map_or(f64::INFINITY, |b| (b.hi - b.lo).element_product())
+    };
+    let mut within: Vec<MeshId> = prods
+        .iter()
+        .filter_map(|p| {
+            p.iter()
+                .filter(|l| !l.negated)
+                .map(|l| l.prim)
+                .min_by(|&a, &b| area(a).total_cmp(&area(b)))
+        })
+        .collect();
+    within.sort_unstable();
+    within.dedup();
+    shade
+        .into_iter()
+        .map(|s| match s {
+            Step::Draw(
+                d @ Draw {
+                    fragment: Fragment::ShadeNearDepth { .. },
+                    ..
+                },
+            ) => Step::Draw(Draw {
+                scissor: Scissor::Within {
+                    meshes: d.geometry.meshes().to_vec(),
+                    within: within.clone(),
+                },
+                ..d
+            }),
+            s => s,
+        })
+        .collect()
 }
 
 /// The subtracted literals of product `p`.

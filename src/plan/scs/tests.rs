@@ -438,3 +438,62 @@ fn block_minus_disjoint_spheres_subtracts_each_once() {
     assert_eq!((c.fullscreen_passes, c.footprint_passes), (0, 1));
     assert!(c.draws * 5 < gc.draws, "scs {c:?} goldfeather {gc:?}");
 }
+
+#[test]
+fn the_shade_is_cut_to_one_positive_of_each_product() {
+    // ((A ∩ C) − Y) ∪ B: the solid lies in C (smaller on screen than A) or
+    // in B, so every mesh's shade is cut to the rectangles of C and B, the
+    // cutter's too (it shows only inside the product it cuts).
+    use crate::plan::screen::ScreenBox;
+    use crate::reference::fixtures::ExprBuilder;
+    use crate::scene::Aabb;
+    use glam::{DVec2, DVec3};
+    let cube = |lo: f64, hi: f64| Aabb {
+        min: DVec3::splat(lo),
+        max: DVec3::splat(hi),
+    };
+    let (a, c, y, b) = (0, 1, 2, 3);
+    let mut e = ExprBuilder::default();
+    let (la, lc, ly, lb) = (e.leaf(a), e.leaf(c), e.leaf(y), e.leaf(b));
+    let ac = e.inter(la, lc);
+    let cut = e.diff(ac, ly);
+    let root = e.union(cut, lb);
+    let bounds = vec![
+        cube(0.0, 4.0),
+        cube(1.0, 3.0),
+        cube(2.0, 9.0),
+        cube(20.0, 21.0),
+    ];
+    let mut prep = Prepared::from_parts(e.build(root), vec![12; 4], bounds);
+    prep.mesh_convex = vec![true; 4];
+    let sb = |lo: f64, hi: f64| {
+        Some(ScreenBox {
+            lo: DVec2::splat(lo),
+            hi: DVec2::splat(hi),
+        })
+    };
+    prep.screen = vec![
+        sb(0.0, 40.0),
+        sb(10.0, 30.0),
+        sb(20.0, 90.0),
+        sb(200.0, 210.0),
+    ];
+    let steps = plan(&prep, &ProductOptions::default()).unwrap().steps;
+    let shade: Vec<&Draw> = steps
+        .iter()
+        .filter_map(|s| match s {
+            Step::Draw(d) if matches!(d.fragment, Fragment::ShadeNearDepth { .. }) => Some(d),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(shade.len(), 4);
+    for d in shade {
+        assert_eq!(
+            d.scissor,
+            Scissor::Within {
+                meshes: d.geometry.meshes().to_vec(),
+                within: vec![c, b],
+            }
+        );
+    }
+}
