@@ -778,3 +778,84 @@ fn the_shade_and_the_output_clears_are_cut_to_the_products() {
     let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
     assert!(r.coverage_mismatch_interior > 100, "{r:?}");
 }
+
+#[test]
+fn bores_far_apart_are_clipped_in_clusters_that_may_overlap() {
+    // A wide slab drilled at two opposite corners: one clip draw and one
+    // sweep of the slab per bore, each cut to its bore, where one over the
+    // rectangle of both covered most of the slab. Widened to that rectangle
+    // (as a grown scissor after a camera move would be), both draws cover
+    // the same pixels: the count is set, not incremented, so the image is
+    // the same. At the bench's size: a draw counts as 16384 pixels.
+    const BIG: (u32, u32) = (800, 800);
+    let load = |text: &str| {
+        let opts = peeltrim::scene::load::LoadOptions { size: Some(BIG) };
+        peeltrim::scene::load_str(text, std::path::Path::new("scs.toml"), &opts).unwrap()
+    };
+    let scene = load(
+        r##"
+[camera]
+eye = [0.5, 4.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fit = true
+[[primitive]]
+name = "Slab"
+shape = "box"
+size = [4.0, 0.5, 2.0]
+[[primitive]]
+name = "A"
+shape = "cylinder"
+radius = 0.3
+height = 2.0
+segments = 24
+translate = [-1.5, 0.0, -0.6]
+[[primitive]]
+name = "B"
+shape = "cylinder"
+radius = 0.3
+height = 2.0
+segments = 24
+translate = [1.5, 0.0, 0.6]
+[csg]
+expr = "Slab - A - B"
+"##,
+    );
+    assert!(all_scs(&scene));
+    let prep = Prepared::new(&scene).unwrap();
+    let p = plan::build(Algo::Scs, &prep).unwrap();
+    let sweeps = clip_sweeps(&p);
+    let within = |ys: Vec<u32>| plan::Scissor::Within {
+        meshes: vec![0],
+        within: ys,
+    };
+    let scissor = |i: usize| match &p.steps[i] {
+        Step::Draw(d) => d.scissor.clone(),
+        s => panic!("a draw: {s:?}"),
+    };
+    let at: Vec<usize> = sweeps.iter().map(|s| s.0).collect();
+    assert_eq!(
+        at.iter().map(|&i| scissor(i)).collect::<Vec<_>>(),
+        vec![within(vec![1]), within(vec![2])],
+        "one sweep of the slab per bore"
+    );
+    let writes = p
+        .steps
+        .iter()
+        .filter(|s| matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::WriteDepth { .. })))
+        .count();
+    let reference = peeltrim::reference::render(&scene, BIG.0, BIG.1);
+    assert_swept(&scene, &reference, &p, &at, writes as u64);
+    // Every clip draw and sweep over the rectangle of both bores.
+    let mut wide = p.clone();
+    let clip_pass = p
+        .steps
+        .iter()
+        .position(|s| matches!(s, Step::Pass(n) if n == "clip"))
+        .unwrap();
+    for s in &mut wide.steps[clip_pass..=at[1]] {
+        if let Step::Draw(d) = s {
+            d.scissor = within(vec![1, 2]);
+        }
+    }
+    assert_swept(&scene, &reference, &wide, &at, writes as u64);
+}

@@ -191,10 +191,12 @@ fn the_first_product_is_clipped_by_back_faces_in_the_output() {
             eps: CLIP_EPS
         }
     );
+    // One positive primitive: the count is set, not incremented, so a pixel
+    // two clip draws cover counts once ([`clusters`]).
     let st = c.stencil.unwrap();
     assert_eq!(
-        (st.front.pass, st.write_mask),
-        (StencilOp::IncrementAndClamp, 1)
+        (st.front.pass, st.write_mask, st.reference),
+        (StencilOp::Replace, 1, 1)
     );
     assert_eq!(
         sweep.geometry,
@@ -496,4 +498,54 @@ fn the_shade_is_cut_to_one_positive_of_each_product() {
             }
         );
     }
+}
+
+#[test]
+fn cutters_far_apart_on_screen_are_clipped_in_clusters() {
+    // Box 0 minus 4 and 5 (two_products), with screen boxes given: cutters
+    // at opposite corners of box 0 get a clip draw and a sweep each, where
+    // the rectangle of both would cover most of box 0; cutters side by side
+    // (their union barely larger than the two) share one.
+    use crate::plan::screen::ScreenBox;
+    use glam::DVec2;
+    let sb = |x0: f64, y0: f64, x1: f64, y1: f64| {
+        Some(ScreenBox {
+            lo: DVec2::new(x0, y0),
+            hi: DVec2::new(x1, y1),
+        })
+    };
+    let clip_scissors = |y4, y5| {
+        let mut prep = two_products();
+        prep.screen = vec![None; 8];
+        prep.screen[0] = sb(0.0, 0.0, 600.0, 600.0);
+        prep.screen[4] = y4;
+        prep.screen[5] = y5;
+        let built = plan(&prep, &ProductOptions::default()).unwrap();
+        let clip = pass_draws(&built.steps, "clip");
+        let (count, sweep): (Vec<&Draw>, Vec<&Draw>) = clip
+            .into_iter()
+            .take_while(|d| {
+                matches!(
+                    d.geometry,
+                    Geometry::Mesh(0) | Geometry::Footprint { mesh: 0, .. }
+                )
+            })
+            .partition(|d| matches!(d.geometry, Geometry::Mesh(_)));
+        let scissors = |ds: Vec<&Draw>| {
+            ds.into_iter()
+                .map(|d| d.scissor.clone())
+                .collect::<Vec<_>>()
+        };
+        (scissors(count), scissors(sweep))
+    };
+    let within = |ys: Vec<u32>| Scissor::Within {
+        meshes: vec![0],
+        within: ys,
+    };
+    let apart = clip_scissors(sb(0.0, 0.0, 100.0, 100.0), sb(500.0, 500.0, 600.0, 600.0));
+    let each = vec![within(vec![4]), within(vec![5])];
+    assert_eq!(apart, (each.clone(), each));
+    let side_by_side = clip_scissors(sb(0.0, 0.0, 100.0, 100.0), sb(100.0, 0.0, 200.0, 100.0));
+    let one = vec![within(vec![4, 5])];
+    assert_eq!(side_by_side, (one.clone(), one));
 }
