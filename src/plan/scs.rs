@@ -48,8 +48,12 @@
 //! clip and the merge, both cut to it, read `z`. The clip of a product of one
 //! `X` drawn in the output is cut further, to where an exit may have moved
 //! `z` (`moved`): elsewhere `z` is `X`'s front face, which the clip keeps;
-//! its sweep may then draw the cutters' back faces instead of `X`'s front
-//! faces, where they cost less (`output_sweep`).
+//! one clip draw and sweep per cluster of cutters apart on screen
+//! (`clusters`), and the sweep may draw the cutters' back faces instead of
+//! `X`'s front faces, where they cost less (`output_sweep`). The final shade
+//! is cut to one positive primitive of each product
+//! (`shade_within_products`; README "Long products: complex and
+//! nonconvex_obj against 0.5x OpenCSG").
 //!
 //! **Products side by side** (`batch`): products whose pixels cannot meet
 //! on screen share one clear and one block per phase, and those apart from
