@@ -585,6 +585,15 @@ fn assert_swept(
     depth_only
 }
 
+/// The draws of `p` that write the depth texture (fronts and exits): those
+/// the executor drops where nothing ties.
+fn depth_writes(p: &plan::Plan) -> u64 {
+    p.steps
+        .iter()
+        .filter(|s| matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::WriteDepth { .. })))
+        .count() as u64
+}
+
 /// The indices of `p`'s clip sweeps (footprints that clear the count).
 fn clip_sweeps(p: &plan::Plan) -> Vec<(usize, u32, plan::Cull)> {
     use peeltrim::plan::{Geometry, StencilOp};
@@ -652,13 +661,9 @@ expr = "S - Along - Across"
     let at: Vec<usize> = sweeps.iter().map(|s| s.0).collect();
     // The bores cross: a clump, one of them applied twice. Every front and
     // exit draw writes no texture where nothing ties.
-    let writes = p
-        .steps
-        .iter()
-        .filter(|s| matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::WriteDepth { .. })))
-        .count();
+    let writes = depth_writes(&p);
     let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
-    assert_swept(&scene, &reference, &p, &at, writes as u64);
+    assert_swept(&scene, &reference, &p, &at, writes);
 }
 
 /// A slab turned 45° about y and drilled by a bore longer than the slab is
@@ -838,13 +843,9 @@ expr = "Slab - A - B"
         vec![within(vec![1]), within(vec![2])],
         "one sweep of the slab per bore"
     );
-    let writes = p
-        .steps
-        .iter()
-        .filter(|s| matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::WriteDepth { .. })))
-        .count();
+    let writes = depth_writes(&p);
     let reference = peeltrim::reference::render(&scene, BIG.0, BIG.1);
-    assert_swept(&scene, &reference, &p, &at, writes as u64);
+    assert_swept(&scene, &reference, &p, &at, writes);
     // Every clip draw and sweep over the rectangle of both bores.
     let mut wide = p.clone();
     let clip_pass = p
@@ -857,5 +858,5 @@ expr = "Slab - A - B"
             d.scissor = within(vec![1, 2]);
         }
     }
-    assert_swept(&scene, &reference, &wide, &at, writes as u64);
+    assert_swept(&scene, &reference, &wide, &at, writes);
 }

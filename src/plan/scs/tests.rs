@@ -191,12 +191,10 @@ fn the_first_product_is_clipped_by_back_faces_in_the_output() {
             eps: CLIP_EPS
         }
     );
-    // One positive primitive: the count is set, not incremented, so a pixel
-    // two clip draws cover counts once ([`clusters`]).
     let st = c.stencil.unwrap();
     assert_eq!(
-        (st.front.pass, st.write_mask, st.reference),
-        (StencilOp::Replace, 1, 1)
+        (st.front.pass, st.write_mask),
+        (StencilOp::IncrementAndClamp, 1)
     );
     assert_eq!(
         sweep.geometry,
@@ -545,6 +543,19 @@ fn cutters_far_apart_on_screen_are_clipped_in_clusters() {
     let apart = clip_scissors(sb(0.0, 0.0, 100.0, 100.0), sb(500.0, 500.0, 600.0, 600.0));
     let each = vec![within(vec![4]), within(vec![5])];
     assert_eq!(apart, (each.clone(), each));
+    // Those may overlap on the device: the count is set, not incremented, so
+    // a pixel two clip draws cover counts once.
+    let mut prep = two_products();
+    prep.screen = vec![None; 8];
+    prep.screen[0] = sb(0.0, 0.0, 600.0, 600.0);
+    prep.screen[4] = sb(0.0, 0.0, 100.0, 100.0);
+    prep.screen[5] = sb(500.0, 500.0, 600.0, 600.0);
+    let built = plan(&prep, &ProductOptions::default()).unwrap();
+    let st = pass_draws(&built.steps, "clip")[0].stencil.unwrap();
+    assert_eq!(
+        (st.front.pass, st.write_mask, st.reference),
+        (StencilOp::Replace, 1, 1)
+    );
     let side_by_side = clip_scissors(sb(0.0, 0.0, 100.0, 100.0), sb(100.0, 0.0, 200.0, 100.0));
     let one = vec![within(vec![4, 5])];
     assert_eq!(side_by_side, (one.clone(), one));
