@@ -585,6 +585,15 @@ fn assert_swept(
     depth_only
 }
 
+/// The draws of `p` that write the depth texture (fronts and exits): those
+/// the executor drops where nothing ties.
+fn depth_writes(p: &plan::Plan) -> u64 {
+    p.steps
+        .iter()
+        .filter(|s| matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::WriteDepth { .. })))
+        .count() as u64
+}
+
 /// The indices of `p`'s clip sweeps (footprints that clear the count).
 fn clip_sweeps(p: &plan::Plan) -> Vec<(usize, u32, plan::Cull)> {
     use peeltrim::plan::{Geometry, StencilOp};
@@ -652,11 +661,202 @@ expr = "S - Along - Across"
     let at: Vec<usize> = sweeps.iter().map(|s| s.0).collect();
     // The bores cross: a clump, one of them applied twice. Every front and
     // exit draw writes no texture where nothing ties.
-    let writes = p
+    let writes = depth_writes(&p);
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    assert_swept(&scene, &reference, &p, &at, writes);
+}
+
+/// A slab turned 45° about y and drilled by a bore longer than the slab is
+/// high, with a ball added beside it: under the fitted camera the slab's
+/// world box has a corner in front of the near plane, and the bore reaches
+/// far beyond the slab on screen.
+fn drilled_turned_slab() -> Scene {
+    load(
+        r##"
+[camera]
+eye = [3.0, 2.5, 4.0]
+target = [0.0, 0.0, 0.0]
+fit = true
+[[primitive]]
+name = "Slab"
+shape = "box"
+size = [2.4, 0.6, 2.4]
+rotate_deg = [0.0, 45.0, 0.0]
+[[primitive]]
+name = "Bore"
+shape = "cylinder"
+radius = 0.25
+height = 4.0
+segments = 24
+translate = [0.3, 0.0, 0.3]
+[[primitive]]
+name = "Ball"
+shape = "sphere"
+radius = 0.45
+segments = 24
+rings = 12
+translate = [-1.9, 0.2, 1.1]
+[csg]
+expr = "Slab - Bore + Ball"
+"##,
+    )
+}
+
+/// `p` with every final shade draw's scissor replaced by `scissor(mesh)`.
+fn with_shade_scissors(p: &plan::Plan, scissor: impl Fn(u32) -> plan::Scissor) -> plan::Plan {
+    let mut p = p.clone();
+    for s in &mut p.steps {
+        if let Step::Draw(d) = s {
+            if let (Fragment::ShadeNearDepth { .. }, plan::Geometry::Mesh(m)) =
+                (&d.fragment, &d.geometry)
+            {
+                d.scissor = scissor(*m);
+            }
+        }
+    }
+    p
+}
+
+#[test]
+fn the_shade_and_the_output_clears_are_cut_to_the_products() {
+    // The final shade draws each mesh within the rectangles of the slab and
+    // the ball only (the bore shows inside the slab), and the outputs'
+    // clears follow what the frames write: the same images as the shade over
+    // each mesh's whole rectangle, over three frames in every depth set-up,
+    // with fewer pixels scissored and cleared. Cut to the ball alone, the
+    // slab would not be shaded: the test fails then.
+    use peeltrim::render::{DepthSetup, GpuRenderer};
+    let scene = drilled_turned_slab();
+    assert!(all_scs(&scene));
+    let prep = Prepared::new(&scene).unwrap();
+    let p = plan::build(Algo::Scs, &prep).unwrap();
+    let within = |ids: Vec<u32>| {
+        move |m| plan::Scissor::Within {
+            meshes: vec![m],
+            within: ids.clone(),
+        }
+    };
+    assert_eq!(
+        p,
+        with_shade_scissors(&p, within(vec![0, 2])),
+        "cut to slab and ball"
+    );
+    let whole = with_shade_scissors(&p, |m| plan::Scissor::BoundsOf(vec![m]));
+    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
+    let tol = crate::algorithms::depth_tolerance(&scene);
+    for depth in DepthSetup::ALL {
+        let mut cut = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+            .expect("a Vulkan device (lavapipe)");
+        let mut old = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+            .expect("a Vulkan device (lavapipe)");
+        for frame in 0..3 {
+            let (f, o) = (cut.frame(&p).unwrap(), old.frame(&whole).unwrap());
+            let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
+            let (c, oc) = (&f.stats.exec.counts, &o.stats.exec.counts);
+            let at = format!("{} frame {frame}: {r:?} {c:?} / {oc:?}", depth.name());
+            assert_eq!(r.coverage_mismatch_interior, 0, "{at}");
+            assert_eq!(r.prim_mismatch_interior, 0, "{at}");
+            let depth_ok = crate::setup::depth_passes(
+                r.depth_abs_err_p99_interior <= tol,
+                &cut,
+                &scene,
+                &reference,
+                &f.images,
+            );
+            assert!(depth_ok, "depth, {at}");
+            assert!(f.images.color == o.images.color, "colour, {at}");
+            assert!(f.images.prim == o.images.prim, "ids, {at}");
+            assert!(c.mesh_pixels < oc.mesh_pixels, "{at}");
+            if frame > 0 {
+                assert!(c.cleared_pixels < oc.cleared_pixels, "{at}");
+            }
+        }
+        for gpu in [&cut, &old] {
+            let msgs = gpu.validation_messages();
+            assert!(msgs.is_empty(), "{}: {msgs:#?}", depth.name());
+        }
+    }
+    let ball_only = with_shade_scissors(&p, within(vec![2]));
+    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::ALL[0], true)
+        .expect("a Vulkan device (lavapipe)");
+    let f = gpu.frame(&ball_only).unwrap();
+    let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
+    assert!(r.coverage_mismatch_interior > 100, "{r:?}");
+}
+
+#[test]
+fn bores_far_apart_are_clipped_in_clusters_that_may_overlap() {
+    // A wide slab drilled at two opposite corners: one clip draw and one
+    // sweep of the slab per bore, each cut to its bore, where one over the
+    // rectangle of both covered most of the slab. Widened to that rectangle
+    // (as a grown scissor after a camera move would be), both draws cover
+    // the same pixels: the count is set, not incremented, so the image is
+    // the same. At the bench's size: a draw counts as 16384 pixels.
+    const BIG: (u32, u32) = (800, 800);
+    let load = |text: &str| {
+        let opts = peeltrim::scene::load::LoadOptions { size: Some(BIG) };
+        peeltrim::scene::load_str(text, std::path::Path::new("scs.toml"), &opts).unwrap()
+    };
+    let scene = load(
+        r##"
+[camera]
+eye = [0.5, 4.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fit = true
+[[primitive]]
+name = "Slab"
+shape = "box"
+size = [4.0, 0.5, 2.0]
+[[primitive]]
+name = "A"
+shape = "cylinder"
+radius = 0.3
+height = 2.0
+segments = 24
+translate = [-1.5, 0.0, -0.6]
+[[primitive]]
+name = "B"
+shape = "cylinder"
+radius = 0.3
+height = 2.0
+segments = 24
+translate = [1.5, 0.0, 0.6]
+[csg]
+expr = "Slab - A - B"
+"##,
+    );
+    assert!(all_scs(&scene));
+    let prep = Prepared::new(&scene).unwrap();
+    let p = plan::build(Algo::Scs, &prep).unwrap();
+    let sweeps = clip_sweeps(&p);
+    let within = |ys: Vec<u32>| plan::Scissor::Within {
+        meshes: vec![0],
+        within: ys,
+    };
+    let scissor = |i: usize| match &p.steps[i] {
+        Step::Draw(d) => d.scissor.clone(),
+        s => panic!("a draw: {s:?}"),
+    };
+    let at: Vec<usize> = sweeps.iter().map(|s| s.0).collect();
+    assert_eq!(
+        at.iter().map(|&i| scissor(i)).collect::<Vec<_>>(),
+        vec![within(vec![1]), within(vec![2])],
+        "one sweep of the slab per bore"
+    );
+    let writes = depth_writes(&p);
+    let reference = peeltrim::reference::render(&scene, BIG.0, BIG.1);
+    assert_swept(&scene, &reference, &p, &at, writes);
+    // Every clip draw and sweep over the rectangle of both bores.
+    let mut wide = p.clone();
+    let clip_pass = p
         .steps
         .iter()
-        .filter(|s| matches!(s, Step::Draw(d) if matches!(d.fragment, Fragment::WriteDepth { .. })))
-        .count();
-    let reference = peeltrim::reference::render(&scene, SIZE.0, SIZE.1);
-    assert_swept(&scene, &reference, &p, &at, writes as u64);
+        .position(|s| matches!(s, Step::Pass(n) if n == "clip"))
+        .unwrap();
+    for s in &mut wide.steps[clip_pass..=at[1]] {
+        if let Step::Draw(d) = s {
+            d.scissor = within(vec![1, 2]);
+        }
+    }
+    assert_swept(&scene, &reference, &wide, &at, writes);
 }

@@ -48,8 +48,12 @@
 //! clip and the merge, both cut to it, read `z`. The clip of a product of one
 //! `X` drawn in the output is cut further, to where an exit may have moved
 //! `z` (`moved`): elsewhere `z` is `X`'s front face, which the clip keeps;
-//! its sweep may then draw the cutters' back faces instead of `X`'s front
-//! faces, where they cost less (`output_sweep`).
+//! one clip draw and sweep per cluster of cutters apart on screen
+//! (`clusters`), and the sweep may draw the cutters' back faces instead of
+//! `X`'s front faces, where they cost less (`output_sweep`). The final shade
+//! is cut to one positive primitive of each product
+//! (`shade_within_products`; README "Long products: complex and
+//! nonconvex_obj against 0.5x OpenCSG").
 //!
 //! **Products side by side** (`batch`): products whose pixels cannot meet
 //! on screen share one clear and one block per phase, and those apart from
@@ -111,6 +115,7 @@ pub mod order;
 use std::cell::Cell;
 
 use super::goldfeather::{self, Lit, ProductOptions, Region, CLIP_BITS, OUTPUT, SURF, SURFACE};
+use super::screen::ScreenBox;
 use super::step::*;
 use super::{eye, PlanError, Prepared};
 pub use hull::{Hull, Viewpoint};
@@ -162,10 +167,10 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         steps.extend(batch::steps(parts.collect()));
     }
     steps.extend(direct);
-    steps.extend(goldfeather::shade_steps(
+    steps.extend(shade_within_products(
+        goldfeather::shade_steps(prep, SURF, &super::VisibleSides::entries(prep)),
+        &prods,
         prep,
-        SURF,
-        &super::VisibleSides::entries(prep),
     ));
     Ok(Plan {
         algo: super::Algo::Scs.name().into(),
@@ -183,6 +188,60 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         output_ds: OUTPUT,
         steps,
     })
+}
+
+/// The final shade's draws cut to where the solid can be: within the
+/// rectangle of one positive primitive of each product (the one with the
+/// smallest screen box), since every product lies inside each of its
+/// positives and the output holds far elsewhere, which no face is shaded
+/// against. A cutter's box may reach far beyond the products it cuts
+/// (complex's chamfer box `RibCut`, nonconvex_obj's bores below the
+/// bracket): its shade drew its faces there, and the output's clears
+/// reached every pixel a frame wrote or might write (`plan::reach`). A mesh
+/// still draws wherever it can tie with the visible surface of any product
+/// (the tie rule names every primitive with a face there, README "Precision
+/// and ties"), not only within the products that name it. With surfaces in
+/// the scene (drawn outside the products) the shade is left whole.
+fn shade_within_products(shade: Vec<Step>, prods: &[Vec<Lit>], prep: &Prepared) -> Vec<Step> {
+    if !prep.surfaces.is_empty() {
+        return shade;
+    }
+    let area = |m: MeshId| {
+        prep.screen
+            .get(m as usize)
+            .copied()
+            .flatten()
+            .map_or(f64::INFINITY, |b| (b.hi - b.lo).element_product())
+    };
+    let mut within: Vec<MeshId> = prods
+        .iter()
+        .filter_map(|p| {
+            p.iter()
+                .filter(|l| !l.negated)
+                .map(|l| l.prim)
+                .min_by(|&a, &b| area(a).total_cmp(&area(b)))
+        })
+        .collect();
+    within.sort_unstable();
+    within.dedup();
+    shade
+        .into_iter()
+        .map(|s| match s {
+            Step::Draw(
+                d @ Draw {
+                    fragment: Fragment::ShadeNearDepth { .. },
+                    ..
+                },
+            ) => Step::Draw(Draw {
+                scissor: Scissor::Within {
+                    meshes: d.geometry.meshes().to_vec(),
+                    within: within.clone(),
+                },
+                ..d
+            }),
+            s => s,
+        })
+        .collect()
 }
 
 /// The subtracted literals of product `p`.
@@ -356,15 +415,16 @@ fn product_steps(
         ([x], Target::Surface) if back_faces => finish.extend(back_face_merge(*x, &region, eps)),
         (_, Target::Output) => {
             let over = output_sweep(p, &region, prep);
-            finish.extend(back_face_clip(
-                &xs,
-                &moved(p).unwrap_or(region),
-                eps,
-                Sweep::Output(over),
-            ))
+            let at = moved(p, prep).unwrap_or_else(|| vec![region]);
+            finish.extend(back_face_clip(&xs, &at, eps, Sweep::Output(over)))
         }
         (_, Target::Surface) if back_faces => {
-            finish.extend(back_face_clip(&xs, &region, eps, Sweep::Surface));
+            finish.extend(back_face_clip(
+                &xs,
+                std::slice::from_ref(&region),
+                eps,
+                Sweep::Surface,
+            ));
             finish.extend(goldfeather::merge_steps_in(&region));
         }
         (_, Target::Surface) => {
@@ -394,12 +454,71 @@ fn product_steps(
 /// would keep every such pixel (interference: the block's clip over the bore
 /// only). `None` with several positive primitives: `z`, the farthest front
 /// face, may lie behind another one's back face anywhere.
-fn moved(p: &[Lit]) -> Option<Region> {
-    let [_] = p.iter().filter(|l| !l.negated).collect::<Vec<_>>()[..] else {
+///
+/// The cutters come in clusters ([`clusters`]), one clip draw and sweep
+/// each: nonconvex_obj's two bores lie at opposite ends of the bracket, and
+/// the rectangle of both covered most of it. Clusters may overlap (the
+/// executor's rectangles are its meshes' boxes', grown after a camera move):
+/// the clip's stencil op is then idempotent ([`back_face_clip`]). Clusters
+/// pay at the bench's sizes (a draw counts as [`DRAW_PIXELS`]): at 128×128
+/// (the GPU tests' size) every product keeps one.
+fn moved(p: &[Lit], prep: &Prepared) -> Option<Vec<Region>> {
+    let [x] = p.iter().filter(|l| !l.negated).collect::<Vec<_>>()[..] else {
         return None;
     };
     let ys: Vec<MeshId> = p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
-    (!ys.is_empty()).then_some(Region::Union(ys))
+    (!ys.is_empty()).then(|| {
+        clusters(x.prim, &ys, prep)
+            .into_iter()
+            .map(Region::Union)
+            .collect()
+    })
+}
+
+/// Pixels one more draw is counted as, for choosing the clip's clusters: a
+/// guess, as [`DRAW_TRIANGLES`] (README "Long products").
+const DRAW_PIXELS: f64 = 16384.0;
+
+/// At most this many cutters are clustered; more stay one cluster (the
+/// greedy merge below is cubic).
+const MAX_CLUSTERED: usize = 32;
+
+/// The cutters `ys` of a product of one positive primitive `x` in clusters
+/// whose screen boxes, cut to `x`'s, each cost a clip draw and a sweep: two
+/// clusters merge while their union's box costs less than the two boxes and
+/// a pair of draws ([`DRAW_PIXELS`] each). One cluster of all where a screen
+/// box is unknown.
+fn clusters(x: MeshId, ys: &[MeshId], prep: &Prepared) -> Vec<Vec<MeshId>> {
+    let screen = |m: MeshId| prep.screen.get(m as usize).copied().flatten();
+    let all = || vec![ys.to_vec()];
+    let Some(xb) = screen(x) else {
+        return all();
+    };
+    let cut = |b: ScreenBox| {
+        let (lo, hi) = (b.lo.max(xb.lo), b.hi.min(xb.hi));
+        (hi - lo).max(glam::DVec2::ZERO).element_product()
+    };
+    let boxes: Option<Vec<ScreenBox>> = ys.iter().map(|&y| screen(y)).collect();
+    let Some(boxes) = boxes.filter(|_| ys.len() <= MAX_CLUSTERED) else {
+        return all();
+    };
+    let mut cs: Vec<(ScreenBox, Vec<MeshId>)> =
+        boxes.into_iter().zip(ys.iter().map(|&y| vec![y])).collect();
+    'merge: loop {
+        for i in 0..cs.len() {
+            for j in i + 1..cs.len() {
+                let union = cs[i].0.union(&cs[j].0);
+                if cut(union) <= cut(cs[i].0) + cut(cs[j].0) + 2.0 * DRAW_PIXELS {
+                    let (_, b) = cs.remove(j);
+                    cs[i].0 = union;
+                    cs[i].1.extend(b);
+                    continue 'merge;
+                }
+            }
+        }
+        break;
+    }
+    cs.into_iter().map(|(_, c)| c).collect()
 }
 
 /// Triangles one more draw is counted as, for choosing what a sweep draws:
@@ -427,7 +546,7 @@ fn output_sweep(p: &[Lit], region: &Region, prep: &Prepared) -> Vec<(Lit, Scisso
         .iter()
         .find(|l| !l.negated)
         .expect("a product has a positive primitive");
-    let Some(clipped) = moved(p) else {
+    let Some(clipped) = moved(p, prep) else {
         return vec![(x, region.cut(x.prim))];
     };
     let ys = negated(p);
@@ -439,7 +558,7 @@ fn output_sweep(p: &[Lit], region: &Region, prep: &Prepared) -> Vec<(Lit, Scisso
     if cost(&ys) < cost(&[x]) {
         ys.into_iter().map(|y| (y, region.cut(y.prim))).collect()
     } else {
-        vec![(x, clipped.cut(x.prim))]
+        clipped.into_iter().map(|r| (x, r.cut(x.prim))).collect()
     }
 }
 
@@ -461,8 +580,12 @@ enum Sweep {
 /// an `xi` draws none of its back faces) and clears the count. In the output
 /// image the sweep writes the image only, over footprints
 /// ([`footprint_sweep`], [`output_sweep`]); in the surface image the texture
-/// too, for the merge that follows, over the product's rectangle.
-fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, sweep: Sweep) -> Vec<Step> {
+/// too, for the merge that follows, over the product's rectangle. The
+/// count draws run once per region of `regions` (several only for one
+/// positive primitive, [`moved`]); with several, a passing back face sets
+/// the count to 1 instead of incrementing it, so a pixel in two regions'
+/// rectangles counts once.
+fn back_face_clip(xs: &[Lit], regions: &[Region], eps: f32, sweep: Sweep) -> Vec<Step> {
     let target = match sweep {
         Sweep::Output(_) => Target::Output,
         Sweep::Surface => Target::Surface,
@@ -475,28 +598,42 @@ fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, sweep: Sweep) -> Vec<St
     let inside = k as u8;
     // The bits the count needs.
     let mask = (u32::MAX >> (k.leading_zeros())) as u8;
+    assert!(
+        regions.len() == 1 || (k == 1 && target == Target::Output),
+        "only a product of one positive primitive drawn in the output clips by regions"
+    );
+    // Several regions may overlap: set the count there. One region keeps
+    // the increment, which also rejects a second back face (a primitive
+    // wrongly taken as convex shows wrong, `vk_tests/view_convex.rs`).
+    let (count, reference) = if regions.len() > 1 {
+        (StencilOp::Replace, inside)
+    } else {
+        (StencilOp::IncrementAndClamp, 0)
+    };
     let ds = target.ds();
     let mut steps = vec![Step::Pass("clip".into())];
-    for x in xs {
-        steps.push(Step::Draw(Draw {
-            geometry: Geometry::Mesh(x.prim),
-            scissor: region.cut(x.prim),
-            cull: Cull::Front,
-            ds,
-            depth: DepthState {
-                compare: CompareOp::Always,
-                write: false,
-            },
-            stencil: Some(super::stencil::both(
-                CompareOp::Always,
-                StencilOp::IncrementAndClamp,
-                0,
-                mask,
-                0,
-            )),
-            fragment: Fragment::BehindThan { tex: SURF, eps },
-            count_samples: false,
-        }));
+    for region in regions {
+        for x in xs {
+            steps.push(Step::Draw(Draw {
+                geometry: Geometry::Mesh(x.prim),
+                scissor: region.cut(x.prim),
+                cull: Cull::Front,
+                ds,
+                depth: DepthState {
+                    compare: CompareOp::Always,
+                    write: false,
+                },
+                stencil: Some(super::stencil::both(
+                    CompareOp::Always,
+                    count,
+                    0,
+                    mask,
+                    reference,
+                )),
+                fragment: Fragment::BehindThan { tex: SURF, eps },
+                count_samples: false,
+            }));
+        }
     }
     match sweep {
         Sweep::Output(over) => steps.extend(
@@ -508,7 +645,7 @@ fn back_face_clip(xs: &[Lit], region: &Region, eps: f32, sweep: Sweep) -> Vec<St
             Fragment::WriteDepth { out: SURF },
             mask,
             inside,
-            region.rect(),
+            regions[0].rect(),
         )),
     }
     steps

@@ -87,9 +87,15 @@ impl RectUnions {
 }
 
 /// The screen rectangle covering the projections of `boxes` (world space) through
-/// `view` then `proj` (Vulkan clip space, y down) on a `width × height` image. A box
-/// with a corner nearer than `near` (view depth) makes it the full screen. One pixel
-/// of margin absorbs `f32` rounding on the GPU.
+/// `view` then `proj` (Vulkan clip space, y down) on a `width × height` image,
+/// each box clipped to the near plane first as the GPU clips the triangles in
+/// it: its corners at or behind `near` (view depth) and the points where its
+/// edges cross the plane. A box wholly in front of the plane adds nothing. A
+/// box that only reaches past the plane made the whole screen before: a fitted
+/// camera puts `near` just in front of the nearest vertex, so the corner of a
+/// rotated or L-shaped primitive's box (nonconvex_obj's bracket, complex's
+/// chamfer box) lay in front of it (README "Long products"). One pixel of
+/// margin absorbs `f32` rounding on the GPU.
 pub fn bounds_rect(
     view: DMat4,
     proj: DMat4,
@@ -100,18 +106,39 @@ pub fn bounds_rect(
 ) -> Rect {
     let mut rect = Rect::EMPTY;
     for b in boxes {
-        let (mut lo_x, mut lo_y) = (f64::INFINITY, f64::INFINITY);
-        let (mut hi_x, mut hi_y) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for i in 0..8 {
-            let c = DVec3::new(
+        let corners: [DVec3; 8] = std::array::from_fn(|i| {
+            view.transform_point3(DVec3::new(
                 if i & 1 == 0 { b.min.x } else { b.max.x },
                 if i & 2 == 0 { b.min.y } else { b.max.y },
                 if i & 4 == 0 { b.min.z } else { b.max.z },
-            );
-            let v = view.transform_point3(c);
-            if -v.z < near {
-                return Rect::full(width, height);
+            ))
+        });
+        let depth = |v: DVec3| -v.z;
+        // The clipped box's vertices: the kept corners and, on each of the 12
+        // edges (corners one bit apart) that crosses the plane, its crossing.
+        let mut points = [DVec3::ZERO; 20];
+        let mut n = 0;
+        for (i, &c) in corners.iter().enumerate() {
+            if depth(c) >= near {
+                points[n] = c;
+                n += 1;
             }
+            for bit in [1, 2, 4] {
+                let j = i | bit;
+                let d = corners[j];
+                if j != i && (depth(c) < near) != (depth(d) < near) {
+                    let t = (near - depth(c)) / (depth(d) - depth(c));
+                    let mut x = c.lerp(d, t);
+                    // Exactly on the plane, not a rounding step in front of it.
+                    x.z = -near;
+                    points[n] = x;
+                    n += 1;
+                }
+            }
+        }
+        let (mut lo_x, mut lo_y) = (f64::INFINITY, f64::INFINITY);
+        let (mut hi_x, mut hi_y) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for v in &points[..n] {
             let clip = proj * v.extend(1.0);
             let (sx, sy) = (
                 (clip.x / clip.w + 1.0) * 0.5 * width as f64,
@@ -121,6 +148,15 @@ pub fn bounds_rect(
             lo_y = lo_y.min(sy);
             hi_x = hi_x.max(sx);
             hi_y = hi_y.max(sy);
+        }
+        if n == 0 || !(lo_x.is_finite() && lo_y.is_finite() && hi_x.is_finite() && hi_y.is_finite())
+        {
+            // Wholly in front of the plane: nothing of it is drawn; a
+            // projection that is not finite (`near` 0) covers the screen.
+            if n > 0 {
+                return Rect::full(width, height);
+            }
+            continue;
         }
         let clamp_x = |v: f64| v.clamp(0.0, width as f64) as u32;
         let clamp_y = |v: f64| v.clamp(0.0, height as f64) as u32;
@@ -322,5 +358,28 @@ mod tests {
         let far_off = unit_box(DVec3::new(100.0, 0.0, 0.0), 0.1);
         assert!(bounds_rect(c.view(), p, c.near, &[far_off], 200, 100).is_empty());
         assert!(bounds_rect(c.view(), p, c.near, &[], 200, 100).is_empty());
+    }
+
+    #[test]
+    fn a_box_reaching_past_the_near_plane_is_clipped_to_it() {
+        // The eye at z = 5 looks down -z, near 0.5: the box spans view depths
+        // 0.3 to 3.0. Its rectangle is that of its part behind the near plane
+        // (z <= 4.5), not the whole screen; a box wholly in front has none.
+        let c = Camera {
+            projection: Projection::Perspective { fov_y_deg: 40.0 },
+            ..cam()
+        };
+        let p = c.proj(1.0, DepthConvention::Reversed);
+        let rect = |b: Aabb| bounds_rect(c.view(), p, c.near, &[b], 200, 200);
+        let span = |lo: DVec3, hi: DVec3| Aabb { min: lo, max: hi };
+        let crossing = rect(span(DVec3::new(0.2, 0.1, 2.0), DVec3::new(0.4, 0.3, 4.7)));
+        let behind = rect(span(DVec3::new(0.2, 0.1, 2.0), DVec3::new(0.4, 0.3, 4.5)));
+        assert_eq!(crossing, behind);
+        assert!(!crossing.is_empty() && crossing != Rect::full(200, 200));
+        assert!(rect(span(
+            DVec3::splat(-0.1) + DVec3::Z * 4.7,
+            DVec3::splat(0.1) + DVec3::Z * 4.7
+        ))
+        .is_empty());
     }
 }

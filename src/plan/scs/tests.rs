@@ -438,3 +438,125 @@ fn block_minus_disjoint_spheres_subtracts_each_once() {
     assert_eq!((c.fullscreen_passes, c.footprint_passes), (0, 1));
     assert!(c.draws * 5 < gc.draws, "scs {c:?} goldfeather {gc:?}");
 }
+
+#[test]
+fn the_shade_is_cut_to_one_positive_of_each_product() {
+    // ((A ∩ C) − Y) ∪ B: the solid lies in C (smaller on screen than A) or
+    // in B, so every mesh's shade is cut to the rectangles of C and B, the
+    // cutter's too (it shows only inside the product it cuts).
+    use crate::plan::screen::ScreenBox;
+    use crate::reference::fixtures::ExprBuilder;
+    use crate::scene::Aabb;
+    use glam::{DVec2, DVec3};
+    let cube = |lo: f64, hi: f64| Aabb {
+        min: DVec3::splat(lo),
+        max: DVec3::splat(hi),
+    };
+    let (a, c, y, b) = (0, 1, 2, 3);
+    let mut e = ExprBuilder::default();
+    let (la, lc, ly, lb) = (e.leaf(a), e.leaf(c), e.leaf(y), e.leaf(b));
+    let ac = e.inter(la, lc);
+    let cut = e.diff(ac, ly);
+    let root = e.union(cut, lb);
+    let bounds = vec![
+        cube(0.0, 4.0),
+        cube(1.0, 3.0),
+        cube(2.0, 9.0),
+        cube(20.0, 21.0),
+    ];
+    let mut prep = Prepared::from_parts(e.build(root), vec![12; 4], bounds);
+    prep.mesh_convex = vec![true; 4];
+    let sb = |lo: f64, hi: f64| {
+        Some(ScreenBox {
+            lo: DVec2::splat(lo),
+            hi: DVec2::splat(hi),
+        })
+    };
+    prep.screen = vec![
+        sb(0.0, 40.0),
+        sb(10.0, 30.0),
+        sb(20.0, 90.0),
+        sb(200.0, 210.0),
+    ];
+    let steps = plan(&prep, &ProductOptions::default()).unwrap().steps;
+    let shade: Vec<&Draw> = steps
+        .iter()
+        .filter_map(|s| match s {
+            Step::Draw(d) if matches!(d.fragment, Fragment::ShadeNearDepth { .. }) => Some(d),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(shade.len(), 4);
+    for d in shade {
+        assert_eq!(
+            d.scissor,
+            Scissor::Within {
+                meshes: d.geometry.meshes().to_vec(),
+                within: vec![c, b],
+            }
+        );
+    }
+}
+
+#[test]
+fn cutters_far_apart_on_screen_are_clipped_in_clusters() {
+    // Box 0 minus 4 and 5 (two_products), with screen boxes given: cutters
+    // at opposite corners of box 0 get a clip draw and a sweep each, where
+    // the rectangle of both would cover most of box 0; cutters side by side
+    // (their union barely larger than the two) share one.
+    use crate::plan::screen::ScreenBox;
+    use glam::DVec2;
+    let sb = |x0: f64, y0: f64, x1: f64, y1: f64| {
+        Some(ScreenBox {
+            lo: DVec2::new(x0, y0),
+            hi: DVec2::new(x1, y1),
+        })
+    };
+    let clip_scissors = |y4, y5| {
+        let mut prep = two_products();
+        prep.screen = vec![None; 8];
+        prep.screen[0] = sb(0.0, 0.0, 600.0, 600.0);
+        prep.screen[4] = y4;
+        prep.screen[5] = y5;
+        let built = plan(&prep, &ProductOptions::default()).unwrap();
+        let clip = pass_draws(&built.steps, "clip");
+        let (count, sweep): (Vec<&Draw>, Vec<&Draw>) = clip
+            .into_iter()
+            .take_while(|d| {
+                matches!(
+                    d.geometry,
+                    Geometry::Mesh(0) | Geometry::Footprint { mesh: 0, .. }
+                )
+            })
+            .partition(|d| matches!(d.geometry, Geometry::Mesh(_)));
+        let scissors = |ds: Vec<&Draw>| {
+            ds.into_iter()
+                .map(|d| d.scissor.clone())
+                .collect::<Vec<_>>()
+        };
+        (scissors(count), scissors(sweep))
+    };
+    let within = |ys: Vec<u32>| Scissor::Within {
+        meshes: vec![0],
+        within: ys,
+    };
+    let apart = clip_scissors(sb(0.0, 0.0, 100.0, 100.0), sb(500.0, 500.0, 600.0, 600.0));
+    let each = vec![within(vec![4]), within(vec![5])];
+    assert_eq!(apart, (each.clone(), each));
+    // Those may overlap on the device: the count is set, not incremented, so
+    // a pixel two clip draws cover counts once.
+    let mut prep = two_products();
+    prep.screen = vec![None; 8];
+    prep.screen[0] = sb(0.0, 0.0, 600.0, 600.0);
+    prep.screen[4] = sb(0.0, 0.0, 100.0, 100.0);
+    prep.screen[5] = sb(500.0, 500.0, 600.0, 600.0);
+    let built = plan(&prep, &ProductOptions::default()).unwrap();
+    let st = pass_draws(&built.steps, "clip")[0].stencil.unwrap();
+    assert_eq!(
+        (st.front.pass, st.write_mask, st.reference),
+        (StencilOp::Replace, 1, 1)
+    );
+    let side_by_side = clip_scissors(sb(0.0, 0.0, 100.0, 100.0), sb(100.0, 0.0, 200.0, 100.0));
+    let one = vec![within(vec![4, 5])];
+    assert_eq!(side_by_side, (one.clone(), one));
+}
