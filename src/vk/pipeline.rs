@@ -172,25 +172,12 @@ impl FragmentKind {
     /// (world position, normal, headlight ray). One that does not runs with
     /// the vertex shader's `FLAT` variant, which computes the same position
     /// and stores only the flat copies of the push constants (llvmpipe stores
-    /// every output of every vertex on its queue thread, read or not).
-    /// `tests::interpolated_matches_the_shader_sources` checks the table.
+    /// every output of every vertex on its queue thread, read or not): the
+    /// shading programs, which are those that read `prim`
+    /// (`tests::interpolated_matches_the_shader_sources` checks this).
     pub fn interpolated(self) -> bool {
-        matches!(
-            self,
-            FragmentKind::Shade
-                | FragmentKind::ShadeHost
-                | FragmentKind::ShadeHostSrgb
-                | FragmentKind::Paint
-                | FragmentKind::PeelShade
-                | FragmentKind::ShadeNearDepth
-                | FragmentKind::ShadeNearDepthHost
-                | FragmentKind::ShadeNearDepthHostSrgb
-                | FragmentKind::ShadeAtDepth
-                | FragmentKind::ShadeAtDepthHost
-                | FragmentKind::ShadeAtDepthHostSrgb
-                | FragmentKind::ShadeAtDepthHostWrite
-                | FragmentKind::ShadeAtDepthHostWriteSrgb
-        )
+        // The shading programs: the ones that write the primitive id.
+        self.reads().prim
     }
 
     fn spirv(self, normals: bool) -> &'static [u8] {
@@ -820,24 +807,30 @@ mod tests {
         (FragmentKind::Accumulate, "accumulate.frag"),
     ];
 
+    /// The text of `shaders/{file}` followed by its includes but `skip`.
+    fn source(file: &str, skip: Option<&str>) -> String {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        let mut text = std::fs::read_to_string(dir.join(file)).expect("shader source");
+        for line in text.clone().lines() {
+            if let Some(inc) = line.strip_prefix("#include \"") {
+                let inc = inc.trim_end_matches('"');
+                if Some(inc) != skip {
+                    text += &std::fs::read_to_string(dir.join(inc)).expect("include");
+                }
+            }
+        }
+        text
+    }
+
     /// The push-constant elision trusts `FragmentKind::reads`: a field a
     /// program reads but the table omits would keep another draw's value.
     #[test]
     fn reads_match_the_shader_sources() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
         for (kind, file) in SOURCES {
-            let mut text = std::fs::read_to_string(dir.join(file)).expect("shader source");
-            // The includes a program pulls in read push constants too.
-            for line in text.clone().lines() {
-                if let Some(inc) = line.strip_prefix("#include \"") {
-                    let inc = inc.trim_end_matches('"');
-                    // It declares the flat copies; a program's use of one is
-                    // what reads the field.
-                    if inc != "draw.glsl" {
-                        text += &std::fs::read_to_string(dir.join(inc)).expect("include");
-                    }
-                }
-            }
+            // The includes a program pulls in read push constants too, but
+            // draw.glsl declares the flat copies: a program's use of one is
+            // what reads the field.
+            let text = source(file, Some("draw.glsl"));
             let r = kind.reads();
             for (field, read) in [("color", r.color), ("prim", r.prim), ("view", r.view)] {
                 let used = |name: String| text.contains(&name);
@@ -856,15 +849,8 @@ mod tests {
     /// that reads none but is listed only costs the outputs' stores.
     #[test]
     fn interpolated_matches_the_shader_sources() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
         for (kind, file) in SOURCES {
-            let mut text = std::fs::read_to_string(dir.join(file)).expect("shader source");
-            for line in text.clone().lines() {
-                if let Some(inc) = line.strip_prefix("#include \"") {
-                    let inc = inc.trim_end_matches('"');
-                    text += &std::fs::read_to_string(dir.join(inc)).expect("include");
-                }
-            }
+            let text = source(file, None);
             let declared = ["v_world", "v_normal", "v_light"].iter().any(|v| {
                 text.contains(&format!(" in vec3 {v};")) || text.contains(&format!(" in vec4 {v};"))
             });
