@@ -11,7 +11,8 @@
 //! `<name>.<stage>.host_srgb.spv` (`HOST` and `HOST_SRGB` defined): the variant
 //! for an `_SRGB` host colour format, which decodes the colour it writes;
 //! `#ifdef HOST_WRITE` gives `host_write` and `host_write_srgb` (the host draw
-//! that writes its depth, with no merge before it). A
+//! that writes its depth, with no merge before it), and `#ifdef FLAT` gives
+//! `flat` (`mesh.vert` without the interpolated outputs). A
 //! variant rather than a push-constant branch because lavapipe runs both sides
 //! of a uniform branch for every fragment.
 
@@ -44,8 +45,9 @@ fn main() {
         );
         // (defines, suffix): compiled when the source tests each define the
         // variant adds to a leading `HOST` (`composite.frag` tests only `HOST_SRGB`).
-        let variants: [(&[&str], &str); 5] = [
+        let variants: [(&[&str], &str); 6] = [
             (&["NORMALS"], "normals"),
+            (&["FLAT"], "flat"),
             (&["HOST"], "host"),
             (&["HOST", "HOST_SRGB"], "host_srgb"),
             (&["HOST", "HOST_WRITE"], "host_write"),

@@ -21,10 +21,20 @@ layout(push_constant) uniform Push {
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec3 a_normal;
 
+#ifdef FLAT
+// The variant for programs that read no interpolated output (build.rs's
+// `mesh.vert.flat.spv`; `FragmentKind::interpolated`): the depth-only and
+// parity passes. llvmpipe runs the vertex shader on the queue thread and
+// stores every output per vertex whether or not a fragment program reads it
+// (all outputs but the position: ~60 of a vertex's ~190 instructions; README
+// "Where many_50 and shadow_block lose to OpenCSG"). The position is computed
+// by the same code in both variants, so depth-equal tests still match.
+#else
 layout(location = 0) out vec3 v_world;
 layout(location = 1) flat out vec3 v_normal;
 // The headlight's ray and the normal's component along it (light.glsl).
 layout(location = 2) out vec4 v_light;
+#endif
 // The push constants fragment programs read, per vertex (draw.glsl: llvmpipe
 // reads a push constant lane by lane in a fragment shader).
 layout(location = 3) flat out vec4 d_color;
@@ -34,15 +44,18 @@ layout(location = 5) flat out uint d_flags;
 invariant gl_Position;
 
 void main() {
-    v_world = a_pos;
-    v_normal = a_normal;
     d_color = pc.color;
     d_prim = pc.prim;
     d_flags = pc.flags;
+#ifdef FLAT
+#else
+    v_world = a_pos;
+    v_normal = a_normal;
     // Perspective (w = 1): from the eye to the vertex; orthographic (w = 0):
     // the view direction, the same at every vertex.
     vec3 ray = mix(cam.view.xyz, a_pos - cam.view.xyz, cam.view.w);
     v_light = vec4(ray, dot(a_normal, ray));
+#endif
     // The full-screen quad is drawn as instance 1 (vk::pipeline::QUAD_INSTANCE)
     // with its own matrix and stays unsnapped; meshes use the camera's matrix.
     // Not a push-constant flag: alternating mesh and quad draws share one push.

@@ -168,6 +168,18 @@ impl FragmentKind {
         }
     }
 
+    /// Whether the program reads `shaders/mesh.vert`'s interpolated outputs
+    /// (world position, normal, headlight ray). One that does not runs with
+    /// the vertex shader's `FLAT` variant, which computes the same position
+    /// and stores only the flat copies of the push constants (llvmpipe stores
+    /// every output of every vertex on its queue thread, read or not): the
+    /// shading programs, which are those that read `prim`
+    /// (`tests::interpolated_matches_the_shader_sources` checks this).
+    pub fn interpolated(self) -> bool {
+        // The shading programs: the ones that write the primitive id.
+        self.reads().prim
+    }
+
     fn spirv(self, normals: bool) -> &'static [u8] {
         if normals {
             return self
@@ -215,6 +227,8 @@ impl FragmentKind {
 }
 
 const VERTEX_SPIRV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.vert.spv"));
+/// `mesh.vert` without the interpolated outputs (`FragmentKind::interpolated`).
+const VERTEX_FLAT_SPIRV: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/mesh.vert.flat.spv"));
 
 /// Everything that selects a pipeline; plain data, hashable.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -366,6 +380,8 @@ pub const VERTEX_STRIDE: u32 = 24;
 pub struct Pipelines {
     shared: Arc<Shared>,
     vertex: vk::ShaderModule,
+    /// `mesh.vert`'s `FLAT` variant, for programs that read no interpolated output.
+    vertex_flat: vk::ShaderModule,
     fragments: HashMap<(FragmentKind, bool), vk::ShaderModule>,
     pub(crate) sampler: vk::Sampler,
     pub(crate) set_layout: vk::DescriptorSetLayout,
@@ -407,6 +423,7 @@ impl Pipelines {
         let mut p = Pipelines {
             shared: shared.clone(),
             vertex: vk::ShaderModule::null(),
+            vertex_flat: vk::ShaderModule::null(),
             fragments: HashMap::new(),
             sampler: vk::Sampler::null(),
             set_layout: vk::DescriptorSetLayout::null(),
@@ -418,6 +435,7 @@ impl Pipelines {
             create_ms: 0.0,
         };
         p.vertex = shader_module(shared, VERTEX_SPIRV)?;
+        p.vertex_flat = shader_module(shared, VERTEX_FLAT_SPIRV)?;
         let sci = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::NEAREST)
             .min_filter(vk::Filter::NEAREST)
@@ -526,7 +544,11 @@ impl Pipelines {
         fragment: vk::ShaderModule,
         state: Option<&RasterState>,
     ) -> Result<vk::Pipeline, VkError> {
-        let stages = super::stages::vert_frag(self.vertex, fragment);
+        let vertex = match desc.fragment.interpolated() {
+            true => self.vertex,
+            false => self.vertex_flat,
+        };
+        let stages = super::stages::vert_frag(vertex, fragment);
         let vb = [vk::VertexInputBindingDescription {
             binding: 0,
             stride: VERTEX_STRIDE,
@@ -742,8 +764,10 @@ impl Drop for Pipelines {
             // SAFETY: modules are only needed while creating pipelines.
             unsafe { d.destroy_shader_module(m, None) };
         }
-        // SAFETY: as above.
-        unsafe { d.destroy_shader_module(self.vertex, None) };
+        for m in [self.vertex, self.vertex_flat] {
+            // SAFETY: as above.
+            unsafe { d.destroy_shader_module(m, None) };
+        }
     }
 }
 
@@ -783,24 +807,30 @@ mod tests {
         (FragmentKind::Accumulate, "accumulate.frag"),
     ];
 
+    /// The text of `shaders/{file}` followed by its includes but `skip`.
+    fn source(file: &str, skip: Option<&str>) -> String {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        let mut text = std::fs::read_to_string(dir.join(file)).expect("shader source");
+        for line in text.clone().lines() {
+            if let Some(inc) = line.strip_prefix("#include \"") {
+                let inc = inc.trim_end_matches('"');
+                if Some(inc) != skip {
+                    text += &std::fs::read_to_string(dir.join(inc)).expect("include");
+                }
+            }
+        }
+        text
+    }
+
     /// The push-constant elision trusts `FragmentKind::reads`: a field a
     /// program reads but the table omits would keep another draw's value.
     #[test]
     fn reads_match_the_shader_sources() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
         for (kind, file) in SOURCES {
-            let mut text = std::fs::read_to_string(dir.join(file)).expect("shader source");
-            // The includes a program pulls in read push constants too.
-            for line in text.clone().lines() {
-                if let Some(inc) = line.strip_prefix("#include \"") {
-                    let inc = inc.trim_end_matches('"');
-                    // It declares the flat copies; a program's use of one is
-                    // what reads the field.
-                    if inc != "draw.glsl" {
-                        text += &std::fs::read_to_string(dir.join(inc)).expect("include");
-                    }
-                }
-            }
+            // The includes a program pulls in read push constants too, but
+            // draw.glsl declares the flat copies: a program's use of one is
+            // what reads the field.
+            let text = source(file, Some("draw.glsl"));
             let r = kind.reads();
             for (field, read) in [("color", r.color), ("prim", r.prim), ("view", r.view)] {
                 let used = |name: String| text.contains(&name);
@@ -811,6 +841,24 @@ mod tests {
                 );
             }
             assert!(!r.mvp, "only the quad's vertex shader reads mvp");
+        }
+    }
+
+    /// A program that reads an interpolated output the `FLAT` vertex shader
+    /// does not write would read undefined values (and fail validation); one
+    /// that reads none but is listed only costs the outputs' stores.
+    #[test]
+    fn interpolated_matches_the_shader_sources() {
+        for (kind, file) in SOURCES {
+            let text = source(file, None);
+            let declared = ["v_world", "v_normal", "v_light"].iter().any(|v| {
+                text.contains(&format!(" in vec3 {v};")) || text.contains(&format!(" in vec4 {v};"))
+            });
+            assert_eq!(
+                declared,
+                kind.interpolated(),
+                "{kind:?} ({file}) and `interpolated` disagree"
+            );
         }
     }
 
