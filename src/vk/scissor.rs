@@ -149,14 +149,13 @@ pub fn bounds_rect(
             hi_x = hi_x.max(sx);
             hi_y = hi_y.max(sy);
         }
-        if n == 0 || !(lo_x.is_finite() && lo_y.is_finite() && hi_x.is_finite() && hi_y.is_finite())
-        {
-            // Wholly in front of the plane: nothing of it is drawn; a
-            // projection that is not finite (`near` 0) covers the screen.
-            if n > 0 {
-                return Rect::full(width, height);
-            }
+        if n == 0 {
+            // Wholly in front of the plane: nothing of it is drawn.
             continue;
+        }
+        if !(lo_x.is_finite() && lo_y.is_finite() && hi_x.is_finite() && hi_y.is_finite()) {
+            // A projection that is not finite (`near` 0) covers the screen.
+            return Rect::full(width, height);
         }
         let clamp_x = |v: f64| v.clamp(0.0, width as f64) as u32;
         let clamp_y = |v: f64| v.clamp(0.0, height as f64) as u32;
