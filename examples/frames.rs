@@ -6,7 +6,8 @@
 //! `cargo run --release --example frames -- SIZE FRAMES ALGOS SCENE...`;
 //! `FRAMES_CLEARS=command|load-op` picks the clear mode (default: the
 //! device's), `FRAMES_COUNTS=1` prints the last frame's counts,
-//! `FRAMES_SLEEP=S` stays alive S seconds after (to dump the JIT code).
+//! `FRAMES_SLEEP=S` stays alive S seconds after (to dump the JIT code),
+//! `FRAMES_INDEXED=0` draws every mesh non-indexed (`Executor::set_indexed`).
 
 #[path = "ab_common/mod.rs"]
 mod ab_common;
@@ -23,6 +24,7 @@ fn main() {
             Ok("load-op") => gpu.set_clear_mode(ClearMode::LoadOp),
             _ => {}
         }
+        gpu.set_indexed(std::env::var("FRAMES_INDEXED").as_deref() != Ok("0"));
         for _ in 0..3 {
             gpu.execute(&plan).expect("warm-up");
         }

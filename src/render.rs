@@ -311,6 +311,12 @@ impl GpuRenderer {
         self.exec.set_rounding_emulation(rounding);
     }
 
+    /// Whether programs that read no interpolated output draw each mesh's
+    /// shared corners, indexed (the default; see `vk::Executor::set_indexed`).
+    pub fn set_indexed(&mut self, on: bool) {
+        self.exec.set_indexed(on);
+    }
+
     /// Whether parity and peel draws that cannot tie run as plain depth tests
     /// (the default; see `vk::Executor::set_tie_free`).
     pub fn set_tie_free(&mut self, on: bool) {

@@ -15,6 +15,7 @@ mod depth_only;
 mod direct_shade;
 mod embed;
 mod gpu_layers;
+mod indexed;
 mod joined_blocks;
 mod kirsch;
 mod lighting;

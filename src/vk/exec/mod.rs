@@ -185,6 +185,8 @@ pub struct Executor {
     rounding: Option<super::RoundingEmulation>,
     /// Write the normal buffer with the colour ([`Executor::set_normals`]).
     normals: bool,
+    /// Indexed draws of the shared corners ([`Executor::set_indexed`]).
+    indexed: bool,
     /// Plain depth tests where no tie is possible ([`Executor::set_tie_free`]).
     tie_free: bool,
     /// Depth-equal final shades where no tie is possible
@@ -285,6 +287,7 @@ impl Executor {
             scissored_clears: true,
             rounding: None,
             normals: false,
+            indexed: true,
             tie_free: true,
             fixed_shade: true,
             tie_zones: true,
@@ -532,6 +535,7 @@ impl Executor {
             flags,
             snap,
             normals: self.normals,
+            indexed: self.indexed,
             camera_set: self.camera.set,
             ties: &self.ties,
             mesh_rects: RectUnions::new(&self.rects.rects),

@@ -26,6 +26,9 @@ pub struct Counts {
     /// `vkCmdDraw` calls of mesh geometry after merging meshes that lie
     /// contiguously in the vertex buffer and share all state.
     pub draw_calls: u64,
+    /// Those of `draw_calls` drawn indexed from the meshes' shared corners
+    /// (programs that read no interpolated output: `GpuScene`'s doc).
+    pub indexed_draw_calls: u64,
     /// Full-screen draws, including internal depth copies.
     pub fullscreen_passes: u64,
     /// Mesh triangles submitted for rasterization (full-screen quads not counted).
@@ -216,6 +219,7 @@ impl ExecStats {
         c.draws += o.draws;
         c.mesh_draws += o.mesh_draws;
         c.draw_calls += o.draw_calls;
+        c.indexed_draw_calls += o.indexed_draw_calls;
         c.fullscreen_passes += o.fullscreen_passes;
         c.triangles += o.triangles;
         c.fullscreen_pixels += o.fullscreen_pixels;

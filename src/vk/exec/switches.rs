@@ -87,6 +87,17 @@ impl Executor {
         self.recording = None;
     }
 
+    /// Whether draws whose program reads no interpolated output (depth-only,
+    /// parity, peel and clip passes) are indexed draws of each mesh's shared
+    /// corners (the default): llvmpipe then shades a corner once per
+    /// 1,024-index segment instead of once per triangle that uses it. Off:
+    /// every draw is non-indexed (A/B measurements). Both give identical
+    /// images (the same f32 positions; `vk_tests` `indexed_draws_*`).
+    pub fn set_indexed(&mut self, on: bool) {
+        self.indexed = on;
+        self.recording = None;
+    }
+
     /// Depth images without a stencil aspect for plans that use no stencil
     /// (the default where the device supports `D32_SFLOAT`): half the bytes
     /// to clear and test on lavapipe, the same depths. Off: every plan gets

@@ -133,6 +133,9 @@ pub(super) struct Bindings<'a> {
     pub snap: [f32; 2],
     /// Write the normal buffer wherever colour is written (seed 001 §5.2).
     pub normals: bool,
+    /// Programs that read no interpolated output draw the shared corners,
+    /// indexed (`GpuScene`'s doc; `Executor::set_indexed`).
+    pub indexed: bool,
     /// The camera's uniform buffer (set 1 of every pipeline).
     pub camera_set: vk::DescriptorSet,
     /// Which tolerant parity and peel draws run as plain depth tests under the
@@ -297,11 +300,12 @@ impl<'a> Recorder<'a> {
         self.dyn_state = None;
         self.push.reset();
         state::record_fixed(self.b.device, cmd, self.b.desc.width, self.b.desc.height);
-        // SAFETY: the vertex buffer is live while the recording may be replayed.
+        // SAFETY: the vertex and index buffers are live while the recording may
+        // be replayed.
         unsafe {
-            self.b
-                .device
-                .cmd_bind_vertex_buffers(cmd, 0, &[self.b.scene.vertices.raw], &[0])
+            let d = self.b.device;
+            d.cmd_bind_vertex_buffers(cmd, 0, &[self.b.scene.vertices.raw], &[0]);
+            d.cmd_bind_index_buffer(cmd, self.b.scene.indices.raw, 0, vk::IndexType::UINT32);
         };
         // SAFETY: outside rendering; the set matches the layout's set 1 and its
         // buffer lives as long as the executor.
@@ -315,7 +319,7 @@ impl<'a> Recorder<'a> {
                 &[],
             )
         };
-        self.stats.counts.state_commands += 4;
+        self.stats.counts.state_commands += 5;
     }
 
     fn pass_name(&self) -> String {

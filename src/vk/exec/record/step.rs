@@ -256,8 +256,19 @@ impl Recorder<'_> {
                     };
                     self.push_for(kind, false, &pc);
                     if count > 0 {
-                        // SAFETY: inside a block; the range lies in the vertex buffer.
-                        unsafe { device.cmd_draw(self.cmd, count, 1, first, 0) };
+                        // A program that reads no interpolated output draws the
+                        // shared corners (`GpuScene`'s doc): the same triangles,
+                        // fewer vertices shaded.
+                        match kind.interpolated() || !self.b.indexed {
+                            // SAFETY: inside a block; the range lies in the vertex buffer.
+                            true => unsafe { device.cmd_draw(self.cmd, count, 1, first, 0) },
+                            false => {
+                                // SAFETY: inside a block; the range lies in the
+                                // index buffer, its indices in the vertex buffer.
+                                unsafe { device.cmd_draw_indexed(self.cmd, count, 1, first, 0, 0) };
+                                self.stats.counts.indexed_draw_calls += 1;
+                            }
+                        }
                         self.stats.counts.draw_calls += 1;
                     }
                     self.stats.counts.triangles += count as u64 / 3;
