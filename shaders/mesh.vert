@@ -31,9 +31,14 @@ layout(location = 1) in vec3 a_normal;
 // by the same code in both variants, so depth-equal tests still match.
 #else
 layout(location = 0) out vec3 v_world;
+// Flat: the provoking vertex's, i.e. the triangle's own lit corner, which
+// alone carries the face normal (vk/exec/corners.rs).
 layout(location = 1) flat out vec3 v_normal;
-// The headlight's ray and the normal's component along it (light.glsl).
-layout(location = 2) out vec4 v_light;
+// The headlight's ray, and the normal's component along it (light.glsl): the
+// same at every point of the planar face, so flat, from the vertex that
+// carries the normal.
+layout(location = 2) out vec3 v_ray;
+layout(location = 6) flat out float v_nr;
 #endif
 // The push constants fragment programs read, per vertex (draw.glsl: llvmpipe
 // reads a push constant lane by lane in a fragment shader).
@@ -54,7 +59,8 @@ void main() {
     // Perspective (w = 1): from the eye to the vertex; orthographic (w = 0):
     // the view direction, the same at every vertex.
     vec3 ray = mix(cam.view.xyz, a_pos - cam.view.xyz, cam.view.w);
-    v_light = vec4(ray, dot(a_normal, ray));
+    v_ray = ray;
+    v_nr = dot(a_normal, ray);
 #endif
     // The full-screen quad is drawn as instance 1 (vk::pipeline::QUAD_INSTANCE)
     // with its own matrix and stays unsnapped; meshes use the camera's matrix.

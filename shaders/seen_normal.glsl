@@ -2,11 +2,11 @@
 // asks for normals): the face's unit normal turned towards the eye, in world
 // orientation (the CPU rotates it into view space; angles between normals, all
 // the edge rule needs, are the same in both). After light.glsl, whose
-// `v_light.w` is n . r, r pointing away from the eye.
+// `v_nr` is n . r, r pointing away from the eye.
 layout(location = 1) flat in vec3 v_normal;
 layout(location = NORMAL_LOCATION) out vec4 o_normal;
 
 vec3 seen_normal() {
     vec3 n = normalize(v_normal);
-    return v_light.w > 0.0 ? -n : n;
+    return v_nr > 0.0 ? -n : n;
 }

@@ -311,8 +311,8 @@ impl GpuRenderer {
         self.exec.set_rounding_emulation(rounding);
     }
 
-    /// Whether programs that read no interpolated output draw each mesh's
-    /// shared corners, indexed (the default; see `vk::Executor::set_indexed`).
+    /// Whether mesh draws are indexed from each mesh's shared or lit corners
+    /// (the default; see `vk::Executor::set_indexed`).
     pub fn set_indexed(&mut self, on: bool) {
         self.exec.set_indexed(on);
     }

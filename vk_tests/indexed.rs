@@ -1,10 +1,12 @@
-//! Indexed draws of the shared corners (`GpuScene`'s doc, README "Indexed
-//! draws for the depth-only passes"): every program that reads no interpolated
-//! output draws each mesh's shared corners through the index buffer. The frame
-//! must be the non-indexed frame bit for bit (colour, ids and depth: the same
-//! f32 positions, so depth-equal tests between indexed and non-indexed draws
-//! still pass), with or without the emulated vertex snapping, and the same
-//! draws and triangles must be recorded. Validation on throughout.
+//! Indexed draws (`GpuScene`'s and `corners`'s docs, README "Indexed draws"):
+//! every mesh draw is indexed, from the mesh's shared corners where the program
+//! reads no interpolated output and from its lit corners (each triangle's own
+//! provoking vertex carries its face normal) where it does. The frame must be
+//! the non-indexed frame bit for bit (colour, ids and depth: the same
+//! triangles from the same f32 positions, so the depth-equal tests between
+//! draws from different sets still pass), with or without the emulated vertex
+//! snapping, and the same draws and triangles must be recorded. Validation on
+//! throughout.
 
 use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::reference::compare::compare;
@@ -33,7 +35,7 @@ fn frame(
 }
 
 /// `algo` on the shipped scene `name`: the indexed frame is the non-indexed
-/// one, bit for bit; it drew some of its calls indexed, the other none.
+/// one, bit for bit; it drew every call indexed, the other none.
 fn same_frames(name: &str, algo: Algo, rounding: Option<RoundingEmulation>) {
     let scene = shipped(name);
     let prep = Prepared::new(&scene).expect("prepared");
@@ -41,8 +43,8 @@ fn same_frames(name: &str, algo: Algo, rounding: Option<RoundingEmulation>) {
     let (off, s_off) = frame(&scene, &prep, algo, false, rounding);
     let (a, b) = (&s_on.exec.counts, &s_off.exec.counts);
     let what = format!("{name} {algo} {rounding:?}");
-    assert!(a.indexed_draw_calls > 0, "{what}: no indexed draw: {a:?}");
-    assert!(a.indexed_draw_calls < a.draw_calls, "{what}: the shades are not indexed");
+    assert!(a.draw_calls > 0, "{what}: no mesh draw: {a:?}");
+    assert_eq!(a.indexed_draw_calls, a.draw_calls, "{what}: a mesh draw was not indexed");
     assert_eq!(b.indexed_draw_calls, 0, "{what}: switched off, yet indexed");
     assert_eq!(a.draw_calls, b.draw_calls, "{what}");
     assert_eq!(a.triangles, b.triangles, "{what}");

@@ -851,8 +851,10 @@ mod tests {
     fn interpolated_matches_the_shader_sources() {
         for (kind, file) in SOURCES {
             let text = source(file, None);
-            let declared = ["v_world", "v_normal", "v_light"].iter().any(|v| {
-                text.contains(&format!(" in vec3 {v};")) || text.contains(&format!(" in vec4 {v};"))
+            let declared = ["v_world", "v_normal", "v_ray", "v_nr"].iter().any(|v| {
+                ["float", "vec3", "vec4"]
+                    .iter()
+                    .any(|t| text.contains(&format!(" in {t} {v};")))
             });
             assert_eq!(
                 declared,

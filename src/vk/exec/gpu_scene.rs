@@ -1,21 +1,25 @@
 //! The uploaded scene: every mesh's triangles in one vertex buffer (primitives in
 //! file order, then surfaces, then a full-screen quad, then each mesh's shared
-//! corners), with per-mesh colours, bounds, and the camera-derived matrices the
-//! push constants and scissors use.
+//! corners, then each mesh's lit corners), an index buffer, per-mesh colours,
+//! bounds, and the camera-derived matrices the push constants and scissors use.
 //!
-//! Two ways to draw a mesh from the one buffer:
-//! - non-indexed, from its own triangles' corners, each with its face's flat
-//!   normal: the shading programs, which read the normal;
-//! - indexed (`indices`, u32), from its shared corners: every program that
-//!   reads no interpolated output (`FragmentKind::interpolated`), i.e. the
-//!   depth-only, parity, peel and clip passes. The index of soup corner `k` is
-//!   at `indices[k]`, so a draw's `(first, count)` range is the same in both.
-//!   llvmpipe's draw module shades each index once per 1,024-index segment
-//!   (a direct-mapped cache of 256 entries keyed by the index), and runs on
-//!   lavapipe's serial queue thread: a tessellated sphere's 1,584 corners are
-//!   ~300 shaded vertices (README "Indexed draws for the depth-only passes").
-//!   Positions are the same f32 values in both (one rounding of `p - origin`),
-//!   so depth-equal tests between the two ways still see identical depths.
+//! A mesh is drawn one of three ways from the one buffer, all three drawing its
+//! triangles with the same corners in the same order (`corners::layout`), from
+//! the same f32 positions (one rounding of `p - origin`), so the rasterizer
+//! sees bit-identical triangles and depth-equal tests between them hold:
+//! - indexed from its shared corners: the programs that read no interpolated
+//!   output (`FragmentKind::interpolated`), the depth-only, parity, peel and
+//!   clip passes;
+//! - indexed from its lit corners: the shading programs (each triangle's own
+//!   provoking vertex carries its face normal);
+//! - non-indexed from its soup corners (three a triangle, each with the face
+//!   normal): only with `Executor::set_indexed(false)` (A/B measurements).
+//!
+//! The index buffer holds, for soup corner `k` (the quad excluded), its shared
+//! corner at `k` and its lit corner at `lit_offset + k`, so a draw's
+//! `(first, count)` range is the same range of triangles in all three ways.
+//! Why: `corners`'s doc (llvmpipe shades each index once per segment, on
+//! lavapipe's serial queue thread).
 
 use std::sync::Arc;
 
@@ -23,6 +27,7 @@ use ash::vk;
 use glam::{DMat4, DVec3};
 use gpu_allocator::MemoryLocation;
 
+use super::corners::{self, Layout};
 use super::ExecDesc;
 use crate::geom::ties::TieGaps;
 use crate::plan::visible_ties::visible_ties;
@@ -34,13 +39,16 @@ use crate::vk::memory::Buffer;
 
 pub(super) struct GpuScene {
     pub vertices: Buffer,
-    /// One u32 index per soup corner (the quad excluded), into the shared
-    /// corners at the buffer's end (module doc).
+    /// Two u32 indices per soup corner (the quad excluded): its shared corner,
+    /// then at `lit_offset` further its lit corner (module doc).
     pub indices: Buffer,
+    /// Where the lit corners' indices start in `indices`, in indices.
+    pub lit_offset: u32,
     /// `(first vertex, vertex count)` per mesh; consecutive meshes are contiguous.
     pub ranges: Vec<(u32, u32)>,
-    /// `(first vertex, vertex count)` of each mesh's shared corners.
-    pub shared_corners: Vec<(u32, u32)>,
+    /// `(first vertex, vertex count)` of each mesh's shared and lit corners:
+    /// the slots a moved mesh's corners may fill (`rewrite`).
+    pub corner_slots: Vec<[(u32, u32); 2]>,
     pub colors: Vec<[u8; 3]>,
     pub bounds: Vec<Aabb>,
     pub background: [u8; 3],
@@ -119,13 +127,15 @@ impl GpuScene {
         } else {
             DVec3::ZERO
         };
+        let layouts: Vec<Layout> = meshes.iter().map(|(m, _)| corners::layout(m)).collect();
+        let normals: Vec<Vec<[f32; 3]>> = meshes.iter().map(|(m, _)| face_normals(m)).collect();
         let mut floats: Vec<f32> = Vec::new();
         let mut ranges = Vec::new();
         let mut colors = Vec::new();
         let mut bounds = Vec::new();
-        for (mesh, color) in &meshes {
+        for (((mesh, color), l), n) in meshes.iter().zip(&layouts).zip(&normals) {
             let first = (floats.len() / 6) as u32;
-            floats.extend(mesh_vertices(mesh, origin));
+            floats.extend(soup_floats(mesh, l, n, origin));
             ranges.push((first, (floats.len() / 6) as u32 - first));
             colors.push(*color);
             bounds.push(mesh_bounds(mesh));
@@ -141,16 +151,24 @@ impl GpuScene {
         ] {
             floats.extend([x, y, 0.0, 0.0, 0.0, 1.0]);
         }
-        let mut indices: Vec<u32> = Vec::with_capacity(quad_first as usize);
-        let mut shared_corners = Vec::with_capacity(meshes.len());
-        for (mesh, _) in &meshes {
+        // Shared corners of every mesh, then lit corners of every mesh; the
+        // indices in the same two runs.
+        let mut indices: Vec<u32> = Vec::with_capacity(2 * quad_first as usize);
+        let mut slots = Vec::with_capacity(meshes.len());
+        for ((mesh, _), l) in meshes.iter().zip(&layouts) {
             let first = (floats.len() / 6) as u32;
-            let (corners, local) = shared_corners_of(mesh);
-            floats.extend(corner_floats(mesh, &corners, origin));
-            indices.extend(local.iter().map(|i| first + i));
-            shared_corners.push((first, corners.len() as u32));
+            floats.extend(shared_floats(mesh, l, origin));
+            indices.extend(l.shared_index.iter().map(|i| first + i));
+            slots.push([(first, l.shared.len() as u32), (0, 0)]);
         }
-        debug_assert_eq!(indices.len(), quad_first as usize);
+        let lit_offset = indices.len() as u32;
+        debug_assert_eq!(lit_offset, quad_first);
+        for ((((mesh, _), l), n), slot) in meshes.iter().zip(&layouts).zip(&normals).zip(&mut slots) {
+            let first = (floats.len() / 6) as u32;
+            floats.extend(lit_floats(mesh, l, n, origin));
+            indices.extend(l.lit_index.iter().map(|i| first + i));
+            slot[1] = (first, l.lit.len() as u32);
+        }
         let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_ne_bytes()).collect();
         let mut index_buffer = Buffer::new(
             shared,
@@ -180,8 +198,9 @@ impl GpuScene {
         Ok(GpuScene {
             vertices,
             indices: index_buffer,
+            lit_offset,
             ranges,
-            shared_corners,
+            corner_slots: slots,
             colors,
             bounds,
             background: scene.render.background,
@@ -195,47 +214,57 @@ impl GpuScene {
     }
 }
 
-/// A mesh's non-indexed vertices: position relative to `origin` then flat face
-/// normal per corner.
-fn mesh_vertices(mesh: &crate::scene::Mesh, origin: DVec3) -> Vec<f32> {
-    let mut floats = Vec::with_capacity(mesh.triangles.len() * 18);
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
-        let n = (b - a).cross(c - a).normalize_or_zero();
-        for p in [a - origin, b - origin, c - origin] {
-            floats.extend([p.x as f32, p.y as f32, p.z as f32]);
-            floats.extend([n.x as f32, n.y as f32, n.z as f32]);
+/// Each triangle's unit face normal, from the mesh's own corner order (not the
+/// drawn rotation), in f32: the one value every vertex that carries it holds.
+fn face_normals(mesh: &crate::scene::Mesh) -> Vec<[f32; 3]> {
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            [n.x as f32, n.y as f32, n.z as f32]
+        })
+        .collect()
+}
+
+/// Position `i` relative to `origin`, rounded once: the same f32 values in
+/// every vertex at that position, in all three ways of drawing (module doc).
+fn position(mesh: &crate::scene::Mesh, i: u32, origin: DVec3) -> [f32; 3] {
+    let p = mesh.positions[i as usize] - origin;
+    [p.x as f32, p.y as f32, p.z as f32]
+}
+
+/// The soup: three vertices a triangle, in the drawn corner order, each with
+/// the face normal.
+fn soup_floats(mesh: &crate::scene::Mesh, l: &Layout, normals: &[[f32; 3]], origin: DVec3) -> Vec<f32> {
+    let mut floats = Vec::with_capacity(l.triangles.len() * 18);
+    for (t, n) in l.triangles.iter().zip(normals) {
+        for &i in t {
+            floats.extend(position(mesh, i, origin));
+            floats.extend(n);
         }
     }
     floats
 }
 
-/// A mesh's shared corners: the positions its triangles use, in the order of
-/// first use (so that one draw's indices are close together, as the vertex
-/// cache's direct mapping wants), and each triangle corner's index among them.
-fn shared_corners_of(mesh: &crate::scene::Mesh) -> (Vec<u32>, Vec<u32>) {
-    let mut slot = vec![u32::MAX; mesh.positions.len()];
-    let mut corners = Vec::new();
-    let mut local = Vec::with_capacity(mesh.triangles.len() * 3);
-    for &i in mesh.triangles.iter().flatten() {
-        let s = &mut slot[i as usize];
-        if *s == u32::MAX {
-            *s = corners.len() as u32;
-            corners.push(i);
-        }
-        local.push(*s);
+/// The shared corners: positions only (no program that draws them reads a
+/// normal).
+fn shared_floats(mesh: &crate::scene::Mesh, l: &Layout, origin: DVec3) -> Vec<f32> {
+    let mut floats = Vec::with_capacity(l.shared.len() * 6);
+    for &i in &l.shared {
+        floats.extend(position(mesh, i, origin));
+        floats.extend([0.0; 3]);
     }
-    (corners, local)
+    floats
 }
 
-/// The shared corners' vertices: the position rounded as `mesh_vertices`
-/// rounds it (bit-identical), and no normal (no program that draws them reads
-/// one).
-fn corner_floats(mesh: &crate::scene::Mesh, corners: &[u32], origin: DVec3) -> Vec<f32> {
-    let mut floats = Vec::with_capacity(corners.len() * 6);
-    for &i in corners {
-        let p = mesh.positions[i as usize] - origin;
-        floats.extend([p.x as f32, p.y as f32, p.z as f32, 0.0, 0.0, 0.0]);
+/// The lit corners: each triangle's own vertex with its face normal; the
+/// corners that are no triangle's own with none (never read).
+fn lit_floats(mesh: &crate::scene::Mesh, l: &Layout, normals: &[[f32; 3]], origin: DVec3) -> Vec<f32> {
+    let mut floats = Vec::with_capacity(l.lit.len() * 6);
+    for &(i, owner) in &l.lit {
+        floats.extend(position(mesh, i, origin));
+        floats.extend(owner.map_or([0.0; 3], |t| normals[t as usize]));
     }
     floats
 }
@@ -262,35 +291,47 @@ impl GpuScene {
             .ranges
             .get(i)
             .ok_or_else(|| VkError::Plan(format!("no mesh {i} to move")))?;
-        let floats = mesh_vertices(mesh, scene.origin);
-        if floats.len() != count as usize * 6 {
+        if mesh.triangles.len() * 3 != count as usize {
             return Err(VkError::Plan(format!(
                 "mesh {i}: {} triangles given where {} were uploaded (a moved mesh keeps its triangles)",
-                floats.len() / 18,
+                mesh.triangles.len(),
                 count / 3
             )));
         }
-        let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
-        let at = first as usize * 24;
-        scene.vertices.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
-        // The shared corners too, where the moved mesh's fit in the slots the
-        // uploaded one had; otherwise its indices name its own soup corners
-        // (the same draw, without the sharing).
-        let (shared_first, slots) = scene.shared_corners[i];
-        let (corners, local) = shared_corners_of(mesh);
-        let indices: Vec<u32> = match corners.len() <= slots as usize {
-            true => {
-                let floats = corner_floats(mesh, &corners, scene.origin);
-                let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
-                let at = shared_first as usize * 24;
-                scene.vertices.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
-                local.iter().map(|l| shared_first + l).collect()
-            }
-            false => (first..first + count).collect(),
+        let l = corners::layout(mesh);
+        let normals = face_normals(mesh);
+        let origin = scene.origin;
+        let mut write = |at_vertex: u32, floats: Vec<f32>| -> Result<(), VkError> {
+            let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
+            let at = at_vertex as usize * 24;
+            scene.vertices.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
+            Ok(())
         };
-        let bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_ne_bytes()).collect();
-        let at = first as usize * 4;
-        scene.indices.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
+        write(first, soup_floats(mesh, &l, &normals, origin))?;
+        // Each set of corners where the moved mesh's fit in the slots the
+        // uploaded one had; otherwise its indices name its own soup corners
+        // (the same triangles, drawn without the sharing).
+        let [(shared_first, shared_slots), (lit_first, lit_slots)] = scene.corner_slots[i];
+        let soup: Vec<u32> = (first..first + count).collect();
+        let shared_index: Vec<u32> = match l.shared.len() <= shared_slots as usize {
+            true => {
+                write(shared_first, shared_floats(mesh, &l, origin))?;
+                l.shared_index.iter().map(|k| shared_first + k).collect()
+            }
+            false => soup.clone(),
+        };
+        let lit_index: Vec<u32> = match l.lit.len() <= lit_slots as usize {
+            true => {
+                write(lit_first, lit_floats(mesh, &l, &normals, origin))?;
+                l.lit_index.iter().map(|k| lit_first + k).collect()
+            }
+            false => soup,
+        };
+        for (offset, idx) in [(0, shared_index), (scene.lit_offset, lit_index)] {
+            let bytes: Vec<u8> = idx.iter().flat_map(|i| i.to_ne_bytes()).collect();
+            let at = (offset + first) as usize * 4;
+            scene.indices.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
+        }
         scene.bounds[i] = mesh_bounds(mesh);
         // The gaps were the old geometry's: no draw is taken as tie-free now.
         scene.ties = TieGaps::unknown(scene.ranges.len());
@@ -302,40 +343,33 @@ impl GpuScene {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Mesh;
 
-    /// Two triangles sharing an edge: four corners, numbered by first use, and
-    /// an unused position left out.
+    /// Every corner's vertex in the shared and lit sets holds the soup
+    /// corner's position bit for bit, and a triangle's own lit vertex its
+    /// normal: the three ways draw the same triangles (module doc).
     #[test]
-    fn shared_corners_are_numbered_by_first_use() {
-        let mesh = Mesh {
-            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ONE, DVec3::Z],
-            triangles: vec![[3, 1, 2], [1, 0, 2]],
-        };
-        let (corners, local) = shared_corners_of(&mesh);
-        assert_eq!(corners, vec![3, 1, 2, 0]);
-        assert_eq!(local, vec![0, 1, 2, 1, 3, 2]);
-    }
-
-    /// Each shared corner is bit for bit the soup corner it stands for: the
-    /// depth-equal tests between indexed and non-indexed draws rely on it.
-    #[test]
-    fn shared_corners_round_as_the_soup_does() {
+    fn the_three_ways_hold_the_same_corners() {
         let mut mesh = crate::scene::shapes::make_sphere(0.9, 12, 8);
         for p in &mut mesh.positions {
             *p += DVec3::new(1.1, -2.3, 0.7);
         }
         let origin = DVec3::new(0.3, 7.0, -11.0);
-        let soup = mesh_vertices(&mesh, origin);
-        let (corners, local) = shared_corners_of(&mesh);
-        let shared = corner_floats(&mesh, &corners, origin);
-        assert_eq!(local.len() * 6, soup.len());
-        assert!(corners.len() * 3 < local.len(), "a sphere shares its corners");
-        for (k, &l) in local.iter().enumerate() {
-            let s = &shared[l as usize * 6..l as usize * 6 + 3];
-            let v = &soup[k * 6..k * 6 + 3];
-            let bits = |f: &[f32]| f.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(s), bits(v), "corner {k}");
+        let l = corners::layout(&mesh);
+        let normals = face_normals(&mesh);
+        let soup = soup_floats(&mesh, &l, &normals, origin);
+        let shared = shared_floats(&mesh, &l, origin);
+        let lit = lit_floats(&mesh, &l, &normals, origin);
+        let bits = |f: &[f32]| f.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(soup.len(), l.triangles.len() * 18);
+        for k in 0..l.triangles.len() * 3 {
+            let v = &soup[k * 6..k * 6 + 6];
+            let s = l.shared_index[k] as usize * 6;
+            let t = l.lit_index[k] as usize * 6;
+            assert_eq!(bits(&shared[s..s + 3]), bits(&v[..3]), "shared corner {k}");
+            assert_eq!(bits(&lit[t..t + 3]), bits(&v[..3]), "lit corner {k}");
+            if k % 3 == 0 {
+                assert_eq!(bits(&lit[t + 3..t + 6]), bits(&v[3..]), "triangle {}'s normal", k / 3);
+            }
         }
     }
 }

@@ -34,6 +34,7 @@
 mod batch;
 mod camera;
 mod embed;
+mod corners;
 mod gpu_scene;
 mod kept;
 mod normals;

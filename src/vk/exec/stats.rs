@@ -26,8 +26,9 @@ pub struct Counts {
     /// `vkCmdDraw` calls of mesh geometry after merging meshes that lie
     /// contiguously in the vertex buffer and share all state.
     pub draw_calls: u64,
-    /// Those of `draw_calls` drawn indexed from the meshes' shared corners
-    /// (programs that read no interpolated output: `GpuScene`'s doc).
+    /// Those of `draw_calls` drawn indexed, from the meshes' shared or lit
+    /// corners (`GpuScene`'s doc): all of them unless `Executor::set_indexed`
+    /// turned indexing off.
     pub indexed_draw_calls: u64,
     /// Full-screen draws, including internal depth copies.
     pub fullscreen_passes: u64,

@@ -87,12 +87,14 @@ impl Executor {
         self.recording = None;
     }
 
-    /// Whether draws whose program reads no interpolated output (depth-only,
-    /// parity, peel and clip passes) are indexed draws of each mesh's shared
-    /// corners (the default): llvmpipe then shades a corner once per
-    /// 1,024-index segment instead of once per triangle that uses it. Off:
-    /// every draw is non-indexed (A/B measurements). Both give identical
-    /// images (the same f32 positions; `vk_tests` `indexed_draws_*`).
+    /// Whether mesh draws are indexed (the default): from each mesh's shared
+    /// corners where the program reads no interpolated output (depth-only,
+    /// parity, peel and clip passes), from its lit corners where it does
+    /// (`corners`'s doc). llvmpipe then shades a corner once per 1,024-index
+    /// segment instead of once per triangle that uses it. Off: every draw is
+    /// non-indexed from the soup (A/B measurements). Both give identical
+    /// images (the same triangles from the same f32 positions; `vk_tests`
+    /// `indexed_draws_*`).
     pub fn set_indexed(&mut self, on: bool) {
         self.indexed = on;
         self.recording = None;

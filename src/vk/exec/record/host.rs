@@ -640,12 +640,9 @@ impl Recorder<'_> {
             ..Default::default()
         });
         let (first, count) = scene.ranges[m as usize];
-        if count > 0 {
-            // SAFETY: inside the host block with the pipeline bound; the range
-            // lies in the vertex buffer.
-            unsafe { self.b.device.cmd_draw(self.cmd, count, 1, first, 0) };
-            self.stats.counts.draw_calls += 1;
-        }
+        // Inside the host block with the pipeline bound; every host program
+        // shades (reads the interpolated outputs).
+        self.draw_corners(true, first, count);
         let c = &mut self.stats.counts;
         c.draws += 1;
         c.mesh_draws += 1;

@@ -133,8 +133,8 @@ pub(super) struct Bindings<'a> {
     pub snap: [f32; 2],
     /// Write the normal buffer wherever colour is written (seed 001 §5.2).
     pub normals: bool,
-    /// Programs that read no interpolated output draw the shared corners,
-    /// indexed (`GpuScene`'s doc; `Executor::set_indexed`).
+    /// Mesh draws are indexed from the shared or lit corners (`GpuScene`'s
+    /// doc; `Executor::set_indexed`).
     pub indexed: bool,
     /// The camera's uniform buffer (set 1 of every pipeline).
     pub camera_set: vk::DescriptorSet,

@@ -255,22 +255,7 @@ impl Recorder<'_> {
                         ..Default::default()
                     };
                     self.push_for(kind, false, &pc);
-                    if count > 0 {
-                        // A program that reads no interpolated output draws the
-                        // shared corners (`GpuScene`'s doc): the same triangles,
-                        // fewer vertices shaded.
-                        match kind.interpolated() || !self.b.indexed {
-                            // SAFETY: inside a block; the range lies in the vertex buffer.
-                            true => unsafe { device.cmd_draw(self.cmd, count, 1, first, 0) },
-                            false => {
-                                // SAFETY: inside a block; the range lies in the
-                                // index buffer, its indices in the vertex buffer.
-                                unsafe { device.cmd_draw_indexed(self.cmd, count, 1, first, 0, 0) };
-                                self.stats.counts.indexed_draw_calls += 1;
-                            }
-                        }
-                        self.stats.counts.draw_calls += 1;
-                    }
+                    self.draw_corners(kind.interpolated(), first, count);
                     self.stats.counts.triangles += count as u64 / 3;
                     i = j;
                 }
@@ -285,6 +270,35 @@ impl Recorder<'_> {
             unsafe { device.cmd_end_query(self.cmd, self.b.occlusion, q) };
         }
         Ok(())
+    }
+}
+
+impl Recorder<'_> {
+    /// Draws the soup corners `first..first + count` (a range of whole
+    /// triangles of `GpuScene::ranges`) for a program that reads interpolated
+    /// outputs (`lit`: `FragmentKind::interpolated`) or not: indexed from the
+    /// lit or the shared corners, or from the soup itself with indexing off
+    /// (`GpuScene`'s doc: the same triangles all three ways).
+    pub(super) fn draw_corners(&mut self, lit: bool, first: u32, count: u32) {
+        if count == 0 {
+            return;
+        }
+        let device = self.b.device;
+        match (self.b.indexed, lit) {
+            // SAFETY: inside a block; the range lies in the vertex buffer.
+            (false, _) => unsafe { device.cmd_draw(self.cmd, count, 1, first, 0) },
+            (true, lit) => {
+                let offset = match lit {
+                    true => self.b.scene.lit_offset,
+                    false => 0,
+                };
+                // SAFETY: inside a block; the range lies in the index buffer
+                // (`begin_state` bound it), its indices in the vertex buffer.
+                unsafe { device.cmd_draw_indexed(self.cmd, count, 1, first + offset, 0, 0) };
+                self.stats.counts.indexed_draw_calls += 1;
+            }
+        }
+        self.stats.counts.draw_calls += 1;
     }
 }
 
