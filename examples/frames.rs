@@ -24,7 +24,8 @@ fn main() {
             Ok("load-op") => gpu.set_clear_mode(ClearMode::LoadOp),
             _ => {}
         }
-        gpu.set_indexed(std::env::var("FRAMES_INDEXED").as_deref() != Ok("0"));
+        gpu.set_indexed(std::env::var("FRAMES_INDEXED").as_deref() != Ok("0"))
+            .expect("the soup");
         for _ in 0..3 {
             gpu.execute(&plan).expect("warm-up");
         }

@@ -313,8 +313,8 @@ impl GpuRenderer {
 
     /// Whether mesh draws are indexed from each mesh's shared or lit corners
     /// (the default; see `vk::Executor::set_indexed`).
-    pub fn set_indexed(&mut self, on: bool) {
-        self.exec.set_indexed(on);
+    pub fn set_indexed(&mut self, on: bool) -> Result<(), RenderError> {
+        Ok(self.exec.set_indexed(on)?)
     }
 
     /// Whether parity and peel draws that cannot tie run as plain depth tests

@@ -26,7 +26,7 @@ fn frame(
     let plan = plan::build(algo, prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
     let mut gpu = GpuRenderer::new(scene, crate::setup::device(), DepthSetup::DEFAULT, true)
         .expect("a Vulkan device (lavapipe)");
-    gpu.set_indexed(indexed);
+    gpu.set_indexed(indexed).expect("the soup");
     gpu.set_rounding_emulation(rounding);
     let f = gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"));
     let msgs = gpu.validation_messages();

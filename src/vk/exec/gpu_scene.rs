@@ -1,25 +1,28 @@
-//! The uploaded scene: every mesh's triangles in one vertex buffer (primitives in
-//! file order, then surfaces, then a full-screen quad, then each mesh's shared
-//! corners, then each mesh's lit corners), an index buffer, per-mesh colours,
-//! bounds, and the camera-derived matrices the push constants and scissors use.
+//! The uploaded scene: one vertex buffer (a full-screen quad, then each mesh's
+//! shared corners, then each mesh's lit corners; meshes are primitives in file
+//! order, then surfaces), an index buffer, per-mesh colours, bounds, and the
+//! camera-derived matrices the push constants and scissors use.
 //!
-//! A mesh is drawn one of three ways from the one buffer, all three drawing its
-//! triangles with the same corners in the same order (`corners::layout`), from
-//! the same f32 positions (one rounding of `p - origin`), so the rasterizer
-//! sees bit-identical triangles and depth-equal tests between them hold:
+//! A mesh is drawn one of three ways, all three drawing its triangles with the
+//! same corners in the same order (`corners::layout`), from the same f32
+//! positions (one rounding of `p - origin`), so the rasterizer sees
+//! bit-identical triangles and depth-equal tests between them hold:
 //! - indexed from its shared corners: the programs that read no interpolated
 //!   output (`FragmentKind::interpolated`), the depth-only, parity, peel and
 //!   clip passes;
 //! - indexed from its lit corners: the shading programs (each triangle's own
 //!   provoking vertex carries its face normal);
-//! - non-indexed from its soup corners (three a triangle, each with the face
-//!   normal): only with `Executor::set_indexed(false)` (A/B measurements).
+//! - non-indexed from the soup (three vertices a triangle, each with the face
+//!   normal), a buffer of its own built from the other two only when
+//!   `Executor::set_indexed(false)` asks for it (A/B measurements).
 //!
-//! The index buffer holds, for soup corner `k` (the quad excluded), its shared
-//! corner at `k` and its lit corner at `lit_offset + k`, so a draw's
-//! `(first, count)` range is the same range of triangles in all three ways.
-//! Why: `corners`'s doc (llvmpipe shades each index once per segment, on
-//! lavapipe's serial queue thread).
+//! A mesh's triangles are a range of *corners* (`ranges`: three a triangle,
+//! numbered over all meshes): the index buffer holds corner `k`'s shared
+//! vertex at `k` and its lit vertex at `lit_offset + k`, and the soup holds it
+//! at vertex [`SOUP_FIRST`]` + k`, so one range names the same triangles all
+//! three ways. Why indexed: `corners`'s doc (llvmpipe shades each index once
+//! per segment, on lavapipe's serial queue thread). Without a soup the buffers
+//! hold about 67 bytes a triangle, against 72 for the soup alone.
 
 use std::sync::Arc;
 
@@ -37,14 +40,23 @@ use crate::vk::error::VkError;
 use crate::vk::instance::Shared;
 use crate::vk::memory::Buffer;
 
+/// Where corner 0 lies in the soup buffer, after its copy of the quad (the
+/// quad is at vertex 0 of both vertex buffers).
+pub(super) const SOUP_FIRST: u32 = 6;
+
 pub(super) struct GpuScene {
+    /// The quad, the shared corners, the lit corners (module doc).
     pub vertices: Buffer,
-    /// Two u32 indices per soup corner (the quad excluded): its shared corner,
-    /// then at `lit_offset` further its lit corner (module doc).
+    /// Two u32 indices per corner: its shared vertex, then at `lit_offset`
+    /// further its lit vertex (module doc).
     pub indices: Buffer,
-    /// Where the lit corners' indices start in `indices`, in indices.
+    /// Where the lit corners' indices start in `indices`: the corner count.
     pub lit_offset: u32,
-    /// `(first vertex, vertex count)` per mesh; consecutive meshes are contiguous.
+    /// The quad and then every corner with its face normal, for non-indexed
+    /// draws; built by [`GpuScene::ensure_soup`] only when asked for.
+    pub soup: Option<Buffer>,
+    /// `(first corner, corner count)` per mesh; consecutive meshes are
+    /// contiguous.
     pub ranges: Vec<(u32, u32)>,
     /// `(first vertex, vertex count)` of each mesh's shared and lit corners:
     /// the slots a moved mesh's corners may fill (`rewrite`).
@@ -58,7 +70,8 @@ pub(super) struct GpuScene {
     /// the distance from the eye wherever the scene lies in the world.
     pub origin: DVec3,
     pub cam: CameraState,
-    /// First vertex of the full-screen quad (6 vertices).
+    /// First vertex of the full-screen quad (6 vertices), in both vertex
+    /// buffers.
     pub quad_first: u32,
     /// Which meshes' faces could meet the tie rule (`geom::ties`); unknown
     /// (every mesh possibly tied) once a mesh was moved.
@@ -129,31 +142,20 @@ impl GpuScene {
         };
         let layouts: Vec<Layout> = meshes.iter().map(|(m, _)| corners::layout(m)).collect();
         let normals: Vec<Vec<[f32; 3]>> = meshes.iter().map(|(m, _)| face_normals(m)).collect();
-        let mut floats: Vec<f32> = Vec::new();
-        let mut ranges = Vec::new();
-        let mut colors = Vec::new();
-        let mut bounds = Vec::new();
-        for (((mesh, color), l), n) in meshes.iter().zip(&layouts).zip(&normals) {
-            let first = (floats.len() / 6) as u32;
-            floats.extend(soup_floats(mesh, l, n, origin));
-            ranges.push((first, (floats.len() / 6) as u32 - first));
-            colors.push(*color);
-            bounds.push(mesh_bounds(mesh));
+        let mut floats: Vec<f32> = QUAD.to_vec();
+        let quad_first = 0;
+        let mut ranges = Vec::with_capacity(meshes.len());
+        let mut corners = 0u32;
+        for (mesh, _) in &meshes {
+            let n = mesh.triangles.len() as u32 * 3;
+            ranges.push((corners, n));
+            corners += n;
         }
-        let quad_first = (floats.len() / 6) as u32;
-        for (x, y) in [
-            (-1.0f32, -1.0f32),
-            (1.0, -1.0),
-            (1.0, 1.0),
-            (-1.0, -1.0),
-            (1.0, 1.0),
-            (-1.0, 1.0),
-        ] {
-            floats.extend([x, y, 0.0, 0.0, 0.0, 1.0]);
-        }
+        let colors = meshes.iter().map(|(_, c)| *c).collect();
+        let bounds = meshes.iter().map(|(m, _)| mesh_bounds(m)).collect();
         // Shared corners of every mesh, then lit corners of every mesh; the
         // indices in the same two runs.
-        let mut indices: Vec<u32> = Vec::with_capacity(2 * quad_first as usize);
+        let mut indices: Vec<u32> = Vec::with_capacity(2 * corners as usize);
         let mut slots = Vec::with_capacity(meshes.len());
         for ((mesh, _), l) in meshes.iter().zip(&layouts) {
             let first = (floats.len() / 6) as u32;
@@ -162,7 +164,7 @@ impl GpuScene {
             slots.push([(first, l.shared.len() as u32), (0, 0)]);
         }
         let lit_offset = indices.len() as u32;
-        debug_assert_eq!(lit_offset, quad_first);
+        debug_assert_eq!(lit_offset, corners);
         for ((((mesh, _), l), n), slot) in meshes.iter().zip(&layouts).zip(&normals).zip(&mut slots) {
             let first = (floats.len() / 6) as u32;
             floats.extend(lit_floats(mesh, l, n, origin));
@@ -199,6 +201,7 @@ impl GpuScene {
             vertices,
             indices: index_buffer,
             lit_offset,
+            soup: None,
             ranges,
             corner_slots: slots,
             colors,
@@ -212,6 +215,36 @@ impl GpuScene {
             shade_ties,
         })
     }
+}
+
+/// The full-screen quad's six vertices (position, then a normal no program
+/// reads), at vertex 0 of both vertex buffers.
+const QUAD: [f32; 36] = [
+    -1.0, -1.0, 0.0, 0.0, 0.0, 1.0, //
+    1.0, -1.0, 0.0, 0.0, 0.0, 1.0, //
+    1.0, 1.0, 0.0, 0.0, 0.0, 1.0, //
+    -1.0, -1.0, 0.0, 0.0, 0.0, 1.0, //
+    1.0, 1.0, 0.0, 0.0, 0.0, 1.0, //
+    -1.0, 1.0, 0.0, 0.0, 0.0, 1.0, //
+];
+
+/// The soup of the uploaded corners: corner `k` is the position of its shared
+/// vertex and the normal of its triangle's own lit vertex, read back from the
+/// mapped buffers (so bit for bit what the indexed draws see), after the quad.
+fn soup_from(vertices: &[u8], indices: &[u8], lit_offset: u32) -> Vec<f32> {
+    let index = |k: usize| u32::from_ne_bytes(indices[k * 4..k * 4 + 4].try_into().unwrap()) as usize;
+    let float = |v: usize, c: usize| {
+        let at = v * 24 + c * 4;
+        f32::from_ne_bytes(vertices[at..at + 4].try_into().unwrap())
+    };
+    let mut floats = QUAD.to_vec();
+    floats.reserve(lit_offset as usize * 6);
+    for k in 0..lit_offset as usize {
+        let (p, own) = (index(k), index(lit_offset as usize + k - k % 3));
+        floats.extend([float(p, 0), float(p, 1), float(p, 2)]);
+        floats.extend([float(own, 3), float(own, 4), float(own, 5)]);
+    }
+    floats
 }
 
 /// Each triangle's unit face normal, from the mesh's own corner order (not the
@@ -280,6 +313,28 @@ fn mesh_bounds(mesh: &crate::scene::Mesh) -> Aabb {
 }
 
 impl GpuScene {
+    /// Builds the soup buffer for non-indexed draws, if there is none yet
+    /// (`Executor::set_indexed(false)`).
+    pub(super) fn ensure_soup(&mut self, shared: &Arc<Shared>) -> Result<(), VkError> {
+        if self.soup.is_some() {
+            return Ok(());
+        }
+        let floats = soup_from(self.vertices.mapped()?, self.indices.mapped()?, self.lit_offset);
+        let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
+        let mut soup = Buffer::new(
+            shared,
+            "soup",
+            bytes.len() as u64,
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )?;
+        soup.mapped_mut()?.copy_from_slice(&bytes);
+        self.soup = Some(soup);
+        Ok(())
+    }
+}
+
+impl GpuScene {
     /// Overwrites mesh `i`'s vertices in the mapped buffer (embedding: a moved
     /// mesh). The caller guarantees no submitted frame still reads the buffer.
     pub(super) fn rewrite(
@@ -299,39 +354,36 @@ impl GpuScene {
             )));
         }
         let l = corners::layout(mesh);
+        let [(shared_first, shared_slots), (lit_first, lit_slots)] = scene.corner_slots[i];
+        // The layout depends on the triangles only, which a moved mesh keeps.
+        if l.shared.len() != shared_slots as usize || l.lit.len() != lit_slots as usize {
+            return Err(VkError::Plan(format!(
+                "mesh {i}: its triangles differ from the uploaded ones (a moved mesh keeps its triangles)"
+            )));
+        }
         let normals = face_normals(mesh);
         let origin = scene.origin;
-        let mut write = |at_vertex: u32, floats: Vec<f32>| -> Result<(), VkError> {
+        let write = |buffer: &mut Buffer, at_vertex: u32, floats: Vec<f32>| -> Result<(), VkError> {
             let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
             let at = at_vertex as usize * 24;
-            scene.vertices.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
+            buffer.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
             Ok(())
         };
-        write(first, soup_floats(mesh, &l, &normals, origin))?;
-        // Each set of corners where the moved mesh's fit in the slots the
-        // uploaded one had; otherwise its indices name its own soup corners
-        // (the same triangles, drawn without the sharing).
-        let [(shared_first, shared_slots), (lit_first, lit_slots)] = scene.corner_slots[i];
-        let soup: Vec<u32> = (first..first + count).collect();
-        let shared_index: Vec<u32> = match l.shared.len() <= shared_slots as usize {
-            true => {
-                write(shared_first, shared_floats(mesh, &l, origin))?;
-                l.shared_index.iter().map(|k| shared_first + k).collect()
-            }
-            false => soup.clone(),
-        };
-        let lit_index: Vec<u32> = match l.lit.len() <= lit_slots as usize {
-            true => {
-                write(lit_first, lit_floats(mesh, &l, &normals, origin))?;
-                l.lit_index.iter().map(|k| lit_first + k).collect()
-            }
-            false => soup,
-        };
-        for (offset, idx) in [(0, shared_index), (scene.lit_offset, lit_index)] {
-            let bytes: Vec<u8> = idx.iter().flat_map(|i| i.to_ne_bytes()).collect();
-            let at = (offset + first) as usize * 4;
-            scene.indices.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
+        write(&mut scene.vertices, shared_first, shared_floats(mesh, &l, origin))?;
+        write(&mut scene.vertices, lit_first, lit_floats(mesh, &l, &normals, origin))?;
+        if let Some(soup) = &mut scene.soup {
+            write(soup, SOUP_FIRST + first, soup_floats(mesh, &l, &normals, origin))?;
         }
+        // The indices too: triangles of the same count and layout sizes may
+        // still be other triangles.
+        let shared_index = l.shared_index.iter().map(|k| shared_first + k);
+        let lit_index = l.lit_index.iter().map(|k| lit_first + k);
+        let bytes: Vec<u8> = shared_index.chain(lit_index).flat_map(|i| i.to_ne_bytes()).collect();
+        let (half, n) = (bytes.len() / 2, first as usize * 4);
+        let lit_at = (scene.lit_offset + first) as usize * 4;
+        let mapped = scene.indices.mapped_mut()?;
+        mapped[n..n + half].copy_from_slice(&bytes[..half]);
+        mapped[lit_at..lit_at + half].copy_from_slice(&bytes[half..]);
         scene.bounds[i] = mesh_bounds(mesh);
         // The gaps were the old geometry's: no draw is taken as tie-free now.
         scene.ties = TieGaps::unknown(scene.ranges.len());
@@ -344,9 +396,9 @@ impl GpuScene {
 mod tests {
     use super::*;
 
-    /// Every corner's vertex in the shared and lit sets holds the soup
-    /// corner's position bit for bit, and a triangle's own lit vertex its
-    /// normal: the three ways draw the same triangles (module doc).
+    /// The soup read back from the uploaded sets is the soup made from the
+    /// mesh, bit for bit, and each corner's shared and lit vertex holds its
+    /// position: the three ways draw the same triangles (module doc).
     #[test]
     fn the_three_ways_hold_the_same_corners() {
         let mut mesh = crate::scene::shapes::make_sphere(0.9, 12, 8);
@@ -356,20 +408,31 @@ mod tests {
         let origin = DVec3::new(0.3, 7.0, -11.0);
         let l = corners::layout(&mesh);
         let normals = face_normals(&mesh);
-        let soup = soup_floats(&mesh, &l, &normals, origin);
-        let shared = shared_floats(&mesh, &l, origin);
-        let lit = lit_floats(&mesh, &l, &normals, origin);
-        let bits = |f: &[f32]| f.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(soup.len(), l.triangles.len() * 18);
-        for k in 0..l.triangles.len() * 3 {
-            let v = &soup[k * 6..k * 6 + 6];
-            let s = l.shared_index[k] as usize * 6;
-            let t = l.lit_index[k] as usize * 6;
-            assert_eq!(bits(&shared[s..s + 3]), bits(&v[..3]), "shared corner {k}");
-            assert_eq!(bits(&lit[t..t + 3]), bits(&v[..3]), "lit corner {k}");
-            if k % 3 == 0 {
-                assert_eq!(bits(&lit[t + 3..t + 6]), bits(&v[3..]), "triangle {}'s normal", k / 3);
-            }
+        // As `GpuScene::new` lays one mesh out.
+        let mut floats = QUAD.to_vec();
+        let shared_first = (floats.len() / 6) as u32;
+        floats.extend(shared_floats(&mesh, &l, origin));
+        let lit_first = (floats.len() / 6) as u32;
+        floats.extend(lit_floats(&mesh, &l, &normals, origin));
+        let indices: Vec<u32> = l
+            .shared_index
+            .iter()
+            .map(|k| shared_first + k)
+            .chain(l.lit_index.iter().map(|k| lit_first + k))
+            .collect();
+        let bytes = |f: &[f32]| f.iter().flat_map(|x| x.to_ne_bytes()).collect::<Vec<u8>>();
+        let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_ne_bytes()).collect();
+        let corners = l.shared_index.len() as u32;
+        let soup = soup_from(&bytes(&floats), &index_bytes, corners);
+        let mut want = QUAD.to_vec();
+        want.extend(soup_floats(&mesh, &l, &normals, origin));
+        assert_eq!(bytes(&soup), bytes(&want));
+        for k in 0..corners as usize {
+            let at = |v: u32| &floats[v as usize * 6..v as usize * 6 + 3];
+            let s = SOUP_FIRST as usize * 6 + k * 6;
+            assert_eq!(bytes(at(indices[k])), bytes(&soup[s..s + 3]), "shared corner {k}");
+            let lit = indices[corners as usize + k];
+            assert_eq!(bytes(at(lit)), bytes(&soup[s..s + 3]), "lit corner {k}");
         }
     }
 }

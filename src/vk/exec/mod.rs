@@ -319,7 +319,8 @@ impl Executor {
         let _layer = self.shared.layer_use();
         self.scene = Some(GpuScene::new(&self.shared, scene, &self.desc)?);
         self.epoch += 1;
-        Ok(())
+        drop(_layer);
+        self.ensure_soup()
     }
 
     /// Moves the camera of the uploaded scene without uploading its meshes again

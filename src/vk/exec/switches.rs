@@ -6,6 +6,7 @@
 //! and "The final shade as depth-equal draws").
 
 use super::{BlockJoin, ClearMode, DepthFormat, Executor};
+use crate::vk::error::VkError;
 use crate::vk::pipeline::{pipeline_flags, FLAG_RASTER_DEPTH};
 
 impl Executor {
@@ -95,9 +96,23 @@ impl Executor {
     /// non-indexed from the soup (A/B measurements). Both give identical
     /// images (the same triangles from the same f32 positions; `vk_tests`
     /// `indexed_draws_*`).
-    pub fn set_indexed(&mut self, on: bool) {
+    /// Off builds the soup from the uploaded corners, once per upload (it
+    /// fails only where that buffer cannot be allocated).
+    pub fn set_indexed(&mut self, on: bool) -> Result<(), VkError> {
         self.indexed = on;
         self.recording = None;
+        self.ensure_soup()
+    }
+
+    /// The soup of the uploaded scene where indexing is off.
+    pub(super) fn ensure_soup(&mut self) -> Result<(), VkError> {
+        match (&mut self.scene, self.indexed) {
+            (Some(scene), false) => {
+                let _layer = self.shared.layer_use();
+                scene.ensure_soup(&self.shared)
+            }
+            _ => Ok(()),
+        }
     }
 
     /// Depth images without a stencil aspect for plans that use no stencil

@@ -300,11 +300,18 @@ impl<'a> Recorder<'a> {
         self.dyn_state = None;
         self.push.reset();
         state::record_fixed(self.b.device, cmd, self.b.desc.width, self.b.desc.height);
+        // Non-indexed draws read the soup (`GpuScene`'s doc); both buffers
+        // hold the quad at vertex 0.
+        let vertices = match (self.b.indexed, &self.b.scene.soup) {
+            (true, _) => &self.b.scene.vertices,
+            (false, Some(soup)) => soup,
+            (false, None) => panic!("set_indexed(false) builds the soup before recording"),
+        };
         // SAFETY: the vertex and index buffers are live while the recording may
         // be replayed.
         unsafe {
             let d = self.b.device;
-            d.cmd_bind_vertex_buffers(cmd, 0, &[self.b.scene.vertices.raw], &[0]);
+            d.cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw], &[0]);
             d.cmd_bind_index_buffer(cmd, self.b.scene.indices.raw, 0, vk::IndexType::UINT32);
         };
         // SAFETY: outside rendering; the set matches the layout's set 1 and its

@@ -5,6 +5,7 @@
 
 use ash::vk;
 
+use super::super::gpu_scene::SOUP_FIRST;
 use super::lower::{self, RecordedDraw};
 use super::{state, BlockKey, Recorder};
 use crate::plan::usage::{self, Resource, Usage};
@@ -274,8 +275,8 @@ impl Recorder<'_> {
 }
 
 impl Recorder<'_> {
-    /// Draws the soup corners `first..first + count` (a range of whole
-    /// triangles of `GpuScene::ranges`) for a program that reads interpolated
+    /// Draws the corners `first..first + count` (a range of whole triangles
+    /// of `GpuScene::ranges`) for a program that reads interpolated
     /// outputs (`lit`: `FragmentKind::interpolated`) or not: indexed from the
     /// lit or the shared corners, or from the soup itself with indexing off
     /// (`GpuScene`'s doc: the same triangles all three ways).
@@ -285,8 +286,9 @@ impl Recorder<'_> {
         }
         let device = self.b.device;
         match (self.b.indexed, lit) {
-            // SAFETY: inside a block; the range lies in the vertex buffer.
-            (false, _) => unsafe { device.cmd_draw(self.cmd, count, 1, first, 0) },
+            // SAFETY: inside a block; the range lies in the soup, bound by
+            // `begin_state` with indexing off.
+            (false, _) => unsafe { device.cmd_draw(self.cmd, count, 1, SOUP_FIRST + first, 0) },
             (true, lit) => {
                 let offset = match lit {
                     true => self.b.scene.lit_offset,
