@@ -158,7 +158,8 @@ mod tests {
         }
         let t = l.triangles.len();
         assert_eq!(l.shared.len(), mesh.positions.len());
-        assert!(l.lit.len() < t + t / 3, "{} lit vertices for {t} triangles", l.lit.len());
+        // 976 for its 960 triangles: nearly every corner is some triangle's own.
+        assert!(l.lit.len() < t + t / 10, "{} lit vertices for {t} triangles", l.lit.len());
     }
 
     /// A quad's two triangles: four shared corners; the second triangle's

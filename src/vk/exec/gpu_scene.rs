@@ -22,7 +22,8 @@
 //! at vertex [`SOUP_FIRST`]` + k`, so one range names the same triangles all
 //! three ways. Why indexed: `corners`'s doc (llvmpipe shades each index once
 //! per segment, on lavapipe's serial queue thread). Without a soup the buffers
-//! hold about 67 bytes a triangle, against 72 for the soup alone.
+//! hold about 60 bytes a triangle of a tessellated sphere (24 a shared corner,
+//! 24 a lit one, 24 of indices), against 72 for the soup alone.
 
 use std::sync::Arc;
 
