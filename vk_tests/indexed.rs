@@ -44,7 +44,10 @@ fn same_frames(name: &str, algo: Algo, rounding: Option<RoundingEmulation>) {
     let (a, b) = (&s_on.exec.counts, &s_off.exec.counts);
     let what = format!("{name} {algo} {rounding:?}");
     assert!(a.draw_calls > 0, "{what}: no mesh draw: {a:?}");
-    assert_eq!(a.indexed_draw_calls, a.draw_calls, "{what}: a mesh draw was not indexed");
+    assert_eq!(
+        a.indexed_draw_calls, a.draw_calls,
+        "{what}: a mesh draw was not indexed"
+    );
     assert_eq!(b.indexed_draw_calls, 0, "{what}: switched off, yet indexed");
     assert_eq!(a.draw_calls, b.draw_calls, "{what}");
     assert_eq!(a.triangles, b.triangles, "{what}");
@@ -60,7 +63,13 @@ fn same_frames(name: &str, algo: Algo, rounding: Option<RoundingEmulation>) {
 #[test]
 fn indexed_draws_match_non_indexed_on_the_subtraction_scenes() {
     for name in ["drilled_block", "complex", "nonconvex_obj"] {
-        for algo in [Algo::Scs, Algo::Goldfeather, Algo::CstI, Algo::Blister, Algo::Trickle] {
+        for algo in [
+            Algo::Scs,
+            Algo::Goldfeather,
+            Algo::CstI,
+            Algo::Blister,
+            Algo::Trickle,
+        ] {
             same_frames(name, algo, None);
         }
     }

@@ -97,7 +97,10 @@ mod tests {
             })
             .collect();
         assert!(tries.iter().any(|&ms| ms > 1.0), "{tries:?} ms");
-        assert!(tries.iter().all(|&ms| ms < 30.0 * 64.0 + 1000.0), "{tries:?} ms");
+        assert!(
+            tries.iter().all(|&ms| ms < 30.0 * 64.0 + 1000.0),
+            "{tries:?} ms"
+        );
     }
 
     #[test]

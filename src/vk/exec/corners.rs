@@ -64,7 +64,9 @@ pub(super) fn layout(mesh: &Mesh) -> Layout {
         // triangle's own vertex also serves its neighbours there; else the
         // triangle's first.
         let next = lit.len() as u32;
-        let r = (0..3).find(|&k| !recent(&newest, tri[k], next)).unwrap_or(0);
+        let r = (0..3)
+            .find(|&k| !recent(&newest, tri[k], next))
+            .unwrap_or(0);
         let drawn = [tri[r], tri[(r + 1) % 3], tri[(r + 2) % 3]];
         triangles.push(drawn);
         let own = lit.len() as u32;
@@ -141,7 +143,10 @@ mod tests {
                 owners[*t as usize] += 1;
             }
         }
-        assert!(owners.iter().all(|&c| c == 1), "one own vertex per triangle");
+        assert!(
+            owners.iter().all(|&c| c == 1),
+            "one own vertex per triangle"
+        );
     }
 
     /// Reuse stays within the cache's window, and it pays: a sphere's lit
@@ -159,7 +164,11 @@ mod tests {
         let t = l.triangles.len();
         assert_eq!(l.shared.len(), mesh.positions.len());
         // 976 for its 960 triangles: nearly every corner is some triangle's own.
-        assert!(l.lit.len() < t + t / 10, "{} lit vertices for {t} triangles", l.lit.len());
+        assert!(
+            l.lit.len() < t + t / 10,
+            "{} lit vertices for {t} triangles",
+            l.lit.len()
+        );
     }
 
     /// A quad's two triangles: four shared corners; the second triangle's
@@ -175,7 +184,10 @@ mod tests {
         assert_eq!(l.triangles, vec![[0, 1, 2], [3, 0, 2]]);
         assert_eq!(l.shared, vec![0, 1, 2, 3]);
         assert_eq!(l.shared_index, vec![0, 1, 2, 3, 0, 2]);
-        assert_eq!(l.lit, vec![(0, Some(0)), (1, None), (2, None), (3, Some(1))]);
+        assert_eq!(
+            l.lit,
+            vec![(0, Some(0)), (1, None), (2, None), (3, Some(1))]
+        );
         assert_eq!(l.lit_index, vec![0, 1, 2, 3, 0, 2]);
     }
 }

@@ -166,30 +166,25 @@ impl GpuScene {
         }
         let lit_offset = indices.len() as u32;
         debug_assert_eq!(lit_offset, corners);
-        for ((((mesh, _), l), n), slot) in meshes.iter().zip(&layouts).zip(&normals).zip(&mut slots) {
+        for ((((mesh, _), l), n), slot) in meshes.iter().zip(&layouts).zip(&normals).zip(&mut slots)
+        {
             let first = (floats.len() / 6) as u32;
             floats.extend(lit_floats(mesh, l, n, origin));
             indices.extend(l.lit_index.iter().map(|i| first + i));
             slot[1] = (first, l.lit.len() as u32);
         }
-        let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_ne_bytes()).collect();
-        let mut index_buffer = Buffer::new(
+        let index_buffer = filled(
             shared,
             "indices",
-            index_bytes.len() as u64,
+            &ne_bytes(&indices, u32::to_ne_bytes),
             vk::BufferUsageFlags::INDEX_BUFFER,
-            MemoryLocation::CpuToGpu,
         )?;
-        index_buffer.mapped_mut()?.copy_from_slice(&index_bytes);
-        let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
-        let mut vertices = Buffer::new(
+        let vertices = filled(
             shared,
             "vertices",
-            bytes.len() as u64,
+            &ne_bytes(&floats, f32::to_ne_bytes),
             vk::BufferUsageFlags::VERTEX_BUFFER,
-            MemoryLocation::CpuToGpu,
         )?;
-        vertices.mapped_mut()?.copy_from_slice(&bytes);
         let refs: Vec<&crate::scene::Mesh> = meshes.iter().map(|(m, _)| *m).collect();
         let ties = TieGaps::new(&refs);
         // The solids' union (the opaque shade) and each solid (the layers).
@@ -218,6 +213,31 @@ impl GpuScene {
     }
 }
 
+/// A host-visible buffer holding `bytes` (lavapipe's device memory is host
+/// memory; a moved mesh is rewritten in place).
+fn filled(
+    shared: &Arc<Shared>,
+    name: &str,
+    bytes: &[u8],
+    usage: vk::BufferUsageFlags,
+) -> Result<Buffer, VkError> {
+    let mut buffer = Buffer::new(
+        shared,
+        name,
+        bytes.len() as u64,
+        usage,
+        MemoryLocation::CpuToGpu,
+    )?;
+    buffer.mapped_mut()?.copy_from_slice(bytes);
+    Ok(buffer)
+}
+
+/// The bytes of `values` as the device reads them (`f32::to_ne_bytes`,
+/// `u32::to_ne_bytes`).
+fn ne_bytes<T: Copy, const N: usize>(values: &[T], bytes: fn(T) -> [u8; N]) -> Vec<u8> {
+    values.iter().flat_map(|&v| bytes(v)).collect()
+}
+
 /// The full-screen quad's six vertices (position, then a normal no program
 /// reads), at vertex 0 of both vertex buffers.
 const QUAD: [f32; 36] = [
@@ -233,7 +253,8 @@ const QUAD: [f32; 36] = [
 /// vertex and the normal of its triangle's own lit vertex, read back from the
 /// mapped buffers (so bit for bit what the indexed draws see), after the quad.
 fn soup_from(vertices: &[u8], indices: &[u8], lit_offset: u32) -> Vec<f32> {
-    let index = |k: usize| u32::from_ne_bytes(indices[k * 4..k * 4 + 4].try_into().unwrap()) as usize;
+    let index =
+        |k: usize| u32::from_ne_bytes(indices[k * 4..k * 4 + 4].try_into().unwrap()) as usize;
     let float = |v: usize, c: usize| {
         let at = v * 24 + c * 4;
         f32::from_ne_bytes(vertices[at..at + 4].try_into().unwrap())
@@ -270,7 +291,12 @@ fn position(mesh: &crate::scene::Mesh, i: u32, origin: DVec3) -> [f32; 3] {
 
 /// The soup: three vertices a triangle, in the drawn corner order, each with
 /// the face normal.
-fn soup_floats(mesh: &crate::scene::Mesh, l: &Layout, normals: &[[f32; 3]], origin: DVec3) -> Vec<f32> {
+fn soup_floats(
+    mesh: &crate::scene::Mesh,
+    l: &Layout,
+    normals: &[[f32; 3]],
+    origin: DVec3,
+) -> Vec<f32> {
     let mut floats = Vec::with_capacity(l.triangles.len() * 18);
     for (t, n) in l.triangles.iter().zip(normals) {
         for &i in t {
@@ -294,7 +320,12 @@ fn shared_floats(mesh: &crate::scene::Mesh, l: &Layout, origin: DVec3) -> Vec<f3
 
 /// The lit corners: each triangle's own vertex with its face normal; the
 /// corners that are no triangle's own with none (never read).
-fn lit_floats(mesh: &crate::scene::Mesh, l: &Layout, normals: &[[f32; 3]], origin: DVec3) -> Vec<f32> {
+fn lit_floats(
+    mesh: &crate::scene::Mesh,
+    l: &Layout,
+    normals: &[[f32; 3]],
+    origin: DVec3,
+) -> Vec<f32> {
     let mut floats = Vec::with_capacity(l.lit.len() * 6);
     for &(i, owner) in &l.lit {
         floats.extend(position(mesh, i, origin));
@@ -320,17 +351,18 @@ impl GpuScene {
         if self.soup.is_some() {
             return Ok(());
         }
-        let floats = soup_from(self.vertices.mapped()?, self.indices.mapped()?, self.lit_offset);
-        let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
-        let mut soup = Buffer::new(
+        let floats = soup_from(
+            self.vertices.mapped()?,
+            self.indices.mapped()?,
+            self.lit_offset,
+        );
+        let usage = vk::BufferUsageFlags::VERTEX_BUFFER;
+        self.soup = Some(filled(
             shared,
             "soup",
-            bytes.len() as u64,
-            vk::BufferUsageFlags::VERTEX_BUFFER,
-            MemoryLocation::CpuToGpu,
-        )?;
-        soup.mapped_mut()?.copy_from_slice(&bytes);
-        self.soup = Some(soup);
+            &ne_bytes(&floats, f32::to_ne_bytes),
+            usage,
+        )?);
         Ok(())
     }
 }
@@ -364,22 +396,38 @@ impl GpuScene {
         }
         let normals = face_normals(mesh);
         let origin = scene.origin;
-        let write = |buffer: &mut Buffer, at_vertex: u32, floats: Vec<f32>| -> Result<(), VkError> {
-            let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_ne_bytes()).collect();
-            let at = at_vertex as usize * 24;
-            buffer.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
-            Ok(())
-        };
-        write(&mut scene.vertices, shared_first, shared_floats(mesh, &l, origin))?;
-        write(&mut scene.vertices, lit_first, lit_floats(mesh, &l, &normals, origin))?;
+        let write =
+            |buffer: &mut Buffer, at_vertex: u32, floats: Vec<f32>| -> Result<(), VkError> {
+                let bytes = ne_bytes(&floats, f32::to_ne_bytes);
+                let at = at_vertex as usize * 24;
+                buffer.mapped_mut()?[at..at + bytes.len()].copy_from_slice(&bytes);
+                Ok(())
+            };
+        write(
+            &mut scene.vertices,
+            shared_first,
+            shared_floats(mesh, &l, origin),
+        )?;
+        write(
+            &mut scene.vertices,
+            lit_first,
+            lit_floats(mesh, &l, &normals, origin),
+        )?;
         if let Some(soup) = &mut scene.soup {
-            write(soup, SOUP_FIRST + first, soup_floats(mesh, &l, &normals, origin))?;
+            write(
+                soup,
+                SOUP_FIRST + first,
+                soup_floats(mesh, &l, &normals, origin),
+            )?;
         }
         // The indices too: triangles of the same count and layout sizes may
         // still be other triangles.
         let shared_index = l.shared_index.iter().map(|k| shared_first + k);
         let lit_index = l.lit_index.iter().map(|k| lit_first + k);
-        let bytes: Vec<u8> = shared_index.chain(lit_index).flat_map(|i| i.to_ne_bytes()).collect();
+        let bytes = ne_bytes(
+            &shared_index.chain(lit_index).collect::<Vec<u32>>(),
+            u32::to_ne_bytes,
+        );
         let (half, n) = (bytes.len() / 2, first as usize * 4);
         let lit_at = (scene.lit_offset + first) as usize * 4;
         let mapped = scene.indices.mapped_mut()?;
@@ -421,8 +469,8 @@ mod tests {
             .map(|k| shared_first + k)
             .chain(l.lit_index.iter().map(|k| lit_first + k))
             .collect();
-        let bytes = |f: &[f32]| f.iter().flat_map(|x| x.to_ne_bytes()).collect::<Vec<u8>>();
-        let index_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_ne_bytes()).collect();
+        let bytes = |f: &[f32]| ne_bytes(f, f32::to_ne_bytes);
+        let index_bytes = ne_bytes(&indices, u32::to_ne_bytes);
         let corners = l.shared_index.len() as u32;
         let soup = soup_from(&bytes(&floats), &index_bytes, corners);
         let mut want = QUAD.to_vec();
@@ -431,7 +479,11 @@ mod tests {
         for k in 0..corners as usize {
             let at = |v: u32| &floats[v as usize * 6..v as usize * 6 + 3];
             let s = SOUP_FIRST as usize * 6 + k * 6;
-            assert_eq!(bytes(at(indices[k])), bytes(&soup[s..s + 3]), "shared corner {k}");
+            assert_eq!(
+                bytes(at(indices[k])),
+                bytes(&soup[s..s + 3]),
+                "shared corner {k}"
+            );
             let lit = indices[corners as usize + k];
             assert_eq!(bytes(at(lit)), bytes(&soup[s..s + 3]), "lit corner {k}");
         }
