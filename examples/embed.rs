@@ -59,6 +59,9 @@ pub struct Report {
     /// The last frame's depth-equal draws that wrote their own depth, with
     /// no depth merge before them.
     pub shade_written_draws: u64,
+    /// The last frame's depth-equal pieces drawn without the check of the
+    /// output depth outside their mesh's cutters (`plan::cut_away`).
+    pub shade_uncut_draws: u64,
     pub validation: Vec<String>,
 }
 
@@ -740,7 +743,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     );
     let mut counts = Vec::new();
     let mut paths = Vec::new();
-    let mut shade_draws = (0, 0, 0, 0);
+    let mut shade_draws = (0, 0, 0, 0, 0);
     for k in 0..setup.frames.max(1) {
         let slot = (k % inflight) as usize;
         let (cmd, fence) = (cmds[slot], fences[slot]);
@@ -815,6 +818,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
             stats.counts.shade_rule_draws,
             stats.counts.direct_shade_draws,
             stats.counts.shade_written_draws,
+            stats.counts.shade_uncut_draws,
         );
         // SAFETY: as above.
         unsafe {
@@ -856,6 +860,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         report.shade_rule_draws,
         report.direct_shade_draws,
         report.shade_written_draws,
+        report.shade_uncut_draws,
     ) = shade_draws;
     drop(csg);
     drop(ctx);
@@ -1297,8 +1302,8 @@ fn main() {
                     && r.floor_hides_csg > 0
                     && r.csg_hides_floor > 0;
                 println!(
-                    "{name}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; loop counts {:?} -> {:?}; depth-equal draws {} ({} writing their depth); {} validation messages",
-                    r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.first_counts, r.last_counts, r.shade_fixed_draws, r.shade_written_draws, r.validation.len()
+                    "{name}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; loop counts {:?} -> {:?}; depth-equal draws {} ({} writing their depth, {} outside their cutters with no check of the output depth); {} validation messages",
+                    r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.first_counts, r.last_counts, r.shade_fixed_draws, r.shade_written_draws, r.shade_uncut_draws, r.validation.len()
                 );
                 for m in &r.validation {
                     println!("  validation: {m}");

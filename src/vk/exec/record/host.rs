@@ -44,6 +44,7 @@
 use ash::vk;
 
 use super::Recorder;
+use crate::plan::cut_away::{self, CutAway};
 use crate::plan::direct_shade::DirectShades;
 use crate::plan::tie_zones;
 use crate::plan::usage::{Resource, Usage};
@@ -56,7 +57,7 @@ use crate::vk::submit;
 
 /// The host's side of a direct final pass.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct HostShade {
+pub(crate) struct HostShade<'a> {
     /// The host's colour attachment view and format (in `COLOR_ATTACHMENT_OPTIMAL`).
     pub color: (vk::ImageView, vk::Format),
     /// The host's depth attachment view and format (in
@@ -68,6 +69,10 @@ pub(crate) struct HostShade {
     /// availability, room for every counted draw), before the pass's barrier
     /// makes them visible to the host.
     pub counts: Option<vk::Buffer>,
+    /// Per mesh, the cutters outside whose screen rectangles none of its
+    /// faces lies nearer than the output depth (`plan::cut_away`): its
+    /// depth-equal piece is drawn there without the fetch.
+    pub cut_away: &'a CutAway,
 }
 
 /// How many steps at the end of `plan` are its final depth-equal shade as the
@@ -293,6 +298,25 @@ enum Piece {
     /// face, whose piece passes wherever the CSG is in front of the host and
     /// overwrites it, drawn before or after; ties keep the plan's order.
     WrittenDirect,
+    /// Depth-`EQUAL` against the merged depth with no fetch (`ShadeHost`),
+    /// as `Direct`: the part of an `AtDepth` piece outside the screen
+    /// rectangles of the cutters of a product in which its mesh is the only
+    /// positive literal (`plan::cut_away`), where none of its front faces
+    /// (its back faces culled) lies nearer than the output depth.
+    Uncut,
+    /// With no merge, an `Uncut` piece: drawn as `WrittenDirect`, for the
+    /// same reason.
+    WrittenUncut,
+}
+
+impl Piece {
+    /// Drawn with no fetch of the output depth (`ShadeHost`).
+    fn fetch_free(self) -> bool {
+        matches!(
+            self,
+            Piece::Direct | Piece::WrittenDirect | Piece::Uncut | Piece::WrittenUncut
+        )
+    }
 }
 
 /// One depth-equal piece of the final shade as [`writes_depth`] prices it.
@@ -302,8 +326,8 @@ pub(crate) struct Priced {
     pub rect: Rect,
     /// Its culling.
     pub cull: Cull,
-    /// A one-primitive product's piece (`Piece::Direct`), which fetches
-    /// nothing and is tested before its shader on either path.
+    /// A piece that fetches nothing (`Piece::Direct`, `Piece::Uncut`) and is
+    /// tested before its shader on either path.
     pub direct: bool,
 }
 
@@ -324,7 +348,9 @@ pub(crate) struct Priced {
 /// the solid's faces, which the plan's order (descending index) draws after
 /// them: two. A direct piece costs nothing on either side: written
 /// (`Piece::WrittenDirect`) or after the merge, its fragments are tested
-/// before a shader that fetches nothing, as in the standalone frame. One
+/// before a shader that fetches nothing, as in the standalone frame; nor
+/// does the part of a piece outside its mesh's cutters (`Piece::Uncut`,
+/// `Piece::WrittenUncut`), drawn the same way. One
 /// merge pixel costs as much as 4 such fragments (fitted on
 /// `examples/embed_ab`, SCS and Goldfeather, 800×800, with the direct pieces
 /// written: the pieces win on `complex` (3.5 fragments per merge pixel) and
@@ -445,6 +471,9 @@ impl Recorder<'_> {
                 )),
             }
         }
+        // The parts of depth-equal pieces outside their cutters, without
+        // the fetch (`plan::cut_away`).
+        let mut draws = self.split_uncut(draws, h.cut_away);
         // The merge, or each depth-equal piece writing its own depth: which
         // costs fewer shaded pixels (`writes_depth`).
         let equal: Vec<Priced> = draws
@@ -453,13 +482,14 @@ impl Recorder<'_> {
             .map(|(d, piece, r)| Priced {
                 rect: *r,
                 cull: d.cull,
-                direct: *piece == Piece::Direct,
+                direct: piece.fetch_free(),
             })
             .collect();
         if writes_depth(&equal) {
             for (_, piece, _) in draws.iter_mut() {
                 *piece = match *piece {
                     Piece::Direct => Piece::WrittenDirect,
+                    Piece::Uncut => Piece::WrittenUncut,
                     Piece::AtDepth => Piece::Written,
                     p => p,
                 };
@@ -510,7 +540,9 @@ impl Recorder<'_> {
             let (kind, set) = match piece {
                 Piece::Rule => (rule_kind, rule_tex.map(Resource::Texture)),
                 Piece::AtDepth => (equal_kind, equal_ds.map(Resource::DepthStencil)),
-                Piece::Direct | Piece::WrittenDirect => (direct_kind, None),
+                Piece::Direct | Piece::WrittenDirect | Piece::Uncut | Piece::WrittenUncut => {
+                    (direct_kind, None)
+                }
                 Piece::Written => (written_kind, equal_ds.map(Resource::DepthStencil)),
             };
             let set = set.map(|r| self.b.targets.sampling_set(r));
@@ -522,6 +554,53 @@ impl Recorder<'_> {
         unsafe { device.cmd_end_rendering(self.cmd) };
         self.rest_all();
         Ok(())
+    }
+
+    /// `draws` with each `AtDepth` piece drawn with its back faces culled,
+    /// of a mesh with cutter sets in `cut` (`plan::cut_away`: the only
+    /// positive literal of a product), split by the set that leaves it the
+    /// most pixels: `Uncut` outside the screen rectangles of the set's meshes,
+    /// where none of its front faces lies nearer than the output depth, and
+    /// `AtDepth` over them (`cut_away::split`; kept whole where nothing
+    /// would be free or the pieces would be too many). The pieces of one
+    /// mesh are disjoint, so their order among themselves does not matter;
+    /// they take the mesh's place in plan order.
+    fn split_uncut(
+        &self,
+        draws: Vec<(Draw, Piece, Rect)>,
+        cut: &CutAway,
+    ) -> Vec<(Draw, Piece, Rect)> {
+        if cut.is_empty() {
+            return draws;
+        }
+        let mut out = Vec::with_capacity(draws.len());
+        for (d, piece, rect) in draws {
+            let m = match (&d.geometry, piece, d.cull) {
+                (Geometry::Mesh(m), Piece::AtDepth, Cull::Back) => *m,
+                _ => {
+                    out.push((d, piece, rect));
+                    continue;
+                }
+            };
+            let triangles = self.b.scene.ranges[m as usize].1 as usize / 3;
+            let cap = cut_away::piece_cap(triangles);
+            let best = cut
+                .cutters(m)
+                .iter()
+                .filter_map(|set| {
+                    let holes: Vec<Rect> = set.iter().map(|&c| self.b.mesh_rects.one(c)).collect();
+                    cut_away::split(rect, &holes, cap)
+                })
+                .max_by_key(|(free, _)| free.iter().map(Rect::area).sum::<u64>());
+            match best {
+                Some((free, fetched)) => {
+                    out.extend(free.into_iter().map(|r| (d.clone(), Piece::Uncut, r)));
+                    out.extend(fetched.into_iter().map(|r| (d.clone(), Piece::AtDepth, r)));
+                }
+                None => out.push((d, piece, rect)),
+            }
+        }
+        out
     }
 
     /// The depth merge before the depth-equal draws: over their scissors, the
@@ -540,7 +619,7 @@ impl Recorder<'_> {
     ) -> Result<(), VkError> {
         let mut equal = draws
             .iter()
-            .filter(|(_, piece, _)| matches!(piece, Piece::AtDepth | Piece::Direct));
+            .filter(|(_, piece, _)| matches!(piece, Piece::AtDepth | Piece::Direct | Piece::Uncut));
         let rect = equal.clone().fold(Rect::EMPTY, |a, (_, _, r)| a.union(r));
         let Some((first, _, _)) = equal.next().filter(|_| !rect.is_empty()) else {
             return Ok(());
@@ -613,7 +692,11 @@ impl Recorder<'_> {
         // the depth-equal draws after a merge test the merged depth and write
         // none. No stencil; the culling of the standalone frame's draw.
         let rule = piece == Piece::Rule;
-        let depth = match matches!(piece, Piece::Rule | Piece::Written | Piece::WrittenDirect) {
+        let written = matches!(
+            piece,
+            Piece::Rule | Piece::Written | Piece::WrittenDirect | Piece::WrittenUncut
+        );
+        let depth = match written {
             true => DepthState {
                 compare: CompareOp::LessOrEqual,
                 write: true,
@@ -660,8 +743,18 @@ impl Recorder<'_> {
         }
         let direct = matches!(piece, Piece::Direct | Piece::WrittenDirect);
         c.direct_shade_draws += direct as u64;
-        let written = matches!(piece, Piece::Written | Piece::WrittenDirect);
+        let written = matches!(
+            piece,
+            Piece::Written | Piece::WrittenDirect | Piece::WrittenUncut
+        );
         c.shade_written_draws += written as u64;
+        if matches!(piece, Piece::Uncut | Piece::WrittenUncut) {
+            c.shade_uncut_draws += 1;
+            c.shade_uncut_pixels += scissor.area();
+        }
+        if piece == Piece::Written {
+            c.shade_written_fetch_pixels += scissor.area();
+        }
         c.shade_culled_draws += (draw.cull != Cull::None) as u64;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
