@@ -80,6 +80,11 @@ pub struct Counts {
     /// front of the host's (`Piece::Written`): the pixels that may run the
     /// fetch.
     pub shade_written_fetch_pixels: u64,
+    /// In an embedded frame: the draws (and their triangles) that splitting
+    /// pieces at their mesh's cutters added (`plan::cut_away`: a piece split
+    /// into `k` counts `k - 1`); the standalone frame has none of them.
+    pub shade_split_draws: u64,
+    pub shade_split_triangles: u64,
     /// Draws of the final shade (depth-equal or tie-rule) that cull the side
     /// of their mesh that is never visible (`plan::VisibleSides`): about half
     /// its faces.
@@ -242,6 +247,8 @@ impl ExecStats {
         c.shade_uncut_draws += o.shade_uncut_draws;
         c.shade_uncut_pixels += o.shade_uncut_pixels;
         c.shade_written_fetch_pixels += o.shade_written_fetch_pixels;
+        c.shade_split_draws += o.shade_split_draws;
+        c.shade_split_triangles += o.shade_split_triangles;
         c.shade_rule_draws += o.shade_rule_draws;
         c.shade_rule_pixels += o.shade_rule_pixels;
         c.barriers += o.barriers;

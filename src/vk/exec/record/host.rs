@@ -566,7 +566,7 @@ impl Recorder<'_> {
     /// mesh are disjoint, so their order among themselves does not matter;
     /// they take the mesh's place in plan order.
     fn split_uncut(
-        &self,
+        &mut self,
         draws: Vec<(Draw, Piece, Rect)>,
         cut: &CutAway,
     ) -> Vec<(Draw, Piece, Rect)> {
@@ -594,6 +594,9 @@ impl Recorder<'_> {
                 .max_by_key(|(free, _)| free.iter().map(Rect::area).sum::<u64>());
             match best {
                 Some((free, fetched)) => {
+                    let extra = (free.len() + fetched.len()) as u64 - 1;
+                    self.stats.counts.shade_split_draws += extra;
+                    self.stats.counts.shade_split_triangles += extra * triangles as u64;
                     out.extend(free.into_iter().map(|r| (d.clone(), Piece::Uncut, r)));
                     out.extend(fetched.into_iter().map(|r| (d.clone(), Piece::AtDepth, r)));
                 }
