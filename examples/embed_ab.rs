@@ -44,7 +44,8 @@ fn main() {
         let mut csg = CsgScene::from_scene(ctx, scene, &edesc).expect("embedded scene");
         if std::env::var("EMBED_AB_UNCUT").as_deref() == Ok("off") {
             // The camera does not move here, so nothing sets them again.
-            csg.recorder().set_cut_away(peeltrim::plan::cut_away::CutAway::none());
+            csg.recorder()
+                .set_cut_away(peeltrim::plan::cut_away::CutAway::none());
         }
         let mut host = OffscreenHost::new(ctx, edesc.extent).expect("host");
         let far = if desc.reversed_z { 0.0 } else { 1.0 };

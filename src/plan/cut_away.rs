@@ -19,11 +19,14 @@
 //! `A`, so at `A`'s first entry point the ray enters `P ⊆ S`; if the ray
 //! starts outside `S` (below), `S`'s first entry, the output depth `D(p)`, is
 //! at or in front of it, so *every* point of `A` on the ray lies at or behind
-//! `D(p)` (all of them lie at or behind `A`'s first entry). Points of `C_i` on
-//! rays beyond the near plane project inside `C_i`'s screen rectangle
-//! (`vk::scissor::bounds_rect` clips the box to the near plane as the GPU
-//! clips the triangles, with a pixel of margin), so `p` outside the union of
-//! the `C_i`'s rectangles suffices. It needs one such product only: `A` may
+//! `D(p)` (all of them lie at or behind `A`'s first entry). Where the ray does
+//! meet a `C_i`, a point of `A`'s boundary inside `C_i` lies in both their
+//! world boxes ([`meeting`]), and points of that box on rays beyond the near
+//! plane project inside its screen rectangle (`vk::scissor::bounds_rect`
+//! clips the box to the near plane as the GPU clips the triangles, with a
+//! pixel of margin); so a front face of `A` nearer than `D(p)` lies inside
+//! the union of those rectangles, and outside it none does. (A through-hole
+//! that sticks out of the block is cut to the block's box.) It needs one such product only: `A` may
 //! also be a literal of other products, positive or negated; a product with
 //! several positive literals gives no region (a face of `A` may lie outside
 //! another positive `B` anywhere on screen), and a mesh with no one-positive
@@ -72,14 +75,14 @@ use super::goldfeather::{self, Lit, DEFAULT_PRODUCT_LIMIT};
 use super::rect::Rect;
 use super::step::MeshId;
 use super::{tie_zones, Algo, Prepared};
-use crate::scene::Scene;
+use crate::scene::{Aabb, Scene};
 
 /// The most cutter sets kept per mesh (one per one-positive product; the
 /// executor takes the one that leaves the most pixels free each frame).
 pub const MAX_SETS: usize = 8;
 
 /// The most pieces (free and fetching) one mesh's piece is split into.
-pub const MAX_PIECES: usize = 24;
+pub const MAX_PIECES: usize = 48;
 
 /// The most triangles the split pieces of one mesh may draw in all: each
 /// piece draws the whole mesh under its scissor, so a large mesh gets fewer
@@ -146,8 +149,7 @@ impl CutAway {
             let Some(sets) = by_mesh.get_mut(a.prim as usize) else {
                 continue;
             };
-            let mut cutters: Vec<MeshId> =
-                p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
+            let mut cutters: Vec<MeshId> = p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
             cutters.sort_unstable();
             cutters.dedup();
             if !sets.contains(&cutters) {
@@ -172,6 +174,13 @@ impl CutAway {
     }
 }
 
+/// The world box holding every point of mesh box `a` inside cutter box `c`:
+/// their intersection, `None` where they do not meet.
+pub fn meeting(a: &Aabb, c: &Aabb) -> Option<Aabb> {
+    let (min, max) = (a.min.max(c.min), a.max.min(c.max));
+    (min.cmple(max).all()).then_some(Aabb { min, max })
+}
+
 /// The most pieces a mesh of `triangles` triangles is split into: at most
 /// [`MAX_PIECES`] and [`MAX_PIECE_TRIANGLES`] triangles drawn in all.
 pub fn piece_cap(triangles: usize) -> usize {
@@ -180,10 +189,11 @@ pub fn piece_cap(triangles: usize) -> usize {
 
 /// `outer` split into `(free, fetched)`: disjoint rectangles, together exactly
 /// `outer`'s pixels, the fetched ones covering every pixel of `outer` inside a
-/// rectangle of `holes`, at most `cap` in all. The holes are merged
-/// (`tie_zones::merge`: overlapping ones into their bounds, then the pair
-/// that adds the least area) until the pieces fit; growing a hole only moves
-/// pixels from free to fetched, which is always safe. `None` when no free
+/// rectangle of `holes`, at most `cap` in all: the exact union of the holes
+/// where that fits, else the holes merged (`tie_zones::merge`: overlapping
+/// ones into their bounds, then the pair that adds the least area) until the
+/// pieces fit; growing a hole only moves pixels from free to fetched, which
+/// is always safe. `None` when no free
 /// pixel is left or even one merged hole needs more than `cap` pieces (the
 /// piece stays whole and fetching).
 pub fn split(outer: Rect, holes: &[Rect], cap: usize) -> Option<(Vec<Rect>, Vec<Rect>)> {
@@ -197,6 +207,17 @@ pub fn split(outer: Rect, holes: &[Rect], cap: usize) -> Option<(Vec<Rect>, Vec<
         .collect();
     if holes.is_empty() {
         return (cap >= 1).then(|| (vec![outer], Vec::new()));
+    }
+    // The exact union first (`subtract` takes overlapping holes as they
+    // are; merging overlapping ones into their bounds first can swallow the
+    // whole rectangle), then ever fewer merged holes.
+    let free = tie_zones::subtract(outer, &holes);
+    if free.is_empty() {
+        return None;
+    }
+    let fetched = tie_zones::subtract(outer, &free);
+    if free.len() + fetched.len() <= cap {
+        return Some((free, fetched));
     }
     for max in (1..=holes.len()).rev() {
         let fetched = tie_zones::merge(holes.clone(), max);
@@ -308,9 +329,14 @@ mod tests {
         let (free, fetched) = split(outer, &holes, MAX_PIECES).unwrap();
         check(outer, &holes, &free, &fetched);
         assert_eq!(fetched, vec![r(10, 10, 30, 30)]);
-        // Overlapping holes fetch their bounds (disjoint pieces).
+        // Overlapping holes fetch their exact union (disjoint pieces).
         let holes = [r(20, 20, 30, 30), r(25, 25, 35, 35)];
         let (free, fetched) = split(outer, &holes, MAX_PIECES).unwrap();
+        check(outer, &holes, &free, &fetched);
+        let area = |v: &[Rect]| v.iter().map(Rect::area).sum::<u64>();
+        assert_eq!(area(&fetched), 100 + 100 - 25);
+        // Too many pieces for the cap: merged into their bounds.
+        let (free, fetched) = split(outer, &holes, 5).unwrap();
         check(outer, &holes, &free, &fetched);
         assert_eq!(fetched, vec![r(20, 20, 35, 35)]);
         // Holes covering everything: nothing free, the piece stays whole.
@@ -323,11 +349,16 @@ mod tests {
         // Twelve holes in a 4 × 3 grid (drilled_block's pattern).
         let outer = r(0, 0, 200, 150);
         let holes: Vec<Rect> = (0..4)
-            .flat_map(|i| (0..3).map(move |j| r(20 + 45 * i, 20 + 45 * j, 45 + 45 * i, 45 + 45 * j)))
+            .flat_map(|i| {
+                (0..3).map(move |j| r(20 + 45 * i, 20 + 45 * j, 45 + 45 * i, 45 + 45 * j))
+            })
             .collect();
         for cap in [MAX_PIECES, 12, 5] {
             let (free, fetched) = split(outer, &holes, cap).unwrap();
-            assert!(free.len() + fetched.len() <= cap, "{cap}: {free:?} {fetched:?}");
+            assert!(
+                free.len() + fetched.len() <= cap,
+                "{cap}: {free:?} {fetched:?}"
+            );
             check(outer, &holes, &free, &fetched);
             let area: u64 = free.iter().map(Rect::area).sum();
             assert!(area > 0);
@@ -336,10 +367,39 @@ mod tests {
         assert_eq!(split(outer, &holes, 1), None);
         // More pieces allowed: more pixels free.
         let free_area = |cap| -> u64 {
-            split(outer, &holes, cap).unwrap().0.iter().map(Rect::area).sum()
+            split(outer, &holes, cap)
+                .unwrap()
+                .0
+                .iter()
+                .map(Rect::area)
+                .sum()
         };
         assert!(free_area(5) <= free_area(12) && free_area(12) <= free_area(64));
         assert_eq!(free_area(200), outer.area() - 12 * 25 * 25);
+    }
+
+    #[test]
+    fn a_cutter_counts_only_where_it_meets_the_mesh_box() {
+        use glam::DVec3;
+        let b = |min: [f64; 3], max: [f64; 3]| Aabb {
+            min: DVec3::from(min),
+            max: DVec3::from(max),
+        };
+        // A hole through a block, sticking out above and below it.
+        let block = b([0.0, 0.0, 0.0], [4.0, 1.0, 4.0]);
+        let hole = b([1.0, -1.0, 1.0], [2.0, 2.0, 2.0]);
+        assert_eq!(
+            meeting(&block, &hole),
+            Some(b([1.0, 0.0, 1.0], [2.0, 1.0, 2.0]))
+        );
+        assert_eq!(meeting(&hole, &block), meeting(&block, &hole));
+        // Touching boxes meet in a face; apart, not at all.
+        let touching = b([4.0, 0.0, 0.0], [5.0, 1.0, 1.0]);
+        assert_eq!(
+            meeting(&block, &touching),
+            Some(b([4.0, 0.0, 0.0], [4.0, 1.0, 1.0]))
+        );
+        assert_eq!(meeting(&block, &b([5.0, 0.0, 0.0], [6.0, 1.0, 1.0])), None);
     }
 
     #[test]

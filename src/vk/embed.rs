@@ -36,8 +36,8 @@ use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::submit;
 use super::sync::{self, REST};
-use crate::plan::usage::Usage;
 use crate::plan::cut_away::CutAway;
+use crate::plan::usage::Usage;
 use crate::plan::Plan;
 
 /// The host's attachments for one frame. Both are views of 2D images of

@@ -48,11 +48,13 @@ use crate::plan::cut_away::{self, CutAway};
 use crate::plan::direct_shade::DirectShades;
 use crate::plan::tie_zones;
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::{CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, Plan, Step, Tex};
+use crate::plan::{
+    CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Plan, Step, Tex,
+};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
-use crate::vk::scissor::Rect;
+use crate::vk::scissor::{bounds_rect, Rect};
 use crate::vk::submit;
 
 /// The host's side of a direct final pass.
@@ -582,13 +584,28 @@ impl Recorder<'_> {
                     continue;
                 }
             };
-            let triangles = self.b.scene.ranges[m as usize].1 as usize / 3;
+            let scene = self.b.scene;
+            let triangles = scene.ranges[m as usize].1 as usize / 3;
             let cap = cut_away::piece_cap(triangles);
+            let (w, h) = (self.b.desc.width, self.b.desc.height);
+            // Where a cutter can hold a face of the mesh: the screen
+            // rectangle of the two world boxes' intersection.
+            let hole = |c: MeshId| {
+                let b = cut_away::meeting(&scene.bounds[m as usize], &scene.bounds[c as usize])?;
+                Some(bounds_rect(
+                    scene.cam.view,
+                    scene.cam.proj,
+                    scene.camera.near,
+                    &[b],
+                    w,
+                    h,
+                ))
+            };
             let best = cut
                 .cutters(m)
                 .iter()
                 .filter_map(|set| {
-                    let holes: Vec<Rect> = set.iter().map(|&c| self.b.mesh_rects.one(c)).collect();
+                    let holes: Vec<Rect> = set.iter().filter_map(|&c| hole(c)).collect();
                     cut_away::split(rect, &holes, cap)
                 })
                 .max_by_key(|(free, _)| free.iter().map(Rect::area).sum::<u64>());
