@@ -1318,9 +1318,10 @@ pub fn setups() -> Vec<(String, Setup)> {
                 "R8G8B8A8_UNORM+D32_SFLOAT {} z, 1 in flight, drilled",
                 if reversed_z { "reversed" } else { "standard" }
             );
+            // Large enough that a free piece pays for its draw.
             let setup = Setup {
                 drilled: true,
-                ..Setup::new([160, 120], reversed_z)
+                ..Setup::new([480, 360], reversed_z)
             };
             (name, setup)
         }))

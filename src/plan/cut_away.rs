@@ -84,6 +84,14 @@ pub const MAX_SETS: usize = 8;
 /// The most pieces (free and fetching) one mesh's piece is split into.
 pub const MAX_PIECES: usize = 48;
 
+/// What one more draw of a piece costs, in pixels of the fetch it saves: a
+/// split is taken only where its free pixels exceed this per added draw.
+/// Rough, from two A/B runs of `examples/embed_ab` (SCS, 800×800, lavapipe,
+/// 2 threads): `interference`'s block, 4 added draws for 0.26 Mpx free, saved
+/// about 2 ms; `drilled_block`'s, 44 added draws for 0.22 Mpx, saved nothing
+/// measurable: about 40 µs a draw, 5,000 pixels.
+pub const PIECE_PIXELS: u64 = 4096;
+
 /// The most triangles the split pieces of one mesh may draw in all: each
 /// piece draws the whole mesh under its scissor, so a large mesh gets fewer
 /// pieces (a guess, not fitted: the bench's split meshes are boxes).
@@ -189,15 +197,20 @@ pub fn piece_cap(triangles: usize) -> usize {
 
 /// `outer` split into `(free, fetched)`: disjoint rectangles, together exactly
 /// `outer`'s pixels, the fetched ones covering every pixel of `outer` inside a
-/// rectangle of `holes`, at most `cap` in all: the exact union of the holes
-/// where that fits, else the holes merged (`tie_zones::merge`: overlapping
-/// ones into their bounds, then the pair that adds the least area) until the
-/// pieces fit; growing a hole only moves pixels from free to fetched, which
-/// is always safe. `None` when no free
-/// pixel is left or even one merged hole needs more than `cap` pieces (the
-/// piece stays whole and fetching).
-pub fn split(outer: Rect, holes: &[Rect], cap: usize) -> Option<(Vec<Rect>, Vec<Rect>)> {
-    if outer.is_empty() {
+/// rectangle of `holes`, at most `cap` in all. Of the exact union of the
+/// holes and the holes merged to ever fewer (`tie_zones::merge`: overlapping
+/// ones into their bounds, then the pair that adds the least area; growing a
+/// hole only moves pixels from free to fetched, which is always safe), the
+/// split whose free pixels less `piece_pixels` per added draw are the most.
+/// `None` where no split saves anything (the piece stays whole and
+/// fetching).
+pub fn split(
+    outer: Rect,
+    holes: &[Rect],
+    cap: usize,
+    piece_pixels: u64,
+) -> Option<(Vec<Rect>, Vec<Rect>)> {
+    if outer.is_empty() || cap == 0 {
         return None;
     }
     let holes: Vec<Rect> = holes
@@ -206,31 +219,41 @@ pub fn split(outer: Rect, holes: &[Rect], cap: usize) -> Option<(Vec<Rect>, Vec<
         .filter(|h| !h.is_empty())
         .collect();
     if holes.is_empty() {
-        return (cap >= 1).then(|| (vec![outer], Vec::new()));
+        return Some((vec![outer], Vec::new()));
     }
-    // The exact union first (`subtract` takes overlapping holes as they
-    // are; merging overlapping ones into their bounds first can swallow the
-    // whole rectangle), then ever fewer merged holes.
+    // What a split saves: its free pixels, less `piece_pixels` for each
+    // draw it adds.
+    let score = |free: &[Rect], fetched: &[Rect]| -> i64 {
+        let area: u64 = free.iter().map(Rect::area).sum();
+        area as i64 - ((free.len() + fetched.len()) as i64 - 1) * piece_pixels as i64
+    };
+    let mut best: Option<(i64, Vec<Rect>, Vec<Rect>)> = None;
+    let mut consider = |free: Vec<Rect>, fetched: Vec<Rect>| {
+        let s = score(&free, &fetched);
+        if free.len() + fetched.len() <= cap && s > 0 && best.as_ref().is_none_or(|b| s > b.0) {
+            best = Some((s, free, fetched));
+        }
+    };
+    // The exact union (`subtract` takes overlapping holes as they are;
+    // merging overlapping ones into their bounds first can swallow the
+    // whole rectangle), then ever fewer merged holes: fewer pieces, fewer
+    // free pixels.
     let free = tie_zones::subtract(outer, &holes);
     if free.is_empty() {
         return None;
     }
     let fetched = tie_zones::subtract(outer, &free);
-    if free.len() + fetched.len() <= cap {
-        return Some((free, fetched));
-    }
+    consider(free, fetched);
     for max in (1..=holes.len()).rev() {
         let fetched = tie_zones::merge(holes.clone(), max);
         let free = tie_zones::subtract(outer, &fetched);
         if free.is_empty() {
-            // Merging only grows the holes: no free pixel at a lower count.
-            return None;
+            // Each lower count merges further: no free pixel left there.
+            break;
         }
-        if free.len() + fetched.len() <= cap {
-            return Some((free, fetched));
-        }
+        consider(free, fetched);
     }
-    None
+    best.map(|(_, free, fetched)| (free, fetched))
 }
 
 #[cfg(test)]
@@ -316,32 +339,40 @@ mod tests {
         let outer = r(10, 10, 60, 50);
         // No hole on it: one free piece.
         assert_eq!(
-            split(outer, &[r(0, 0, 5, 5)], 4),
+            split(outer, &[r(0, 0, 5, 5)], 4, 0),
             Some((vec![outer], vec![]))
         );
         // One hole inside: four free bands around it, the hole fetched.
         let holes = [r(20, 20, 30, 30)];
-        let (free, fetched) = split(outer, &holes, MAX_PIECES).unwrap();
+        let (free, fetched) = split(outer, &holes, MAX_PIECES, 0).unwrap();
         check(outer, &holes, &free, &fetched);
         assert_eq!((free.len(), fetched), (4, vec![r(20, 20, 30, 30)]));
         // A hole reaching past the edge is clipped to it.
         let holes = [r(0, 0, 30, 30)];
-        let (free, fetched) = split(outer, &holes, MAX_PIECES).unwrap();
+        let (free, fetched) = split(outer, &holes, MAX_PIECES, 0).unwrap();
         check(outer, &holes, &free, &fetched);
         assert_eq!(fetched, vec![r(10, 10, 30, 30)]);
         // Overlapping holes fetch their exact union (disjoint pieces).
         let holes = [r(20, 20, 30, 30), r(25, 25, 35, 35)];
-        let (free, fetched) = split(outer, &holes, MAX_PIECES).unwrap();
+        let (free, fetched) = split(outer, &holes, MAX_PIECES, 0).unwrap();
         check(outer, &holes, &free, &fetched);
         let area = |v: &[Rect]| v.iter().map(Rect::area).sum::<u64>();
         assert_eq!(area(&fetched), 100 + 100 - 25);
         // Too many pieces for the cap: merged into their bounds.
-        let (free, fetched) = split(outer, &holes, 5).unwrap();
+        let (free, fetched) = split(outer, &holes, 5, 0).unwrap();
         check(outer, &holes, &free, &fetched);
         assert_eq!(fetched, vec![r(20, 20, 35, 35)]);
         // Holes covering everything: nothing free, the piece stays whole.
-        assert_eq!(split(outer, &[r(0, 0, 100, 100)], MAX_PIECES), None);
-        assert_eq!(split(Rect::EMPTY, &[], MAX_PIECES), None);
+        assert_eq!(split(outer, &[r(0, 0, 100, 100)], MAX_PIECES, 0), None);
+        assert_eq!(split(Rect::EMPTY, &[], MAX_PIECES, 0), None);
+        // A split whose free pixels do not pay for its added draws: none.
+        let holes = [r(11, 11, 59, 49)];
+        assert!(split(outer, &holes, MAX_PIECES, 0).is_some());
+        assert_eq!(split(outer, &holes, MAX_PIECES, PIECE_PIXELS), None);
+        // One that does, with the draws it adds priced.
+        let holes = [r(10, 10, 20, 20)];
+        let (free, fetched) = split(r(0, 0, 200, 200), &holes, MAX_PIECES, PIECE_PIXELS).unwrap();
+        assert_eq!((free.len(), fetched), (4, holes.to_vec()));
     }
 
     #[test]
@@ -354,7 +385,7 @@ mod tests {
             })
             .collect();
         for cap in [MAX_PIECES, 12, 5] {
-            let (free, fetched) = split(outer, &holes, cap).unwrap();
+            let (free, fetched) = split(outer, &holes, cap, 0).unwrap();
             assert!(
                 free.len() + fetched.len() <= cap,
                 "{cap}: {free:?} {fetched:?}"
@@ -364,10 +395,10 @@ mod tests {
             assert!(area > 0);
         }
         // One piece only: no split (a free and a fetched piece at least).
-        assert_eq!(split(outer, &holes, 1), None);
+        assert_eq!(split(outer, &holes, 1, 0), None);
         // More pieces allowed: more pixels free.
         let free_area = |cap| -> u64 {
-            split(outer, &holes, cap)
+            split(outer, &holes, cap, 0)
                 .unwrap()
                 .0
                 .iter()

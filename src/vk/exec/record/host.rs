@@ -300,14 +300,13 @@ enum Piece {
     /// face, whose piece passes wherever the CSG is in front of the host and
     /// overwrites it, drawn before or after; ties keep the plan's order.
     WrittenDirect,
-    /// Depth-`EQUAL` against the merged depth with no fetch (`ShadeHost`),
-    /// as `Direct`: the part of an `AtDepth` piece outside the screen
-    /// rectangles of the cutters of a product in which its mesh is the only
-    /// positive literal (`plan::cut_away`), where none of its front faces
-    /// (its back faces culled) lies nearer than the output depth.
-    Uncut,
-    /// With no merge, an `Uncut` piece: drawn as `WrittenDirect`, for the
-    /// same reason.
+    /// With no merge, drawn as `WrittenDirect`: the part of a depth-equal
+    /// piece outside the screen rectangles of the cutters of a product in
+    /// which its mesh is the only positive literal (`plan::cut_away`), where
+    /// none of its front faces (its back faces culled) lies nearer than the
+    /// output depth. Only with no merge: after one, the fetch runs on the
+    /// visible fragments alone, and the draws a split adds cost more than
+    /// that (`complex`, `examples/embed_ab`).
     WrittenUncut,
 }
 
@@ -316,7 +315,7 @@ impl Piece {
     fn fetch_free(self) -> bool {
         matches!(
             self,
-            Piece::Direct | Piece::WrittenDirect | Piece::Uncut | Piece::WrittenUncut
+            Piece::Direct | Piece::WrittenDirect | Piece::WrittenUncut
         )
     }
 }
@@ -328,8 +327,8 @@ pub(crate) struct Priced {
     pub rect: Rect,
     /// Its culling.
     pub cull: Cull,
-    /// A piece that fetches nothing (`Piece::Direct`, `Piece::Uncut`) and is
-    /// tested before its shader on either path.
+    /// A piece that fetches nothing (`Piece::Direct`, `Piece::WrittenUncut`)
+    /// and is tested before its shader.
     pub direct: bool,
 }
 
@@ -351,8 +350,8 @@ pub(crate) struct Priced {
 /// them: two. A direct piece costs nothing on either side: written
 /// (`Piece::WrittenDirect`) or after the merge, its fragments are tested
 /// before a shader that fetches nothing, as in the standalone frame; nor
-/// does the part of a piece outside its mesh's cutters (`Piece::Uncut`,
-/// `Piece::WrittenUncut`), drawn the same way. One
+/// does the part of a piece outside its mesh's cutters
+/// (`Piece::WrittenUncut`), drawn the same way. One
 /// merge pixel costs as much as 4 such fragments (fitted on
 /// `examples/embed_ab`, SCS and Goldfeather, 800×800, with the direct pieces
 /// written: the pieces win on `complex` (3.5 fragments per merge pixel) and
@@ -473,25 +472,33 @@ impl Recorder<'_> {
                 )),
             }
         }
-        // The parts of depth-equal pieces outside their cutters, without
-        // the fetch (`plan::cut_away`).
-        let mut draws = self.split_uncut(draws, h.cut_away);
         // The merge, or each depth-equal piece writing its own depth: which
-        // costs fewer shaded pixels (`writes_depth`).
-        let equal: Vec<Priced> = draws
-            .iter()
-            .filter(|(_, piece, _)| *piece != Piece::Rule)
-            .map(|(d, piece, r)| Priced {
-                rect: *r,
-                cull: d.cull,
-                direct: piece.fetch_free(),
-            })
-            .collect();
-        if writes_depth(&equal) {
+        // costs fewer shaded pixels (`writes_depth`); written, the parts of
+        // depth-equal pieces outside their cutters skip the fetch
+        // (`plan::cut_away`), taken where they tip the choice too.
+        let priced = |draws: &[(Draw, Piece, Rect)]| -> Vec<Priced> {
+            draws
+                .iter()
+                .filter(|(_, piece, _)| *piece != Piece::Rule)
+                .map(|(d, piece, r)| Priced {
+                    rect: *r,
+                    cull: d.cull,
+                    direct: piece.fetch_free(),
+                })
+                .collect()
+        };
+        let mut draws = match self.split_uncut(&draws, h.cut_away) {
+            Some((split, extra, triangles)) if writes_depth(&priced(&split)) => {
+                self.stats.counts.shade_split_draws += extra;
+                self.stats.counts.shade_split_triangles += triangles;
+                split
+            }
+            _ => draws,
+        };
+        if writes_depth(&priced(&draws)) {
             for (_, piece, _) in draws.iter_mut() {
                 *piece = match *piece {
                     Piece::Direct => Piece::WrittenDirect,
-                    Piece::Uncut => Piece::WrittenUncut,
                     Piece::AtDepth => Piece::Written,
                     p => p,
                 };
@@ -542,9 +549,7 @@ impl Recorder<'_> {
             let (kind, set) = match piece {
                 Piece::Rule => (rule_kind, rule_tex.map(Resource::Texture)),
                 Piece::AtDepth => (equal_kind, equal_ds.map(Resource::DepthStencil)),
-                Piece::Direct | Piece::WrittenDirect | Piece::Uncut | Piece::WrittenUncut => {
-                    (direct_kind, None)
-                }
+                Piece::Direct | Piece::WrittenDirect | Piece::WrittenUncut => (direct_kind, None),
                 Piece::Written => (written_kind, equal_ds.map(Resource::DepthStencil)),
             };
             let set = set.map(|r| self.b.targets.sampling_set(r));
@@ -560,23 +565,26 @@ impl Recorder<'_> {
 
     /// `draws` with each `AtDepth` piece drawn with its back faces culled,
     /// of a mesh with cutter sets in `cut` (`plan::cut_away`: the only
-    /// positive literal of a product), split by the set that leaves it the
-    /// most pixels: `Uncut` outside the screen rectangles of the set's meshes,
-    /// where none of its front faces lies nearer than the output depth, and
-    /// `AtDepth` over them (`cut_away::split`; kept whole where nothing
-    /// would be free or the pieces would be too many). The pieces of one
-    /// mesh are disjoint, so their order among themselves does not matter;
-    /// they take the mesh's place in plan order.
+    /// positive literal of a product), split by the set that saves the
+    /// most (`cut_away::split`: free pixels, less `cut_away::PIECE_PIXELS`
+    /// per added draw): `WrittenUncut` outside the screen rectangles where
+    /// the set's meshes meet its box, none of its front faces nearer than
+    /// the output depth there, and `AtDepth` over them (to be drawn
+    /// `Written`); kept whole where no split saves anything. The pieces of
+    /// one mesh are disjoint, so their order among themselves does not
+    /// matter; they take the mesh's place in plan order. With the draws and
+    /// triangles the splits add; `None` where nothing was split.
     fn split_uncut(
-        &mut self,
-        draws: Vec<(Draw, Piece, Rect)>,
+        &self,
+        draws: &[(Draw, Piece, Rect)],
         cut: &CutAway,
-    ) -> Vec<(Draw, Piece, Rect)> {
+    ) -> Option<(Vec<(Draw, Piece, Rect)>, u64, u64)> {
         if cut.is_empty() {
-            return draws;
+            return None;
         }
         let mut out = Vec::with_capacity(draws.len());
-        for (d, piece, rect) in draws {
+        let (mut extra, mut extra_triangles) = (0, 0);
+        for (d, piece, rect) in draws.iter().cloned() {
             let m = match (&d.geometry, piece, d.cull) {
                 (Geometry::Mesh(m), Piece::AtDepth, Cull::Back) => *m,
                 _ => {
@@ -606,21 +614,30 @@ impl Recorder<'_> {
                 .iter()
                 .filter_map(|set| {
                     let holes: Vec<Rect> = set.iter().filter_map(|&c| hole(c)).collect();
-                    cut_away::split(rect, &holes, cap)
+                    cut_away::split(rect, &holes, cap, cut_away::PIECE_PIXELS)
                 })
-                .max_by_key(|(free, _)| free.iter().map(Rect::area).sum::<u64>());
+                .max_by_key(|(free, fetched)| {
+                    let area: u64 = free.iter().map(Rect::area).sum();
+                    let added = (free.len() + fetched.len()) as u64 - 1;
+                    area as i64 - (added * cut_away::PIECE_PIXELS) as i64
+                });
             match best {
                 Some((free, fetched)) => {
-                    let extra = (free.len() + fetched.len()) as u64 - 1;
-                    self.stats.counts.shade_split_draws += extra;
-                    self.stats.counts.shade_split_triangles += extra * triangles as u64;
-                    out.extend(free.into_iter().map(|r| (d.clone(), Piece::Uncut, r)));
+                    let added = (free.len() + fetched.len()) as u64 - 1;
+                    extra += added;
+                    extra_triangles += added * triangles as u64;
+                    out.extend(
+                        free.into_iter()
+                            .map(|r| (d.clone(), Piece::WrittenUncut, r)),
+                    );
                     out.extend(fetched.into_iter().map(|r| (d.clone(), Piece::AtDepth, r)));
                 }
                 None => out.push((d, piece, rect)),
             }
         }
-        out
+        out.iter()
+            .any(|(_, p, _)| *p == Piece::WrittenUncut)
+            .then_some((out, extra, extra_triangles))
     }
 
     /// The depth merge before the depth-equal draws: over their scissors, the
@@ -639,7 +656,7 @@ impl Recorder<'_> {
     ) -> Result<(), VkError> {
         let mut equal = draws
             .iter()
-            .filter(|(_, piece, _)| matches!(piece, Piece::AtDepth | Piece::Direct | Piece::Uncut));
+            .filter(|(_, piece, _)| matches!(piece, Piece::AtDepth | Piece::Direct));
         let rect = equal.clone().fold(Rect::EMPTY, |a, (_, _, r)| a.union(r));
         let Some((first, _, _)) = equal.next().filter(|_| !rect.is_empty()) else {
             return Ok(());
@@ -768,7 +785,7 @@ impl Recorder<'_> {
             Piece::Written | Piece::WrittenDirect | Piece::WrittenUncut
         );
         c.shade_written_draws += written as u64;
-        if matches!(piece, Piece::Uncut | Piece::WrittenUncut) {
+        if piece == Piece::WrittenUncut {
             c.shade_uncut_draws += 1;
             c.shade_uncut_pixels += scissor.area();
         }
