@@ -39,7 +39,11 @@
 //! A directly shaded product's piece needs no fetch there either
 //! (`Piece::WrittenDirect`): tested and written before its shader, as in the
 //! standalone frame, since any fragment of it that is not the visible one lies
-//! behind the visible face, whose piece overwrites it.
+//! behind the visible face, whose piece overwrites it. So does the part of a
+//! written piece outside the screen rectangles of its mesh's cutters
+//! (`Piece::WrittenUncut`, `plan::cut_away`: a mesh that is the only positive
+//! literal of a product has no face nearer than the output depth outside its
+//! cutters; README "Embedding", "Shade pieces outside their cutters").
 
 use ash::vk;
 
