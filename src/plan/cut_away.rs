@@ -126,6 +126,8 @@ impl CutAway {
             return CutAway::none();
         }
         let cam = &scene.camera;
+        // Negated so that a vertex whose depth is not a number counts as in
+        // front (no split), the conservative side.
         let in_front = scene.primitives.iter().any(|p| {
             p.used
                 && p.mesh
