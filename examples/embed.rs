@@ -59,7 +59,22 @@ pub struct Report {
     /// The last frame's depth-equal draws that wrote their own depth, with
     /// no depth merge before them.
     pub shade_written_draws: u64,
+    /// The last frame's depth-equal pieces drawn without the check of the
+    /// output depth outside their mesh's cutters (`plan::cut_away`).
+    pub shade_uncut_draws: u64,
+    /// The last frame's colour image, RGBA, row by row.
+    pub image: Image,
     pub validation: Vec<String>,
+}
+
+/// An image's pixels, printed as their count (a report's `Debug` stays short).
+#[derive(Default, PartialEq, Eq)]
+pub struct Image(pub Vec<[u8; 4]>);
+
+impl std::fmt::Debug for Image {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Image({} pixels)", self.0.len())
+    }
 }
 
 impl Report {
@@ -470,6 +485,57 @@ fn host_csg(ctx: &Context, desc: &EmbedDesc, ball: bool, bites: bool) -> Result<
     CsgScene::new(ctx, &inputs, CsgExpr::Text(&expr), &camera(), desc).map_err(|e| e.to_string())
 }
 
+/// The drilled box on `ctx` ([`drilled_meshes`], `m0 - m1 - m2 - m3 - m4`).
+fn drilled_csg(ctx: &Context, desc: &EmbedDesc) -> Result<CsgScene, String> {
+    let meshes = drilled_meshes();
+    let expr = (1..meshes.len()).fold(String::from("m0"), |e, m| format!("{e} - m{m}"));
+    let inputs: Vec<MeshInput<'_>> = meshes
+        .iter()
+        .map(|(p, i, t, c)| MeshInput {
+            positions: p,
+            indices: i,
+            transform: *t,
+            color: *c,
+        })
+        .collect();
+    CsgScene::new(ctx, &inputs, CsgExpr::Text(&expr), &camera(), desc).map_err(|e| e.to_string())
+}
+
+/// The box of [`host_meshes`] and four small balls centred on its faces
+/// towards the eye (two on the top, one on the front, one on the right): a
+/// pit each, small on screen, so that most of the box's rectangle lies
+/// outside every cutter's.
+fn drilled_meshes() -> Vec<HostMesh> {
+    let f32s = |m: &Mesh| {
+        m.positions
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+            .collect()
+    };
+    let cube = make_box(DVec3::splat(2.0));
+    let ball = make_sphere(1.0, 24, 12);
+    let mut meshes = vec![(
+        f32s(&cube),
+        cube.triangles.clone(),
+        Mat4::IDENTITY,
+        [70, 130, 220],
+    )];
+    for (at, color) in [
+        ([0.4, 1.0, -0.4], [220, 90, 60]),
+        ([-0.5, 1.0, 0.4], [220, 180, 60]),
+        ([-0.3, 0.4, 1.0], [90, 200, 110]),
+        ([1.0, 0.4, -0.4], [200, 80, 200]),
+    ] {
+        meshes.push((
+            f32s(&ball),
+            ball.triangles.clone(),
+            Mat4::from_translation(at.into()) * Mat4::from_scale(glam::Vec3::splat(0.3)),
+            color,
+        ));
+    }
+    meshes
+}
+
 /// A host mesh: positions, triangles, model matrix, colour.
 type HostMesh = (Vec<[f32; 3]>, Vec<[u32; 3]>, Mat4, [u8; 3]);
 
@@ -561,6 +627,15 @@ pub struct Setup {
     pub ball: bool,
     /// Bites the box's three other top corners too ([`host_csg`]).
     pub bites: bool,
+    /// Instead of the bitten box: the box with four small pits in its faces
+    /// towards the eye (`m0 - m1 - … - m4`, [`drilled_meshes`]), whose
+    /// screen rectangles leave most of the box free of cutters
+    /// (`plan::cut_away`).
+    pub drilled: bool,
+    /// Whether the final shade's pieces may skip the check of the output
+    /// depth outside their mesh's cutters (`plan::cut_away`; `false`: every
+    /// piece checks, for comparing the two images).
+    pub uncut: bool,
 }
 
 impl Setup {
@@ -578,6 +653,8 @@ impl Setup {
             internal_depth: DepthFormat::D32S8,
             ball: false,
             bites: false,
+            drilled: false,
+            uncut: true,
         }
     }
 }
@@ -635,7 +712,15 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         algo: setup.algo,
         internal_depth: setup.internal_depth,
     };
-    let mut csg = host_csg(&ctx, &desc, setup.ball, setup.bites)?;
+    let mut csg = match setup.drilled {
+        true => drilled_csg(&ctx, &desc)?,
+        false => host_csg(&ctx, &desc, setup.ball, setup.bites)?,
+    };
+    if !setup.uncut {
+        // Until the next plan: the camera does not move here.
+        csg.recorder()
+            .set_cut_away(peeltrim::plan::cut_away::CutAway::none());
+    }
 
     let (color_format, depth_format) = (setup.color_format, setup.depth_format);
     let srgb = matches!(
@@ -740,7 +825,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     );
     let mut counts = Vec::new();
     let mut paths = Vec::new();
-    let mut shade_draws = (0, 0, 0, 0);
+    let mut shade_draws = (0, 0, 0, 0, 0);
     for k in 0..setup.frames.max(1) {
         let slot = (k % inflight) as usize;
         let (cmd, fence) = (cmds[slot], fences[slot]);
@@ -815,6 +900,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
             stats.counts.shade_rule_draws,
             stats.counts.direct_shade_draws,
             stats.counts.shade_written_draws,
+            stats.counts.shade_uncut_draws,
         );
         // SAFETY: as above.
         unsafe {
@@ -848,6 +934,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         }
     }
     let mut report = compare(&csg, extent, &pixels);
+    report.image = Image(pixels);
     report.first_counts = counts.first().cloned().unwrap_or_default();
     report.last_counts = counts.last().cloned().unwrap_or_default();
     report.host_paths = paths;
@@ -856,6 +943,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         report.shade_rule_draws,
         report.direct_shade_draws,
         report.shade_written_draws,
+        report.shade_uncut_draws,
     ) = shade_draws;
     drop(csg);
     drop(ctx);
@@ -1191,7 +1279,8 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
 }
 
 /// The host set-ups the example (and its test) runs: colour and depth formats,
-/// both depth conventions, one to three frames in flight.
+/// both depth conventions, one to three frames in flight; the bitten box and
+/// the drilled one.
 pub fn setups() -> Vec<(String, Setup)> {
     use vk::Format as F;
     // The last field: the box bitten at four corners, whose depth-equal
@@ -1222,6 +1311,20 @@ pub fn setups() -> Vec<(String, Setup)> {
             };
             (name, setup)
         })
+        // The drilled box, whose pieces outside its pits skip the check of
+        // the output depth (`plan::cut_away`), both depth conventions.
+        .chain([false, true].map(|reversed_z| {
+            let name = format!(
+                "R8G8B8A8_UNORM+D32_SFLOAT {} z, 1 in flight, drilled",
+                if reversed_z { "reversed" } else { "standard" }
+            );
+            // Large enough that a free piece pays for its draw.
+            let setup = Setup {
+                drilled: true,
+                ..Setup::new([480, 360], reversed_z)
+            };
+            (name, setup)
+        }))
         .collect()
 }
 
@@ -1297,8 +1400,8 @@ fn main() {
                     && r.floor_hides_csg > 0
                     && r.csg_hides_floor > 0;
                 println!(
-                    "{name}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; loop counts {:?} -> {:?}; depth-equal draws {} ({} writing their depth); {} validation messages",
-                    r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.first_counts, r.last_counts, r.shade_fixed_draws, r.shade_written_draws, r.validation.len()
+                    "{name}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; loop counts {:?} -> {:?}; depth-equal draws {} ({} writing their depth, {} outside their cutters with no check of the output depth); {} validation messages",
+                    r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.first_counts, r.last_counts, r.shade_fixed_draws, r.shade_written_draws, r.shade_uncut_draws, r.validation.len()
                 );
                 for m in &r.validation {
                     println!("  validation: {m}");

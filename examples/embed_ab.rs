@@ -8,7 +8,9 @@
 //!
 //! `cargo run --release --example embed_ab -- SIZE FRAMES ALGOS SCENE...`
 //! (e.g. `400x400 15 cst-i,goldfeather scenes/speckle.toml`). With
-//! `EMBED_AB_ONLY=standalone` or `=embedded` only that path runs (for `perf`).
+//! `EMBED_AB_ONLY=standalone` or `=embedded` only that path runs (for `perf`);
+//! `EMBED_AB_UNCUT=off`: every final-shade piece keeps the check of the
+//! output depth (`plan::cut_away` unused, A/B).
 
 #[path = "ab_common/mod.rs"]
 mod ab_common;
@@ -40,6 +42,11 @@ fn main() {
             internal_depth: desc.depth_format,
         };
         let mut csg = CsgScene::from_scene(ctx, scene, &edesc).expect("embedded scene");
+        if std::env::var("EMBED_AB_UNCUT").as_deref() == Ok("off") {
+            // The camera does not move here, so nothing sets them again.
+            csg.recorder()
+                .set_cut_away(peeltrim::plan::cut_away::CutAway::none());
+        }
         let mut host = OffscreenHost::new(ctx, edesc.extent).expect("host");
         let far = if desc.reversed_z { 0.0 } else { 1.0 };
         let bg = scene.render.background;
@@ -93,7 +100,7 @@ fn main() {
             if let Some(s) = s {
                 let c = &s.counts;
                 print!(
-                    "  | {label}: draws {} (mesh {:.2} Mpx; direct-shade {} dead-tex {} footprint {}; shade rule {} on {:.2} Mpx, fixed {}, written {}) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
+                    "  | {label}: draws {} (mesh {:.2} Mpx; direct-shade {} dead-tex {} footprint {}; shade rule {} on {:.2} Mpx, fixed {}, written {} fetching on {:.3} Mpx, uncut {} on {:.3} Mpx) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
                     c.draws,
                     c.mesh_pixels as f64 * 1e-6,
                     c.direct_shade_draws,
@@ -103,6 +110,9 @@ fn main() {
                     c.shade_rule_pixels as f64 * 1e-6,
                     c.shade_fixed_draws,
                     c.shade_written_draws,
+                    c.shade_written_fetch_pixels as f64 * 1e-6,
+                    c.shade_uncut_draws,
+                    c.shade_uncut_pixels as f64 * 1e-6,
                     c.barriers,
                     c.render_passes,
                     c.fullscreen_passes,

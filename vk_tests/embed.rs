@@ -107,10 +107,14 @@ fn a_host_floor_hides_a_directly_shaded_product_where_it_is_in_front() {
         (Format::R8G8B8A8_UNORM, Format::D16_UNORM, false),
     ] {
         // With the bites the pieces follow the merge (the ball alone would
-        // have them write their depth, the fetch kept: see below).
+        // have them write their depth, the fetch kept: see below), where
+        // the box's pieces keep the check outside the bites too: drawn in
+        // parts without it (`plan::cut_away`), they cost fewer pixels
+        // written than the merge (the next test).
         let setup = example::Setup {
             ball: true,
             bites: true,
+            uncut: false,
             color_format,
             depth_format,
             ..example::Setup::new([160, 120], reversed_z)
@@ -168,9 +172,75 @@ fn written_pieces_and_the_merge_each_meet_the_host_floor_like_the_reference() {
             assert!(r.shade_fixed_draws >= 2, "{name}: {r:?}");
             let written = if writes { r.shade_fixed_draws } else { 0 };
             assert_eq!(r.shade_written_draws, written, "{name}: {r:?}");
+            // After the merge no piece is split at its cutters (`Piece::WrittenUncut`
+            // is for written pieces only).
+            if !writes {
+                assert_eq!(r.shade_uncut_draws, 0, "{name}: {r:?}");
+            }
             // The ball's piece took the direct decision on either path.
             assert_eq!(r.direct_shade_draws, ball as u64, "{name}: {r:?}");
         }
+    }
+}
+
+/// The drilled box (`examples/embed.rs` `Setup::drilled`: four small pits
+/// in its faces towards the eye, `m0 - m1 - … - m4`): the box is the only
+/// positive literal of its product, so outside the pits' screen rectangles
+/// none of its front faces lies nearer than the output depth and its
+/// depth-equal piece is drawn there without the check of the output depth
+/// (`plan::cut_away`, `Piece::WrittenUncut`), the rest of it with the check.
+/// The image is the one with every check kept, pixel for pixel, and both meet the host's floor as the reference composite says;
+/// Goldfeather and SCS (the two algorithms the argument is made for), both
+/// depth conventions, depth buffers that round (D24S8, D16), an `_SRGB`
+/// colour format.
+#[test]
+fn pieces_outside_their_cutters_skip_the_fetch_and_change_no_pixel() {
+    let _only = host_alone();
+    let formats = [
+        (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, false),
+        (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, true),
+        (Format::B8G8R8A8_SRGB, Format::D24_UNORM_S8_UINT, true),
+        (Format::R8G8B8A8_UNORM, Format::D16_UNORM, false),
+    ];
+    let cases = [Algo::Goldfeather, Algo::Scs]
+        .into_iter()
+        .flat_map(|algo| formats.map(|f| (algo, f)));
+    for (algo, (color_format, depth_format, reversed_z)) in cases {
+        // Large enough that a free piece pays for its draw
+        // (`cut_away::PIECE_PIXELS`).
+        let setup = example::Setup {
+            drilled: true,
+            algo,
+            color_format,
+            depth_format,
+            ..example::Setup::new([480, 360], reversed_z)
+        };
+        let name = format!("{algo}, {color_format:?}+{depth_format:?}, reversed {reversed_z}");
+        let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
+        check(&name, &r);
+        assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
+        assert!(r.shade_uncut_draws > 0, "{name}: {r:?}");
+        // With no merge: the parts outside the pits cost nothing.
+        assert_eq!(r.shade_written_draws, r.shade_fixed_draws, "{name}: {r:?}");
+        let kept = example::Setup {
+            uncut: false,
+            ..setup.clone()
+        };
+        let k = example::run(&kept).unwrap_or_else(|e| panic!("{name}, kept: {e}"));
+        check(&format!("{name}, kept"), &k);
+        assert_eq!(k.shade_uncut_draws, 0, "{name}: {k:?}");
+        let differ = r
+            .image
+            .0
+            .iter()
+            .zip(&k.image.0)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert_eq!(r.image.0.len(), k.image.0.len(), "{name}");
+        assert_eq!(
+            differ, 0,
+            "{name}: {differ} pixels differ from the checked image"
+        );
     }
 }
 
@@ -275,12 +345,18 @@ fn bench_pairs_time_equal_work() {
     let t = measure(&mut gpu, &plan, &scene, Algo::Goldfeather, (1, 3)).unwrap();
     assert_eq!(t.pairs, MIN_PAIRS);
     assert_eq!(t.host_path, Some(HostPath::Direct), "{t:?}");
-    assert_eq!(t.draws, alone.counts.draws, "{t:?}");
+    // Less the parts of pieces split at their mesh's cutters
+    // (`plan::cut_away`), which only the embedded frame draws.
+    assert_eq!(t.draws - t.split_draws, alone.counts.draws, "{t:?}");
     // No depth merge: the depth-equal pieces cost fewer pixels writing
     // their own depth (`record::host::writes_depth`).
     assert!(alone.counts.shade_fixed_draws > 0, "{alone:?}");
     assert_eq!(t.fullscreen_passes, alone.counts.fullscreen_passes, "{t:?}");
-    assert_eq!(t.triangles, alone.counts.triangles, "{t:?}");
+    assert_eq!(
+        t.triangles - t.split_triangles,
+        alone.counts.triangles,
+        "{t:?}"
+    );
     for v in [t.standalone_frame_ms_median, t.frame_ms_median, t.ratio] {
         assert!(v > 0.0 && v.is_finite(), "{t:?}");
     }

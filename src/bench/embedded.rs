@@ -55,6 +55,12 @@ pub struct EmbeddedTimes {
     pub fullscreen_passes: u64,
     /// Pipeline barriers of the last embedded frame.
     pub barriers: u64,
+    /// Of `draws` and `triangles`: those the embedded frame adds by drawing a
+    /// final-shade piece in parts, without the check of the output depth
+    /// outside its mesh's cutters (`plan::cut_away`); the rest are the
+    /// standalone frame's.
+    pub split_draws: u64,
+    pub split_triangles: u64,
 }
 
 /// At least [`MIN_PAIRS`] pairs (after `warmup`) of a standalone frame of `plan`
@@ -134,5 +140,7 @@ pub fn measure(
         triangles: last.counts.triangles,
         fullscreen_passes: last.counts.fullscreen_passes,
         barriers: last.counts.barriers,
+        split_draws: last.counts.shade_split_draws,
+        split_triangles: last.counts.shade_split_triangles,
     })
 }

@@ -16,6 +16,7 @@ use std::collections::HashMap;
 use glam::{DMat4, DVec3, Mat4};
 
 use crate::csg::Expr;
+use crate::plan::cut_away::CutAway;
 use crate::plan::{self, Algo, BuildOptions, Plan, PlanError, Prepared, Step};
 use crate::scene::camera::DepthConvention;
 use crate::scene::shapes::apply_transform;
@@ -256,6 +257,7 @@ impl CsgScene {
         let mut embedder = Embedder::new(ctx, &exec_desc, desc.frames_in_flight)?;
         embedder.executor().upload(&scene)?;
         embedder.set_plan(plan);
+        embedder.set_cut_away(CutAway::of(desc.algo, &prepared, &scene));
         let mut csg = CsgScene {
             embedder,
             scene,
@@ -279,7 +281,7 @@ impl CsgScene {
         if algo != self.algo {
             let plan = plan::build_with(algo, &self.prepared, &BuildOptions::default())?;
             self.algo = algo;
-            self.embedder.set_plan(plan);
+            self.set_plan(plan);
             self.set_counts(self.loop_counts.no_wait())?;
         }
         Ok(())
@@ -364,11 +366,20 @@ impl CsgScene {
         Ok(())
     }
 
+    /// Gives the embedder `plan` and the cutter sets of the current scene,
+    /// camera and algorithm (`plan::cut_away`), which change with the camera
+    /// even where the plan does not.
+    fn set_plan(&mut self, plan: Plan) {
+        self.embedder.set_plan(plan);
+        self.embedder
+            .set_cut_away(CutAway::of(self.algo, &self.prepared, &self.scene));
+    }
+
     /// Builds the plan for the current camera and transforms; whether it changed.
     fn replan(&mut self) -> Result<bool, EmbedError> {
         let plan = plan::build_with(self.algo, &self.prepared, &BuildOptions::default())?;
         let changed = self.embedder.plan() != Some(&plan);
-        self.embedder.set_plan(plan);
+        self.set_plan(plan);
         if !self.embedder.prepared() {
             // A plan with other loops: its counts are not known yet.
             self.set_counts(self.loop_counts.no_wait())?;

@@ -13,6 +13,7 @@ pub mod budget;
 mod common;
 mod convex;
 pub mod cst;
+pub mod cut_away;
 pub mod direct_shade;
 pub mod eye;
 pub mod formats;

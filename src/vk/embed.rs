@@ -36,6 +36,7 @@ use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::submit;
 use super::sync::{self, REST};
+use crate::plan::cut_away::CutAway;
 use crate::plan::usage::Usage;
 use crate::plan::Plan;
 
@@ -99,6 +100,9 @@ pub struct Embedder {
     sampler: vk::Sampler,
     /// What `record` draws.
     plan: Option<Plan>,
+    /// Where its final shade's pieces may skip the check of the output depth
+    /// (`plan::cut_away`; none unless the embedding sets it).
+    cut_away: CutAway,
     /// Shadows of a light, darkening each frame before the composite (the
     /// fallback they need, [`HostPath::CompositeShadows`]).
     shadow: Option<super::shadow::EmbeddedShadow>,
@@ -145,6 +149,7 @@ impl Embedder {
             composite: None,
             sampler,
             plan: None,
+            cut_away: CutAway::none(),
             shadow: None,
         })
     }
@@ -189,6 +194,16 @@ impl Embedder {
             }
         }
         self.plan = Some(plan);
+    }
+
+    /// Sets the cutter sets of the current plan's scene and camera
+    /// ([`CutAway::of`]): outside them [`Embedder::record`]'s final-shade
+    /// pieces skip the check of the output depth. They must be those of the
+    /// plan's scene, camera and algorithm: a set that misses a cutter would
+    /// show faces that are cut away. [`CutAway::none`] (the default) keeps
+    /// every check.
+    pub fn set_cut_away(&mut self, cut_away: CutAway) {
+        self.cut_away = cut_away;
     }
 
     /// The plan [`Embedder::record`] draws.
@@ -334,6 +349,7 @@ impl Embedder {
                     depth: (targets.depth_view, targets.depth_format),
                     srgb: is_srgb(targets.color_format),
                     counts: room.then_some(self.slots[slot].counts.raw),
+                    cut_away: &self.cut_away,
                 };
                 let shade = final_shade(plan).expect("host_path checked it");
                 let unrolled =

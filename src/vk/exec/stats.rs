@@ -72,6 +72,23 @@ pub struct Counts {
     /// targets that write their own depth, with no depth merge before them
     /// (`record::host`'s `writes_depth`; also counted in `shade_fixed_draws`).
     pub shade_written_draws: u64,
+    /// In an embedded frame: depth-equal final-shade pieces drawn without a
+    /// check of the output depth because they lie outside the screen
+    /// rectangles of their mesh's cutters (`plan::cut_away`; also counted in
+    /// `shade_fixed_draws`, and in `shade_written_draws` where they write
+    /// their depth), and the sum of their scissor areas.
+    pub shade_uncut_draws: u64,
+    pub shade_uncut_pixels: u64,
+    /// In an embedded frame: the sum of the scissor areas of the pieces that
+    /// write their depth and fetch the output depth on every fragment in
+    /// front of the host's (`Piece::Written`): the pixels that may run the
+    /// fetch.
+    pub shade_written_fetch_pixels: u64,
+    /// In an embedded frame: the draws (and their triangles) that splitting
+    /// pieces at their mesh's cutters added (`plan::cut_away`: a piece split
+    /// into `k` counts `k - 1`); the standalone frame has none of them.
+    pub shade_split_draws: u64,
+    pub shade_split_triangles: u64,
     /// Draws of the final shade (depth-equal or tie-rule) that cull the side
     /// of their mesh that is never visible (`plan::VisibleSides`): about half
     /// its faces.
@@ -232,6 +249,11 @@ impl ExecStats {
         c.shade_fixed_draws += o.shade_fixed_draws;
         c.direct_shade_draws += o.direct_shade_draws;
         c.shade_written_draws += o.shade_written_draws;
+        c.shade_uncut_draws += o.shade_uncut_draws;
+        c.shade_uncut_pixels += o.shade_uncut_pixels;
+        c.shade_written_fetch_pixels += o.shade_written_fetch_pixels;
+        c.shade_split_draws += o.shade_split_draws;
+        c.shade_split_triangles += o.shade_split_triangles;
         c.shade_rule_draws += o.shade_rule_draws;
         c.shade_rule_pixels += o.shade_rule_pixels;
         c.barriers += o.barriers;

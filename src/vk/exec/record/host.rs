@@ -39,24 +39,31 @@
 //! A directly shaded product's piece needs no fetch there either
 //! (`Piece::WrittenDirect`): tested and written before its shader, as in the
 //! standalone frame, since any fragment of it that is not the visible one lies
-//! behind the visible face, whose piece overwrites it.
+//! behind the visible face, whose piece overwrites it. So does the part of a
+//! written piece outside the screen rectangles of its mesh's cutters
+//! (`Piece::WrittenUncut`, `plan::cut_away`: a mesh that is the only positive
+//! literal of a product has no face nearer than the output depth outside its
+//! cutters; README "Embedding", "Shade pieces outside their cutters").
 
 use ash::vk;
 
 use super::Recorder;
+use crate::plan::cut_away::{self, CutAway};
 use crate::plan::direct_shade::DirectShades;
 use crate::plan::tie_zones;
 use crate::plan::usage::{Resource, Usage};
-use crate::plan::{CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, Plan, Step, Tex};
+use crate::plan::{
+    CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Plan, Step, Tex,
+};
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
-use crate::vk::scissor::Rect;
+use crate::vk::scissor::{bounds_rect, Rect};
 use crate::vk::submit;
 
 /// The host's side of a direct final pass.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct HostShade {
+pub(crate) struct HostShade<'a> {
     /// The host's colour attachment view and format (in `COLOR_ATTACHMENT_OPTIMAL`).
     pub color: (vk::ImageView, vk::Format),
     /// The host's depth attachment view and format (in
@@ -68,6 +75,10 @@ pub(crate) struct HostShade {
     /// availability, room for every counted draw), before the pass's barrier
     /// makes them visible to the host.
     pub counts: Option<vk::Buffer>,
+    /// Per mesh, the cutters outside whose screen rectangles none of its
+    /// faces lies nearer than the output depth (`plan::cut_away`): its
+    /// depth-equal piece is drawn there without the fetch.
+    pub cut_away: &'a CutAway,
 }
 
 /// How many steps at the end of `plan` are its final depth-equal shade as the
@@ -293,6 +304,24 @@ enum Piece {
     /// face, whose piece passes wherever the CSG is in front of the host and
     /// overwrites it, drawn before or after; ties keep the plan's order.
     WrittenDirect,
+    /// With no merge, drawn as `WrittenDirect`: the part of a depth-equal
+    /// piece outside the screen rectangles of the cutters of a product in
+    /// which its mesh is the only positive literal (`plan::cut_away`), where
+    /// none of its front faces (its back faces culled) lies nearer than the
+    /// output depth. Only with no merge: after one, the fetch runs on the
+    /// visible fragments alone, and the draws a split adds cost more than
+    /// that (`complex`, `examples/embed_ab`).
+    WrittenUncut,
+}
+
+impl Piece {
+    /// Drawn with no fetch of the output depth (`ShadeHost`).
+    fn fetch_free(self) -> bool {
+        matches!(
+            self,
+            Piece::Direct | Piece::WrittenDirect | Piece::WrittenUncut
+        )
+    }
 }
 
 /// One depth-equal piece of the final shade as [`writes_depth`] prices it.
@@ -302,8 +331,8 @@ pub(crate) struct Priced {
     pub rect: Rect,
     /// Its culling.
     pub cull: Cull,
-    /// A one-primitive product's piece (`Piece::Direct`), which fetches
-    /// nothing and is tested before its shader on either path.
+    /// A piece that fetches nothing (`Piece::Direct`, `Piece::WrittenUncut`)
+    /// and is tested before its shader.
     pub direct: bool,
 }
 
@@ -324,7 +353,9 @@ pub(crate) struct Priced {
 /// the solid's faces, which the plan's order (descending index) draws after
 /// them: two. A direct piece costs nothing on either side: written
 /// (`Piece::WrittenDirect`) or after the merge, its fragments are tested
-/// before a shader that fetches nothing, as in the standalone frame. One
+/// before a shader that fetches nothing, as in the standalone frame; nor
+/// does the part of a piece outside its mesh's cutters
+/// (`Piece::WrittenUncut`), drawn the same way. One
 /// merge pixel costs as much as 4 such fragments (fitted on
 /// `examples/embed_ab`, SCS and Goldfeather, 800×800, with the direct pieces
 /// written: the pieces win on `complex` (3.5 fragments per merge pixel) and
@@ -446,17 +477,29 @@ impl Recorder<'_> {
             }
         }
         // The merge, or each depth-equal piece writing its own depth: which
-        // costs fewer shaded pixels (`writes_depth`).
-        let equal: Vec<Priced> = draws
-            .iter()
-            .filter(|(_, piece, _)| *piece != Piece::Rule)
-            .map(|(d, piece, r)| Priced {
-                rect: *r,
-                cull: d.cull,
-                direct: *piece == Piece::Direct,
-            })
-            .collect();
-        if writes_depth(&equal) {
+        // costs fewer shaded pixels (`writes_depth`); written, the parts of
+        // depth-equal pieces outside their cutters skip the fetch
+        // (`plan::cut_away`), taken where they tip the choice too.
+        let priced = |draws: &[(Draw, Piece, Rect)]| -> Vec<Priced> {
+            draws
+                .iter()
+                .filter(|(_, piece, _)| *piece != Piece::Rule)
+                .map(|(d, piece, r)| Priced {
+                    rect: *r,
+                    cull: d.cull,
+                    direct: piece.fetch_free(),
+                })
+                .collect()
+        };
+        let mut draws = match self.split_uncut(&draws, h.cut_away) {
+            Some((split, extra, triangles)) if writes_depth(&priced(&split)) => {
+                self.stats.counts.shade_split_draws += extra;
+                self.stats.counts.shade_split_triangles += triangles;
+                split
+            }
+            _ => draws,
+        };
+        if writes_depth(&priced(&draws)) {
             for (_, piece, _) in draws.iter_mut() {
                 *piece = match *piece {
                     Piece::Direct => Piece::WrittenDirect,
@@ -510,7 +553,7 @@ impl Recorder<'_> {
             let (kind, set) = match piece {
                 Piece::Rule => (rule_kind, rule_tex.map(Resource::Texture)),
                 Piece::AtDepth => (equal_kind, equal_ds.map(Resource::DepthStencil)),
-                Piece::Direct | Piece::WrittenDirect => (direct_kind, None),
+                Piece::Direct | Piece::WrittenDirect | Piece::WrittenUncut => (direct_kind, None),
                 Piece::Written => (written_kind, equal_ds.map(Resource::DepthStencil)),
             };
             let set = set.map(|r| self.b.targets.sampling_set(r));
@@ -522,6 +565,83 @@ impl Recorder<'_> {
         unsafe { device.cmd_end_rendering(self.cmd) };
         self.rest_all();
         Ok(())
+    }
+
+    /// `draws` with each `AtDepth` piece drawn with its back faces culled,
+    /// of a mesh with cutter sets in `cut` (`plan::cut_away`: the only
+    /// positive literal of a product), split by the set that saves the
+    /// most (`cut_away::split`: free pixels, less `cut_away::PIECE_PIXELS`
+    /// per added draw): `WrittenUncut` outside the screen rectangles where
+    /// the set's meshes meet its box, none of its front faces nearer than
+    /// the output depth there, and `AtDepth` over them (to be drawn
+    /// `Written`); kept whole where no split saves anything. The pieces of
+    /// one mesh are disjoint, so their order among themselves does not
+    /// matter; they take the mesh's place in plan order. With the draws and
+    /// triangles the splits add; `None` where nothing was split.
+    fn split_uncut(
+        &self,
+        draws: &[(Draw, Piece, Rect)],
+        cut: &CutAway,
+    ) -> Option<(Vec<(Draw, Piece, Rect)>, u64, u64)> {
+        if cut.is_empty() {
+            return None;
+        }
+        let mut out = Vec::with_capacity(draws.len());
+        let (mut extra, mut extra_triangles) = (0, 0);
+        for (d, piece, rect) in draws.iter().cloned() {
+            let m = match (&d.geometry, piece, d.cull) {
+                (Geometry::Mesh(m), Piece::AtDepth, Cull::Back) => *m,
+                _ => {
+                    out.push((d, piece, rect));
+                    continue;
+                }
+            };
+            let scene = self.b.scene;
+            let triangles = scene.ranges[m as usize].1 as usize / 3;
+            let cap = cut_away::piece_cap(triangles);
+            let (w, h) = (self.b.desc.width, self.b.desc.height);
+            // Where a cutter can hold a face of the mesh: the screen
+            // rectangle of the two world boxes' intersection.
+            let hole = |c: MeshId| {
+                let b = cut_away::meeting(&scene.bounds[m as usize], &scene.bounds[c as usize])?;
+                Some(bounds_rect(
+                    scene.cam.view,
+                    scene.cam.proj,
+                    scene.camera.near,
+                    &[b],
+                    w,
+                    h,
+                ))
+            };
+            let best = cut
+                .cutters(m)
+                .iter()
+                .filter_map(|set| {
+                    let holes: Vec<Rect> = set.iter().filter_map(|&c| hole(c)).collect();
+                    cut_away::split(rect, &holes, cap, cut_away::PIECE_PIXELS)
+                })
+                .max_by_key(|(free, fetched)| {
+                    let area: u64 = free.iter().map(Rect::area).sum();
+                    let added = (free.len() + fetched.len()) as u64 - 1;
+                    area as i64 - (added * cut_away::PIECE_PIXELS) as i64
+                });
+            match best {
+                Some((free, fetched)) => {
+                    let added = (free.len() + fetched.len()) as u64 - 1;
+                    extra += added;
+                    extra_triangles += added * triangles as u64;
+                    out.extend(
+                        free.into_iter()
+                            .map(|r| (d.clone(), Piece::WrittenUncut, r)),
+                    );
+                    out.extend(fetched.into_iter().map(|r| (d.clone(), Piece::AtDepth, r)));
+                }
+                None => out.push((d, piece, rect)),
+            }
+        }
+        out.iter()
+            .any(|(_, p, _)| *p == Piece::WrittenUncut)
+            .then_some((out, extra, extra_triangles))
     }
 
     /// The depth merge before the depth-equal draws: over their scissors, the
@@ -613,7 +733,11 @@ impl Recorder<'_> {
         // the depth-equal draws after a merge test the merged depth and write
         // none. No stencil; the culling of the standalone frame's draw.
         let rule = piece == Piece::Rule;
-        let depth = match matches!(piece, Piece::Rule | Piece::Written | Piece::WrittenDirect) {
+        let written = matches!(
+            piece,
+            Piece::Rule | Piece::Written | Piece::WrittenDirect | Piece::WrittenUncut
+        );
+        let depth = match written {
             true => DepthState {
                 compare: CompareOp::LessOrEqual,
                 write: true,
@@ -657,8 +781,18 @@ impl Recorder<'_> {
         }
         let direct = matches!(piece, Piece::Direct | Piece::WrittenDirect);
         c.direct_shade_draws += direct as u64;
-        let written = matches!(piece, Piece::Written | Piece::WrittenDirect);
+        let written = matches!(
+            piece,
+            Piece::Written | Piece::WrittenDirect | Piece::WrittenUncut
+        );
         c.shade_written_draws += written as u64;
+        if piece == Piece::WrittenUncut {
+            c.shade_uncut_draws += 1;
+            c.shade_uncut_pixels += scissor.area();
+        }
+        if piece == Piece::Written {
+            c.shade_written_fetch_pixels += scissor.area();
+        }
         c.shade_culled_draws += (draw.cull != Cull::None) as u64;
         if let Some(i) = self.pass {
             self.stats.per_pass[i].draws += 1;
