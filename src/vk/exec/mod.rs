@@ -33,8 +33,8 @@
 
 mod batch;
 mod camera;
-mod embed;
 mod corners;
+mod embed;
 mod gpu_scene;
 mod kept;
 mod normals;
