@@ -473,6 +473,17 @@ fn host_csg(ctx: &Context, desc: &EmbedDesc, ball: bool, bites: bool) -> Result<
     if ball {
         expr += " + m2";
     }
+    scene_of(ctx, &meshes, &expr, desc)
+}
+
+/// The CSG scene of `meshes` (positions, indices, transform, colour) under
+/// `expr`, seen from [`camera`].
+fn scene_of(
+    ctx: &Context,
+    meshes: &[HostMesh],
+    expr: &str,
+    desc: &EmbedDesc,
+) -> Result<CsgScene, String> {
     let inputs: Vec<MeshInput<'_>> = meshes
         .iter()
         .map(|(p, i, t, c)| MeshInput {
@@ -482,23 +493,14 @@ fn host_csg(ctx: &Context, desc: &EmbedDesc, ball: bool, bites: bool) -> Result<
             color: *c,
         })
         .collect();
-    CsgScene::new(ctx, &inputs, CsgExpr::Text(&expr), &camera(), desc).map_err(|e| e.to_string())
+    CsgScene::new(ctx, &inputs, CsgExpr::Text(expr), &camera(), desc).map_err(|e| e.to_string())
 }
 
 /// The drilled box on `ctx` ([`drilled_meshes`], `m0 - m1 - m2 - m3 - m4`).
 fn drilled_csg(ctx: &Context, desc: &EmbedDesc) -> Result<CsgScene, String> {
     let meshes = drilled_meshes();
     let expr = (1..meshes.len()).fold(String::from("m0"), |e, m| format!("{e} - m{m}"));
-    let inputs: Vec<MeshInput<'_>> = meshes
-        .iter()
-        .map(|(p, i, t, c)| MeshInput {
-            positions: p,
-            indices: i,
-            transform: *t,
-            color: *c,
-        })
-        .collect();
-    CsgScene::new(ctx, &inputs, CsgExpr::Text(&expr), &camera(), desc).map_err(|e| e.to_string())
+    scene_of(ctx, &meshes, &expr, desc)
 }
 
 /// The box of [`host_meshes`] and four small balls centred on its faces
