@@ -32,17 +32,20 @@ fn main() {
         gpu.set_pass_timestamps(false);
         gpu.execute(&plan).expect("record");
         let mut ms = Vec::new();
+        let mut cpu = Vec::new();
         let mut last = None;
         for _ in 0..frames {
             let f = gpu.execute(&plan).expect("frame");
             ms.push(f.frame_ms);
+            cpu.push(f.cpu_ms);
             last = Some(f.counts);
         }
         if !ms.is_empty() {
             eprintln!(
-                "{name} {}: median frame_ms {:.3} over {frames}",
+                "{name} {}: median frame_ms {:.3}, cpu_ms {:.3} over {frames}",
                 algo.name(),
-                median(ms)
+                median(ms),
+                median(cpu)
             );
         }
         if std::env::var_os("FRAMES_COUNTS").is_some() {

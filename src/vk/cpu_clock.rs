@@ -1,29 +1,21 @@
-//! The process's CPU time, all threads together (Linux `/proc/self/task/*/schedstat`,
+//! The process's CPU time, all threads together (`CLOCK_PROCESS_CPUTIME_ID`,
 //! nanoseconds): on lavapipe the "GPU" is the process's own threads (the queue's
 //! and llvmpipe's rasterizers), so the CPU time from a submission to its
 //! completion is what the frame cost the machine, unlike wall time unaffected by
 //! other processes competing for the cores (`bench --embedded`'s `cpu_ratio`).
-//! Where `/proc` is missing every reading is 0, and the figures derived are 0.
-
+//! One `clock_gettime` call: the per-thread `/proc/self/task/*/schedstat` scan
+//! this replaced opened a file per thread, twice a frame, which was 14% of the
+//! calling thread's samples on a 16×16 frame (README "Executor fixed costs").
+//! Where the clock is missing every reading is 0, and the figures derived are 0.
 //!
 //! Also the calling thread's CPU clock ([`CpuInstant`]), for what recording costs
 //! (issue 9 §3: `record_ms`, the bench's re-recording figure): drivers record
 //! in the calling thread, so its CPU time is a recording's whole cost.
 
-use std::fs;
-
-/// CPU time (user and system) the process's threads have run, in nanoseconds; 0
-/// without `/proc`. Threads that ended since an earlier reading are missing from
-/// a later one: take both readings around work that starts and ends no thread.
+/// CPU time (user and system) the process's threads have run, ended threads
+/// included, in nanoseconds; 0 where the clock is missing.
 pub fn process_ns() -> u64 {
-    let Ok(tasks) = fs::read_dir("/proc/self/task") else {
-        return 0;
-    };
-    tasks
-        .filter_map(Result::ok)
-        .filter_map(|t| fs::read_to_string(t.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum()
+    clock_ns(CLOCK_PROCESS).unwrap_or(0)
 }
 
 /// Milliseconds of process CPU time since `start` (a [`process_ns`] reading).
@@ -47,18 +39,35 @@ impl CpuInstant {
     }
 }
 
-/// CPU time of the calling thread, in milliseconds.
 #[cfg(unix)]
-fn thread_cpu_ms() -> f64 {
+const CLOCK_PROCESS: libc::clockid_t = libc::CLOCK_PROCESS_CPUTIME_ID;
+#[cfg(not(unix))]
+const CLOCK_PROCESS: i32 = 0;
+
+/// `clock`'s reading in nanoseconds (`None` where the system has no such clock).
+#[cfg(unix)]
+fn clock_ns(clock: libc::clockid_t) -> Option<u64> {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
     };
-    // SAFETY: `ts` is a valid, writable timespec; the clock id is a constant that
-    // every supported Unix defines.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
-    ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6
+    // SAFETY: `ts` is a valid, writable timespec; `clock` is one of the CPU
+    // clock ids every supported Unix defines.
+    let rc = unsafe { libc::clock_gettime(clock, &mut ts) };
+    (rc == 0).then(|| ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64)
+}
+
+#[cfg(not(unix))]
+fn clock_ns(_clock: i32) -> Option<u64> {
+    None
+}
+
+/// CPU time of the calling thread, in milliseconds.
+#[cfg(unix)]
+fn thread_cpu_ms() -> f64 {
+    let ns = clock_ns(libc::CLOCK_THREAD_CPUTIME_ID)
+        .expect("clock_gettime(CLOCK_THREAD_CPUTIME_ID) failed");
+    ns as f64 * 1e-6
 }
 
 /// Elsewhere: wall time since the first call (no per-thread clock in `std`).
@@ -75,15 +84,34 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_thread_that_ended_keeps_its_cpu_time() {
+        if process_ns() == 0 {
+            return; // no process clock: nothing to measure
+        }
+        let start = process_ns();
+        // The thread spins until its own clock says 10 ms, then ends.
+        std::thread::spawn(|| {
+            let t = CpuInstant::now();
+            let mut x = 0u64;
+            while t.elapsed_ms() < 10.0 {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
+            }
+            std::hint::black_box(x);
+        })
+        .join()
+        .unwrap();
+        let ms = ms_since(start);
+        assert!(ms >= 10.0, "{ms} ms");
+    }
+
+    #[test]
     fn busy_work_shows_as_cpu_time() {
         if process_ns() == 0 {
-            return; // no /proc: nothing to measure
+            return; // no process clock: nothing to measure
         }
-        // The sum is over the threads alive at each reading: a parallel
-        // test's thread that ends between the two readings takes its time out
-        // of the second, so one try may read less than was spun. Some try of
-        // five must show the spinning, and none more than wall time times a
-        // generous thread count.
+        // Other tests' threads run alongside, so a try may read more than was
+        // spun: some try of five must show the spinning, and none more than
+        // wall time times a generous thread count.
         let tries: Vec<f64> = (0..5)
             .map(|_| {
                 let start = process_ns();
