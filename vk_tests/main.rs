@@ -35,6 +35,7 @@ mod shadow;
 mod stability;
 mod tie_free;
 mod tie_zones;
+mod timestamps;
 mod view_convex;
 mod visible_side;
 mod visible_ties;

@@ -42,7 +42,7 @@ pub use embed::{Embedder, HostTargets};
 pub use error::VkError;
 pub use exec::{
     BlockJoin, ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats,
-    PlanCounts, Recorded, SeqFrame, SeqItem,
+    PlanCounts, Recorded, SeqFrame, SeqItem, TimestampClose,
 };
 pub use host_frame::OffscreenHost;
 pub use instance::{Context, ContextDesc, DeviceChoice};

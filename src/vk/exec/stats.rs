@@ -128,6 +128,9 @@ pub struct Counts {
     pub copied_pixels: u64,
     /// GPU timestamps written (per pass, or only around the frame).
     pub timestamps: u64,
+    /// Of those, closing timestamps written inside the last block
+    /// (`TimestampClose::InLastBlock`: one fewer scene for lavapipe).
+    pub timestamps_in_block: u64,
     /// Queue submissions of the frame.
     pub submits: u64,
     /// Pipelines created for this frame: the first use of a fragment program
@@ -264,6 +267,7 @@ impl ExecStats {
         c.cleared_bytes += o.cleared_bytes;
         c.copied_pixels += o.copied_pixels;
         c.timestamps += o.timestamps;
+        c.timestamps_in_block += o.timestamps_in_block;
         c.state_commands += o.state_commands;
         c.submits += o.submits;
         c.pipelines_created += o.pipelines_created;

@@ -5,7 +5,7 @@
 //! (README "Executor"; the A/B switches are measured in README "Per-pixel cost"
 //! and "The final shade as depth-equal draws").
 
-use super::{BlockJoin, ClearMode, DepthFormat, Executor};
+use super::{BlockJoin, ClearMode, DepthFormat, Executor, TimestampClose};
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{pipeline_flags, FLAG_RASTER_DEPTH};
 
@@ -151,6 +151,16 @@ impl Executor {
     /// at pass boundaries).
     pub fn set_pass_timestamps(&mut self, on: bool) {
         self.pass_timestamps = on;
+        self.recording = None;
+    }
+
+    /// Where each frame's closing timestamp goes: inside its last block
+    /// (`TOP_OF_PIPE`, the default on CPU devices, where it saves lavapipe a
+    /// scene per frame) or after all its commands (the default elsewhere).
+    /// Both give the same images; `gpu_ms` ends with the last block's draws in
+    /// the first.
+    pub fn set_timestamp_close(&mut self, close: TimestampClose) {
+        self.close = close;
         self.recording = None;
     }
 

@@ -109,6 +109,28 @@ impl BlockKey {
     }
 }
 
+/// Where a command buffer's closing timestamp is written.
+///
+/// On lavapipe a `BOTTOM_OF_PIPE` timestamp flushes the binned scene and bins
+/// the query into every tile of a new scene, which the rasterizer threads then
+/// run as a scene of its own: one more round of waking them and waiting for
+/// them per frame (shadow_block, 800×800: 0.3–0.7 ms of a 3–4 ms frame; README
+/// "Executor fixed costs"). A `TOP_OF_PIPE` one does not flush: its query lands
+/// in every tile of the open scene after the tile's earlier draws, and each
+/// thread keeps the time of its last tile, so the latest is when the block's
+/// draws were done — the frame's end. The opening timestamp keeps its own
+/// scene: inside the first block it would keep the time of each thread's last
+/// tile too, the frame's end rather than its start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimestampClose {
+    /// After every command of the buffer (`BOTTOM_OF_PIPE`): what a hardware
+    /// GPU's timestamp means.
+    AfterAll,
+    /// `TOP_OF_PIPE` inside the frame's last block, before the clears and
+    /// barriers after it (CPU devices: lavapipe).
+    InLastBlock,
+}
+
 /// Tags the occlusion queries of one loop-head execution: `(loop, iteration)`.
 pub(super) type Group = Option<(usize, u32)>;
 
@@ -127,6 +149,8 @@ pub(super) struct Bindings<'a> {
     /// A timestamp at every `Step::Pass` (per-pass GPU times); otherwise only
     /// around the command buffer.
     pub pass_timestamps: bool,
+    /// Where the frame's closing timestamp goes ([`TimestampClose`]).
+    pub close: TimestampClose,
     /// Push-constant flags (reversed Z, subpixel precision).
     pub flags: u32,
     /// Emulated vertex snapping step of mesh draws (zero: off).
@@ -223,6 +247,8 @@ pub(super) struct Recorder<'a> {
     pub group: Group,
     /// Pass name at each timestamp of the current command buffer.
     pub marks: Vec<String>,
+    /// The command buffer's closing timestamp is written (inside its last block).
+    closed: bool,
     /// Index in `stats.per_pass` of the current pass; `None` before the first.
     pass: Option<usize>,
     pub stats: ExecStats,
@@ -260,6 +286,7 @@ impl<'a> Recorder<'a> {
             queries: Vec::new(),
             group: None,
             marks: Vec::new(),
+            closed: false,
             pass: None,
             stats: ExecStats::default(),
         }
@@ -268,6 +295,7 @@ impl<'a> Recorder<'a> {
     pub fn begin(&mut self, cmd: vk::CommandBuffer, occlusion_cap: u32, timestamp_cap: u32) {
         self.queries.clear();
         self.marks.clear();
+        self.closed = false;
         // SAFETY: recording; outside rendering; ranges within the pools.
         unsafe {
             self.b
@@ -287,7 +315,7 @@ impl<'a> Recorder<'a> {
             true => self.pass_name(),
             false => String::new(),
         };
-        self.timestamp(pass);
+        self.timestamp(pass, vk::PipelineStageFlags::BOTTOM_OF_PIPE);
     }
 
     /// Starts recording into the fresh command buffer `cmd`: nothing is bound
@@ -338,12 +366,30 @@ impl<'a> Recorder<'a> {
     /// Ends the current command buffer's work (it stays to be ended by the caller).
     pub fn end(&mut self) {
         self.end_block();
-        self.timestamp(String::new());
+        if !self.closed {
+            self.timestamp(String::new(), vk::PipelineStageFlags::BOTTOM_OF_PIPE);
+        }
+    }
+
+    /// Writes the closing timestamp into the open block where
+    /// [`TimestampClose::InLastBlock`] asks for it (per-pass timestamps end every
+    /// pass's block anyway): the frame's time then ends with its last block's
+    /// draws, and [`Self::end`] writes none.
+    fn close_in_block(&mut self) {
+        if self.b.close == TimestampClose::InLastBlock
+            && !self.b.pass_timestamps
+            && self.block.is_some()
+        {
+            self.timestamp(String::new(), vk::PipelineStageFlags::TOP_OF_PIPE);
+            self.closed = self.b.timestamps.is_some();
+            self.stats.counts.timestamps_in_block += u64::from(self.closed);
+        }
     }
 
     /// Leaves the images the way the next frame expects them: read-back targets
     /// with their pending clears done, every image in `REST`.
     pub fn finish_frame(&mut self, output_ds: u8) {
+        self.close_in_block();
         self.end_block();
         let outputs = self.outputs(output_ds);
         self.flush_clears(&outputs);
@@ -363,18 +409,12 @@ impl<'a> Recorder<'a> {
         self.rest_all();
     }
 
-    fn timestamp(&mut self, pass: String) {
+    fn timestamp(&mut self, pass: String, stage: vk::PipelineStageFlags) {
         let Some(ts) = self.b.timestamps else { return };
         let idx = self.marks.len() as u32;
-        // SAFETY: recording, outside rendering; the query was reset in this buffer.
-        unsafe {
-            self.b.device.cmd_write_timestamp(
-                self.cmd,
-                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                ts,
-                idx,
-            )
-        };
+        // SAFETY: recording, inside or outside rendering (no multiview); the
+        // query was reset in this buffer and is written once.
+        unsafe { self.b.device.cmd_write_timestamp(self.cmd, stage, ts, idx) };
         self.marks.push(pass);
         self.stats.counts.timestamps += 1;
     }

@@ -27,7 +27,7 @@ impl Recorder<'_> {
                     // Lavapipe ends its binned scene at a timestamp (and bins the
                     // query into every tile): only when per-pass times are asked for.
                     self.end_block();
-                    self.timestamp(name.clone());
+                    self.timestamp(name.clone(), vk::PipelineStageFlags::BOTTOM_OF_PIPE);
                 }
             }
             Step::Clear(clear) => self.clear(clear),
