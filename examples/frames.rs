@@ -9,13 +9,13 @@
 //! `FRAMES_SLEEP=S` stays alive S seconds after (to dump the JIT code),
 //! `FRAMES_INDEXED=0` draws every mesh non-indexed (`Executor::set_indexed`),
 //! `FRAMES_CLOSE=after|in-block` picks where the closing timestamp goes
-//! (`Executor::set_timestamp_close`; default: the device's).
+//! (`Executor::set_frame_timestamps`; default: the device's).
 
 #[path = "ab_common/mod.rs"]
 mod ab_common;
 
 use ab_common::{for_each_run, median};
-use peeltrim::vk::{ClearMode, Executor, TimestampClose};
+use peeltrim::vk::{ClearMode, Executor, FrameTimestamps};
 
 fn main() {
     for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
@@ -27,8 +27,8 @@ fn main() {
             _ => {}
         }
         match std::env::var("FRAMES_CLOSE").as_deref() {
-            Ok("after") => gpu.set_timestamp_close(TimestampClose::AfterAll),
-            Ok("in-block") => gpu.set_timestamp_close(TimestampClose::InLastBlock),
+            Ok("after") => gpu.set_frame_timestamps(FrameTimestamps::Outside),
+            Ok("in-block") => gpu.set_frame_timestamps(FrameTimestamps::Binned),
             _ => {}
         }
         gpu.set_indexed(std::env::var("FRAMES_INDEXED").as_deref() != Ok("0"))
@@ -41,21 +41,24 @@ fn main() {
         let mut ms = Vec::new();
         let mut cpu = Vec::new();
         let mut gpu_ms = Vec::new();
+        let mut proc_ms = Vec::new();
         let mut last = None;
         for _ in 0..frames {
             let f = gpu.execute(&plan).expect("frame");
             ms.push(f.frame_ms);
             cpu.push(f.cpu_ms);
             gpu_ms.push(f.gpu_ms);
+            proc_ms.push(f.frame_cpu_ms);
             last = Some(f.counts);
         }
         if !ms.is_empty() {
             eprintln!(
-                "{name} {}: median frame_ms {:.3}, cpu_ms {:.3}, gpu_ms {:.3} over {frames}",
+                "{name} {}: median frame_ms {:.3}, cpu_ms {:.3}, gpu_ms {:.3}, frame_cpu_ms {:.3} over {frames}",
                 algo.name(),
                 median(ms),
                 median(cpu),
-                median(gpu_ms)
+                median(gpu_ms),
+                median(proc_ms)
             );
         }
         if std::env::var_os("FRAMES_COUNTS").is_some() {

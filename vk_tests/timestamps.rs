@@ -1,4 +1,4 @@
-//! Where a frame's closing timestamp goes (`TimestampClose`, README "Executor
+//! Where a frame's closing timestamp goes (`FrameTimestamps`, README "Executor
 //! fixed costs"): inside the last block (the CPU devices' default, one scene
 //! fewer for lavapipe) or after every command. Both must give the same images
 //! and counts but the timestamps written inside a block, and a GPU time that
@@ -6,7 +6,7 @@
 //! after frame: loop by loop, recorded and replayed. Validation on.
 
 use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim::vk::{Executor, Recorded, TimestampClose};
+use peeltrim::vk::{Executor, FrameTimestamps, Recorded};
 
 use crate::algorithms::shipped;
 use crate::{assert_clean, context};
@@ -19,11 +19,11 @@ fn same_frames(name: &str, algo: Algo) {
     let ctx = context();
     let desc = crate::scene_desc(&scene);
     let mut runs = Vec::new();
-    for close in [TimestampClose::AfterAll, TimestampClose::InLastBlock] {
+    for close in [FrameTimestamps::Outside, FrameTimestamps::Binned] {
         let mut ex = Executor::new(&ctx, &desc).expect("executor");
         ex.upload(&scene).expect("upload");
         ex.set_pass_timestamps(false);
-        ex.set_timestamp_close(close);
+        ex.set_frame_timestamps(close);
         let frames: Vec<_> = (0..3).map(|_| ex.frame(&plan).expect("frame")).collect();
         runs.push(frames);
     }

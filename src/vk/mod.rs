@@ -41,8 +41,8 @@ pub use composite::{COLOR_FORMATS, DEPTH_FORMATS};
 pub use embed::{Embedder, HostTargets};
 pub use error::VkError;
 pub use exec::{
-    BlockJoin, ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, PassStats,
-    PlanCounts, Recorded, SeqFrame, SeqItem, TimestampClose,
+    BlockJoin, ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame,
+    FrameTimestamps, PassStats, PlanCounts, Recorded, SeqFrame, SeqItem,
 };
 pub use host_frame::OffscreenHost;
 pub use instance::{Context, ContextDesc, DeviceChoice};

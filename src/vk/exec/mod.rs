@@ -87,7 +87,7 @@ use kept::{ReachKey, Reached};
 use read_back::whole_image_region;
 pub(crate) use record::{copy_counts, final_shade, host_barriers, peel_depth, HostShade};
 use record::{Bindings, Group, Recorder};
-pub use record::{BlockJoin, ClearMode, TimestampClose};
+pub use record::{BlockJoin, ClearMode, FrameTimestamps};
 use recording::Recording;
 use scissors::Scissors;
 use targets::Targets;
@@ -180,8 +180,8 @@ pub struct Executor {
     join: BlockJoin,
     /// Timestamps at every pass (per-pass GPU times) or only around the frame.
     pass_timestamps: bool,
-    /// Where each command buffer's closing timestamp goes (`record::TimestampClose`).
-    close: TimestampClose,
+    /// Where each command buffer's closing timestamp goes (`record::FrameTimestamps`).
+    frame_ts: FrameTimestamps,
     /// Clears reach only what later steps read ([`Executor::set_scissored_clears`]).
     scissored_clears: bool,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
@@ -287,10 +287,10 @@ impl Executor {
             clears,
             join: BlockJoin::Masked,
             pass_timestamps: true,
-            close: if cpu {
-                TimestampClose::InLastBlock
+            frame_ts: if cpu {
+                FrameTimestamps::Binned
             } else {
-                TimestampClose::AfterAll
+                FrameTimestamps::Outside
             },
             scissored_clears: true,
             rounding: None,
@@ -541,7 +541,7 @@ impl Executor {
             clears: self.clears,
             join: self.join,
             pass_timestamps: self.pass_timestamps,
-            close: self.close,
+            frame_ts: self.frame_ts,
             flags,
             snap,
             normals: self.normals,

@@ -129,7 +129,7 @@ pub struct Counts {
     /// GPU timestamps written (per pass, or only around the frame).
     pub timestamps: u64,
     /// Of those, closing timestamps written inside the last block
-    /// (`TimestampClose::InLastBlock`: one fewer scene for lavapipe).
+    /// (`FrameTimestamps::Binned`: one fewer scene for lavapipe).
     pub timestamps_in_block: u64,
     /// Queue submissions of the frame.
     pub submits: u64,

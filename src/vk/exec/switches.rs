@@ -5,7 +5,7 @@
 //! (README "Executor"; the A/B switches are measured in README "Per-pixel cost"
 //! and "The final shade as depth-equal draws").
 
-use super::{BlockJoin, ClearMode, DepthFormat, Executor, TimestampClose};
+use super::{BlockJoin, ClearMode, DepthFormat, Executor, FrameTimestamps};
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{pipeline_flags, FLAG_RASTER_DEPTH};
 
@@ -159,8 +159,8 @@ impl Executor {
     /// scene per frame) or after all its commands (the default elsewhere).
     /// Both give the same images; `gpu_ms` ends with the last block's draws in
     /// the first.
-    pub fn set_timestamp_close(&mut self, close: TimestampClose) {
-        self.close = close;
+    pub fn set_frame_timestamps(&mut self, ts: FrameTimestamps) {
+        self.frame_ts = ts;
         self.recording = None;
     }
 
