@@ -360,7 +360,7 @@ fn bench_pairs_time_equal_work() {
     for v in [t.standalone_frame_ms_median, t.frame_ms_median, t.ratio] {
         assert!(v > 0.0 && v.is_finite(), "{t:?}");
     }
-    // Linux: CPU time is read from /proc.
+    // Unix: CPU time is read from the process CPU clock.
     for v in [
         t.standalone_frame_cpu_ms_median,
         t.frame_cpu_ms_median,

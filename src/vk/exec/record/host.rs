@@ -561,6 +561,7 @@ impl Recorder<'_> {
             self.bind(pipeline, set);
             self.host_draw(draw, *piece, *rect, flags);
         }
+        self.close_in_block(true);
         // SAFETY: closes the block `begin_host_block` opened.
         unsafe { device.cmd_end_rendering(self.cmd) };
         self.rest_all();

@@ -383,8 +383,9 @@ impl<'a> Recorder<'a> {
     /// [`FrameTimestamps::Binned`] asks for it (per-pass timestamps end every
     /// pass's block anyway): the frame's time then ends with its last block's
     /// draws, and [`Self::end`] writes none.
-    fn close_in_block(&mut self) {
-        if self.binned_timestamps() && self.block.is_some() {
+    /// `open`: a block is open (the recorder's, or the host's).
+    pub(super) fn close_in_block(&mut self, open: bool) {
+        if self.binned_timestamps() && open {
             self.timestamp(String::new(), vk::PipelineStageFlags::TOP_OF_PIPE);
             self.closed = true;
             self.stats.counts.timestamps_in_block += 1;
@@ -394,7 +395,7 @@ impl<'a> Recorder<'a> {
     /// Leaves the images the way the next frame expects them: read-back targets
     /// with their pending clears done, every image in `REST`.
     pub fn finish_frame(&mut self, output_ds: u8) {
-        self.close_in_block();
+        self.close_in_block(self.block.is_some());
         self.end_block();
         let outputs = self.outputs(output_ds);
         self.flush_clears(&outputs);
