@@ -62,6 +62,9 @@ pub struct Report {
     /// The last frame's depth-equal pieces drawn without the check of the
     /// output depth outside their mesh's cutters (`plan::cut_away`).
     pub shade_uncut_draws: u64,
+    /// The last frame's pieces drawn after the solid's faces, strictly
+    /// tested: the insides of its cavities (`record::host::insides_last`).
+    pub shade_insides_last: u64,
     /// The last frame's colour image, RGBA, row by row.
     pub image: Image,
     pub validation: Vec<String>,
@@ -638,6 +641,10 @@ pub struct Setup {
     /// depth outside their mesh's cutters (`plan::cut_away`; `false`: every
     /// piece checks, for comparing the two images).
     pub uncut: bool,
+    /// Whether the written final shade may draw the cavities' insides after
+    /// the solid's faces (`Executor::set_insides_last`; `false`: every piece
+    /// in the plan's order, for comparing the two images).
+    pub insides_last: bool,
 }
 
 impl Setup {
@@ -657,6 +664,7 @@ impl Setup {
             bites: false,
             drilled: false,
             uncut: true,
+            insides_last: true,
         }
     }
 }
@@ -723,6 +731,9 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         csg.recorder()
             .set_cut_away(peeltrim::plan::cut_away::CutAway::none());
     }
+    csg.recorder()
+        .executor()
+        .set_insides_last(setup.insides_last);
 
     let (color_format, depth_format) = (setup.color_format, setup.depth_format);
     let srgb = matches!(
@@ -827,7 +838,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     );
     let mut counts = Vec::new();
     let mut paths = Vec::new();
-    let mut shade_draws = (0, 0, 0, 0, 0);
+    let mut shade_draws = (0, 0, 0, 0, 0, 0);
     for k in 0..setup.frames.max(1) {
         let slot = (k % inflight) as usize;
         let (cmd, fence) = (cmds[slot], fences[slot]);
@@ -903,6 +914,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
             stats.counts.direct_shade_draws,
             stats.counts.shade_written_draws,
             stats.counts.shade_uncut_draws,
+            stats.counts.shade_insides_last,
         );
         // SAFETY: as above.
         unsafe {
@@ -946,6 +958,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         report.direct_shade_draws,
         report.shade_written_draws,
         report.shade_uncut_draws,
+        report.shade_insides_last,
     ) = shade_draws;
     drop(csg);
     drop(ctx);

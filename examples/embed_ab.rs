@@ -10,7 +10,9 @@
 //! (e.g. `400x400 15 cst-i,goldfeather scenes/speckle.toml`). With
 //! `EMBED_AB_ONLY=standalone` or `=embedded` only that path runs (for `perf`);
 //! `EMBED_AB_UNCUT=off`: every final-shade piece keeps the check of the
-//! output depth (`plan::cut_away` unused, A/B).
+//! output depth (`plan::cut_away` unused, A/B); `EMBED_AB_INSIDES=plan`:
+//! the written final shade keeps the plan's order (no insides drawn last,
+//! `Executor::set_insides_last`).
 
 #[path = "ab_common/mod.rs"]
 mod ab_common;
@@ -46,6 +48,9 @@ fn main() {
             // The camera does not move here, so nothing sets them again.
             csg.recorder()
                 .set_cut_away(peeltrim::plan::cut_away::CutAway::none());
+        }
+        if std::env::var("EMBED_AB_INSIDES").as_deref() == Ok("plan") {
+            csg.recorder().executor().set_insides_last(false);
         }
         let mut host = OffscreenHost::new(ctx, edesc.extent).expect("host");
         let far = if desc.reversed_z { 0.0 } else { 1.0 };
@@ -100,7 +105,7 @@ fn main() {
             if let Some(s) = s {
                 let c = &s.counts;
                 print!(
-                    "  | {label}: draws {} (mesh {:.2} Mpx; direct-shade {} dead-tex {} footprint {}; shade rule {} on {:.2} Mpx, fixed {}, written {} fetching on {:.3} Mpx, uncut {} on {:.3} Mpx) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
+                    "  | {label}: draws {} (mesh {:.2} Mpx; direct-shade {} dead-tex {} footprint {}; shade rule {} on {:.2} Mpx, fixed {}, written {} fetching on {:.3} Mpx, uncut {} on {:.3} Mpx, insides last {}) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
                     c.draws,
                     c.mesh_pixels as f64 * 1e-6,
                     c.direct_shade_draws,
@@ -113,6 +118,7 @@ fn main() {
                     c.shade_written_fetch_pixels as f64 * 1e-6,
                     c.shade_uncut_draws,
                     c.shade_uncut_pixels as f64 * 1e-6,
+                    c.shade_insides_last,
                     c.barriers,
                     c.render_passes,
                     c.fullscreen_passes,

@@ -244,6 +244,63 @@ fn pieces_outside_their_cutters_skip_the_fetch_and_change_no_pixel() {
     }
 }
 
+/// The written final shade draws the pits' insides after the box's faces,
+/// strictly tested (`record::host::insides_last`): the same image, pixel for
+/// pixel, as every piece in the plan's order, on every depth set-up, with and
+/// without the fetch-free parts outside the pits; and as the reference
+/// composite says (`check`).
+#[test]
+fn insides_drawn_last_change_no_pixel() {
+    let _only = host_alone();
+    let formats = [
+        (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, false),
+        (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, true),
+        (Format::B8G8R8A8_SRGB, Format::D24_UNORM_S8_UINT, true),
+        (Format::R8G8B8A8_UNORM, Format::D16_UNORM, false),
+    ];
+    let cases = [Algo::Goldfeather, Algo::Scs]
+        .into_iter()
+        .flat_map(|algo| [true, false].map(|uncut| (algo, uncut)))
+        .flat_map(|c| formats.map(|f| (c, f)));
+    for ((algo, uncut), (color_format, depth_format, reversed_z)) in cases {
+        let setup = example::Setup {
+            drilled: true,
+            uncut,
+            algo,
+            color_format,
+            depth_format,
+            ..example::Setup::new([480, 360], reversed_z)
+        };
+        let name = format!(
+            "{algo}, uncut {uncut}, {color_format:?}+{depth_format:?}, reversed {reversed_z}"
+        );
+        let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
+        check(&name, &r);
+        assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
+        // The four pits' insides.
+        assert_eq!(r.shade_insides_last, 4, "{name}: {r:?}");
+        let plan_order = example::Setup {
+            insides_last: false,
+            ..setup.clone()
+        };
+        let k = example::run(&plan_order).unwrap_or_else(|e| panic!("{name}, plan order: {e}"));
+        check(&format!("{name}, plan order"), &k);
+        assert_eq!(k.shade_insides_last, 0, "{name}: {k:?}");
+        assert_eq!(r.image.0.len(), k.image.0.len(), "{name}");
+        let differ = r
+            .image
+            .0
+            .iter()
+            .zip(&k.image.0)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert_eq!(
+            differ, 0,
+            "{name}: {differ} pixels differ from the plan order's"
+        );
+    }
+}
+
 #[test]
 fn loop_counts_guessed_too_low_are_doubled_by_the_ring_and_too_high_are_shrunk() {
     let _only = host_alone();

@@ -182,6 +182,8 @@ pub struct Executor {
     pass_timestamps: bool,
     /// Where each command buffer's closing timestamp goes (`record::FrameTimestamps`).
     frame_ts: FrameTimestamps,
+    /// The embedded final shade's insides drawn last (`set_insides_last`).
+    insides_last: bool,
     /// Clears reach only what later steps read ([`Executor::set_scissored_clears`]).
     scissored_clears: bool,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
@@ -292,6 +294,7 @@ impl Executor {
             } else {
                 FrameTimestamps::Outside
             },
+            insides_last: true,
             scissored_clears: true,
             rounding: None,
             normals: false,
@@ -542,6 +545,7 @@ impl Executor {
             join: self.join,
             pass_timestamps: self.pass_timestamps,
             frame_ts: self.frame_ts,
+            insides_last: self.insides_last,
             flags,
             snap,
             normals: self.normals,

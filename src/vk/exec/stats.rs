@@ -131,6 +131,9 @@ pub struct Counts {
     /// Of those, closing timestamps written inside the last block
     /// (`FrameTimestamps::Binned`: one fewer scene for lavapipe).
     pub timestamps_in_block: u64,
+    /// Embedded final-shade pieces drawn after the solid's faces with the
+    /// strict compare: the cavities' insides (`record::host::insides_last`).
+    pub shade_insides_last: u64,
     /// Queue submissions of the frame.
     pub submits: u64,
     /// Pipelines created for this frame: the first use of a fragment program
@@ -268,6 +271,7 @@ impl ExecStats {
         c.copied_pixels += o.copied_pixels;
         c.timestamps += o.timestamps;
         c.timestamps_in_block += o.timestamps_in_block;
+        c.shade_insides_last += o.shade_insides_last;
         c.state_commands += o.state_commands;
         c.submits += o.submits;
         c.pipelines_created += o.pipelines_created;

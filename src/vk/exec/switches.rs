@@ -164,6 +164,15 @@ impl Executor {
         self.recording = None;
     }
 
+    /// Whether an embedded frame's written final shade draws the insides of
+    /// the cavities (subtracted meshes drawn with their front faces culled)
+    /// after the solid's faces, tested strictly, where that changes no pixel
+    /// (the default), or every piece in the plan's order (A/B).
+    pub fn set_insides_last(&mut self, on: bool) {
+        self.insides_last = on;
+        self.recording = None;
+    }
+
     /// Drops the kept recording: the next frame records again (what a new plan or
     /// camera costs; the bench measures it with this).
     pub fn forget_recording(&mut self) {

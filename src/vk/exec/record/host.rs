@@ -336,6 +336,52 @@ pub(crate) struct Priced {
     pub direct: bool,
 }
 
+/// The order of the written pieces that lets the solid's faces hide the
+/// cavities' insides before their shader: every piece but the insides (a
+/// `Written` piece drawn with its front faces culled: a subtracted mesh's
+/// inside, mostly behind the solid's faces) in plan order, then the insides in
+/// reverse plan order, each drawn with the strict compare (`true`). `None`,
+/// keeping the plan's order, where that could change a pixel: a rule piece or a
+/// merge path, no inside, or an inside whose rectangle meets that of a piece
+/// before it in plan order that is not an inside.
+///
+/// Why the result is the plan order's: every fragment that passes writes its
+/// pixel's output depth, or, for the fetch-free pieces, a depth at or behind
+/// it. After the others, a pixel holds the host's depth, the output depth
+/// (a piece at it passed) or a hidden fetch-free fragment's depth behind it.
+/// An inside at the output depth then passes strictly only in the first and
+/// last case; in the second a piece that meets it passed, which comes after
+/// it in plan order (the condition), so it wins the tie there in plan order
+/// too. Among the insides, the first drawn that passes keeps the pixel, the
+/// last in plan order. The one difference: where an inside's visible face has
+/// bit-equal depth with the host's geometry the host's pixel stays (the plan
+/// order gives it to the CSG, as the other pieces' `LESS_OR_EQUAL` does).
+fn insides_last(pieces: &[(Cull, Piece, Rect)]) -> Option<Vec<(usize, bool)>> {
+    let inside = |(c, p, _): &(Cull, Piece, Rect)| *p == Piece::Written && *c == Cull::Front;
+    let plain = pieces.iter().all(|(_, p, _)| {
+        matches!(
+            p,
+            Piece::Written | Piece::WrittenDirect | Piece::WrittenUncut
+        )
+    });
+    if !plain || !pieces.iter().any(inside) {
+        return None;
+    }
+    for (i, a) in pieces.iter().enumerate().filter(|(_, a)| inside(a)) {
+        let met = pieces[..i]
+            .iter()
+            .any(|b| !inside(b) && !b.2.intersect(&a.2).is_empty());
+        if met {
+            return None;
+        }
+    }
+    let (ins, rest): (Vec<usize>, Vec<usize>) =
+        (0..pieces.len()).partition(|&i| inside(&pieces[i]));
+    let mut order: Vec<(usize, bool)> = rest.into_iter().map(|i| (i, false)).collect();
+    order.extend(ins.into_iter().rev().map(|i| (i, true)));
+    Some(order)
+}
+
 /// Whether the final shade's depth-equal pieces are drawn `Written`, each
 /// testing the host's depth with equality and writing its own, rather than
 /// after the depth merge: whichever runs the shader on fewer pixels, as
@@ -549,7 +595,15 @@ impl Recorder<'_> {
         if let Some(ds) = equal_ds {
             self.host_merge(h, ds, &draws, flags)?;
         }
-        for (draw, piece, rect) in &draws {
+        let shape: Vec<_> = draws.iter().map(|(d, p, r)| (d.cull, *p, *r)).collect();
+        let order = match self.b.insides_last {
+            true => insides_last(&shape),
+            false => None,
+        }
+        .unwrap_or_else(|| (0..draws.len()).map(|i| (i, false)).collect());
+        self.stats.counts.shade_insides_last += order.iter().filter(|(_, s)| *s).count() as u64;
+        for &(i, strict) in &order {
+            let (draw, piece, rect) = &draws[i];
             let (kind, set) = match piece {
                 Piece::Rule => (rule_kind, rule_tex.map(Resource::Texture)),
                 Piece::AtDepth => (equal_kind, equal_ds.map(Resource::DepthStencil)),
@@ -559,7 +613,7 @@ impl Recorder<'_> {
             let set = set.map(|r| self.b.targets.sampling_set(r));
             let pipeline = self.b.pipelines.get(&host_pipeline(h, kind))?;
             self.bind(pipeline, set);
-            self.host_draw(draw, *piece, *rect, flags);
+            self.host_draw(draw, *piece, *rect, flags, strict);
         }
         self.close_in_block(true);
         // SAFETY: closes the block `begin_host_block` opened.
@@ -722,7 +776,9 @@ impl Recorder<'_> {
     /// written), or at the output depth with no merge (`Piece::Written`: the
     /// host's test with equality, the raster depth of the fragments the shader
     /// keeps written).
-    fn host_draw(&mut self, draw: &Draw, piece: Piece, scissor: Rect, flags: u32) {
+    /// `strict`: `LESS` where the piece would test `LESS_OR_EQUAL`
+    /// ([`insides_last`]).
+    fn host_draw(&mut self, draw: &Draw, piece: Piece, scissor: Rect, flags: u32, strict: bool) {
         let (m, eps) = match (&draw.geometry, &draw.fragment) {
             (Geometry::Mesh(m), Fragment::ShadeNearDepth { eps, .. }) => (*m, *eps),
             _ => panic!("final_shade selects ShadeNearDepth draws of one mesh"),
@@ -740,7 +796,10 @@ impl Recorder<'_> {
         );
         let depth = match written {
             true => DepthState {
-                compare: CompareOp::LessOrEqual,
+                compare: match strict {
+                    true => CompareOp::Less,
+                    false => CompareOp::LessOrEqual,
+                },
                 write: true,
             },
             false => DepthState {
@@ -804,6 +863,47 @@ impl Recorder<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn r(x0: u32, x1: u32) -> Rect {
+        Rect {
+            x0,
+            y0: 0,
+            x1,
+            y1: 10,
+        }
+    }
+
+    #[test]
+    fn insides_go_last_in_reverse_only_where_no_earlier_face_meets_them() {
+        let hole = |x0, x1| (Cull::Front, Piece::Written, r(x0, x1));
+        let block = (Cull::Back, Piece::Written, r(0, 100));
+        let free = (Cull::Back, Piece::WrittenUncut, r(0, 100));
+        // Two holes before the block (plan order): the block and its free
+        // part first, then the holes last to first, strict.
+        let p = [hole(10, 20), hole(30, 40), block, free];
+        assert_eq!(
+            insides_last(&p),
+            Some(vec![(2, false), (3, false), (1, true), (0, true)])
+        );
+        // A solid's face before a hole it meets would lose the tie it wins in
+        // plan order: kept as it is.
+        assert_eq!(insides_last(&[block, hole(10, 20)]), None);
+        // One it does not meet is fine.
+        let away = (Cull::Back, Piece::Written, r(50, 60));
+        assert_eq!(
+            insides_last(&[away, hole(10, 20), block]),
+            Some(vec![(0, false), (2, false), (1, true)])
+        );
+        // No inside, a rule piece or a merge (depth-equal pieces): nothing to do.
+        assert_eq!(insides_last(&[block, free]), None);
+        let rule = (Cull::Front, Piece::Rule, r(10, 20));
+        assert_eq!(insides_last(&[hole(10, 20), rule, block]), None);
+        let merged = (Cull::Front, Piece::AtDepth, r(10, 20));
+        assert_eq!(
+            insides_last(&[merged, (Cull::Back, Piece::AtDepth, r(0, 100))]),
+            None
+        );
+    }
 
     /// The plan builders' shade draw of mesh `m`.
     fn shade(m: u32, tex: Tex, ds: u8) -> Step {

@@ -152,6 +152,9 @@ pub(super) struct Bindings<'a> {
     pub pass_timestamps: bool,
     /// Where the frame's closing timestamp goes ([`FrameTimestamps`]).
     pub frame_ts: FrameTimestamps,
+    /// The host's written final shade draws the cavities' insides last, where
+    /// that changes no pixel (`host::insides_last`).
+    pub insides_last: bool,
     /// Push-constant flags (reversed Z, subpixel precision).
     pub flags: u32,
     /// Emulated vertex snapping step of mesh draws (zero: off).
