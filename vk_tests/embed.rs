@@ -183,39 +183,65 @@ fn written_pieces_and_the_merge_each_meet_the_host_floor_like_the_reference() {
     }
 }
 
-/// The drilled box (`examples/embed.rs` `Setup::drilled`: four small pits
-/// in its faces towards the eye, `m0 - m1 - … - m4`): the box is the only
-/// positive literal of its product, so outside the pits' screen rectangles
-/// none of its front faces lies nearer than the output depth and its
-/// depth-equal piece is drawn there without the check of the output depth
-/// (`plan::cut_away`, `Piece::WrittenUncut`), the rest of it with the check.
-/// The image is the one with every check kept, pixel for pixel, and both meet the host's floor as the reference composite says;
-/// Goldfeather and SCS (the two algorithms the argument is made for), both
-/// depth conventions, depth buffers that round (D24S8, D16), an `_SRGB`
-/// colour format.
-#[test]
-fn pieces_outside_their_cutters_skip_the_fetch_and_change_no_pixel() {
-    let _only = host_alone();
+/// The example's box with four pits, Goldfeather and SCS, on D32 standard and
+/// reversed, D24S8 with `_SRGB` and D16, at 480×360: large enough that a
+/// free piece pays for its draw (`cut_away::PIECE_PIXELS`). With a name each.
+fn drilled_setups() -> Vec<(String, example::Setup)> {
     let formats = [
         (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, false),
         (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, true),
         (Format::B8G8R8A8_SRGB, Format::D24_UNORM_S8_UINT, true),
         (Format::R8G8B8A8_UNORM, Format::D16_UNORM, false),
     ];
-    let cases = [Algo::Goldfeather, Algo::Scs]
+    [Algo::Goldfeather, Algo::Scs]
         .into_iter()
-        .flat_map(|algo| formats.map(|f| (algo, f)));
-    for (algo, (color_format, depth_format, reversed_z)) in cases {
-        // Large enough that a free piece pays for its draw
-        // (`cut_away::PIECE_PIXELS`).
-        let setup = example::Setup {
-            drilled: true,
-            algo,
-            color_format,
-            depth_format,
-            ..example::Setup::new([480, 360], reversed_z)
-        };
-        let name = format!("{algo}, {color_format:?}+{depth_format:?}, reversed {reversed_z}");
+        .flat_map(|algo| formats.map(|f| (algo, f)))
+        .map(|(algo, (color_format, depth_format, reversed_z))| {
+            let name = format!("{algo}, {color_format:?}+{depth_format:?}, reversed {reversed_z}");
+            let setup = example::Setup {
+                drilled: true,
+                algo,
+                color_format,
+                depth_format,
+                ..example::Setup::new([480, 360], reversed_z)
+            };
+            (name, setup)
+        })
+        .collect()
+}
+
+/// `other`, run, checked against the reference composite and with the very
+/// image of `r` (the same set-up with one switch flipped).
+fn same_image(name: &str, r: &example::Report, other: &example::Setup) -> example::Report {
+    let k = example::run(other).unwrap_or_else(|e| panic!("{name}: {e}"));
+    check(name, &k);
+    assert_eq!(r.image.0.len(), k.image.0.len(), "{name}");
+    let differ = r
+        .image
+        .0
+        .iter()
+        .zip(&k.image.0)
+        .filter(|(a, b)| a != b)
+        .count();
+    assert_eq!(differ, 0, "{name}: {differ} pixels differ");
+    k
+}
+
+/// The drilled box (`examples/embed.rs` `Setup::drilled`: four small pits
+/// in its faces towards the eye, `m0 - m1 - … - m4`): the box is the only
+/// positive literal of its product, so outside the pits' screen rectangles
+/// none of its front faces lies nearer than the output depth and its
+/// depth-equal piece is drawn there without the check of the output depth
+/// (`plan::cut_away`, `Piece::WrittenUncut`), the rest of it with the check.
+/// The image is the one with every check kept, pixel for pixel, and both
+/// meet the host's floor as the reference composite says; Goldfeather and
+/// SCS (the two algorithms the argument is made for), both depth
+/// conventions, depth buffers that round (D24S8, D16), an `_SRGB` colour
+/// format.
+#[test]
+fn pieces_outside_their_cutters_skip_the_fetch_and_change_no_pixel() {
+    let _only = host_alone();
+    for (name, setup) in drilled_setups() {
         let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
         check(&name, &r);
         assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
@@ -226,78 +252,37 @@ fn pieces_outside_their_cutters_skip_the_fetch_and_change_no_pixel() {
             uncut: false,
             ..setup.clone()
         };
-        let k = example::run(&kept).unwrap_or_else(|e| panic!("{name}, kept: {e}"));
-        check(&format!("{name}, kept"), &k);
+        let k = same_image(&format!("{name}, kept"), &r, &kept);
         assert_eq!(k.shade_uncut_draws, 0, "{name}: {k:?}");
-        let differ = r
-            .image
-            .0
-            .iter()
-            .zip(&k.image.0)
-            .filter(|(a, b)| a != b)
-            .count();
-        assert_eq!(r.image.0.len(), k.image.0.len(), "{name}");
-        assert_eq!(
-            differ, 0,
-            "{name}: {differ} pixels differ from the checked image"
-        );
     }
 }
 
 /// The written final shade draws the pits' insides after the box's faces,
 /// strictly tested (`record::host::insides_last`): the same image, pixel for
-/// pixel, as every piece in the plan's order, on every depth set-up, with and
-/// without the fetch-free parts outside the pits; and as the reference
-/// composite says (`check`).
+/// pixel, as every piece in the plan's order, with and without the
+/// fetch-free parts outside the pits; and as the reference composite says.
 #[test]
 fn insides_drawn_last_change_no_pixel() {
     let _only = host_alone();
-    let formats = [
-        (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, false),
-        (Format::R8G8B8A8_UNORM, Format::D32_SFLOAT, true),
-        (Format::B8G8R8A8_SRGB, Format::D24_UNORM_S8_UINT, true),
-        (Format::R8G8B8A8_UNORM, Format::D16_UNORM, false),
-    ];
-    let cases = [Algo::Goldfeather, Algo::Scs]
-        .into_iter()
-        .flat_map(|algo| [true, false].map(|uncut| (algo, uncut)))
-        .flat_map(|c| formats.map(|f| (c, f)));
-    for ((algo, uncut), (color_format, depth_format, reversed_z)) in cases {
-        let setup = example::Setup {
-            drilled: true,
-            uncut,
-            algo,
-            color_format,
-            depth_format,
-            ..example::Setup::new([480, 360], reversed_z)
-        };
-        let name = format!(
-            "{algo}, uncut {uncut}, {color_format:?}+{depth_format:?}, reversed {reversed_z}"
-        );
-        let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
-        check(&name, &r);
-        assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
-        // The four pits' insides.
-        assert_eq!(r.shade_insides_last, 4, "{name}: {r:?}");
-        let plan_order = example::Setup {
-            insides_last: false,
-            ..setup.clone()
-        };
-        let k = example::run(&plan_order).unwrap_or_else(|e| panic!("{name}, plan order: {e}"));
-        check(&format!("{name}, plan order"), &k);
-        assert_eq!(k.shade_insides_last, 0, "{name}: {k:?}");
-        assert_eq!(r.image.0.len(), k.image.0.len(), "{name}");
-        let differ = r
-            .image
-            .0
-            .iter()
-            .zip(&k.image.0)
-            .filter(|(a, b)| a != b)
-            .count();
-        assert_eq!(
-            differ, 0,
-            "{name}: {differ} pixels differ from the plan order's"
-        );
+    for (name, drilled) in drilled_setups() {
+        for uncut in [true, false] {
+            let name = format!("{name}, uncut {uncut}");
+            let setup = example::Setup {
+                uncut,
+                ..drilled.clone()
+            };
+            let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
+            check(&name, &r);
+            assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
+            // The four pits' insides.
+            assert_eq!(r.shade_insides_last, 4, "{name}: {r:?}");
+            let plan_order = example::Setup {
+                insides_last: false,
+                ..setup.clone()
+            };
+            let k = same_image(&format!("{name}, plan order"), &r, &plan_order);
+            assert_eq!(k.shade_insides_last, 0, "{name}: {k:?}");
+        }
     }
 }
 
