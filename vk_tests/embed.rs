@@ -210,11 +210,19 @@ fn drilled_setups() -> Vec<(String, example::Setup)> {
         .collect()
 }
 
+/// `setup` run and checked against the reference composite, drawn on the
+/// direct path (no composite).
+fn run_direct(name: &str, setup: &example::Setup) -> example::Report {
+    let r = example::run(setup).unwrap_or_else(|e| panic!("{name}: {e}"));
+    check(name, &r);
+    assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
+    r
+}
+
 /// `other`, run, checked against the reference composite and with the very
 /// image of `r` (the same set-up with one switch flipped).
 fn same_image(name: &str, r: &example::Report, other: &example::Setup) -> example::Report {
-    let k = example::run(other).unwrap_or_else(|e| panic!("{name}: {e}"));
-    check(name, &k);
+    let k = run_direct(name, other);
     assert_eq!(r.image.0.len(), k.image.0.len(), "{name}");
     let differ = r
         .image
@@ -242,9 +250,7 @@ fn same_image(name: &str, r: &example::Report, other: &example::Setup) -> exampl
 fn pieces_outside_their_cutters_skip_the_fetch_and_change_no_pixel() {
     let _only = host_alone();
     for (name, setup) in drilled_setups() {
-        let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
-        check(&name, &r);
-        assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
+        let r = run_direct(&name, &setup);
         assert!(r.shade_uncut_draws > 0, "{name}: {r:?}");
         // With no merge: the parts outside the pits cost nothing.
         assert_eq!(r.shade_written_draws, r.shade_fixed_draws, "{name}: {r:?}");
@@ -271,9 +277,7 @@ fn insides_drawn_last_change_no_pixel() {
                 uncut,
                 ..drilled.clone()
             };
-            let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
-            check(&name, &r);
-            assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
+            let r = run_direct(&name, &setup);
             // The four pits' insides.
             assert_eq!(r.shade_insides_last, 4, "{name}: {r:?}");
             let plan_order = example::Setup {

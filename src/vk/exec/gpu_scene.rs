@@ -289,6 +289,21 @@ fn position(mesh: &crate::scene::Mesh, i: u32, origin: DVec3) -> [f32; 3] {
     [p.x as f32, p.y as f32, p.z as f32]
 }
 
+/// The vertex floats of `corners` (position index, normal), in order: the
+/// one layout all three ways of drawing share (position, then normal).
+fn corner_floats(
+    mesh: &crate::scene::Mesh,
+    origin: DVec3,
+    corners: impl Iterator<Item = (u32, [f32; 3])>,
+) -> Vec<f32> {
+    let mut floats = Vec::with_capacity(corners.size_hint().0 * 6);
+    for (i, n) in corners {
+        floats.extend(position(mesh, i, origin));
+        floats.extend(n);
+    }
+    floats
+}
+
 /// The soup: three vertices a triangle, in the drawn corner order, each with
 /// the face normal.
 fn soup_floats(
@@ -297,25 +312,18 @@ fn soup_floats(
     normals: &[[f32; 3]],
     origin: DVec3,
 ) -> Vec<f32> {
-    let mut floats = Vec::with_capacity(l.triangles.len() * 18);
-    for (t, n) in l.triangles.iter().zip(normals) {
-        for &i in t {
-            floats.extend(position(mesh, i, origin));
-            floats.extend(n);
-        }
-    }
-    floats
+    let corners = l
+        .triangles
+        .iter()
+        .zip(normals)
+        .flat_map(|(t, &n)| t.iter().map(move |&i| (i, n)));
+    corner_floats(mesh, origin, corners)
 }
 
 /// The shared corners: positions only (no program that draws them reads a
 /// normal).
 fn shared_floats(mesh: &crate::scene::Mesh, l: &Layout, origin: DVec3) -> Vec<f32> {
-    let mut floats = Vec::with_capacity(l.shared.len() * 6);
-    for &i in &l.shared {
-        floats.extend(position(mesh, i, origin));
-        floats.extend([0.0; 3]);
-    }
-    floats
+    corner_floats(mesh, origin, l.shared.iter().map(|&i| (i, [0.0; 3])))
 }
 
 /// The lit corners: each triangle's own vertex with its face normal; the
@@ -326,12 +334,11 @@ fn lit_floats(
     normals: &[[f32; 3]],
     origin: DVec3,
 ) -> Vec<f32> {
-    let mut floats = Vec::with_capacity(l.lit.len() * 6);
-    for &(i, owner) in &l.lit {
-        floats.extend(position(mesh, i, origin));
-        floats.extend(owner.map_or([0.0; 3], |t| normals[t as usize]));
-    }
-    floats
+    let corners = l
+        .lit
+        .iter()
+        .map(|&(i, owner)| (i, owner.map_or([0.0; 3], |t| normals[t as usize])));
+    corner_floats(mesh, origin, corners)
 }
 
 fn mesh_bounds(mesh: &crate::scene::Mesh) -> Aabb {
