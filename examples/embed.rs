@@ -65,6 +65,9 @@ pub struct Report {
     /// The last frame's pieces drawn after the solid's faces, strictly
     /// tested: the insides of its cavities (`record::host::insides_last`).
     pub shade_insides_last: u64,
+    /// The last frame's pixels cut from the cavities' insides where they
+    /// cannot be seen through an opening (`record::host::cut_insides`).
+    pub shade_insides_cut_pixels: u64,
     /// The last frame's colour image, RGBA, row by row.
     pub image: Image,
     pub validation: Vec<String>,
@@ -645,6 +648,10 @@ pub struct Setup {
     /// the solid's faces (`Executor::set_insides_last`; `false`: every piece
     /// in the plan's order, for comparing the two images).
     pub insides_last: bool,
+    /// Whether the final shade is cut to the openings (`Executor::set_openings`;
+    /// `false`: the checks over the boxes' meeting and the insides whole,
+    /// for comparing the two images).
+    pub openings: bool,
 }
 
 impl Setup {
@@ -665,6 +672,7 @@ impl Setup {
             drilled: false,
             uncut: true,
             insides_last: true,
+            openings: true,
         }
     }
 }
@@ -734,6 +742,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     csg.recorder()
         .executor()
         .set_insides_last(setup.insides_last);
+    csg.recorder().executor().set_openings(setup.openings);
 
     let (color_format, depth_format) = (setup.color_format, setup.depth_format);
     let srgb = matches!(
@@ -838,7 +847,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     );
     let mut counts = Vec::new();
     let mut paths = Vec::new();
-    let mut shade_draws = (0, 0, 0, 0, 0, 0);
+    let mut shade_draws = (0, 0, 0, 0, 0, 0, 0);
     for k in 0..setup.frames.max(1) {
         let slot = (k % inflight) as usize;
         let (cmd, fence) = (cmds[slot], fences[slot]);
@@ -915,6 +924,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
             stats.counts.shade_written_draws,
             stats.counts.shade_uncut_draws,
             stats.counts.shade_insides_last,
+            stats.counts.shade_insides_cut_pixels,
         );
         // SAFETY: as above.
         unsafe {
@@ -959,6 +969,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         report.shade_written_draws,
         report.shade_uncut_draws,
         report.shade_insides_last,
+        report.shade_insides_cut_pixels,
     ) = shade_draws;
     drop(csg);
     drop(ctx);

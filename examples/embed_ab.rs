@@ -12,7 +12,9 @@
 //! `EMBED_AB_UNCUT=off`: every final-shade piece keeps the check of the
 //! output depth (`plan::cut_away` unused, A/B); `EMBED_AB_INSIDES=plan`:
 //! the written final shade keeps the plan's order (no insides drawn last,
-//! `Executor::set_insides_last`).
+//! `Executor::set_insides_last`); `EMBED_AB_OPENINGS=off`: the final shade's
+//! checks over the boxes' meeting and the insides whole
+//! (`Executor::set_openings`).
 
 #[path = "ab_common/mod.rs"]
 mod ab_common;
@@ -51,6 +53,9 @@ fn main() {
         }
         if std::env::var("EMBED_AB_INSIDES").as_deref() == Ok("plan") {
             csg.recorder().executor().set_insides_last(false);
+        }
+        if std::env::var("EMBED_AB_OPENINGS").as_deref() == Ok("off") {
+            csg.recorder().executor().set_openings(false);
         }
         let mut host = OffscreenHost::new(ctx, edesc.extent).expect("host");
         let far = if desc.reversed_z { 0.0 } else { 1.0 };
@@ -105,7 +110,7 @@ fn main() {
             if let Some(s) = s {
                 let c = &s.counts;
                 print!(
-                    "  | {label}: draws {} (mesh {:.2} Mpx; direct-shade {} dead-tex {} footprint {}; shade rule {} on {:.2} Mpx, fixed {}, written {} fetching on {:.3} Mpx, uncut {} on {:.3} Mpx, insides last {}) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
+                    "  | {label}: draws {} (mesh {:.2} Mpx; direct-shade {} dead-tex {} footprint {}; shade rule {} on {:.2} Mpx, fixed {}, written {} fetching on {:.3} Mpx, uncut {} on {:.3} Mpx, insides last {}, insides cut by {:.3} Mpx) barriers {} passes {} fullscreen {} ({:.2} Mpx) clears {} cleared {:.2} Mpx",
                     c.draws,
                     c.mesh_pixels as f64 * 1e-6,
                     c.direct_shade_draws,
@@ -119,6 +124,7 @@ fn main() {
                     c.shade_uncut_draws,
                     c.shade_uncut_pixels as f64 * 1e-6,
                     c.shade_insides_last,
+                    c.shade_insides_cut_pixels as f64 * 1e-6,
                     c.barriers,
                     c.render_passes,
                     c.fullscreen_passes,

@@ -278,8 +278,12 @@ fn insides_drawn_last_change_no_pixel() {
                 ..drilled.clone()
             };
             let r = run_direct(&name, &setup);
-            // The four pits' insides.
-            assert_eq!(r.shade_insides_last, 4, "{name}: {r:?}");
+            // The four pits' insides. With the cutters known, each is drawn
+            // where it can be seen: the boxes of the pits on the top and the
+            // right touch, so each of those two is drawn through both their
+            // openings (6 pieces).
+            let pieces = if uncut { 6 } else { 4 };
+            assert_eq!(r.shade_insides_last, pieces, "{name}: {r:?}");
             let plan_order = example::Setup {
                 insides_last: false,
                 ..setup.clone()
@@ -287,6 +291,29 @@ fn insides_drawn_last_change_no_pixel() {
             let k = same_image(&format!("{name}, plan order"), &r, &plan_order);
             assert_eq!(k.shade_insides_last, 0, "{name}: {k:?}");
         }
+    }
+}
+
+/// The written final shade cut to the openings (`Executor::set_openings`):
+/// the box's check of the output depth only over its front faces inside the
+/// pits' boxes (`plan::cut_away::facing_parts`), and each pit's inside drawn
+/// only where it can be seen through an opening (`CutAway::inside_holes`).
+/// The same image, pixel for pixel, as with the checks over the boxes'
+/// meeting and the insides whole, and as the reference composite says;
+/// fewer pixels fetch, and the insides lose pixels.
+#[test]
+fn the_final_shade_cut_to_the_openings_changes_no_pixel() {
+    let _only = host_alone();
+    for (name, setup) in drilled_setups() {
+        let r = run_direct(&name, &setup);
+        assert!(r.shade_insides_cut_pixels > 0, "{name}: {r:?}");
+        let whole = example::Setup {
+            openings: false,
+            ..setup.clone()
+        };
+        let k = same_image(&format!("{name}, whole"), &r, &whole);
+        assert_eq!(k.shade_insides_cut_pixels, 0, "{name}: {k:?}");
+        assert_eq!(k.shade_insides_last, 4, "{name}: {k:?}");
     }
 }
 

@@ -5,6 +5,7 @@
 #![deny(unsafe_code)]
 
 pub mod bvh;
+pub mod clip;
 pub mod ties;
 
 use glam::DVec3;

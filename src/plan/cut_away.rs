@@ -71,11 +71,14 @@
 //!   pieces is drawn without the fetch.
 #![deny(unsafe_code)]
 
+use glam::DVec3;
+
 use super::goldfeather::{self, Lit, DEFAULT_PRODUCT_LIMIT};
 use super::rect::Rect;
 use super::step::MeshId;
 use super::{tie_zones, Algo, Prepared};
-use crate::scene::{Aabb, Scene};
+use crate::geom::clip::triangle_in_box;
+use crate::scene::{Aabb, Camera, Mesh, Projection, Scene};
 
 /// The most cutter sets kept per mesh (one per one-positive product; the
 /// executor takes the one that leaves the most pixels free each frame).
@@ -101,9 +104,21 @@ pub const MAX_PIECE_TRIANGLES: usize = 16_384;
 /// literal: outside the screen rectangles of one set's meshes no face of the
 /// mesh lies nearer than the output depth (module doc). Empty where the
 /// argument does not hold.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct CutAway {
     by_mesh: Vec<Vec<Vec<MeshId>>>,
+    /// Per mesh, per cutter of its sets (sorted by cutter): the world boxes
+    /// holding every point of the mesh's faces that face `camera`'s eye
+    /// inside the cutter's box ([`facing_parts`]; none: no such face meets
+    /// it). Missing for a mesh too large to clip (then [`meeting`] serves).
+    faces: Vec<Vec<(MeshId, Vec<Aabb>)>>,
+    /// The camera `faces` hold for.
+    camera: Option<Camera>,
+    /// Per mesh, where its back faces can be visible ([`CutAway::inside_holes`]):
+    /// each product that negates it, as its one positive literal and the
+    /// cutters joined to the mesh through meeting boxes; `None` where a
+    /// product that negates it has several positives, or none negates it.
+    insides: Vec<Option<Vec<(MeshId, Vec<MeshId>)>>>,
 }
 
 impl CutAway {
@@ -138,10 +153,45 @@ impl CutAway {
         if in_front {
             return CutAway::none();
         }
-        match goldfeather::products(prep, DEFAULT_PRODUCT_LIMIT) {
-            Ok(prods) => CutAway::from_products(&prods, prep.mesh_triangles.len()),
-            Err(_) => CutAway::none(),
+        let Ok(prods) = goldfeather::products(prep, DEFAULT_PRODUCT_LIMIT) else {
+            return CutAway::none();
+        };
+        let mut cut = CutAway::from_products(&prods, prep.mesh_triangles.len());
+        cut.insides = inside_sets(&prods, &prep.mesh_bounds);
+        // Every cutter of a one-positive product of each mesh: the kept sets
+        // and the ones its cavities' insides are cut to.
+        let mut all: Vec<Vec<MeshId>> = vec![Vec::new(); cut.by_mesh.len()];
+        for sets in cut.insides.iter().flatten() {
+            for (a, comp) in sets {
+                if let Some(v) = all.get_mut(*a as usize) {
+                    v.extend(comp);
+                }
+            }
         }
+        cut.faces = all
+            .into_iter()
+            .enumerate()
+            .map(|(m, mut cutters)| {
+                cutters.extend(cut.by_mesh[m].iter().flatten());
+                cutters.sort_unstable();
+                cutters.dedup();
+                let Some(p) = scene.primitives.get(m) else {
+                    return Vec::new();
+                };
+                if p.mesh.triangles.len() * cutters.len() > MAX_FACE_CLIPS {
+                    return Vec::new();
+                }
+                cutters
+                    .into_iter()
+                    .filter_map(|c| {
+                        let b = prep.mesh_bounds.get(c as usize)?;
+                        Some((c, facing_parts(&p.mesh, b, cam)))
+                    })
+                    .collect()
+            })
+            .collect();
+        cut.camera = Some(*cam);
+        cut
     }
 
     /// From the sum of products (positive literals first, as
@@ -170,7 +220,56 @@ impl CutAway {
             sets.sort_by_key(|s| s.len());
             sets.truncate(MAX_SETS);
         }
-        CutAway { by_mesh }
+        CutAway {
+            by_mesh,
+            ..CutAway::default()
+        }
+    }
+
+    /// World boxes outside whose screen rectangles no back face of mesh `c`
+    /// can be visible (its inside, drawn with its front faces culled), or
+    /// `None` where the argument gives nothing. A back face `q` of `c` seen
+    /// from outside the solid is seen through an opening: on the ray, `q`
+    /// bounds a product `P = A ∩ ¬c ∩ …` (one positive, `A`), and between
+    /// the ray's last entry `a` into `A` and `q` every point lies in `A` but
+    /// not in the solid, so in some cutter of `P`; those cutters cover the
+    /// segment, so they are joined to `c` through boxes that meet, and the
+    /// one holding `a` holds a front face of `A` there: `a` lies in the
+    /// [`CutAway::holes`] of `A` and one of `c`'s joined cutters. (The rays
+    /// start outside the solid, as [`CutAway::of`] requires.)
+    pub fn inside_holes(&self, c: MeshId, bounds: &[Aabb], camera: Option<&Camera>) -> Option<Vec<Aabb>> {
+        let sets = self.insides.get(c as usize)?.as_ref()?;
+        Some(
+            sets.iter()
+                .flat_map(|(a, comp)| comp.iter().flat_map(|&k| self.holes(*a, k, bounds, camera)))
+                .collect(),
+        )
+    }
+
+    /// World boxes holding every point of mesh `m`'s faces drawn front-facing
+    /// under `camera` that lies inside cutter `c` (`bounds`: the world box
+    /// per mesh): [`facing_parts`] where they were found for this camera,
+    /// else (another camera, or `None`) the two boxes' [`meeting`]. Empty: no
+    /// such point.
+    pub fn holes(
+        &self,
+        m: MeshId,
+        c: MeshId,
+        bounds: &[Aabb],
+        camera: Option<&Camera>,
+    ) -> Vec<Aabb> {
+        let found = self
+            .faces
+            .get(m as usize)
+            .filter(|_| camera.is_some() && self.camera.as_ref() == camera)
+            .and_then(|f| f.binary_search_by_key(&c, |(k, _)| *k).ok().map(|i| &f[i].1));
+        match found {
+            Some(parts) => parts.clone(),
+            None => match (bounds.get(m as usize), bounds.get(c as usize)) {
+                (Some(a), Some(b)) => meeting(a, b).into_iter().collect(),
+                _ => Vec::new(),
+            },
+        }
     }
 
     /// Mesh `m`'s cutter sets (empty: none of its pieces skips the check).
@@ -189,6 +288,126 @@ impl CutAway {
 pub fn meeting(a: &Aabb, c: &Aabb) -> Option<Aabb> {
     let (min, max) = (a.min.max(c.min), a.max.min(c.max));
     (min.cmple(max).all()).then_some(Aabb { min, max })
+}
+
+/// Per mesh `c`, the products of `prods` that negate it, each as its one
+/// positive literal and the cutters joined to `c` through meeting `bounds`
+/// (`c` among them); `None` where one of those products has another number
+/// of positives, or none negates `c` ([`CutAway::inside_holes`]).
+pub fn inside_sets(
+    prods: &[Vec<Lit>],
+    bounds: &[Aabb],
+) -> Vec<Option<Vec<(MeshId, Vec<MeshId>)>>> {
+    let mut out: Vec<Option<Vec<(MeshId, Vec<MeshId>)>>> = vec![Some(Vec::new()); bounds.len()];
+    let meets = |x: MeshId, y: MeshId| match (bounds.get(x as usize), bounds.get(y as usize)) {
+        (Some(a), Some(b)) => meeting(a, b).is_some(),
+        _ => true,
+    };
+    for p in prods {
+        let mut positive = p.iter().filter(|l| !l.negated);
+        let one = match (positive.next(), positive.next()) {
+            (Some(a), None) => Some(a.prim),
+            _ => None,
+        };
+        let mut cutters: Vec<MeshId> = p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
+        cutters.sort_unstable();
+        cutters.dedup();
+        for &c in &cutters {
+            let Some(slot) = out.get_mut(c as usize) else {
+                continue;
+            };
+            let (Some(sets), Some(a)) = (slot.as_mut(), one) else {
+                *slot = None;
+                continue;
+            };
+            // The cutters joined to `c` (breadth first over meeting boxes).
+            let mut comp = vec![c];
+            let mut i = 0;
+            while i < comp.len() {
+                let x = comp[i];
+                for &y in &cutters {
+                    if !comp.contains(&y) && meets(x, y) {
+                        comp.push(y);
+                    }
+                }
+                i += 1;
+            }
+            comp.sort_unstable();
+            if !sets.contains(&(a, comp.clone())) {
+                sets.push((a, comp));
+            }
+        }
+    }
+    for slot in &mut out {
+        if slot.as_ref().is_some_and(Vec::is_empty) {
+            *slot = None;
+        }
+    }
+    out
+}
+
+/// The most triangle clips [`CutAway::of`] does for one mesh (its triangles
+/// times its cutters); a larger mesh keeps its boxes' [`meeting`].
+pub const MAX_FACE_CLIPS: usize = 65_536;
+
+/// The most boxes kept per mesh and cutter ([`facing_parts`]).
+pub const MAX_FACE_BOXES: usize = 4;
+
+/// Whether triangle `tri` is drawn front-facing under `camera` (wound
+/// counter-clockwise seen from the eye, `vk::conv::FRONT_FACE`). Faces seen
+/// edge-on, within 1e-6 of their normal, count as facing: the rasterizer's
+/// winding may go either way there.
+pub fn faces_eye(camera: &Camera, [a, b, c]: [DVec3; 3]) -> bool {
+    let n = (b - a).cross(c - a);
+    let to_eye = match camera.projection {
+        Projection::Perspective { .. } => camera.eye - a,
+        Projection::Orthographic { .. } => -camera.forward(),
+    };
+    !(n.dot(to_eye) <= -1e-6 * n.length() * to_eye.length())
+}
+
+/// World boxes that hold every point of `mesh`'s faces facing `camera`'s
+/// eye ([`faces_eye`]) inside `cutter` (its box grown by 1e-6 of its
+/// coordinates' size, for the clip's rounding): each such triangle clipped
+/// to the box, boxes that touch merged, at most [`MAX_FACE_BOXES`] (else
+/// one, their bounds). Tighter than the boxes' [`meeting`]: a hole bored
+/// down through a block meets the block's box over its whole depth, but its
+/// visible faces only at the top face's opening (the bottom face faces
+/// away, so it is culled and needs no check).
+pub fn facing_parts(mesh: &Mesh, cutter: &Aabb, camera: &Camera) -> Vec<Aabb> {
+    let size = cutter.min.abs().max(cutter.max.abs()).max_element();
+    let grow = 1e-6 * (1.0 + size);
+    let grown = Aabb {
+        min: cutter.min - grow,
+        max: cutter.max + grow,
+    };
+    let mut parts: Vec<Aabb> = Vec::new();
+    for t in &mesh.triangles {
+        let tri = t.map(|i| mesh.positions[i as usize]);
+        if !faces_eye(camera, tri) {
+            continue;
+        }
+        let Some(mut b) = triangle_in_box(tri, &grown) else {
+            continue;
+        };
+        // Merge with every kept box it touches, until none does.
+        while let Some(i) = parts.iter().position(|p| meeting(p, &b).is_some()) {
+            let p = parts.swap_remove(i);
+            b = Aabb {
+                min: b.min.min(p.min),
+                max: b.max.max(p.max),
+            };
+        }
+        parts.push(b);
+    }
+    if parts.len() > MAX_FACE_BOXES {
+        let all = parts[1..].iter().fold(parts[0], |a, p| Aabb {
+            min: a.min.min(p.min),
+            max: a.max.max(p.max),
+        });
+        parts = vec![all];
+    }
+    parts
 }
 
 /// The most pieces a mesh of `triangles` triangles is split into: at most
@@ -433,6 +652,84 @@ mod tests {
             Some(b([4.0, 0.0, 0.0], [4.0, 1.0, 1.0]))
         );
         assert_eq!(meeting(&block, &b([5.0, 0.0, 0.0], [6.0, 1.0, 1.0])), None);
+    }
+
+    #[test]
+    fn a_bore_holds_the_faces_towards_the_eye_only_at_its_opening() {
+        use crate::scene::shapes::make_box;
+        use glam::DVec3;
+        // A block of 4 × 1 × 4 centred at the origin, a bore of 0.5 × 0.5
+        // through it, standing 0.5 out above and below.
+        let block = make_box(DVec3::new(4.0, 1.0, 4.0));
+        let bore = Aabb {
+            min: DVec3::new(0.5, -1.0, 0.5),
+            max: DVec3::new(1.0, 1.0, 1.0),
+        };
+        let cam = |eye: DVec3| Camera {
+            eye,
+            target: DVec3::ZERO,
+            up: DVec3::Y,
+            projection: Projection::Perspective { fov_y_deg: 40.0 },
+            near: 0.1,
+            far: 100.0,
+        };
+        let near = |a: &Aabb, b: &Aabb| {
+            (a.min - b.min).abs().max_element() < 1e-5 && (a.max - b.max).abs().max_element() < 1e-5
+        };
+        let top = Aabb {
+            min: DVec3::new(0.5, 0.5, 0.5),
+            max: DVec3::new(1.0, 0.5, 1.0),
+        };
+        // From above: only the top face's opening (the bottom one is culled).
+        let above = cam(DVec3::new(2.0, 6.0, 3.0));
+        let parts = facing_parts(&block, &bore, &above);
+        assert_eq!(parts.len(), 1, "{parts:?}");
+        assert!(near(&parts[0], &top), "{parts:?}");
+        // From below: the bottom one.
+        let below = cam(DVec3::new(2.0, -6.0, 3.0));
+        let parts = facing_parts(&block, &bore, &below);
+        assert_eq!(parts.len(), 1, "{parts:?}");
+        assert!(near(&parts[0], &Aabb {
+            min: DVec3::new(0.5, -0.5, 0.5),
+            max: DVec3::new(1.0, -0.5, 1.0),
+        }), "{parts:?}");
+        // A cutter that meets the block's box but none of its faces (a
+        // pocket inside): nothing.
+        let pocket = Aabb {
+            min: DVec3::new(0.5, -0.2, 0.5),
+            max: DVec3::new(1.0, 0.2, 1.0),
+        };
+        assert!(facing_parts(&block, &pocket, &above).is_empty());
+        assert!(meeting(&bounds_of(&block), &pocket).is_some());
+        // Seen edge-on the top face still counts (the raster may draw it).
+        let edge_on = cam(DVec3::new(9.0, 0.5, 0.75));
+        let parts = facing_parts(&block, &bore, &edge_on);
+        assert!(parts.iter().any(|p| near(p, &top)), "{parts:?}");
+        // Orthographic from above: the same opening.
+        let ortho = Camera {
+            projection: Projection::Orthographic { height: 6.0 },
+            ..above
+        };
+        let parts = facing_parts(&block, &bore, &ortho);
+        assert!(parts.len() == 1 && near(&parts[0], &top), "{parts:?}");
+
+        // `holes` serves the parts for their camera only, else the meeting.
+        let (bounds, cut) = {
+            let mut cut = CutAway::from_products(&[vec![pos(0), neg(1)]], 2);
+            cut.faces = vec![vec![(1, facing_parts(&block, &bore, &above))], Vec::new()];
+            cut.camera = Some(above);
+            (vec![bounds_of(&block), bore], cut)
+        };
+        let got = cut.holes(0, 1, &bounds, Some(&above));
+        assert!(got.len() == 1 && near(&got[0], &top), "{got:?}");
+        let whole = meeting(&bounds[0], &bore).into_iter().collect::<Vec<_>>();
+        assert_eq!(cut.holes(0, 1, &bounds, Some(&below)), whole);
+        assert_eq!(cut.holes(0, 1, &bounds, None), whole);
+        assert!(cut.holes(0, 7, &bounds, None).is_empty());
+    }
+
+    fn bounds_of(m: &Mesh) -> Aabb {
+        crate::geom::bounds(&m.positions)
     }
 
     #[test]

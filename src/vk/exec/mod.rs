@@ -184,6 +184,8 @@ pub struct Executor {
     frame_ts: FrameTimestamps,
     /// The embedded final shade's insides drawn last (`set_insides_last`).
     insides_last: bool,
+    /// The embedded final shade cut to the openings (`set_openings`).
+    openings: bool,
     /// Clears reach only what later steps read ([`Executor::set_scissored_clears`]).
     scissored_clears: bool,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
@@ -295,6 +297,7 @@ impl Executor {
                 FrameTimestamps::Outside
             },
             insides_last: true,
+            openings: true,
             scissored_clears: true,
             rounding: None,
             normals: false,
@@ -546,6 +549,7 @@ impl Executor {
             pass_timestamps: self.pass_timestamps,
             frame_ts: self.frame_ts,
             insides_last: self.insides_last,
+            openings: self.openings,
             flags,
             snap,
             normals: self.normals,

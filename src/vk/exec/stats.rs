@@ -134,6 +134,10 @@ pub struct Counts {
     /// Embedded final-shade pieces drawn after the solid's faces with the
     /// strict compare: the cavities' insides (`record::host::insides_last`).
     pub shade_insides_last: u64,
+    /// Pixels cut from the embedded final shade's cavity insides' scissors:
+    /// where they cannot be seen through an opening
+    /// (`record::host::cut_insides`).
+    pub shade_insides_cut_pixels: u64,
     /// Queue submissions of the frame.
     pub submits: u64,
     /// Pipelines created for this frame: the first use of a fragment program
@@ -272,6 +276,7 @@ impl ExecStats {
         c.timestamps += o.timestamps;
         c.timestamps_in_block += o.timestamps_in_block;
         c.shade_insides_last += o.shade_insides_last;
+        c.shade_insides_cut_pixels += o.shade_insides_cut_pixels;
         c.state_commands += o.state_commands;
         c.submits += o.submits;
         c.pipelines_created += o.pipelines_created;

@@ -173,6 +173,18 @@ impl Executor {
         self.recording = None;
     }
 
+    /// Whether the host's final shade is cut to the openings (the default):
+    /// a written piece checks the output depth only where the mesh's front
+    /// faces lie inside one of its cutters' boxes
+    /// (`plan::cut_away::facing_parts`), and a cavity's inside is drawn only
+    /// where it can be seen through them (`CutAway::inside_holes`); or (A/B)
+    /// the check covers the whole meeting of the two boxes and the insides
+    /// their own rectangles.
+    pub fn set_openings(&mut self, on: bool) {
+        self.openings = on;
+        self.recording = None;
+    }
+
     /// Drops the kept recording: the next frame records again (what a new plan or
     /// camera costs; the bench measures it with this).
     pub fn forget_recording(&mut self) {

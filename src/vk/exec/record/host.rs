@@ -61,6 +61,10 @@ use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
 use crate::vk::scissor::{bounds_rect, Rect};
 use crate::vk::submit;
 
+/// The most rectangles a cavity's inside is drawn in (`Recorder::cut_insides`):
+/// each draws the whole mesh under its scissor.
+const INSIDE_PIECES: usize = 4;
+
 /// The host's side of a direct final pass.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct HostShade<'a> {
@@ -537,6 +541,7 @@ impl Recorder<'_> {
                 })
                 .collect()
         };
+        let draws = self.cut_insides(draws, h.cut_away);
         let mut draws = match self.split_uncut(&draws, h.cut_away) {
             Some((split, extra, triangles)) if writes_depth(&priced(&split)) => {
                 self.stats.counts.shade_split_draws += extra;
@@ -622,6 +627,49 @@ impl Recorder<'_> {
         Ok(())
     }
 
+    /// `draws` with each `AtDepth` piece of a cavity's inside (a mesh drawn
+    /// with its front faces culled) cut to where it can be visible
+    /// (`CutAway::inside_holes`: the screen rectangles of the openings it
+    /// is seen through), merged to at most [`INSIDE_PIECES`] rectangles
+    /// within its own; dropped where none is on screen. Exact geometry
+    /// shows no back face of the mesh elsewhere, so no pixel changes; the
+    /// fragments cut are hidden ones, which on the written path each ran
+    /// the fetch where they lay nearer than the host's depth.
+    fn cut_insides(&mut self, draws: Vec<(Draw, Piece, Rect)>, cut: &CutAway) -> Vec<(Draw, Piece, Rect)> {
+        if cut.is_empty() || !self.b.openings {
+            return draws;
+        }
+        let scene = self.b.scene;
+        let (w, h) = (self.b.desc.width, self.b.desc.height);
+        let mut out = Vec::with_capacity(draws.len());
+        for (d, piece, rect) in draws {
+            let boxes = match (&d.geometry, piece, d.cull) {
+                (Geometry::Mesh(c), Piece::AtDepth, Cull::Front) => {
+                    cut.inside_holes(*c, &scene.bounds, Some(&scene.camera))
+                }
+                _ => None,
+            };
+            let Some(boxes) = boxes else {
+                out.push((d, piece, rect));
+                continue;
+            };
+            let seen: Vec<Rect> = boxes
+                .iter()
+                .map(|b| {
+                    let (v, p) = (scene.cam.view, scene.cam.proj);
+                    bounds_rect(v, p, scene.camera.near, std::slice::from_ref(b), w, h)
+                        .intersect(&rect)
+                })
+                .filter(|r| !r.is_empty())
+                .collect();
+            let seen = tie_zones::merge(seen, INSIDE_PIECES);
+            let kept: u64 = seen.iter().map(Rect::area).sum();
+            self.stats.counts.shade_insides_cut_pixels += rect.area().saturating_sub(kept);
+            out.extend(seen.into_iter().map(|r| (d.clone(), piece, r)));
+        }
+        out
+    }
+
     /// `draws` with each `AtDepth` piece drawn with its back faces culled,
     /// of a mesh with cutter sets in `cut` (`plan::cut_away`: the only
     /// positive literal of a product), split by the set that saves the
@@ -655,24 +703,24 @@ impl Recorder<'_> {
             let triangles = scene.ranges[m as usize].1 as usize / 3;
             let cap = cut_away::piece_cap(triangles);
             let (w, h) = (self.b.desc.width, self.b.desc.height);
-            // Where a cutter can hold a face of the mesh: the screen
-            // rectangle of the two world boxes' intersection.
-            let hole = |c: MeshId| {
-                let b = cut_away::meeting(&scene.bounds[m as usize], &scene.bounds[c as usize])?;
-                Some(bounds_rect(
-                    scene.cam.view,
-                    scene.cam.proj,
-                    scene.camera.near,
-                    &[b],
-                    w,
-                    h,
-                ))
+            // Where a cutter can hold a front face of the mesh: the screen
+            // rectangles of the world boxes of those faces inside its box
+            // (`CutAway::holes`; A/B: of the two boxes' meeting).
+            let facing = self.b.openings;
+            let holes = |c: MeshId| {
+                cut.holes(m, c, &scene.bounds, facing.then_some(&scene.camera))
+                    .into_iter()
+                    .map(|b| {
+                        let (v, p) = (scene.cam.view, scene.cam.proj);
+                        bounds_rect(v, p, scene.camera.near, &[b], w, h)
+                    })
+                    .filter(|r| !r.is_empty())
             };
             let best = cut
                 .cutters(m)
                 .iter()
                 .filter_map(|set| {
-                    let holes: Vec<Rect> = set.iter().filter_map(|&c| hole(c)).collect();
+                    let holes: Vec<Rect> = set.iter().flat_map(|&c| holes(c)).collect();
                     cut_away::split(rect, &holes, cap, cut_away::PIECE_PIXELS)
                 })
                 .max_by_key(|(free, fetched)| {

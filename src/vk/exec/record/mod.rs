@@ -155,6 +155,12 @@ pub(super) struct Bindings<'a> {
     /// The host's written final shade draws the cavities' insides last, where
     /// that changes no pixel (`host::insides_last`).
     pub insides_last: bool,
+    /// The host's final shade is cut to the openings: a mesh's written piece
+    /// checks the output depth only over its front faces inside its cutters
+    /// (`CutAway::holes`), not over the whole meeting of their boxes, and a
+    /// cavity's inside is drawn only where it can be seen through them
+    /// (`CutAway::inside_holes`).
+    pub openings: bool,
     /// Push-constant flags (reversed Z, subpixel precision).
     pub flags: u32,
     /// Emulated vertex snapping step of mesh draws (zero: off).
