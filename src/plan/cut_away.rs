@@ -236,9 +236,14 @@ impl CutAway {
     /// segment, so they are joined to `c` through boxes that meet, and the
     /// one holding `a` holds a front face of `A` there: `a` lies in the
     /// [`CutAway::holes`] of `A` and one of `c`'s joined cutters. (The rays
-    /// start outside the solid, as [`CutAway::of`] requires.)
-    pub fn inside_holes(&self, c: MeshId, bounds: &[Aabb], camera: Option<&Camera>) -> Option<Vec<Aabb>> {
+    /// start outside the solid, as [`CutAway::of`] checked for its camera:
+    /// `None` for another `camera`.)
+    pub fn inside_holes(&self, c: MeshId, bounds: &[Aabb], camera: &Camera) -> Option<Vec<Aabb>> {
+        if self.camera.as_ref() != Some(camera) {
+            return None;
+        }
         let sets = self.insides.get(c as usize)?.as_ref()?;
+        let camera = Some(camera);
         Some(
             sets.iter()
                 .flat_map(|(a, comp)| comp.iter().flat_map(|&k| self.holes(*a, k, bounds, camera)))
@@ -262,7 +267,11 @@ impl CutAway {
             .faces
             .get(m as usize)
             .filter(|_| camera.is_some() && self.camera.as_ref() == camera)
-            .and_then(|f| f.binary_search_by_key(&c, |(k, _)| *k).ok().map(|i| &f[i].1));
+            .and_then(|f| {
+                f.binary_search_by_key(&c, |(k, _)| *k)
+                    .ok()
+                    .map(|i| &f[i].1)
+            });
         match found {
             Some(parts) => parts.clone(),
             None => match (bounds.get(m as usize), bounds.get(c as usize)) {
@@ -294,10 +303,7 @@ pub fn meeting(a: &Aabb, c: &Aabb) -> Option<Aabb> {
 /// positive literal and the cutters joined to `c` through meeting `bounds`
 /// (`c` among them); `None` where one of those products has another number
 /// of positives, or none negates `c` ([`CutAway::inside_holes`]).
-pub fn inside_sets(
-    prods: &[Vec<Lit>],
-    bounds: &[Aabb],
-) -> Vec<Option<Vec<(MeshId, Vec<MeshId>)>>> {
+pub fn inside_sets(prods: &[Vec<Lit>], bounds: &[Aabb]) -> Vec<Option<Vec<(MeshId, Vec<MeshId>)>>> {
     let mut out: Vec<Option<Vec<(MeshId, Vec<MeshId>)>>> = vec![Some(Vec::new()); bounds.len()];
     let meets = |x: MeshId, y: MeshId| match (bounds.get(x as usize), bounds.get(y as usize)) {
         (Some(a), Some(b)) => meeting(a, b).is_some(),
@@ -689,10 +695,16 @@ mod tests {
         let below = cam(DVec3::new(2.0, -6.0, 3.0));
         let parts = facing_parts(&block, &bore, &below);
         assert_eq!(parts.len(), 1, "{parts:?}");
-        assert!(near(&parts[0], &Aabb {
-            min: DVec3::new(0.5, -0.5, 0.5),
-            max: DVec3::new(1.0, -0.5, 1.0),
-        }), "{parts:?}");
+        assert!(
+            near(
+                &parts[0],
+                &Aabb {
+                    min: DVec3::new(0.5, -0.5, 0.5),
+                    max: DVec3::new(1.0, -0.5, 1.0),
+                }
+            ),
+            "{parts:?}"
+        );
         // A cutter that meets the block's box but none of its faces (a
         // pocket inside): nothing.
         let pocket = Aabb {
@@ -714,7 +726,7 @@ mod tests {
         assert!(parts.len() == 1 && near(&parts[0], &top), "{parts:?}");
 
         // `holes` serves the parts for their camera only, else the meeting.
-        let (bounds, cut) = {
+        let (bounds, mut cut) = {
             let mut cut = CutAway::from_products(&[vec![pos(0), neg(1)]], 2);
             cut.faces = vec![vec![(1, facing_parts(&block, &bore, &above))], Vec::new()];
             cut.camera = Some(above);
@@ -726,6 +738,48 @@ mod tests {
         assert_eq!(cut.holes(0, 1, &bounds, Some(&below)), whole);
         assert_eq!(cut.holes(0, 1, &bounds, None), whole);
         assert!(cut.holes(0, 7, &bounds, None).is_empty());
+        // The bore's inside: seen only through the top opening, for the
+        // camera the sets were made for.
+        cut.insides = inside_sets(&[vec![pos(0), neg(1)]], &bounds);
+        let got = cut.inside_holes(1, &bounds, &above).expect("one product");
+        assert!(got.len() == 1 && near(&got[0], &top), "{got:?}");
+        assert_eq!(cut.inside_holes(1, &bounds, &below), None);
+        assert_eq!(cut.inside_holes(0, &bounds, &above), None);
+    }
+
+    #[test]
+    fn a_cavity_is_seen_through_the_openings_of_the_cutters_it_meets() {
+        use glam::DVec3;
+        let b = |x: f64| Aabb {
+            min: DVec3::new(x, 0.0, 0.0),
+            max: DVec3::new(x + 1.0, 1.0, 1.0),
+        };
+        // Block 0 minus 1, 2, 3: 1 and 2 overlap (a counterbore), 3 apart;
+        // 4 ∩ 5 minus 6 (two positives); 7 is never negated.
+        let bounds = vec![
+            b(0.0),
+            b(0.0),
+            b(0.5),
+            b(3.0),
+            b(9.0),
+            b(9.0),
+            b(9.0),
+            b(0.0),
+        ];
+        let prods = vec![
+            vec![pos(0), neg(1), neg(2), neg(3)],
+            vec![pos(4), pos(5), neg(6)],
+            vec![pos(7)],
+            // 3 also cuts 7 alone.
+            vec![pos(7), neg(3)],
+        ];
+        let sets = inside_sets(&prods, &bounds);
+        assert_eq!(sets[1], Some(vec![(0, vec![1, 2])]));
+        assert_eq!(sets[2], Some(vec![(0, vec![1, 2])]));
+        assert_eq!(sets[3], Some(vec![(0, vec![3]), (7, vec![3])]));
+        // Negated in a product of two positives; never negated: nothing.
+        assert_eq!(sets[6], None);
+        assert_eq!((sets[0].clone(), sets[7].clone()), (None, None));
     }
 
     fn bounds_of(m: &Mesh) -> Aabb {

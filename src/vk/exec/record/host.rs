@@ -635,7 +635,11 @@ impl Recorder<'_> {
     /// shows no back face of the mesh elsewhere, so no pixel changes; the
     /// fragments cut are hidden ones, which on the written path each ran
     /// the fetch where they lay nearer than the host's depth.
-    fn cut_insides(&mut self, draws: Vec<(Draw, Piece, Rect)>, cut: &CutAway) -> Vec<(Draw, Piece, Rect)> {
+    fn cut_insides(
+        &mut self,
+        draws: Vec<(Draw, Piece, Rect)>,
+        cut: &CutAway,
+    ) -> Vec<(Draw, Piece, Rect)> {
         if cut.is_empty() || !self.b.openings {
             return draws;
         }
@@ -645,7 +649,7 @@ impl Recorder<'_> {
         for (d, piece, rect) in draws {
             let boxes = match (&d.geometry, piece, d.cull) {
                 (Geometry::Mesh(c), Piece::AtDepth, Cull::Front) => {
-                    cut.inside_holes(*c, &scene.bounds, Some(&scene.camera))
+                    cut.inside_holes(*c, &scene.bounds, &scene.camera)
                 }
                 _ => None,
             };
