@@ -55,6 +55,7 @@ use crate::plan::usage::{Resource, Usage};
 use crate::plan::{
     CompareOp, Cull, DepthState, Draw, Ds, Fragment, Geometry, MeshId, Plan, Step, Tex,
 };
+use crate::scene::Aabb;
 use crate::vk::conv;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{FragmentKind, PipelineDesc, PushConstants};
@@ -644,7 +645,6 @@ impl Recorder<'_> {
             return draws;
         }
         let scene = self.b.scene;
-        let (w, h) = (self.b.desc.width, self.b.desc.height);
         let mut out = Vec::with_capacity(draws.len());
         for (d, piece, rect) in draws {
             let boxes = match (&d.geometry, piece, d.cull) {
@@ -657,13 +657,9 @@ impl Recorder<'_> {
                 out.push((d, piece, rect));
                 continue;
             };
-            let seen: Vec<Rect> = boxes
-                .iter()
-                .map(|b| {
-                    let (v, p) = (scene.cam.view, scene.cam.proj);
-                    bounds_rect(v, p, scene.camera.near, std::slice::from_ref(b), w, h)
-                        .intersect(&rect)
-                })
+            let seen: Vec<Rect> = self
+                .screen_rects(&boxes)
+                .map(|r| r.intersect(&rect))
                 .filter(|r| !r.is_empty())
                 .collect();
             let seen = tie_zones::merge(seen, INSIDE_PIECES);
@@ -674,12 +670,25 @@ impl Recorder<'_> {
         out
     }
 
+    /// The non-empty screen rectangles of world `boxes` under the current
+    /// camera (clipped to its near plane, a pixel of margin).
+    fn screen_rects<'s>(&'s self, boxes: &'s [Aabb]) -> impl Iterator<Item = Rect> + 's {
+        let scene = self.b.scene;
+        let (w, h) = (self.b.desc.width, self.b.desc.height);
+        let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
+        boxes
+            .iter()
+            .map(move |b| bounds_rect(view, proj, near, std::slice::from_ref(b), w, h))
+            .filter(|r| !r.is_empty())
+    }
+
     /// `draws` with each `AtDepth` piece drawn with its back faces culled,
     /// of a mesh with cutter sets in `cut` (`plan::cut_away`: the only
     /// positive literal of a product), split by the set that saves the
     /// most (`cut_away::split`: free pixels, less `cut_away::PIECE_PIXELS`
-    /// per added draw): `WrittenUncut` outside the screen rectangles where
-    /// the set's meshes meet its box, none of its front faces nearer than
+    /// per added draw): `WrittenUncut` outside the screen rectangles of
+    /// its front faces inside the set's meshes (`CutAway::holes`), none of
+    /// its front faces nearer than
     /// the output depth there, and `AtDepth` over them (to be drawn
     /// `Written`); kept whole where no split saves anything. The pieces of
     /// one mesh are disjoint, so their order among themselves does not
@@ -706,19 +715,13 @@ impl Recorder<'_> {
             let scene = self.b.scene;
             let triangles = scene.ranges[m as usize].1 as usize / 3;
             let cap = cut_away::piece_cap(triangles);
-            let (w, h) = (self.b.desc.width, self.b.desc.height);
             // Where a cutter can hold a front face of the mesh: the screen
             // rectangles of the world boxes of those faces inside its box
             // (`CutAway::holes`; A/B: of the two boxes' meeting).
-            let facing = self.b.openings;
+            let camera = self.b.openings.then_some(&scene.camera);
             let holes = |c: MeshId| {
-                cut.holes(m, c, &scene.bounds, facing.then_some(&scene.camera))
-                    .into_iter()
-                    .map(|b| {
-                        let (v, p) = (scene.cam.view, scene.cam.proj);
-                        bounds_rect(v, p, scene.camera.near, &[b], w, h)
-                    })
-                    .filter(|r| !r.is_empty())
+                let boxes = cut.holes(m, c, &scene.bounds, camera);
+                self.screen_rects(&boxes).collect::<Vec<_>>()
             };
             let best = cut
                 .cutters(m)
