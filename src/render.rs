@@ -274,6 +274,15 @@ impl GpuRenderer {
         })
     }
 
+    /// Gives the executor the cutter sets of `algo` on `prep` under `scene`'s
+    /// camera (`plan::cut_away::CutAway::of`, `vk::Executor::set_cut_away`):
+    /// SCS's subtractions are cut to the openings they can act in. For the
+    /// uploaded scene only; a new upload drops them.
+    pub fn set_cut_away(&mut self, algo: Algo, prep: &Prepared, scene: &Scene) {
+        self.exec
+            .set_cut_away(crate::plan::cut_away::CutAway::of(algo, prep, scene));
+    }
+
     /// Uploads `scene`'s meshes and camera again (e.g. with other colours).
     pub fn upload(&mut self, scene: &Scene) -> Result<(), RenderError> {
         Ok(self.exec.upload(scene)?)
@@ -531,6 +540,7 @@ fn render_gpu(scene: &Scene, opts: &RenderOptions) -> Result<(Frame, DepthPrecis
     let prep = Prepared::new(scene)?;
     let plan = plan::build_with(opts.algo, &prep, &opts.build)?;
     let mut gpu = GpuRenderer::for_options(scene, opts)?;
+    gpu.set_cut_away(opts.algo, &prep, scene);
     let frame = gpu.frame(&plan)?;
     let msgs = gpu.validation_messages();
     if !msgs.is_empty() {

@@ -509,6 +509,7 @@ fn start(
                 .map_err(|e| e.to_string())?
         }
     };
+    gpu.set_cut_away(algo, prep, scene);
     let mut slow = false;
     let mut last = None;
     for _ in 0..cfg.warmup {

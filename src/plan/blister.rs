@@ -316,6 +316,7 @@ mod tests {
                     let sc = match &d.scissor {
                         Scissor::BoundsOf(ms) => ms.len(),
                         Scissor::Overlap { of, and } => of.len() + and.len(),
+                        Scissor::Openings { and, .. } => 1 + and.len(),
                         Scissor::Within { meshes, within } => meshes.len() + within.len(),
                         Scissor::Full | Scissor::Run { .. } => 1,
                     };

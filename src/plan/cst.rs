@@ -589,7 +589,10 @@ pub(crate) mod tests {
                             Scissor::Overlap { of, and } => {
                                 assert!(of.contains(&me) || and.contains(&me), "{v:?}")
                             }
-                            Scissor::Full | Scissor::Within { .. } | Scissor::Run { .. } => {
+                            Scissor::Full
+                            | Scissor::Within { .. }
+                            | Scissor::Run { .. }
+                            | Scissor::Openings { .. } => {
                                 panic!("{v:?}: not cut to the peeled leaf")
                             }
                         }
@@ -614,6 +617,9 @@ pub(crate) mod tests {
             Scissor::Run { first, end } => (*first..*end).any(|m| in_rect[m as usize]),
             Scissor::Overlap { of, and } => {
                 of.iter().any(|m| in_rect[*m as usize]) && and.iter().all(|m| in_rect[*m as usize])
+            }
+            Scissor::Openings { of, and } => {
+                in_rect[*of as usize] && and.iter().all(|m| in_rect[*m as usize])
             }
             Scissor::Within { meshes, within } => {
                 meshes.iter().any(|m| in_rect[*m as usize])

@@ -117,7 +117,8 @@ pub struct CutAway {
     /// Per mesh, where its back faces can be visible ([`CutAway::inside_holes`]):
     /// each product that negates it, as its one positive literal and the
     /// cutters joined to the mesh through meeting boxes; `None` where a
-    /// product that negates it has several positives, or none negates it.
+    /// product that negates it has several positives, none negates it, or
+    /// one has it as a positive ([`inside_sets`]).
     insides: Vec<Option<Vec<(MeshId, Vec<MeshId>)>>>,
 }
 
@@ -302,7 +303,8 @@ pub fn meeting(a: &Aabb, c: &Aabb) -> Option<Aabb> {
 /// Per mesh `c`, the products of `prods` that negate it, each as its one
 /// positive literal and the cutters joined to `c` through meeting `bounds`
 /// (`c` among them); `None` where one of those products has another number
-/// of positives, or none negates `c` ([`CutAway::inside_holes`]).
+/// of positives, none negates `c`, or a product has `c` as a positive
+/// literal ([`CutAway::inside_holes`]).
 pub fn inside_sets(prods: &[Vec<Lit>], bounds: &[Aabb]) -> Vec<Option<Vec<(MeshId, Vec<MeshId>)>>> {
     let mut out: Vec<Option<Vec<(MeshId, Vec<MeshId>)>>> = vec![Some(Vec::new()); bounds.len()];
     let meets = |x: MeshId, y: MeshId| match (bounds.get(x as usize), bounds.get(y as usize)) {
@@ -341,6 +343,15 @@ pub fn inside_sets(prods: &[Vec<Lit>], bounds: &[Aabb]) -> Vec<Option<Vec<(MeshI
             comp.sort_unstable();
             if !sets.contains(&(a, comp.clone())) {
                 sets.push((a, comp));
+            }
+        }
+    }
+    // A mesh that is also a positive literal: its faces are drawn for that
+    // product too, so no draw of it is cut to its openings.
+    for p in prods {
+        for l in p.iter().filter(|l| !l.negated) {
+            if let Some(slot) = out.get_mut(l.prim as usize) {
+                *slot = None;
             }
         }
     }
@@ -772,9 +783,11 @@ mod tests {
             vec![pos(7)],
             // 3 also cuts 7 alone.
             vec![pos(7), neg(3)],
+            // 1 stands alone too: drawn as a positive, never cut.
+            vec![pos(1)],
         ];
         let sets = inside_sets(&prods, &bounds);
-        assert_eq!(sets[1], Some(vec![(0, vec![1, 2])]));
+        assert_eq!(sets[1], None);
         assert_eq!(sets[2], Some(vec![(0, vec![1, 2])]));
         assert_eq!(sets[3], Some(vec![(0, vec![3]), (7, vec![3])]));
         // Negated in a product of two positives; never negated: nothing.

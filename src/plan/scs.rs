@@ -875,10 +875,16 @@ fn batch_steps(
     count: bool,
     ds: Ds,
 ) -> Vec<Step> {
+    // Both draws of a cutter cut to where `z` can lie inside it (the bits
+    // its parity sets are cleared by its exit within the same rectangle).
+    let scissor = |m: MeshId| match region.cut(m) {
+        Scissor::Overlap { of, and } if of == [m] => Scissor::Openings { of: m, and },
+        s => s,
+    };
     let draw = |y: &Lit, cull, depth, stencil, fragment, count_samples| {
         Step::Draw(Draw {
             geometry: Geometry::Mesh(y.prim),
-            scissor: region.cut(y.prim),
+            scissor: scissor(y.prim),
             cull,
             ds,
             depth,

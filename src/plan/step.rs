@@ -132,6 +132,16 @@ pub enum Scissor {
         first: MeshId,
         end: MeshId,
     },
+    /// [`Scissor::Overlap`] of `[of]` and `and`, cut to where the inside of
+    /// `of` can be seen through an opening (`plan::cut_away::CutAway::inside_holes`)
+    /// where the executor has been given the cutter sets: an SCS subtraction
+    /// of cutter `of` moves `z` only where `z` lies inside it, and a `z` on
+    /// the product's front face or on another cutter's exit lies inside `of`
+    /// only there (README "Embedding", "The final shade cut to the openings").
+    Openings {
+        of: MeshId,
+        and: Vec<MeshId>,
+    },
 }
 
 impl Scissor {
@@ -156,6 +166,7 @@ impl Scissor {
             Scissor::BoundsOf(ms) => (ms, &[]),
             Scissor::Overlap { of, and } => (of, and),
             Scissor::Within { meshes, within } => (meshes, within),
+            Scissor::Openings { of, and } => (std::slice::from_ref(of), and),
         };
         let run = match *self {
             Scissor::Run { first, end } => first..end,

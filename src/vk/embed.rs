@@ -201,8 +201,10 @@ impl Embedder {
     /// pieces skip the check of the output depth. They must be those of the
     /// plan's scene, camera and algorithm: a set that misses a cutter would
     /// show faces that are cut away. [`CutAway::none`] (the default) keeps
-    /// every check.
+    /// every check. The executor gets them too, for its SCS subtractions
+    /// ([`Executor::set_cut_away`]).
     pub fn set_cut_away(&mut self, cut_away: CutAway) {
+        self.exec.set_cut_away(cut_away.clone());
         self.cut_away = cut_away;
     }
 

@@ -16,6 +16,10 @@ use crate::scene::Aabb;
 #[derive(Clone, Debug, Default)]
 pub struct RectUnions {
     levels: Vec<Vec<Rect>>,
+    /// Per mesh, where its inside can be seen through an opening
+    /// ([`Scissor::Openings`]); `None` (or no entry): not known, the
+    /// rectangle stays uncut.
+    openings: Vec<Option<Rect>>,
 }
 
 impl RectUnions {
@@ -30,7 +34,17 @@ impl RectUnions {
             levels.push(next);
             span *= 2;
         }
-        RectUnions { levels }
+        RectUnions {
+            levels,
+            openings: Vec::new(),
+        }
+    }
+
+    /// With `openings`, per mesh, the rectangle its inside can be seen in
+    /// (`None`: not known), which [`Scissor::Openings`] is cut to.
+    pub fn with_openings(mut self, openings: &[Option<Rect>]) -> RectUnions {
+        self.openings = openings.to_vec();
+        self
     }
 
     /// The rectangle of mesh `id`.
@@ -82,6 +96,15 @@ impl RectUnions {
             Scissor::Overlap { of, and } => and
                 .iter()
                 .fold(self.of(of), |acc, m| acc.intersect(&self.one(*m))),
+            Scissor::Openings { of, and } => {
+                let r = and
+                    .iter()
+                    .fold(self.one(*of), |acc, m| acc.intersect(&self.one(*m)));
+                match self.openings.get(*of as usize).copied().flatten() {
+                    Some(seen) => r.intersect(&seen),
+                    None => r,
+                }
+            }
         }
     }
 }

@@ -19,7 +19,10 @@ fn scissor(s: &Scissor) -> Rect {
                 y1: o + 10,
             })
         }),
-        Scissor::Within { .. } | Scissor::Overlap { .. } | Scissor::Run { .. } => {
+        Scissor::Within { .. }
+        | Scissor::Overlap { .. }
+        | Scissor::Run { .. }
+        | Scissor::Openings { .. } => {
             unreachable!("these tests draw with full and BoundsOf scissors")
         }
     }

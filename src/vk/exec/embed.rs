@@ -3,6 +3,7 @@
 //! of its occlusion counts read later without waiting. Same recording as the
 //! standalone replay (`ready_unrolled`, `check_unrolled`), minus the submission.
 
+use crate::plan::cut_away::CutAway;
 use ash::vk;
 
 use super::gpu_scene::GpuScene;
@@ -62,7 +63,7 @@ impl Executor {
         self.prepare_plan(plan)?;
         let scene = self.scene_ref()?;
         let cam = scene.cam;
-        self.rects = super::Scissors::exact(scene, &self.desc);
+        self.rects = super::Scissors::exact(scene, &self.desc, &self.cut_away);
         // Earlier frames may be in flight: the camera is written in the stream.
         self.camera.record_update(cmd, &cam);
         let (mut stats, groups, _marks) = self.record_frame(cmd, plan, layers, host)?;
@@ -122,6 +123,8 @@ impl Executor {
             .as_mut()
             .ok_or_else(|| VkError::Plan("rewrite_mesh before upload".into()))?;
         GpuScene::rewrite(scene, i, mesh)?;
+        // The sets were of the old geometry.
+        self.cut_away = CutAway::none();
         self.epoch += 1;
         self.recording = None;
         Ok(())

@@ -10,7 +10,7 @@ use crate::plan::reach::{self, FrameReach, KeptImages};
 use crate::plan::tie_free::TieFree;
 use crate::plan::usage::Resource;
 use crate::plan::{Plan, Scissor, Step};
-use crate::vk::scissor::{Rect, RectUnions};
+use crate::vk::scissor::Rect;
 
 /// Everything a recording's clears and copies depend on
 /// ([`Executor::recording_reach`]): its steps (a plan unrolled to `layers`),
@@ -21,6 +21,7 @@ pub(super) struct ReachKey {
     plan: u64,
     layers: Vec<u32>,
     rects: Vec<Rect>,
+    openings: Vec<Option<Rect>>,
     now: KeptImages,
     normals: bool,
     scissored: bool,
@@ -50,6 +51,7 @@ impl Executor {
             plan: self.plan_ids.id(plan),
             layers: layers.to_vec(),
             rects: self.rects.rects.clone(),
+            openings: self.rects.openings.clone(),
             now: now.clone(),
             normals: self.normals,
             scissored: self.scissored_clears,
@@ -58,9 +60,9 @@ impl Executor {
         let (w, h) = (self.desc.width, self.desc.height);
         let outputs = reach::outputs(plan.output_ds, self.normals);
         let images = self.reach_images(&outputs);
-        let (rects, scissored, ties) = (&self.rects.rects, self.scissored_clears, &self.ties);
+        let (rects, scissored, ties) = (&self.rects, self.scissored_clears, &self.ties);
         let reached = self.reach_memo.get_or_insert_with(key, || {
-            let unions = RectUnions::new(rects);
+            let unions = rects.unions();
             let scissor = |s: &Scissor| unions.scissor(s, w, h);
             Arc::new(match scissored {
                 true => {
@@ -109,7 +111,7 @@ impl Executor {
                 s => vec![s],
             })
             .collect();
-        let unions = RectUnions::new(&self.rects.rects);
+        let unions = self.rects.unions();
         let (w, h) = (self.desc.width, self.desc.height);
         let outputs = reach::outputs(plan.output_ds, self.normals);
         let images = self.reach_images(&outputs);

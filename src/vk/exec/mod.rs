@@ -73,6 +73,7 @@ use super::pipeline::Pipelines;
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::output::Images;
+use crate::plan::cut_away::CutAway;
 use crate::plan::formats::needs_stencil;
 use crate::plan::memo::{Memo, PlanIds};
 use crate::plan::reach::KeptImages;
@@ -80,7 +81,6 @@ use crate::plan::tie_free::TieFree;
 use crate::plan::validate::validate;
 use crate::plan::{Plan, Step};
 use crate::scene::{Camera, Scene};
-use crate::vk::scissor::RectUnions;
 use camera::CameraBuffer;
 use gpu_scene::{CameraState, GpuScene};
 use kept::{ReachKey, Reached};
@@ -186,6 +186,10 @@ pub struct Executor {
     insides_last: bool,
     /// The embedded final shade cut to the openings (`set_openings`).
     openings: bool,
+    /// The cutter sets of the uploaded scene under its camera
+    /// (`set_cut_away`): where the SCS subtractions' scissors
+    /// (`plan::Scissor::Openings`) are cut to. Dropped with a new upload.
+    cut_away: CutAway,
     /// Clears reach only what later steps read ([`Executor::set_scissored_clears`]).
     scissored_clears: bool,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
@@ -282,6 +286,7 @@ impl Executor {
             last_cam: None,
             rects: Scissors {
                 rects: Vec::new(),
+                openings: Vec::new(),
                 grown: false,
             },
             recording: None,
@@ -298,6 +303,7 @@ impl Executor {
             },
             insides_last: true,
             openings: true,
+            cut_away: CutAway::none(),
             scissored_clears: true,
             rounding: None,
             normals: false,
@@ -331,6 +337,7 @@ impl Executor {
     pub fn upload(&mut self, scene: &Scene) -> Result<(), VkError> {
         let _layer = self.shared.layer_use();
         self.scene = Some(GpuScene::new(&self.shared, scene, &self.desc)?);
+        self.cut_away = CutAway::none();
         self.epoch += 1;
         drop(_layer);
         self.ensure_soup()
@@ -461,7 +468,7 @@ impl Executor {
         self.prepare_plan(plan)?;
         let scene = self.scene.as_ref().expect("checked above");
         let cam = scene.cam;
-        let exact = Scissors::exact(scene, &self.desc);
+        let exact = Scissors::exact(scene, &self.desc, &self.cut_away);
         self.camera.write(&cam)?;
         let known = match &self.layers {
             Some((p, n)) if p == plan => Some(n.clone()),
@@ -556,7 +563,7 @@ impl Executor {
             indexed: self.indexed,
             camera_set: self.camera.set,
             ties: &self.ties,
-            mesh_rects: RectUnions::new(&self.rects.rects),
+            mesh_rects: self.rects.unions(),
         };
         (Recorder::new(b), &self.submit)
     }

@@ -3,7 +3,10 @@
 
 use super::gpu_scene::GpuScene;
 use super::ExecDesc;
-use crate::vk::scissor::{bounds_rect, Rect};
+use crate::plan::cut_away::CutAway;
+use crate::plan::MeshId;
+use crate::scene::Aabb;
+use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 
 /// The per-mesh screen rectangles a recording's scissors come from: exact for a
 /// still camera, grown by [`Scissors::MARGIN`] of the image after a camera move,
@@ -14,6 +17,11 @@ use crate::vk::scissor::{bounds_rect, Rect};
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Scissors {
     pub rects: Vec<Rect>,
+    /// Per mesh, the rectangle its inside can be seen in through an opening
+    /// (`CutAway::inside_holes`, the cutter sets the executor was given);
+    /// `None`: not known (`plan::Scissor::Openings` stays uncut). Empty:
+    /// none known.
+    pub openings: Vec<Option<Rect>>,
     pub grown: bool,
 }
 
@@ -21,24 +29,32 @@ impl Scissors {
     /// Margin of grown rectangles, as a fraction of the image's width and height.
     pub const MARGIN: u32 = 8;
 
-    /// Each mesh's exact rectangle under `cam`.
-    pub(super) fn exact(scene: &GpuScene, desc: &ExecDesc) -> Scissors {
-        let rects = scene
-            .bounds
-            .iter()
-            .map(|b| {
-                bounds_rect(
-                    scene.cam.view,
-                    scene.cam.proj,
-                    scene.camera.near,
-                    std::slice::from_ref(b),
-                    desc.width,
-                    desc.height,
-                )
-            })
-            .collect();
+    /// Each mesh's exact rectangle under `cam`, and where the inside of each
+    /// mesh `cut` has sets for can be seen.
+    pub(super) fn exact(scene: &GpuScene, desc: &ExecDesc, cut: &CutAway) -> Scissors {
+        let rect = |b: &Aabb| {
+            bounds_rect(
+                scene.cam.view,
+                scene.cam.proj,
+                scene.camera.near,
+                std::slice::from_ref(b),
+                desc.width,
+                desc.height,
+            )
+        };
+        let openings = match cut.is_empty() {
+            true => Vec::new(),
+            false => (0..scene.bounds.len() as MeshId)
+                .map(|c| {
+                    let boxes = cut.inside_holes(c, &scene.bounds, &scene.camera)?;
+                    Some(boxes.iter().fold(Rect::EMPTY, |r, b| r.union(&rect(b))))
+                })
+                .collect(),
+        };
+        let rects = scene.bounds.iter().map(rect).collect();
         Scissors {
             rects,
+            openings,
             grown: false,
         }
     }
@@ -59,16 +75,41 @@ impl Scissors {
             .iter()
             .map(|r| r.grown(mx, my, desc.width, desc.height))
             .collect();
-        Scissors { rects, grown: true }
+        let openings = self
+            .openings
+            .iter()
+            .map(|o| o.map(|r| r.grown(mx, my, desc.width, desc.height)))
+            .collect();
+        Scissors {
+            rects,
+            openings,
+            grown: true,
+        }
     }
 
     /// Whether a recording made with `self` is valid for `exact`.
     pub(super) fn covers(&self, exact: &Scissors) -> bool {
+        // A mesh's openings as recorded hold the exact ones: none recorded
+        // (the rectangle uncut), or both known and containing them.
+        let opening = |m: usize| match (
+            self.openings.get(m).copied().flatten(),
+            exact.openings.get(m).copied().flatten(),
+        ) {
+            (None, _) => true,
+            (Some(r), Some(e)) => e.is_empty() || r.contains(&e),
+            (Some(_), None) => false,
+        };
         self.rects.len() == exact.rects.len()
             && self
                 .rects
                 .iter()
                 .zip(&exact.rects)
                 .all(|(r, e)| e.is_empty() || r.contains(e))
+            && (0..self.openings.len().max(exact.openings.len())).all(opening)
+    }
+
+    /// The rectangles' unions, with the openings.
+    pub(super) fn unions(&self) -> RectUnions {
+        RectUnions::new(&self.rects).with_openings(&self.openings)
     }
 }

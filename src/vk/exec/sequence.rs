@@ -31,7 +31,7 @@ use crate::plan::{Plan, Step};
 use crate::vk::error::VkError;
 use crate::vk::memory::Buffer;
 use crate::vk::readback::{decode, decode_normals, Raw};
-use crate::vk::scissor::{Rect, RectUnions};
+use crate::vk::scissor::Rect;
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
 
@@ -181,7 +181,7 @@ impl Executor {
         self.prepare_plan(&whole)?;
         let scene = self.scene.as_ref().expect("checked above");
         let cam = scene.cam;
-        let exact = Scissors::exact(scene, &self.desc);
+        let exact = Scissors::exact(scene, &self.desc, &self.cut_away);
         self.camera.write(&cam)?;
         self.last_cam = Some(cam);
         // Before the key: growing a query pool replaces it (a new epoch).
@@ -402,7 +402,7 @@ impl Executor {
         let (w, h) = (self.desc.width, self.desc.height);
         let outputs = reach::outputs(output, normals);
         let images = self.reach_images(&outputs);
-        let unions = RectUnions::new(&self.rects.rects);
+        let unions = self.rects.unions();
         reach::sequence_reach(&all, |s| unions.scissor(s, w, h), images)
     }
 

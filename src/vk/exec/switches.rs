@@ -6,6 +6,7 @@
 //! and "The final shade as depth-equal draws").
 
 use super::{BlockJoin, ClearMode, DepthFormat, Executor, FrameTimestamps};
+use crate::plan::cut_away::CutAway;
 use crate::vk::error::VkError;
 use crate::vk::pipeline::{pipeline_flags, FLAG_RASTER_DEPTH};
 
@@ -182,6 +183,19 @@ impl Executor {
     /// their own rectangles.
     pub fn set_openings(&mut self, on: bool) {
         self.openings = on;
+        self.recording = None;
+    }
+
+    /// Gives the executor the cutter sets of the uploaded scene under its
+    /// current camera and the plan's algorithm (`CutAway::of`): the SCS
+    /// subtractions are then cut to where a cavity's inside can be seen
+    /// (`plan::Scissor::Openings`). Sets for another camera serve nothing
+    /// (each use checks), and a new upload drops them. They must be those of
+    /// this scene: a set that misses a cutter would leave `z` unsubtracted
+    /// where that cutter opens the solid. [`CutAway::none`] (the default)
+    /// keeps every subtraction whole.
+    pub fn set_cut_away(&mut self, cut_away: CutAway) {
+        self.cut_away = cut_away;
         self.recording = None;
     }
 
