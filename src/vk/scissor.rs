@@ -198,6 +198,23 @@ pub fn bounds_rect(
 #[cfg(test)]
 mod tests {
     #[test]
+    fn an_openings_scissor_is_cut_where_they_are_known() {
+        use super::{RectUnions, Scissor};
+        let r = |x0, y0, x1, y1| super::Rect { x0, y0, x1, y1 };
+        let rects = [r(0, 0, 100, 100), r(40, 40, 60, 90), r(10, 10, 30, 30)];
+        let s = |of| Scissor::Openings { of, and: vec![0] };
+        let plain = RectUnions::new(&rects);
+        // Not known: the overlap, as `Overlap` gives it.
+        assert_eq!(plain.scissor(&s(1), 100, 100), r(40, 40, 60, 90));
+        let cut = RectUnions::new(&rects).with_openings(&[None, Some(r(45, 40, 55, 50)), None]);
+        assert_eq!(cut.scissor(&s(1), 100, 100), r(45, 40, 55, 50));
+        assert_eq!(cut.scissor(&s(2), 100, 100), r(10, 10, 30, 30));
+        // Known to be nowhere on screen: nothing.
+        let none = RectUnions::new(&rects).with_openings(&[None, Some(super::Rect::EMPTY)]);
+        assert!(none.scissor(&s(1), 100, 100).is_empty());
+    }
+
+    #[test]
     fn intersections_are_the_common_pixels_or_empty() {
         let r = |x0, y0, x1, y1| super::Rect { x0, y0, x1, y1 };
         let a = r(0, 0, 10, 10);
