@@ -751,19 +751,9 @@ fn the_shade_and_the_output_clears_are_cut_to_the_products() {
             .expect("a Vulkan device (lavapipe)");
         for frame in 0..3 {
             let (f, o) = (cut.frame(&p).unwrap(), old.frame(&whole).unwrap());
-            let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
             let (c, oc) = (&f.stats.exec.counts, &o.stats.exec.counts);
-            let at = format!("{} frame {frame}: {r:?} {c:?} / {oc:?}", depth.name());
-            assert_eq!(r.coverage_mismatch_interior, 0, "{at}");
-            assert_eq!(r.prim_mismatch_interior, 0, "{at}");
-            let depth_ok = crate::setup::depth_passes(
-                r.depth_abs_err_p99_interior <= tol,
-                &cut,
-                &scene,
-                &reference,
-                &f.images,
-            );
-            assert!(depth_ok, "depth, {at}");
+            let at = format!("{} frame {frame}: {c:?} / {oc:?}", depth.name());
+            matches_reference(&at, &cut, &scene, &reference, &f.images, tol);
             assert!(f.images.color == o.images.color, "colour, {at}");
             assert!(f.images.prim == o.images.prim, "ids, {at}");
             assert!(c.mesh_pixels < oc.mesh_pixels, "{at}");
@@ -896,17 +886,7 @@ fn subtractions_cut_to_the_openings_change_no_pixel() {
                 assert!(f.images.prim == o.images.prim, "ids, {at}");
                 assert!(f.images.depth == o.images.depth, "depth, {at}");
                 if camera == scene.camera {
-                    let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
-                    assert_eq!(r.coverage_mismatch_interior, 0, "{r:?} {at}");
-                    assert_eq!(r.prim_mismatch_interior, 0, "{r:?} {at}");
-                    let depth_ok = crate::setup::depth_passes(
-                        r.depth_abs_err_p99_interior <= tol,
-                        &cut,
-                        &scene,
-                        &reference,
-                        &f.images,
-                    );
-                    assert!(depth_ok, "depth, {at}");
+                    matches_reference(&at, &cut, &scene, &reference, &f.images, tol);
                 }
                 if frame < 2 {
                     assert!(c.mesh_pixels < oc.mesh_pixels, "{at}");
@@ -918,4 +898,27 @@ fn subtractions_cut_to_the_openings_change_no_pixel() {
             }
         }
     }
+}
+
+/// `images`, rendered by `gpu`, have no interior coverage or id mismatch
+/// against `reference` and its depth within `tol` (or the device's bounds).
+fn matches_reference(
+    at: &str,
+    gpu: &peeltrim::render::GpuRenderer,
+    scene: &Scene,
+    reference: &peeltrim::output::Images,
+    images: &peeltrim::output::Images,
+    tol: f64,
+) {
+    let r = peeltrim::reference::compare::compare(reference, images).unwrap();
+    assert_eq!(r.coverage_mismatch_interior, 0, "{r:?} {at}");
+    assert_eq!(r.prim_mismatch_interior, 0, "{r:?} {at}");
+    let depth_ok = crate::setup::depth_passes(
+        r.depth_abs_err_p99_interior <= tol,
+        gpu,
+        scene,
+        reference,
+        images,
+    );
+    assert!(depth_ok, "depth, {r:?} {at}");
 }
