@@ -287,6 +287,12 @@ impl CutAway {
         self.by_mesh.get(m as usize).map_or(&[], Vec::as_slice)
     }
 
+    /// The camera the sets were made for (`None`: made for none, as
+    /// [`CutAway::none`]).
+    pub fn camera(&self) -> Option<&Camera> {
+        self.camera.as_ref()
+    }
+
     /// Whether no mesh has a set.
     pub fn is_empty(&self) -> bool {
         self.by_mesh.iter().all(Vec::is_empty)
@@ -320,7 +326,33 @@ pub fn inside_sets(prods: &[Vec<Lit>], bounds: &[Aabb]) -> Vec<Option<Vec<(MeshI
         let mut cutters: Vec<MeshId> = p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
         cutters.sort_unstable();
         cutters.dedup();
-        for &c in &cutters {
+        // The cutters joined through meeting boxes, each group found once
+        // (breadth first), then given to each of its members.
+        let mut group = vec![usize::MAX; cutters.len()];
+        let mut groups: Vec<Vec<MeshId>> = Vec::new();
+        for start in 0..cutters.len() {
+            if group[start] != usize::MAX {
+                continue;
+            }
+            let g = groups.len();
+            group[start] = g;
+            let mut members = vec![start];
+            let mut i = 0;
+            while i < members.len() {
+                let x = cutters[members[i]];
+                for (j, &y) in cutters.iter().enumerate() {
+                    if group[j] == usize::MAX && meets(x, y) {
+                        group[j] = g;
+                        members.push(j);
+                    }
+                }
+                i += 1;
+            }
+            let mut comp: Vec<MeshId> = members.into_iter().map(|j| cutters[j]).collect();
+            comp.sort_unstable();
+            groups.push(comp);
+        }
+        for (k, &c) in cutters.iter().enumerate() {
             let Some(slot) = out.get_mut(c as usize) else {
                 continue;
             };
@@ -328,21 +360,9 @@ pub fn inside_sets(prods: &[Vec<Lit>], bounds: &[Aabb]) -> Vec<Option<Vec<(MeshI
                 *slot = None;
                 continue;
             };
-            // The cutters joined to `c` (breadth first over meeting boxes).
-            let mut comp = vec![c];
-            let mut i = 0;
-            while i < comp.len() {
-                let x = comp[i];
-                for &y in &cutters {
-                    if !comp.contains(&y) && meets(x, y) {
-                        comp.push(y);
-                    }
-                }
-                i += 1;
-            }
-            comp.sort_unstable();
-            if !sets.contains(&(a, comp.clone())) {
-                sets.push((a, comp));
+            let comp = &groups[group[k]];
+            if !sets.iter().any(|(b, g)| *b == a && g == comp) {
+                sets.push((a, comp.clone()));
             }
         }
     }

@@ -61,9 +61,11 @@ impl Executor {
         // the host's direct shade draws a tied mesh's rule in its tie zones
         // alone too.
         self.prepare_plan(plan)?;
-        let scene = self.scene_ref()?;
+        self.scene_ref()?;
+        let scene = self.scene.as_ref().expect("checked above");
         let cam = scene.cam;
-        self.rects = super::Scissors::exact(scene, &self.desc, &self.cut_away);
+        let openings = self.opening_rects.get(&self.cut_away, scene, &self.desc);
+        self.rects = super::Scissors::exact(scene, &self.desc, openings);
         // Earlier frames may be in flight: the camera is written in the stream.
         self.camera.record_update(cmd, &cam);
         let (mut stats, groups, _marks) = self.record_frame(cmd, plan, layers, host)?;
@@ -125,6 +127,7 @@ impl Executor {
         GpuScene::rewrite(scene, i, mesh)?;
         // The sets were of the old geometry.
         self.cut_away = CutAway::none();
+        self.opening_rects.clear();
         self.epoch += 1;
         self.recording = None;
         Ok(())

@@ -89,7 +89,7 @@ pub(crate) use record::{copy_counts, final_shade, host_barriers, peel_depth, Hos
 use record::{Bindings, Group, Recorder};
 pub use record::{BlockJoin, ClearMode, FrameTimestamps};
 use recording::Recording;
-use scissors::Scissors;
+use scissors::{OpeningRects, Scissors};
 use targets::Targets;
 use ties::TieKey;
 use unrolled::{add_gpu_times, layers_fit, unroll};
@@ -190,6 +190,8 @@ pub struct Executor {
     /// (`set_cut_away`): where the SCS subtractions' scissors
     /// (`plan::Scissor::Openings`) are cut to. Dropped with a new upload.
     cut_away: CutAway,
+    /// Where `cut_away` shows each mesh's inside, for its camera.
+    opening_rects: OpeningRects,
     /// Clears reach only what later steps read ([`Executor::set_scissored_clears`]).
     scissored_clears: bool,
     /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
@@ -304,6 +306,7 @@ impl Executor {
             insides_last: true,
             openings: true,
             cut_away: CutAway::none(),
+            opening_rects: OpeningRects::default(),
             scissored_clears: true,
             rounding: None,
             normals: false,
@@ -338,6 +341,7 @@ impl Executor {
         let _layer = self.shared.layer_use();
         self.scene = Some(GpuScene::new(&self.shared, scene, &self.desc)?);
         self.cut_away = CutAway::none();
+        self.opening_rects.clear();
         self.epoch += 1;
         drop(_layer);
         self.ensure_soup()
@@ -468,7 +472,8 @@ impl Executor {
         self.prepare_plan(plan)?;
         let scene = self.scene.as_ref().expect("checked above");
         let cam = scene.cam;
-        let exact = Scissors::exact(scene, &self.desc, &self.cut_away);
+        let openings = self.opening_rects.get(&self.cut_away, scene, &self.desc);
+        let exact = Scissors::exact(scene, &self.desc, openings);
         self.camera.write(&cam)?;
         let known = match &self.layers {
             Some((p, n)) if p == plan => Some(n.clone()),

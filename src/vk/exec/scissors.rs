@@ -8,6 +8,56 @@ use crate::plan::MeshId;
 use crate::scene::Aabb;
 use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 
+/// World box `b`'s screen rectangle under `scene`'s camera.
+fn screen_rect(scene: &GpuScene, desc: &ExecDesc, b: &Aabb) -> Rect {
+    let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
+    bounds_rect(
+        view,
+        proj,
+        near,
+        std::slice::from_ref(b),
+        desc.width,
+        desc.height,
+    )
+}
+
+/// Per mesh, the screen rectangle its inside can be seen in
+/// (`CutAway::inside_holes`; `None`: not known), computed once for the cutter
+/// sets' camera rather than every frame: the sets hold for that camera only,
+/// and the scene's bounds change only with an upload or a rewritten mesh,
+/// which drop the sets ([`OpeningRects::clear`]).
+#[derive(Debug, Default)]
+pub(crate) struct OpeningRects(Option<Vec<Option<Rect>>>);
+
+impl OpeningRects {
+    /// Forgets the rectangles (new sets, or new geometry).
+    pub(super) fn clear(&mut self) {
+        self.0 = None;
+    }
+
+    /// The rectangles for `cut` under `scene`'s current camera: none when
+    /// `cut` has no sets or holds for another camera.
+    pub(super) fn get(
+        &mut self,
+        cut: &CutAway,
+        scene: &GpuScene,
+        desc: &ExecDesc,
+    ) -> &[Option<Rect>] {
+        if cut.is_empty() || cut.camera() != Some(&scene.camera) {
+            return &[];
+        }
+        self.0.get_or_insert_with(|| {
+            (0..scene.bounds.len() as MeshId)
+                .map(|c| {
+                    let boxes = cut.inside_holes(c, &scene.bounds, &scene.camera)?;
+                    let rect = |b: &Aabb| screen_rect(scene, desc, b);
+                    Some(boxes.iter().fold(Rect::EMPTY, |r, b| r.union(&rect(b))))
+                })
+                .collect()
+        })
+    }
+}
+
 /// The per-mesh screen rectangles a recording's scissors come from: exact for a
 /// still camera, grown by [`Scissors::MARGIN`] of the image after a camera move,
 /// so that the next moves replay. Scissors only bound work (every plan is
@@ -29,32 +79,16 @@ impl Scissors {
     /// Margin of grown rectangles, as a fraction of the image's width and height.
     pub const MARGIN: u32 = 8;
 
-    /// Each mesh's exact rectangle under `cam`, and where the inside of each
-    /// mesh `cut` has sets for can be seen.
-    pub(super) fn exact(scene: &GpuScene, desc: &ExecDesc, cut: &CutAway) -> Scissors {
-        let rect = |b: &Aabb| {
-            bounds_rect(
-                scene.cam.view,
-                scene.cam.proj,
-                scene.camera.near,
-                std::slice::from_ref(b),
-                desc.width,
-                desc.height,
-            )
-        };
-        let openings = match cut.is_empty() {
-            true => Vec::new(),
-            false => (0..scene.bounds.len() as MeshId)
-                .map(|c| {
-                    let boxes = cut.inside_holes(c, &scene.bounds, &scene.camera)?;
-                    Some(boxes.iter().fold(Rect::EMPTY, |r, b| r.union(&rect(b))))
-                })
-                .collect(),
-        };
-        let rects = scene.bounds.iter().map(rect).collect();
+    /// Each mesh's exact rectangle under `cam`, with `openings`
+    /// ([`OpeningRects::get`]).
+    pub(super) fn exact(scene: &GpuScene, desc: &ExecDesc, openings: &[Option<Rect>]) -> Scissors {
         Scissors {
-            rects,
-            openings,
+            rects: scene
+                .bounds
+                .iter()
+                .map(|b| screen_rect(scene, desc, b))
+                .collect(),
+            openings: openings.to_vec(),
             grown: false,
         }
     }

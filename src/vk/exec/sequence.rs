@@ -181,7 +181,8 @@ impl Executor {
         self.prepare_plan(&whole)?;
         let scene = self.scene.as_ref().expect("checked above");
         let cam = scene.cam;
-        let exact = Scissors::exact(scene, &self.desc, &self.cut_away);
+        let openings = self.opening_rects.get(&self.cut_away, scene, &self.desc);
+        let exact = Scissors::exact(scene, &self.desc, openings);
         self.camera.write(&cam)?;
         self.last_cam = Some(cam);
         // Before the key: growing a query pool replaces it (a new epoch).

@@ -196,6 +196,7 @@ impl Executor {
     /// keeps every subtraction whole.
     pub fn set_cut_away(&mut self, cut_away: CutAway) {
         self.cut_away = cut_away;
+        self.opening_rects.clear();
         self.recording = None;
     }
 
