@@ -46,6 +46,7 @@ fn main() {
                 e.set_scissored_clears(scissored);
                 e.set_pass_timestamps(ts);
                 e.upload(scene).expect("upload");
+                e.set_cut_away(ab_common::cut_away(scene, algo));
                 for _ in 0..3 {
                     e.execute(&plan).expect("warm-up");
                 }

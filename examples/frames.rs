@@ -21,6 +21,7 @@ fn main() {
     for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
         let mut gpu = Executor::new(ctx, desc).expect("executor");
         gpu.upload(scene).expect("upload");
+        gpu.set_cut_away(ab_common::cut_away(scene, algo));
         match std::env::var("FRAMES_CLEARS").as_deref() {
             Ok("command") => gpu.set_clear_mode(ClearMode::Command),
             Ok("load-op") => gpu.set_clear_mode(ClearMode::LoadOp),

@@ -129,6 +129,7 @@ fn main() {
             .map(|p| {
                 let mut e = Executor::new(ctx, desc).expect("executor");
                 e.upload(scene).expect("upload");
+                e.set_cut_away(ab_common::cut_away(scene, algo));
                 for _ in 0..2 {
                     e.execute(p).expect("warm-up");
                 }

@@ -67,6 +67,7 @@ fn main() {
                     e.set_tie_free(on);
                 }
                 e.upload(scene).expect("upload");
+                e.set_cut_away(ab_common::cut_away(scene, algo));
                 for _ in 0..2 {
                     e.execute(&plan).expect("warm-up");
                 }

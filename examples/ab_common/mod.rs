@@ -1,13 +1,27 @@
 //! Shared by the interleaved A/B examples (`exec_ab`, `shade_ab`, `tie_ab`): their
 //! arguments (`SIZE FRAMES ALGOS SCENE...`), the lavapipe context and the loop
-//! over scenes and algorithms on the default depth set-up (D32S8, reversed Z).
+//! over scenes and algorithms on the default depth set-up (D32S8, reversed Z),
+//! and the cutter sets the bench gives its executor.
 
 use std::path::Path;
 
+use peeltrim::plan::cut_away::CutAway;
 use peeltrim::plan::{self, Algo, Plan, Prepared};
 use peeltrim::scene::load::{load, LoadOptions};
 use peeltrim::scene::Scene;
 use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc};
+
+/// The cutter sets `render` and the bench give the executor for `algo` on
+/// `scene` (`plan::cut_away`), so that these frames do the bench's work;
+/// `AB_CUT_AWAY=off`: none (every subtraction and cavity's shade uncut).
+#[allow(dead_code)] // embed_ab's embedder and rerecord_loop make their own
+pub fn cut_away(scene: &Scene, algo: Algo) -> CutAway {
+    if std::env::var("AB_CUT_AWAY").as_deref() == Ok("off") {
+        return CutAway::none();
+    }
+    let prep = Prepared::new(scene).expect("prepared");
+    CutAway::of(algo, &prep, scene)
+}
 
 pub fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);

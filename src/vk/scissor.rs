@@ -47,6 +47,12 @@ impl RectUnions {
         self
     }
 
+    /// Where mesh `id`'s inside can be seen through an opening, when known
+    /// ([`Self::with_openings`]).
+    pub fn opening(&self, id: u32) -> Option<Rect> {
+        self.openings.get(id as usize).copied().flatten()
+    }
+
     /// The rectangle of mesh `id`.
     pub fn one(&self, id: u32) -> Rect {
         self.levels[0][id as usize]
@@ -100,7 +106,7 @@ impl RectUnions {
                 let r = and
                     .iter()
                     .fold(self.one(*of), |acc, m| acc.intersect(&self.one(*m)));
-                match self.openings.get(*of as usize).copied().flatten() {
+                match self.opening(*of) {
                     Some(seen) => r.intersect(&seen),
                     None => r,
                 }

@@ -134,9 +134,10 @@ pub struct Counts {
     /// Embedded final-shade pieces drawn after the solid's faces with the
     /// strict compare: the cavities' insides (`record::host::insides_last`).
     pub shade_insides_last: u64,
-    /// Pixels cut from the embedded final shade's cavity insides' scissors:
-    /// where they cannot be seen through an opening
-    /// (`record::host::cut_insides`).
+    /// Pixels cut from the final shade's cavity insides' scissors, where
+    /// they cannot be seen through an opening: embedded
+    /// (`record::host::cut_insides`) and in the executor's own targets
+    /// (`record::lower::seen_inside`).
     pub shade_insides_cut_pixels: u64,
     /// Queue submissions of the frame.
     pub submits: u64,

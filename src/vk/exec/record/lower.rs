@@ -22,9 +22,9 @@ use std::borrow::Cow;
 use crate::plan::direct_shade::DirectShades;
 use crate::plan::reach;
 use crate::plan::tie_free::TieFree;
-use crate::plan::{Cull, Draw, Fragment};
+use crate::plan::{Cull, Draw, Fragment, Geometry};
 use crate::vk::exec::stats::Counts;
-use crate::vk::scissor::Rect;
+use crate::vk::scissor::{Rect, RectUnions};
 
 /// What the recorder records for one plan draw.
 #[derive(Clone, Debug, PartialEq)]
@@ -166,6 +166,27 @@ pub(super) fn lower<'a>(
         false => Lowering::Planned,
     };
     RecordedDraw::One(draw, why)
+}
+
+/// The part of `scissor` where the final shade's depth-equal draw `d`
+/// (lowered `how`) of a cavity's inside can pass: within the screen
+/// rectangle of the openings it is seen through (`openings`,
+/// `CutAway::inside_holes`, issue 9), where they are known; `scissor`
+/// otherwise. Only a draw that cannot tie (`Lowering::FixedFunction`) is cut:
+/// it passes only where its mesh's own face is the visible surface, and a
+/// cutter that is never positive shows its inside (its back faces, the front
+/// ones culled) only through an opening of a product it cuts. A draw that
+/// keeps the tie rule may win a tie on another product's face, anywhere.
+pub(super) fn seen_inside(d: &Draw, how: Lowering, scissor: Rect, openings: &RectUnions) -> Rect {
+    match (how, d.cull, &d.geometry) {
+        (Lowering::FixedFunction { shade: true }, Cull::Front, Geometry::Mesh(c)) => {
+            match openings.opening(*c) {
+                Some(seen) => scissor.intersect(&seen),
+                None => scissor,
+            }
+        }
+        _ => scissor,
+    }
 }
 
 #[cfg(test)]
@@ -343,5 +364,42 @@ mod tests {
         assert_eq!(Some(fixed), TieFree::depth_equal(shade).as_ref());
         // The look-ahead sees the rule draw first: it samples the copy.
         assert_eq!(lowered.block_draw(), Some(&**rule));
+    }
+
+    #[test]
+    fn only_a_depth_equal_shade_of_a_cavity_inside_is_cut_to_its_openings() {
+        let r = |x0, y0, x1, y1| Rect { x0, y0, x1, y1 };
+        let rects = [ON, ON];
+        let openings = RectUnions::new(&rects).with_openings(&[None, Some(r(10, 20, 30, 40))]);
+        let inside = |m| Draw {
+            cull: Cull::Front,
+            ..mesh_draw(m, Fragment::Shade)
+        };
+        let fixed = Lowering::FixedFunction { shade: true };
+        assert_eq!(
+            seen_inside(&inside(1), fixed, ON, &openings),
+            r(10, 20, 30, 40)
+        );
+        // Within the draw's own scissor; none known for mesh 0.
+        let part = r(0, 30, 100, 100);
+        assert_eq!(
+            seen_inside(&inside(1), fixed, part, &openings),
+            r(10, 30, 30, 40)
+        );
+        assert_eq!(seen_inside(&inside(0), fixed, ON, &openings), ON);
+        // Its outside (front faces), a draw keeping the tie rule, other
+        // lowerings: whole.
+        let outside = Draw {
+            cull: Cull::Back,
+            ..inside(1)
+        };
+        assert_eq!(seen_inside(&outside, fixed, ON, &openings), ON);
+        for how in [
+            Lowering::ShadeRule { culled: true },
+            Lowering::FixedFunction { shade: false },
+            Lowering::Planned,
+        ] {
+            assert_eq!(seen_inside(&inside(1), how, ON, &openings), ON, "{how:?}");
+        }
     }
 }

@@ -116,8 +116,14 @@ impl Recorder<'_> {
             }
             RecordedDraw::Dropped => Ok(()),
             RecordedDraw::One(d, how) => {
-                how.count(&d, scissor, &mut self.stats.counts);
-                self.draw_in(&d, scissor)
+                let seen = lower::seen_inside(&d, how, scissor, &self.b.mesh_rects);
+                self.stats.counts.shade_insides_cut_pixels += scissor.area() - seen.area();
+                if seen.is_empty() {
+                    self.stats.counts.skipped_steps += 1;
+                    return Ok(());
+                }
+                how.count(&d, seen, &mut self.stats.counts);
+                self.draw_in(&d, seen)
             }
             RecordedDraw::Zoned {
                 rule,
