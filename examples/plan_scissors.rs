@@ -54,7 +54,34 @@ fn main() {
             r.area()
         );
     }
-    let unions = RectUnions::new(&rects);
+    // Where each cutter's inside can be seen through an opening
+    // (`CutAway::inside_holes`, what `Scissor::Openings` and the final
+    // shade's cavity insides are cut to).
+    let cut = peeltrim::plan::cut_away::CutAway::of(algo, &prep, &scene);
+    let openings: Vec<_> = (0..rects.len() as u32)
+        .map(|c| {
+            let boxes = cut.inside_holes(c, &prep.mesh_bounds, cam)?;
+            let rect = |b: &peeltrim::scene::Aabb| {
+                bounds_rect(view, proj, cam.near, std::slice::from_ref(b), SIZE, SIZE)
+            };
+            Some(
+                boxes
+                    .iter()
+                    .fold(peeltrim::vk::scissor::Rect::EMPTY, |r, b| r.union(&rect(b))),
+            )
+        })
+        .collect();
+    for (i, o) in openings.iter().enumerate() {
+        if let Some(o) = o {
+            println!(
+                "openings {:10} {:?} {:7}",
+                names[i],
+                (o.x0, o.y0, o.x1, o.y1),
+                o.area()
+            );
+        }
+    }
+    let unions = RectUnions::new(&rects).with_openings(&openings);
     let mut pass = String::new();
     let total = walk(&plan.steps, &unions, &names, &mut pass);
     println!("total scissor px {total}");

@@ -589,6 +589,16 @@ fn finish(
         ref frames,
     } = *started;
     let est = est.clone();
+    // The error is the timed frames' own: the last one's images, read back
+    // before the frames below (per-pass timestamps, a camera move and back)
+    // replace them. Those may record other work than the timed frames did
+    // (cutter sets hold for the scene's camera only, and a recording with
+    // scissors grown by the move replays uncut), so an image read after
+    // them would not check what was timed.
+    let images = match frames.is_empty() {
+        true => None,
+        false => Some(gpu.read_back().map_err(|e| e.to_string())?),
+    };
     let replayed = frames.iter().filter(|f| f.exec.record_ms == 0.0).count() as u32;
     // The per-pass GPU times, from one frame with a timestamp at every pass.
     let per_pass = match frames.is_empty() {
@@ -633,7 +643,10 @@ fn finish(
             rerecord_cached_ms = cached.map_or(0.0, |mut t| median_iqr(&mut t).0);
         }
     }
-    let images = gpu.read_back().map_err(|e| e.to_string())?;
+    let images = match images {
+        Some(i) => i,
+        None => gpu.read_back().map_err(|e| e.to_string())?,
+    };
     let embedded = match cfg.embedded && !slow {
         true => Some(embedded::measure(
             gpu,
