@@ -827,10 +827,17 @@ expr = "Slab - A - B"
         Step::Draw(d) => d.scissor.clone(),
         s => panic!("a draw: {s:?}"),
     };
+    // Each cut as its bore's exits are (`Scissor::Openings`: the bore's and
+    // the slab's rectangles, cut to the bore's openings where the executor
+    // knows them).
+    let opening = |y: u32| plan::Scissor::Openings {
+        of: y,
+        and: vec![0],
+    };
     let at: Vec<usize> = sweeps.iter().map(|s| s.0).collect();
     assert_eq!(
         at.iter().map(|&i| scissor(i)).collect::<Vec<_>>(),
-        vec![within(vec![1]), within(vec![2])],
+        vec![opening(1), opening(2)],
         "one sweep of the slab per bore"
     );
     let writes = depth_writes(&p);
@@ -849,6 +856,43 @@ expr = "Slab - A - B"
         }
     }
     assert_swept(&scene, &reference, &wide, &at, writes);
+    // Given the cutter sets, the clip and its sweeps are cut to the bores'
+    // mouths with their exits: the same image, far fewer pixels.
+    use peeltrim::render::{DepthSetup, GpuRenderer};
+    let gpu = || {
+        GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::ALL[2], true)
+            .expect("a Vulkan device (lavapipe)")
+    };
+    // Against the clip as it was (each over its bore's whole rectangle),
+    // with the same sets.
+    let mut uncut = p.clone();
+    for s in &mut uncut.steps[clip_pass..=at[1]] {
+        if let Step::Draw(d) = s {
+            if let plan::Scissor::Openings { of, .. } = d.scissor {
+                d.scissor = within(vec![of]);
+            }
+        }
+    }
+    let (mut cut, mut whole) = (gpu(), gpu());
+    cut.set_cut_away(Algo::Scs, &prep, &scene);
+    whole.set_cut_away(Algo::Scs, &prep, &scene);
+    let (f, o) = (cut.frame(&p).unwrap(), whole.frame(&uncut).unwrap());
+    assert!(f.images.color == o.images.color && f.images.prim == o.images.prim);
+    assert!(f.images.depth == o.images.depth);
+    let (c, oc) = (&f.stats.exec.counts, &o.stats.exec.counts);
+    assert!(
+        c.mesh_pixels < oc.mesh_pixels,
+        "{} / {}",
+        c.mesh_pixels,
+        oc.mesh_pixels
+    );
+    let r = peeltrim::reference::compare::compare(&reference, &f.images).unwrap();
+    assert_eq!(
+        r.coverage_mismatch_interior + r.prim_mismatch_interior,
+        0,
+        "{r:?}"
+    );
+    assert!(cut.validation_messages().is_empty());
 }
 
 /// SCS's subtractions cut to the openings a cutter can act in

@@ -558,7 +558,27 @@ fn output_sweep(p: &[Lit], region: &Region, prep: &Prepared) -> Vec<(Lit, Scisso
     if cost(&ys) < cost(&[x]) {
         ys.into_iter().map(|y| (y, region.cut(y.prim))).collect()
     } else {
-        clipped.into_iter().map(|r| (x, r.cut(x.prim))).collect()
+        clipped
+            .into_iter()
+            .map(|r| (x, clip_cut(&r, x.prim)))
+            .collect()
+    }
+}
+
+/// Positive primitive `x`'s rectangle cut to the clip's `region`. A cluster
+/// of one cutter `c` ([`moved`]) is cut as `c`'s exits are
+/// ([`Scissor::Openings`], `batch_steps`): `z` moved only where they drew,
+/// so the clip's count and sweep change nothing elsewhere, and the same
+/// scissor resolves to the same rectangle for all three (grown alike after
+/// a camera move). Where the executor knows `c`'s openings that is a few
+/// pixels of the bore's mouth, not the bore's whole rectangle.
+fn clip_cut(region: &Region, x: MeshId) -> Scissor {
+    match region {
+        Region::Union(cs) if cs.len() == 1 => Scissor::Openings {
+            of: cs[0],
+            and: vec![x],
+        },
+        r => r.cut(x),
     }
 }
 
@@ -616,7 +636,7 @@ fn back_face_clip(xs: &[Lit], regions: &[Region], eps: f32, sweep: Sweep) -> Vec
         for x in xs {
             steps.push(Step::Draw(Draw {
                 geometry: Geometry::Mesh(x.prim),
-                scissor: region.cut(x.prim),
+                scissor: clip_cut(region, x.prim),
                 cull: Cull::Front,
                 ds,
                 depth: DepthState {

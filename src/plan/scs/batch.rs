@@ -277,21 +277,27 @@ mod tests {
         for name in ["scs-front", "subtract", "clip"] {
             assert_eq!(count(&|s| matches!(s, Step::Pass(n) if n == name)), 1);
         }
-        // Each product's clip only where its cutter may have moved `z`.
+        // Each product's clip (its positive's back faces and footprint) only
+        // where its cutter may have moved `z`.
         let clips: Vec<&Scissor> = plan
             .steps
             .iter()
             .filter_map(|s| match s {
-                Step::Draw(d) if d.stencil.is_some_and(|s| s.write_mask == 1) && d.ds == OUTPUT => {
+                Step::Draw(d)
+                    if d.stencil.is_some_and(|s| s.write_mask == 1)
+                        && d.ds == OUTPUT
+                        && d.geometry.meshes()[0] % 2 == 0 =>
+                {
                     Some(&d.scissor)
                 }
                 _ => None,
             })
             .collect();
         for k in 0..3u32 {
-            let moved = Scissor::Within {
-                meshes: vec![2 * k],
-                within: vec![2 * k + 1],
+            // Cut as the cutter's exits are (`scs::clip_cut`).
+            let moved = Scissor::Openings {
+                of: 2 * k + 1,
+                and: vec![2 * k],
             };
             assert_eq!(clips.iter().filter(|&&s| *s == moved).count(), 2);
         }

@@ -552,9 +552,27 @@ fn cutters_far_apart_on_screen_are_clipped_in_clusters() {
         meshes: vec![0],
         within: ys,
     };
+    // A cluster of one cutter is cut as its exits are (its openings, where
+    // the executor knows them).
+    let opening = |y: u32| Scissor::Openings {
+        of: y,
+        and: vec![0],
+    };
     let apart = clip_scissors(sb(0.0, 0.0, 100.0, 100.0), sb(500.0, 500.0, 600.0, 600.0));
-    let each = vec![within(vec![4]), within(vec![5])];
-    assert_eq!(apart, (each.clone(), each));
+    let each = vec![opening(4), opening(5)];
+    assert_eq!(apart, (each.clone(), each.clone()));
+    let mut prep = two_products();
+    prep.screen = vec![None; 8];
+    prep.screen[0] = sb(0.0, 0.0, 600.0, 600.0);
+    prep.screen[4] = sb(0.0, 0.0, 100.0, 100.0);
+    prep.screen[5] = sb(500.0, 500.0, 600.0, 600.0);
+    let built = plan(&prep, &ProductOptions::default()).unwrap();
+    let exits: Vec<Scissor> = pass_draws(&built.steps, "subtract")
+        .into_iter()
+        .filter(|d| matches!(d.geometry, Geometry::Mesh(4 | 5)))
+        .map(|d| d.scissor.clone())
+        .collect();
+    assert!(exits.iter().all(|s| each.contains(s)), "{exits:?}");
     // Those may overlap on the device: the count is set, not incremented, so
     // a pixel two clip draws cover counts once.
     let mut prep = two_products();
