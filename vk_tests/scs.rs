@@ -906,7 +906,13 @@ expr = "Slab - A - B"
 #[test]
 fn subtractions_and_insides_cut_to_the_openings_change_no_pixel() {
     use peeltrim::render::{DepthSetup, GpuRenderer};
-    for name in ["drilled_block", "complex", "nonconvex_obj", "interference"] {
+    for name in [
+        "drilled_block",
+        "complex",
+        "nonconvex_obj",
+        "interference",
+        "many_50",
+    ] {
         let (scene, prep, reference) = crate::algorithms::shipped_with_reference(name);
         let tol = crate::algorithms::depth_tolerance(&scene);
         let mut moved = scene.camera;

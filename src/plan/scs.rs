@@ -556,7 +556,17 @@ fn output_sweep(p: &[Lit], region: &Region, prep: &Prepared) -> Vec<(Lit, Scisso
             .sum()
     };
     if cost(&ys) < cost(&[x]) {
-        ys.into_iter().map(|y| (y, region.cut(y.prim))).collect()
+        // Each cutter's footprint where its exits drew: within its cluster's
+        // count draws ([`clip_cut`]), and all that `z` can have moved in.
+        ys.into_iter()
+            .map(|y| {
+                let exits = Scissor::Openings {
+                    of: y.prim,
+                    and: vec![x.prim],
+                };
+                (y, exits)
+            })
+            .collect()
     } else {
         clipped
             .into_iter()
