@@ -572,12 +572,6 @@ fn cutters_far_apart_on_screen_are_clipped_in_clusters() {
     assert!(exits.iter().all(|s| each.contains(s)), "{exits:?}");
     // Those may overlap on the device: the count is set, not incremented, so
     // a pixel two clip draws cover counts once.
-    let mut prep = two_products();
-    prep.screen = vec![None; 8];
-    prep.screen[0] = sb(0.0, 0.0, 600.0, 600.0);
-    prep.screen[4] = sb(0.0, 0.0, 100.0, 100.0);
-    prep.screen[5] = sb(500.0, 500.0, 600.0, 600.0);
-    let built = plan(&prep, &ProductOptions::default()).unwrap();
     let st = pass_draws(&built.steps, "clip")[0].stencil.unwrap();
     assert_eq!(
         (st.front.pass, st.write_mask, st.reference),
