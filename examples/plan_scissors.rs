@@ -61,14 +61,7 @@ fn main() {
     let openings: Vec<_> = (0..rects.len() as u32)
         .map(|c| {
             let boxes = cut.inside_holes(c, &prep.mesh_bounds, cam)?;
-            let rect = |b: &peeltrim::scene::Aabb| {
-                bounds_rect(view, proj, cam.near, std::slice::from_ref(b), SIZE, SIZE)
-            };
-            Some(
-                boxes
-                    .iter()
-                    .fold(peeltrim::vk::scissor::Rect::EMPTY, |r, b| r.union(&rect(b))),
-            )
+            Some(bounds_rect(view, proj, cam.near, &boxes, SIZE, SIZE))
         })
         .collect();
     for (i, o) in openings.iter().enumerate() {

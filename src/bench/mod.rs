@@ -595,10 +595,7 @@ fn finish(
     // (cutter sets hold for the scene's camera only, and a recording with
     // scissors grown by the move replays uncut), so an image read after
     // them would not check what was timed.
-    let images = match frames.is_empty() {
-        true => None,
-        false => Some(gpu.read_back().map_err(|e| e.to_string())?),
-    };
+    let images = gpu.read_back().map_err(|e| e.to_string())?;
     let replayed = frames.iter().filter(|f| f.exec.record_ms == 0.0).count() as u32;
     // The per-pass GPU times, from one frame with a timestamp at every pass.
     let per_pass = match frames.is_empty() {
@@ -643,10 +640,6 @@ fn finish(
             rerecord_cached_ms = cached.map_or(0.0, |mut t| median_iqr(&mut t).0);
         }
     }
-    let images = match images {
-        Some(i) => i,
-        None => gpu.read_back().map_err(|e| e.to_string())?,
-    };
     let embedded = match cfg.embedded && !slow {
         true => Some(embedded::measure(
             gpu,

@@ -559,13 +559,7 @@ fn output_sweep(p: &[Lit], region: &Region, prep: &Prepared) -> Vec<(Lit, Scisso
         // Each cutter's footprint where its exits drew: within its cluster's
         // count draws ([`clip_cut`]), and all that `z` can have moved in.
         ys.into_iter()
-            .map(|y| {
-                let exits = Scissor::Openings {
-                    of: y.prim,
-                    and: vec![x.prim],
-                };
-                (y, exits)
-            })
+            .map(|y| (y, exit_scissor(y.prim, x.prim)))
             .collect()
     } else {
         clipped
@@ -584,11 +578,18 @@ fn output_sweep(p: &[Lit], region: &Region, prep: &Prepared) -> Vec<(Lit, Scisso
 /// pixels of the bore's mouth, not the bore's whole rectangle.
 fn clip_cut(region: &Region, x: MeshId) -> Scissor {
     match region {
-        Region::Union(cs) if cs.len() == 1 => Scissor::Openings {
-            of: cs[0],
-            and: vec![x],
-        },
+        Region::Union(cs) if cs.len() == 1 => exit_scissor(cs[0], x),
         r => r.cut(x),
+    }
+}
+
+/// The scissor of cutter `c`'s parity and exit draws in a product of one
+/// positive primitive `x` (`batch_steps`: `c`'s rectangle and `x`'s, cut to
+/// `c`'s openings), which the clip after them shares.
+fn exit_scissor(c: MeshId, x: MeshId) -> Scissor {
+    Scissor::Openings {
+        of: c,
+        and: vec![x],
     }
 }
 

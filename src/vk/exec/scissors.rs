@@ -8,17 +8,11 @@ use crate::plan::MeshId;
 use crate::scene::Aabb;
 use crate::vk::scissor::{bounds_rect, Rect, RectUnions};
 
-/// World box `b`'s screen rectangle under `scene`'s camera.
-fn screen_rect(scene: &GpuScene, desc: &ExecDesc, b: &Aabb) -> Rect {
+/// The screen rectangle of world boxes `boxes` under `scene`'s camera (the
+/// union of each one's).
+fn screen_rect(scene: &GpuScene, desc: &ExecDesc, boxes: &[Aabb]) -> Rect {
     let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
-    bounds_rect(
-        view,
-        proj,
-        near,
-        std::slice::from_ref(b),
-        desc.width,
-        desc.height,
-    )
+    bounds_rect(view, proj, near, boxes, desc.width, desc.height)
 }
 
 /// Per mesh, the screen rectangle its inside can be seen in
@@ -50,8 +44,7 @@ impl OpeningRects {
             (0..scene.bounds.len() as MeshId)
                 .map(|c| {
                     let boxes = cut.inside_holes(c, &scene.bounds, &scene.camera)?;
-                    let rect = |b: &Aabb| screen_rect(scene, desc, b);
-                    Some(boxes.iter().fold(Rect::EMPTY, |r, b| r.union(&rect(b))))
+                    Some(screen_rect(scene, desc, &boxes))
                 })
                 .collect()
         })
@@ -86,7 +79,7 @@ impl Scissors {
             rects: scene
                 .bounds
                 .iter()
-                .map(|b| screen_rect(scene, desc, b))
+                .map(|b| screen_rect(scene, desc, std::slice::from_ref(b)))
                 .collect(),
             openings: openings.to_vec(),
             grown: false,

@@ -13,7 +13,7 @@
 
 use std::collections::VecDeque;
 
-use super::lower::{self, Lowering};
+use super::lower::Lowering;
 use super::{BlockKey, Recorder};
 use crate::plan::direct_shade::DirectShades;
 use crate::plan::reach::READ_MARGIN;
@@ -124,17 +124,10 @@ impl Recorder<'_> {
             Lowering::ShadeRule { culled }.count(rule, r, &mut self.stats.counts);
             self.draw_in(rule, r)?;
         }
-        let how = Lowering::FixedFunction { shade: true };
         for r in tie_zones::subtract(scissor, &rects) {
             // Outside the zones it cannot tie: a cavity's inside is drawn only
             // where it can be seen (`lower::seen_inside`).
-            let seen = lower::seen_inside(fixed, how, r, &self.b.mesh_rects);
-            self.stats.counts.shade_insides_cut_pixels += r.area() - seen.area();
-            if seen.is_empty() {
-                continue;
-            }
-            how.count(fixed, seen, &mut self.stats.counts);
-            self.draw_in(fixed, seen)?;
+            self.draw_seen(fixed, Lowering::FixedFunction { shade: true }, r)?;
         }
         Ok(())
     }

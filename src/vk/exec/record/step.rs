@@ -116,14 +116,10 @@ impl Recorder<'_> {
             }
             RecordedDraw::Dropped => Ok(()),
             RecordedDraw::One(d, how) => {
-                let seen = lower::seen_inside(&d, how, scissor, &self.b.mesh_rects);
-                self.stats.counts.shade_insides_cut_pixels += scissor.area() - seen.area();
-                if seen.is_empty() {
+                if !self.draw_seen(&d, how, scissor)? {
                     self.stats.counts.skipped_steps += 1;
-                    return Ok(());
                 }
-                how.count(&d, seen, &mut self.stats.counts);
-                self.draw_in(&d, seen)
+                Ok(())
             }
             RecordedDraw::Zoned {
                 rule,
@@ -132,6 +128,25 @@ impl Recorder<'_> {
                 zones,
             } => self.zoned_shade(&rule, culled, &fixed, scissor, zones),
         }
+    }
+
+    /// Records `draw`, lowered `how`, cut to `scissor` and, for a cavity's
+    /// inside, to where it can be seen (`lower::seen_inside`), counting it;
+    /// `false` where nothing of it is left to record.
+    pub(super) fn draw_seen(
+        &mut self,
+        draw: &Draw,
+        how: lower::Lowering,
+        scissor: Rect,
+    ) -> Result<bool, VkError> {
+        let seen = lower::seen_inside(draw, how, scissor, &self.b.mesh_rects);
+        self.stats.counts.shade_insides_cut_pixels += scissor.area() - seen.area();
+        if seen.is_empty() {
+            return Ok(false);
+        }
+        how.count(draw, seen, &mut self.stats.counts);
+        self.draw_in(draw, seen)?;
+        Ok(true)
     }
 
     /// Records `draw` cut to `scissor`, not empty.
