@@ -93,6 +93,18 @@ pub fn outputs(output_ds: u8, normals: bool) -> Vec<Resource> {
     outputs
 }
 
+/// Whether a clear of `r` that reaches only `rect` of a `full` image may
+/// discard the image's other pixels (an `UNDEFINED` old layout in its barrier,
+/// which leaves the whole image undefined on hardware that compresses
+/// attachments): when it reaches the whole image, or when `r` is not among the
+/// frame's `outputs`. Nothing reads an image outside its clear's region before
+/// it is cleared again (that is how the region is chosen), but an output keeps
+/// its pixels for later frames and the read-back: a clear cut to the dirty
+/// region must leave the rest as it was.
+pub fn clear_discards(r: Resource, rect: Rect, full: Rect, outputs: &[Resource]) -> bool {
+    rect.contains(&full) || !outputs.contains(&r)
+}
+
 /// The images `clear` clears, in recording order (`normals`: the normal buffer
 /// goes with the colour).
 pub fn cleared(clear: &Clear, normals: bool) -> Uses<Resource> {

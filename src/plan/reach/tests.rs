@@ -413,3 +413,38 @@ fn a_texture_only_tie_free_draws_read_is_written_for_nobody() {
 }
 
 mod simulated;
+
+#[test]
+fn only_a_clear_that_keeps_nothing_outside_its_region_discards_the_image() {
+    let full = Rect::full(W, H);
+    let outs = outputs(0, false);
+    // A scratch image: nothing outside the region is read before its next
+    // clear, so its barrier may start from `UNDEFINED`.
+    assert!(clear_discards(
+        Resource::DepthStencil(1),
+        square(2),
+        full,
+        &outs
+    ));
+    assert!(clear_discards(Resource::Texture(0), square(2), full, &outs));
+    // An output cut to its dirty region keeps its other pixels for later
+    // frames and the read-back.
+    for r in [Resource::Color, Resource::Prim, Resource::DepthStencil(0)] {
+        assert!(!clear_discards(r, square(2), full, &outs), "{r:?}");
+        // Cleared whole, it keeps nothing.
+        assert!(clear_discards(r, full, full, &outs), "{r:?}");
+    }
+    // Which depth-stencil image is the output follows the plan.
+    assert!(!clear_discards(
+        Resource::DepthStencil(1),
+        square(2),
+        full,
+        &outputs(1, false)
+    ));
+    assert!(!clear_discards(
+        Resource::Normal,
+        square(2),
+        full,
+        &outputs(0, true)
+    ));
+}

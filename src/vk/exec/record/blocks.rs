@@ -69,8 +69,8 @@ impl Recorder<'_> {
 
     /// Barriers that bring each `(resource, usage)` from its last usage; ends the
     /// open block when one is needed. `same_block`: the step records into the open
-    /// block. `load_clear`: resources whose pending clear becomes a load op (their
-    /// contents are discarded). Returns whether a barrier was recorded.
+    /// block. `discarded`: resources whose contents a pending clear discards
+    /// (`Recorder::clear_discards`). Returns whether a barrier was recorded.
     pub(super) fn transitions(&mut self, uses: &[(Resource, Usage)], same_block: bool) -> bool {
         self.transitions_with(uses, same_block, &[])
     }
@@ -79,9 +79,9 @@ impl Recorder<'_> {
         &mut self,
         uses: &[(Resource, Usage)],
         same_block: bool,
-        load_clear: &[Resource],
+        discarded: &[Resource],
     ) -> bool {
-        let (stages, barriers) = self.image_transitions(uses, same_block, load_clear);
+        let (stages, barriers) = self.image_transitions(uses, same_block, discarded);
         if barriers.is_empty() {
             return false;
         }
@@ -98,7 +98,7 @@ impl Recorder<'_> {
         &mut self,
         uses: &[(Resource, Usage)],
         same_block: bool,
-        load_clear: &[Resource],
+        discarded: &[Resource],
     ) -> (
         (vk::PipelineStageFlags, vk::PipelineStageFlags),
         Vec<vk::ImageMemoryBarrier<'static>>,
@@ -113,7 +113,7 @@ impl Recorder<'_> {
             if !sync::needs_barrier(prev, u, same_block) {
                 continue;
             }
-            let discard = u.discards() || load_clear.contains(&r);
+            let discard = u.discards() || discarded.contains(&r);
             let (src, dst) = sync::transition(prev, u, discard);
             src_stage |= src.stage;
             dst_stage |= dst.stage;
@@ -129,14 +129,19 @@ impl Recorder<'_> {
     /// Makes `key` the open block with every usage in `uses` satisfied.
     pub(super) fn open(&mut self, key: &BlockKey, uses: &[(Resource, Usage)]) {
         self.settle_clears(uses);
-        let mut load_clear = Uses::<Resource>::default();
+        // A pending clear opens a new block; its barrier discards the
+        // image's contents only where nothing outside the region is kept.
+        let (mut cleared, mut discarded) = (false, Uses::<Resource>::default());
         for &(r, _) in uses {
-            if self.pending_clear.contains_key(&r) {
-                load_clear.push(r);
+            if let Some(c) = self.pending_clear.get(&r) {
+                cleared = true;
+                if self.clear_discards(r, c) {
+                    discarded.push(r);
+                }
             }
         }
-        let same = self.block.as_ref() == Some(key) && load_clear.is_empty();
-        let barrier = self.transitions_with(uses, same, &load_clear);
+        let same = self.block.as_ref() == Some(key) && !cleared;
+        let barrier = self.transitions_with(uses, same, &discarded);
         if same && !barrier {
             return;
         }

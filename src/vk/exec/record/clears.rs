@@ -133,6 +133,14 @@ impl Recorder<'_> {
         }
     }
 
+    /// Whether pending clear `c` of `r` may discard `r`'s contents in its
+    /// barrier (`reach::clear_discards`: it reaches the whole image, or `r`
+    /// keeps nothing outside the region).
+    pub(super) fn clear_discards(&self, r: Resource, c: &PendingClear) -> bool {
+        let full = Rect::full(self.b.desc.width, self.b.desc.height);
+        reach::clear_discards(r, c.rect, full, &self.outputs)
+    }
+
     /// Flushes the pending clears of images used other than as attachments, and
     /// drops those a whole-image write replaces. Attachments keep theirs for the
     /// block (`begin_block`).
@@ -172,7 +180,11 @@ impl Recorder<'_> {
             _ => Usage::ColorTarget,
         };
         let uses: Vec<_> = clears.iter().map(|(r, c)| (*r, in_block(*r, c))).collect();
-        let discarded: Vec<Resource> = clears.iter().map(|c| c.0).collect();
+        let discarded: Vec<Resource> = clears
+            .iter()
+            .filter(|(r, c)| self.clear_discards(*r, c))
+            .map(|c| c.0)
+            .collect();
         self.end_block();
         self.transitions_with(&uses, false, &discarded);
         let layout = sync::access(Usage::Clear).layout;
