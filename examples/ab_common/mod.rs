@@ -42,7 +42,8 @@ pub fn for_each_run(mut run: impl FnMut(&Context, &Scene, &str, Algo, Plan, &Exe
         .collect();
     let ctx = Context::new(&ContextDesc {
         device: DeviceChoice::Cpu,
-        validation: false,
+        // `PEELTRIM_VALIDATION=1` checks an A/B run (a validation message is printed).
+        validation: ContextDesc::validation_default(),
     })
     .expect("lavapipe");
     let desc = ExecDesc {
