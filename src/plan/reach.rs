@@ -95,8 +95,9 @@ pub fn outputs(output_ds: u8, normals: bool) -> Vec<Resource> {
 
 /// Whether a clear of `r` that reaches only `rect` of a `full` image may
 /// discard the image's other pixels (an `UNDEFINED` old layout in its barrier,
-/// which leaves the whole image undefined on hardware that compresses
-/// attachments): when it reaches the whole image, or when `r` is not among the
+/// which leaves the whole image's contents undefined: lavapipe keeps them, a
+/// GPU that compresses attachments may not): when it reaches the whole image,
+/// or when `r` is not among the
 /// frame's `outputs`. Nothing reads an image outside its clear's region before
 /// it is cleared again (that is how the region is chosen), but an output keeps
 /// its pixels for later frames and the read-back: a clear cut to the dirty
