@@ -106,7 +106,8 @@ fn compile(path: &Path, stage: naga::ShaderStage, source: &str, defines: &[&str]
     std::fs::write(out, bytes).unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
 }
 
-/// The shader's text with each `#include "name"` line replaced by `dir/name`.
+/// The shader's text with each `#include "name"` line replaced by `dir/name`,
+/// its own includes replaced in turn.
 fn with_includes(dir: &Path, path: &Path) -> String {
     let read = |p: &Path| {
         std::fs::read_to_string(p).unwrap_or_else(|e| panic!("cannot read {}: {e}", p.display()))
@@ -117,7 +118,8 @@ fn with_includes(dir: &Path, path: &Path) -> String {
             Some(name) => {
                 let file = dir.join(name.trim().trim_matches('"'));
                 println!("cargo:rerun-if-changed={}", file.display());
-                read(&file)
+                // An include may include others (`tie.glsl`: `tie_band.glsl`).
+                with_includes(dir, &file)
             }
             None => line.to_string(),
         })

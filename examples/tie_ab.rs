@@ -22,7 +22,12 @@
 //! depth-only and shaded again in the final shade (A), or shaded in their
 //! direct draw (B, `Executor::set_direct_shade`; README "One-primitive
 //! products shaded in their own draw"); the counts are then B's direct draws
-//! that shade, and B's mesh pixels against A's.
+//! that shade, and B's mesh pixels against A's. With `TIE_AB=depth`, both
+//! frames run everything else tie-free and differ only in the parity and clip
+//! draws that may meet a tie: the texture's rule shaders (A) or the rule as
+//! the depth test (B, `Executor::set_tie_depth`; README "Ties as the depth
+//! test"); the counts are then B's depth-test draws and A's rule draws, and a
+//! line more gives both frames' wall time, barriers and render passes.
 
 #[path = "ab_common/mod.rs"]
 mod ab_common;
@@ -33,6 +38,7 @@ use peeltrim::vk::Executor;
 fn main() {
     let mode = std::env::var("TIE_AB").unwrap_or_default();
     let (shade_only, zones, direct) = (mode == "shade", mode == "zones", mode == "direct");
+    let depth = mode == "depth";
     println!("scene            algo          tie-rule CPU ms  tie-free CPU ms  ratio  | tie-free draws, tie-rule draws left");
     let mut analysed = String::new();
     for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
@@ -57,7 +63,9 @@ fn main() {
             .iter()
             .map(|&on| {
                 let mut e = Executor::new(ctx, desc).expect("executor");
-                if direct {
+                if depth {
+                    e.set_tie_depth(on);
+                } else if direct {
                     e.set_direct_shade(on);
                 } else if zones {
                     e.set_tie_zones(on);
@@ -74,10 +82,12 @@ fn main() {
                 e
             })
             .collect();
-        let mut cpu = [Vec::new(), Vec::new()];
+        let (mut cpu, mut wall) = ([Vec::new(), Vec::new()], [Vec::new(), Vec::new()]);
         for _ in 0..frames {
             for (i, e) in exs.iter_mut().enumerate() {
-                cpu[i].push(e.execute(&plan).expect("frame").frame_cpu_ms);
+                let s = e.execute(&plan).expect("frame");
+                cpu[i].push(s.frame_cpu_ms);
+                wall[i].push(s.frame_ms);
             }
         }
         let c = exs[1].execute(&plan).expect("frame").counts;
@@ -96,7 +106,20 @@ fn main() {
                 c.render_passes
             );
         }
+        if depth {
+            println!(
+                "{name:16} {:12} wall ms {:.2} -> {:.2}, barriers {} -> {}, render passes {} -> {}",
+                algo.name(),
+                median(wall[0].clone()),
+                median(wall[1].clone()),
+                ac.barriers,
+                c.barriers,
+                ac.render_passes,
+                c.render_passes
+            );
+        }
         let (free, rule) = match (zones, shade_only) {
+            _ if depth => (c.tie_depth_draws, ac.tie_rule_draws),
             _ if direct => (c.direct_shade_draws, c.shade_fixed_draws),
             (true, _) => (c.shade_rule_pixels, a_rule_pixels),
             (false, true) => (c.shade_fixed_draws, c.shade_rule_draws),

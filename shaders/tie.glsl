@@ -2,18 +2,10 @@
 // (`#include "tie.glsl"`) after the including shader includes `draw.glsl`
 // and declares `u_tex` and `u_samp`. Not a shader of its own.
 
-// plan::tie: the slope part of a tolerance is TIE_SLOPES steps of the device's
-// vertex snapping (2^-bits pixel, bits in flags 8..16) times fwidth(z); with
-// reversed Z the eps part is REVERSED_SCALE * eps * z (1 to 2 float ulps).
-const float TIE_SLOPES = 1.0;
-const float REVERSED_SCALE = 0.125;
+#include "tie_band.glsl"
+
 // A tie's depth gradient agrees with the texture's within this fraction.
 const float SLOPE_AGREEMENT = 0.03125;
-float tie_slope() {
-    // 2^-bits built from its float bits (bits is 4..16): exact, and no exp2
-    // per fragment (lavapipe evaluates it as a polynomial).
-    return TIE_SLOPES * uintBitsToFloat((127u - ((d_flags >> 8) & 0xffu)) << 23);
-}
 
 // The texture at `p`, clamped to the image: a helper invocation past the edge
 // (the other half of a quad) reads the edge texel.

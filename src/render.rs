@@ -332,6 +332,12 @@ impl GpuRenderer {
         self.exec.set_tie_free(on);
     }
 
+    /// Whether parity and clip draws that may meet a tie run the rule as their
+    /// depth test (the default; see `vk::Executor::set_tie_depth`).
+    pub fn set_tie_depth(&mut self, on: bool) {
+        self.exec.set_tie_depth(on);
+    }
+
     /// Whether the final shade's draws of meshes that cannot tie run as plain
     /// depth-equal draws (the default; see `vk::Executor::set_fixed_shade`).
     pub fn set_fixed_shade(&mut self, on: bool) {

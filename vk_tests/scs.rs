@@ -419,11 +419,12 @@ fn back_face_clips_and_merges_are_tie_free_only_where_nothing_ties() {
         let c = &fast.stats.exec.counts;
         let at = format!("flush {flush}: {c:?}");
         if flush {
-            // The flush holes and their blocks keep the rule; the middle
-            // product's draws go plain.
+            // The flush holes and their blocks keep the rule, as the depth
+            // test (their partners are coplanar, `Fragment::TieDepth`); the
+            // middle product's draws go plain.
             assert_eq!(
-                (c.tie_rule_draws, c.tie_free_draws),
-                (tied, 7 - tied),
+                (c.tie_rule_draws, c.tie_depth_draws, c.tie_free_draws),
+                (0, tied, 7 - tied),
                 "{at}"
             );
         } else {

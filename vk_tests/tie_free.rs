@@ -87,13 +87,18 @@ fn coincident_faces_keep_the_tie_rule() {
     for algo in tolerant() {
         let (fast, stats, _) = frame("coincident", algo, true);
         let c = &stats.exec.counts;
-        assert!(c.tie_rule_draws > 0, "{algo}: {c:?}");
+        // SCS's keep it as the depth test (`Fragment::TieDepth`).
+        assert!(c.tie_rule_draws + c.tie_depth_draws > 0, "{algo}: {c:?}");
         let (slow, slow_stats, _) = frame("coincident", algo, false);
         let s = &slow_stats.exec.counts;
-        assert_eq!(s.tie_free_draws, 0, "{algo}: {s:?}");
+        assert_eq!(
+            (s.tie_free_draws, s.tie_depth_draws),
+            (0, 0),
+            "{algo}: {s:?}"
+        );
         assert_eq!(
             s.tie_rule_draws,
-            c.tie_rule_draws + c.tie_free_draws,
+            c.tie_rule_draws + c.tie_free_draws + c.tie_depth_draws,
             "{algo}: {c:?}"
         );
         let d = compare(&slow, &fast).expect("same size");
@@ -313,4 +318,72 @@ fn scs_subtracts_drilled_block_with_plain_depth_tests() {
         (0, 0),
         "against the tie-rule frame: {d:?}"
     );
+}
+
+#[test]
+fn scs_runs_its_tie_rule_as_the_depth_test_with_the_texture_rules_pixels() {
+    // complex: the slot's caps flush with the base's top face, so SCS's base
+    // product keeps the rule on its parity draws, which read the texture its
+    // exits write (a barrier before each batch). As the depth test
+    // (`Fragment::TieDepth`) they read nothing: the same interior pixels as
+    // the texture's rule and the reference, fewer barriers. On every depth
+    // set-up, and with an 8-bit device's vertex snapping emulated; D24S8
+    // keeps the texture's rule (its depth image rounds the depth).
+    let name = "complex";
+    let (scene, prep, reference) = shipped_with_reference(name);
+    let plan = plan::build(Algo::Scs, &prep).expect("scs");
+    let setups = DepthSetup::ALL.into_iter().map(|d| (d, None)).chain([(
+        DepthSetup::DEFAULT,
+        Some(peeltrim::vk::RoundingEmulation::EIGHT_BITS),
+    )]);
+    let mut failures = Vec::new();
+    for (depth, rounding) in setups {
+        let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+            .expect("a Vulkan device (lavapipe)");
+        gpu.set_rounding_emulation(rounding);
+        let mut run = |on: bool| {
+            gpu.set_tie_depth(on);
+            gpu.frame(&plan).expect("a frame")
+        };
+        let (rule, test) = (run(false), run(true));
+        let msgs = gpu.validation_messages();
+        assert!(msgs.is_empty(), "validation messages: {msgs:#?}");
+        let at = format!("{depth:?}, rounding {rounding:?}");
+        let (r, t) = (&rule.stats.exec.counts, &test.stats.exec.counts);
+        assert_eq!(r.tie_depth_draws, 0, "{at}: {r:?}");
+        if depth == DepthSetup::D24S8 {
+            assert_eq!(t.tie_depth_draws, 0, "{at}: D24 keeps the rule: {t:?}");
+            continue;
+        }
+        // Every rule draw of the texture's frame runs as the depth test.
+        assert!(t.tie_depth_draws > 0, "{at}: {t:?}");
+        assert_eq!(
+            (t.tie_rule_draws + t.tie_depth_draws, t.tie_free_draws),
+            (r.tie_rule_draws, r.tie_free_draws),
+            "{at}"
+        );
+        assert!(
+            t.barriers < r.barriers,
+            "{at}: barriers {} -> {}",
+            r.barriers,
+            t.barriers
+        );
+        // The same classification leaves the same depth, bit for bit.
+        let d = compare(&rule.images, &test.images).expect("same size");
+        if (d.coverage_mismatch_interior, d.prim_mismatch_interior) != (0, 0)
+            || d.depth_abs_err_max_interior > 0.0
+        {
+            failures.push(format!("{at}: against the texture's rule: {d:?}"));
+        }
+        let c = compare(&reference, &test.images).expect("same size");
+        if (c.coverage_mismatch_interior, c.prim_mismatch_interior) != (0, 0) {
+            failures.push(format!("{at}: against the reference: {c:?}"));
+        }
+        eprintln!(
+            "{at}: {} depth-test rule draws, barriers {} -> {}; against the texture's \
+             rule: {} coverage, {} prim mismatches (all pixels)",
+            t.tie_depth_draws, r.barriers, t.barriers, d.coverage_mismatch, d.prim_mismatch
+        );
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

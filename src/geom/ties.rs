@@ -61,6 +61,12 @@ use crate::scene::{Aabb, Mesh};
 /// seen at its most favourable orientation (about 1/64 rad).
 pub const PARALLEL_ANGLE: f64 = 1.0 / 16.0;
 
+/// Faces count as flat partners when their normals are within this angle
+/// (radians, either orientation): parallel but for the rounding of the
+/// tessellation, so their depth gradients agree under any camera
+/// ([`TieZone::flat`]).
+pub const FLAT_ANGLE: f64 = 1e-6;
+
 /// Gaps are looked for up to this fraction of the scene's bounding-box diagonal.
 /// A band wider than that (a scene a few dozen pixels wide, or standard Z with a
 /// near plane very close to the eye) makes every mesh possibly tied.
@@ -107,6 +113,12 @@ pub struct TieZone {
     /// a thin wall); `false`: the same way (flush faces of overlapping
     /// solids). A zone holds one kind only.
     pub opposite: bool,
+    /// Every triangle pair of the zone is parallel within [`FLAT_ANGLE`]:
+    /// coplanar (flush) or parallel faces, no nearly tangent curves. A tie
+    /// rule that widens by the slope term on every fragment agrees with the
+    /// texture shaders', which widen only where the gradients agree, on such
+    /// pairs (`plan::tie_free`, `Fragment::TieDepth`).
+    pub flat: bool,
     pub gap: f64,
     pub lo: DVec3,
     pub hi: DVec3,
@@ -133,6 +145,7 @@ impl TieZone {
     /// Both zones as one (same pair and orientation).
     fn union(&self, o: &TieZone) -> TieZone {
         TieZone {
+            flat: self.flat && o.flat,
             gap: self.gap.min(o.gap),
             lo: self.lo.min(o.lo),
             hi: self.hi.max(o.hi),
@@ -236,6 +249,14 @@ impl TieGaps {
             self.pairs.push((a, b, g));
         }
         self.zones = zones;
+    }
+
+    /// Whether every face that may tie with a face of mesh `m` is parallel to
+    /// it within [`FLAT_ANGLE`] ([`TieZone::flat`]): `m` has no partner, or
+    /// only flat ones. Not where the search gave up.
+    pub fn ties_flat(&self, m: u32) -> bool {
+        let none = self.min_gap.get(m as usize) == Some(&f64::INFINITY);
+        none || (self.zones_of(m).next().is_some() && self.zones_of(m).all(|z| z.flat))
     }
 
     /// The zones of the pairs mesh `m` is in.
@@ -432,6 +453,7 @@ fn pairs_within(tris: &[Tri], cap: f64) -> Option<Vec<TieZone>> {
                         a: a.mesh.min(b.mesh),
                         b: a.mesh.max(b.mesh),
                         opposite: a.normal.dot(b.normal) < 0.0,
+                        flat: a.normal.dot(b.normal).abs() >= FLAT_ANGLE.cos(),
                         gap,
                         lo: a.lo.max(b.lo),
                         hi: a.hi.min(b.hi),
@@ -523,6 +545,34 @@ mod tests {
         assert!(close(grown.max, overlap.max + DVec3::splat(0.01)));
         assert!(z.has(0) && z.has(1) && !z.has(2));
         assert_eq!(g.zones_of(1).count(), 1);
+        // Coplanar faces: flat partners.
+        assert!(z.flat && g.ties_flat(0) && g.ties_flat(1));
+    }
+
+    #[test]
+    fn nearly_parallel_faces_are_partners_but_not_flat_ones() {
+        // A box resting on another one, tilted by 0.01 rad (as the facets of
+        // nearly tangent curves): its bottom face is within PARALLEL_ANGLE of
+        // the other's top face and within the cap, but not parallel.
+        let a = cube(DVec3::ZERO, DVec3::splat(0.5));
+        let mut b = cube(DVec3::ZERO, DVec3::splat(0.5));
+        let tilt = glam::DQuat::from_rotation_y(0.01);
+        for p in &mut b.positions {
+            *p = tilt * *p + DVec3::new(0.0, 0.0, 1.0 + 0.006);
+        }
+        let g = gaps(&[a.clone(), b]);
+        assert!(g.min_gap[0].is_finite(), "{:?}", g.min_gap);
+        assert!(!g.ties_flat(0) && !g.ties_flat(1));
+        assert!(g.zones.iter().all(|z| !z.flat));
+        // A mesh without partners has nothing to tie with.
+        let mut far = a.clone();
+        for p in &mut far.positions {
+            p.x += 10.0;
+        }
+        let g = gaps(&[a.clone(), far]);
+        assert!(g.ties_flat(0) && g.ties_flat(1));
+        // The search gave up, or no analysis: unknown, so not flat.
+        assert!(!TieGaps::unknown(2).ties_flat(0));
     }
 
     #[test]
@@ -532,6 +582,7 @@ mod tests {
             a: 0,
             b: 1,
             opposite: false,
+            flat: true,
             gap: 1e-3,
             lo: DVec3::ZERO,
             hi: DVec3::ONE,

@@ -123,16 +123,25 @@ pub fn shade_near_depth(
 mod tests {
     use super::*;
 
-    /// The shaders carry the constants as literals (in `tie.glsl`, included by
-    /// every tolerant shader); they must agree with the plan's.
+    /// The shaders carry the constants as literals (in `tie_band.glsl`, included
+    /// by `tie.glsl`, which every tolerant shader includes, and by
+    /// `tie_depth.frag`); they must agree with the plan's.
     #[test]
     fn shaders_use_the_plans_tie_constants() {
-        let tie = include_str!("../../shaders/tie.glsl");
+        let tie = include_str!("../../shaders/tie_band.glsl");
         for want in [
             format!("const float TIE_SLOPES = {TIE_SLOPES:?};"),
             format!("const float REVERSED_SCALE = {REVERSED_SCALE:?};"),
         ] {
-            assert!(tie.contains(&want), "tie.glsl lacks `{want}`");
+            assert!(tie.contains(&want), "tie_band.glsl lacks `{want}`");
+        }
+        let texture_rule = include_str!("../../shaders/tie.glsl");
+        let tie_depth = include_str!("../../shaders/tie_depth.frag");
+        for (name, src) in [("tie.glsl", texture_rule), ("tie_depth.frag", tie_depth)] {
+            assert!(
+                src.contains("#include \"tie_band.glsl\""),
+                "{name} does not include tie_band.glsl"
+            );
         }
         for (name, src) in [
             (

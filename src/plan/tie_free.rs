@@ -93,6 +93,14 @@ pub struct TieFree {
     /// Per tolerant draw of the plan: no image it reads holds a partner face
     /// of its meshes (`plan::tie_context`).
     by_draw: HashMap<DrawKey, bool>,
+    /// Whether a parity or clip draw that may meet a tie runs its rule as the
+    /// depth test ([`Fragment::TieDepth`]): the depth-stencil images hold the
+    /// depth exactly as the textures do (D32; [`TieFree::with_tie_depth`]).
+    tie_depth: bool,
+    /// Per mesh: every face that may tie with one of its faces is parallel to
+    /// it ([`TieGaps::ties_flat`]), so the depth test's rule, which always
+    /// widens by the slope term, agrees with the texture's.
+    flat: Vec<bool>,
 }
 impl TieFree {
     /// Nothing tie-free: every tolerant draw keeps its shader.
@@ -151,6 +159,22 @@ impl TieFree {
             shade,
             rule_cull,
             by_draw: tie_context::decide(&plan.steps, &partners),
+            tie_depth: false,
+            flat: (0..gaps.min_gap.len() as u32)
+                .map(|m| gaps.ties_flat(m))
+                .collect(),
+        }
+    }
+
+    /// These decisions with the parity and clip draws that may meet a tie
+    /// running the rule as their depth test ([`Fragment::TieDepth`]) where
+    /// `on`. Only right where each depth-stencil image holds the depth its
+    /// texture holds bit for bit (D32: both are the fragment's float depth);
+    /// D24 rounds the image's.
+    pub fn with_tie_depth(self, on: bool) -> TieFree {
+        TieFree {
+            tie_depth: on,
+            ..self
         }
     }
 
@@ -159,6 +183,8 @@ impl TieFree {
     /// the rule wherever `exact`'s would ([`ShadeRule::serves`]).
     pub fn serves(&self, exact: &TieFree) -> bool {
         self.by_eps == exact.by_eps
+            && self.tie_depth == exact.tie_depth
+            && self.flat == exact.flat
             && self.by_draw == exact.by_draw
             && self.rule_cull == exact.rule_cull
             && self.shade.len() == exact.shade.len()
@@ -183,6 +209,8 @@ impl TieFree {
             shade,
             rule_cull: self.rule_cull.clone(),
             by_draw: self.by_draw.clone(),
+            tie_depth: self.tie_depth,
+            flat: self.flat.clone(),
         }
     }
 
@@ -210,6 +238,15 @@ impl TieFree {
             })
             .collect();
         TieFree { shade, ..self }
+    }
+
+    /// Whether every mesh of `meshes` ties only with parallel faces, if at
+    /// all ([`TieGaps::ties_flat`]; not decided: no).
+    fn ties_flat(&self, meshes: &[MeshId]) -> bool {
+        !meshes.is_empty()
+            && meshes
+                .iter()
+                .all(|&m| self.flat.get(m as usize).copied().unwrap_or(false))
     }
 
     /// Whether every mesh of `meshes` is tie-free at tolerance `eps`.

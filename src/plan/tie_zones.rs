@@ -279,6 +279,7 @@ mod tests {
             a,
             b,
             opposite: false,
+            flat: true,
             gap,
             lo: DVec3::from(lo),
             hi: DVec3::from(hi),

@@ -66,6 +66,7 @@ pub fn color_targets(f: &Fragment) -> Uses<Resource> {
         | Fragment::ParityBeforeExit { .. }
         | Fragment::BehindThan { .. }
         | Fragment::MergeBehind { .. }
+        | Fragment::TieDepth { .. }
         | Fragment::DepthAtDepth { .. } => Uses::of(&[]),
         Fragment::Shade
         | Fragment::Paint { .. }
@@ -98,6 +99,7 @@ pub fn sampled_texture(f: &Fragment) -> Option<Tex> {
         | Fragment::Shade
         | Fragment::Paint { .. }
         | Fragment::Background
+        | Fragment::TieDepth { .. }
         | Fragment::WriteDepth { .. } => None,
     }
 }

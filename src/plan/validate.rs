@@ -91,6 +91,7 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
                     Fragment::None
                     | Fragment::Shade
                     | Fragment::Paint { .. }
+                    | Fragment::TieDepth { .. }
                     | Fragment::Background => {}
                 }
             }

@@ -49,6 +49,9 @@ pub enum FragmentKind {
     NearerThan,
     /// `NearerThan`'s complement (`Fragment::BehindThan`): SCS's clip by back faces.
     BehindThan,
+    /// The tie rule's compare as the depth test (`Fragment::TieDepth`): the
+    /// fragment depth moved by the tolerance, no texture.
+    TieDepth,
     /// SCS's clip and merge in one draw (`Fragment::MergeBehind`).
     MergeBehind,
     /// `MergeBehind` with an exact compare (eps 0): one texel fetch, no
@@ -90,6 +93,7 @@ impl FragmentKind {
                 | FragmentKind::DepthFromTextureHost
                 | FragmentKind::NearerThan
                 | FragmentKind::BehindThan
+                | FragmentKind::TieDepth
                 | FragmentKind::MergeBehind
                 | FragmentKind::MergeBehindExact
                 | FragmentKind::DepthAtDepth
@@ -148,6 +152,7 @@ impl FragmentKind {
             | FragmentKind::PeelTolerant
             | FragmentKind::NearerThan
             | FragmentKind::BehindThan
+            | FragmentKind::TieDepth
             | FragmentKind::MergeBehind => (true, false, false),
             FragmentKind::Edges => (true, false, true),
             FragmentKind::None
@@ -209,6 +214,7 @@ impl FragmentKind {
             FragmentKind::ShadeNearDepthHostSrgb => spv!("shade_near_depth.frag.host_srgb"),
             FragmentKind::NearerThan => spv!("nearer_than.frag"),
             FragmentKind::BehindThan => spv!("behind_than.frag"),
+            FragmentKind::TieDepth => spv!("tie_depth.frag"),
             FragmentKind::MergeBehind => spv!("merge_behind.frag"),
             FragmentKind::MergeBehindExact => spv!("merge_behind_exact.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
@@ -777,7 +783,7 @@ mod tests {
 
     /// Each program's source under `shaders/` (the host variant is the same
     /// source built with `HOST`).
-    const SOURCES: [(FragmentKind, &str); 24] = [
+    const SOURCES: [(FragmentKind, &str); 25] = [
         (FragmentKind::None, "none.frag"),
         (FragmentKind::Shade, "shade.frag"),
         (FragmentKind::ShadeHost, "shade.frag"),
@@ -796,6 +802,7 @@ mod tests {
         (FragmentKind::ShadeNearDepthHost, "shade_near_depth.frag"),
         (FragmentKind::NearerThan, "nearer_than.frag"),
         (FragmentKind::BehindThan, "behind_than.frag"),
+        (FragmentKind::TieDepth, "tie_depth.frag"),
         (FragmentKind::MergeBehind, "merge_behind.frag"),
         (FragmentKind::MergeBehindExact, "merge_behind_exact.frag"),
         (FragmentKind::ShadeAtDepth, "shade_at_depth.frag"),
@@ -807,7 +814,8 @@ mod tests {
         (FragmentKind::Accumulate, "accumulate.frag"),
     ];
 
-    /// The text of `shaders/{file}` followed by its includes but `skip`.
+    /// The text of `shaders/{file}` followed by its includes but `skip`, and
+    /// theirs in turn (as `build.rs` includes them).
     fn source(file: &str, skip: Option<&str>) -> String {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
         let mut text = std::fs::read_to_string(dir.join(file)).expect("shader source");
@@ -815,7 +823,7 @@ mod tests {
             if let Some(inc) = line.strip_prefix("#include \"") {
                 let inc = inc.trim_end_matches('"');
                 if Some(inc) != skip {
-                    text += &std::fs::read_to_string(dir.join(inc)).expect("include");
+                    text += &source(inc, skip);
                 }
             }
         }

@@ -99,6 +99,7 @@ impl TieFree {
                 };
                 self.plain_test(draw, meshes, eps, compare)
                     .map(|d| Draw { cull, ..d })
+                    .or_else(|| self.tie_depth(draw, meshes, eps, CompareOp::LessOrEqual))
             }
             // NearerThan's complement: the opposite plain compare.
             Fragment::BehindThan { eps, .. } => {
@@ -108,6 +109,7 @@ impl TieFree {
                     CompareOp::Greater
                 };
                 self.plain_test(draw, meshes, eps, compare)
+                    .or_else(|| self.tie_depth(draw, meshes, eps, CompareOp::Greater))
             }
             // The merge writes the texture's depth, so it keeps its program,
             // with the exact compare (one fetch, no derivatives).
@@ -173,6 +175,49 @@ impl TieFree {
                 write: false,
             },
             fragment: Fragment::None,
+            ..draw.clone()
+        })
+    }
+}
+
+impl TieFree {
+    /// A tolerant parity-like `draw` of `meshes` that may meet a tie, with its
+    /// rule as the depth test ([`Fragment::TieDepth`]) tested `compare`
+    /// against its image, when the decisions allow it
+    /// ([`TieFree::with_tie_depth`]), its meshes tie only with parallel faces
+    /// (the depth test's rule widens by the slope term everywhere, the
+    /// texture's only where the gradients agree: they differ at nearly
+    /// tangent curves) and it has no depth test of its own. Every face stays
+    /// drawn: at a tie a back face counts too, where the tie-free draw of a
+    /// parity before an exit leaves back faces to the exit's `Greater` test.
+    fn tie_depth(
+        &self,
+        draw: &Draw,
+        meshes: &[MeshId],
+        eps: f32,
+        compare: CompareOp,
+    ) -> Option<Draw> {
+        let off = DepthState {
+            compare: CompareOp::Always,
+            write: false,
+        };
+        // SCS's parity before an exit and its clip only: its exits write
+        // the texture that those draws read, so each batch of subtractions
+        // waited for the last (README "Ties as the depth test"). Blister's
+        // and CST's parity draws keep the texture's rule: run as the depth
+        // test, they moved 1–2 interior pixels of complex and of the
+        // 311-primitive tree against the reference at 128×128.
+        let scs = matches!(
+            draw.fragment,
+            Fragment::ParityBeforeExit { .. } | Fragment::BehindThan { .. }
+        );
+        let allowed = self.tie_depth && scs && self.ties_flat(meshes);
+        (allowed && draw.depth == off).then(|| Draw {
+            depth: DepthState {
+                compare,
+                write: false,
+            },
+            fragment: Fragment::TieDepth { eps },
             ..draw.clone()
         })
     }
@@ -246,6 +291,94 @@ mod tests {
         );
         // The possibly tied mesh keeps every face and the tie rule.
         assert_eq!(free.fixed_function(&before_exit(1)), None);
+    }
+
+    #[test]
+    fn draws_that_may_tie_run_the_rule_as_the_depth_test_where_allowed() {
+        let with = |f: fn(Tex, f32) -> Fragment, mesh, eps| {
+            let mut d = draw(parity(mesh, eps));
+            d.fragment = f(1, eps);
+            d
+        };
+        let nearer = |tex, eps| Fragment::NearerThan { tex, eps };
+        let before_exit = |tex, eps| Fragment::ParityBeforeExit { tex, eps };
+        let behind = |tex, eps| Fragment::BehindThan { tex, eps };
+        let plan = plan_of(vec![
+            Step::Draw(with(nearer, 1, -SHADE_EPS)),
+            Step::Draw(with(before_exit, 1, SHADE_EPS)),
+            Step::Draw(with(behind, 1, SHADE_EPS)),
+        ]);
+        // Mesh 0 has no partner; mesh 1 ties with itself (a thin wall), its
+        // faces parallel or not.
+        let tied = |flat: bool| {
+            let zone = crate::geom::ties::TieZone {
+                a: 1,
+                b: 1,
+                opposite: true,
+                flat,
+                gap: 0.0,
+                lo: glam::DVec3::ZERO,
+                hi: glam::DVec3::ONE,
+            };
+            let gaps = TieGaps {
+                min_gap: vec![f64::INFINITY, 0.0],
+                cap: 1.0,
+                pairs: vec![(1, 1, 0.0)],
+                zones: vec![zone],
+            };
+            TieFree::new(&gaps, &gaps, &band(800, 8, true), &plan, &whole)
+        };
+        // Not allowed (D24, or switched off), or a partner face not parallel
+        // (nearly tangent curves): the tied mesh keeps its shader.
+        assert_eq!(
+            tied(true).fixed_function(&with(before_exit, 1, SHADE_EPS)),
+            None
+        );
+        let curved = tied(false).with_tie_depth(true);
+        assert_eq!(
+            curved.fixed_function(&with(before_exit, 1, SHADE_EPS)),
+            None
+        );
+        let free = tied(true).with_tie_depth(true);
+        let lowered = |d: &Draw| {
+            let l = free.fixed_function(d).expect("rewritten");
+            assert!(!l.depth.write);
+            // The tie-free parity before an exit culls back faces; at a tie a
+            // back face counts, so every face stays.
+            assert_eq!(l.cull, d.cull);
+            (l.depth.compare, l.fragment)
+        };
+        // Blister's and CST's parity keeps the texture's rule; SCS's parity
+        // before an exit and its clip run it as the depth test.
+        assert_eq!(free.fixed_function(&with(nearer, 1, -SHADE_EPS)), None);
+        assert_eq!(
+            lowered(&with(before_exit, 1, SHADE_EPS)),
+            (
+                CompareOp::LessOrEqual,
+                Fragment::TieDepth { eps: SHADE_EPS }
+            )
+        );
+        // The complement: behind where the nearer test fails.
+        assert_eq!(
+            lowered(&with(behind, 1, SHADE_EPS)),
+            (CompareOp::Greater, Fragment::TieDepth { eps: SHADE_EPS })
+        );
+        // A tie-free mesh still gets the plain test, and a draw with a depth
+        // test of its own keeps its shader.
+        assert_eq!(
+            free.fixed_function(&with(before_exit, 0, SHADE_EPS))
+                .map(|d| d.fragment),
+            Some(Fragment::None)
+        );
+        let mut tested = with(behind, 1, SHADE_EPS);
+        tested.depth.compare = CompareOp::Less;
+        assert_eq!(free.fixed_function(&tested), None);
+        // What reach sees: the lowered draw samples no texture.
+        let step = free.lowered(&Step::Draw(with(before_exit, 1, SHADE_EPS)));
+        let Step::Draw(d) = step else {
+            panic!("a draw")
+        };
+        assert_eq!(crate::plan::usage::sampled_texture(&d.fragment), None);
     }
 
     #[test]

@@ -207,6 +207,8 @@ pub struct Executor {
     fixed_shade: bool,
     /// The shade's tie rule only in tie zones ([`Executor::set_tie_zones`]).
     tie_zones: bool,
+    /// Parity and clip tie rules as depth tests ([`Executor::set_tie_depth`]).
+    tie_depth: bool,
     /// One-primitive products shaded in their direct draw
     /// ([`Executor::set_direct_shade`]).
     direct_shade: bool,
@@ -314,6 +316,7 @@ impl Executor {
             tie_free: true,
             fixed_shade: true,
             tie_zones: true,
+            tie_depth: true,
             direct_shade: true,
             // Lavapipe interpolates depth from the unsnapped vertices; hardware
             // GPUs may not (the H200 does not).

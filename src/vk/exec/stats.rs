@@ -52,6 +52,9 @@ pub struct Counts {
     /// Parity, clip, merge and peel draws that still run a tie-rule shader
     /// (`nearer_than`, `behind_than`, `merge_behind`, `peel_tolerant`).
     pub tie_rule_draws: u64,
+    /// Parity and clip draws that may meet a tie, their rule run as the depth
+    /// test (`Fragment::TieDepth`, `plan::tie_free`): no texture read.
+    pub tie_depth_draws: u64,
     /// Draws recorded depth-only because nobody reads the depth texture they
     /// write (`plan::reach`): SCS's front and exit draws once every draw
     /// that sampled their texture is tie-free.
@@ -257,6 +260,7 @@ impl ExecStats {
         c.tie_free_draws += o.tie_free_draws;
         c.dead_texture_writes += o.dead_texture_writes;
         c.tie_rule_draws += o.tie_rule_draws;
+        c.tie_depth_draws += o.tie_depth_draws;
         c.shade_fixed_draws += o.shade_fixed_draws;
         c.direct_shade_draws += o.direct_shade_draws;
         c.shade_written_draws += o.shade_written_draws;

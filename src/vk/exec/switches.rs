@@ -68,6 +68,23 @@ impl Executor {
         self.recording = None;
     }
 
+    /// Whether parity and clip draws that may meet a tie run the rule as their
+    /// depth test (`Fragment::TieDepth`, `plan::tie_free`; the default, with
+    /// [`Self::set_tie_free`] on), so that they read no texture and wait for
+    /// no write of it. Only with D32S8, whose depth image holds the depth as
+    /// its float texture does ([`Self::tie_depth`]). Off: they keep the
+    /// texture's rule shaders (A/B measurements, `examples/tie_ab.rs`).
+    pub fn set_tie_depth(&mut self, on: bool) {
+        self.tie_depth = on;
+        self.recording = None;
+    }
+
+    /// Whether the tie rules of parity and clip draws run as depth tests
+    /// ([`Self::set_tie_depth`]): switched on, and D32S8.
+    pub(super) fn tie_depth(&self) -> bool {
+        self.tie_depth && self.desc.depth_format == DepthFormat::D32S8
+    }
+
     /// Whether a final shade's draw of a mesh that can tie runs the tie rule
     /// only inside its on-screen tie zones (`plan::tie_zones`; the default,
     /// with [`Self::set_fixed_shade`] on). Off: over its whole rectangle (A/B

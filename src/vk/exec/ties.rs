@@ -24,6 +24,7 @@ pub(super) struct TieKey {
     tie_free: bool,
     fixed_shade: bool,
     zones: bool,
+    tie_depth: bool,
 }
 
 impl Executor {
@@ -44,12 +45,13 @@ impl Executor {
             tie_free: self.tie_free,
             fixed_shade: self.depth_equal_shades(),
             zones: self.tie_zones,
+            tie_depth: self.tie_depth(),
         };
         let (desc, bits) = (self.desc, key.subpixel_bits);
-        let (fixed, zones) = (key.fixed_shade, key.zones);
+        let (fixed, zones, tie_depth) = (key.fixed_shade, key.zones, key.tie_depth);
         self.tie_memo
             .get_or_insert_with(key, || {
-                tie_decisions(scene, &desc, bits, plan, fixed, zones)
+                tie_decisions(scene, &desc, bits, plan, fixed, zones).with_tie_depth(tie_depth)
             })
             .clone()
     }

@@ -59,6 +59,8 @@ pub(super) enum Lowering {
     /// Plain tests in place of the tie rule; `shade`: a final shade's draw,
     /// now depth-equal.
     FixedFunction { shade: bool },
+    /// A parity or clip draw's tie rule as its depth test (`Fragment::TieDepth`).
+    TieDepth,
     /// A final shade's draw keeping the tie rule over its whole rectangle;
     /// `culled`: culling the faces that never win.
     ShadeRule { culled: bool },
@@ -88,6 +90,7 @@ impl Lowering {
                 counts.shade_culled_draws += (d.cull != Cull::None) as u64;
             }
             Lowering::FixedFunction { shade: false } => counts.tie_free_draws += 1,
+            Lowering::TieDepth => counts.tie_depth_draws += 1,
             Lowering::ShadeRule { culled } => {
                 counts.shade_rule_draws += 1;
                 counts.shade_rule_pixels += scissor.area();
@@ -145,7 +148,11 @@ pub(super) fn lower<'a>(
     }
     let shade = matches!(draw.fragment, Fragment::ShadeNearDepth { .. });
     if let Some(d) = ties.fixed_function(&draw) {
-        return RecordedDraw::One(Cow::Owned(d), Lowering::FixedFunction { shade });
+        let why = match d.fragment {
+            Fragment::TieDepth { .. } => Lowering::TieDepth,
+            _ => Lowering::FixedFunction { shade },
+        };
+        return RecordedDraw::One(Cow::Owned(d), why);
     }
     if shade {
         return match ties.culled_rule(&draw) {

@@ -263,6 +263,7 @@ impl Recorder<'_> {
                             Fragment::NearerThan { eps, .. }
                             | Fragment::ParityBeforeExit { eps, .. }
                             | Fragment::BehindThan { eps, .. }
+                            | Fragment::TieDepth { eps }
                             | Fragment::MergeBehind { eps, .. } => [0.0, 0.0, 0.0, eps],
                             _ => [0.0; 4],
                         };
@@ -341,6 +342,7 @@ fn fragment_kind(f: &Fragment) -> FragmentKind {
         Fragment::CopyTexel { .. } => FragmentKind::CopyDepth,
         Fragment::NearerThan { .. } | Fragment::ParityBeforeExit { .. } => FragmentKind::NearerThan,
         Fragment::BehindThan { .. } => FragmentKind::BehindThan,
+        Fragment::TieDepth { .. } => FragmentKind::TieDepth,
         // An exact merge needs none of the tie rule's fetches.
         Fragment::MergeBehind { eps, .. } if *eps == 0.0 => FragmentKind::MergeBehindExact,
         Fragment::MergeBehind { .. } => FragmentKind::MergeBehind,
