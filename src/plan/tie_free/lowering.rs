@@ -162,25 +162,12 @@ impl TieFree {
         eps: f32,
         compare: CompareOp,
     ) -> Option<Draw> {
-        let off = DepthState {
-            compare: CompareOp::Always,
-            write: false,
-        };
-        if draw.depth != off || !self.draw_free(draw, meshes, eps) {
+        if !self.draw_free(draw, meshes, eps) {
             return None;
         }
-        Some(Draw {
-            depth: DepthState {
-                compare,
-                write: false,
-            },
-            fragment: Fragment::None,
-            ..draw.clone()
-        })
+        as_depth_test(draw, compare, Fragment::None)
     }
-}
 
-impl TieFree {
     /// A tolerant parity-like `draw` of `meshes` that may meet a tie, with its
     /// rule as the depth test ([`Fragment::TieDepth`]) tested `compare`
     /// against its image, when the decisions allow it
@@ -197,10 +184,6 @@ impl TieFree {
         eps: f32,
         compare: CompareOp,
     ) -> Option<Draw> {
-        let off = DepthState {
-            compare: CompareOp::Always,
-            write: false,
-        };
         // SCS's parity before an exit and its clip only: its exits write
         // the texture that those draws read, so each batch of subtractions
         // waited for the last (README "Ties as the depth test"). Blister's
@@ -211,16 +194,30 @@ impl TieFree {
             draw.fragment,
             Fragment::ParityBeforeExit { .. } | Fragment::BehindThan { .. }
         );
-        let allowed = self.tie_depth && scs && self.ties_flat(meshes);
-        (allowed && draw.depth == off).then(|| Draw {
-            depth: DepthState {
-                compare,
-                write: false,
-            },
-            fragment: Fragment::TieDepth { eps },
-            ..draw.clone()
-        })
+        if !(self.tie_depth && scs && self.ties_flat(meshes)) {
+            return None;
+        }
+        as_depth_test(draw, compare, Fragment::TieDepth { eps })
     }
+}
+
+/// Tolerant `draw` with its shader's compare moved into the depth test,
+/// tested `compare` and writing no depth, its program `fragment`; `None` when
+/// it has a depth test of its own (the shader's compare can replace only the
+/// absent one).
+fn as_depth_test(draw: &Draw, compare: CompareOp, fragment: Fragment) -> Option<Draw> {
+    let off = DepthState {
+        compare: CompareOp::Always,
+        write: false,
+    };
+    (draw.depth == off).then(|| Draw {
+        depth: DepthState {
+            compare,
+            write: false,
+        },
+        fragment,
+        ..draw.clone()
+    })
 }
 
 /// Whether `draw` is a final shade's draw as `plan::tie::shade_near_depth`
