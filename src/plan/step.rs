@@ -216,16 +216,16 @@ pub enum Fragment {
     /// fragment shader (OpenCSG's SCS subtraction: front faces, then back
     /// faces); elsewhere it is `NearerThan` (`plan::scs`).
     ParityBeforeExit { tex: Tex, eps: f32 },
-    /// The tie rule's compare of [`Fragment::NearerThan`],
-    /// [`Fragment::ParityBeforeExit`] or [`Fragment::BehindThan`] moved into
-    /// the depth test: the fragment depth, moved nearer by the tolerance `eps`
-    /// (signed, as theirs) and the slope term in its direction
-    /// (`shaders/tie_depth.frag`), is tested `LessOrEqual` (nearer) or
-    /// `Greater` (behind) against the depth-stencil image, which holds the
-    /// texture's depth wherever the result is read (their invariant). No
-    /// texture is read, so nothing waits for the texture's writes. Never
-    /// planned: the executor's lowering of a draw that may meet a tie where
-    /// the image holds that depth exactly ([`super::tie_free`], D32).
+    /// The tie rule's compare of SCS's [`Fragment::ParityBeforeExit`] or
+    /// [`Fragment::BehindThan`] moved into the depth test: the fragment depth,
+    /// moved nearer by the tolerance `eps` (signed, as theirs) and the slope
+    /// term in its direction (`shaders/tie_depth.frag`), is tested
+    /// `LessOrEqual` (nearer) or `Greater` (behind) against the depth-stencil
+    /// image, which holds the texture's depth wherever the result is read
+    /// (their invariant). No texture is read, so nothing waits for the
+    /// texture's writes. Never planned: the executor's lowering of a draw
+    /// that may meet a tie, where the image holds that depth exactly (D32)
+    /// and the draw's meshes tie only with parallel faces ([`super::tie_free`]).
     TieDepth { eps: f32 },
     /// Shade and write the primitive id only where the fragment's depth is within
     /// `eps` (normalized depth) of texture `tex` at this pixel: depth-equal shading

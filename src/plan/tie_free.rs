@@ -45,6 +45,15 @@
 //!   copy that opens the shade is scissored to the meshes that keep the rule, or
 //!   dropped when none does ([`TieFree::shade_copies`]).
 //!
+//! Where a draw may meet a tie, SCS's parity before an exit and its clip run the
+//! rule as the depth test instead of the shader ([`Fragment::TieDepth`],
+//! `shaders/tie_depth.frag`; [`TieFree::with_tie_depth`]): the fragment's
+//! depth moved by the tolerance, against the depth-stencil image, which on D32
+//! holds the texture's float. They then read no texture, so SCS's exits write
+//! none and no barrier separates its batches. Only for meshes whose possible
+//! partners are parallel to them ([`TieGaps::ties_flat`]): the depth test
+//! always widens by the slope term, the shader only where the gradients agree.
+//!
 //! A shade draw of a mesh that keeps the rule runs it only inside the screen
 //! rectangles of its tie zones and the depth-equal draw over the rest of its
 //! rectangle ([`ShadeRule`], `plan::tie_zones`); the copy then covers those
