@@ -1074,7 +1074,7 @@ fn classify(c: [u8; 4]) -> u8 {
 /// The host image against the reference composite: the CPU reference of the CSG
 /// (exact ray casting) and the floor ray-cast analytically, nearer view depth wins.
 fn compare(csg: &CsgScene, [w, h]: [u32; 2], pixels: &[[u8; 4]]) -> Report {
-    let reference = peeltrim::reference::render(csg.scene(), w, h);
+    let reference = peeltrim_reference::render(csg.scene(), w, h);
     let cam = csg.camera();
     let mut expected = vec![0u8; (w * h) as usize];
     let mut r = Report {

@@ -78,34 +78,17 @@
 #![warn(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
 
-// The internal layers: public for the binary, benches, examples and tests,
-// hidden from the documentation.
-#[doc(hidden)]
-pub mod bench;
-#[doc(hidden)]
 pub mod budget;
-#[doc(hidden)]
 pub mod csg;
 pub mod embed;
-#[doc(hidden)]
 pub mod geom;
-#[doc(hidden)]
-pub mod output;
-#[doc(hidden)]
+pub mod images;
 pub mod plan;
-#[doc(hidden)]
-pub mod reference;
-#[doc(hidden)]
-pub mod render;
-#[doc(hidden)]
 pub mod scene;
-#[cfg(feature = "viewer")]
-#[doc(hidden)]
-pub mod viewer;
-#[doc(hidden)]
 pub mod vk;
 
 pub use csg::{Expr, Node};
+pub use images::Images;
 pub use embed::{CsgExpr, CsgScene, EmbedDesc, EmbedError, LoopCounts, MeshInput};
 pub use plan::Algo;
 pub use scene::{Camera, Projection};

@@ -88,7 +88,7 @@ fn drawn(steps: &[Step]) -> Vec<(u32, Cull)> {
 mod tests {
     use super::*;
     use crate::plan::{self, Algo, Prepared};
-    use crate::reference::fixtures;
+    use crate::scene::fixtures;
     use glam::DVec3;
 
     /// A box with two spheres bitten out of it, seen from the front.

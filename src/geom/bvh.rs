@@ -384,7 +384,7 @@ pub fn scene_scale(bvh: &SceneBvh, camera: &Camera) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reference::fixtures::{box_mesh, sphere_mesh};
+    use crate::scene::fixtures::{box_mesh, sphere_mesh};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -482,7 +482,7 @@ mod tests {
     fn lines_through_shared_edges_and_vertices_hit_once() {
         // A grid-tessellated box: each face split into 4x4 quads, vertices shared.
         let mesh =
-            crate::reference::fixtures::grid_box_mesh(DVec3::splat(-1.0), DVec3::splat(1.0), 4);
+            crate::scene::fixtures::grid_box_mesh(DVec3::splat(-1.0), DVec3::splat(1.0), 4);
         let bvh = MeshBvh::new(&mesh);
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let mut targets = vec![];

@@ -44,7 +44,7 @@ pub fn contains(mesh: &Mesh, point: DVec3) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reference::fixtures;
+    use crate::scene::fixtures;
 
     #[test]
     fn box_contains_its_centre_not_a_point_outside() {

@@ -89,7 +89,7 @@ pub fn face_tolerance(f: [DVec3; 3], len: f64, delta: f64, size: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reference::fixtures::{box_mesh, sphere_mesh};
+    use crate::scene::fixtures::{box_mesh, sphere_mesh};
 
     /// The mesh as an f32 host would hand it over.
     fn rounded(m: &Mesh) -> Mesh {

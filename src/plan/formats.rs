@@ -32,7 +32,7 @@ pub fn needs_stencil(plan: &Plan) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::goldfeather::tests::block_minus_spheres;
+    use crate::scene::fixtures::block_minus_spheres;
     use crate::plan::{
         build, Algo, CompareOp, Fragment, Geometry, Loop, Prepared, StencilFace, StencilOp,
         StencilState,

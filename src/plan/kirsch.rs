@@ -270,9 +270,9 @@ impl Builder<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::goldfeather::tests::block_minus_spheres;
+    use crate::scene::fixtures::block_minus_spheres;
     use crate::plan::{build, Algo};
-    use crate::reference::fixtures::{self, ExprBuilder};
+    use crate::scene::fixtures::{self, ExprBuilder};
     use glam::DVec3;
 
     fn draws(steps: &[Step]) -> Vec<&Draw> {
@@ -367,7 +367,7 @@ mod tests {
 
     #[test]
     fn too_many_products_fail_like_goldfeather() {
-        let prep = Prepared::new(&crate::plan::goldfeather::tests::product_blowup(40)).unwrap();
+        let prep = Prepared::new(&crate::scene::fixtures::product_blowup(40)).unwrap();
         let err = build(Algo::Kirsch, &prep).unwrap_err().to_string();
         assert!(err.contains("cst-i") && err.contains("4096"), "{err}");
     }

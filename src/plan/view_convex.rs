@@ -321,7 +321,7 @@ impl Arc {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reference::fixtures::{box_mesh, sphere_mesh};
+    use crate::scene::fixtures::{box_mesh, sphere_mesh};
     use crate::scene::Projection;
     use glam::DVec3;
 

@@ -10,6 +10,7 @@ pub mod appearance;
 pub mod camera;
 pub mod cost;
 pub mod fit;
+pub mod fixtures;
 pub mod light;
 pub mod load;
 pub mod obj;

@@ -27,7 +27,7 @@ pub mod layer_lock;
 pub mod limits;
 pub mod memory;
 pub mod pipeline;
-#[cfg(feature = "viewer")]
+#[cfg(feature = "present")]
 pub mod present;
 pub mod readback;
 pub mod rounding;

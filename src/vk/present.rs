@@ -23,7 +23,7 @@ use super::image::{Image, ImageDesc};
 use super::instance::{Context, ContextDesc, PresentHooks, Shared};
 use super::memory::Buffer;
 use super::submit::{self, Submitter};
-use crate::output::Images;
+use crate::images::Images;
 
 /// Frames [`Presenter::present_recorded`] keeps submitted before waiting.
 pub const FRAMES_IN_FLIGHT: u32 = 2;

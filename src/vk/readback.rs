@@ -4,7 +4,7 @@
 //! `read_back`).
 
 use super::conv::DepthFormat;
-use crate::output::Images;
+use crate::images::Images;
 use crate::scene::camera::DepthConvention;
 use crate::scene::Camera;
 

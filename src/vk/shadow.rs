@@ -8,6 +8,10 @@
 //! on the GPU: nothing is read back between them. The pass goes in one
 //! submission with the frames it reads when they replay (`submit_after`).
 
+/// Fraction of a shadowed pixel's colour kept; the lit shading is the
+/// reference's ([`crate::images::shade`]).
+pub const SHADOW_KEEP: f64 = 0.5;
+
 use std::sync::Arc;
 
 use ash::vk;
@@ -204,7 +208,7 @@ impl ShadowPass {
         // tie, which the UNORM conversion may round either way; 2^-10 more
         // rounds it up, as the CPU's `round` does, and leaves even values'
         // halves exact (255 · 2^-10 < 0.25).
-        let keep = (crate::render::shadow::SHADOW_KEEP + 1.0 / 1024.0) as f32;
+        let keep = (SHADOW_KEEP + 1.0 / 1024.0) as f32;
         super::stages::fullscreen_pipeline(&self.shared, FRAG, |stages| {
             graphics_pipeline(
                 &self.shared.device,

@@ -582,33 +582,8 @@ pub(crate) fn shade_steps(prep: &Prepared, tex: Tex, sides: &VisibleSides) -> Ve
 pub(crate) mod tests {
     use super::*;
     use crate::plan::print::count;
-    use crate::reference::fixtures::{self, ExprBuilder};
-    use crate::scene::Scene;
+    use crate::scene::fixtures::{self, block_minus_spheres, product_blowup, ExprBuilder};
     use glam::DVec3;
-
-    /// A block minus `n` small spheres in a row along x (seed 004 Fig. 7–8).
-    pub(crate) fn block_minus_spheres(n: u32) -> Scene {
-        let mut prims = vec![fixtures::prim(
-            "block",
-            fixtures::box_mesh(DVec3::new(-2.0, -0.5, -0.5), DVec3::new(2.0, 0.5, 0.5)),
-            [200, 160, 60],
-        )];
-        let mut b = ExprBuilder::default();
-        let mut acc = b.leaf(0);
-        for i in 0..n {
-            let x = -1.8 + 3.6 * (i as f64 + 0.5) / n as f64;
-            let r = (1.6 / n as f64).min(0.4);
-            prims.push(fixtures::prim(
-                &format!("s{i}"),
-                fixtures::sphere_mesh(DVec3::new(x, 0.0, 0.5), r, 12, 6),
-                [80, 120, 200],
-            ));
-            let l = b.leaf(i + 1);
-            acc = b.diff(acc, l);
-        }
-        let cam = fixtures::camera(DVec3::new(0.0, 2.0, 6.0), DVec3::ZERO, 35.0, 1.0, 20.0);
-        fixtures::scene(cam, prims, b.build(acc))
-    }
 
     fn static_counts(plan: &Plan, prep: &Prepared) -> crate::plan::print::StaticCounts {
         count(&plan.steps, prep)
@@ -749,34 +724,6 @@ pub(crate) mod tests {
                 .count(),
             1
         );
-    }
-
-    /// `(A0 + B0)(A1 + B1)...(A(m-1) + B(m-1))`: 2^m products, all overlapping.
-    pub(crate) fn product_blowup(m: u32) -> Scene {
-        let mut prims = Vec::new();
-        let mut b = ExprBuilder::default();
-        let mut acc = None;
-        for i in 0..m {
-            let s = 0.01 * i as f64;
-            prims.push(fixtures::prim(
-                &format!("a{i}"),
-                fixtures::box_mesh(DVec3::splat(-1.0 - s), DVec3::splat(1.0)),
-                [1, 2, 3],
-            ));
-            prims.push(fixtures::prim(
-                &format!("b{i}"),
-                fixtures::box_mesh(DVec3::splat(-1.0), DVec3::splat(1.0 + s)),
-                [1, 2, 3],
-            ));
-            let (x, y) = (b.leaf(2 * i), b.leaf(2 * i + 1));
-            let u = b.union(x, y);
-            acc = Some(match acc {
-                None => u,
-                Some(a) => b.inter(a, u),
-            });
-        }
-        let cam = fixtures::camera(DVec3::new(0.0, 2.0, 6.0), DVec3::ZERO, 35.0, 1.0, 20.0);
-        fixtures::scene(cam, prims, b.build(acc.unwrap()))
     }
 
     #[test]

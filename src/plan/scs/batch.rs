@@ -202,7 +202,7 @@ mod tests {
     use crate::plan::goldfeather::{OUTPUT, SURFACE};
     use crate::plan::step::{Draw, Scissor};
     use crate::plan::{scs, Prepared};
-    use crate::reference::fixtures::ExprBuilder;
+    use crate::scene::fixtures::ExprBuilder;
     use crate::scene::Aabb;
 
     /// `(0 − 1) ∪ (2 − 3) ∪ … ∪ (2n−2 − 2n−1)`: boxes with cutters, far apart

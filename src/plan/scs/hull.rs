@@ -164,7 +164,7 @@ pub fn apart(a: &Hull, b: &Hull) -> Option<Apart> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reference::fixtures;
+    use crate::scene::fixtures;
 
     fn boxed(min: [f64; 3], max: [f64; 3]) -> Hull {
         Hull::of(&fixtures::box_mesh(DVec3::from(min), DVec3::from(max)))

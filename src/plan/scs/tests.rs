@@ -1,11 +1,12 @@
 //! Unit tests of the SCS plan builder (module documentation of [`super`]).
 use super::*;
-use crate::plan::goldfeather::{tests::block_minus_spheres, CLIP_EPS};
+use crate::plan::goldfeather::CLIP_EPS;
+use crate::scene::fixtures::block_minus_spheres;
 use crate::plan::print::count;
 
 /// Boxes along x: 1–2 overlap, 2–3 touch, 4 and 5 stand alone; 6–7 overlap.
 fn row_of_boxes() -> Prepared {
-    use crate::reference::fixtures::ExprBuilder;
+    use crate::scene::fixtures::ExprBuilder;
     use crate::scene::Aabb;
     use glam::DVec3;
     let spans = [
@@ -126,7 +127,7 @@ fn pass_draws<'a>(steps: &'a [Step], name: &str) -> Vec<&'a Draw> {
 /// `row_of_boxes`' boxes under `(0 − 4 − 5) ∪ (6 − 7)`: two products of
 /// one positive primitive each.
 fn two_products() -> Prepared {
-    use crate::reference::fixtures::ExprBuilder;
+    use crate::scene::fixtures::ExprBuilder;
     let boxes = row_of_boxes().mesh_bounds;
     let mut e = ExprBuilder::default();
     let l: Vec<u32> = (0..8).map(|i| e.leaf(i)).collect();
@@ -390,7 +391,7 @@ fn a_cutter_starting_inside_keeps_the_parity_clip() {
 
 #[test]
 fn an_intersection_is_drawn_within_the_overlap_of_its_rectangles() {
-    use crate::reference::fixtures::ExprBuilder;
+    use crate::scene::fixtures::ExprBuilder;
     // (0 ∩ 1) − 2: every draw and the sweep are cut to the rectangles of
     // both 0 and 1; the clip counts the back faces of 0 and 1.
     let mut prep = row_of_boxes();
@@ -454,7 +455,7 @@ fn the_shade_is_cut_to_one_positive_of_each_product() {
     // in B, so every mesh's shade is cut to the rectangles of C and B, the
     // cutter's too (it shows only inside the product it cuts).
     use crate::plan::screen::ScreenBox;
-    use crate::reference::fixtures::ExprBuilder;
+    use crate::scene::fixtures::ExprBuilder;
     use crate::scene::Aabb;
     use glam::{DVec2, DVec3};
     let cube = |lo: f64, hi: f64| Aabb {

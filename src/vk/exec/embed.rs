@@ -135,7 +135,7 @@ impl Executor {
 
     /// The screen rectangle the CSG can cover: the projected bounds of every
     /// mesh (the composite pass is scissored to it).
-    pub(crate) fn output_rect(&self) -> Rect {
+    pub fn output_rect(&self) -> Rect {
         let d = self.desc;
         match &self.scene {
             Some(s) => bounds_rect(

@@ -72,7 +72,7 @@ use super::memory::Buffer;
 use super::pipeline::Pipelines;
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
-use crate::output::Images;
+use crate::images::Images;
 use crate::plan::cut_away::CutAway;
 use crate::plan::formats::needs_stencil;
 use crate::plan::memo::{Memo, PlanIds};

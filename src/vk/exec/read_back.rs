@@ -5,7 +5,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use super::{gpu_scene, Executor};
-use crate::output::Images;
+use crate::images::Images;
 use crate::vk::error::VkError;
 use crate::vk::memory::Buffer;
 use crate::vk::readback::{decode, Raw};

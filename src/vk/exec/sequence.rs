@@ -23,7 +23,7 @@ use super::{
     add_gpu_times, layers_fit, unroll, whole_image_region, Clock, ExecStats, Executor, FrameStart,
 };
 use super::{gpu_scene, Recorded, Scissors};
-use crate::output::Images;
+use crate::images::Images;
 use crate::plan::reach;
 use crate::plan::tie_free::TieFree;
 use crate::plan::usage::Resource;

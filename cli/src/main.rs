@@ -1,0 +1,765 @@
+//! The `peeltrim` command line (CONTRACT.md §4): render, blist, compare, bench,
+//! plan, view. `anyhow` lives here only; the library reports typed errors.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context as _, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+
+use peeltrim_cli::bench::{self, families, BenchConfig, BenchScene};
+use peeltrim::plan::Algo;
+use peeltrim_cli::render::{self, DepthSetup, RenderOptions};
+use peeltrim::scene::{self, LoadOptions};
+
+#[derive(Parser)]
+#[command(
+    name = "peeltrim",
+    version,
+    about = "CSG rendering by depth peeling and trimming on Vulkan, with an exact CPU reference"
+)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+    /// Memory the run may plan for, e.g. 2G or 512M (default: half of the smaller
+    /// of the physical memory and `ulimit -v`); work estimated above it is
+    /// refused at once with the estimate
+    #[arg(long, global = true, value_parser = peeltrim::budget::parse_size)]
+    memory_budget: Option<u64>,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum DeviceArg {
+    Auto,
+    Cpu,
+    Gpu,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum DepthFormatArg {
+    D24s8,
+    D32s8,
+}
+
+#[derive(clap::Args, Clone)]
+struct GpuArgs {
+    /// auto: a hardware GPU when present, else lavapipe; cpu: lavapipe; gpu: hardware only
+    #[arg(long, value_enum, default_value = "auto")]
+    device: DeviceArg,
+    /// Depth-stencil format of the GPU algorithms [default: d32s8 with reversed Z,
+    /// or d24s8 where the device cannot use d32s8]
+    #[arg(long, value_enum)]
+    depth_format: Option<DepthFormatArg>,
+    /// Reversed depth (near = 1) in a floating-point depth buffer: the default
+    /// with d32s8 (kept for scripts)
+    #[arg(long, conflicts_with = "standard_z")]
+    reversed_z: bool,
+    /// Standard depth (near = 0) instead of reversed in a d32s8 buffer
+    #[arg(long)]
+    standard_z: bool,
+    /// Run with the Vulkan validation layers (always on in debug builds)
+    #[arg(long)]
+    validation: bool,
+    /// Trickle's depth tolerance in normalized depth (default 2^-19): larger
+    /// loses shallower features, smaller lets coincident faces z-fight
+    #[arg(long, value_parser = parse_eps)]
+    trickle_eps: Option<f32>,
+    /// Goldfeather's and Trickle's limit on the sum-of-products size
+    #[arg(long, default_value_t = peeltrim::plan::goldfeather::DEFAULT_PRODUCT_LIMIT)]
+    max_products: usize,
+}
+
+/// Layers of the solid and transparency (extensions of the contract, see README).
+#[derive(clap::Args, Clone)]
+struct LayerArgs {
+    /// Peel at most N layers of the solid (N >= 1; default: all)
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    layers: Option<u32>,
+    /// Stop peeling at the first layer covering fewer than N pixels
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    layer_threshold: u64,
+    /// Also write each layer into OUT/layers/01/, 02/, ... (color.png, depth.npy, prim.png,
+    /// normal.npy, edges.png)
+    #[arg(long)]
+    layers_out: bool,
+    /// Opacity in (0, 1] of everything without its own alpha (overrides [render] alpha);
+    /// color.png becomes the front-to-back composite of the layers
+    #[arg(long, value_parser = parse_alpha)]
+    alpha: Option<f64>,
+    /// Draw the trimmed faces of these primitives in a highlight colour, see-through
+    /// where hidden (comma-separated primitive names)
+    #[arg(long, value_name = "NAME[,NAME]", value_delimiter = ',')]
+    highlight: Vec<String>,
+    /// How a union of products is layered (seed 001 §7): `solid` (one volume, the
+    /// reference's default) or `products` (each on its own, kirsch's)
+    #[arg(long, value_name = "solid|products", value_parser = parse_reading)]
+    layer_reading: Option<peeltrim_reference::LayerReading>,
+    /// Assemblies: solids semi-transparent, where two solids intersect opaque in
+    /// red; stats.json lists the interfering pairs (same as [render] interference = true)
+    #[arg(long)]
+    interference: bool,
+    /// How color.png shows the layers (overrides [render] style): opaque,
+    /// transparent, blueprint, wireframe or blueprint-transparent (seed 001 §5)
+    #[arg(long, value_parser = peeltrim::scene::style::parse_style)]
+    style: Option<peeltrim::scene::style::Style>,
+    /// Edge rule: a depth jump larger than this fraction of the nearer depth is a
+    /// silhouette edge
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.01)]
+    edge_depth: f64,
+    /// Edge rule: normals further apart than this many degrees make a crease edge
+    #[arg(long, value_name = "DEGREES", default_value_t = 30.0)]
+    edge_angle: f64,
+}
+
+fn parse_reading(s: &str) -> Result<peeltrim_reference::LayerReading, String> {
+    peeltrim_reference::LayerReading::parse(s)
+        .ok_or_else(|| format!("unknown layer reading '{s}'; choose solid or products"))
+}
+
+/// `--highlight` names as 0-based primitive indices; an unknown name is an error
+/// listing the scene's primitives.
+fn highlight_indices(scene: &scene::Scene, names: &[String]) -> Result<Vec<u32>> {
+    names
+        .iter()
+        .map(|n| {
+            let n = n.trim();
+            scene
+                .primitives
+                .iter()
+                .position(|p| p.name == n)
+                .map(|i| i as u32)
+                .with_context(|| {
+                    let all: Vec<&str> = scene.primitives.iter().map(|p| p.name.as_str()).collect();
+                    format!(
+                        "--highlight: the scene has no primitive named '{n}'; its primitives are: {}",
+                        all.join(", ")
+                    )
+                })
+        })
+        .collect()
+}
+
+fn parse_alpha(s: &str) -> Result<f64, String> {
+    let a: f64 = s
+        .parse()
+        .map_err(|_| format!("'{s}' is not an opacity: give a number in (0, 1], e.g. 0.4"))?;
+    peeltrim::scene::appearance::check_alpha(a)
+}
+
+/// Options for OpenSCAD `.csg` models.
+#[derive(clap::Args, Clone, Copy)]
+struct ScadArgs {
+    /// OpenSCAD models: drop nodes peeltrim cannot draw (hull, minkowski,
+    /// extrusions, 2D shapes, ...) with a warning listing each, instead of failing
+    #[arg(long)]
+    skip_unsupported: bool,
+}
+
+fn parse_eps(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(e) if e.is_finite() && (0.0..0.1).contains(&e) => Ok(e),
+        _ => Err(format!(
+            "'{s}' is not a depth tolerance: give a number in [0, 0.1), e.g. 2e-6"
+        )),
+    }
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Render a scene with one algorithm into color.png, depth.npy, prim.png, stats.json
+    Render {
+        scene: PathBuf,
+        #[arg(long, default_value = "reference", value_parser = parse_algo)]
+        algo: Algo,
+        /// Image size WxH (overrides [render] width/height)
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        #[command(flatten)]
+        gpu: GpuArgs,
+        #[command(flatten)]
+        layers: LayerArgs,
+        #[command(flatten)]
+        scad: ScadArgs,
+    },
+    /// Print the Blist of an expression or of a scene's solid(s) as JSON
+    Blist {
+        /// An expression such as "(A+B)(C-(D-E))", or a scene file
+        input: String,
+        #[command(flatten)]
+        scad: ScadArgs,
+    },
+    /// Compare two render output directories (depth.npy and prim.png)
+    Compare { a: PathBuf, b: PathBuf },
+    /// Time algorithms on scenes (speed against error); writes results.json,
+    /// results.csv, summary.md, plots/ and images/ into --out
+    Bench {
+        /// Scene files (default: every scenes/*.toml and scenes/openscad/*.csg)
+        scenes: Vec<PathBuf>,
+        /// Comma-separated algorithms, or "all"
+        #[arg(long, default_value = "all")]
+        algos: String,
+        /// Image size WxH (overrides each scene's [render] size; default 400x400)
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// Timed frames per run (after warm-up)
+        #[arg(long, default_value_t = 10)]
+        frames: u32,
+        /// Untimed warm-up frames per run
+        #[arg(long, default_value_t = 1)]
+        warmup: u32,
+        /// A run whose warm-up frame takes longer than this many seconds is timed
+        /// on one frame only
+        #[arg(long, default_value_t = 20.0)]
+        budget_s: f64,
+        /// Skip a run whose frame the plan estimates (counts × lavapipe's costs) at
+        /// more than this many seconds; reported as skipped with the estimate.
+        /// 0 runs everything
+        #[arg(long, default_value_t = bench::estimate::DEFAULT_MAX_EST_S)]
+        max_est_s: f64,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Run every depth set-up (d24s8, d32s8, d32s8 reversed) instead of the one the flags pick
+        #[arg(long)]
+        all_depths: bool,
+        /// Scaling families to generate, e.g. "block-spheres:4,16,64" (repeatable);
+        /// families: block-spheres, union-boxes, deep-tree, nonconvex-k
+        #[arg(long = "family")]
+        families: Vec<String>,
+        /// Also time the layered modes (opaque, transparent, the blueprint styles, highlight) of CST-Z/I/G and kirsch with their layers and CSTs (modes.csv, modes.md)
+        #[arg(long)]
+        modes: bool,
+        /// Add the numerical-stability hard cases (coincident faces, thin walls, grazing views, 1e7 near/far)
+        #[arg(long)]
+        hard: bool,
+        /// Do not write each run's images
+        #[arg(long)]
+        no_images: bool,
+        /// Also render each scene with a baseline renderer: "opencsg" (OpenCSG 1.5
+        /// through tools/opencsg-bench, a separate program built by its build.sh)
+        #[arg(long, value_parser = ["opencsg"])]
+        baseline: Option<String>,
+        /// The opencsg-bench program (default: $PEELTRIM_OPENCSG_BENCH, else
+        /// tools/opencsg-bench/opencsg-bench)
+        #[arg(long)]
+        opencsg_bench: Option<PathBuf>,
+        /// Do not give OpenCSG the primitives' screen boxes (as OpenSCAD; slower)
+        #[arg(long)]
+        opencsg_no_bbox: bool,
+        /// Also time every GPU run through the embedding path (recorded into an
+        /// off-screen host's frames): embedded_frame_ms_median and embedded_ratio
+        #[arg(long)]
+        embedded: bool,
+        #[command(flatten)]
+        gpu: GpuArgs,
+    },
+    /// Open a window showing the scene: drag orbits, wheel zooms, 1-9 switch
+    /// algorithm (reference, goldfeather, goldfeather-layered, trickle, blister,
+    /// cst-z, cst-i, cst-g, blister-paper), R resets the camera, S saves view.png, Esc/Q quit.
+    /// PEELTRIM_VIEW_FRAMES=N renders N frames and exits.
+    View {
+        scene: PathBuf,
+        #[arg(long, default_value = "cst-i", value_parser = parse_algo)]
+        algo: Algo,
+        /// Initial window size WxH (overrides [render] width/height)
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        #[command(flatten)]
+        gpu: GpuArgs,
+        #[command(flatten)]
+        scad: ScadArgs,
+    },
+    /// Print an algorithm's plan (the steps it records) for a scene
+    Plan {
+        scene: PathBuf,
+        #[arg(long, default_value = "blister", value_parser = parse_algo)]
+        algo: Algo,
+        #[command(flatten)]
+        scad: ScadArgs,
+    },
+}
+
+fn parse_algo(s: &str) -> Result<Algo, String> {
+    Algo::parse(s).ok_or_else(|| {
+        let names: Vec<&str> = Algo::ALL.iter().map(|a| a.name()).collect();
+        format!(
+            "unknown algorithm '{s}'; choose one of {}",
+            names.join(", ")
+        )
+    })
+}
+
+fn parse_algos(s: &str) -> Result<Vec<Algo>> {
+    if s.trim() == "all" {
+        return Ok(Algo::ALL.to_vec());
+    }
+    s.split(',')
+        .map(|a| parse_algo(a.trim()).map_err(anyhow::Error::msg))
+        .collect()
+}
+
+/// "block-spheres:4,16,64" -> ("block-spheres", [4, 16, 64])
+fn parse_family(s: &str) -> Result<(String, Vec<u32>)> {
+    let (name, ns) = s.split_once(':').unwrap_or((s, "4,16,64"));
+    let ns = ns
+        .split(',')
+        .map(|n| {
+            n.trim()
+                .parse::<u32>()
+                .ok()
+                .filter(|&n| n >= 1 && n <= 65536)
+        })
+        .collect::<Option<Vec<u32>>>()
+        .with_context(|| {
+            format!("--family '{s}': sizes must be positive integers, e.g. block-spheres:4,16,64")
+        })?;
+    Ok((name.to_string(), ns))
+}
+
+/// The shipped scenes (`scenes/*.toml`, then `scenes/openscad/*.csg`) next to the
+/// binary's source tree, or under ./scenes.
+fn shipped_scenes() -> Result<Vec<PathBuf>> {
+    let dir = [
+        PathBuf::from("scenes"),
+        Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("scenes"),
+    ]
+    .into_iter()
+    .find(|d| d.is_dir())
+    .context("no scene given and no scenes/ directory here: pass scene files")?;
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    v.sort();
+    // The OpenSCAD models, loaded as they are.
+    if let Ok(models) = std::fs::read_dir(dir.join("openscad")) {
+        let mut m: Vec<PathBuf> = models
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "csg"))
+            .collect();
+        m.sort();
+        v.extend(m);
+    }
+    Ok(v)
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let err = || format!("size '{s}' is not WxH with positive integers, e.g. 800x600");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
+    let (w, h): (u32, u32) = (
+        w.trim().parse().map_err(|_| err())?,
+        h.trim().parse().map_err(|_| err())?,
+    );
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("size '{s}' must be between 1x1 and 16384x16384"));
+    }
+    Ok((w, h))
+}
+
+fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
+    // Reversed Z unless asked otherwise; only the default falls back to d24s8.
+    let depth = match (g.depth_format, g.reversed_z) {
+        (Some(DepthFormatArg::D24s8), true) => {
+            bail!("--reversed-z needs a floating-point depth buffer: use --depth-format d32s8")
+        }
+        (Some(DepthFormatArg::D24s8), false) => DepthSetup::D24S8,
+        (_, _) if g.standard_z => DepthSetup::D32S8,
+        (_, _) => DepthSetup::D32S8Reversed,
+    };
+    let device = match g.device {
+        DeviceArg::Auto => peeltrim::vk::DeviceChoice::Auto,
+        DeviceArg::Cpu => peeltrim::vk::DeviceChoice::Cpu,
+        DeviceArg::Gpu => peeltrim::vk::DeviceChoice::Gpu,
+    };
+    if g.max_products == 0 {
+        bail!("--max-products must be at least 1");
+    }
+    let mut build = peeltrim::plan::BuildOptions {
+        trickle_eps: g.trickle_eps,
+        ..Default::default()
+    };
+    build.products.limit = g.max_products;
+    Ok(RenderOptions {
+        algo,
+        device,
+        depth,
+        depth_fallback: g.depth_format.is_none(),
+        validation: g.validation || cfg!(debug_assertions),
+        build,
+    })
+}
+
+fn load(path: &Path, size: Option<(u32, u32)>, scad: ScadArgs) -> Result<scene::Scene> {
+    load_shown(path, size, scad, false)
+}
+
+/// [`load`]; with `background`, an OpenSCAD model's `%` parts are drawn
+/// (see-through, by an algorithm that draws transparency).
+fn load_shown(
+    path: &Path,
+    size: Option<(u32, u32)>,
+    scad: ScadArgs,
+    background: bool,
+) -> Result<scene::Scene> {
+    let mut scene = scene::load_with(path, &LoadOptions { size }, scad.skip_unsupported)?;
+    if background {
+        scene::openscad::background::show(&mut scene);
+    }
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
+}
+
+fn run(cli: Cli) -> Result<ExitCode> {
+    if let Some(bytes) = cli.memory_budget {
+        peeltrim::budget::set(bytes);
+    }
+    match cli.cmd {
+        Cmd::Render {
+            scene,
+            algo,
+            size,
+            out,
+            gpu,
+            layers,
+            scad,
+        } => {
+            let opts = render_options(algo, &gpu)?;
+            peeltrim_cli::output::check_out_dir(&out, "--out")?;
+            let mut scene =
+                load_shown(&scene, size, scad, render::layers::draws_transparency(algo))?;
+            if layers.alpha.is_some() {
+                scene.appearance.alpha = layers.alpha;
+            }
+            scene.appearance.interference |= layers.interference;
+            if let Some(style) = layers.style {
+                scene.appearance.style = style;
+            }
+            let edge_rule = render::edges::EdgeRule {
+                depth_rel: layers.edge_depth,
+                angle_deg: layers.edge_angle,
+            }
+            .check()
+            .map_err(anyhow::Error::msg)?;
+            let lopts = render::layers::LayerOptions {
+                edge_rule,
+                max_layers: layers.layers,
+                threshold: layers.layer_threshold,
+                write_layers: layers.layers_out,
+                highlight: highlight_indices(&scene, &layers.highlight)?,
+                reading: layers.layer_reading,
+            };
+            if lopts.wanted(&scene) && scene.appearance.light.is_some() {
+                eprintln!("peeltrim: warning: [light] is ignored with layers, transparency, highlight or interference: shadows are drawn on opaque renders");
+            }
+            if let Ok(prep) = peeltrim::plan::Prepared::new(&scene) {
+                for w in prep.warnings(opts.algo) {
+                    eprintln!("peeltrim: warning: {w}");
+                }
+            }
+            let (frame, layer_images) = match if lopts.wanted(&scene) {
+                render::layers::render_layered(&scene, &opts, &lopts)
+                    .map(|l| (l.frame.clone(), Some(l)))
+            } else {
+                render::render(&scene, &opts).map(|f| (f, None))
+            } {
+                Err(
+                    e @ (render::RenderError::Plan(peeltrim::plan::PlanError::NotImplemented(_))
+                    | render::RenderError::Unsupported { .. }),
+                ) => {
+                    eprintln!("peeltrim: {e}");
+                    return Ok(ExitCode::from(2));
+                }
+                r => r?,
+            };
+            if let (true, Some(l)) = (lopts.write_layers, &layer_images) {
+                render::layers::write_layers(&out, l)
+                    .with_context(|| format!("writing layers into {}", out.display()))?;
+            }
+            peeltrim_cli::output::write_images(&out, &frame.images)
+                .with_context(|| format!("writing images into {}", out.display()))?;
+            peeltrim_cli::output::write_stats(&out, &frame.stats)
+                .with_context(|| format!("writing stats.json into {}", out.display()))?;
+            eprintln!(
+                "{}: {}x{} with {} in {:.1} ms (gpu {:.2} ms) -> {}",
+                scene.path.display(),
+                frame.images.width,
+                frame.images.height,
+                algo,
+                frame.stats.exec.cpu_ms,
+                frame.stats.exec.gpu_ms,
+                out.display()
+            );
+        }
+        Cmd::Blist { input, scad } => {
+            let json = blist_json(&input, scad)?;
+            emit(&format!("{}\n", serde_json::to_string_pretty(&json)?))?;
+        }
+        Cmd::Compare { a, b } => {
+            let ia = peeltrim_cli::output::read_images(&a)?;
+            let ib = peeltrim_cli::output::read_images(&b)?;
+            let report = peeltrim_reference::compare::compare(&ia, &ib)?;
+            /// `compare`'s output: the contract's metrics, and with an `edges.png`
+            /// in both folders (layer folders) the edge maps' agreement.
+            #[derive(serde::Serialize)]
+            struct Out {
+                #[serde(flatten)]
+                report: peeltrim_reference::compare::CompareReport,
+                #[serde(skip_serializing_if = "Option::is_none")]
+                edges: Option<peeltrim_reference::edge_compare::EdgeAgreement>,
+            }
+            let edges = if a.join("edges.png").exists() && b.join("edges.png").exists() {
+                let (w, h, ea) = peeltrim_cli::output::read_edges(&a)?;
+                let (wb, hb, eb) = peeltrim_cli::output::read_edges(&b)?;
+                if (w, h) != (wb, hb) {
+                    bail!("edges.png sizes differ: {w}x{h} against {wb}x{hb}");
+                }
+                Some(peeltrim_reference::edge_compare::compare_edges(
+                    &ea, &eb, w, h,
+                ))
+            } else {
+                None
+            };
+            let out = Out { report, edges };
+            emit(&format!("{}\n", serde_json::to_string_pretty(&out)?))?;
+        }
+        Cmd::Bench {
+            scenes,
+            algos,
+            size,
+            frames,
+            warmup,
+            budget_s,
+            max_est_s,
+            out,
+            all_depths,
+            families,
+            hard,
+            modes,
+            no_images,
+            baseline,
+            opencsg_bench,
+            opencsg_no_bbox,
+            embedded,
+            gpu,
+        } => {
+            let algos = parse_algos(&algos)?;
+            let opts = render_options(Algo::Reference, &gpu)?;
+            peeltrim_cli::output::check_out_dir(&out, "--out")?;
+            let mut list: Vec<BenchScene> = Vec::new();
+            let scene_files = if scenes.is_empty() && families.is_empty() && !hard {
+                shipped_scenes()?
+            } else {
+                scenes
+            };
+            list.extend(scene_files.into_iter().map(|path| BenchScene {
+                path,
+                family: None,
+                n: None,
+            }));
+            let gen_dir = out.join("scenes");
+            for f in &families {
+                let (name, ns) = parse_family(f)?;
+                list.extend(families::generate(&name, &ns, &gen_dir)?);
+            }
+            if hard {
+                list.extend(families::generate_hard(&gen_dir)?);
+            }
+            let cfg = BenchConfig {
+                algos,
+                sizes: vec![size.unwrap_or((400, 400))],
+                depth_setups: if all_depths {
+                    DepthSetup::ALL.to_vec()
+                } else {
+                    vec![opts.depth]
+                },
+                depth_fallback: opts.depth_fallback && !all_depths,
+                frames,
+                warmup,
+                budget_ms: budget_s * 1e3,
+                max_est_s,
+                device: opts.device,
+                validation: opts.validation,
+                build: opts.build.clone(),
+                out: out.clone(),
+                save_images: !no_images,
+                progress: true,
+                baseline: baseline.map(|_| {
+                    bench::opencsg::OpenCsgBaseline::locate(opencsg_bench, !opencsg_no_bbox)
+                }),
+                embedded,
+            };
+            let records = bench::run_and_report(&cfg, &list)?;
+            emit(&bench::report::summary(&records))?;
+            if modes {
+                let m = bench::layer_modes::run(&cfg, &list)?;
+                bench::layer_modes::write(&out, &m)?;
+                emit(&bench::layer_modes::table(&m))?;
+            }
+            eprintln!(
+                "results in {}/ (results.json, results.csv, summary.md, plots/, images/)",
+                out.display()
+            );
+        }
+        Cmd::View {
+            scene,
+            algo,
+            size,
+            gpu,
+            scad,
+        } => return view(&scene, algo, size, &gpu, scad),
+        Cmd::Plan { scene, algo, scad } => {
+            let scene = load(&scene, None, scad)?;
+            let prep = peeltrim::plan::Prepared::new(&scene)?;
+            for w in prep.warnings(algo) {
+                eprintln!("peeltrim: warning: {w}");
+            }
+            if algo == Algo::Reference {
+                bail!("the reference ray caster has no GPU plan; choose a GPU algorithm");
+            }
+            let plan = match peeltrim::plan::build(algo, &prep) {
+                Err(e @ peeltrim::plan::PlanError::NotImplemented(_)) => {
+                    eprintln!("peeltrim: {e}");
+                    return Ok(ExitCode::from(2));
+                }
+                r => r?,
+            };
+            emit(&peeltrim::plan::print::print(
+                &plan,
+                &prep,
+                &scene.mesh_names(),
+            ))?;
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(feature = "viewer")]
+fn view(
+    path: &Path,
+    algo: Algo,
+    size: Option<(u32, u32)>,
+    gpu: &GpuArgs,
+    scad: ScadArgs,
+) -> Result<ExitCode> {
+    let opts = render_options(algo, gpu)?;
+    let scene = load(path, size, scad)?;
+    let frames = match std::env::var("PEELTRIM_VIEW_FRAMES") {
+        Ok(v) => Some(
+            v.trim()
+                .parse::<u32>()
+                .ok()
+                .filter(|&n| n > 0)
+                .context("PEELTRIM_VIEW_FRAMES must be a positive integer")?,
+        ),
+        Err(_) => None,
+    };
+    peeltrim_cli::viewer::run(
+        scene,
+        peeltrim_cli::viewer::ViewOptions {
+            algo,
+            device: opts.device,
+            depth: opts.depth,
+            depth_fallback: opts.depth_fallback,
+            validation: opts.validation,
+            frames,
+        },
+    )?;
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(not(feature = "viewer"))]
+fn view(
+    path: &Path,
+    _algo: Algo,
+    size: Option<(u32, u32)>,
+    _gpu: &GpuArgs,
+    scad: ScadArgs,
+) -> Result<ExitCode> {
+    load(path, size, scad)?;
+    eprintln!(
+        "peeltrim: this build has no viewer (built without the `viewer` feature); \
+         rebuild with `cargo build --features viewer` (on by default), or use \
+         `peeltrim render` and open color.png"
+    );
+    Ok(ExitCode::from(2))
+}
+
+/// `blist EXPR` names its own primitives; `blist SCENE.toml` uses the scene's.
+fn blist_json(input: &str, scad: ScadArgs) -> Result<serde_json::Value> {
+    use peeltrim::csg::{Blist, PositiveExpr};
+    let path = Path::new(input);
+    let (expr, names) = if input.ends_with(".toml") || input.ends_with(".csg") || path.is_file() {
+        let scene = load(path, None, scad)?;
+        let expr = peeltrim::plan::union_of_solids(&scene)
+            .with_context(|| format!("{}: the scene has no [csg] or [[solid]]", path.display()))?;
+        (
+            expr,
+            scene
+                .primitives
+                .iter()
+                .map(|p| p.name.clone())
+                .collect::<Vec<_>>(),
+        )
+    } else {
+        let mut names: Vec<String> = Vec::new();
+        let expr = peeltrim::csg::parse(input, &mut |n: &str| {
+            Some(match names.iter().position(|x| x == n) {
+                Some(i) => i as u32,
+                None => {
+                    names.push(n.to_string());
+                    names.len() as u32 - 1
+                }
+            })
+        })
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        (expr, names)
+    };
+    let positive = PositiveExpr::from_expr(&expr);
+    if !positive.is_bounded() {
+        eprintln!("warning: the expression is unbounded (a scene would refuse it as a solid)");
+    }
+    let blist = Blist::new(&positive);
+    Ok(blist.to_json(&names))
+}
+
+/// The error and its causes, skipping a cause whose text the message already
+/// carries (the library's errors name their source in their own message).
+fn chain(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !out.contains(&text) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&text);
+        }
+    }
+    out
+}
+
+/// Writes a command's result to standard output. A reader that closed the pipe
+/// early (`peeltrim plan … | head`) has all it wanted: that is not an error, and
+/// must not become the panic `print!` would raise.
+fn emit(text: &str) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => r,
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("peeltrim: error: {}", chain(&e));
+            ExitCode::from(1)
+        }
+    }
+}

@@ -1,0 +1,99 @@
+//! Where the GPU tests run: the device (`PEELTRIM_TEST_DEVICE=cpu|auto|gpu`,
+//! default `cpu`, i.e. lavapipe) and the scenes (`PEELTRIM_TEST_SCENES`, default
+//! the crate's `scenes/`), so that the same test binary runs on a hardware GPU
+//! (`shared/gpu/README.md`). On lavapipe the depth bars are the strict figures
+//! measured there; elsewhere they are the specification's (`precision`).
+
+use std::path::PathBuf;
+
+use peeltrim_cli::output::Images;
+use peeltrim::plan::Algo;
+use peeltrim_reference::precision::spec_depth_check;
+use peeltrim_cli::render::{DepthSetup, GpuRenderer, RenderOptions};
+use peeltrim::scene::Scene;
+use peeltrim::vk::DeviceChoice;
+
+/// The device of every GPU test. A malformed value is a test failure, not a
+/// silent fallback.
+pub fn device() -> DeviceChoice {
+    match std::env::var("PEELTRIM_TEST_DEVICE").as_deref() {
+        Err(_) | Ok("") | Ok("cpu") => DeviceChoice::Cpu,
+        Ok("auto") => DeviceChoice::Auto,
+        Ok("gpu") => DeviceChoice::Gpu,
+        Ok(other) => panic!("PEELTRIM_TEST_DEVICE='{other}': use cpu, auto or gpu"),
+    }
+}
+
+/// `algo` on the test device with the default depth set-up (and its fallback),
+/// validation on: the options of the layer, kirsch and shadow tests.
+pub fn options(algo: Algo) -> RenderOptions {
+    RenderOptions {
+        algo,
+        device: device(),
+        depth: DepthSetup::DEFAULT,
+        depth_fallback: true,
+        validation: true,
+        build: Default::default(),
+    }
+}
+
+/// Whether the strict, lavapipe-measured depth figures apply: only on a CPU
+/// (software) device; a hardware device gets the specification's bounds.
+pub fn strict(device_name: &str) -> bool {
+    device_name.starts_with("llvmpipe")
+}
+
+/// The shipped scenes' directory.
+pub fn scenes_dir() -> PathBuf {
+    match std::env::var_os("PEELTRIM_TEST_SCENES") {
+        Some(p) if !p.is_empty() => PathBuf::from(p),
+        _ => PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("scenes"),
+    }
+}
+
+/// Whether a render's depth passes: `strict_ok` (the lavapipe figure) on
+/// lavapipe; elsewhere that or the specification's bound at 99% of interior
+/// pixels.
+pub fn depth_passes(
+    strict_ok: bool,
+    gpu: &GpuRenderer,
+    scene: &Scene,
+    reference: &Images,
+    images: &Images,
+) -> bool {
+    strict_ok
+        || (!strict(&gpu.device_name())
+            && spec_depth_check(reference, images, &scene.camera, &gpu.precision()).ratio_p99
+                <= 1.0)
+}
+
+/// A layer's edge map against the reference's (the bar: at least 99% of
+/// the reference's edge pixels matched within a pixel, at most 1% of ours
+/// stray); `label` names the algorithm and scene, `layer` is 0-based.
+pub fn assert_layer_edges(
+    label: &str,
+    layer: usize,
+    reference: &[bool],
+    ours: &[bool],
+    (w, h): (u32, u32),
+) {
+    let a = peeltrim_reference::edge_compare::compare_edges(reference, ours, w, h);
+    eprintln!(
+        "{label} layer {}: edges ref {} ours {} matched {:.2}% stray {:.2}%",
+        layer + 1,
+        a.reference_edges,
+        a.our_edges,
+        a.matched_frac * 100.0,
+        a.stray_frac * 100.0
+    );
+    assert!(
+        a.reference_edges > 0,
+        "{label} layer {}: the reference finds no edge",
+        layer + 1
+    );
+    assert!(
+        a.matched_frac >= 0.99 && a.stray_frac <= 0.01,
+        "{label} layer {}: {a:?}",
+        layer + 1
+    );
+}
