@@ -1,7 +1,7 @@
 //! Runs FRAMES frames of each algorithm on each scene as the bench times them
 //! (warm-up, then per-pass timestamps off, one executor), for callgrind and
 //! perf: the difference between two FRAMES counts is the per-frame cost
-//! (README "The per-pixel floor against OpenCSG").
+//! (docs/bench.md).
 //!
 //! `cargo run --release --example frames -- SIZE FRAMES ALGOS SCENE...`;
 //! `FRAMES_CLEARS=command|load-op` picks the clear mode (default: the

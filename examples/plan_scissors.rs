@@ -3,8 +3,8 @@
 //! plane, `vk::scissor::bounds_rect`) next to the box of its vertices'
 //! projections (`plan::screen`), then every draw with its pass, mesh, cull,
 //! fragment program and scissor rectangle, and the total the bench counts as
-//! `mesh_pixels` (README "Long products: complex and nonconvex_obj against
-//! 0.5x OpenCSG").
+//! `mesh_pixels` (docs/bench.md, long
+//! products).
 //!
 //! `cargo run --release --example plan_scissors -- ALGO SCENE`
 

@@ -1,4 +1,4 @@
-//! Re-recording only (issue 9 §3: a changed plan re-recorded at ≤ 1 µs per
+//! Re-recording only (a changed plan re-recorded at ≤ 1 µs per
 //! draw): for each scene and algorithm, the plan's frame is run until a
 //! recording is kept, then recorded anew REPS times without submitting, with
 //! its reach worked out anew (`Executor::time_recording`) and taken from the

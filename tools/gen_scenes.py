@@ -39,7 +39,7 @@ def prim(name, shape, color=None, translate=None, rotate=None, **kw):
 
 def gear():
     teeth = 36
-    s = ['# "Gear" of Hable & Rossignac, CST (seed 000, Fig. 1d and the results table: 48',
+    s = ['# "Gear" of Hable & Rossignac, CST (Fig. 1d and the results table: 48',
          "# primitives). Rebuilt from the figure: a spur gear with the axis along +Y.",
          "# Assumed: body disc radius 2 (thickness 0.6) with 36 box teeth unioned at the",
          "# bottom of the tree (the large union group the paper's grouping benefits from),",

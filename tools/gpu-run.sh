@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The hardware-GPU run of issue 9 (performance), in two halves
+# The hardware-GPU performance run, in two halves
 # (../shared/gpu/README.md says why: no cargo, no Vulkan loader and no network
 # on the GPU machine, and little time there).
 #

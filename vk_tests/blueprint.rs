@@ -1,5 +1,5 @@
-//! Blueprint edges of the GPU's first layer (seed 001 §5; issue 12): every GPU
-//! algorithm renders each shipped scene with the executor's normal buffer on; the
+//! Blueprint edges of the GPU's first layer (Kirsch, Nienhaus & Döllner §5): every
+//! GPU algorithm renders each shipped scene with the executor's normal buffer on; the
 //! edge rule on its depth and normals must find the reference's edges (≥ 99% of
 //! the reference's edge pixels within one pixel of ours, ≤ 1% of ours farther
 //! than one pixel from the reference's), and its normals must be the reference's

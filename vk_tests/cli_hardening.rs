@@ -1,4 +1,4 @@
-//! Issue 15 from the user's side: messages for common mistakes, the memory
+//! Hardening from the user's side: messages for common mistakes, the memory
 //! budget refusing at once (with the estimate, the budget and the way out)
 //! instead of aborting, large expressions rendered or refused in bounded time,
 //! and the bench finishing (table and plots) without any installed font.

@@ -1,4 +1,4 @@
-//! The numerical-stability suite (issue 10): scenes that stress depth precision
+//! The numerical-stability suite: scenes that stress depth precision
 //! and ties, each rendered by every GPU algorithm on the default depth set-up
 //! (D32 float, reversed Z) at 96×96 and compared with the exact reference.
 //! Bars: interior coverage and primitive mismatches ≤ 0.05%, interior depth p99 ≤

@@ -1,6 +1,6 @@
-//! The performance issue's checks on a finished benchmark (issue 9, "Measure and
-//! report"): the overhead of each run (replayed frames, wall time against GPU
-//! time), the CST variants' ordering (seed 000 §8: cst-g ≤ cst-i ≤ cst-z ≤
+//! The checks on a finished benchmark (measure and
+//! report): the overhead of each run (replayed frames, wall time against GPU
+//! time), the CST variants' ordering (Hable & Rossignac §8: cst-g ≤ cst-i ≤ cst-z ≤
 //! blister on the gear), and the summary's section that states them with the
 //! scaling families' fits ([`super::scaling`]). Typed until `report` writes them.
 #![deny(unsafe_code)]
@@ -152,7 +152,7 @@ pub fn ordering(records: &[Record]) -> String {
         return String::new();
     }
     format!(
-        "\nCST ordering (seed 000 §8; issue 9's target on the gear): `≤` holds, `≈` above by at most the larger IQR, `≡` the same plan, `>` fails.\n\n{}\n",
+        "\nCST ordering (Hable & Rossignac §8; the target on the gear): `≤` holds, `≈` above by at most the larger IQR, `≡` the same plan, `>` fails.\n\n{}\n",
         lines.join("\n")
     )
 }
@@ -165,7 +165,7 @@ pub fn correct(r: &Record) -> bool {
 
 /// The summary's section: overhead, scaling and deep-tree figures.
 pub fn section(records: &[Record]) -> String {
-    let mut s = String::from("## Performance checks (issue 9)\n\n");
+    let mut s = String::from("## Performance checks\n\n");
     let runs: Vec<&Record> = records.iter().filter(|r| r.overhead.is_some()).collect();
     let ok = runs
         .iter()

@@ -1,6 +1,6 @@
 //! Where a final-shade piece can skip the check of the output depth: outside
 //! the screen rectangles of the primitives that may cut its mesh away (issue
-//! 14, "Speed"; README "Embedding", "Shade pieces outside their cutters").
+//! 14, "Speed"; docs/embedding.md).
 //!
 //! The embedding's written pieces (`vk::exec::record::host`, `Piece::Written`)
 //! fetch the output depth on every fragment in front of the host's depth and

@@ -1,9 +1,9 @@
 //! What a frame holds in memory, checked against the budget ([`crate::budget`])
 //! before it is allocated: the executor's images, and beyond the contract's
-//! images the optional normal buffer (`vk::exec::normals`, seed 001 §5.2), the
-//! layers kept on the host while peeling (seed 000 §6), and the light's shadow
-//! map frame held beside the eye's (seed 003). Over budget, the work is refused
-//! with the estimate and the flag that lowers it.
+//! images the optional normal buffer (`vk::exec::normals`, Kirsch, Nienhaus & Döllner
+//! §5.2), the layers kept on the host while peeling (Hable & Rossignac §6), and the
+//! light's shadow map frame held beside the eye's (Rossignac & Wu). Over budget, the
+//! work is refused with the estimate and the flag that lowers it.
 #![deny(unsafe_code)]
 
 use crate::budget::{current, OverBudget};

@@ -1,4 +1,4 @@
-//! Layered frames in one submission (issue 9 §2). A layered frame (the layers of
+//! Layered frames in one submission. A layered frame (the layers of
 //! the solid, its transparency composited on the GPU, Kirsch's layers) is a few
 //! streams of layers, each layer some plans whose last counts the pixels it
 //! covers, and each stream stops at a layer the caller's rule rejects. How many

@@ -1,4 +1,4 @@
-//! Camera framing (`fit = true`, CONTRACT.md §1) and automatic near/far planes.
+//! Camera framing (`fit = true`, docs/scene-format.md) and automatic near/far planes.
 //!
 //! Both work on the vertices of everything that is drawn (primitives named by an
 //! expression, and surfaces), all positions of each mesh.

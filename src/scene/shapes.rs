@@ -1,4 +1,4 @@
-//! Exact tessellation of the built-in shapes (CONTRACT.md §2) and the primitive
+//! Exact tessellation of the built-in shapes (docs/scene-format.md) and the primitive
 //! transform `M = T * Rz * Ry * Rx * S`.
 //!
 //! Vertices are shared by index so every shape is a closed, consistently oriented

@@ -1,4 +1,4 @@
-//! Host memory of recorded commands (issue 9 §3: re-recording 1,000 draws in
+//! Host memory of recorded commands (re-recording 1,000 draws in
 //! ≤ 1 ms of CPU): a chunked bump allocator given to command pools as their
 //! `VkAllocationCallbacks`.
 //!
