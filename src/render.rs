@@ -532,7 +532,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError>
     }
 }
 
-/// The contract's opaque frame (any `[light]` ignored).
+/// The plain opaque frame (any `[light]` ignored).
 pub fn render_opaque(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError> {
     if opts.algo == Algo::Reference {
         check_frame_budget(scene.render.width, scene.render.height, false)?;

@@ -103,8 +103,8 @@ fn check_first_layer_edges(algo: Algo, assert_bars: bool) {
 }
 
 /// `blister-paper` is Blister exactly as its paper writes it, kept to measure
-/// the speckles it leaves (README): its figures are printed, not asserted (on
-/// `coincident` 97.1% matched, 1.9% stray at 128×128).
+/// the speckles it leaves (docs/transparency-and-blueprints.md): its figures are
+/// printed, not asserted (on `coincident` 97.1% matched, 1.9% stray at 128×128).
 #[test]
 fn first_layer_edges_match_the_reference_for_every_gpu_algorithm() {
     for algo in Algo::ALL {
@@ -115,7 +115,7 @@ fn first_layer_edges_match_the_reference_for_every_gpu_algorithm() {
 }
 
 /// The normal buffer is optional: a frame without it reads `None`, and turning it
-/// on leaves the contract's images unchanged.
+/// on leaves the output images unchanged.
 #[test]
 fn normal_buffer_leaves_the_images_unchanged() {
     let scene = load(&crate::setup::scenes_dir().join("gear.toml"));

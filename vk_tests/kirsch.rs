@@ -18,7 +18,7 @@ use peeltrim::scene::Scene;
 use crate::algorithms::{check_algo, load, shipped_scenes, SIZE};
 use crate::setup::options;
 
-/// The bar on the first layer: 0.05% interior mismatches.
+/// The bar on the first layer: 0.05% interior mismatches.
 #[test]
 fn kirsch_matches_reference_on_shipped_scenes() {
     check_algo(Algo::Kirsch, &DepthSetup::ALL, 0.0005, 0.0005);

@@ -88,8 +88,8 @@ fn recording_sets_only_the_state_that_changes() {
     let mut gpu = renderer(&scene);
     gpu.execute(&plan).unwrap();
     let c = gpu.execute(&plan).unwrap().exec.counts;
-    // Every draw used to record 14 state commands and a push (see README,
-    // "Executor"); now far fewer per draw call.
+    // Every draw used to record 14 state commands and a push (docs/executor.md); now
+    // far fewer per draw call.
     let per_call = c.state_commands as f64 / (c.draw_calls + c.fullscreen_passes) as f64;
     eprintln!(
         "blister gear: {} state commands for {} draw calls and {} full-screen passes ({per_call:.2} per draw)",

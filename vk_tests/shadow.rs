@@ -16,7 +16,7 @@ use peeltrim::scene::{self, LoadOptions, Scene};
 use crate::setup::options;
 
 const SIZE: (u32, u32) = (160, 160);
-/// The bar.
+/// The bar: agreement with the reference.
 const AGREE: f64 = 0.995;
 
 fn load(name: &str) -> Scene {

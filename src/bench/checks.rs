@@ -42,7 +42,7 @@ impl Overhead {
     }
 }
 
-/// The CST paper's ordering in `gpu_ms`, fastest first (the target on
+/// The CST paper's ordering in `gpu_ms`, fastest first (the target on
 /// the gear).
 pub const ORDER: [&str; 4] = ["cst-g", "cst-i", "cst-z", "blister"];
 
@@ -157,7 +157,7 @@ pub fn ordering(records: &[Record]) -> String {
     )
 }
 
-/// Whether a run is correct by the definition.
+/// Whether a run is correct by the bench's definition.
 pub fn correct(r: &Record) -> bool {
     let (cov, prim, _) = error_figures(r);
     r.ran() && cov <= CORRECT_FRAC && prim <= CORRECT_FRAC

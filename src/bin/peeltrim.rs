@@ -503,8 +503,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let ia = peeltrim::output::read_images(&a)?;
             let ib = peeltrim::output::read_images(&b)?;
             let report = peeltrim::reference::compare::compare(&ia, &ib)?;
-            /// `compare`'s output: the contract's metrics, and with an `edges.png`
-            /// in both folders (layer folders) the edge maps' agreement.
+            /// `compare`'s output: the metrics of docs/cli.md, and with an
+            /// `edges.png` in both folders (layer folders) the edge maps' agreement.
             #[derive(serde::Serialize)]
             struct Out {
                 #[serde(flatten)]

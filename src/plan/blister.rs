@@ -40,8 +40,8 @@ pub enum Parity {
     Tolerant,
     /// The paper as written: the depth test `LessOrEqual` against the candidate's
     /// quantized depth, colour and id from the peel — coincident faces are decided
-    /// by rounding, which shows as speckles (Hable & Rossignac Fig. 2): `--algo
-    /// blister-paper`.
+    /// by rounding, which shows as speckles (Hable & Rossignac Fig. 2):
+    /// `--algo blister-paper`.
     DepthTest,
 }
 

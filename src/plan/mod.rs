@@ -67,8 +67,8 @@ pub enum Algo {
     CstI,
     /// Constructive Solid Trimming, variant G.
     CstG,
-    /// Blister with the paper's depth-test parity (an extension of the contract's
-    /// list, for measuring speckles against the tolerant `blister`).
+    /// Blister with the paper's depth-test parity (an extra
+    /// algorithm, for measuring speckles against the tolerant `blister`).
     BlisterPaper,
     /// Kirsch, Nienhaus & Döllner's CSG depth peeling of products (Kirsch,
     /// Nienhaus & Döllner §4); its opaque render is the first layer.

@@ -1,5 +1,5 @@
-//! Comparing two edge maps of the same layer (Kirsch, Nienhaus & Döllner §5; issue
-//! 12's "blueprint edges" criterion): the fraction of the reference's edge pixels
+//! Comparing two edge maps of the same layer (Kirsch, Nienhaus & Döllner §5; the
+//! "blueprint edges" criterion): the fraction of the reference's edge pixels
 //! that lie within one pixel of an edge pixel of ours (recall), and the fraction of
 //! ours that lie farther than one pixel from every edge pixel of the reference
 //! (strays). "Within one pixel" is the 8-neighbourhood (Chebyshev distance ≤ 1),

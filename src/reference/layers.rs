@@ -1,5 +1,5 @@
-//! The reference's layers of the solid and their transparent composite (Hable
-//! & Rossignac §5–§6; the oracle for the GPU's depth-peeled layers).
+//! The reference's layers of the solid and their transparent composite
+//! (Hable & Rossignac §5–§6; the oracle for the GPU's depth-peeled layers).
 //!
 //! Layer k of a pixel is the k-th point, front to back, where its line crosses the
 //! boundary of the regularized solid, each point once: the crossings of the line

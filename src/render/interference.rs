@@ -172,12 +172,12 @@ fn pairs_on(
     Ok(out)
 }
 
-/// The interference view of a GPU algorithm, as the reference draws it (Hable
-/// & Rossignac §6): each pixel's nearest interference opaque in the interference
-/// colour, the solids' layers in front of it semi-transparent (their `alpha` where
-/// below 1, else [`SOLID_ALPHA`]); where there is none, every layer semi-transparent
-/// over the background. The layers are the GPU's (`render::gpu_layers`); depth and
-/// primitive are layer 1's.
+/// The interference view of a GPU algorithm, as the reference draws it
+/// (Hable & Rossignac §6): each pixel's nearest interference opaque in the
+/// interference colour, the solids' layers in front of it semi-transparent (their
+/// `alpha` where below 1, else [`SOLID_ALPHA`]); where there is none, every layer
+/// semi-transparent over the background. The layers are the GPU's
+/// (`render::gpu_layers`); depth and primitive are layer 1's.
 pub fn render_interference(
     scene: &Scene,
     opts: &RenderOptions,

@@ -149,7 +149,7 @@ pub struct LayerStats {
 /// blueprint edge maps) reads.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SolidLayer {
-    /// The contract's images of this crossing: its shaded colour (background
+    /// The output images of this crossing: its shaded colour (background
     /// where the ray has fewer crossings), view depth (`+inf`) and 1-based
     /// primitive (0).
     pub images: Images,
@@ -174,7 +174,7 @@ impl SolidLayer {
     }
 }
 
-/// A frame with its layers: `images` as the contract's files (the composite in
+/// A frame with its layers: `images` as the output files (the composite in
 /// `color.png` when transparent; depth and primitive of layer 1 then), and each
 /// layer, front to back.
 #[derive(Clone, Debug)]

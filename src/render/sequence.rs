@@ -17,8 +17,8 @@
 //! by layer again (its images never depend on the memo). The recording is kept,
 //! so a second frame of the same scene and camera records nothing.
 //!
-//! This is the "previous frame's layer count with a GPU check and a fallback" of
-//! the issue. Conditional rendering (`VK_EXT_conditional_rendering`, which
+//! This is the "previous frame's layer count with a GPU check and a fallback"
+//! scheme. Conditional rendering (`VK_EXT_conditional_rendering`, which
 //! lavapipe has) would skip draws past the last layer, but not the clears,
 //! copies and barriers every layer plan records, nor bound the CST peel loops
 //! inside each layer plan without unrolling them to their worst case.

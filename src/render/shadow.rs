@@ -37,7 +37,8 @@ pub const SHADOW_MAP_SCALE: u32 = 2;
 pub const SHADOW_MAP_MIN: u32 = 1024;
 /// Largest shadow-map side.
 pub const SHADOW_MAP_MAX: u32 = 8192;
-/// Fraction of a shadowed pixel's colour kept (the lit shading is the contract's).
+/// Fraction of a shadowed pixel's colour kept (the lit shading is the plain opaque
+/// one).
 pub const SHADOW_KEEP: f64 = 0.5;
 
 /// The shadow figures of `stats.json` (extension).

@@ -36,7 +36,7 @@ pub const DEFAULT_ALPHA: f64 = 0.4;
 
 /// One layer as the styles see it, pixels row-major.
 pub struct StyleLayer<'a> {
-    /// The layer's shaded colour (the contract's shading of its crossing).
+    /// The layer's shaded colour (the standard shading of its crossing).
     pub color: &'a [[u8; 4]],
     /// Whether the layer has a point at the pixel.
     pub covered: Vec<bool>,

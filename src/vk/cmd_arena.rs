@@ -59,7 +59,7 @@ struct Chunks {
     empty: Vec<u32>,
 }
 
-/// Counts of what the arena served (for tests and the README's figures).
+/// Counts of what the arena served (for tests and the figures of docs/perf/).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ArenaCounts {
     /// Blocks bumped from chunks.

@@ -108,7 +108,7 @@ pub fn leaf_csts(
         // where a ray enters it, so on a front face of a positive or a back face of a
         // negative leaf. Every variant peels those faces only; Z differs from I
         // in its zones, not in its peel. (Peeling both faces for Z doubled its
-        // layers and its parity draws on the gear: see the README.)
+        // layers and its parity draws on the gear: see docs/perf/.)
         let peel_cull = if lit.negated { Cull::Front } else { Cull::Back };
         let universe = zone.is_universe();
         // An untrimmed leaf draws its primitive's faces as they are: a second leaf

@@ -20,11 +20,11 @@
 //! barriers from `plan::usage` through `vk::sync`), `state` (dynamic state
 //! recorded only where it changes), `stats` (typed statistics), `normals` (the
 //! optional normal buffer and the edge pass on it, Kirsch, Nienhaus & Döllner §5),
-//! `transparency` (the accumulate pass compositing peeled layers on the GPU, Hable
-//! & Rossignac §6), `sequence` (several plans, accumulate passes and layer copies in
-//! one submission: layered frames), `shadow` (what the shadow pass, `vk::shadow`,
-//! reads of an executor), `switches` (the `set_*` settings), `ties` (the
-//! tie-free decisions, kept per plan and camera), `scissors` (the per-mesh
+//! `transparency` (the accumulate pass compositing peeled layers on the GPU,
+//! Hable & Rossignac §6), `sequence` (several plans, accumulate passes and layer
+//! copies in one submission: layered frames), `shadow` (what the shadow pass,
+//! `vk::shadow`, reads of an executor), `switches` (the `set_*` settings), `ties`
+//! (the tie-free decisions, kept per plan and camera), `scissors` (the per-mesh
 //! rectangles of a recording's scissors), `recording` (the kept recording and
 //! its timing), `kept` (what the outputs hold, what clears and copies reach),
 //! `unrolled` (frames with unrolled loops, checked after the fact),

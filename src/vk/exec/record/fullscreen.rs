@@ -1,6 +1,7 @@
 //! Full-screen passes of a recording: the quad draw, internal full-screen
-//! draws (depth copies), and the extension passes on a finished frame — seed
-//! 001 §5.1's edge map and Hable & Rossignac §6's front-to-back accumulation.
+//! draws (depth copies), and the extension passes on a finished frame — Kirsch,
+//! Nienhaus & Döllner §5.1's edge map and Hable & Rossignac §6's front-to-back
+//! accumulation.
 
 use ash::vk;
 
