@@ -103,8 +103,8 @@ fn check_first_layer_edges(algo: Algo, assert_bars: bool) {
 }
 
 /// `blister-paper` is Blister exactly as its paper writes it, kept to measure
-/// the speckles it leaves (docs/transparency-and-blueprints.md): its figures are
-/// printed, not asserted (on `coincident` 97.1% matched, 1.9% stray at 128×128).
+/// the speckles it leaves (docs/algorithms.md): its figures are printed, not
+/// asserted (on `coincident` 97.1% matched, 1.9% stray at 128×128).
 #[test]
 fn first_layer_edges_match_the_reference_for_every_gpu_algorithm() {
     for algo in Algo::ALL {

@@ -1,7 +1,7 @@
 //! Sequenced convex subtraction (Stewart, Leach & John, "Sequenced convex
-//! subtraction", 2000/2002, the successor of Stewart, Leach & John by the same
-//! authors; the algorithm behind OpenCSG's `SCS`), made tie-correct with the tie rule
-//! of the other algorithms.
+//! subtraction", 2000/2002, the successor of their "An Improved Z-Buffer CSG
+//! Rendering Algorithm"; the algorithm behind OpenCSG's `SCS`), made tie-correct
+//! with the tie rule of the other algorithms.
 //!
 //! The positive form becomes a sum of products as for Goldfeather (Stewart,
 //! Leach & John §3.2, bounding-box pruned). A product `X1 ∩ … ∩ Xa − Y1 − … − Yb` of

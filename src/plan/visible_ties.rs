@@ -63,9 +63,9 @@ pub const MAX_UNKNOWNS: usize = 12;
 /// The gaps the final shade needs ([`TieGaps::with_zones`]): the zones of
 /// `gaps` where the membership of one of `exprs` may change (module doc):
 /// the union of the solids, whose visible surface the opaque shade shows, and
-/// each solid, whose boundary the layers count on its own (docs/transparency-and-
-/// blueprints.md). `prims`: how many meshes are primitives (surfaces follow:
-/// their zones are kept). Without a solid, `gaps` as they are.
+/// each solid, whose boundary the layers count on its own
+/// (docs/transparency-and-blueprints.md). `prims`: how many meshes are primitives
+/// (surfaces follow: their zones are kept). Without a solid, `gaps` as they are.
 pub fn visible_ties(gaps: &TieGaps, meshes: &[&Mesh], exprs: &[Expr], prims: usize) -> TieGaps {
     if exprs.is_empty() {
         return gaps.clone();

@@ -1,6 +1,5 @@
-//! Shadows of a scene with a `[light]` (Rossignac & Wu, Rossignac & Wu: the CSG
-//! solid's depth buffer seen from the light, then a shadow test in the eye's
-//! shading).
+//! Shadows of a scene with a `[light]` (Rossignac & Wu: the CSG solid's
+//! depth buffer seen from the light, then a shadow test in the eye's shading).
 //!
 //! GPU algorithms render the plan twice on one device: from the eye (with the
 //! normal buffer), and from the light's camera ([`Light::camera_for`]:

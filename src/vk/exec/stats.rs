@@ -153,7 +153,7 @@ pub struct Counts {
     /// Samples passed by all `count_samples` draws.
     pub samples_counted: u64,
     /// Samples passed by the `count_samples` draws after the plan's last loop
-    /// (Kirsch's layer count, Kirsch, Nienhaus & Döllner §6).
+    /// (Kirsch, Nienhaus & Döllner's layer count, §6).
     pub final_samples: u64,
 }
 

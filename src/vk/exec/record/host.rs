@@ -390,8 +390,7 @@ fn insides_last(pieces: &[(Cull, Piece, Rect)]) -> Option<Vec<(usize, bool)>> {
 /// Whether the final shade's depth-equal pieces are drawn `Written`, each
 /// testing the host's depth with equality and writing its own, rather than
 /// after the depth merge: whichever runs the shader on fewer pixels, as
-/// lavapipe prices them (docs/embedding.md, "The depth merge or the pieces'
-/// own depth").
+/// lavapipe prices them (docs/embedding.md).
 ///
 /// The merge runs its shader (a depth fetch and `gl_FragDepth`, tested late)
 /// on every pixel of its rectangle, the bounds of the pieces' scissors; the
