@@ -1,8 +1,8 @@
-//! The checks on a finished benchmark (measure and
-//! report): the overhead of each run (replayed frames, wall time against GPU
-//! time), the CST variants' ordering (Hable & Rossignac §8: cst-g ≤ cst-i ≤ cst-z ≤
-//! blister on the gear), and the summary's section that states them with the
-//! scaling families' fits ([`super::scaling`]). Typed until `report` writes them.
+//! The checks on a finished benchmark: the overhead of each run (replayed frames,
+//! wall time against GPU time), the CST variants' ordering (Hable & Rossignac §8:
+//! cst-g ≤ cst-i ≤ cst-z ≤ blister on the gear), and the summary's section that
+//! states them with the scaling families' fits ([`super::scaling`]). Typed until
+//! `report` writes them.
 #![deny(unsafe_code)]
 
 use std::fmt::Write;

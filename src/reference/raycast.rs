@@ -18,7 +18,7 @@
 //!    like on the GPU: an interval starting before `near` shows nothing at `near`);
 //! 4. its primitive is the lowest-index primitive (among those a solid names) with a
 //!    crossing in that event group (lowest index wins on coincident faces, within
-//`tol`), its normal !    that crossing's triangle's geometric normal;
+//!    `tol`), its normal that crossing's triangle's geometric normal;
 //! 5. surfaces: the nearest crossing (within `[near, far]`) of each surface mesh whose
 //!    point is in the trim volume (`keep = In`), outside it (`Out`), or any crossing
 //!    (`Paint`, drawn in `paint_color` where in the volume). The point is classified

@@ -1,4 +1,4 @@
-//! One lowering of a plan draw into what the recorder records :
+//! One lowering of a plan draw into what the recorder records:
 //! `Recorder::draw` records this answer and the look-ahead
 //! (`record/ahead.rs`) summarizes the same answer, so the two can never
 //! disagree about which block a draw asks for. In order:
