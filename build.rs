@@ -5,10 +5,10 @@
 //! end has no includes), so shared shader code is written once. A shader that
 //! mentions `#ifdef NORMALS` is also compiled with `NORMALS` defined, into
 //! `OUT_DIR/<name>.<stage>.normals.spv`: the variant that writes the normal buffer
-//! (seed 001 §5.2) for executors that ask for one. Likewise `#ifdef HOST` gives
-//! `<name>.<stage>.host.spv`: the variant drawing into an embedding host's
-//! attachments (`vk::exec::record::host`), and `#ifdef HOST_SRGB` gives
-//! `<name>.<stage>.host_srgb.spv` (`HOST` and `HOST_SRGB` defined): the variant
+//! (Kirsch, Nienhaus & Döllner §5.2) for executors that ask for one. Likewise
+//! `#ifdef HOST` gives `<name>.<stage>.host.spv`: the variant drawing into an
+//! embedding host's attachments (`vk::exec::record::host`), and `#ifdef HOST_SRGB`
+//! gives `<name>.<stage>.host_srgb.spv` (`HOST` and `HOST_SRGB` defined): the variant
 //! for an `_SRGB` host colour format, which decodes the colour it writes;
 //! `#ifdef HOST_WRITE` gives `host_write` and `host_write_srgb` (the host draw
 //! that writes its depth, with no merge before it), and `#ifdef FLAT` gives

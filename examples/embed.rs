@@ -1,4 +1,4 @@
-//! A windowless host engine embedding peeltrim (README "Embedding").
+//! A windowless host engine embedding peeltrim (docs/embedding.md).
 //!
 //! It creates its own Vulkan instance (with the validation layer) and device,
 //! draws its own floor into its own colour and depth images, records peeltrim's

@@ -1,6 +1,6 @@
 #version 450
-// Seed 000 §6's transparency on the GPU: one peeled layer blended front to back
-// into the accumulation target (vk/exec/transparency.rs). Where the layer has a
+// Hable & Rossignac §6's transparency on the GPU: one peeled layer blended front to
+// back into the accumulation target (vk/exec/transparency.rs). Where the layer has a
 // point (primitive id p != 0) the output is its colour premultiplied by the
 // opacity a = table[p] and the coverage a; the pipeline blends
 // dst += (1 - dst.a) * src, i.e. C += (1 - A) a c and A += (1 - A) a.

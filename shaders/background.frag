@@ -15,7 +15,7 @@ layout(push_constant) uniform Push {
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
 #ifdef NORMALS
-// No face: a zero normal (seed 001 §5.2's normal buffer).
+// No face: a zero normal (Kirsch, Nienhaus & Döllner §5.2's normal buffer).
 layout(location = 2) out vec4 o_normal;
 #endif
 

@@ -1,13 +1,13 @@
 #version 450
-// Seed 001 §5.1's edge map in one full-screen pass: the rule of src/render/edges.rs
-// on the normal buffer (set 0: xyz the seen face's unit normal, zero where nothing
-// was drawn) and the depth buffer (set 2; set 1 is the camera). Both pixels of a 4-neighbour pair are
-// edges when coverage differs, when their view depths differ by more than
-// color.x of the nearer one, or when their normals' dot product is below color.y;
-// the image border is never an edge. Writes 1 on edges, 0 elsewhere. Colour
-// and flags are draw.glsl's flat copies; `view` is still read from the push
-// constants (mesh.vert passes no flat copy of it; this pass runs once a frame,
-// only when an edge map is asked for).
+// Kirsch, Nienhaus & Döllner §5.1's edge map in one full-screen pass: the rule of
+// src/render/edges.rs on the normal buffer (set 0: xyz the seen face's unit normal,
+// zero where nothing was drawn) and the depth buffer (set 2; set 1 is the camera).
+// Both pixels of a 4-neighbour pair are edges when coverage differs, when their view
+// depths differ by more than color.x of the nearer one, or when their normals' dot
+// product is below color.y; the image border is never an edge. Writes 1 on edges, 0
+// elsewhere. Colour and flags are draw.glsl's flat copies; `view` is still read from
+// the push constants (mesh.vert passes no flat copy of it; this pass runs once a
+// frame, only when an edge map is asked for).
 layout(push_constant) uniform Push {
     mat4 mvp;
     // x: near, y: far, z: 1 for orthographic (view depth is affine in depth)

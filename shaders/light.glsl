@@ -11,8 +11,8 @@
 // pixel, and |n . v| = |n . r| / |r| with one inverse square root: the
 // reference's per-pixel factor. The normalizes of n and of the eye's ray, the
 // camera's uniform read and the flat normal this replaces were 27% of a
-// one-box frame's shader instructions on lavapipe (README "Lighting: the
-// headlight per pixel"); a factor per vertex (Gouraud) saves 7% more but is
+// one-box frame's shader instructions on lavapipe (docs/perf/: the
+// headlight per pixel); a factor per vertex (Gouraud) saves 7% more but is
 // 3 levels off on one box.
 layout(location = 2) in vec3 v_ray;
 layout(location = 6) flat in float v_nr;

@@ -26,9 +26,9 @@ layout(location = 1) in vec3 a_normal;
 // `mesh.vert.flat.spv`; `FragmentKind::interpolated`): the depth-only and
 // parity passes. llvmpipe runs the vertex shader on the queue thread and
 // stores every output per vertex whether or not a fragment program reads it
-// (all outputs but the position: ~60 of a vertex's ~190 instructions; README
-// "Where many_50 and shadow_block lose to OpenCSG"). The position is computed
-// by the same code in both variants, so depth-equal tests still match.
+// (all outputs but the position: ~60 of a vertex's ~190 instructions; docs/bench.md).
+// The position is computed by the same code in both variants, so depth-equal tests
+// still match.
 #else
 layout(location = 0) out vec3 v_world;
 // Flat: the provoking vertex's, i.e. the triangle's own lit corner, which

@@ -1,5 +1,6 @@
 #version 450
-// Paint: shaded like shade.frag, in the paint colour (CST painting, seed 000 §6).
+// Paint: shaded like shade.frag, in the paint colour (CST painting, Hable & Rossignac
+// §6).
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)

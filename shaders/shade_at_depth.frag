@@ -1,12 +1,13 @@
 #version 450
 // Shades only where the fragment depth equals the texture's depth bit-exactly: the
-// points a CST peel recorded and kept (seed 000 §4, Render(S)). Exact because the
-// vertex shader's gl_Position is invariant, so the same mesh reproduces its depths.
-// With HOST: the embedding's depth-equal final pass (vk::exec::record::host), drawn
-// into a host's attachments with the output depth-stencil's depth bound as the
-// texture, colour only, after the depth merge put that depth into the host's
-// wherever it is nearer; with HOST_WRITE, with no merge, the visible face's raster
-// depth written; with HOST_SRGB too, for an _SRGB host colour format.
+// points a CST peel recorded and kept (Hable & Rossignac §4, Render(S)). Exact
+// because the vertex shader's gl_Position is invariant, so the same mesh reproduces
+// its depths. With HOST: the embedding's depth-equal final pass
+// (vk::exec::record::host), drawn into a host's attachments with the output
+// depth-stencil's depth bound as the texture, colour only, after the depth merge put
+// that depth into the host's wherever it is nearer; with HOST_WRITE, with no merge,
+// the visible face's raster depth written; with HOST_SRGB too, for an _SRGB host
+// colour format.
 layout(push_constant) uniform Push {
     mat4 mvp;
     // xyz: the eye (w = 1, perspective) or the unit view direction (w = 0, orthographic)

@@ -2,8 +2,8 @@
 // Depth-equal shading with a tolerance: colour and primitive id where the
 // fragment depth is within color.a (normalized depth) plus TIE_SLOPE pixels' worth
 // of this face's depth slope of the texture; writes the face's depth at the pixel
-// centre, independent of how the device snapped the vertices (plan::tie, README
-// "Precision"). With HOST: the embedding's final pass drawn straight into a
+// centre, independent of how the device snapped the vertices (plan::tie,
+// docs/precision.md). With HOST: the embedding's final pass drawn straight into a
 // host's attachments (vk::exec::record::host), colour only; with HOST_SRGB too,
 // for an _SRGB host colour format.
 layout(push_constant) uniform Push {

@@ -1,9 +1,9 @@
 #version 450
-// The shadow test of a `[light]` in one full-screen pass (src/vk/shadow.rs; seed
-// 003's shadow buffer): each visible eye pixel's point is rebuilt from the eye's
-// depth, reprojected into the light's depth map and shadowed when its depth from
-// the light exceeds the map texel's by more than the bias of
-// src/render/shadow.rs (README "Shadows"). Shadowed fragments pass: the blend
+// The shadow test of a `[light]` in one full-screen pass (src/vk/shadow.rs;
+// Rossignac & Wu's shadow buffer): each visible eye pixel's point is rebuilt from the
+// eye's depth, reprojected into the light's depth map and shadowed when its depth
+// from the light exceeds the map texel's by more than the bias of
+// src/render/shadow.rs (docs/shadows.md). Shadowed fragments pass: the blend
 // (src ONE, dst CONSTANT_COLOR = SHADOW_KEEP) darkens the colour target and
 // sets the mask target to 1; lit and background fragments are discarded.
 layout(set = 0, binding = 0) uniform texture2D u_eye_depth;

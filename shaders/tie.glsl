@@ -20,7 +20,7 @@ float tie_fetch(ivec2 p) {
 // derivative, exactly the difference of the two texels (r - d in an even
 // column, d - l in an odd one; likewise rows), so only the outside side costs a
 // fetch: three fetches per fragment where four neighbours and the centre took
-// five (the cost of the tie rule on lavapipe, README "Performance").
+// five (the cost of the tie rule on lavapipe, docs/perf/).
 struct TieTexel {
     float d;
     vec4 diff;

@@ -5,10 +5,10 @@
 // depth-stencil image that holds the texture's depth exactly (D32). Tested
 // `LessOrEqual` it keeps what nearer_than.frag keeps on a coplanar face;
 // `Greater`, what behind_than.frag keeps. It reads no texture, so the draw
-// needs no barrier after the writes of that depth (README "Ties as the depth
-// test"). It always widens by the slope term, where the texture shaders widen
-// only for a face whose gradient agrees with the texture's: the two differ
-// only where a face crosses the visible one within 2^-bits pixel's slope.
+// needs no barrier after the writes of that depth (docs/precision.md). It always
+// widens by the slope term, where the texture shaders widen only for a face whose
+// gradient agrees with the texture's: the two differ only where a face crosses the
+// visible one within 2^-bits pixel's slope.
 layout(push_constant) uniform Push {
     mat4 mvp;
     vec4 view;

@@ -1,4 +1,4 @@
-//! Property-based fuzzing of the parsers a user feeds (issue 15): scene TOML,
+//! Property-based fuzzing of the parsers a user feeds: scene TOML,
 //! CSG expressions and OBJ. Inputs are generated structure-aware (valid
 //! documents with hostile values: wrong vector lengths and element types, NaN,
 //! infinities, huge counts, unicode, unknown keys and names) and then possibly

@@ -9,7 +9,7 @@
 //! algebra), `scene` (scene files, tessellation, cameras), `geom`, `plan` (every
 //! algorithm as a list of steps), `vk` (the executor), `reference` (the exact CPU
 //! ray caster), `output`, `render`, `bench`, `viewer` — which are public for them
-//! but hidden here and not a stable API (README "Architecture").
+//! but hidden here and not a stable API (docs/architecture.md).
 //!
 //! # Embedding in a host Vulkan engine
 //!

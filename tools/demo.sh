@@ -13,7 +13,7 @@ tools/setup.sh
 cargo build --release --quiet
 tools/opencsg-bench/build.sh \
   || echo "demo.sh: warning: the OpenCSG baseline could not be built; the bench runs without it" >&2
-# Shadows and interference (issue 11) on their shipped scenes: optional extras.
+# Shadows and interference on their shipped scenes: optional extras.
 for s in shadow_block interference; do
   target/release/peeltrim render "scenes/$s.toml" --algo cst-i --size 400x400 --out "out/extras/$s" \
     || echo "demo.sh: warning: rendering scenes/$s.toml failed" >&2

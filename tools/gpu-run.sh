@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# The hardware-GPU run of issue 9 (performance), in two halves
-# (../shared/gpu/README.md says why: no cargo, no Vulkan loader and no network
-# on the GPU machine, and little time there).
+# The hardware-GPU performance run, in two halves
+# (the GPU machine has no cargo, no Vulkan loader and no network, and little
+# time there).
 #
 #   tools/gpu-run.sh prepare          # here: build, strip, download the debs
 #   tools/gpu-run.sh run [options]    # there (or here, as a dry run)
@@ -125,7 +125,7 @@ run() {
     else
         echo "gpu-run.sh: $bin/opencsg-bench missing: the bench runs without OpenCSG" >&2
     fi
-    # Standard Z with D32S8, as the table of ../shared/gpu/README.md; without
+    # Standard Z with D32S8; without
     # validation layers (they multiply the CPU cost of recording; the tests
     # above ran with them).
     $bin/peeltrim bench "${scene_args[@]}" "${family_args[@]}" --size "$size" \

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Checks peeltrim's rendering of OpenSCAD models against OpenSCAD's own CGAL
-evaluation (the issue's "real models" bar).
+evaluation (the "real models" bar).
 
 For each model (.scad or .csg): exports the .csg with `openscad` (when given a
 .scad), evaluates it with CGAL (`openscad -o truth.stl`), converts the STL to an

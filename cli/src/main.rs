@@ -1,4 +1,4 @@
-//! The `peeltrim` command line (CONTRACT.md §4): render, blist, compare, bench,
+//! The `peeltrim` command line (docs/cli.md): render, blist, compare, bench,
 //! plan, view. `anyhow` lives here only; the library reports typed errors.
 
 use std::path::{Path, PathBuf};
@@ -69,7 +69,7 @@ struct GpuArgs {
     max_products: usize,
 }
 
-/// Layers of the solid and transparency (extensions of the contract, see README).
+/// Layers of the solid and transparency (docs/transparency-and-blueprints.md).
 #[derive(clap::Args, Clone)]
 struct LayerArgs {
     /// Peel at most N layers of the solid (N >= 1; default: all)
@@ -90,8 +90,9 @@ struct LayerArgs {
     /// where hidden (comma-separated primitive names)
     #[arg(long, value_name = "NAME[,NAME]", value_delimiter = ',')]
     highlight: Vec<String>,
-    /// How a union of products is layered (seed 001 §7): `solid` (one volume, the
-    /// reference's default) or `products` (each on its own, kirsch's)
+    /// How a union of products is layered (Kirsch, Nienhaus & Döllner §7): `solid`
+    /// (one volume, the reference's default) or `products` (each on its own,
+    /// kirsch's)
     #[arg(long, value_name = "solid|products", value_parser = parse_reading)]
     layer_reading: Option<peeltrim_reference::LayerReading>,
     /// Assemblies: solids semi-transparent, where two solids intersect opaque in
@@ -99,7 +100,8 @@ struct LayerArgs {
     #[arg(long)]
     interference: bool,
     /// How color.png shows the layers (overrides [render] style): opaque,
-    /// transparent, blueprint, wireframe or blueprint-transparent (seed 001 §5)
+    /// transparent, blueprint, wireframe or blueprint-transparent (Kirsch,
+    /// Nienhaus & Döllner §5)
     #[arg(long, value_parser = peeltrim::scene::style::parse_style)]
     style: Option<peeltrim::scene::style::Style>,
     /// Edge rule: a depth jump larger than this fraction of the nearer depth is a
@@ -501,8 +503,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let ia = peeltrim_cli::output::read_images(&a)?;
             let ib = peeltrim_cli::output::read_images(&b)?;
             let report = peeltrim_reference::compare::compare(&ia, &ib)?;
-            /// `compare`'s output: the contract's metrics, and with an `edges.png`
-            /// in both folders (layer folders) the edge maps' agreement.
+            /// `compare`'s output: the metrics of docs/cli.md, and with an
+            /// `edges.png` in both folders (layer folders) the edge maps' agreement.
             #[derive(serde::Serialize)]
             struct Out {
                 #[serde(flatten)]

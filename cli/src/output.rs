@@ -1,4 +1,4 @@
-//! The contract's output files (CONTRACT.md §4): `color.png` (RGBA8, opaque),
+//! The output files (docs/cli.md): `color.png` (RGBA8, opaque),
 //! `depth.npy` (little-endian f32, `(height, width)`, view-space depth, `+inf` for
 //! background), `prim.png` (16-bit grey, 1-based primitive index, 0 background)
 //! and `stats.json`; and reading them back for `compare`.

@@ -36,7 +36,7 @@ pub enum DepthSetup {
 
 impl DepthSetup {
     /// The default set-up: a float depth buffer with reversed Z, whose relative
-    /// precision suits perspective at every distance (README "Precision and ties").
+    /// precision suits perspective at every distance (docs/precision.md).
     pub const DEFAULT: DepthSetup = DepthSetup::D32S8Reversed;
     /// What the default falls back to on a device without a usable D32S8.
     pub const FALLBACK: DepthSetup = DepthSetup::D24S8;
@@ -406,9 +406,9 @@ impl GpuRenderer {
         }
     }
 
-    /// Whether later frames also write the normal buffer (seed 001 §5.2), read
-    /// with [`Self::read_normals`]; refused when the buffer would not fit the
-    /// memory budget or the device.
+    /// Whether later frames also write the normal buffer (Kirsch, Nienhaus & Döllner
+    /// §5.2), read with [`Self::read_normals`]; refused when the buffer would not fit
+    /// the memory budget or the device.
     pub fn set_normals(&mut self, on: bool) -> Result<(), RenderError> {
         if on {
             let d = self.exec.desc();
@@ -532,7 +532,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError>
     }
 }
 
-/// The contract's opaque frame (any `[light]` ignored).
+/// The plain opaque frame (any `[light]` ignored).
 pub fn render_opaque(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError> {
     if opts.algo == Algo::Reference {
         check_frame_budget(scene.render.width, scene.render.height, false)?;

@@ -4,7 +4,7 @@
 //! `S` saves `view.png`, `Esc`/`Q` quit. A frame is rendered only when something
 //! changed; the window title shows scene, algorithm, median GPU time and draws.
 //!
-//! The viewer is the second host of the embedding API (README "Embedding"; the
+//! The viewer is the second host of the embedding API (docs/embedding.md; the
 //! first is `examples/embed.rs`): a [`CsgScene`] made from the loaded scene
 //! records peeltrim's CSG into each swapchain frame, through
 //! [`peeltrim::vk::present::Presenter::present_recorded`], with

@@ -125,7 +125,7 @@ pub fn assert_scene(scene: &Scene, algo: Algo, cov: f64, prim: f64) -> Vec<u32> 
     iterations
 }
 
-/// The bars: interior coverage mismatches ≤ `cov`, interior primitive
+/// The bars: interior coverage mismatches ≤ `cov`, interior primitive
 /// mismatches ≤ `prim`, depth p99 within a few quanta.
 pub fn check_algo(algo: Algo, depths: &[DepthSetup], cov: f64, prim: f64) {
     let mut failures = Vec::new();
@@ -317,7 +317,7 @@ csg = { expr = "Room - Pillar" }
         .into_iter()
         .filter(|&a| a != Algo::Reference && a != Algo::BlisterPaper);
     for algo in algos {
-        // The issues' bars: Blister and CST 0.05%, Goldfeather 0.1%.
+        // The bars: Blister and CST 0.05%, Goldfeather 0.1%.
         let cov = match algo {
             Algo::Goldfeather
             | Algo::GoldfeatherLayered

@@ -1,5 +1,5 @@
-//! Blueprint edges of the GPU's first layer (seed 001 §5; issue 12): every GPU
-//! algorithm renders each shipped scene with the executor's normal buffer on; the
+//! Blueprint edges of the GPU's first layer (Kirsch, Nienhaus & Döllner §5): every
+//! GPU algorithm renders each shipped scene with the executor's normal buffer on; the
 //! edge rule on its depth and normals must find the reference's edges (≥ 99% of
 //! the reference's edge pixels within one pixel of ours, ≤ 1% of ours farther
 //! than one pixel from the reference's), and its normals must be the reference's
@@ -103,8 +103,8 @@ fn check_first_layer_edges(algo: Algo, assert_bars: bool) {
 }
 
 /// `blister-paper` is Blister exactly as its paper writes it, kept to measure
-/// the speckles it leaves (README): its figures are printed, not asserted (on
-/// `coincident` 97.1% matched, 1.9% stray at 128×128).
+/// the speckles it leaves (docs/algorithms.md): its figures are printed, not
+/// asserted (on `coincident` 97.1% matched, 1.9% stray at 128×128).
 #[test]
 fn first_layer_edges_match_the_reference_for_every_gpu_algorithm() {
     for algo in Algo::ALL {
@@ -115,7 +115,7 @@ fn first_layer_edges_match_the_reference_for_every_gpu_algorithm() {
 }
 
 /// The normal buffer is optional: a frame without it reads `None`, and turning it
-/// on leaves the contract's images unchanged.
+/// on leaves the output images unchanged.
 #[test]
 fn normal_buffer_leaves_the_images_unchanged() {
     let scene = load(&crate::setup::scenes_dir().join("gear.toml"));

@@ -1,5 +1,5 @@
 //! `render --style`, `--edge-depth`, `--edge-angle` and the layer directories'
-//! `normal.npy` / `edges.png` (seed 001 §5) as a user runs them.
+//! `normal.npy` / `edges.png` (Kirsch, Nienhaus & Döllner §5) as a user runs them.
 
 use super::layers_cli::{render, stats};
 use super::{assert_error, scene, stderr, tmp};

@@ -212,8 +212,8 @@ fn classic_too_many_products_fail_fast() {
     }
 }
 
-/// Seed 004 Fig. 7–8: a block minus many small spheres, which barely overlap on
-/// screen, so the layered form clips a few layers instead of n surfaces.
+/// Stewart, Leach & John Fig. 7–8: a block minus many small spheres, which barely
+/// overlap on screen, so the layered form clips a few layers instead of n surfaces.
 #[test]
 fn classic_block_minus_spheres_layered_is_kn() {
     use glam::DVec3;

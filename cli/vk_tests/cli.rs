@@ -184,7 +184,7 @@ fn random_expr(rng: &mut impl Rng, depth: u32, names: &[&str]) -> String {
     }
 }
 
-/// Walks the contract's Blist JSON for one point.
+/// Walks the `blist` JSON for one point.
 fn walk(json: &serde_json::Value, inside: &HashMap<String, bool>) -> bool {
     let entries = json["entries"].as_array().unwrap();
     let mut cur = entries[0]["label"].clone();

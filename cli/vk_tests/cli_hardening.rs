@@ -1,4 +1,4 @@
-//! Issue 15 from the user's side: messages for common mistakes, the memory
+//! Hardening from the user's side: messages for common mistakes, the memory
 //! budget refusing at once (with the estimate, the budget and the way out)
 //! instead of aborting, large expressions rendered or refused in bounded time,
 //! and the bench finishing (table and plots) without any installed font.
@@ -126,7 +126,7 @@ fn expr_scene(dir: &Path, name: &str, expr: &str) -> String {
     write(dir, name, &format!("{AB}[csg]\nexpr = \"{expr}\"\n"))
 }
 
-/// The issue's large expressions: CST refuses the quadratic ones at once, with the
+/// Large expressions: CST refuses the quadratic ones at once, with the
 /// way out; unions of repeated leaves render.
 #[test]
 fn large_expressions_render_or_are_refused_at_once() {

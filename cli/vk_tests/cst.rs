@@ -1,6 +1,7 @@
-//! CST-Z / CST-I / CST-G against the exact reference (seed 000 §5, §7): interior
-//! coverage and primitive-id mismatches must be (almost) zero — speckle-free — on
-//! scenes with coincident faces, flush cuts and touching primitives; validation on.
+//! CST-Z / CST-I / CST-G against the exact reference (Hable & Rossignac §5, §7):
+//! interior coverage and primitive-id mismatches must be (almost) zero — speckle-free
+//! — on scenes with coincident faces, flush cuts and touching primitives; validation
+//! on.
 
 use std::path::Path;
 
@@ -66,7 +67,7 @@ fn scenes() -> Vec<(&'static str, String)> {
         return vec![("debug", two(&e))];
     }
     vec![
-        // Figure 7 of seed 000 with overlapping boxes and spheres.
+        // Figure 7 of Hable & Rossignac with overlapping boxes and spheres.
         ("fig7", two("(A+B)(C-(D-E))")),
         // Coplanar top faces in a union (A and B), and a flush pocket cut (C - D).
         (

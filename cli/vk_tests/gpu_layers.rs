@@ -1,4 +1,4 @@
-//! Layers of the solid on the GPU (CST-Z/I/G, seed 000 §6) against the exact
+//! Layers of the solid on the GPU (CST-Z/I/G, Hable & Rossignac §6) against the exact
 //! reference, validation on: each of the first four layers' coverage, primitive
 //! and depth; the transparent composite's colour; highlight; the opaque image
 //! unchanged; other algorithms refused.
@@ -235,10 +235,10 @@ fn other_algorithms_refuse_layers() {
     }
 }
 
-/// The CST layers' edge maps (seed 001 §5 on seed 000 §6's layers, normals from
-/// the executor's normal buffer) against the reference's, same rule: ≥ 99% of
-/// the reference's edge pixels within 1 px of ours, ≤ 1% of ours farther, for
-/// layers 1–3; and a style composes from them.
+/// The CST layers' edge maps (Kirsch, Nienhaus & Döllner §5 on Hable & Rossignac §6's
+/// layers, normals from the executor's normal buffer) against the reference's, same
+/// rule: ≥ 99% of the reference's edge pixels within 1 px of ours, ≤ 1% of ours
+/// farther, for layers 1–3; and a style composes from them.
 #[test]
 fn cst_layer_edge_maps_match_the_reference() {
     use peeltrim_reference::{render_layers_read, LayerLimit, LayerReading};

@@ -1,4 +1,4 @@
-//! Indexed draws (`GpuScene`'s and `corners`'s docs, README "Indexed draws"):
+//! Indexed draws (`GpuScene`'s and `corners`'s docs, docs/executor.md):
 //! every mesh draw is indexed, from the mesh's shared corners where the program
 //! reads no interpolated output and from its lit corners (each triangle's own
 //! provoking vertex carries its face normal) where it does. The frame must be

@@ -1,6 +1,6 @@
-//! Kirsch's CSG depth peeling (seed 001 §4) on every shipped scene, validation on:
-//! its first layer is the opaque render (against the reference like every
-//! algorithm), its layers 1–4 match the reference's layers of the same reading
+//! Kirsch's CSG depth peeling (Kirsch, Nienhaus & Döllner §4) on every shipped scene,
+//! validation on: its first layer is the opaque render (against the reference like
+//! every algorithm), its layers 1–4 match the reference's layers of the same reading
 //! (products each on their own, §7a), and its transparent composite matches the
 //! reference's; its layers' edge maps (from the executor's normal buffer) match
 //! the reference's, and so does a style composed from them.
@@ -18,7 +18,7 @@ use peeltrim::scene::Scene;
 use crate::algorithms::{check_algo, load, shipped_scenes, SIZE};
 use crate::setup::options;
 
-/// The bar on the first layer: 0.05% interior mismatches.
+/// The bar on the first layer: 0.05% interior mismatches.
 #[test]
 fn kirsch_matches_reference_on_shipped_scenes() {
     check_algo(Algo::Kirsch, &DepthSetup::ALL, 0.0005, 0.0005);

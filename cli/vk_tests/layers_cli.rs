@@ -47,7 +47,7 @@ fn layers_out_writes_every_layer_and_layer_one_is_the_image() {
     assert_eq!(st["transparent"], false);
     assert!(!out.join("layers").join(format!("{:02}", n + 1)).exists());
 
-    // Opaque: the contract's files are the opaque image, and layer 1 is that image.
+    // Opaque: the output files are the opaque image, and layer 1 is that image.
     let main = images(&out);
     let first = images(&out.join("layers/01"));
     assert_eq!(first, main);

@@ -1,4 +1,4 @@
-//! Device limits (issue 15): frames the device cannot hold are refused before any
+//! Device limits: frames the device cannot hold are refused before any
 //! image is created, naming the device's figure and the way out.
 
 use super::{assert_clean, context};

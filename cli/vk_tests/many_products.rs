@@ -1,4 +1,4 @@
-//! Many products in one frame (issue 9 §4, per-product fixed costs): products
+//! Many products in one frame (per-product fixed costs): products
 //! apart on screen and products whose rectangles overlap (one sphere in front
 //! of another, a cutter reaching into a neighbour's rectangle). A product's
 //! depth-stencil-only draws (SCS's tie-free parity draws) share the block of

@@ -1,4 +1,4 @@
-//! One submission per layered frame (issue 9 §2): from a session's second frame
+//! One submission per layered frame: from a session's second frame
 //! on, the transparent composite on the GPU (`--alpha`, gear), the layers of an
 //! assembly with the opaque image (`--layers 4`), Kirsch's transparent layers
 //! and the interference view's layers are each one command buffer submitted

@@ -1,4 +1,4 @@
-//! Record once, replay (issue 9 §3): a moved camera replays the kept recording
+//! Record once, replay: a moved camera replays the kept recording
 //! (only the camera's uniform buffer changes) while every mesh stays inside the
 //! scissor it was recorded with, and the replayed images are the images of a
 //! frame recorded for that camera, bit for bit, and match the reference.
@@ -88,8 +88,8 @@ fn recording_sets_only_the_state_that_changes() {
     let mut gpu = renderer(&scene);
     gpu.execute(&plan).unwrap();
     let c = gpu.execute(&plan).unwrap().exec.counts;
-    // Every draw used to record 14 state commands and a push (see README,
-    // "Executor"); now far fewer per draw call.
+    // Every draw used to record 14 state commands and a push (docs/executor.md); now
+    // far fewer per draw call.
     let per_call = c.state_commands as f64 / (c.draw_calls + c.fullscreen_passes) as f64;
     eprintln!(
         "blister gear: {} state commands for {} draw calls and {} full-screen passes ({per_call:.2} per draw)",
@@ -99,7 +99,7 @@ fn recording_sets_only_the_state_that_changes() {
     assert!(gpu.validation_messages().is_empty());
 }
 
-/// A plan recorded anew (issue 9 §3: ≤ 1 µs per draw) draws what its first
+/// A plan recorded anew (≤ 1 µs per draw) draws what its first
 /// recording drew, pixel for pixel, with the same commands; lavapipe's
 /// recorded commands live in the command pool's arena (`vk::cmd_arena`), which
 /// a re-recording reuses without growing.

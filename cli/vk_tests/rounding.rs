@@ -6,7 +6,7 @@
 //! coarsest a conformant device may use. A fix that only holds with lavapipe's
 //! exact rounding fails here. Bars: depth within the specification's bound at 99%
 //! of interior pixels (`reference::precision`); interior coverage and primitive
-//! mismatches ≤ 0.05% (the issue's) at 8 bits. At 4 bits faces closer than
+//! mismatches ≤ 0.05% at 8 bits. At 4 bits faces closer than
 //! 1/8 pixel's worth of depth slope are ties by construction (`plan::tie`), so
 //! near-tangent crossings of two surfaces may take the lower index over a band
 //! wider than the one-pixel boundary margin: primitive mismatches ≤ 0.5% there.
@@ -21,7 +21,7 @@ use peeltrim::vk::RoundingEmulation;
 
 use crate::algorithms::{load, shipped_scenes};
 
-/// The bar on interior coverage and primitive mismatches.
+/// The bar on interior coverage and primitive mismatches.
 pub const BAR: f64 = 0.0005;
 
 /// Renders `scene` with `algo` on `depth`, rounding emulated if asked; `None` when

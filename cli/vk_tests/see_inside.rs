@@ -1,5 +1,5 @@
-//! Transparency and interference on the GPU (issue 11, seed 000 §6), validation
-//! on: the GPU composite (each peeled layer blended into the accumulation
+//! Transparency and interference on the GPU (Hable & Rossignac §6),
+//! validation on: the GPU composite (each peeled layer blended into the accumulation
 //! target as it is peeled) against the CPU blend of the same layers and the
 //! exact reference, with per-primitive opacities; and interference combined
 //! with opacities and `--layers` on an assembly made for this test.

@@ -1,7 +1,7 @@
 //! Where the GPU tests run: the device (`PEELTRIM_TEST_DEVICE=cpu|auto|gpu`,
 //! default `cpu`, i.e. lavapipe) and the scenes (`PEELTRIM_TEST_SCENES`, default
 //! the crate's `scenes/`), so that the same test binary runs on a hardware GPU
-//! (`shared/gpu/README.md`). On lavapipe the depth bars are the strict figures
+//! (`tools/gpu-run.sh`). On lavapipe the depth bars are the strict figures
 //! measured there; elsewhere they are the specification's (`precision`).
 
 use std::path::PathBuf;
@@ -67,7 +67,7 @@ pub fn depth_passes(
                 <= 1.0)
 }
 
-/// A layer's edge map against the reference's (the bar: at least 99% of
+/// A layer's edge map against the reference's (the bar: at least 99% of
 /// the reference's edge pixels matched within a pixel, at most 1% of ours
 /// stray); `label` names the algorithm and scene, `layer` is 0-based.
 pub fn assert_layer_edges(

@@ -1,7 +1,7 @@
 //! Shadows of a `[light]` on the GPU (the solid's depth from the light, then the
 //! shadow pass over the eye's frame, all on the GPU) against the reference's
 //! exact shadow rays: the lit/shadowed classification agrees at ≥ 99.5% of
-//! interior pixels (issue 11), on the made-for-it scene, with a point light, a
+//! interior pixels, on the made-for-it scene, with a point light, a
 //! grazing light, and on shipped scenes given a light; lit pixels keep the
 //! opaque colour exactly and shadowed ones are the CPU's `SHADOW_KEEP` of it;
 //! validation clean.
@@ -16,7 +16,7 @@ use peeltrim::scene::{self, LoadOptions, Scene};
 use crate::setup::options;
 
 const SIZE: (u32, u32) = (160, 160);
-/// The issue's bar.
+/// The bar: agreement with the reference.
 const AGREE: f64 = 0.995;
 
 fn load(name: &str) -> Scene {

@@ -1,10 +1,10 @@
-//! The numerical-stability suite (issue 10): scenes that stress depth precision
+//! The numerical-stability suite: scenes that stress depth precision
 //! and ties, each rendered by every GPU algorithm on the default depth set-up
 //! (D32 float, reversed Z) at 96×96 and compared with the exact reference.
 //! Bars: interior coverage and primitive mismatches ≤ 0.05%, interior depth p99 ≤
 //! 1e-5 relative to the view depth. A sum-of-products algorithm may refuse a
-//! scene with its error (reported, not failed). The printed table is README's
-//! "Numerical stability".
+//! scene with its error (reported, not failed). The printed table is in
+//! docs/precision.md (numerical stability).
 
 use std::path::Path;
 
@@ -16,10 +16,10 @@ use peeltrim::vk::RoundingEmulation;
 use crate::rounding::{run, BAR};
 
 const SIZE: u32 = 96;
-/// The issue's bar on interior depth p99, relative to the view depth.
+/// The bar on interior depth p99, relative to the view depth.
 const DEPTH_REL: f64 = 1e-5;
 
-/// The GPU algorithms of the contract (not the reference, not blister-paper,
+/// The GPU algorithms (not the reference, not blister-paper,
 /// whose speckles are its point).
 fn algos() -> impl Iterator<Item = Algo> {
     Algo::ALL
@@ -167,8 +167,8 @@ fn stability_suite() {
     suite(None);
 }
 
-/// The same with depth interpolated from vertices snapped to 2⁻⁸ pixel, as the
-/// NVIDIA H200 of `shared/gpu/` does (lavapipe reports 8 bits but interpolates
+/// The same with depth interpolated from vertices snapped to 2⁻⁸ pixel, as an
+/// NVIDIA H200 does (lavapipe reports 8 bits but interpolates
 /// from the unsnapped floats).
 #[test]
 fn stability_suite_with_eight_bit_snapping() {

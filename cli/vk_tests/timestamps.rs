@@ -1,9 +1,9 @@
-//! Where a frame's closing timestamp goes (`FrameTimestamps`, README "Executor
-//! fixed costs"): inside the last block (the CPU devices' default, one scene
-//! fewer for lavapipe) or after every command. Both must give the same images
-//! and counts but the timestamps written inside a block, and a GPU time that
-//! is a positive part of the wall time from submission to completion, frame
-//! after frame: loop by loop, recorded and replayed. Validation on.
+//! Where a frame's closing timestamp goes (`FrameTimestamps`, docs/executor.md):
+//! inside the last block (the CPU devices' default, one scene fewer for lavapipe) or
+//! after every command. Both must give the same images and counts but the timestamps
+//! written inside a block, and a GPU time that is a positive part of the wall time
+//! from submission to completion, frame after frame: loop by loop, recorded and
+//! replayed. Validation on.
 
 use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::vk::{Executor, FrameTimestamps, Recorded};

@@ -1,4 +1,4 @@
-//! `peeltrim view` as the second embedding host (README "Embedding"), in a
+//! `peeltrim view` as the second embedding host (docs/embedding.md), in a
 //! virtual X server (`xvfb-run`, installed by tools/setup.sh): every frame
 //! records the CSG into a swapchain image through `Embedder::record`, two frames
 //! in flight, orbiting between frames (the camera moves without an upload), with

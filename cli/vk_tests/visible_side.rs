@@ -4,9 +4,8 @@
 //! unculled shade and match the reference, culling the other side instead
 //! loses the surface, a mirrored primitive culls alike; a tie-rule draw keeps
 //! both sides where its mesh can win a tie on its hidden faces (a positive
-//! primitive's back face on the visible face, its lower index winning:
-//! CONTRACT §4), and culls where only lower indices tie with it, changing no
-//! pixel.
+//! primitive's back face on the visible face, its lower index winning), and
+//! culls where only lower indices tie with it, changing no pixel.
 
 use peeltrim_cli::output::Images;
 use peeltrim::plan::{self, Algo, Cull, Fragment, Plan, Prepared, Step};
@@ -164,7 +163,7 @@ expr = "block - hole"
 fn tie_rule_draws_keep_the_back_face_that_wins_a_tie() {
     // A's back face (z = 1) lies on B's front face; C removes all of A and
     // ends there too. The visible point is B's face, and A, the lowest index
-    // with a face there, is its primitive (CONTRACT §4) although A is only
+    // with a face there, is its primitive (the tie rule) although A is only
     // ever positive: its shade must not cull its back faces.
     let scene = load_text(
         r##"

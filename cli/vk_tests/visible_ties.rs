@@ -63,7 +63,7 @@ fn all_depth_equal(plan: &Plan) -> Plan {
 #[test]
 fn a_visible_contact_keeps_the_tie_rule() {
     // Bottom - Top: Bottom's top face under Top is visible, and Top, the lower
-    // index with a face there, is its primitive (CONTRACT §4).
+    // index with a face there, is its primitive (the tie rule).
     let scene = stacked("Bottom - Top");
     let prep = Prepared::new(&scene).expect("prepared");
     let reference = peeltrim_reference::render(&scene, SIZE.0, SIZE.1);

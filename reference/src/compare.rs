@@ -1,4 +1,4 @@
-//! The metrics of `compare` (CONTRACT §4): coverage and primitive-id mismatches and
+//! The metrics of `compare` (docs/cli.md): coverage and primitive-id mismatches and
 //! depth errors between two renders of the same scene, plus `*_interior` variants
 //! that ignore pixels within one pixel (8-neighbourhood) of a coverage or
 //! primitive-id boundary of the first image, where a half-pixel difference in

@@ -1,9 +1,9 @@
-//! Comparing two edge maps of the same layer (seed 001 §5; issue 12's "blueprint
-//! edges" criterion): the fraction of the reference's edge pixels that lie within
-//! one pixel of an edge pixel of ours (recall), and the fraction of ours that lie
-//! farther than one pixel from every edge pixel of the reference (strays). "Within
-//! one pixel" is the 8-neighbourhood (Chebyshev distance ≤ 1), since rasterizers
-//! may legitimately place a boundary half a pixel off.
+//! Comparing two edge maps of the same layer (Kirsch, Nienhaus & Döllner §5; the
+//! "blueprint edges" criterion): the fraction of the reference's edge pixels
+//! that lie within one pixel of an edge pixel of ours (recall), and the fraction of
+//! ours that lie farther than one pixel from every edge pixel of the reference
+//! (strays). "Within one pixel" is the 8-neighbourhood (Chebyshev distance ≤ 1),
+//! since rasterizers may legitimately place a boundary half a pixel off.
 #![deny(unsafe_code)]
 
 use serde::Serialize;

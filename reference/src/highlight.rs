@@ -1,6 +1,6 @@
-//! Highlighted primitives (seed 000 Fig. 1b, §6): the trimmed faces of chosen
-//! primitives — the part of their boundary that is the solid's boundary, i.e. the
-//! layers whose primitive they are — drawn in a highlight colour: opaque where
+//! Highlighted primitives (Hable & Rossignac Fig. 1b, §6): the trimmed faces of
+//! chosen primitives — the part of their boundary that is the solid's boundary, i.e.
+//! the layers whose primitive they are — drawn in a highlight colour: opaque where
 //! such a face is the visible layer, as a see-through ghost over the image where
 //! it is hidden behind other faces.
 #![deny(unsafe_code)]

@@ -1,6 +1,6 @@
-//! Interference of an assembly's solids, exactly (seed 000 §6; the GPU computes
-//! it as `(A−B')+(B−A')`): along each pixel's line, the nearest point where the
-//! line enters the intersection of two solids is drawn opaque in the
+//! Interference of an assembly's solids, exactly (Hable & Rossignac §6; the GPU
+//! computes it as `(A−B')+(B−A')`): along each pixel's line, the nearest point where
+//! the line enters the intersection of two solids is drawn opaque in the
 //! interference colour, the solids' layers in front of it semi-transparent; and
 //! per pair of solids, the pixels whose line meets their intersection.
 #![deny(unsafe_code)]

@@ -1,5 +1,5 @@
-//! The reference's layers of the solid and their transparent composite (seed 000
-//! §5–§6; the oracle for the GPU's depth-peeled layers).
+//! The reference's layers of the solid and their transparent composite
+//! (Hable & Rossignac §5–§6; the oracle for the GPU's depth-peeled layers).
 //!
 //! Layer k of a pixel is the k-th point, front to back, where its line crosses the
 //! boundary of the regularized solid, each point once: the crossings of the line
@@ -8,7 +8,7 @@
 //! solid exactly when it changes the solid's classification. So faces inside the
 //! solid, coincident faces and zero-thickness sheets give no layer (the overlap
 //! rule), and a point where several primitives' faces coincide is one layer whose
-//! primitive is the lowest-index one among those the solid names (CONTRACT §4).
+//! primitive is the lowest-index one among those the solid names.
 //!
 //! An assembly's layers are those of the union of its solids' boundaries, each
 //! solid's boundary counted on its own: two solids touching at a face give two
@@ -46,7 +46,7 @@ pub struct LayerHit {
     /// The crossed face's unit normal in view space (x right, y up, z towards
     /// the viewer: the camera looks down −z), oriented as seen: turned towards
     /// the eye (`dot(normal, ray) ≤ 0`), whichever side of the solid it bounds.
-    /// Seed 001 §5.2's normal buffer.
+    /// Kirsch, Nienhaus & Döllner §5.2's normal buffer.
     pub normal: [f64; 3],
 }
 
@@ -110,11 +110,11 @@ impl<'a> Layers<'a> {
         }
     }
 
-    /// The products reading (seed 001 §7a): `products` is `original` with one solid
-    /// per product, product `i` from solid `origin[i]`. A crossing's primitive is
-    /// the lowest index crossing there that its original solid names (the GPU's
-    /// depth-equal shading), and coincident crossings of several products are one
-    /// layer.
+    /// The products reading (Kirsch, Nienhaus & Döllner §7a): `products` is
+    /// `original` with one solid per product, product `i` from solid `origin[i]`. A
+    /// crossing's primitive is the lowest index crossing there that its original
+    /// solid names (the GPU's depth-equal shading), and coincident crossings of
+    /// several products are one layer.
     pub fn for_products(products: &'a Scene, original: &Scene, origin: &[u32]) -> Layers<'a> {
         let mut l = Layers::new(products);
         let named_by_solid = named(original);
@@ -271,7 +271,7 @@ fn named(scene: &Scene) -> Vec<Vec<bool>> {
         .collect()
 }
 
-/// The colour of a crossing: the contract's shading of its primitive's colour.
+/// The colour of a crossing: the standard shading of its primitive's colour.
 pub fn layer_color(scene: &Scene, hit: &LayerHit) -> [u8; 4] {
     shade(scene.primitives[hit.prim as usize].color, hit.cos)
 }
@@ -337,8 +337,9 @@ pub fn render_layers(scene: &Scene, width: u32, height: u32, limit: LayerLimit) 
     stack(scene, hits, width, height, limit)
 }
 
-/// [`render_layers`] in either reading of a union of products (seed 001 §7); the
-/// products reading fails when the sum of products exceeds `product_limit`.
+/// [`render_layers`] in either reading of a union of products (Kirsch,
+/// Nienhaus & Döllner §7); the products reading fails when the sum of products
+/// exceeds `product_limit`.
 pub fn render_layers_read(
     scene: &Scene,
     width: u32,

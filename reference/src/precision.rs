@@ -1,6 +1,6 @@
 //! What the Vulkan specification lets a conformant device's depth output differ
 //! from the exact reference, per pixel — the tolerance of GPU tests that must hold
-//! on any device (README "Precision and ties"; `plan::tie` for the tie rule).
+//! on any device (docs/precision.md; `plan::tie` for the tie rule).
 //!
 //! At a pixel of view depth `d` whose surface changes view depth by `s =
 //! |∂d/∂x| + |∂d/∂y|` per pixel, the allowed error is the sum of:

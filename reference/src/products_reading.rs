@@ -1,8 +1,9 @@
-//! The two readings of a union of CSG products (seed 001 §7, Fig. 7): the solid as
-//! one volume (§7b, [`LayerReading::Solid`], the reference's default), or each
-//! product of its sum-of-products form on its own (§7a, [`LayerReading::Products`],
-//! what Kirsch's depth peeling renders): a pixel's layers are then every crossing
-//! of every product's boundary, so a product inside another one shows through.
+//! The two readings of a union of CSG products (Kirsch, Nienhaus & Döllner §7,
+//! Fig. 7): the solid as one volume (§7b, [`LayerReading::Solid`], the reference's
+//! default), or each product of its sum-of-products form on its own (§7a,
+//! [`LayerReading::Products`], what Kirsch's depth peeling renders): a pixel's layers
+//! are then every crossing of every product's boundary, so a product inside another
+//! one shows through.
 //!
 //! The §7a reading is the §7b one applied to a scene whose solids are the products:
 //! each solid of the scene is expanded into its sum of products (with the same
@@ -14,7 +15,7 @@ use peeltrim::csg::products::{sum_of_products, ProductError};
 use peeltrim::csg::{Expr, Node, PositiveExpr};
 use peeltrim::scene::{Scene, Solid};
 
-/// How the layers of a union of products are counted (seed 001 §7).
+/// How the layers of a union of products are counted (Kirsch, Nienhaus & Döllner §7).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum LayerReading {
     /// The union as one volume: crossings of each solid's boundary (Fig. 7b).

@@ -1,6 +1,6 @@
 //! The exact reference renderer: one `f64` line per pixel centre, all crossings with
 //! every primitive an expression names, and the regularized classification of the
-//! open intervals between them (seed 003 §2–4, seed 000 §1).
+//! open intervals between them (Rossignac & Wu §2–4, Hable & Rossignac §1).
 //!
 //! Per pixel:
 //! 1. all crossings of the whole line with each needed primitive ([`peeltrim::geom::bvh`]);
@@ -17,8 +17,8 @@
 //!    whose start has a view depth within `[near, far]` (what lies outside is clipped,
 //!    like on the GPU: an interval starting before `near` shows nothing at `near`);
 //! 4. its primitive is the lowest-index primitive (among those a solid names) with a
-//!    crossing in that event group (CONTRACT §4: lowest index wins on coincident faces, within `tol`), its normal
-//!    that crossing's triangle's geometric normal;
+//!    crossing in that event group (lowest index wins on coincident faces, within
+//!    `tol`), its normal that crossing's triangle's geometric normal;
 //! 5. surfaces: the nearest crossing (within `[near, far]`) of each surface mesh whose
 //!    point is in the trim volume (`keep = In`), outside it (`Out`), or any crossing
 //!    (`Paint`, drawn in `paint_color` where in the volume). The point is classified

@@ -1,6 +1,6 @@
-//! Shadows, exactly: one `f64` shadow ray per visible point (seed 003's shadows,
-//! with rays instead of a shadow buffer). A pixel's visible point `P` is in shadow
-//! when the line from the light through `P` first enters the solid (or meets a
+//! Shadows, exactly: one `f64` shadow ray per visible point (Rossignac & Wu's
+//! shadows, with rays instead of a shadow buffer). A pixel's visible point `P` is in
+//! shadow when the line from the light through `P` first enters the solid (or meets a
 //! kept surface) before reaching `P`, by more than the grouping tolerance. The line
 //! is cast by the same regularized caster as the eye's pixels, through `P`'s exact
 //! (sub-pixel) place in the light's view, so the GPU's shadow map and these rays

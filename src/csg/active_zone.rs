@@ -1,9 +1,10 @@
-//! Active zones (seed 000 §5, after Rossignac & Voelcker): the region of space where
-//! a leaf's boundary is on the solid's boundary. For leaf A, walk the path from the
-//! root: the *i-nodes* are the siblings of the path under intersections, the
-//! *u-nodes* the siblings under unions. The Z form is `∩ i-nodes ∩ ∩ !u-nodes` (what
-//! CST-Z trims A against); the I form keeps the i-nodes only (CST-I, cheaper, exact
-//! for the visible layer when peeling in depth order).
+//! Active zones (Hable & Rossignac §5, after Rossignac & Voelcker): the region of
+//! space where a leaf's boundary is on the solid's boundary. For leaf A, walk the
+//! path from the root: the *i-nodes* are the siblings of the path under
+//! intersections, the *u-nodes* the siblings under unions. The Z form is
+//! `∩ i-nodes ∩ ∩ !u-nodes` (what CST-Z trims A against); the I form keeps the
+//! i-nodes only (CST-I, cheaper, exact for the visible layer when peeling in depth
+//! order).
 //!
 //! Zones are built per leaf on demand by copying the sibling subtrees, so scenes
 //! that never ask for zones pay nothing, and the whole-scene cost is the sum of

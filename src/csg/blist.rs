@@ -2,20 +2,20 @@
 //! integer label and the labels to go to when its literal is true or false, so that
 //! a point is classified by one left-to-right walk and a few stencil bits.
 //!
-//! Follows Hable & Rossignac (seed 000) §3: the `lml` pass (each node learns the
+//! Follows Hable & Rossignac §3: the `lml` pass (each node learns the
 //! left-most leaf of its right child, stored as its `f` for a union and its `t` for
 //! an intersection) and the `mb` pass (push `pt`/`pf` down, replacing them by the
-//! node's values when going left), which are Hilbrich's next/match/flip (seed 002
+//! node's values when going left), which are Hilbrich's next/match/flip (her
 //! §5.3.2). Labels are integers allocated when a leaf is first referenced (the
-//! smallest free one) and freed when its entry is reached (seed 002 §5.3.3, seed 000
-//! Fig. 11). Both passes here are iterative.
+//! smallest free one) and freed when its entry is reached (Hilbrich §5.3.3,
+//! Hable & Rossignac Fig. 11). Both passes here are iterative.
 //!
-//! **Pivoting** (seed 000 §3, "left-heavy"): unions and intersections may swap their
-//! operands. We choose, per node, the order that minimises the number of labels the
-//! subtree needs, by an exact bottom-up dynamic programme (a Sethi–Ullman/Strahler
-//! number refined by which of the node's two exits is already holding a label when
-//! the walk enters it), then apply the choices top-down. See `label_need` for the
-//! recurrence.
+//! **Pivoting** (Hable & Rossignac §3, "left-heavy"): unions and intersections may
+//! swap their operands. We choose, per node, the order that minimises the number of
+//! labels the subtree needs, by an exact bottom-up dynamic programme (a
+//! Sethi–Ullman/Strahler number refined by which of the node's two exits is already
+//! holding a label when the walk enters it), then apply the choices top-down. See
+//! `label_need` for the recurrence.
 
 use super::positive::{Literal, PNode, PositiveExpr};
 use super::LeafId;
@@ -138,7 +138,7 @@ impl Blist {
         self.label_bits() + 1
     }
 
-    /// Classifies a point by the contract's walk. `inside(entry)` says whether the
+    /// Classifies a point by the Blist walk. `inside(entry)` says whether the
     /// point is inside `entry.prim`; the complement is applied here.
     pub fn eval(&self, mut inside: impl FnMut(&BlistEntry) -> bool) -> bool {
         walk(
@@ -149,7 +149,7 @@ impl Blist {
         )
     }
 
-    /// The contract's `blist` JSON (CONTRACT.md §4): `leaves`, `labels`,
+    /// The JSON of `peeltrim blist` (docs/cli.md): `leaves`, `labels`,
     /// `stencil_bits`, `entries` with exits written `"T"` / `"F"`.
     pub fn to_json(&self, prim_names: &[String]) -> serde_json::Value {
         let target = |t: Target| match t {

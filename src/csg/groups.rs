@@ -1,7 +1,7 @@
-//! Grouped Blist for CST-G (seed 000 §7, last part): maximal sets of leaves that are
-//! operands of the same chain of one operator (e.g. `A+B+C+D` nested any way) form a
-//! *group* that the GPU classifies at once with a stencil counter, instead of one
-//! Blist entry (and two full-screen stencil passes) per leaf.
+//! Grouped Blist for CST-G (Hable & Rossignac §7, last part): maximal sets of leaves
+//! that are operands of the same chain of one operator (e.g. `A+B+C+D` nested any
+//! way) form a *group* that the GPU classifies at once with a stencil counter,
+//! instead of one Blist entry (and two full-screen stencil passes) per leaf.
 //!
 //! An intersection-group G with `c_p` positive and `c_n` negative literals: start
 //! the counter at `c0`, count +1 for each positive primitive containing X and -1 for

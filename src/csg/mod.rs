@@ -1,9 +1,9 @@
 //! Boolean algebra of CSG expressions, with no notion of pixels.
 //!
-//! Follows Hable & Rossignac, *CST* (seed 000) §3 (Blist, labels, pivoting) and §5
-//! (active zones), Hilbrich's Blister notes (seed 002) §5.3, and Stewart et al.
-//! (seed 004) §3.2 (sum of products). Trees are stored in arenas and every pass is
-//! iterative, so 10⁵-deep nesting and 10⁶ leaves cannot overflow the stack.
+//! Follows Hable & Rossignac, *CST* §3 (Blist, labels, pivoting) and §5
+//! (active zones), Hilbrich's Blister notes §5.3, and Stewart, Leach & John §3.2
+//! (sum of products). Trees are stored in arenas and every pass is iterative, so
+//! 10⁵-deep nesting and 10⁶ leaves cannot overflow the stack.
 #![deny(unsafe_code)]
 
 pub mod active_zone;

@@ -1,8 +1,8 @@
 //! OpenSCAD's normalization of a CSG tree into a union of products, so that the
 //! OpenCSG baseline (`peeltrim bench --baseline opencsg`) is driven exactly as
-//! OpenSCAD's preview drives it (seed 004 §3.2 describes the same expansion;
-//! the rules are Goldfeather et al.'s, *Near real-time CSG rendering using tree
-//! normalization and geometric pruning*, 1989).
+//! OpenSCAD's preview drives it (Stewart, Leach & John §3.2 describes the same
+//! expansion; the rules are Goldfeather et al.'s, *Near real-time CSG rendering using
+//! tree normalization and geometric pruning*, 1989).
 //!
 //! Unlike [`super::products::sum_of_products`] (bottom-up over the positive form,
 //! deduplicating literals), this keeps OpenSCAD's shape of the work:

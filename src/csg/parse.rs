@@ -1,4 +1,4 @@
-//! Parser for the `[csg] expr` grammar of CONTRACT.md §1:
+//! Parser for the `[csg] expr` grammar (docs/scene-format.md):
 //!
 //! ```text
 //! expr   := term (('+' | '-') term)*     left-associative

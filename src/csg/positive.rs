@@ -1,4 +1,5 @@
-//! The positive form of a CSG expression (seed 000 §3, first paragraph; Fig. 4).
+//! The positive form of a CSG expression (Hable & Rossignac §3, first paragraph;
+//! Fig. 4).
 //!
 //! Differences `L - R` become `L * !R` and complements are pushed to the leaves with
 //! de Morgan's laws, so that only unions, intersections and possibly complemented

@@ -1,4 +1,4 @@
-//! Sum of products (Stewart et al., seed 004 §3.2): the positive form expanded into
+//! Sum of products (Stewart, Leach & John, §3.2): the positive form expanded into
 //! a union of intersections of literals, as Goldfeather-style algorithms render it.
 //!
 //! Expansion is bottom-up over the arena (no recursion). Products are pruned while

@@ -198,7 +198,7 @@ fn blist_walk_equals_tree() {
 
 #[test]
 fn paper_examples() {
-    // Seed 000 Fig. 10/11: (A+B)(C-(!D-E)).
+    // Hable & Rossignac Fig. 10/11: (A+B)(C-(!D-E)).
     let names = [
         "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N",
     ];
@@ -206,7 +206,8 @@ fn paper_examples() {
     let e = parse("(A+B)(C-(!D-E))", &mut resolve).unwrap();
     let b = Blist::new(&PositiveExpr::from_expr(&e));
     assert!(b.num_labels <= 3, "{b:?}");
-    // Seed 000 Fig. 12 claims 4 labels for (AB+CD)E+(FG+HI)J with its strategy.
+    // Hable & Rossignac Fig. 12 claims 4 labels for (AB+CD)E+(FG+HI)J with its
+    // strategy.
     let e = parse("(A B+C D)E+(F G+H I)J", &mut resolve).unwrap();
     let b = Blist::new(&PositiveExpr::from_expr(&e));
     assert!(b.num_labels <= 4, "{}", b.num_labels);
@@ -348,10 +349,10 @@ fn label_bound_million() {
     }
 }
 
-/// Seed 000 §5: a point on leaf L's boundary is on the solid's boundary iff it is in
-/// L's active zone; in Boolean terms, toggling L's value changes the expression's
-/// value exactly when Z(L) holds. The I form must contain Z, and both Blists must
-/// agree with their trees.
+/// Hable & Rossignac §5: a point on leaf L's boundary is on the solid's boundary iff
+/// it is in L's active zone; in Boolean terms, toggling L's value changes the
+/// expression's value exactly when Z(L) holds. The I form must contain Z, and both
+/// Blists must agree with their trees.
 #[test]
 fn active_zone_property() {
     use active_zone::ActiveZones;

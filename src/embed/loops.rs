@@ -8,7 +8,7 @@
 //! (front faces where the head culls back faces, back faces where it culls front
 //! faces). A loop needs one head per layer plus the empty one, so the guess is
 //! the largest count on any ray, plus one. Rays between the grid's can see more
-//! layers: the ring then doubles the count (README "Embedding", loop counts).
+//! layers: the ring then doubles the count (docs/embedding.md, loop counts).
 
 use crate::geom::bvh::{Line, SceneBvh};
 use crate::plan::{Cull, Loop, Plan, Step};

@@ -5,7 +5,7 @@
 //! give, and keeps the plan current as the camera or a transform changes.
 //!
 //! The algorithms are those of the seed papers (see `plan`); the GPU side is the
-//! executor of the performance work (README "Executor", "Embedding").
+//! executor of the performance work (docs/executor.md, docs/embedding.md).
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -40,8 +40,8 @@ pub struct MeshInput<'a> {
 /// The expression combining the meshes.
 #[derive(Clone, Debug)]
 pub enum CsgExpr<'a> {
-    /// Our expression syntax (CONTRACT.md §2) over the names `m0`, `m1`, … (mesh
-    /// `i` of the input slice is `m{i}`), e.g. `"(m0 - m1) * m2"`.
+    /// Our expression syntax (docs/scene-format.md) over the names `m0`, `m1`, …
+    /// (mesh `i` of the input slice is `m{i}`), e.g. `"(m0 - m1) * m2"`.
     Text(&'a str),
     /// Built in code; leaf `prim` indexes the input slice.
     Built(Expr),

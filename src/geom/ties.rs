@@ -1,6 +1,6 @@
 //! Which meshes could meet the tie rule at all: the camera-independent half of
-//! the fixed-function fast path (README "Per-fragment work"; the rule itself is
-//! `plan::tie`, CONTRACT §4).
+//! the fixed-function fast path (docs/executor.md; the rule itself is
+//! `plan::tie`: the lowest index wins).
 //!
 //! The tolerant parity and peel shaders differ from a plain depth test only
 //! where a face of the drawn mesh lies within the tie band of the face recorded
@@ -48,7 +48,7 @@
 //! ways ([`TieZone::opposite`]) and lie within the cap of each other (a few
 //! per pair), with the smallest of their gaps; a camera grows it by its band
 //! ([`TieZone::within`]) and projects it (`plan::tie_zones`: the tie rule only
-//! there, issue 9 §5). Which zones can hold a visible point of the solid is
+//! there). Which zones can hold a visible point of the solid is
 //! the plan's question (`plan::visible_ties`).
 #![deny(unsafe_code)]
 

@@ -1,4 +1,4 @@
-//! Blister (Hable & Rossignac; seed 000 §2–3, seed 002 §5 and appendix B):
+//! Blister (Hable & Rossignac §2–3, Hilbrich §5 and appendix B):
 //! peel the union of all primitives' faces front to back; classify each layer's
 //! candidate points against the Blist of the whole expression with a parity bit
 //! and the label bits; lock the pixels whose candidate is in the solid; stop when
@@ -14,9 +14,9 @@
 //! point-just-behind is in the solid is where the ray enters it. The paper counts
 //! with the depth test (`LessOrEqual`), so a candidate lying on another
 //! primitive's face is decided by rounding — Blister's speckles and cracks on
-//! coincident faces (seed 000 Fig. 2). Here a face counts when it lies within
-//! [`SHADE_EPS`] behind the candidate too (the peel's exact candidate depth is in
-//! a texture), so coincident faces are all passed and the solid stays
+//! coincident faces (Hable & Rossignac Fig. 2). Here a face counts when it lies
+//! within [`SHADE_EPS`] behind the candidate too (the peel's exact candidate depth is
+//! in a texture), so coincident faces are all passed and the solid stays
 //! regularized; features thinner than that tolerance are lost instead.
 #![deny(unsafe_code)]
 
@@ -40,7 +40,8 @@ pub enum Parity {
     Tolerant,
     /// The paper as written: the depth test `LessOrEqual` against the candidate's
     /// quantized depth, colour and id from the peel — coincident faces are decided
-    /// by rounding, which shows as speckles (seed 000 Fig. 2): `--algo blister-paper`.
+    /// by rounding, which shows as speckles (Hable & Rossignac Fig. 2):
+    /// `--algo blister-paper`.
     DepthTest,
 }
 

@@ -1,10 +1,10 @@
-//! Memory and work of a plan, estimated before it is built (issue 15): CST trims
+//! Memory and work of a plan, estimated before it is built: CST trims
 //! every leaf against its active zone, so its size is the sum of the zone sizes —
 //! quadratic in the leaves for long intersection chains such as `A B A B …` or a
 //! deep `A - (A - (… - B))`. The sum is known in O(n) from
-//! [`ActiveZones::i_size`]/[`ActiveZones::z_size`] (seed 000 §5), so such scenes
-//! are refused at once with the estimate, the limit and the way out, instead of
-//! exhausting memory minutes later. The other algorithms are linear in the leaves
+//! [`ActiveZones::i_size`]/[`ActiveZones::z_size`] (Hable & Rossignac §5), so such
+//! scenes are refused at once with the estimate, the limit and the way out, instead
+//! of exhausting memory minutes later. The other algorithms are linear in the leaves
 //! (Blister) or bounded by `--max-products` (Goldfeather, Trickle).
 
 use super::cst::{disjoint, Variant};

@@ -1,8 +1,8 @@
 //! Pieces shared by the plan builders: a Blist target as a stencil label and
 //! the full-screen sweep that rewrites stencil values (ChangeStencilState) of
-//! the Blist-based ones (Blister, seed 002 §5, and CST, seed 000 §4); a plan's
-//! first steps; the layer-peeling loop of the peeling ones (Blister,
-//! Goldfeather's layered variant, seed 003 §4).
+//! the Blist-based ones (Blister, Hilbrich §5, and CST, Hable & Rossignac §4); a
+//! plan's first steps; the layer-peeling loop of the peeling ones (Blister,
+//! Goldfeather's layered variant, Stewart, Leach & John §4).
 #![deny(unsafe_code)]
 
 use super::stencil::Next;
@@ -74,7 +74,7 @@ pub(crate) fn sweep(ds: Ds, scissor: Scissor, stencil: StencilState) -> Step {
 
 /// Counts (occlusion query) the pixels of depth-stencil `ds` whose stored depth
 /// is nearer than the far plane: where a layer is (the layer peelers' stop
-/// test, seed 000 §6 and seed 001 §6). Changes no image.
+/// test, Hable & Rossignac §6 and Kirsch, Nienhaus & Döllner §6). Changes no image.
 pub(crate) fn count_covered(ds: Ds, scissor: Scissor) -> Step {
     Step::Draw(Draw {
         geometry: Geometry::FullScreen { depth: 1.0 },

@@ -1,6 +1,6 @@
 //! Convexity of a closed mesh, tolerant of the f32 rounding of its input.
 //!
-//! CST (seed 002 §4, "convex leaves") and layered Goldfeather stop peeling a
+//! CST (Hable & Rossignac §4, convex leaves) and layered Goldfeather stop peeling a
 //! primitive known to be convex after one or two layers, so a false "convex" is
 //! a wrong image while a false "not convex" only costs layers. Meshes of scene
 //! files are tessellated in f64, but an embedding host hands its meshes over as

@@ -1,4 +1,4 @@
-//! Constructive Solid Trimming (Hable & Rossignac, seed 000 §4–5, §7): CSG rendered
+//! Constructive Solid Trimming (Hable & Rossignac, §4–5, §7): CSG rendered
 //! as the union of CST(P, Z(P)) over the leaves P, where Z(P) is P's active zone.
 //!
 //! [`cst`] is CST(S, V) for one surface: peel S layer by layer at unlocked pixels,
@@ -11,7 +11,7 @@
 //! [`Fragment::DepthAtDepth`], since the final depth-equal shading colours every
 //! pixel they win).
 //!
-//! Variants (seed 000 §7, §8):
+//! Variants (Hable & Rossignac §7, §8):
 //! - `cst-z`: trim against the Z form (i-nodes and complemented u-nodes);
 //! - `cst-i`: trim against the i-nodes only (optimization 2);
 //! - `cst-g`: as `cst-i`, with same-operator leaves grouped and classified by a
@@ -26,7 +26,7 @@
 //! `[label | parity]`), depth-stencil 1 is *FinalColorDepth*; texture 0 is
 //! *PrevDepth* (*Front*), texture 1 the layer the peel records (exact `f32` depths).
 //!
-//! **Overlaps** (seed 000 §5). Coincident faces are decided by a symbolic
+//! **Overlaps** (Hable & Rossignac §5). Coincident faces are decided by a symbolic
 //! perturbation chosen per parity draw through its depth compare: a face of Q at the
 //! candidate's depth counts as "in front" (`LessOrEqual`) or not (`Less`). Parity
 //! draws count the faces at or in front of the candidate, so this classifies the
@@ -43,9 +43,10 @@
 //!   faces with `LessOrEqual` (X out of Q: the sheet is dropped) — two culled draws.
 //!
 //! So where two primitives' faces coincide on the visible boundary the lower index
-//! is kept and the other trimmed away (CONTRACT §4), a zero-thickness contact of an
-//! intersection or a flush cut of a difference shows nothing, and the merge compares
-//! with `Less` in leaf order so an exact depth tie keeps the earlier primitive too.
+//! is kept and the other trimmed away (the lowest index wins), a zero-thickness
+//! contact of an intersection or a flush cut of a difference shows nothing, and the
+//! merge compares with `Less` in leaf order so an exact depth tie keeps the earlier
+//! primitive too.
 #![deny(unsafe_code)]
 
 pub mod group;
@@ -79,7 +80,7 @@ pub const PREV: Tex = 0;
 pub const CUR: Tex = 1;
 const FAR: f32 = 1.0;
 
-/// Which variant of seed 000 §8.
+/// Which variant of Hable & Rossignac §8.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Variant {
     Z,
@@ -105,7 +106,7 @@ struct Job {
     surface: bool,
 }
 
-/// The CSTs that draw the scene's surfaces (seed 000 §4, §6): CST(S, V) for
+/// The CSTs that draw the scene's surfaces (Hable & Rossignac §4, §6): CST(S, V) for
 /// `keep = "in"`, CST(S, !V) for `"out"`, both for `"paint"` (V in the paint
 /// colour). An open S has no inside: both faces are peeled, and the loop stops on
 /// the occlusion query (no convexity is assumed).
@@ -240,7 +241,7 @@ pub fn plan(prep: &Prepared, variant: Variant) -> Result<Plan, PlanError> {
     let bits = record_jobs(prep, variant, &jobs, None, &mut steps)?;
     // Coincident faces of different tessellations rasterize a few ulps apart, which
     // the exact compares of the trim cannot see: give every visible point the lowest
-    // index among the primitives whose faces pass through it (CONTRACT §4), drawing
+    // index among the primitives whose faces pass through it (the tie rule), drawing
     // them in descending order over a copy of the final depth. Pixels a surface won
     // are left alone: they keep the surface's colour (or paint colour) and id.
     if solid {

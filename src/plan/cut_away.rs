@@ -1,6 +1,6 @@
 //! Where a final-shade piece can skip the check of the output depth: outside
-//! the screen rectangles of the primitives that may cut its mesh away (issue
-//! 14, "Speed"; README "Embedding", "Shade pieces outside their cutters").
+//! the screen rectangles of the primitives that may cut its mesh away
+//! (docs/embedding.md).
 //!
 //! The embedding's written pieces (`vk::exec::record::host`, `Piece::Written`)
 //! fetch the output depth on every fragment in front of the host's depth and
@@ -64,7 +64,7 @@
 //!   rasterizes in front of its front face), SCS can drop `A`'s face: there
 //!   the piece drawn without the fetch shows `A`'s face, as exact geometry
 //!   and the reference do, where the standalone frame shows what lies behind
-//!   (README). This is the one difference from the standalone frame the
+//!   (docs/embedding.md). This is the one difference from the standalone frame the
 //!   argument leaves.
 //! - The other algorithms (Goldfeather-layered, Trickle, Blister, the CST
 //!   variants, Kirsch) are not checked against this argument: none of their

@@ -1,4 +1,4 @@
-//! One-primitive products shaded in their own draw (issue 9 §5: OpenCSG draws a
+//! One-primitive products shaded in their own draw (OpenCSG draws a
 //! product of one primitive once, with colour). The plans draw such a product
 //! depth-only into the output depth (`goldfeather::direct_steps`: `Less` and
 //! write, its visible faces) and shade it again in the final shade

@@ -1,5 +1,5 @@
-//! Eye placement: parity counted from the near plane (seed 000 §4, seed 002 §3,
-//! Goldfeather's clipping) says "inside" only when the ray starts outside the
+//! Eye placement: parity counted from the near plane (Hable & Rossignac §4, Hilbrich
+//! §3, Goldfeather's clipping) says "inside" only when the ray starts outside the
 //! primitive. A perspective eye inside a primitive inverts that parity for every
 //! pixel ([`super::Prepared::eye_inside`], handled by flipping literals). An
 //! orthographic near plane that cuts a primitive inverts it only for the pixels
@@ -13,7 +13,7 @@
 //! P's membership at the candidate whatever the ray's start, as long as the far
 //! plane cuts nothing (automatic planes never do). Faces counted "in front" by the
 //! parity draw's tie rule are exactly those not counted behind, so the tie rules
-//! (seed 000 §5) are kept. Culled parity draws (CST's split tie draws) are
+//! (Hable & Rossignac §5) are kept. Culled parity draws (CST's split tie draws) are
 //! corrected with the same culling, which together covers every face once.
 //! Trickle counts faces behind its candidate already and needs none of this.
 #![deny(unsafe_code)]

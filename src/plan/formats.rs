@@ -2,8 +2,8 @@
 //! tests or writes stencil. A plan that never does (a one-primitive product
 //! drawn directly, CST-I without trims, …) can run on a depth-only format,
 //! which on lavapipe halves the bytes its depth images clear and test
-//! (`D32_SFLOAT` is 4 B/px where `D32_SFLOAT_S8_UINT` is 8: README
-//! "Per-pixel cost"). Derived from the steps, not from the algorithm's name
+//! (`D32_SFLOAT` is 4 B/px where `D32_SFLOAT_S8_UINT` is 8:
+//! docs/executor.md). Derived from the steps, not from the algorithm's name
 //! or its reported `stencil_bits`, so a builder that stops using stencil gets
 //! the cheaper format without being told.
 

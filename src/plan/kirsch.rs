@@ -1,4 +1,4 @@
-//! Kirsch, Nienhaus & Döllner's CSG depth peeling (seed 001 §4, Listings 1 and 2):
+//! Kirsch, Nienhaus & Döllner's CSG depth peeling (§4, Listings 1 and 2):
 //! the depth layers of a sum of products, each product's boundary counted on its
 //! own (§7, Fig. 7a).
 //!
@@ -28,11 +28,11 @@
 //! Not used when the eye is inside a literal or an orthographic near plane cuts one
 //! (then layer 1 need not be a front surface).
 //!
-//! Non-convex literals are peeled in a loop as in Goldfeather (seed 004 §3.5),
-//! starting behind the layer map. A layered plan ends with an occlusion-counted
-//! full-screen pass over the pixels the last layer covers (§6: the renderer stops
-//! when it counts fewer than `--layer-threshold` samples), then the usual
-//! depth-equal shading of that layer.
+//! Non-convex literals are peeled in a loop as in Goldfeather (Stewart, Leach & John
+//! §3.5), starting behind the layer map. A layered plan ends with an
+//! occlusion-counted full-screen pass over the pixels the last layer covers (§6: the
+//! renderer stops when it counts fewer than `--layer-threshold` samples), then the
+//! usual depth-equal shading of that layer.
 #![deny(unsafe_code)]
 
 use super::goldfeather::{
@@ -49,7 +49,7 @@ pub(crate) const MAP: Tex = 3;
 /// layer belong to it. Goldfeather's parity tolerance, 2⁻¹⁹.
 pub const PEEL_EPS: f32 = super::goldfeather::CLIP_EPS;
 
-/// Which surface of a product `calcCSG` finds (seed 001 §4.1).
+/// Which surface of a product `calcCSG` finds (Kirsch, Nienhaus & Döllner §4.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Mode {
     Front,

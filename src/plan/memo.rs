@@ -1,4 +1,4 @@
-//! Small caches of pure plan decisions (issue 9 §3: a replayed frame decides
+//! Small caches of pure plan decisions (a replayed frame decides
 //! nothing anew, and recording a frame again costs ≤ 1 µs of CPU per draw).
 //! What `plan::reach` and `plan::tie_free` decide is a pure function of a
 //! plan and a few inputs (the scissors, the camera, what the outputs hold),

@@ -67,11 +67,11 @@ pub enum Algo {
     CstI,
     /// Constructive Solid Trimming, variant G.
     CstG,
-    /// Blister with the paper's depth-test parity (an extension of the contract's
-    /// list, for measuring speckles against the tolerant `blister`).
+    /// Blister with the paper's depth-test parity (an extra
+    /// algorithm, for measuring speckles against the tolerant `blister`).
     BlisterPaper,
-    /// Kirsch, Nienhaus & Döllner's CSG depth peeling of products (seed 001 §4);
-    /// its opaque render is the first layer.
+    /// Kirsch, Nienhaus & Döllner's CSG depth peeling of products
+    /// (§4); its opaque render is the first layer.
     Kirsch,
     /// Sequenced convex subtraction (Stewart, Leach & John; OpenCSG's SCS) for
     /// products of convex primitives, tie-correct; other products as Goldfeather.

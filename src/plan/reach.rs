@@ -1,5 +1,5 @@
-//! What part of each image a frame's clears and copies must reach (issue 9 §4:
-//! "clears go through load ops, or are scissored to what will be read"). Pure:
+//! What part of each image a frame's clears and copies must reach (clears
+//! go through load ops, or are scissored to what will be read). Pure:
 //! the executor resolves scissors to rectangles and records what this says.
 //!
 //! A backward pass over the frame's steps (loops unrolled) keeps, for every
@@ -167,7 +167,7 @@ pub enum Item<'s> {
 }
 
 /// What the passes ask of each item, worked out once per frame (recording
-/// a frame again costs ≤ 1 µs per draw, issue 9 §3): a draw's rectangle
+/// a frame again costs ≤ 1 µs per draw): a draw's rectangle
 /// (`None`: skipped, or not a draw) and the item's usages.
 struct Info {
     rect: Option<Rect>,

@@ -1,11 +1,11 @@
 //! Sequenced convex subtraction (Stewart, Leach & John, "Sequenced convex
-//! subtraction", 2000/2002, the successor of seed 004 by the same authors; the
-//! algorithm behind OpenCSG's `SCS`), made tie-correct with the tie rule of the
-//! other algorithms.
+//! subtraction", 2000/2002, the successor of their "An Improved Z-Buffer CSG
+//! Rendering Algorithm"; the algorithm behind OpenCSG's `SCS`), made tie-correct
+//! with the tie rule of the other algorithms.
 //!
-//! The positive form becomes a sum of products as for Goldfeather (seed 004
-//! §3.2, bounding-box pruned). A product `X1 ∩ … ∩ Xa − Y1 − … − Yb` of *convex*
-//! primitives is one interval per primitive along each ray, so instead of
+//! The positive form becomes a sum of products as for Goldfeather (Stewart,
+//! Leach & John §3.2, bounding-box pruned). A product `X1 ∩ … ∩ Xa − Y1 − … − Yb` of
+//! *convex* primitives is one interval per primitive along each ray, so instead of
 //! clipping every literal's surface against every other (O(k²) rasterizations)
 //! a single candidate depth `z` per pixel walks front to back (O(k)):
 //!
@@ -52,8 +52,8 @@
 //! (`clusters`), and the sweep may draw the cutters' back faces instead of
 //! `X`'s front faces, where they cost less (`output_sweep`). The final shade
 //! is cut to one positive primitive of each product
-//! (`shade_within_products`; README "Long products: complex and
-//! nonconvex_obj against 0.5x OpenCSG").
+//! (`shade_within_products`; docs/bench.md, long
+//! products).
 //!
 //! **Products side by side** (`batch`): products whose pixels cannot meet
 //! on screen share one clear and one block per phase, and those apart from
@@ -199,9 +199,9 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
 /// bracket): its shade drew its faces there, and the output's clears
 /// reached every pixel a frame wrote or might write (`plan::reach`). A mesh
 /// still draws wherever it can tie with the visible surface of any product
-/// (the tie rule names every primitive with a face there, README "Precision
-/// and ties"), not only within the products that name it. With surfaces in
-/// the scene (drawn outside the products) the shade is left whole.
+/// (the tie rule names every primitive with a face there, docs/precision.md), not
+/// only within the products that name it. With surfaces in the scene (drawn outside
+/// the products) the shade is left whole.
 fn shade_within_products(shade: Vec<Step>, prods: &[Vec<Lit>], prep: &Prepared) -> Vec<Step> {
     if !prep.surfaces.is_empty() {
         return shade;
@@ -476,7 +476,7 @@ fn moved(p: &[Lit], prep: &Prepared) -> Option<Vec<Region>> {
 }
 
 /// Pixels one more draw is counted as, for choosing the clip's clusters: a
-/// guess, as [`DRAW_TRIANGLES`] (README "Long products").
+/// guess, as [`DRAW_TRIANGLES`] (docs/bench.md).
 const DRAW_PIXELS: f64 = 16384.0;
 
 /// At most this many cutters are clustered; more stay one cluster (the
@@ -525,8 +525,8 @@ fn clusters(x: MeshId, ys: &[MeshId], prep: &Prepared) -> Vec<Vec<MeshId>> {
 /// a guess, not a calibration. A one-frame callgrind run of nonconvex_obj's
 /// bracket (12 triangles) swept over its two bores instead (248, two draws)
 /// ran 2 M more instructions in lavapipe, where many_50's 6048 fewer
-/// triangles (one draw for one) ran 7.9 M fewer (README "The output clip's
-/// sweep over the cutters").
+/// triangles (one draw for one) ran 7.9 M fewer (docs/perf/: the output
+/// clip's sweep over the cutters).
 const DRAW_TRIANGLES: usize = 1024;
 
 /// The footprints the clip's sweep of product `p`, drawn in the output,

@@ -1,8 +1,8 @@
 //! Stencil rules of the papers as plain [`StencilState`] values: the
-//! label/parity layout of Blister and CST (seed 000 §4, seed 002 appendix B) and
-//! ChangeStencilState (seed 000 §7), which rewrites a stencil value `src` into
-//! `dst` by inverting exactly the bits in which they differ. Pure and GPU-free, so
-//! unit tests can check every rule by simulating the stencil unit.
+//! label/parity layout of Blister and CST (Hable & Rossignac §4, Hilbrich appendix B)
+//! and ChangeStencilState (Hable & Rossignac §7), which rewrites a stencil value
+//! `src` into `dst` by inverting exactly the bits in which they differ. Pure and
+//! GPU-free, so unit tests can check every rule by simulating the stencil unit.
 #![deny(unsafe_code)]
 
 use super::step::{CompareOp, StencilFace, StencilOp, StencilState};
@@ -91,7 +91,7 @@ pub fn test_not_equal(reference: u8, mask: u8) -> StencilState {
     both(CompareOp::NotEqual, StencilOp::Keep, mask, 0, reference)
 }
 
-/// ChangeStencilState(src, dst) of seed 000 §7: where the bits under
+/// ChangeStencilState(src, dst) of Hable & Rossignac §7: where the bits under
 /// `compare_mask` equal `src`, invert the bits in which `src` and `dst` differ.
 /// Drawn as a full-screen rectangle with depth test off.
 pub fn change_stencil_state(src: u8, dst: u8, compare_mask: u8) -> StencilState {

@@ -119,7 +119,8 @@ pub enum Scissor {
     /// The rectangle of `BoundsOf(of)` clipped to the rectangle of each mesh of
     /// `and`: a step that can only change pixels where all of them may be, e.g.
     /// a CST parity draw of a trimming primitive, which matters only where the
-    /// peeled leaf has candidates (seed 000 §4). Empty when they do not meet.
+    /// peeled leaf has candidates (Hable & Rossignac §4). Empty when they do not
+    /// meet.
     Overlap {
         of: Vec<MeshId>,
         and: Vec<MeshId>,
@@ -137,7 +138,7 @@ pub enum Scissor {
     /// where the executor has been given the cutter sets: an SCS subtraction
     /// of cutter `of` moves `z` only where `z` lies inside it, and a `z` on
     /// the product's front face or on another cutter's exit lies inside `of`
-    /// only there (README "Embedding", "The final shade cut to the openings").
+    /// only there (docs/embedding.md).
     Openings {
         of: MeshId,
         and: Vec<MeshId>,
@@ -200,7 +201,7 @@ pub enum Fragment {
     /// the candidate (within `eps`) as in front of it, so the point classified is
     /// the one just behind all of them — regularized, whatever the rounding.
     /// `eps` is signed: a negative one keeps only fragments more than `-eps` in
-    /// front of `tex` (CST's `Less` tie rule, seed 000 §5).
+    /// front of `tex` (CST's `Less` tie rule, Hable & Rossignac §5).
     ///
     /// Every plan draws it with the depth test off into a depth-stencil image
     /// that holds `tex`'s depth wherever the draw's result is read, so where no
@@ -275,7 +276,8 @@ pub enum Fragment {
     /// `tex` at this pixel bit-exactly (other fragments are discarded before the
     /// depth test writes anything). Exact because `gl_Position` is invariant: a mesh
     /// redrawn with the same transform reproduces the depths a `Peel` recorded. CST
-    /// merges a trimmed surface into the final image with it (seed 000 §4, Render(S)).
+    /// merges a trimmed surface into the final image with it (Hable & Rossignac §4,
+    /// Render(S)).
     ShadeAtDepth { tex: Tex },
     /// [`Fragment::ShadeAtDepth`] without colour targets: the depth only, where
     /// the fragment depth equals texture `tex` bit-exactly. A solid's CST merge,

@@ -1,5 +1,5 @@
 //! Tolerant draws that cannot meet a tie because nothing they test against
-//! holds a partner face (issue 9 §5; `plan::tie_free`'s per-draw half).
+//! holds a partner face (`plan::tie_free`'s per-draw half).
 //!
 //! A tolerant parity, clip, merge or peel draw of mesh `m` differs from its
 //! plain form only where a face of `m` lies within the tie band of the face

@@ -1,5 +1,5 @@
-//! Plain depth tests where the tie rule cannot change a draw's result (issue 9
-//! §5; README "Per-fragment work"). The tolerant parity and peel shaders
+//! Plain depth tests where the tie rule cannot change a draw's result
+//! (docs/executor.md). The tolerant parity and peel shaders
 //! (`nearer_than`, `peel_tolerant`, [`super::tie`]) decide per fragment whether a
 //! face is coincident with the depth in a texture; they `discard` and write
 //! stencil, so llvmpipe runs every fragment of the draw through them before its
@@ -41,7 +41,7 @@
 //!   depth-equal draw and a tie-rule draw can both pass at one pixel only where
 //!   two faces cross within the tie band (an edge of the image), where the rule
 //!   mesh wins whatever the order. The depth output is then the raster depth, not
-//!   the plane depth at the pixel centre (README "Precision and ties"). The depth
+//!   the plane depth at the pixel centre (docs/precision.md). The depth
 //!   copy that opens the shade is scissored to the meshes that keep the rule, or
 //!   dropped when none does ([`TieFree::shade_copies`]).
 //!

@@ -1,5 +1,5 @@
-//! The final shade's tie rule only where ties can happen on screen (issue 9 §5;
-//! README "Tie zones"). A mesh that keeps the tie rule in the final shade
+//! The final shade's tie rule only where ties can happen on screen
+//! (docs/precision.md). A mesh that keeps the tie rule in the final shade
 //! (`plan::tie_free`: a partner face within the band somewhere) can tie only
 //! inside its [`TieZone`](crate::geom::ties::TieZone)s (`geom::ties`: where its near-parallel faces overlap
 //! a partner's, grown by the camera's band). Projected to the screen, those

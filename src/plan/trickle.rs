@@ -1,4 +1,4 @@
-//! Trickle (Rossignac & Wu, seed 003 §2–4; Epstein, Jansen & Rossignac): per
+//! Trickle (Rossignac & Wu, §2–4; Epstein, Jansen & Rossignac): per
 //! product of the sum of products, buffer 2 (`Z2`, a depth texture) trickles front
 //! to back through the product's primitives until it rests on the product's
 //! visible front; buffer 1 (the output depth) keeps the nearest product.
@@ -9,7 +9,8 @@
 //! point is where the ray *enters* the product, never the near-plane cut, and no
 //! crossing lies in between, so this is right whether or not the ray starts inside
 //! the product (an eye inside it, or an orthographic near plane cutting it). Then,
-//! circulating through the primitives Q of the product (seed 003 lines 10–31):
+//! circulating through the primitives Q of the product (Rossignac & Wu §2, the UNTIL
+//! loop of lines 10–31):
 //! - buffer 3 (`Z3`): the nearest face of Q with `Z2 < Z − eps`, selected with a
 //!   depth-less test in a scratch depth-stencil image while a shader discards the
 //!   other fragments ([`Fragment::PeelTolerant`]), its depth copied to texture `Z3`;

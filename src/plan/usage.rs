@@ -11,14 +11,14 @@ pub enum Resource {
     Color,
     /// The primitive-id target, written with `Color`.
     Prim,
-    /// The normal buffer (seed 001 §5.2): written with `Color` when the executor
-    /// is asked for normals; plans never name it (the executor adds it wherever
-    /// `Color` is written or cleared).
+    /// The normal buffer (Kirsch, Nienhaus & Döllner §5.2): written with `Color` when
+    /// the executor is asked for normals; plans never name it (the executor adds it
+    /// wherever `Color` is written or cleared).
     Normal,
-    /// The first layer's edge map (seed 001 §5.1), written by the executor's
-    /// edge pass from `Normal` and the output depth; plans never name it.
+    /// The first layer's edge map (Kirsch, Nienhaus & Döllner §5.1), written by the
+    /// executor's edge pass from `Normal` and the output depth; plans never name it.
     Edges,
-    /// The transparency accumulation target (seed 000 §6, front to back:
+    /// The transparency accumulation target (Hable & Rossignac §6, front to back:
     /// premultiplied colour and coverage), written by the executor's
     /// accumulate pass from `Color` and `Prim`; plans never name it.
     Accum,
@@ -113,7 +113,7 @@ impl Draw {
 
 /// `uses` with the normal buffer as a colour target after the colour target,
 /// when the normal buffer is on (the executor's programs write it there
-/// wherever they write colour, seed 001 §5.2).
+/// wherever they write colour, Kirsch, Nienhaus & Döllner §5.2).
 pub fn with_normals(mut uses: Uses<(Resource, Usage)>, normals: bool) -> Uses<(Resource, Usage)> {
     if normals && uses.contains(&(Resource::Color, Usage::ColorTarget)) {
         uses.push((Resource::Normal, Usage::ColorTarget));
@@ -167,7 +167,7 @@ impl Step {
 pub const MAX_USES: usize = 6;
 
 /// A step's few resources (or usages), inline: asked for per step whenever a
-/// frame is recorded, so they allocate nothing (issue 9 §3, re-recording at
+/// frame is recorded, so they allocate nothing (re-recording at
 /// ≤ 1 µs per draw). Reads as a slice.
 #[derive(Clone, Copy, Debug)]
 pub struct Uses<T: Slot> {

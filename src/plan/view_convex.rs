@@ -1,6 +1,6 @@
 //! View-dependent convexity (OpenCSG's "convexity", measured for one view;
-//! seed 004 §3.5: a literal needs peeling only where its faces overlap on
-//! screen).
+//! Stewart, Leach & John §3.5: a literal needs peeling only where its faces overlap
+//! on screen).
 //!
 //! The plans treat a mesh as convex (one front and one back face per pixel: SCS
 //! applies, Goldfeather and Kirsch draw its surface without peeling, CST peels it

@@ -1,7 +1,7 @@
 //! Which side of each primitive's boundary can be the visible surface of the
-//! solid: the faces the final shade's depth-equal draws may cull (issue 9 §5,
-//! "do less work per algorithm"; seed 004 §3.4 for one product, here for the
-//! whole expression).
+//! solid: the faces the final shade's depth-equal draws may cull (less work
+//! per algorithm; Stewart, Leach & John §3.4 for one product, here for
+//! the whole expression).
 //!
 //! In the positive form (complements pushed to the leaves, `csg::positive`) a
 //! primitive that occurs only as a positive literal is a monotone argument of
@@ -38,7 +38,7 @@ use crate::geom::ties::TieGaps;
 /// solid: [module doc](self)). If that face is `m`'s own, `m` is drawn there
 /// anyway; otherwise it belongs to a mesh whose face is parallel and within
 /// the band, so of a lower index, which wins over `m` both in the reference
-/// (CONTRACT §4) and in the shade (drawn after `m`, in descending order).
+/// (the lowest index wins) and in the shade (drawn after `m`, in descending order).
 /// The same holds for any face within the tie band of the visible one, so
 /// culling changes no pixel of the rule draws. Pairs of one mesh's own faces
 /// do not count: they give `m`'s id whichever face is drawn.
@@ -91,7 +91,7 @@ impl VisibleSides {
     }
 
     /// The sides where rays leave the solid (the exit stream of its layers,
-    /// seed 000 §6): the opposite of [`VisibleSides::entries`].
+    /// Hable & Rossignac §6): the opposite of [`VisibleSides::entries`].
     pub fn exits(&self) -> VisibleSides {
         let flip = |c: &Cull| match c {
             Cull::Back => Cull::Front,

@@ -1,6 +1,6 @@
 //! Which tie zones can hold a visible point of the solid: the final shade keeps
-//! the tie rule only where it can choose the pixel's primitive (issue 9 §5;
-//! CONTRACT §4; README "Tie zones").
+//! the tie rule only where it can choose the pixel's primitive (the lowest
+//! index wins; docs/precision.md).
 //!
 //! A tie zone of meshes `a` and `b` (`geom::ties`) is where a face of each lies
 //! within the tie band of the other. The rule picks the shaded primitive only
@@ -63,9 +63,9 @@ pub const MAX_UNKNOWNS: usize = 12;
 /// The gaps the final shade needs ([`TieGaps::with_zones`]): the zones of
 /// `gaps` where the membership of one of `exprs` may change (module doc):
 /// the union of the solids, whose visible surface the opaque shade shows, and
-/// each solid, whose boundary the layers count on its own (README "Layers of
-/// the solid"). `prims`: how many meshes are primitives (surfaces follow:
-/// their zones are kept). Without a solid, `gaps` as they are.
+/// each solid, whose boundary the layers count on its own
+/// (docs/transparency-and-blueprints.md). `prims`: how many meshes are primitives
+/// (surfaces follow: their zones are kept). Without a solid, `gaps` as they are.
 pub fn visible_ties(gaps: &TieGaps, meshes: &[&Mesh], exprs: &[Expr], prims: usize) -> TieGaps {
     if exprs.is_empty() {
         return gaps.clone();

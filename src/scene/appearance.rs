@@ -1,10 +1,10 @@
-//! How a scene looks beyond the contract's opaque shading: opacity (`alpha`) of the
-//! primitives, the solids and the whole render (seed 000 §6, transparent CSG). A
-//! compatible extension of CONTRACT.md §1, documented in the README.
+//! How a scene looks beyond the default opaque shading: opacity (`alpha`) of the
+//! primitives, the solids and the whole render (Hable & Rossignac §6, transparent
+//! CSG). An optional part of the scene format (docs/scene-format.md).
 //!
-//! Kept apart from [`super::Primitive`] and [`super::Solid`] so the contract's
+//! Kept apart from [`super::Primitive`] and [`super::Solid`] so the basic
 //! structures (and every literal building them) are unchanged; all-`None` means
-//! the opaque rendering of the contract.
+//! the default opaque rendering.
 #![deny(unsafe_code)]
 
 /// Opacities in `(0, 1]`; `None` where the scene does not say.
@@ -22,7 +22,7 @@ pub struct Appearance {
     pub interference: bool,
     /// `[render] style` (or `--style`): how `color.png` shows the layers.
     pub style: super::style::Style,
-    /// `[light]`: the light that casts the solids' shadows (README "Shadows").
+    /// `[light]`: the light that casts the solids' shadows (docs/shadows.md).
     pub light: Option<super::light::Light>,
     /// An OpenSCAD model's `%` background parts, not drawn until
     /// [`super::openscad::background::show`] adds them as see-through solids.

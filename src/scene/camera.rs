@@ -1,5 +1,5 @@
-//! The camera of CONTRACT.md §1 and §3: look-at view, perspective or orthographic
-//! projection, pixel-centre rays, and near/far planes.
+//! The camera of the scene file (docs/scene-format.md): look-at view, perspective or
+//! orthographic projection, pixel-centre rays, and near/far planes.
 //!
 //! Conventions: view space has the eye at the origin looking down −Z with +Y up.
 //! Pixel `(x, y)` has y downward and samples the ray through `(x + 0.5, y + 0.5)`.

@@ -1,4 +1,4 @@
-//! Camera framing (`fit = true`, CONTRACT.md §1) and automatic near/far planes.
+//! Camera framing (`fit = true`, docs/scene-format.md) and automatic near/far planes.
 //!
 //! Both work on the vertices of everything that is drawn (primitives named by an
 //! expression, and surfaces), all positions of each mesh.
@@ -14,8 +14,8 @@ pub const DEPTH_MARGIN: f64 = 0.01;
 /// perspective projection cannot show points at or behind the eye).
 pub const NEAR_FALLBACK: f64 = 1e-4;
 
-/// The contract's bounding sphere: centred on the AABB of all vertices, radius the
-/// distance to the farthest vertex. `None` without vertices.
+/// The bounding sphere `fit = true` frames: centred on the AABB of all vertices,
+/// radius the distance to the farthest vertex. `None` without vertices.
 pub fn bounding_sphere<'a>(
     meshes: impl IntoIterator<Item = &'a Mesh> + Clone,
 ) -> Option<(DVec3, f64)> {

@@ -1,4 +1,4 @@
-//! Which files are scenes (CONTRACT.md §1: a scene is a TOML file). A file of
+//! Which files are scenes (a scene is a TOML file, docs/scene-format.md). A file of
 //! another kind gets an error saying so before its text is parsed, rather than a
 //! TOML syntax error in the middle of OpenSCAD code.
 
@@ -8,7 +8,7 @@ use super::load::SceneError;
 
 /// What the user can give instead (said once, in every such message).
 pub const SUPPORTED: &str =
-    "peeltrim reads scenes written in TOML (`.toml`, see README \"Scenes\") \
+    "peeltrim reads scenes written in TOML (`.toml`, see docs/scene-format.md) \
      and OpenSCAD's CSG export (`.csg`: in OpenSCAD, File > Export > Export as CSG)";
 
 fn extension(path: &Path) -> Option<String> {

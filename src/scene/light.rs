@@ -1,5 +1,5 @@
-//! The `[light]` table: one light that casts the solids' shadows (a compatible
-//! extension of CONTRACT.md §1, README "Shadows"; seed 003's shadows from a CSG
+//! The `[light]` table: one light that casts the solids' shadows (an optional
+//! table of the scene format, docs/shadows.md; Rossignac & Wu's shadows from a CSG
 //! depth buffer seen from the light). Parsing and checks, and the light's camera,
 //! which the reference (shadow rays) and the GPU (the shadow map) share so that
 //! both look from the same place.

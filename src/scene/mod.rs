@@ -1,4 +1,4 @@
-//! The scene of CONTRACT.md §1–3: TOML loading, exact tessellation, OBJ meshes,
+//! The scene (docs/scene-format.md): TOML loading, exact tessellation, OBJ meshes,
 //! mesh validation (closed, consistently oriented), and the camera.
 //!
 //! Everything here is geometry in `f64`; the GPU gets `f32` copies. A loaded
@@ -31,7 +31,7 @@ use std::path::PathBuf;
 use crate::csg::Expr;
 
 /// An indexed triangle mesh in world space. Triangles are wound counter-clockwise
-/// seen from outside (outward normals), CONTRACT.md §2.
+/// seen from outside (outward normals).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
     pub positions: Vec<DVec3>,
@@ -91,7 +91,7 @@ pub enum Shape {
 pub struct Primitive {
     pub name: String,
     pub shape: Shape,
-    /// `M = T * Rz * Ry * Rx * S` (CONTRACT.md §2).
+    /// `M = T * Rz * Ry * Rx * S` (docs/scene-format.md).
     pub transform: glam::DMat4,
     /// World-space mesh (the transform already applied).
     pub mesh: Mesh,
@@ -148,7 +148,8 @@ pub struct Scene {
     pub path: PathBuf,
     pub camera: Camera,
     pub render: RenderSettings,
-    /// All `[[primitive]]`s in file order; index + 1 is the contract's primitive index.
+    /// All `[[primitive]]`s in file order; index + 1 is the primitive index of the
+    /// outputs.
     pub primitives: Vec<Primitive>,
     pub solids: Vec<Solid>,
     /// Surfaces continue the primitive index count after the primitives.

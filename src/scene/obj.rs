@@ -1,5 +1,6 @@
-//! Wavefront OBJ for `shape = "mesh"` (CONTRACT.md §2): all objects and groups merged
-//! into one mesh, polygons fan-triangulated from their first vertex, in file order.
+//! Wavefront OBJ for `shape = "mesh"` (docs/scene-format.md): all objects and groups
+//! merged into one mesh, polygons fan-triangulated from their first vertex, in file
+//! order.
 //!
 //! Why not `tobj`: it splits objects/groups into models with their own vertex arrays,
 //! so a closed mesh whose groups share vertices would come back cracked along the

@@ -1,10 +1,10 @@
-//! Exact tessellation of the built-in shapes (CONTRACT.md §2) and the primitive
+//! Exact tessellation of the built-in shapes (docs/scene-format.md) and the primitive
 //! transform `M = T * Rz * Ry * Rx * S`.
 //!
 //! Vertices are shared by index so every shape is a closed, consistently oriented
 //! (manifold) mesh, and every triangle is wound counter-clockwise seen from outside.
-//! Angles follow the contract: `φ = 2π i / n` runs from +X towards −Z (counter-
-//! clockwise seen from +Y), `θ = π j / m` from the north pole (+Y) down.
+//! Angles follow docs/scene-format.md: `φ = 2π i / n` runs from +X towards −Z
+//! (counter- clockwise seen from +Y), `θ = π j / m` from the north pole (+Y) down.
 
 use glam::{DMat4, DVec3};
 use std::f64::consts::PI;

@@ -1,12 +1,12 @@
-//! The rendering style of `color.png` (seed 001 §4.5, §5.3–5.4): `--style` or
-//! `[render] style`. A compatible extension of CONTRACT.md §1 (default `opaque`:
-//! the contract's image); the composition itself is `render::style`.
+//! The rendering style of `color.png` (Kirsch, Nienhaus & Döllner §4.5, §5.3–5.4):
+//! `--style` or `[render] style`. An optional setting of the scene format
+//! (default `opaque`: the plain image); the composition itself is `render::style`.
 #![deny(unsafe_code)]
 
 /// How the layers of the solid become `color.png`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Style {
-    /// The contract's opaque image (transparent when some `alpha` is below 1).
+    /// The plain opaque image (transparent when some `alpha` is below 1).
     #[default]
     Opaque,
     /// Order-independent transparency: the layers blended (§4.5).

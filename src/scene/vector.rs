@@ -1,4 +1,4 @@
-//! Fixed-length number vectors of the scene file (CONTRACT.md §1: `size`,
+//! Fixed-length number vectors of the scene file (docs/scene-format.md: `size`,
 //! `rotate_deg`, `translate`, `scale`, camera `eye`/`target`/`up`).
 //!
 //! They are read as raw TOML values and checked here rather than by serde's

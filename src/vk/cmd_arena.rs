@@ -1,4 +1,4 @@
-//! Host memory of recorded commands (issue 9 §3: re-recording 1,000 draws in
+//! Host memory of recorded commands (re-recording 1,000 draws in
 //! ≤ 1 ms of CPU): a chunked bump allocator given to command pools as their
 //! `VkAllocationCallbacks`.
 //!
@@ -59,7 +59,7 @@ struct Chunks {
     empty: Vec<u32>,
 }
 
-/// Counts of what the arena served (for tests and the README's figures).
+/// Counts of what the arena served (for tests and the figures of docs/perf/).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ArenaCounts {
     /// Blocks bumped from chunks.

@@ -5,11 +5,11 @@
 //! other processes competing for the cores (`bench --embedded`'s `cpu_ratio`).
 //! One `clock_gettime` call: the per-thread `/proc/self/task/*/schedstat` scan
 //! this replaced opened a file per thread, twice a frame, which was 14% of the
-//! calling thread's samples on a 16×16 frame (README "Executor fixed costs").
+//! calling thread's samples on a 16×16 frame (docs/executor.md).
 //! Where the clock is missing every reading is 0, and the figures derived are 0.
 //!
 //! Also the calling thread's CPU clock ([`CpuInstant`]), for what recording costs
-//! (issue 9 §3: `record_ms`, the bench's re-recording figure): drivers record
+//! (`record_ms`, the bench's re-recording figure): drivers record
 //! in the calling thread, so its CPU time is a recording's whole cost.
 
 /// CPU time (user and system) the process's threads have run, ended threads

@@ -3,7 +3,7 @@
 //! depth-equal shade drawn straight into them (`exec::record::host`), or, where
 //! that cannot be ([`HostPath`]), the frame composited into them by one
 //! full-screen pass (`vk::composite`). Nothing here submits to a queue (see
-//! README "Embedding" for the full synchronization contract, repeated on
+//! docs/embedding.md for the full synchronization contract, repeated on
 //! [`Embedder::record`]).
 //!
 //! The frame itself is the executor's unrolled recording (loops unrolled to

@@ -2,7 +2,7 @@
 //! (`present`) and the bench's off-screen frames ([`OffscreenHost`]): the host's
 //! colour and depth attachments cleared and left in the layouts
 //! [`Embedder::record`] expects, then peeltrim's CSG recorded into them, exactly
-//! as an engine would (README "Embedding").
+//! as an engine would (docs/embedding.md).
 
 use std::sync::Arc;
 use std::time::Instant;

@@ -77,7 +77,7 @@ pub enum FragmentKind {
     /// The edge map from the normal buffer (set 0) and a depth buffer (set 1).
     Edges,
     /// A peeled layer blended front to back into the accumulation target
-    /// (colour: set 0, ids: set 2, opacities: set 3; seed 000 §6).
+    /// (colour: set 0, ids: set 2, opacities: set 3; Hable & Rossignac §6).
     Accumulate,
 }
 

@@ -1,4 +1,4 @@
-//! Turning the bytes copied back from the GPU into the contract's [`Images`]:
+//! Turning the bytes copied back from the GPU into the output [`Images`]:
 //! colour with alpha 255, primitive ids as `u16`, depth-buffer values converted to
 //! view depth. Pure (the copies themselves are recorded by the executor's
 //! `read_back`).

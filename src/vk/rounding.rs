@@ -3,8 +3,8 @@
 //!
 //! A conformant device snaps each vertex's framebuffer position to a grid of
 //! 2^-`subPixelPrecisionBits` pixel (at least 4 bits, Vulkan "Limits") and may
-//! interpolate depth from the snapped positions, as the NVIDIA H200 of
-//! `shared/gpu/h200-vk-tests-2026-11-30.txt` does; lavapipe interpolates depth from
+//! interpolate depth from the snapped positions, as an NVIDIA H200
+//! does; lavapipe interpolates depth from
 //! the unsnapped floats. The vertex shader (`shaders/mesh.vert`, push constant
 //! `snap`) snaps positions to a grid of 2^-`subpixel_bits` pixel before the
 //! rasterizer sees them, so depths and coverage move exactly as on such a device.

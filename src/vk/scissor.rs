@@ -123,7 +123,7 @@ impl RectUnions {
 /// box that only reaches past the plane made the whole screen before: a fitted
 /// camera puts `near` just in front of the nearest vertex, so the corner of a
 /// rotated or L-shaped primitive's box (nonconvex_obj's bracket, complex's
-/// chamfer box) lay in front of it (README "Long products"). One pixel of
+/// chamfer box) lay in front of it (docs/bench.md). One pixel of
 /// margin absorbs `f32` rounding on the GPU.
 pub fn bounds_rect(
     view: DMat4,

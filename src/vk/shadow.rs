@@ -1,4 +1,4 @@
-//! The shadow pass of a `[light]` (seed 003's shadow buffer; README "Shadows"):
+//! The shadow pass of a `[light]` (Rossignac & Wu's shadow buffer; docs/shadows.md):
 //! after the eye's frame and the light's depth map have run on two executors of
 //! one device, one full-screen draw (`shaders/shadow.frag`), scissored to the
 //! eye's projected bounds, samples the eye's depth, ids and normal buffer and the

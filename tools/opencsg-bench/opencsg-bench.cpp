@@ -8,8 +8,7 @@
 // Usage: opencsg-bench SCENE.txt OUTDIR [--frames N] [--warmup N] [--no-bbox]
 //                      [--variants scs,goldfeather,automatic]
 //
-// Input (whitespace-separated text, written by peeltrim; see README "OpenCSG
-// baseline"):
+// Input (whitespace-separated text, written by peeltrim; see docs/bench.md):
 //   peeltrim-opencsg 1
 //   size W H
 //   view m00 m10 ... (16 floats, column-major, GL convention)

@@ -1,8 +1,8 @@
-//! The performance issue's checks on a finished benchmark (issue 9, "Measure and
-//! report"): the overhead of each run (replayed frames, wall time against GPU
-//! time), the CST variants' ordering (seed 000 §8: cst-g ≤ cst-i ≤ cst-z ≤
-//! blister on the gear), and the summary's section that states them with the
-//! scaling families' fits ([`super::scaling`]). Typed until `report` writes them.
+//! The checks on a finished benchmark: the overhead of each run (replayed frames,
+//! wall time against GPU time), the CST variants' ordering (Hable & Rossignac §8:
+//! cst-g ≤ cst-i ≤ cst-z ≤ blister on the gear), and the summary's section that
+//! states them with the scaling families' fits ([`super::scaling`]). Typed until
+//! `report` writes them.
 #![deny(unsafe_code)]
 
 use std::fmt::Write;
@@ -42,7 +42,7 @@ impl Overhead {
     }
 }
 
-/// The CST paper's ordering in `gpu_ms`, fastest first (the issue's target on
+/// The CST paper's ordering in `gpu_ms`, fastest first (the target on
 /// the gear).
 pub const ORDER: [&str; 4] = ["cst-g", "cst-i", "cst-z", "blister"];
 
@@ -152,12 +152,12 @@ pub fn ordering(records: &[Record]) -> String {
         return String::new();
     }
     format!(
-        "\nCST ordering (seed 000 §8; issue 9's target on the gear): `≤` holds, `≈` above by at most the larger IQR, `≡` the same plan, `>` fails.\n\n{}\n",
+        "\nCST ordering (Hable & Rossignac §8; the target on the gear): `≤` holds, `≈` above by at most the larger IQR, `≡` the same plan, `>` fails.\n\n{}\n",
         lines.join("\n")
     )
 }
 
-/// Whether a run is correct by the issue's definition.
+/// Whether a run is correct by the bench's definition.
 pub fn correct(r: &Record) -> bool {
     let (cov, prim, _) = error_figures(r);
     r.ran() && cov <= CORRECT_FRAC && prim <= CORRECT_FRAC
@@ -165,7 +165,7 @@ pub fn correct(r: &Record) -> bool {
 
 /// The summary's section: overhead, scaling and deep-tree figures.
 pub fn section(records: &[Record]) -> String {
-    let mut s = String::from("## Performance checks (issue 9)\n\n");
+    let mut s = String::from("## Performance checks\n\n");
     let runs: Vec<&Record> = records.iter().filter(|r| r.overhead.is_some()).collect();
     let ok = runs
         .iter()

@@ -2,7 +2,7 @@
 //! path — a [`CsgScene`] made from the scene, recorded into the frames of an
 //! off-screen host (`vk::OffscreenHost`: its own colour and depth attachments,
 //! command buffer and submission) — on the same device, in pairs with standalone
-//! frames so that load on a shared machine hits both alike (README "Embedding").
+//! frames so that load on a shared machine hits both alike (docs/embedding.md).
 //! Fair by construction: the host's own pass (its clear) is submitted apart and
 //! not timed, so both timed submissions hold peeltrim's commands alone; the
 //! order inside a pair alternates; the ratios are medians over at least

@@ -5,7 +5,7 @@
 //! the scene has layers of the meshes it peels, and the counts weighed by
 //! per-item costs of the device ([`CostModel`]).
 //!
-//! The bench skips a run whose estimate exceeds `--max-est-s` (issue 9: on
+//! The bench skips a run whose estimate exceeds `--max-est-s` (on
 //! lavapipe, Goldfeather and Kirsch draw ~1.2 M times per frame on block minus
 //! 1,024 spheres, so one scaling run took over an hour) and reports it as
 //! skipped with the estimate, not as a failure.
@@ -43,8 +43,8 @@ pub struct CostModel {
 impl CostModel {
     /// Lavapipe with two rasterizer threads (`LP_NUM_THREADS=2`) on this
     /// project's 2-core machine under load (15–19). First guessed at 40 µs
-    /// a draw, 0.25 µs a triangle and 2 ns a pixel; the scaling run of
-    /// README "Results on lavapipe" then measured 1.7–20× the estimate
+    /// a draw, 0.25 µs a triangle and 2 ns a pixel; the scaling run
+    /// (docs/bench.md) then measured 1.7–20× the estimate
     /// (median about 8×: block-spheres 1024 blister 5.4 s against 0.71 s,
     /// deep-tree-311 cst-g 37.5 s against 3.6 s), so every cost is 10× that.
     pub const LAVAPIPE: CostModel = CostModel {

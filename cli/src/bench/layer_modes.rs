@@ -1,12 +1,12 @@
 //! `bench --modes`: the rendering modes the layer peelers make possible, timed
-//! side by side — opaque, transparent (the first four layers, seed 000 §6), the
-//! three blueprint styles of the same layers (seed 001 §5) and highlighted —
-//! with the layers peeled and the CSTs run, as the CST paper's second table
-//! (seed 000 §8: Prims, CSTs, Time) reports them, for CST-Z/I/G and kirsch
-//! (whose CSTs are 0; it refuses highlight, which is then skipped with a
+//! side by side — opaque, transparent (the first four layers, Hable & Rossignac §6),
+//! the three blueprint styles of the same layers (Kirsch, Nienhaus & Döllner §5) and
+//! highlighted — with the layers peeled and the CSTs run, as the CST paper's second
+//! table (Hable & Rossignac §8: Prims, CSTs, Time) reports them, for CST-Z/I/G and
+//! kirsch (whose CSTs are 0; it refuses highlight, which is then skipped with a
 //! warning), with the last frame's submissions and recording time: each mode
 //! keeps its renderer from frame to frame, so from the second frame on a
-//! layered frame is one submission replayed (issue 9 §2, `render::sequence`).
+//! layered frame is one submission replayed (`render::sequence`).
 //! Writes `modes.csv` and `modes.md`.
 #![deny(unsafe_code)]
 
@@ -27,8 +27,8 @@ use peeltrim::scene::{self, LoadOptions};
 use peeltrim::vk::ExecStats;
 
 /// The modes timed: the opaque image, its first four layers composited
-/// (transparent, and in the three blueprint styles of seed 001 §5), and a
-/// highlight of the first primitive.
+/// (transparent, and in the three blueprint styles of Kirsch, Nienhaus & Döllner §5),
+/// and a highlight of the first primitive.
 pub const MODES: [&str; 6] = [
     "opaque",
     "transparent",
@@ -61,7 +61,7 @@ pub struct ModeRecord {
     /// and the composite's: a transparent frame composited on the GPU reads
     /// back layer 1 and the composite only).
     pub readback_bytes: u64,
-    /// Queue submissions of the last frame (issue 9 §2: one from a
+    /// Queue submissions of the last frame (one from a
     /// session's second frame on; the interference view two).
     pub submits: u64,
     /// CPU ms recording the last frame (0: its kept recording replayed).
@@ -165,7 +165,8 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
                                     let transparent = mode == "transparent";
                                     scene.appearance.alpha =
                                         transparent.then_some(TRANSPARENT_ALPHA);
-                                    // The blueprint styles (seed 001 §5) of the same layers.
+                                    // The blueprint styles (Kirsch,
+                                    // Nienhaus & Döllner §5) of the same layers.
                                     scene.appearance.style = match mode {
                                         "blueprint" => Style::Blueprint,
                                         "wireframe" => Style::Wireframe,
@@ -235,7 +236,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
     Ok(out)
 }
 
-/// The table of seed 000 §8's second kind: per scene, algorithm and mode.
+/// The table of Hable & Rossignac §8's second kind: per scene, algorithm and mode.
 pub fn table(records: &[ModeRecord]) -> String {
     let mut s = String::from(
         "| scene | prims | algo | mode | layers | layer plans | CSTs | read back KiB | submits | record ms | GPU ms | wall ms |\n\
@@ -290,7 +291,7 @@ pub fn write(dir: &Path, records: &[ModeRecord]) -> Result<(), BenchError> {
     }
     std::fs::write(dir.join("modes.csv"), csv).map_err(io)?;
     let md = format!(
-        "# Rendering modes (seed 000 §8, second table)\n\n\
+        "# Rendering modes (Hable & Rossignac §8, second table)\n\n\
          Transparent: the first {TRANSPARENT_LAYERS} layers at opacity {TRANSPARENT_ALPHA}; \
          highlight: the first primitive, every layer. CSTs: leaves peeled and trimmed, \
          summed over the layer plans.\n\n{}",

@@ -1,8 +1,8 @@
-//! Bench modes beyond the opaque frame (issue 11, "the bench times each mode"):
-//! shadows — the light's depth map rendered by the same algorithm (seed 003's
+//! Bench modes beyond the opaque frame (the bench times each mode):
+//! shadows — the light's depth map rendered by the same algorithm (Rossignac & Wu's
 //! shadow buffer) and the shadow test over the eye's frame — and interference —
-//! one frame of `A·B` per pair of solids (seed 000 §6). Each is timed like the
-//! eye's frame: warm-up, then the median GPU time over the timed frames.
+//! one frame of `A·B` per pair of solids (Hable & Rossignac §6). Each is timed like
+//! the eye's frame: warm-up, then the median GPU time over the timed frames.
 #![deny(unsafe_code)]
 
 use std::fmt::Write as _;

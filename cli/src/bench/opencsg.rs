@@ -1,4 +1,4 @@
-//! The OpenCSG baseline (`peeltrim bench --baseline opencsg`, issue 9 item 7):
+//! The OpenCSG baseline (`peeltrim bench --baseline opencsg`):
 //! each scene is also rendered by OpenCSG 1.5, driven as OpenSCAD's preview
 //! drives it, on the same machine at the same size, and its frame time and error
 //! against our reference go into the same tables as ours.
@@ -6,7 +6,7 @@
 //! OpenCSG is GPL, so it runs in a separate program, `tools/opencsg-bench/`
 //! (C++, built by its `build.sh`), never linked into this library. This module
 //! writes the exchange file it reads (documented in that program's header and
-//! the README), runs it, and reads its images back. The expression is
+//! docs/bench.md), runs it, and reads its images back. The expression is
 //! normalized here as OpenSCAD does ([`peeltrim::csg::normalize`]).
 //!
 //! OpenGL has no timestamp queries in this set-up: an OpenCSG row's GPU and CPU

@@ -1,4 +1,4 @@
-//! Fair timing within a scene (issue 9, "Measure and report"): the timed frames
+//! Fair timing within a scene: the timed frames
 //! of a scene's algorithms run round-robin (frame 1 of every algorithm, then
 //! frame 2, …) after every algorithm's warm-up, so a machine that speeds up or
 //! slows down during the run (other processes, clocks) moves every algorithm's

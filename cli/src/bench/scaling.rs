@@ -1,9 +1,9 @@
-//! Scaling families (issue 9, "Block minus n spheres … grows no faster than
-//! n·k; report the fitted slope"): each algorithm's cost over a family fitted
-//! by least squares (ms per primitive) and in log-log (the exponent of n; 1 is
-//! linear), of wall time, GPU time and the process's CPU time, and the
-//! summary's tables: the fits with the best correct algorithm's verdict, and
-//! every run's figures per n (skipped runs with their estimates).
+//! Scaling families (block minus n spheres should grow no faster than n·k; the
+//! fitted slope is reported): each algorithm's cost over a family fitted by least
+//! squares (ms per primitive) and in log-log (the exponent of n; 1 is linear), of
+//! wall time, GPU time and the process's CPU time, and the summary's tables: the
+//! fits with the best correct algorithm's verdict, and every run's figures per n
+//! (skipped runs with their estimates).
 #![deny(unsafe_code)]
 
 use std::fmt::Write;

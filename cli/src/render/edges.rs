@@ -1,8 +1,8 @@
-//! Edge maps of depth layers (seed 001 §5.1–5.2): silhouettes are discontinuities
-//! of the depth layer map, creases discontinuities of the normal buffer. One rule,
-//! shared by every producer of layers (the reference's exact layers, the GPU's
-//! peeled ones) so that edge maps are compared, not eyeballed; `shaders/edges.frag`
-//! states the same rule for the GPU.
+//! Edge maps of depth layers (Kirsch, Nienhaus & Döllner §5.1–5.2): silhouettes are
+//! discontinuities of the depth layer map, creases discontinuities of the normal
+//! buffer. One rule, shared by every producer of layers (the reference's exact
+//! layers, the GPU's peeled ones) so that edge maps are compared, not eyeballed;
+//! `shaders/edges.frag` states the same rule for the GPU.
 //!
 //! The rule: both pixels of a 4-neighbour pair are edge pixels when their coverage
 //! differs, when both are covered and their depths differ by more than

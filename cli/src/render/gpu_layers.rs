@@ -1,4 +1,4 @@
-//! The layers of the solid on the GPU with CST (seed 000 §6): per solid, the
+//! The layers of the solid on the GPU with CST (Hable & Rossignac §6): per solid, the
 //! entry stream (odd layers) and the exit stream (even layers) are peeled layer
 //! by layer, each layer a CST plan of the solid initialized at the previous
 //! layer's depth ([`peeltrim::plan::cst::layers`]), each stream stopped by an
@@ -12,7 +12,7 @@
 //! GPU's accumulation target as it is produced ([`composite`]): a transparent
 //! frame then reads back one image instead of every layer. An assembly's
 //! streams interleave differently at every pixel, so its layers are merged and
-//! composited on the CPU (README, "Layers of the solid and transparency").
+//! composited on the CPU (docs/transparency-and-blueprints.md).
 #![deny(unsafe_code)]
 
 use std::cell::Cell;
@@ -51,7 +51,7 @@ pub struct GpuLayers {
     /// Layer plans run (entry and exit streams of every solid).
     pub stream_layers: u32,
     /// CSTs run: the leaves peeled and trimmed by each layer plan, summed (the
-    /// paper's "CSTs" column, seed 000 §8).
+    /// paper's "CSTs" column, Hable & Rossignac §8).
     pub csts: u64,
     /// Bytes copied from the GPU: layer images (colour, id, depth; normals
     /// when on) and the composite.

@@ -1,4 +1,4 @@
-//! Interference of an assembly on the GPU (seed 000 §6, Fig. 1c). §6 renders
+//! Interference of an assembly on the GPU (Hable & Rossignac §6, Fig. 1c). §6 renders
 //! `(A−B')+(B−A')` with primed copies in the interference colour: the primed
 //! faces on that solid's boundary are exactly the boundary of `A·B`, and the
 //! nearest of them along a pixel's line is where the line first enters `A·B`. So
@@ -7,7 +7,7 @@
 //! pair's pixels, and the nearest pair's visible point is the opaque
 //! interference. The reference ([`peeltrim_reference::interference`]) computes the
 //! same sets exactly. The solids' layers in front of it are the GPU's layers of
-//! the solid (seed 000 §6, `render::gpu_layers`), blended semi-transparent.
+//! the solid (Hable & Rossignac §6, `render::gpu_layers`), blended semi-transparent.
 #![deny(unsafe_code)]
 
 use super::edges::edge_map;
@@ -172,12 +172,12 @@ fn pairs_on(
     Ok(out)
 }
 
-/// The interference view of a GPU algorithm, as the reference draws it (seed 000
-/// §6): each pixel's nearest interference opaque in the interference colour, the
-/// solids' layers in front of it semi-transparent (their `alpha` where below 1,
-/// else [`SOLID_ALPHA`]); where there is none, every layer semi-transparent over
-/// the background. The layers are the GPU's (`render::gpu_layers`); depth and
-/// primitive are layer 1's.
+/// The interference view of a GPU algorithm, as the reference draws it
+/// (Hable & Rossignac §6): each pixel's nearest interference opaque in the
+/// interference colour, the solids' layers in front of it semi-transparent (their
+/// `alpha` where below 1, else [`SOLID_ALPHA`]); where there is none, every layer
+/// semi-transparent over the background. The layers are the GPU's
+/// (`render::gpu_layers`); depth and primitive are layer 1's.
 pub fn render_interference(
     scene: &Scene,
     opts: &RenderOptions,

@@ -1,13 +1,14 @@
-//! Kirsch's depth-peeled layers on the GPU (seed 001 §4, §4.5, §6): layer k is the
-//! output of [`plan::build_kirsch_layer`], executed and read back layer by layer on
-//! one device; peeling stops at the first layer whose occlusion query (the plan's
-//! final counted pass, the executor's `final_samples`) counts no pixel or fewer than
-//! `--layer-threshold`. The transparent `color.png` blends the read-back colour
-//! layer maps back to front with their opacities (§4.5's depth sprites, composed on
-//! the host). With `--layers-out` or a style (seed 001 §5) the executor's normal
-//! buffer is on: each layer's view-space normals are read right after its plan,
-//! its edge map is the reference's rule on them ([`super::edges`]), and the style
-//! composes `color.png` as the reference's does ([`super::style::compose_scene`]).
+//! Kirsch's depth-peeled layers on the GPU (Kirsch, Nienhaus & Döllner §4, §4.5, §6):
+//! layer k is the output of [`plan::build_kirsch_layer`], executed and read back
+//! layer by layer on one device; peeling stops at the first layer whose occlusion
+//! query (the plan's final counted pass, the executor's `final_samples`) counts no
+//! pixel or fewer than `--layer-threshold`. The transparent `color.png` blends the
+//! read-back colour layer maps back to front with their opacities (§4.5's depth
+//! sprites, composed on the host). With `--layers-out` or a style (Kirsch,
+//! Nienhaus & Döllner §5) the executor's normal buffer is on: each layer's view-space
+//! normals are read right after its plan, its edge map is the reference's rule on
+//! them ([`super::edges`]), and the style composes `color.png` as the reference's
+//! does ([`super::style::compose_scene`]).
 //!
 //! Each layer's plan peels all layers before it again (the executor keeps no
 //! texture from one frame to the next), so N layers cost N(N+1)/2 layer passes.

@@ -1,5 +1,5 @@
-//! Layers of the solid and transparent rendering, start to finish (seed 000 §6):
-//! the options (`--layers`, `--layer-threshold`, `--layers-out`, `--alpha`), the
+//! Layers of the solid and transparent rendering, start to finish (Hable & Rossignac
+//! §6): the options (`--layers`, `--layer-threshold`, `--layers-out`, `--alpha`), the
 //! frame they produce, and writing `layers/NN/`. The reference computes them
 //! exactly ([`peeltrim_reference::layers`]); CST-Z/I/G peel them on the GPU
 //! (`render::gpu_layers`), kirsch by CSG depth peeling (`render::kirsch`); the
@@ -38,8 +38,9 @@ pub struct LayerOptions {
     pub write_layers: bool,
     /// `--highlight NAME,...`: 0-based indices of the primitives to highlight.
     pub highlight: Vec<u32>,
-    /// `--layer-reading`: how a union of products is layered (seed 001 §7); `None`:
-    /// the algorithm's own (the reference: the solid, kirsch: the products).
+    /// `--layer-reading`: how a union of products is layered (Kirsch,
+    /// Nienhaus & Döllner §7); `None`: the algorithm's own (the reference: the solid,
+    /// kirsch: the products).
     pub reading: Option<LayerReading>,
     /// `--edge-depth`, `--edge-angle`: the edge rule's thresholds.
     pub edge_rule: EdgeRule,
@@ -91,12 +92,13 @@ pub struct InterferenceFigures {
 /// The GPU's layer figures.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct GpuLayerFigures {
-    /// Layer plans run (the entry and exit streams of every solid, seed 000 §6).
+    /// Layer plans run (the entry and exit streams of every solid, Hable & Rossignac
+    /// §6).
     pub stream_layers: u32,
-    /// CSTs run over all layers (the paper's "CSTs", seed 000 §8).
+    /// CSTs run over all layers (the paper's "CSTs", Hable & Rossignac §8).
     pub csts: u64,
     /// Bytes read back for the layers and the composite (deterministic; what
-    /// the GPU composite saves, README "What runs where").
+    /// the GPU composite saves, docs/executor.md).
     pub readback_bytes: u64,
 }
 
@@ -147,7 +149,7 @@ pub struct LayerStats {
 /// blueprint edge maps) reads.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SolidLayer {
-    /// The contract's images of this crossing: its shaded colour (background
+    /// The output images of this crossing: its shaded colour (background
     /// where the ray has fewer crossings), view depth (`+inf`) and 1-based
     /// primitive (0).
     pub images: Images,
@@ -172,7 +174,7 @@ impl SolidLayer {
     }
 }
 
-/// A frame with its layers: `images` as the contract's files (the composite in
+/// A frame with its layers: `images` as the output files (the composite in
 /// `color.png` when transparent; depth and primitive of layer 1 then), and each
 /// layer, front to back.
 #[derive(Clone, Debug)]

@@ -1,9 +1,9 @@
 //! What a frame holds in memory, checked against the budget ([`peeltrim::budget`])
-//! before it is allocated: the executor's images, and beyond the contract's
-//! images the optional normal buffer (`vk::exec::normals`, seed 001 §5.2), the
-//! layers kept on the host while peeling (seed 000 §6), and the light's shadow
-//! map frame held beside the eye's (seed 003). Over budget, the work is refused
-//! with the estimate and the flag that lowers it.
+//! before it is allocated: the executor's images, and beyond the plain output
+//! images the optional normal buffer (`vk::exec::normals`, Kirsch, Nienhaus &
+//! Döllner §5.2), the layers kept on the host while peeling (Hable & Rossignac
+//! §6), and the light's shadow map frame held beside the eye's (Rossignac & Wu).
+//! Over budget, the work is refused with the estimate and the flag that lowers it.
 #![deny(unsafe_code)]
 
 use peeltrim::budget::{current, OverBudget};
@@ -31,7 +31,7 @@ pub const ACCUMULATE_BYTES_PER_PIXEL: u64 = 16;
 /// normals (12), and the merged copy with the solid index (10 + 12 + 4), rounded up.
 pub const LAYER_HOST_BYTES_PER_PIXEL: u64 = 48;
 
-/// What one frame holds; `Default` is the contract's opaque frame on the CPU.
+/// What one frame holds; `Default` is the plain opaque frame on the CPU.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FrameMemory {
     /// A GPU frame (else the reference's).

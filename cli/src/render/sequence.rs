@@ -1,4 +1,4 @@
-//! Layered frames in one submission (issue 9 §2). A layered frame (the layers of
+//! Layered frames in one submission. A layered frame (the layers of
 //! the solid, its transparency composited on the GPU, Kirsch's layers) is a few
 //! streams of layers, each layer some plans whose last counts the pixels it
 //! covers, and each stream stops at a layer the caller's rule rejects. How many
@@ -17,8 +17,8 @@
 //! by layer again (its images never depend on the memo). The recording is kept,
 //! so a second frame of the same scene and camera records nothing.
 //!
-//! This is the "previous frame's layer count with a GPU check and a fallback" of
-//! the issue. Conditional rendering (`VK_EXT_conditional_rendering`, which
+//! This is the "previous frame's layer count with a GPU check and a fallback"
+//! scheme. Conditional rendering (`VK_EXT_conditional_rendering`, which
 //! lavapipe has) would skip draws past the last layer, but not the clears,
 //! copies and barriers every layer plan records, nor bound the CST peel loops
 //! inside each layer plan without unrolling them to their worst case.

@@ -1,4 +1,4 @@
-//! Shadows of a scene with a `[light]` (seed 003, Rossignac & Wu: the CSG solid's
+//! Shadows of a scene with a `[light]` (Rossignac & Wu: the CSG solid's
 //! depth buffer seen from the light, then a shadow test in the eye's shading).
 //!
 //! GPU algorithms render the plan twice on one device: from the eye (with the
@@ -316,7 +316,7 @@ impl GpuShadows {
     /// (again when `new_map`, as the bench times it; otherwise only when it
     /// does not hold this plan's), the eye's frame and the shadow pass. When
     /// both frames replay their recordings (their loop counts are known) they
-    /// and the pass go in one submission with one wait (issue 9 §2); a frame
+    /// and the pass go in one submission with one wait; a frame
     /// whose counts then fail the GPU's check runs again loop by loop and the
     /// pass after it. Otherwise (a plan's first frame) frame by frame.
     pub fn frame(

@@ -1,7 +1,7 @@
-//! Composing `color.png` from the layers of the solid in a [`Style`] (seed 001
-//! §4.5 transparency, §5.3 blueprint composition, §5.4 edge-enhanced
-//! transparency). Every style composes back to front, as the paper renders its
-//! layers as depth sprites: the last layer first, layer 1 last.
+//! Composing `color.png` from the layers of the solid in a [`Style`] (Kirsch,
+//! Nienhaus & Döllner §4.5 transparency, §5.3 blueprint composition, §5.4
+//! edge-enhanced transparency). Every style composes back to front, as the paper
+//! renders its layers as depth sprites: the last layer first, layer 1 last.
 //!
 //! - `transparent`: `C ← a_k c_k + (1 − a_k) C`, from the background.
 //! - `blueprint` (depth-complexity cueing): where layer k covers a pixel,
@@ -36,7 +36,7 @@ pub const DEFAULT_ALPHA: f64 = 0.4;
 
 /// One layer as the styles see it, pixels row-major.
 pub struct StyleLayer<'a> {
-    /// The layer's shaded colour (the contract's shading of its crossing).
+    /// The layer's shaded colour (the standard shading of its crossing).
     pub color: &'a [[u8; 4]],
     /// Whether the layer has a point at the pixel.
     pub covered: Vec<bool>,

@@ -1,6 +1,6 @@
-//! CST-G (seed 000 §7, optimization 3): trim against the grouped Blist of the
-//! i-zone, classifying a whole same-operator group with a stencil counter instead of
-//! one parity draw and two sweeps per literal.
+//! CST-G (Hable & Rossignac §7, optimization 3): trim against the grouped Blist of
+//! the i-zone, classifying a whole same-operator group with a stencil counter instead
+//! of one parity draw and two sweeps per literal.
 //!
 //! Stencil layout `[label | counter]`: the counter occupies the low `counter_bits`,
 //! the label the bits above. A single-literal entry uses the counter's bit 0 as its
@@ -24,8 +24,8 @@
 //!
 //! A group is kept only where the counter pays ([`counter_pays`]): with label
 //! reuse a plain entry costs one sweep, so a few small holes in a large leaf
-//! are cheaper one by one (complex's base plate; seed 000 §7 counts two sweeps per
-//! entry, without reuse).
+//! are cheaper one by one (complex's base plate; Hable & Rossignac §7 counts two
+//! sweeps per entry, without reuse).
 #![deny(unsafe_code)]
 
 use super::super::common::{next, sweep};
@@ -190,7 +190,7 @@ pub struct GroupTrimmer {
 
 /// Stencil labels for the entries of a grouped Blist whose targets name entry
 /// indices: the smallest free label when an entry is first referenced, freed when
-/// it is reached (label reuse, seed 002 §5.3.3). A group's label is freed only
+/// it is reached (label reuse, Hilbrich §5.3.3). A group's label is freed only
 /// after its own targets have theirs, so a group's target never shares its label:
 /// a counter sweep could not tell pixels moved to such a target from pixels
 /// still to be classified (at most one label over plain reuse). A literal

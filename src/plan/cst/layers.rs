@@ -1,6 +1,7 @@
-//! One layer of a solid on the GPU (seed 000 §6, depth peeling for transparency):
-//! the solid rendered again by CST with every leaf's peel initialized at the
-//! previous layer's depth, so only candidates strictly behind it are considered.
+//! One layer of a solid on the GPU (Hable & Rossignac §6, depth peeling for
+//! transparency): the solid rendered again by CST with every leaf's peel initialized
+//! at the previous layer's depth, so only candidates strictly behind it are
+//! considered.
 //!
 //! §6 peels the front-facing and the back-facing boundary separately — layer
 //! 2k − 1 is the k-th layer of the entry points, layer 2k the k-th of the exit
@@ -137,7 +138,7 @@ pub fn layer_plan(
 }
 
 /// A plan of one counted draw: the pixels the last layer covers, by an
-/// occlusion query over the final depth (seed 000 §4's Done test, here the
+/// occlusion query over the final depth (Hable & Rossignac §4's Done test, here the
 /// stream's stop and `--layer-threshold`). Run right after a [`layer_plan`]; it
 /// changes no image.
 pub fn coverage_plan() -> Plan {

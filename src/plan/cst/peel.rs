@@ -1,6 +1,6 @@
-//! CST(S, V) for one surface S (seed 000 §4): the peel–trim–push loop (unrolled
-//! when the number of layers is known), then Render(S), merged into the final
-//! image, optionally marked or painted (§6).
+//! CST(S, V) for one surface S (Hable & Rossignac §4): the peel–trim–push loop
+//! (unrolled when the number of layers is known), then Render(S), merged into the
+//! final image, optionally marked or painted (§6).
 #![deny(unsafe_code)]
 
 use super::super::stencil;
@@ -14,8 +14,8 @@ pub enum Layers {
     /// Unknown: loop until an occlusion query says the peel reached no pixel (at
     /// most this many times).
     AtMost(u32),
-    /// Exactly this many peels suffice (seed 000 §4: a convex surface needs one
-    /// pass when only front faces are trimmed, two otherwise): the loop is
+    /// Exactly this many peels suffice (Hable & Rossignac §4: a convex surface needs
+    /// one pass when only front faces are trimmed, two otherwise): the loop is
     /// unrolled, with no occlusion query, no empty last peel and no extra submits.
     Known(u32),
 }
@@ -33,12 +33,12 @@ impl Layers {
     }
 }
 
-/// CST(S, V) merged into [`FINAL`] (seed 000 §4): `Initialize; Repeat {Peel(S);
-/// Trim(V); Push()} until Done; Render(S)`. `trimmer: None` means V is the universe:
-/// the first layer of S is drawn directly.
+/// CST(S, V) merged into [`FINAL`] (Hable & Rossignac §4): `Initialize; Repeat
+/// {Peel(S); Trim(V); Push()} until Done; Render(S)`. `trimmer: None` means V is the
+/// universe: the first layer of S is drawn directly.
 ///
-/// `floor`: a depth texture the peeling starts behind (seed 000 §6: the layers
-/// after the first initialize *PrevDepth* at the previous layer's depth), or
+/// `floor`: a depth texture the peeling starts behind (Hable & Rossignac §6: the
+/// layers after the first initialize *PrevDepth* at the previous layer's depth), or
 /// `None` to start at the near plane.
 pub fn cst(
     surface: MeshId,
@@ -251,7 +251,7 @@ pub const PAINT_PENDING: u8 = 0x02;
 pub struct Merge {
     /// Mark the pixels won with [`SURFACE_MARK`] (surfaces; solids merge first).
     pub mark: bool,
-    /// Repaint the pixels won in this colour (CST painting, seed 000 §6).
+    /// Repaint the pixels won in this colour (CST painting, Hable & Rossignac §6).
     pub paint: Option<[u8; 3]>,
 }
 

@@ -1,6 +1,6 @@
-//! CST's overlap rules (seed 000 §5): which faces of a trimming literal count as
-//! in front of a candidate, per draw, so that coincident faces are decided by a
-//! symbolic perturbation (the earlier primitive is slightly in front); and the
+//! CST's overlap rules (Hable & Rossignac §5): which faces of a trimming literal
+//! count as in front of a candidate, per draw, so that coincident faces are decided
+//! by a symbolic perturbation (the earlier primitive is slightly in front); and the
 //! parity draw that applies them. The rules are explained in the parent module.
 #![deny(unsafe_code)]
 
@@ -27,9 +27,9 @@ pub enum Candidates {
     /// is hidden behind a nearer entry anyway, so a u-node's coincident exit face
     /// needs no draw of its own.
     Visible,
-    /// Every entry point exactly once (the odd layers of seed 000 §6): also where
-    /// a u-node literal leaves as the leaf enters (two solids of a union touching
-    /// face to face), the point is inside the union and dropped.
+    /// Every entry point exactly once (the odd layers of Hable & Rossignac §6): also
+    /// where a u-node literal leaves as the leaf enters (two solids of a union
+    /// touching face to face), the point is inside the union and dropped.
     Entry,
     /// Every exit point exactly once (the even layers): [`Candidates::Entry`]'s
     /// rule along the reversed ray.
@@ -37,8 +37,8 @@ pub enum Candidates {
 }
 
 impl Peeled {
-    /// Total order of seed 000 §5 ("L is considered slightly in front of R"):
-    /// primitive index, then leaf occurrence.
+    /// Total order of Hable & Rossignac §5 ("L is considered slightly in front of
+    /// R"): primitive index, then leaf occurrence.
     pub fn earlier(&self, prim: u32, leaf: LeafId) -> bool {
         (prim, leaf) < (self.prim, self.leaf)
     }
@@ -137,8 +137,8 @@ fn entry_tie_draws(
 /// depth (texture [`CUR`]): `LessOrEqual` keeps faces up to [`SHADE_EPS`] behind the
 /// candidate (a coincident face counts as in front whatever the rounding), `Less`
 /// keeps only faces more than [`SHADE_EPS`] in front of it (a coincident face
-/// never counts). So the symbolic perturbation of seed 000 §5 survives different
-/// tessellations and rounding of the same plane.
+/// never counts). So the symbolic perturbation of Hable & Rossignac §5 survives
+/// different tessellations and rounding of the same plane.
 pub fn tie_eps(compare: CompareOp) -> f32 {
     match compare {
         CompareOp::LessOrEqual => SHADE_EPS,

@@ -1,6 +1,6 @@
-//! Trim(V) against a plain Blist (seed 000 §4; cst-z and cst-i): per entry, parity
-//! draws and ChangeStencilState sweeps; and the [`Trimmer`] interface the CST loop
-//! drives (cst-g's is in [`super::group`]).
+//! Trim(V) against a plain Blist (Hable & Rossignac §4; cst-z and cst-i): per entry,
+//! parity draws and ChangeStencilState sweeps; and the [`Trimmer`] interface the CST
+//! loop drives (cst-g's is in [`super::group`]).
 #![deny(unsafe_code)]
 
 use super::super::common::{next, sweep};
@@ -10,10 +10,10 @@ use super::{parity_draw, tie_draws, Peeled, TrimVolume, WORK};
 use crate::csg::BlistEntry;
 use crate::plan::PlanError;
 
-/// Trim(V) against a plain Blist (seed 000 §4): per entry, its parity draw(s) and two
-/// ChangeStencilState sweeps (parity set → the literal's "in" target, clear → "out").
-/// The tie rules of [`tie_draws`] are written for candidates on a front face of
-/// the peeled literal, which is all a solid's leaf peels.
+/// Trim(V) against a plain Blist (Hable & Rossignac §4): per entry, its parity
+/// draw(s) and two ChangeStencilState sweeps (parity set → the literal's "in" target,
+/// clear → "out"). The tie rules of [`tie_draws`] are written for candidates on a
+/// front face of the peeled literal, which is all a solid's leaf peels.
 fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &mut Vec<Step>) {
     let label_mask = layout.label_mask();
     let all_mask = layout.all_mask();
@@ -44,9 +44,9 @@ fn trim_blist(peeled: &Peeled, vol: &TrimVolume, layout: &LabelLayout, steps: &m
 /// `here` with `parity` set go to the "inside" value, the others to the
 /// "outside" one (`to`). The parity-set sweep is scissored to where the
 /// literal's mesh drew (inside the peeled leaf's rectangle too), the other to
-/// the leaf's. A target that reuses `here` (label reuse, seed 000 Fig. 11) needs
-/// no sweep of its own, only the parity cleared — after the other rule moved its
-/// pixels, so they are not swept again.
+/// the leaf's. A target that reuses `here` (label reuse, Hable & Rossignac Fig. 11)
+/// needs no sweep of its own, only the parity cleared — after the other rule moved
+/// its pixels, so they are not swept again.
 pub(crate) fn literal_sweeps(
     prim: MeshId,
     peeled: MeshId,

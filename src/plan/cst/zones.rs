@@ -1,6 +1,6 @@
-//! Per-leaf active zones (seed 000 §5, §7): the Z or I form of each leaf's zone,
-//! restricted by bounding boxes, as the Blist its CST is trimmed against. A zone
-//! that becomes `true` needs no trim (the leaf is drawn directly) and one that
+//! Per-leaf active zones (Hable & Rossignac §5, §7): the Z or I form of each leaf's
+//! zone, restricted by bounding boxes, as the Blist its CST is trimmed against. A
+//! zone that becomes `true` needs no trim (the leaf is drawn directly) and one that
 //! becomes `false` drops the leaf.
 #![deny(unsafe_code)]
 
@@ -104,11 +104,11 @@ pub fn leaf_csts(
             _ => zone,
         };
         let zone = zone.flip_literals(|p| eye_inside.get(p as usize).copied().unwrap_or(false));
-        // Opaque rendering (seed 000 §7): a visible point of the solid is where a
-        // ray enters it, so on a front face of a positive or a back face of a
+        // Opaque rendering (Hable & Rossignac §7): a visible point of the solid is
+        // where a ray enters it, so on a front face of a positive or a back face of a
         // negative leaf. Every variant peels those faces only; Z differs from I
         // in its zones, not in its peel. (Peeling both faces for Z doubled its
-        // layers and its parity draws on the gear: see the README.)
+        // layers and its parity draws on the gear: see docs/perf/.)
         let peel_cull = if lit.negated { Cull::Front } else { Cull::Back };
         let universe = zone.is_universe();
         // An untrimmed leaf draws its primitive's faces as they are: a second leaf

@@ -1,4 +1,4 @@
-//! Goldfeather by layers, O(kn) (Stewart, Leach & John, seed 004 §4–5): instead of
+//! Goldfeather by layers, O(kn) (Stewart, Leach & John, §4–5): instead of
 //! one surface per literal, the union of a product's potentially visible faces is
 //! cut into its depth-complexity layers, and each whole layer is clipped at once
 //! against *all* primitives of the product — including the primitive each layer

@@ -1,11 +1,12 @@
-//! Goldfeather's z-buffer CSG (Goldfeather et al. via Stewart, Leach & John, seed 004
-//! §3): the positive form becomes a sum of products (§3.2); per product and per
-//! literal, the literal's *potentially visible* faces — front faces of a positive,
-//! back faces of a complemented primitive (§3.4) — are drawn into a *surface*
-//! depth-stencil image, clipped there by parity against every other primitive of the
-//! product (§3.1, §3.3; one stencil bit per primitive, eight primitives per reject
-//! sweep), and the survivors are merged into the *output* depth with a less-than
-//! test (§3.5). A final pass shades by depth-equal (within a tolerance).
+//! Goldfeather's z-buffer CSG (Goldfeather et al. via Stewart, Leach & John,
+//! §3): the positive form becomes a sum of products (§3.2); per product
+//! and per literal, the literal's *potentially visible* faces — front faces of a
+//! positive, back faces of a complemented primitive (§3.4) — are drawn into a
+//! *surface* depth-stencil image, clipped there by parity against every other
+//! primitive of the product (§3.1, §3.3; one stencil bit per primitive, eight
+//! primitives per reject sweep), and the survivors are merged into the *output* depth
+//! with a less-than test (§3.5). A final pass shades by depth-equal (within a
+//! tolerance).
 //!
 //! Parity counts a primitive's faces at *or in front of* the surface point (depth
 //! `LessOrEqual`), so it classifies the point just behind the surface — where the
@@ -13,9 +14,9 @@
 //! on which of the two triangles rasterizes nearer (Goldfeather's classic
 //! speckles); so the parity draws keep the faces at most [`ProductOptions::eps`]
 //! behind the surface depth (a float texture, [`Fragment::NearerThan`]), which
-//! classifies the point `eps` behind the surface, as Trickle does (seed 003 §3.2): coincident faces classify alike, and
-//! parts of the solid thinner than `eps` along the ray vanish. `eps = 0` gives the
-//! exact test.
+//! classifies the point `eps` behind the surface, as Trickle does (Rossignac & Wu
+//! §3.2): coincident faces classify alike, and parts of the solid thinner than `eps`
+//! along the ray vanish. `eps = 0` gives the exact test.
 //!
 //! Non-convex primitives (§3.5, Goldfeather's layers): a mesh may show several
 //! potentially visible faces at one pixel, and the nearest one may be clipped away
@@ -30,9 +31,9 @@
 //! round trip. The shading pass then
 //! paints every face within [`super::SHADE_EPS`] (2⁻²⁰ normalized depth) of the final
 //! depth, primitives in *descending* index order, so where faces of several
-//! primitives coincide the lowest index is written last and wins (CONTRACT.md §4,
-//! `prim.png`) — depth-equal would fail on coincident faces of different triangles,
-//! which rasterize an ulp or two apart.
+//! primitives coincide the lowest index is written last and wins (`prim.png`,
+//! docs/precision.md) — depth-equal would fail on coincident faces of different
+//! triangles, which rasterize an ulp or two apart.
 #![deny(unsafe_code)]
 
 pub mod layered;
@@ -53,7 +54,7 @@ pub struct ProductOptions {
     /// Goldfeather's parity tolerance (normalized depth): a face counts for the
     /// parity of a surface point when it is at most `eps` behind it, so the point
     /// classified is `eps` behind the surface and coincident faces classify alike
-    /// whatever their rounding (Trickle's rule, seed 003 §3.2). 0: exact
+    /// whatever their rounding (Trickle's rule, Rossignac & Wu §3.2). 0: exact
     /// `LessOrEqual`, with Goldfeather's speckles on coincident faces.
     pub eps: f32,
 }
@@ -79,7 +80,7 @@ pub struct Lit {
 
 impl Lit {
     /// The faces that may be visible on the product: front faces of a positive,
-    /// back faces of a complemented primitive (seed 004 §3.4).
+    /// back faces of a complemented primitive (Stewart, Leach & John §3.4).
     pub fn visible_cull(self) -> Cull {
         if self.negated {
             Cull::Front
@@ -329,7 +330,8 @@ pub(crate) fn surface_draw(a: Lit, fragment: Fragment, count_samples: bool) -> S
     surface_draw_culled(a, a.visible_cull(), fragment, count_samples)
 }
 
-/// [`surface_draw`] of the faces `cull` keeps (Kirsch's back surfaces, seed 001 §4.3).
+/// [`surface_draw`] of the faces `cull` keeps (Kirsch, Nienhaus & Döllner's back
+/// surfaces, §4.3).
 pub(crate) fn surface_draw_culled(
     a: Lit,
     cull: Cull,
@@ -371,9 +373,9 @@ pub(crate) fn into_surface(
 }
 
 /// Parity clipping of the surface image against each literal in `against`
-/// (seed 004 §3.3), eight primitives at a time, one stencil bit each: a parity
-/// draw inverts a primitive's bit for each of its faces at most `eps` behind the
-/// surface point; then one sweep resets the depth to far wherever any bit says
+/// (Stewart, Leach & John §3.3), eight primitives at a time, one stencil bit each: a
+/// parity draw inverts a primitive's bit for each of its faces at most `eps` behind
+/// the surface point; then one sweep resets the depth to far wherever any bit says
 /// "outside" (clear for a positive, set for a complemented literal: the masked
 /// stencil differs from the expected pattern) and clears the bits everywhere.
 /// `surface` names the meshes whose faces may be in the surface image.

@@ -1,5 +1,5 @@
-//! What the outputs keep from one frame to the next ([module doc](super),
-//! issue 9 §4): where an output was last cleared to the value a frame clears
+//! What the outputs keep from one frame to the next ([module doc](super)):
+//! where an output was last cleared to the value a frame clears
 //! it to and not written since, it already holds that value and needs no
 //! clear; a recording replayed from other frames assumes what it may
 //! ([`assume`], [`holds`]).

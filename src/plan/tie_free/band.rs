@@ -1,4 +1,4 @@
-//! The tie band under one camera (README "Precision and ties"): how far
+//! The tie band under one camera (docs/precision.md): how far
 //! apart, in world units, two faces must be for the tie rule's tolerance never
 //! to span both at any pixel, from the depth format's quantum, f32 rounding
 //! and the device's vertex snapping ([`super`]'s decisions compare each mesh's
@@ -13,7 +13,7 @@ const QUANTUM_STANDARD: f64 = 1.0 / (1u64 << 24) as f64;
 /// Relative ulp bound of a reversed-Z float depth.
 const QUANTUM_REVERSED: f64 = 1.0 / (1u64 << 23) as f64;
 /// Relative f32 rounding of vertices and transforms allowed for (2⁻¹⁸ of the
-/// distance from the eye: four times the 2⁻²⁰ of README "Precision and ties").
+/// distance from the eye: four times the 2⁻²⁰ of docs/precision.md).
 const ROUNDING: f64 = 1.0 / (1u64 << 18) as f64;
 /// Every bound below is doubled (the depth slope is taken as constant over the
 /// band; the band is a tiny fraction of the view depth).

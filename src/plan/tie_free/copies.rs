@@ -1,7 +1,6 @@
 //! What the depth copy opening a final shade must cover once its draws are
-//! lowered ([module doc](super), README "The final shade as depth-equal
-//! draws"): the meshes that keep the tie rule, cut to their zones, or nothing
-//! (issue 9 §4: no pass whose result nobody reads).
+//! lowered ([module doc](super), docs/executor.md): the meshes that keep the tie
+//! rule, cut to their zones, or nothing (no pass whose result nobody reads).
 
 use super::super::rect::Rect;
 use super::super::step::*;

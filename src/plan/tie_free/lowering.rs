@@ -1,4 +1,4 @@
-//! The tie-free lowering of one draw ([module doc](super), issue 9 §5): a
+//! The tie-free lowering of one draw ([module doc](super)): a
 //! tolerant parity, clip, merge or peel draw, or a final shade's draw, with
 //! plain fixed-function tests in place of the tie rule where the decisions
 //! say the rule cannot change its result; a final shade's draw as OpenCSG's
@@ -186,7 +186,7 @@ impl TieFree {
     ) -> Option<Draw> {
         // SCS's parity before an exit and its clip only: its exits write
         // the texture that those draws read, so each batch of subtractions
-        // waited for the last (README "Ties as the depth test"). Blister's
+        // waited for the last (docs/precision.md). Blister's
         // and CST's parity draws keep the texture's rule: run as the depth
         // test, they moved 1–2 interior pixels of complex and of the
         // 311-primitive tree against the reference at 128×128.

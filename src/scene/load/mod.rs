@@ -1,11 +1,11 @@
-//! Loading a scene file (CONTRACT.md §1): TOML → validated [`Scene`] with
+//! Loading a scene file (docs/scene-format.md): TOML → validated [`Scene`] with
 //! world-space meshes, parsed expressions, and a camera with definite near/far.
 //!
 //! Every user mistake is a [`SceneError`] naming the file, the line (TOML syntax and
 //! type errors: line and column) or the key path (`primitive[3] "B": radius`, entries
 //! counted from 1), and the fix. Loading only reads files.
 //!
-//! Choices the contract leaves open (also in the README):
+//! Defaults and choices of the format (also in docs/scene-format.md):
 //! - `[camera]` may be omitted: the eye looks from direction `[3, 2, 4]` at the
 //!   origin with `fit = true`. When present, `eye` is required and `target` defaults
 //!   to `[0, 0, 0]`.

@@ -1,4 +1,4 @@
-//! The scene file's TOML model (CONTRACT.md §1): one serde struct per table,
+//! The scene file's TOML model (docs/scene-format.md): one serde struct per table,
 //! unknown keys refused, spans kept for error lines; `"#rrggbb"` colours.
 
 use serde::de::{self, Deserializer};

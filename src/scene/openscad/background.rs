@@ -3,9 +3,9 @@
 //! ([`super::convert::BACKGROUND_COLOR`], alpha 128/255). Each `%` subtree is
 //! converted to a set of its own ([`Background`]) and kept beside the scene
 //! (`Appearance::background`); [`show`] adds the parts as solids of their own
-//! with that alpha where the algorithm composites transparent layers (seed 000
-//! §6: each solid's boundary counted on its own, so a part's faces blend over
-//! and through the solid). Elsewhere they stay out of the picture, and the
+//! with that alpha where the algorithm composites transparent layers
+//! (Hable & Rossignac §6: each solid's boundary counted on its own, so a part's faces
+//! blend over and through the solid). Elsewhere they stay out of the picture, and the
 //! loader's warning says so.
 #![deny(unsafe_code)]
 

@@ -1,6 +1,6 @@
 //! OpenSCAD 2021.01's tessellation of `cube`, `sphere`, `cylinder` and
-//! `polyhedron` (its `primitives.cc`), as closed CCW-outward meshes (CONTRACT.md
-//! §2's winding), so a `.csg` file gives the same facets as OpenSCAD's preview
+//! `polyhedron` (its `primitives.cc`), as closed CCW-outward meshes (the scene
+//! format's winding), so a `.csg` file gives the same facets as OpenSCAD's preview
 //! and CGAL render.
 //!
 //! - Fragments: `get_fragments_from_r` (below), `$fa`/`$fs` clamped to 0.01.

@@ -1,4 +1,4 @@
-//! Frames of several executors in one queue submission (issue 9 §2: one
+//! Frames of several executors in one queue submission (one
 //! submit per frame in every mode). A shadowed frame is the light's map, the
 //! eye's frame and the shadow pass: each executor [`Executor::prepare`]s its
 //! kept, unrolled recording, the caller submits all command buffers at once

@@ -1,7 +1,6 @@
 //! The camera as data on the GPU: a uniform buffer the shaders read the
 //! view-projection matrix and the eye from (`shaders/camera.glsl`), so a
-//! recording does not depend on the camera and a camera move replays it
-//! (issue 9 §3).
+//! recording does not depend on the camera and a camera move replays it.
 //!
 //! The standalone executor writes the buffer from the host before it submits (it
 //! waits for every frame, so no frame is reading it then). An embedded frame is

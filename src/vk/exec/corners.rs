@@ -20,7 +20,7 @@
 //! queue thread, shades each index once per 1,024-index segment through a
 //! direct-mapped cache of 256 entries keyed by the index, and a non-indexed
 //! draw shades every corner. Reuse is kept within [`WINDOW`] vertices so that a
-//! reused vertex is still in that cache (README "Indexed draws").
+//! reused vertex is still in that cache (docs/executor.md).
 
 use crate::scene::Mesh;
 

@@ -1,6 +1,5 @@
 //! What the outputs hold between frames and what a recording's clears and
-//! copies reach (`plan::reach`; README "Clears and copies cut to what is
-//! read, outputs kept between frames"): worked out per recording and kept
+//! copies reach (`plan::reach`; docs/executor.md): worked out per recording and kept
 //! while its steps, scissors and inputs stay (`plan::memo`).
 
 use std::sync::Arc;

@@ -13,18 +13,18 @@
 //! is kept and replayed as long as the plan and the layer counts stay the same
 //! (`record_ms` is then 0). The camera is a uniform buffer (`camera`), so a moved
 //! camera replays too, unless a mesh's screen rectangle left the one its scissors
-//! were recorded with (`Scissors`; see README, "Executor").
+//! were recorded with (`Scissors`; see docs/executor.md).
 //!
 //! Modules: `gpu_scene` (vertex buffer, camera state), `camera` (its uniform
 //! buffer), `targets` (images and descriptor sets), `record` (steps to commands,
 //! barriers from `plan::usage` through `vk::sync`), `state` (dynamic state
 //! recorded only where it changes), `stats` (typed statistics), `normals` (the
-//! optional normal buffer and the edge pass on it, seed 001 §5), `transparency`
-//! (the accumulate pass compositing peeled layers on the GPU, seed 000 §6),
-//! `sequence` (several plans, accumulate passes and layer copies in one
-//! submission: layered frames), `shadow` (what the shadow pass, `vk::shadow`,
-//! reads of an executor), `switches` (the `set_*` settings), `ties` (the
-//! tie-free decisions, kept per plan and camera), `scissors` (the per-mesh
+//! optional normal buffer and the edge pass on it, Kirsch, Nienhaus & Döllner §5),
+//! `transparency` (the accumulate pass compositing peeled layers on the GPU,
+//! Hable & Rossignac §6), `sequence` (several plans, accumulate passes and layer
+//! copies in one submission: layered frames), `shadow` (what the shadow pass,
+//! `vk::shadow`, reads of an executor), `switches` (the `set_*` settings), `ties`
+//! (the tie-free decisions, kept per plan and camera), `scissors` (the per-mesh
 //! rectangles of a recording's scissors), `recording` (the kept recording and
 //! its timing), `kept` (what the outputs hold, what clears and copies reach),
 //! `unrolled` (frames with unrolled loops, checked after the fact),

@@ -1,6 +1,6 @@
-//! The optional normal buffer (seed 001 §5.2) and the edge pass on it (§5.1):
-//! turning it on, reading it back in view space, and the first layer's edge map
-//! computed on the GPU (`shaders/edges.frag`; the recorder's `edge_pass`).
+//! The optional normal buffer (Kirsch, Nienhaus & Döllner §5.2) and the edge pass on
+//! it (§5.1): turning it on, reading it back in view space, and the first layer's
+//! edge map computed on the GPU (`shaders/edges.frag`; the recorder's `edge_pass`).
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -14,10 +14,10 @@ use crate::vk::submit::{self, Submitter};
 use crate::vk::sync::{self, REST};
 
 impl Executor {
-    /// Whether later frames also write the normal buffer (seed 001 §5.2): every
-    /// pass that writes colour writes the seen face's normal beside it, so the
-    /// final image's normals are those of its visible faces. Off by default (one
-    /// more 16-byte target per pixel); [`Executor::read_normals`] reads it.
+    /// Whether later frames also write the normal buffer (Kirsch, Nienhaus & Döllner
+    /// §5.2): every pass that writes colour writes the seen face's normal beside it,
+    /// so the final image's normals are those of its visible faces. Off by default
+    /// (one more 16-byte target per pixel); [`Executor::read_normals`] reads it.
     pub fn set_normals(&mut self, on: bool) {
         if self.normals != on {
             self.normals = on;

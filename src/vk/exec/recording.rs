@@ -1,8 +1,8 @@
-//! The kept frame recording (README "Executor"): a plan unrolled to known
+//! The kept frame recording (docs/executor.md): a plan unrolled to known
 //! loop counts, recorded into the frame command buffer once and replayed while
 //! its key — plan, loop counts, scissors, tie decisions, device objects and
 //! what it assumes the outputs hold — stays; and the timing of recordings
-//! (`time_recording`, issue 9 §3).
+//! (`time_recording`).
 
 use ash::vk;
 
@@ -96,8 +96,8 @@ impl Executor {
     }
 
     /// Records the kept frame of `plan` anew `reps` times without submitting it:
-    /// what recording this plan costs the CPU (a new plan of its size, issue 9
-    /// §3), in the calling thread's CPU ms per recording, free of the GPU's
+    /// what recording this plan costs the CPU (a new plan of its
+    /// size), in the calling thread's CPU ms per recording, free of the GPU's
     /// work and of waiting for a core. The recording stays kept (the same
     /// commands). Each recording works out what its clears and copies reach
     /// anew (the cache of those regions is dropped first, as for a new plan).

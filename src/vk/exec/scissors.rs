@@ -1,5 +1,5 @@
 //! The per-mesh screen rectangles a recording's scissors come from, and when
-//! a kept recording's scissors still serve a moved camera (README "Executor").
+//! a kept recording's scissors still serve a moved camera (docs/executor.md).
 
 use super::gpu_scene::GpuScene;
 use super::ExecDesc;

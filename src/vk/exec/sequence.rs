@@ -1,9 +1,9 @@
-//! Frames of several plans in one command buffer and one submission (issue 9
-//! §2): a layered, transparent or Kirsch frame is a sequence of plans (one per
+//! Frames of several plans in one command buffer and one submission:
+//! a layered, transparent or Kirsch frame is a sequence of plans (one per
 //! peeled layer, each followed by its coverage count), accumulate passes
-//! (seed 000 §6, blended on the GPU) and copies of layers into a host-visible
-//! buffer ("keeps": the layers the CPU merges or writes out). The caller knows
-//! every plan's loop counts from an earlier frame (the layered driver,
+//! (Hable & Rossignac §6, blended on the GPU) and copies of layers into a
+//! host-visible buffer ("keeps": the layers the CPU merges or writes out). The caller
+//! knows every plan's loop counts from an earlier frame (the layered driver,
 //! `render::sequence`, learns them by running the frame plan by plan); the whole
 //! sequence is recorded unrolled, submitted once, and checked on the GPU's
 //! occlusion counts afterwards as a single frame is (`layers_fit` per plan):

@@ -153,11 +153,11 @@ pub struct Counts {
     /// Samples passed by all `count_samples` draws.
     pub samples_counted: u64,
     /// Samples passed by the `count_samples` draws after the plan's last loop
-    /// (Kirsch's layer count, seed 001 §6).
+    /// (Kirsch, Nienhaus & Döllner's layer count, §6).
     pub final_samples: u64,
 }
 
-/// How a frame's commands came to be (issue 9 §3: record once, replay).
+/// How a frame's commands came to be (record once, replay).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Recorded {

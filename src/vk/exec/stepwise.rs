@@ -1,4 +1,4 @@
-//! The loop-by-loop frame (README "Executor"): one submission per straight
+//! The loop-by-loop frame (docs/executor.md): one submission per straight
 //! run of steps and per loop head and tail, each head's occlusion count read
 //! on the CPU. It runs a plan seen for the first time, or one whose unrolled
 //! frame's counts no longer fit, and learns the loop counts.

@@ -46,7 +46,7 @@ impl Drop for Targets {
     }
 }
 
-/// The images of the accumulate pass (seed 000 §6 on the GPU) and the sets
+/// The images of the accumulate pass (Hable & Rossignac §6 on the GPU) and the sets
 /// that sample its inputs.
 pub(super) struct Transparency {
     /// Premultiplied colour (rgb) and coverage (a), blended front to back.

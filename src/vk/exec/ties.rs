@@ -1,5 +1,5 @@
-//! The tie-free decisions of a frame (`plan::tie_free`; README "GPU work per
-//! frame: where the tie rule's cost went" and "Tie zones"): which parity, peel
+//! The tie-free decisions of a frame (`plan::tie_free`;
+//! docs/precision.md, docs/perf/): which parity, peel
 //! and shade draws may run as plain depth tests under the current camera,
 //! decided once per plan, camera, scene and settings and kept (`plan::memo`).
 

@@ -1,4 +1,4 @@
-//! Transparency composited on the GPU (seed 000 §6): each peeled layer is
+//! Transparency composited on the GPU (Hable & Rossignac §6): each peeled layer is
 //! blended front to back into an accumulation target right after the plan
 //! that peeled it (`shaders/accumulate.frag`, the recorder's
 //! `accumulate_pass`), so a transparent frame reads back one image, not every

@@ -1,4 +1,4 @@
-//! Frames with their peel loops unrolled (README "Executor"): the loops run
+//! Frames with their peel loops unrolled (docs/executor.md): the loops run
 //! to the layer counts the last frame of the plan needed, in one submission,
 //! checked afterwards on the GPU's occlusion counts (`layers_fit`); the kept
 //! recording replays when it fits.
@@ -16,7 +16,7 @@ use crate::vk::submit;
 impl Executor {
     /// Makes the frame command buffer hold `plan` with its loops unrolled to
     /// `layers` for the current camera: the kept recording when it fits (see
-    /// "Executor" in the README), otherwise a new one. Returns how it came to be.
+    /// docs/executor.md), otherwise a new one. Returns how it came to be.
     pub(super) fn ready_unrolled(
         &mut self,
         plan: &Plan,

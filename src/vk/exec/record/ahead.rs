@@ -1,6 +1,6 @@
 //! The recorder's look-ahead over the steps it records next, so that steps
-//! that need no barrier between them share one rendering block (issue 9 §4:
-//! "pay only for what the frame needs"). On lavapipe every block end makes
+//! that need no barrier between them share one rendering block (pay
+//! only for what the frame needs). On lavapipe every block end makes
 //! llvmpipe rasterize its binned scene and join its threads, and a frame's
 //! fixed cost is mostly its blocks.
 //!

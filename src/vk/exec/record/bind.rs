@@ -1,4 +1,4 @@
-//! What a recording binds and sets (issue 9 §3: ≤ 1 µs of CPU per draw):
+//! What a recording binds and sets (≤ 1 µs of CPU per draw):
 //! pipelines found without building a `PipelineDesc` per draw, descriptor
 //! sets, scissors, dynamic state and push constants, each recorded only where
 //! it changes (`state.rs`, `record/push.rs`).

@@ -1,4 +1,4 @@
-//! Rendering blocks and barriers of a recording (README "Executor"): each
+//! Rendering blocks and barriers of a recording (docs/executor.md): each
 //! image's last usage, the one pipeline barrier a step's usages need
 //! (`vk::sync`'s table), and the dynamic-rendering block a draw records into,
 //! its load ops taking the pending clears.

@@ -1,4 +1,4 @@
-//! The recorder's clears and copies (issue 9 §4: "clears go through load ops,
+//! The recorder's clears and copies ("clears go through load ops,
 //! or are scissored to what will be read"). A plan's `Clear` is deferred to the
 //! image's next use and reaches only the part of the image that later steps, or
 //! the read-back after the frame, can read before the image is cleared or
@@ -19,7 +19,7 @@
 //!
 //! On lavapipe every clear command waits for the rasterizer threads and fills on
 //! the calling thread (`rep stos` rows, ~9% of a small CST frame's CPU before
-//! this), so the region is what it costs (README, "Executor").
+//! this), so the region is what it costs (docs/executor.md).
 
 use std::collections::VecDeque;
 

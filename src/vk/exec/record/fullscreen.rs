@@ -1,6 +1,7 @@
 //! Full-screen passes of a recording: the quad draw, internal full-screen
-//! draws (depth copies), and the extension passes on a finished frame — seed
-//! 001 §5.1's edge map and seed 000 §6's front-to-back accumulation.
+//! draws (depth copies), and the extension passes on a finished frame — Kirsch,
+//! Nienhaus & Döllner §5.1's edge map and Hable & Rossignac §6's front-to-back
+//! accumulation.
 
 use ash::vk;
 
@@ -14,8 +15,8 @@ use crate::vk::scissor::Rect;
 use crate::vk::sync;
 
 impl Recorder<'_> {
-    /// Seed 001 §5.1's edge map of the last frame's first layer, in one
-    /// full-screen draw (`shaders/edges.frag`) into the edge target, sampling the
+    /// Kirsch, Nienhaus & Döllner §5.1's edge map of the last frame's first layer, in
+    /// one full-screen draw (`shaders/edges.frag`) into the edge target, sampling the
     /// normal buffer and depth-stencil `output_ds`; every image rests in `REST`
     /// after. `rule`: relative depth threshold and cosine of the crease angle.
     pub fn edge_pass(
@@ -69,7 +70,7 @@ impl Recorder<'_> {
         Ok(())
     }
 
-    /// Seed 000 §6's front-to-back composite of one peeled layer, in one
+    /// Hable & Rossignac §6's front-to-back composite of one peeled layer, in one
     /// full-screen draw (`shaders/accumulate.frag`) blended into the
     /// accumulation target: where the layer's primitive id `p` is not 0,
     /// `C += (1 − A)·a·c` and `A += (1 − A)·a` with `a` the opacity table's

@@ -1,5 +1,5 @@
-//! The embedding's direct final pass (README "Embedding"): the plan's last
-//! pass, the depth-equal shade of `plan::tie` (README "Precision and ties"),
+//! The embedding's direct final pass (docs/embedding.md): the plan's last
+//! pass, the depth-equal shade of `plan::tie` (docs/precision.md),
 //! drawn straight into the host's colour and depth attachments, so that an
 //! embedded frame does the standalone frame's work and no composite pass
 //! (`vk::composite`, the fallback) remains.
@@ -43,7 +43,7 @@
 //! written piece outside the screen rectangles of its mesh's cutters
 //! (`Piece::WrittenUncut`, `plan::cut_away`: a mesh that is the only positive
 //! literal of a product has no face nearer than the output depth outside its
-//! cutters; README "Embedding", "Shade pieces outside their cutters").
+//! cutters; docs/embedding.md).
 
 use ash::vk;
 
@@ -390,8 +390,7 @@ fn insides_last(pieces: &[(Cull, Piece, Rect)]) -> Option<Vec<(usize, bool)>> {
 /// Whether the final shade's depth-equal pieces are drawn `Written`, each
 /// testing the host's depth with equality and writing its own, rather than
 /// after the depth merge: whichever runs the shader on fewer pixels, as
-/// lavapipe prices them (README "Embedding", "The depth merge or the pieces'
-/// own depth").
+/// lavapipe prices them (docs/embedding.md).
 ///
 /// The merge runs its shader (a depth fetch and `gl_FragDepth`, tested late)
 /// on every pixel of its rectangle, the bounds of the pieces' scissors; the

@@ -1,5 +1,5 @@
-//! One lowering of a plan draw into what the recorder records (issue 9 §4,
-//! §5): `Recorder::draw` records this answer and the look-ahead
+//! One lowering of a plan draw into what the recorder records:
+//! `Recorder::draw` records this answer and the look-ahead
 //! (`record/ahead.rs`) summarizes the same answer, so the two can never
 //! disagree about which block a draw asks for. In order:
 //!
@@ -178,7 +178,7 @@ pub(super) fn lower<'a>(
 /// The part of `scissor` where the final shade's depth-equal draw `d`
 /// (lowered `how`) of a cavity's inside can pass: within the screen
 /// rectangle of the openings it is seen through (`openings`,
-/// `CutAway::inside_holes`, issue 9), where they are known; `scissor`
+/// `CutAway::inside_holes`), where they are known; `scissor`
 /// otherwise. Only a draw that cannot tie (`Lowering::FixedFunction`) is cut:
 /// it passes only where its mesh's own face is the visible surface, and a
 /// cutter that is never positive shows its inside (its back faces, the front

@@ -14,7 +14,7 @@
 //! screen are not recorded. Meshes of one draw that lie contiguously in the
 //! vertex buffer and need no per-mesh push constants are drawn with one call.
 //!
-//! Re-recording a plan costs ≤ 1 µs of CPU per draw (issue 9 §3): a pipeline
+//! Re-recording a plan costs ≤ 1 µs of CPU per draw: a pipeline
 //! bind, the scissor and the push constants are recorded only where they
 //! change (`state.rs`, `record/push.rs`), and nothing is allocated per draw.
 //!
@@ -117,9 +117,9 @@ impl BlockKey {
 /// scene. Written after the last block, the closing timestamp is a scene of its
 /// own: one more round of waking the rasterizer threads and waiting for them.
 /// shadow_block SCS at 800×800: 25–27 context switches a frame with it outside,
-/// 20–20.6 with it binned (9.5 with no timestamps at all; README "Executor
-/// fixed costs"). The opening one keeps its scene: inside the first block each
-/// thread would keep the time of its last tile, the frame's end.
+/// 20–20.6 with it binned (9.5 with no timestamps at all; docs/executor.md). The
+/// opening one keeps its scene: inside the first block each thread would keep the
+/// time of its last tile, the frame's end.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FrameTimestamps {
     /// `BOTTOM_OF_PIPE` after every command of the buffer: what a hardware
@@ -165,7 +165,8 @@ pub(super) struct Bindings<'a> {
     pub flags: u32,
     /// Emulated vertex snapping step of mesh draws (zero: off).
     pub snap: [f32; 2],
-    /// Write the normal buffer wherever colour is written (seed 001 §5.2).
+    /// Write the normal buffer wherever colour is written (Kirsch, Nienhaus & Döllner
+    /// §5.2).
     pub normals: bool,
     /// Mesh draws are indexed from the shared or lit corners (`GpuScene`'s
     /// doc; `Executor::set_indexed`).
@@ -188,7 +189,7 @@ pub enum ClearMode {
     /// other hardware GPUs clear on load for free).
     LoadOp,
     /// As clear commands of the region later steps read (`clears.rs`).
-    /// Lavapipe clears on load far more slowly (README, "Executor"), so CPU
+    /// Lavapipe clears on load far more slowly (docs/executor.md), so CPU
     /// devices use this.
     Command,
 }
@@ -204,8 +205,7 @@ pub enum BlockJoin {
     /// Only blocks without colour attachments. On lavapipe a masked draw
     /// over many pixels can cost more than the block end it saves (llvmpipe
     /// of Mesa 22.3 seems to blend into every bound colour buffer, writes
-    /// masked or not; README, "One block for the depth-only draws and the
-    /// shade").
+    /// masked or not; docs/executor.md).
     DepthOnly,
 }
 

@@ -1,4 +1,4 @@
-//! Push-constant elision (issue 9 §3: fewer commands per draw): a draw's push
+//! Push-constant elision (fewer commands per draw): a draw's push
 //! constants are recorded only where a field its shaders read differs from
 //! what the command buffer holds.
 //!

@@ -1,8 +1,8 @@
 //! The recorder's side of the final shade as depth-equal draws (`plan::tie_free`,
-//! README "The final shade as depth-equal draws"): the depth copy that opens a
+//! docs/executor.md): the depth copy that opens a
 //! final shade (`plan::tie::shade_near_depth`) reaches only the pixels its
 //! tie-rule draws read, and none when every draw of the shade runs as a plain
-//! depth-`EQUAL` draw (issue 9 §4: no pass whose result nobody reads). The
+//! depth-`EQUAL` draw (no pass whose result nobody reads). The
 //! draws themselves are rewritten one by one (`TieFree::fixed_function`); a draw
 //! of a mesh that can tie only in some zones (`plan::tie_zones`) becomes the
 //! rule draw cut to each of their rectangles and the depth-equal draw cut to
