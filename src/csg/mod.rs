@@ -6,13 +6,13 @@
 //! 10⁵-deep nesting and 10⁶ leaves cannot overflow the stack.
 #![deny(unsafe_code)]
 
-pub mod active_zone;
-pub mod blist;
+pub(crate) mod active_zone;
+pub(crate) mod blist;
 pub mod expr;
-pub mod groups;
+pub(crate) mod groups;
 pub mod normalize;
-pub mod parse;
-pub mod positive;
+pub(crate) mod parse;
+pub(crate) mod positive;
 pub mod products;
 
 pub use active_zone::ActiveZones;

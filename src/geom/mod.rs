@@ -5,8 +5,8 @@
 #![deny(unsafe_code)]
 
 pub mod bvh;
-pub mod clip;
-pub mod ties;
+pub(crate) mod clip;
+pub(crate) mod ties;
 
 use glam::DVec3;
 

@@ -49,7 +49,7 @@
 //! primitive too.
 #![deny(unsafe_code)]
 
-pub mod group;
+pub(crate) mod group;
 pub mod layers;
 mod peel;
 mod ties;

@@ -8,37 +8,37 @@
 //! deterministic, unlike timings on a shared machine.
 #![deny(unsafe_code)]
 
-pub mod blister;
-pub mod budget;
+pub(crate) mod blister;
+pub(crate) mod budget;
 mod common;
 mod convex;
 pub mod cst;
 pub mod cut_away;
-pub mod direct_shade;
-pub mod eye;
+pub(crate) mod direct_shade;
+pub(crate) mod eye;
 pub mod formats;
 pub mod goldfeather;
-pub mod kirsch;
-pub mod memo;
+pub(crate) mod kirsch;
+pub(crate) mod memo;
 pub mod print;
-pub mod reach;
-pub mod rect;
+pub(crate) mod reach;
+pub(crate) mod rect;
 pub mod screen;
-pub mod scs;
-pub mod stencil;
+pub(crate) mod scs;
+pub(crate) mod stencil;
 pub mod step;
 #[cfg(test)]
 pub(crate) mod testing;
-pub mod tie;
-pub mod tie_context;
+pub(crate) mod tie;
+pub(crate) mod tie_context;
 pub mod tie_free;
-pub mod tie_zones;
-pub mod trickle;
-pub mod usage;
-pub mod validate;
+pub(crate) mod tie_zones;
+pub(crate) mod trickle;
+pub(crate) mod usage;
+pub(crate) mod validate;
 mod view_convex;
-pub mod visible_side;
-pub mod visible_ties;
+pub(crate) mod visible_side;
+pub(crate) mod visible_ties;
 pub use convex::is_convex;
 pub use step::*;
 pub use tie::{shade_near_depth, SHADE_EPS};

@@ -109,8 +109,8 @@
 #![deny(unsafe_code)]
 
 mod batch;
-pub mod hull;
-pub mod order;
+pub(crate) mod hull;
+pub(crate) mod order;
 
 use std::cell::Cell;
 

@@ -8,18 +8,18 @@
 
 pub mod appearance;
 pub mod camera;
-pub mod cost;
+pub(crate) mod cost;
 pub mod fit;
 pub mod fixtures;
 pub mod light;
 pub mod load;
-pub mod obj;
+pub(crate) mod obj;
 pub mod openscad;
 pub mod shapes;
 pub mod style;
 // TEMPORARY: replaced by `csg::parse` at merge (see `load::parse_expr`).
-pub mod kind;
-pub mod validate;
+pub(crate) mod kind;
+pub(crate) mod validate;
 mod vector;
 pub use appearance::Appearance;
 pub use camera::{Camera, Projection};

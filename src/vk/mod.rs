@@ -14,28 +14,28 @@
 #![warn(unsafe_op_in_unsafe_fn)]
 
 pub mod cmd_arena;
-pub mod composite;
-pub mod conv;
-pub mod cpu_clock;
+pub(crate) mod composite;
+pub(crate) mod conv;
+pub(crate) mod cpu_clock;
 pub mod embed;
-pub mod error;
-pub mod exec;
-pub mod host_frame;
-pub mod image;
-pub mod instance;
+pub(crate) mod error;
+pub(crate) mod exec;
+pub(crate) mod host_frame;
+pub(crate) mod image;
+pub(crate) mod instance;
 pub mod layer_lock;
-pub mod limits;
-pub mod memory;
-pub mod pipeline;
+pub(crate) mod limits;
+pub(crate) mod memory;
+pub(crate) mod pipeline;
 #[cfg(feature = "present")]
 pub mod present;
-pub mod readback;
-pub mod rounding;
+pub(crate) mod readback;
+pub(crate) mod rounding;
 pub mod scissor;
 pub mod shadow;
 mod stages;
 pub(crate) mod submit;
-pub mod sync;
+pub(crate) mod sync;
 
 pub use composite::{COLOR_FORMATS, DEPTH_FORMATS};
 pub use embed::{Embedder, HostTargets};

@@ -36,7 +36,7 @@
 //! triangles, which rasterize an ulp or two apart.
 #![deny(unsafe_code)]
 
-pub mod layered;
+pub(crate) mod layered;
 
 use super::step::*;
 use super::{PlanError, Prepared, VisibleSides};

@@ -15,12 +15,12 @@
 //! The geometry is OpenSCAD's: Z up, millimetres as written.
 #![deny(unsafe_code)]
 
-pub mod args;
+pub(crate) mod args;
 pub mod background;
-pub mod convert;
-pub mod lex;
-pub mod parse;
-pub mod tessellate;
+pub(crate) mod convert;
+pub(crate) mod lex;
+pub(crate) mod parse;
+pub(crate) mod tessellate;
 #[cfg(test)]
 mod tests;
 
