@@ -4,36 +4,21 @@
 //! (README "The per-pixel floor against OpenCSG").
 //!
 //! `cargo run --release --example frames -- SIZE FRAMES ALGOS SCENE...`;
-//! `FRAMES_CLEARS=command|load-op` picks the clear mode (default: the
-//! device's), `FRAMES_COUNTS=1` prints the last frame's counts,
-//! `FRAMES_SLEEP=S` stays alive S seconds after (to dump the JIT code),
-//! `FRAMES_INDEXED=0` draws every mesh non-indexed (`Executor::set_indexed`),
-//! `FRAMES_CLOSE=after|in-block` picks where the closing timestamp goes
-//! (`Executor::set_frame_timestamps`; default: the device's).
+//! `FRAMES_COUNTS=1` prints the last frame's counts, `FRAMES_SLEEP=S` stays
+//! alive S seconds after (to dump the JIT code). Clears and the closing
+//! timestamp follow the device profile (`PEELTRIM_DEVICE_PROFILE`).
 
-#[path = "ab_common/mod.rs"]
-mod ab_common;
+#[path = "common/mod.rs"]
+mod common;
 
-use ab_common::{for_each_run, median};
-use peeltrim::vk::{ClearMode, Executor, FrameTimestamps};
+use common::{for_each_run, median};
+use peeltrim::vk::Executor;
 
 fn main() {
     for_each_run(|ctx, scene, name, algo, plan, desc, frames| {
         let mut gpu = Executor::new(ctx, desc).expect("executor");
         gpu.upload(scene).expect("upload");
-        gpu.set_cut_away(ab_common::cut_away(scene, algo));
-        match std::env::var("FRAMES_CLEARS").as_deref() {
-            Ok("command") => gpu.set_clear_mode(ClearMode::Command),
-            Ok("load-op") => gpu.set_clear_mode(ClearMode::LoadOp),
-            _ => {}
-        }
-        match std::env::var("FRAMES_CLOSE").as_deref() {
-            Ok("after") => gpu.set_frame_timestamps(FrameTimestamps::Outside),
-            Ok("in-block") => gpu.set_frame_timestamps(FrameTimestamps::Binned),
-            _ => {}
-        }
-        gpu.set_indexed(std::env::var("FRAMES_INDEXED").as_deref() != Ok("0"))
-            .expect("the soup");
+        gpu.set_cut_away(common::cut_away(scene, algo));
         for _ in 0..3 {
             gpu.execute(&plan).expect("warm-up");
         }

@@ -10,10 +10,10 @@
 //! `cargo run --release --example rerecord_loop -- SIZE REPS ALGOS SCENE...`
 //! (e.g. `800x800 200 goldfeather,scs,cst-i scenes/gear.toml`).
 
-#[path = "ab_common/mod.rs"]
-mod ab_common;
+#[path = "common/mod.rs"]
+mod common;
 
-use ab_common::{for_each_run, median};
+use common::{for_each_run, median};
 use peeltrim::vk::Executor;
 
 fn main() {

@@ -160,8 +160,14 @@ impl Embedder {
     }
 
     /// The executor (upload meshes, move the camera, run standalone frames).
-    pub fn executor(&mut self) -> &mut Executor {
+    pub(crate) fn executor(&mut self) -> &mut Executor {
         &mut self.exec
+    }
+
+    /// The images of the last standalone frame, read back to the CPU
+    /// ([`Executor::read_back`]).
+    pub fn read_back(&mut self) -> Result<crate::output::Images, VkError> {
+        self.exec.read_back()
     }
 
     /// Shadows recorded after each frame (`None`: none). The executor must write

@@ -602,11 +602,8 @@ impl Recorder<'_> {
             self.host_merge(h, ds, &draws, flags)?;
         }
         let shape: Vec<_> = draws.iter().map(|(d, p, r)| (d.cull, *p, *r)).collect();
-        let order = match self.b.insides_last {
-            true => insides_last(&shape),
-            false => None,
-        }
-        .unwrap_or_else(|| (0..draws.len()).map(|i| (i, false)).collect());
+        let order =
+            insides_last(&shape).unwrap_or_else(|| (0..draws.len()).map(|i| (i, false)).collect());
         self.stats.counts.shade_insides_last += order.iter().filter(|(_, s)| *s).count() as u64;
         for &(i, strict) in &order {
             let (draw, piece, rect) = &draws[i];
@@ -641,7 +638,7 @@ impl Recorder<'_> {
         draws: Vec<(Draw, Piece, Rect)>,
         cut: &CutAway,
     ) -> Vec<(Draw, Piece, Rect)> {
-        if cut.is_empty() || !self.b.openings {
+        if cut.is_empty() {
             return draws;
         }
         let scene = self.b.scene;
@@ -717,8 +714,8 @@ impl Recorder<'_> {
             let cap = cut_away::piece_cap(triangles);
             // Where a cutter can hold a front face of the mesh: the screen
             // rectangles of the world boxes of those faces inside its box
-            // (`CutAway::holes`; A/B: of the two boxes' meeting).
-            let camera = self.b.openings.then_some(&scene.camera);
+            // (`CutAway::holes`).
+            let camera = Some(&scene.camera);
             let holes = |c: MeshId| {
                 let boxes = cut.holes(m, c, &scene.bounds, camera);
                 self.screen_rects(&boxes).collect::<Vec<_>>()

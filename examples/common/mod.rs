@@ -1,4 +1,4 @@
-//! Shared by the interleaved A/B examples (`exec_ab`, `shade_ab`, `tie_ab`): their
+//! Shared by the profiling examples (`frames`, `rerecord_loop`): their
 //! arguments (`SIZE FRAMES ALGOS SCENE...`), the lavapipe context and the loop
 //! over scenes and algorithms on the default depth set-up (D32S8, reversed Z),
 //! and the cutter sets the bench gives its executor.
@@ -12,13 +12,9 @@ use peeltrim::scene::Scene;
 use peeltrim::vk::{Context, ContextDesc, DepthFormat, DeviceChoice, ExecDesc};
 
 /// The cutter sets `render` and the bench give the executor for `algo` on
-/// `scene` (`plan::cut_away`), so that these frames do the bench's work;
-/// `AB_CUT_AWAY=off`: none (every subtraction and cavity's shade uncut).
-#[allow(dead_code)] // embed_ab's embedder and rerecord_loop make their own
+/// `scene` (`plan::cut_away`), so that these frames do the bench's work.
+#[allow(dead_code)] // rerecord_loop makes its own
 pub fn cut_away(scene: &Scene, algo: Algo) -> CutAway {
-    if std::env::var("AB_CUT_AWAY").as_deref() == Ok("off") {
-        return CutAway::none();
-    }
     let prep = Prepared::new(scene).expect("prepared");
     CutAway::of(algo, &prep, scene)
 }
@@ -42,7 +38,7 @@ pub fn for_each_run(mut run: impl FnMut(&Context, &Scene, &str, Algo, Plan, &Exe
         .collect();
     let ctx = Context::new(&ContextDesc {
         device: DeviceChoice::Cpu,
-        // `PEELTRIM_VALIDATION=1` checks an A/B run (a validation message is printed).
+        // `PEELTRIM_VALIDATION=1` checks a run (a validation message is printed).
         validation: ContextDesc::validation_default(),
     })
     .expect("lavapipe");
