@@ -315,7 +315,7 @@ enum Piece {
     /// none of its front faces (its back faces culled) lies nearer than the
     /// output depth. Only with no merge: after one, the fetch runs on the
     /// visible fragments alone, and the draws a split adds cost more than
-    /// that (`complex`, `examples/embed_ab`).
+    /// that (`complex`, measured on lavapipe).
     WrittenUncut,
 }
 
@@ -408,7 +408,7 @@ fn insides_last(pieces: &[(Cull, Piece, Rect)]) -> Option<Vec<(usize, bool)>> {
 /// does the part of a piece outside its mesh's cutters
 /// (`Piece::WrittenUncut`), drawn the same way. One
 /// merge pixel costs as much as 4 such fragments (fitted on
-/// `examples/embed_ab`, SCS and Goldfeather, 800×800, with the direct pieces
+/// embedded frames on lavapipe, SCS and Goldfeather, 800×800, with the direct pieces
 /// written: the pieces win on `complex` (3.5 fragments per merge pixel) and
 /// `drilled_block` (2.7), which took the merge at 2.5, and on the rest of the
 /// bench's scenes; the example's box with four bites, at 4.2, keeps it).
