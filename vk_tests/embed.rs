@@ -69,7 +69,11 @@ fn default_hosts_get_the_direct_path_and_blister_paper_the_composite() {
     let r = example::run(&direct).expect("runs");
     check("direct", &r);
     assert_eq!(r.host_paths, vec![Some(HostPath::Direct); 2], "{r:?}");
-    assert!(r.shade_fixed_draws > 0 && r.shade_rule_draws == 0, "{r:?}");
+    // Depth-equal pieces where the profile allows them, else the rule.
+    match crate::setup::depth_equal_shades() {
+        true => assert!(r.shade_fixed_draws > 0 && r.shade_rule_draws == 0, "{r:?}"),
+        false => assert!(r.shade_rule_draws > 0 && r.shade_fixed_draws == 0, "{r:?}"),
+    }
     let rule = example::Setup {
         internal_depth: DepthFormat::D24S8,
         ..example::Setup::new([160, 120], false)
@@ -124,8 +128,17 @@ fn a_host_floor_hides_a_directly_shaded_product_where_it_is_in_front() {
         check(&name, &r);
         assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
         // The ball's piece took the decision; the box and its bites did not.
-        assert_eq!(r.direct_shade_draws, 1, "{name}: {r:?}");
-        assert!(r.shade_fixed_draws >= 6, "{name}: {r:?}");
+        // Where the profile allows no depth-equal shade, no piece takes it.
+        if crate::setup::depth_equal_shades() {
+            assert_eq!(r.direct_shade_draws, 1, "{name}: {r:?}");
+            assert!(r.shade_fixed_draws >= 6, "{name}: {r:?}");
+        } else {
+            assert_eq!(
+                r.direct_shade_draws + r.shade_fixed_draws,
+                0,
+                "{name}: {r:?}"
+            );
+        }
         assert_eq!(r.shade_written_draws, 0, "{name}: {r:?}");
     }
 }
@@ -169,6 +182,16 @@ fn written_pieces_and_the_merge_each_meet_the_host_floor_like_the_reference() {
             let r = example::run(&setup).unwrap_or_else(|e| panic!("{name}: {e}"));
             check(&name, &r);
             assert_eq!(r.host_paths, vec![Some(HostPath::Direct)], "{name}: {r:?}");
+            if !crate::setup::depth_equal_shades() {
+                // Every piece keeps the rule: none writes, none is direct.
+                let c = [
+                    r.shade_fixed_draws,
+                    r.shade_written_draws,
+                    r.direct_shade_draws,
+                ];
+                assert_eq!(c, [0; 3], "{name}: {r:?}");
+                continue;
+            }
             assert!(r.shade_fixed_draws >= 2, "{name}: {r:?}");
             let written = if writes { r.shade_fixed_draws } else { 0 };
             assert_eq!(r.shade_written_draws, written, "{name}: {r:?}");
@@ -251,7 +274,10 @@ fn pieces_outside_their_cutters_skip_the_fetch_and_change_no_pixel() {
     let _only = host_alone();
     for (name, setup) in drilled_setups() {
         let r = run_direct(&name, &setup);
-        assert!(r.shade_uncut_draws > 0, "{name}: {r:?}");
+        // Only depth-equal pieces are cut (none where the profile keeps the
+        // rule).
+        let shades = crate::setup::depth_equal_shades();
+        assert_eq!(r.shade_uncut_draws > 0, shades, "{name}: {r:?}");
         // With no merge: the parts outside the pits cost nothing.
         assert_eq!(r.shade_written_draws, r.shade_fixed_draws, "{name}: {r:?}");
         let kept = example::Setup {
@@ -282,7 +308,12 @@ fn insides_drawn_last_change_no_pixel() {
             // where it can be seen: the boxes of the pits on the top and the
             // right touch, so each of those two is drawn through both their
             // openings (6 pieces).
-            let pieces = if uncut { 6 } else { 4 };
+            // None where the profile keeps the rule on every piece.
+            let pieces = match (crate::setup::depth_equal_shades(), uncut) {
+                (false, _) => 0,
+                (true, true) => 6,
+                (true, false) => 4,
+            };
             assert_eq!(r.shade_insides_last, pieces, "{name}: {r:?}");
         }
     }
@@ -298,7 +329,10 @@ fn the_final_shade_cut_to_the_openings_changes_no_pixel() {
     let _only = host_alone();
     for (name, setup) in drilled_setups() {
         let r = run_direct(&name, &setup);
-        assert!(r.shade_insides_cut_pixels > 0, "{name}: {r:?}");
+        // The insides are depth-equal pieces: none where the profile keeps
+        // the rule.
+        let shades = crate::setup::depth_equal_shades();
+        assert_eq!(r.shade_insides_cut_pixels > 0, shades, "{name}: {r:?}");
     }
 }
 
