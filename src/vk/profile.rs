@@ -207,18 +207,6 @@ impl DeviceProfile {
     pub fn depth_equal_shades(&self, format: super::DepthFormat) -> bool {
         self.unsnapped_depth && format == super::DepthFormat::D32S8
     }
-
-    /// How far (relative to the depth range) a depth this profile renders
-    /// may lie from the exact surface beyond the depth format's own bound: 0
-    /// where depth comes from unsnapped vertices, else the depth slope over
-    /// half a subpixel cell, which callers scale by the surface's slope.
-    /// In pixels: the snapping error of one vertex coordinate.
-    pub fn snapping_px(&self) -> f64 {
-        match self.unsnapped_depth {
-            true => 0.0,
-            false => 0.5f64.powi(self.subpixel_bits as i32 + 1),
-        }
-    }
 }
 
 #[cfg(test)]
@@ -265,7 +253,6 @@ mod tests {
         assert_eq!(p.frame_timestamps, FrameTimestamps::Binned);
         assert!(p.depth_equal_shades(super::super::DepthFormat::D32S8));
         assert!(!p.depth_equal_shades(super::super::DepthFormat::D24S8));
-        assert_eq!(p.snapping_px(), 0.0);
     }
 
     #[test]
@@ -307,7 +294,6 @@ mod tests {
         assert_eq!(p.frame_timestamps, FrameTimestamps::Outside);
         assert_eq!(p.depth_formats, own);
         assert!(!p.depth_equal_shades(super::super::DepthFormat::D32S8));
-        assert_eq!(p.snapping_px(), 1.0 / 512.0);
     }
 
     #[test]
