@@ -644,14 +644,6 @@ pub struct Setup {
     /// depth outside their mesh's cutters (`plan::cut_away`; `false`: every
     /// piece checks, for comparing the two images).
     pub uncut: bool,
-    /// Whether the written final shade may draw the cavities' insides after
-    /// the solid's faces (`Executor::set_insides_last`; `false`: every piece
-    /// in the plan's order, for comparing the two images).
-    pub insides_last: bool,
-    /// Whether the final shade is cut to the openings (`Executor::set_openings`;
-    /// `false`: the checks over the boxes' meeting and the insides whole,
-    /// for comparing the two images).
-    pub openings: bool,
 }
 
 impl Setup {
@@ -671,8 +663,6 @@ impl Setup {
             bites: false,
             drilled: false,
             uncut: true,
-            insides_last: true,
-            openings: true,
         }
     }
 }
@@ -739,10 +729,6 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         csg.recorder()
             .set_cut_away(peeltrim::plan::cut_away::CutAway::none());
     }
-    csg.recorder()
-        .executor()
-        .set_insides_last(setup.insides_last);
-    csg.recorder().executor().set_openings(setup.openings);
 
     let (color_format, depth_format) = (setup.color_format, setup.depth_format);
     let srgb = matches!(

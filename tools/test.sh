@@ -13,7 +13,13 @@ tools/setup.sh
 # reproduces the crash without the lock). `RUST_TEST_THREADS=1 tools/test.sh`
 # still runs them one at a time.
 cargo test "$@"
+# The GPU tests again under the hardware device profile
+# (`src/vk/profile.rs`): on lavapipe that runs the hardware paths — load-op
+# clears, frame timestamps after the frame's commands, no depth-equal shades —
+# with a hardware GPU's 8-bit vertex snapping emulated, validation on.
+PEELTRIM_DEVICE_PROFILE=hardware cargo test -p peeltrim-cli --test vk_tests "$@"
+PEELTRIM_DEVICE_PROFILE=hardware cargo test -p peeltrim --test embed "$@"
 # The embedding example as a program (a host with its own device and the
 # validation layer; exits non-zero on a mismatch or any validation message).
-# vk_tests/embed.rs runs the same code as tests.
+# tests/embed.rs runs the same code as tests.
 cargo run -q --example embed

@@ -248,8 +248,35 @@ impl GpuRenderer {
         fallback: bool,
         validation: bool,
     ) -> Result<Self, RenderError> {
+        Self::build(scene, device, depth, fallback, validation, None)
+    }
+
+    /// As [`GpuRenderer::new`], with `emulation`'s vertex snapping on the
+    /// device's hardware profile ([`vk::DeviceProfile::emulating`]): a test of a
+    /// coarser device. `None`: the device's own profile.
+    pub fn emulating(
+        scene: &Scene,
+        device: vk::DeviceChoice,
+        depth: DepthSetup,
+        validation: bool,
+        emulation: Option<vk::RoundingEmulation>,
+    ) -> Result<Self, RenderError> {
+        Self::build(scene, device, depth, false, validation, emulation)
+    }
+
+    fn build(
+        scene: &Scene,
+        device: vk::DeviceChoice,
+        depth: DepthSetup,
+        fallback: bool,
+        validation: bool,
+        emulation: Option<vk::RoundingEmulation>,
+    ) -> Result<Self, RenderError> {
         check_frame_budget(scene.render.width, scene.render.height, true)?;
-        let ctx = vk::Context::new(&vk::ContextDesc { device, validation })?;
+        let mut ctx = vk::Context::new(&vk::ContextDesc { device, validation })?;
+        if let Some(e) = emulation {
+            ctx = ctx.with_profile(ctx.profile().emulating(e));
+        }
         ctx.check_frame_size(
             scene.render.width,
             scene.render.height,
@@ -313,47 +340,6 @@ impl GpuRenderer {
     /// The specification's depth bounds for this device and set-up.
     pub fn precision(&self) -> DepthPrecision {
         self.depth.precision(self.ctx.subpixel_bits())
-    }
-
-    /// Emulates a coarser device's vertex snapping in later frames (tests).
-    pub fn set_rounding_emulation(&mut self, rounding: Option<vk::RoundingEmulation>) {
-        self.exec.set_rounding_emulation(rounding);
-    }
-
-    /// Whether mesh draws are indexed from each mesh's shared or lit corners
-    /// (the default; see `vk::Executor::set_indexed`).
-    pub fn set_indexed(&mut self, on: bool) -> Result<(), RenderError> {
-        Ok(self.exec.set_indexed(on)?)
-    }
-
-    /// Whether parity and peel draws that cannot tie run as plain depth tests
-    /// (the default; see `vk::Executor::set_tie_free`).
-    pub fn set_tie_free(&mut self, on: bool) {
-        self.exec.set_tie_free(on);
-    }
-
-    /// Whether parity and clip draws that may meet a tie run the rule as their
-    /// depth test (the default; see `vk::Executor::set_tie_depth`).
-    pub fn set_tie_depth(&mut self, on: bool) {
-        self.exec.set_tie_depth(on);
-    }
-
-    /// Whether the final shade's draws of meshes that cannot tie run as plain
-    /// depth-equal draws (the default; see `vk::Executor::set_fixed_shade`).
-    pub fn set_fixed_shade(&mut self, on: bool) {
-        self.exec.set_fixed_shade(on);
-    }
-
-    /// Whether the final shade keeps the tie rule only in on-screen tie zones
-    /// (the default; see `vk::Executor::set_tie_zones`).
-    pub fn set_tie_zones(&mut self, on: bool) {
-        self.exec.set_tie_zones(on);
-    }
-
-    /// Whether one-primitive products are shaded in their direct draw where
-    /// no tie is possible (the default; see `vk::Executor::set_direct_shade`).
-    pub fn set_direct_shade(&mut self, on: bool) {
-        self.exec.set_direct_shade(on);
     }
 
     pub fn device_name(&self) -> String {

@@ -485,7 +485,7 @@ impl App {
             (None, Some(gpu)) => match gpu.csg.as_mut() {
                 Some(csg) => {
                     gpu.presenter.wait_frames()?;
-                    Some(csg.recorder().executor().read_back()?)
+                    Some(csg.recorder().read_back()?)
                 }
                 None => None,
             },

@@ -345,3 +345,33 @@ fn without_d32s8_render_and_bench_fall_back_to_d24s8() {
     ));
     assert_error(&o, &["D32S8", "--depth-format"]);
 }
+
+/// `PEELTRIM_DEVICE_PROFILE` with a value it does not accept: `render` stops
+/// with an error that names the variable and the accepted values (no panic);
+/// `hardware` renders.
+#[test]
+fn an_unknown_device_profile_is_a_clear_error() {
+    let dir = tmp("profile");
+    let s = scene("gear.toml");
+    let run = |profile: &str, out: &str| {
+        super::bin()
+            .env("PEELTRIM_DEVICE_PROFILE", profile)
+            .args(super::render_args(&s, "24x24", &["--algo", "scs"], out))
+            .output()
+            .unwrap()
+    };
+    let out = dir.join("bad");
+    let o = run("gpu", out.to_str().unwrap());
+    assert!(!o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("PEELTRIM_DEVICE_PROFILE='gpu'")
+            && e.contains("'device'")
+            && e.contains("'hardware'"),
+        "{e}"
+    );
+    assert!(!e.contains("panicked"), "{e}");
+    let out = dir.join("hardware");
+    let o = run("hardware", out.to_str().unwrap());
+    assert!(o.status.success(), "{}", stderr(&o));
+}

@@ -30,6 +30,8 @@ name = "b"
 expr = "Block"
 "##;
 
+/// An executor of `scene` on D32S8; without `depth_only`, on the profile of
+/// a device that cannot use D32 (`DeviceProfile::depth_formats`).
 fn executor(ctx: &peeltrim::vk::Context, scene: &Scene, depth_only: bool) -> Executor {
     let desc = ExecDesc {
         width: scene.render.width,
@@ -37,8 +39,9 @@ fn executor(ctx: &peeltrim::vk::Context, scene: &Scene, depth_only: bool) -> Exe
         depth_format: DepthFormat::D32S8,
         reversed_z: true,
     };
-    let mut e = Executor::new(ctx, &desc).expect("executor");
-    e.set_depth_only(depth_only);
+    let mut profile = *ctx.profile();
+    profile.depth_formats.d32 &= depth_only;
+    let mut e = Executor::new(&ctx.with_profile(profile), &desc).expect("executor");
     e.upload(scene).expect("upload");
     e
 }

@@ -756,15 +756,20 @@ fn loops_replay_in_one_submission_and_survive_a_changed_depth_complexity() {
     assert_clean(&ctx);
 }
 
-/// Clears as load ops and as clear commands give the same images and counts.
+/// Clears as load ops and as clear commands (the hardware and the CPU
+/// rasterizer profiles' ways, `DeviceProfile::clears`) give the same images
+/// and counts.
 #[test]
 fn clear_modes_agree() {
     let ctx = context();
     let (sc, p) = two_box_peel();
     let mut frames = Vec::new();
-    for mode in [ClearMode::LoadOp, ClearMode::Command] {
-        let mut ex = Executor::new(&ctx, &std_desc()).expect("executor");
-        ex.set_clear_mode(mode);
+    for clears in [ClearMode::LoadOp, ClearMode::Command] {
+        let profiled = ctx.with_profile(peeltrim::vk::DeviceProfile {
+            clears,
+            ..*ctx.profile()
+        });
+        let mut ex = Executor::new(&profiled, &std_desc()).expect("executor");
         ex.upload(&sc).expect("upload");
         ex.frame(&p).expect("frame");
         frames.push(ex.frame(&p).expect("replayed frame"));
@@ -775,50 +780,6 @@ fn clear_modes_agree() {
         frames[1].stats.counts.samples_counted
     );
     assert!(frames[0].images.prim.contains(&1) && frames[0].images.prim.contains(&2));
-    assert_clean(&ctx);
-}
-
-/// Clears that reach only what later steps read (the default) give the same
-/// images as whole-image clears, on shipped scenes with small primitives, for
-/// every algorithm family; and they clear fewer pixels.
-#[test]
-fn scissored_clears_match_whole_clears() {
-    let ctx = context();
-    let algos = [
-        peeltrim::plan::Algo::CstI,
-        peeltrim::plan::Algo::CstZ,
-        peeltrim::plan::Algo::Goldfeather,
-        peeltrim::plan::Algo::Blister,
-        peeltrim::plan::Algo::Trickle,
-    ];
-    let mut cleared = [0u64; 2];
-    for name in ["shadow_block.toml", "complex.toml"] {
-        let path = crate::setup::scenes_dir().join(name);
-        let sc = algorithms::load(&path);
-        let prep = peeltrim::plan::Prepared::new(&sc).expect("prepared");
-        for algo in algos {
-            let p = peeltrim::plan::build(algo, &prep).expect("plan");
-            let mut frames = Vec::new();
-            for scissored in [false, true] {
-                let desc = scene_desc(&sc);
-                let mut ex = Executor::new(&ctx, &desc).expect("executor");
-                ex.set_scissored_clears(scissored);
-                ex.upload(&sc).expect("upload");
-                ex.frame(&p).expect("frame");
-                frames.push(ex.frame(&p).expect("recorded frame"));
-            }
-            let (whole, scissored) = (&frames[0], &frames[1]);
-            assert_eq!(whole.images, scissored.images, "{name} {}", algo.name());
-            // Blister's clears are all read whole (copies, outputs).
-            assert!(
-                scissored.stats.counts.cleared_pixels <= whole.stats.counts.cleared_pixels,
-                "{name} {}",
-                algo.name()
-            );
-            cleared[0] += whole.stats.counts.cleared_pixels;
-            cleared[1] += scissored.stats.counts.cleared_pixels;
-        }
-    }
     assert_clean(&ctx);
 }
 

@@ -9,7 +9,7 @@
 
 use peeltrim::plan::{build, Algo, Prepared};
 use peeltrim::scene::Scene;
-use peeltrim::vk::{BlockJoin, ClearMode, Executor};
+use peeltrim::vk::Executor;
 
 use crate::algorithms::{assert_within_cst_bars, load_text};
 use crate::{assert_clean, context};
@@ -62,68 +62,63 @@ fn products_sharing_blocks_match_the_reference_and_the_unshared_frame() {
     let desc = crate::scene_desc(&sc);
     for algo in [Algo::Scs, Algo::Goldfeather, Algo::CstI] {
         let plan = build(algo, &prep).expect("plan");
-        for mode in [ClearMode::Command, ClearMode::LoadOp] {
-            // [shared blocks, a block per pass]
-            let mut ex: Vec<Executor> = [false, true]
-                .iter()
-                .map(|&per_pass| {
-                    let mut e = Executor::new(&ctx, &desc).expect("executor");
-                    e.set_clear_mode(mode);
-                    // The shared blocks under test (the default).
-                    e.set_block_join(BlockJoin::Masked);
-                    e.set_pass_timestamps(per_pass);
-                    e.upload(&sc).expect("upload");
-                    e
-                })
+        // [shared blocks, a block per pass]
+        let mut ex: Vec<Executor> = [false, true]
+            .iter()
+            .map(|&per_pass| {
+                let mut e = Executor::new(&ctx, &desc).expect("executor");
+                e.set_pass_timestamps(per_pass);
+                e.upload(&sc).expect("upload");
+                e
+            })
+            .collect();
+        // Loop by loop, recorded, replayed.
+        for i in 0..3 {
+            let what = format!("{algo} frame {i}");
+            let f: Vec<_> = ex
+                .iter_mut()
+                .map(|e| e.frame(&plan).expect("frame"))
                 .collect();
-            // Loop by loop, recorded, replayed.
-            for i in 0..3 {
-                let what = format!("{algo} {mode:?} frame {i}");
-                let f: Vec<_> = ex
-                    .iter_mut()
-                    .map(|e| e.frame(&plan).expect("frame"))
-                    .collect();
+            assert!(
+                f[0].images == f[1].images,
+                "{what}: shared blocks change the image"
+            );
+            assert_within_cst_bars(&reference, &f[0].images, &what);
+            let (shared, per_pass) = (&f[0].stats.counts, &f[1].stats.counts);
+            eprintln!(
+                "{what}: blocks {} shared, {} per pass",
+                shared.render_passes, per_pass.render_passes
+            );
+            assert!(
+                shared.render_passes <= per_pass.render_passes,
+                "{what}: {} blocks shared, {} per pass",
+                shared.render_passes,
+                per_pass.render_passes
+            );
+            if algo == Algo::Scs && i > 0 {
+                // Per group of products side by side (`plan::scs::batch`:
+                // the three apart share one; the cluster's stay alone):
+                // its surface (front, parity and exit draws) and its
+                // merge; then the shade.
+                let groups = plan
+                    .steps
+                    .iter()
+                    .filter(|s| matches!(s, peeltrim::plan::Step::Pass(n) if n == "scs-front"))
+                    .count() as u64;
+                assert!(groups < 6, "{what}: {groups} groups for 6 products");
                 assert!(
-                    f[0].images == f[1].images,
-                    "{what}: shared blocks change the image"
-                );
-                assert_within_cst_bars(&reference, &f[0].images, &what);
-                let (shared, per_pass) = (&f[0].stats.counts, &f[1].stats.counts);
-                eprintln!(
-                    "{what}: blocks {} shared, {} per pass",
-                    shared.render_passes, per_pass.render_passes
+                    shared.render_passes <= 2 * groups + 2,
+                    "{what}: {} blocks for {groups} groups",
+                    shared.render_passes
                 );
                 assert!(
-                    shared.render_passes <= per_pass.render_passes,
-                    "{what}: {} blocks shared, {} per pass",
-                    shared.render_passes,
+                    per_pass.render_passes >= 3 * groups,
+                    "{what}: {} blocks a pass each",
                     per_pass.render_passes
                 );
-                if algo == Algo::Scs && i > 0 {
-                    // Per group of products side by side (`plan::scs::batch`:
-                    // the three apart share one; the cluster's stay alone):
-                    // its surface (front, parity and exit draws) and its
-                    // merge; then the shade.
-                    let groups = plan
-                        .steps
-                        .iter()
-                        .filter(|s| matches!(s, peeltrim::plan::Step::Pass(n) if n == "scs-front"))
-                        .count() as u64;
-                    assert!(groups < 6, "{what}: {groups} groups for 6 products");
-                    assert!(
-                        shared.render_passes <= 2 * groups + 2,
-                        "{what}: {} blocks for {groups} groups",
-                        shared.render_passes
-                    );
-                    assert!(
-                        per_pass.render_passes >= 3 * groups,
-                        "{what}: {} blocks a pass each",
-                        per_pass.render_passes
-                    );
-                }
             }
-            drop(ex);
         }
+        drop(ex);
     }
     assert_clean(&ctx);
 }

@@ -42,9 +42,8 @@ pub fn run(
             return None;
         }
     };
-    let mut gpu =
-        GpuRenderer::new(scene, crate::setup::device(), depth, true).expect("a Vulkan device");
-    gpu.set_rounding_emulation(rounding);
+    let mut gpu = GpuRenderer::emulating(scene, crate::setup::device(), depth, true, rounding)
+        .expect("a Vulkan device");
     // The bound of the device emulated, or of the device itself.
     let precision = match rounding {
         Some(r) => depth.precision(r.subpixel_bits),

@@ -363,12 +363,10 @@ expr = "(Block1 - Hole1) + (Block2 * Ball - Hole2) + (Block3 - Hole3)"
 /// The clip by back faces and the merge by back faces take the cheap path
 /// where their meshes cannot tie ([`Fragment::BehindThan`] as a plain depth
 /// test, [`Fragment::MergeBehind`] with one fetch) and keep the tie rule where
-/// they can; both scenes match the reference in every depth set-up, and each
-/// matches its own frame with the tie rule everywhere.
+/// they can; both scenes match the reference in every depth set-up.
 #[test]
 fn back_face_clips_and_merges_are_tie_free_only_where_nothing_ties() {
     use peeltrim::plan::{Fragment, Geometry};
-    use peeltrim_reference::compare::compare;
     use peeltrim_cli::render::{DepthSetup, GpuRenderer};
     for flush in [false, true] {
         let scene = three_products(flush);
@@ -412,8 +410,6 @@ fn back_face_clips_and_merges_are_tie_free_only_where_nothing_ties() {
         let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::DEFAULT, true)
             .expect("a Vulkan device (lavapipe)");
         let fast = gpu.frame(&p).expect("a frame");
-        gpu.set_tie_free(false);
-        let slow = gpu.frame(&p).expect("a frame");
         let msgs = gpu.validation_messages();
         assert!(msgs.is_empty(), "validation messages: {msgs:#?}");
         let c = &fast.stats.exec.counts;
@@ -430,14 +426,6 @@ fn back_face_clips_and_merges_are_tie_free_only_where_nothing_ties() {
         } else {
             assert_eq!((c.tie_rule_draws, c.tie_free_draws), (0, 7), "{at}");
         }
-        let s = &slow.stats.exec.counts;
-        assert_eq!((s.tie_rule_draws, s.tie_free_draws), (7, 0), "{at}");
-        let d = compare(&slow.images, &fast.images).expect("same size");
-        assert_eq!(
-            (d.coverage_mismatch_interior, d.prim_mismatch_interior),
-            (0, 0),
-            "flush {flush}: the tie-free frame against the tie-rule frame: {d:?}"
-        );
         let reference = peeltrim_reference::render(&scene, SIZE.0, SIZE.1);
         for p in 1..=7u16 {
             assert!(
@@ -963,8 +951,10 @@ fn subtractions_and_insides_cut_to_the_openings_change_no_pixel() {
             }
             // Every one of these scenes shows a cutter's inside through its
             // openings only, in draws that cannot tie (in some depth set-ups:
-            // a coarser one may keep the tie rule, which is never cut).
-            assert!(insides_cut > 0, "{name}, {algo}");
+            // a coarser one may keep the tie rule, which is never cut; so
+            // does every set-up of a profile without depth-equal shades).
+            let shades = crate::setup::depth_equal_shades();
+            assert_eq!(insides_cut > 0, shades, "{name}, {algo}");
         }
     }
 }

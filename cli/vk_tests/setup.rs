@@ -11,7 +11,7 @@ use peeltrim::plan::Algo;
 use peeltrim_reference::precision::spec_depth_check;
 use peeltrim_cli::render::{DepthSetup, GpuRenderer, RenderOptions};
 use peeltrim::scene::Scene;
-use peeltrim::vk::DeviceChoice;
+use peeltrim::vk::{DeviceChoice, DeviceProfile};
 
 /// The device of every GPU test. A malformed value is a test failure, not a
 /// silent fallback.
@@ -37,10 +37,33 @@ pub fn options(algo: Algo) -> RenderOptions {
     }
 }
 
-/// Whether the strict, lavapipe-measured depth figures apply: only on a CPU
-/// (software) device; a hardware device gets the specification's bounds.
-pub fn strict(device_name: &str) -> bool {
-    device_name.starts_with("llvmpipe")
+/// Whether the strict, lavapipe-measured depth figures apply: only where the
+/// device profile interpolates depth from unsnapped vertices (a CPU
+/// rasterizer's own profile); a profile that snaps (hardware, or hardware's
+/// snapping emulated) gets the specification's bounds.
+pub fn strict(profile: &DeviceProfile) -> bool {
+    profile.unsnapped_depth
+}
+
+/// The profile of the test device (`PEELTRIM_DEVICE_PROFILE` applied), from
+/// one context made for it.
+pub fn profile() -> DeviceProfile {
+    static PROFILE: std::sync::OnceLock<DeviceProfile> = std::sync::OnceLock::new();
+    *PROFILE.get_or_init(|| {
+        let ctx = peeltrim::vk::Context::new(&peeltrim::vk::ContextDesc {
+            device: device(),
+            validation: false,
+        })
+        .expect("a Vulkan device");
+        *ctx.profile()
+    })
+}
+
+/// Whether final shades on the test device run depth-equal draws on D32S8
+/// (`DeviceProfile::depth_equal_shades`): the counts of the shade's pieces
+/// depend on it.
+pub fn depth_equal_shades() -> bool {
+    profile().depth_equal_shades(peeltrim::vk::DepthFormat::D32S8)
 }
 
 /// The shipped scenes' directory.
@@ -62,7 +85,7 @@ pub fn depth_passes(
     images: &Images,
 ) -> bool {
     strict_ok
-        || (!strict(&gpu.device_name())
+        || (!strict(gpu.context().profile())
             && spec_depth_check(reference, images, &scene.camera, &gpu.precision()).ratio_p99
                 <= 1.0)
 }

@@ -214,7 +214,7 @@ fn embedded_frames_have_the_same_shadows() {
         let composite = Some(vk::embed::HostPath::CompositeShadows);
         assert_eq!(st.host_path, composite);
     }
-    let got = csg.recorder().executor().read_back().unwrap();
+    let got = csg.recorder().read_back().unwrap();
     assert!(
         ctx.validation_messages().is_empty(),
         "{:?}",

@@ -1,7 +1,7 @@
 //! The tie-free fast path (`plan::tie_free`): on a scene without coincident or
 //! nearly coincident faces every tolerant parity and peel draw runs as a plain
-//! depth test, the images match the reference and the tie-rule frame; on one
-//! with coincident faces the draws that can meet a tie keep the tie rule.
+//! depth test and the images match the reference; on one with coincident
+//! faces the draws that can meet a tie keep the tie rule.
 
 use peeltrim::plan::step::{Fragment, Step};
 use peeltrim::plan::{self, Algo, Prepared};
@@ -20,18 +20,13 @@ fn tolerant() -> impl Iterator<Item = Algo> {
         .filter(|a| !matches!(a, Algo::Reference | Algo::BlisterPaper))
 }
 
-/// One frame of `algo` on the shipped scene `name`, with the fast path on or off.
-fn frame(
-    name: &str,
-    algo: Algo,
-    tie_free: bool,
-) -> (peeltrim_cli::output::Images, FrameStats, peeltrim::scene::Scene) {
+/// One frame of `algo` on the shipped scene `name`.
+fn frame(name: &str, algo: Algo) -> (peeltrim_cli::output::Images, FrameStats, peeltrim::scene::Scene) {
     let scene = shipped(name);
     let prep = Prepared::new(&scene).expect("prepared");
     let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
     let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::DEFAULT, true)
         .expect("a Vulkan device (lavapipe)");
-    gpu.set_tie_free(tie_free);
     let f = gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"));
     let msgs = gpu.validation_messages();
     assert!(msgs.is_empty(), "{algo}: validation messages: {msgs:#?}");
@@ -46,7 +41,7 @@ fn a_scene_without_coincident_faces_draws_tie_free_and_matches_the_reference() {
     let mut failures = Vec::new();
     let mut reference = None;
     for algo in tolerant() {
-        let (fast, stats, scene) = frame(name, algo, true);
+        let (fast, stats, scene) = frame(name, algo);
         let c = &stats.exec.counts;
         assert!(c.tie_free_draws > 0, "{algo}: no tie-free draw: {c:?}");
         assert_eq!(c.tie_rule_draws, 0, "{algo}: a draw kept the tie rule");
@@ -56,17 +51,6 @@ fn a_scene_without_coincident_faces_draws_tie_free_and_matches_the_reference() {
         // The bars of the shipped-scene tests.
         if r.coverage_mismatch_interior_frac > 0.001 || r.prim_mismatch_interior_frac > 0.01 {
             failures.push(format!("{algo} against the reference: {r:?}"));
-        }
-        // The tie-rule frame: no draw taken as tie-free, the same pixels.
-        let (slow, slow_stats, _) = frame(name, algo, false);
-        assert_eq!(slow_stats.exec.counts.tie_free_draws, 0);
-        assert_eq!(
-            slow_stats.exec.counts.tie_rule_draws, c.tie_free_draws,
-            "{algo}: every tolerant draw of the tie-rule frame is tie-free in the other"
-        );
-        let d = compare(&slow, &fast).expect("same size");
-        if d.coverage_mismatch_interior > 0 || d.prim_mismatch_interior > 0 {
-            failures.push(format!("{algo} against its tie-rule frame: {d:?}"));
         }
         eprintln!(
             "{algo}: {} tie-free draws; coverage {:.4}% prim {:.4}% against the reference",
@@ -82,44 +66,25 @@ fn a_scene_without_coincident_faces_draws_tie_free_and_matches_the_reference() {
 fn coincident_faces_keep_the_tie_rule() {
     // Every primitive of `coincident` shares a face plane with another one:
     // the draws reading an image that may hold a partner's faces keep the
-    // rule; the others (`plan::tie_context`) change no interior pixel of the
-    // tie-rule frame.
+    // rule; the others (`plan::tie_context`) may go plain.
     for algo in tolerant() {
-        let (fast, stats, _) = frame("coincident", algo, true);
+        let (_, stats, _) = frame("coincident", algo);
         let c = &stats.exec.counts;
         // SCS's keep it as the depth test (`Fragment::TieDepth`).
         assert!(c.tie_rule_draws + c.tie_depth_draws > 0, "{algo}: {c:?}");
-        let (slow, slow_stats, _) = frame("coincident", algo, false);
-        let s = &slow_stats.exec.counts;
-        assert_eq!(
-            (s.tie_free_draws, s.tie_depth_draws),
-            (0, 0),
-            "{algo}: {s:?}"
-        );
-        assert_eq!(
-            s.tie_rule_draws,
-            c.tie_rule_draws + c.tie_free_draws + c.tie_depth_draws,
-            "{algo}: {c:?}"
-        );
-        let d = compare(&slow, &fast).expect("same size");
-        assert_eq!(
-            (d.coverage_mismatch_interior, d.prim_mismatch_interior),
-            (0, 0),
-            "{algo} against its tie-rule frame: {d:?}"
-        );
     }
 }
 
 #[test]
-fn a_depth_equal_final_shade_gives_the_tie_rule_frames_pixels() {
+fn a_depth_equal_final_shade_matches_the_reference() {
     // Every plan's depth-stencil image must hold the visible faces' raster
     // depths bit-exactly for the depth-equal shade to find them: on every
-    // depth set-up, and with an 8-bit device's vertex snapping emulated.
+    // depth set-up, and with an 8-bit device's vertex snapping emulated,
+    // where the shade keeps the tie rule (its depth output carries the
+    // snapping error; `DeviceProfile::depth_equal_shades`), as it does on
+    // D24S8.
     let name = "drilled_block";
     let (scene, prep, reference) = shipped_with_reference(name);
-    // Under emulated snapping and on D24S8 the shade keeps the rule (its depth
-    // output; `Executor::set_fixed_shade`); its pixels held there too (0
-    // interior mismatches) before those were switched off.
     let setups = DepthSetup::ALL.into_iter().map(|d| (d, None)).chain([(
         DepthSetup::DEFAULT,
         Some(peeltrim::vk::RoundingEmulation::EIGHT_BITS),
@@ -128,59 +93,33 @@ fn a_depth_equal_final_shade_gives_the_tie_rule_frames_pixels() {
     for (depth, rounding) in setups {
         for algo in tolerant() {
             let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));
-            let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
-                .expect("a Vulkan device (lavapipe)");
-            gpu.set_rounding_emulation(rounding);
-            let mut run = |fixed: bool| {
-                gpu.set_fixed_shade(fixed);
-                gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"))
-            };
-            let (rule, fixed) = (run(false), run(true));
+            let mut gpu =
+                GpuRenderer::emulating(&scene, crate::setup::device(), depth, true, rounding)
+                    .expect("a Vulkan device (lavapipe)");
+            let fixed = gpu.frame(&plan).unwrap_or_else(|e| panic!("{algo}: {e}"));
             let msgs = gpu.validation_messages();
             assert!(msgs.is_empty(), "{algo}: validation messages: {msgs:#?}");
             let at = format!("{algo} on {depth:?}, rounding {rounding:?}");
-            let (r, f) = (&rule.stats.exec.counts, &fixed.stats.exec.counts);
-            if rounding.is_some() || depth == DepthSetup::D24S8 {
+            let f = &fixed.stats.exec.counts;
+            let shades = gpu
+                .context()
+                .profile()
+                .depth_equal_shades(depth.exec_format().0);
+            if !shades {
                 assert_eq!(f.shade_fixed_draws, 0, "{at}: snapping, or D24");
-                assert!(rule.images == fixed.images, "{at}");
-                continue;
-            }
-            assert_eq!((r.shade_fixed_draws, f.shade_rule_draws), (0, 0), "{at}");
-            assert_eq!(f.shade_fixed_draws, r.shade_rule_draws, "{at}");
-            assert!(f.shade_fixed_draws > 0, "{at}: no shade draw: {f:?}");
-            // No depth copy: nobody would read it.
-            assert_eq!(f.fullscreen_passes + 1, r.fullscreen_passes, "{at}");
-            let d = compare(&rule.images, &fixed.images).expect("same size");
-            // The tie rule's depth is the plane's at the pixel centre, the
-            // depth-equal shade's the raster depth: equal up to f32 rounding
-            // (view units; the block is ~5 units away) without snapping, within
-            // the specification's bound with it (below).
-            if d.coverage_mismatch_interior > 0
-                || d.prim_mismatch_interior > 0
-                || (rounding.is_none() && d.depth_abs_err_max_interior > 2e-5)
-            {
-                failures.push(format!("{at} against the tie-rule shade: {d:?}"));
+            } else {
+                assert_eq!(f.shade_rule_draws, 0, "{at}");
+                assert!(f.shade_fixed_draws > 0, "{at}: no shade draw: {f:?}");
             }
             let c = compare(&reference, &fixed.images).expect("same size");
-            let precision = match rounding {
-                Some(r) => depth.precision(r.subpixel_bits),
-                None => gpu.precision(),
-            };
-            let s = spec_depth_check(&reference, &fixed.images, &scene.camera, &precision);
+            let s = spec_depth_check(&reference, &fixed.images, &scene.camera, &gpu.precision());
             if c.coverage_mismatch_interior_frac > 0.001
                 || c.prim_mismatch_interior_frac > 0.01
                 || s.ratio_p99 > 1.0
             {
                 failures.push(format!("{at} against the reference: {c:?} {s:?}"));
             }
-            eprintln!(
-                "{at}: {} depth-equal shade draws; against the tie-rule shade: \
-                 {} coverage, {} prim mismatches (all), depth max {:.2e}",
-                f.shade_fixed_draws,
-                d.coverage_mismatch,
-                d.prim_mismatch,
-                d.depth_abs_err_max_interior
-            );
+            eprintln!("{at}: {} depth-equal shade draws", f.shade_fixed_draws);
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
@@ -193,7 +132,7 @@ fn coincident_faces_keep_the_tie_rule_in_the_final_shade() {
     // are never visible (`vk_tests/visible_ties.rs`).
     for name in ["speckle", "assembly"] {
         for algo in tolerant() {
-            let (_, stats, _) = frame(name, algo, true);
+            let (_, stats, _) = frame(name, algo);
             let c = &stats.exec.counts;
             assert!(c.shade_rule_draws > 0, "{name} {algo}: {c:?}");
         }
@@ -232,6 +171,15 @@ expr = "A + B"
     let plan = plan::build(Algo::Goldfeather, &Prepared::new(&scene).unwrap()).unwrap();
     let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D32S8, true)
         .expect("a Vulkan device (lavapipe)");
+    if !gpu
+        .context()
+        .profile()
+        .depth_equal_shades(DepthSetup::D32S8.exec_format().0)
+    {
+        // Every final shade keeps the rule on this profile: no camera
+        // changes the shade's decisions.
+        return;
+    }
     // Both boxes are one-primitive products: tie-free, each shades in its
     // direct draw (`plan::direct_shade`) and the final shade draws neither;
     // within the band both keep the old path.
@@ -275,7 +223,7 @@ fn scs_subtracts_drilled_block_with_plain_depth_tests() {
     // without the tie-rule shader, and so does the block's clip by its back
     // faces (`plan::scs`, `Fragment::BehindThan`; the one product is drawn in
     // the output, no merge).
-    let (fast, stats, scene) = frame("drilled_block", Algo::Scs, true);
+    let (fast, stats, scene) = frame("drilled_block", Algo::Scs);
     let prep = Prepared::new(&scene).expect("prepared");
     let built = plan::build(Algo::Scs, &prep).expect("scs plan");
     let mut parity: Vec<(&str, u64)> = Vec::new();
@@ -299,7 +247,7 @@ fn scs_subtracts_drilled_block_with_plain_depth_tests() {
         }
     }
     // One parity draw per hole; the tie-free frame draws its front faces only
-    // (`Fragment::ParityBeforeExit`), the tie-rule frame all of them.
+    // (`Fragment::ParityBeforeExit`).
     assert_eq!(parity, vec![("subtract", 12)]);
     let c = &stats.exec.counts;
     assert_eq!((c.tie_free_draws, c.tie_rule_draws), (13, 0), "{c:?}");
@@ -310,25 +258,16 @@ fn scs_subtracts_drilled_block_with_plain_depth_tests() {
         r.coverage_mismatch_interior_frac <= 0.0005 && r.prim_mismatch_interior_frac <= 0.0001,
         "against the reference: {r:?}"
     );
-    let (slow, slow_stats, _) = frame("drilled_block", Algo::Scs, false);
-    assert_eq!(slow_stats.exec.counts.tie_rule_draws, 13);
-    let d = compare(&slow, &fast).expect("same size");
-    assert_eq!(
-        (d.coverage_mismatch_interior, d.prim_mismatch_interior),
-        (0, 0),
-        "against the tie-rule frame: {d:?}"
-    );
 }
 
 #[test]
-fn scs_runs_its_tie_rule_as_the_depth_test_with_the_texture_rules_pixels() {
+fn scs_runs_its_tie_rule_as_the_depth_test() {
     // complex: the slot's caps flush with the base's top face, so SCS's base
-    // product keeps the rule on its parity draws, which read the texture its
-    // exits write (a barrier before each batch). As the depth test
-    // (`Fragment::TieDepth`) they read nothing: the same interior pixels as
-    // the texture's rule and the reference, fewer barriers. On every depth
-    // set-up, and with an 8-bit device's vertex snapping emulated; D24S8
-    // keeps the texture's rule (its depth image rounds the depth).
+    // product keeps the rule on its parity draws. As the depth test
+    // (`Fragment::TieDepth`) they read no texture: the same interior pixels
+    // as the reference. On every depth set-up, and with an 8-bit device's
+    // vertex snapping emulated; D24S8 keeps the texture's rule (its depth
+    // image rounds the depth).
     let name = "complex";
     let (scene, prep, reference) = shipped_with_reference(name);
     let plan = plan::build(Algo::Scs, &prep).expect("scs");
@@ -338,51 +277,25 @@ fn scs_runs_its_tie_rule_as_the_depth_test_with_the_texture_rules_pixels() {
     )]);
     let mut failures = Vec::new();
     for (depth, rounding) in setups {
-        let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
+        let mut gpu = GpuRenderer::emulating(&scene, crate::setup::device(), depth, true, rounding)
             .expect("a Vulkan device (lavapipe)");
-        gpu.set_rounding_emulation(rounding);
-        let mut run = |on: bool| {
-            gpu.set_tie_depth(on);
-            gpu.frame(&plan).expect("a frame")
-        };
-        let (rule, test) = (run(false), run(true));
+        let test = gpu.frame(&plan).expect("a frame");
         let msgs = gpu.validation_messages();
         assert!(msgs.is_empty(), "validation messages: {msgs:#?}");
         let at = format!("{depth:?}, rounding {rounding:?}");
-        let (r, t) = (&rule.stats.exec.counts, &test.stats.exec.counts);
-        assert_eq!(r.tie_depth_draws, 0, "{at}: {r:?}");
+        let t = &test.stats.exec.counts;
         if depth == DepthSetup::D24S8 {
             assert_eq!(t.tie_depth_draws, 0, "{at}: D24 keeps the rule: {t:?}");
             continue;
         }
-        // Every rule draw of the texture's frame runs as the depth test.
         assert!(t.tie_depth_draws > 0, "{at}: {t:?}");
-        assert_eq!(
-            (t.tie_rule_draws + t.tie_depth_draws, t.tie_free_draws),
-            (r.tie_rule_draws, r.tie_free_draws),
-            "{at}"
-        );
-        assert!(
-            t.barriers < r.barriers,
-            "{at}: barriers {} -> {}",
-            r.barriers,
-            t.barriers
-        );
-        // The same classification leaves the same depth, bit for bit.
-        let d = compare(&rule.images, &test.images).expect("same size");
-        if (d.coverage_mismatch_interior, d.prim_mismatch_interior) != (0, 0)
-            || d.depth_abs_err_max_interior > 0.0
-        {
-            failures.push(format!("{at}: against the texture's rule: {d:?}"));
-        }
         let c = compare(&reference, &test.images).expect("same size");
         if (c.coverage_mismatch_interior, c.prim_mismatch_interior) != (0, 0) {
             failures.push(format!("{at}: against the reference: {c:?}"));
         }
         eprintln!(
-            "{at}: {} depth-test rule draws, barriers {} -> {}; against the texture's \
-             rule: {} coverage, {} prim mismatches (all pixels)",
-            t.tie_depth_draws, r.barriers, t.barriers, d.coverage_mismatch, d.prim_mismatch
+            "{at}: {} depth-test rule draws, barriers {}",
+            t.tie_depth_draws, t.barriers
         );
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

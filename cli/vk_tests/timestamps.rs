@@ -1,12 +1,12 @@
-//! Where a frame's closing timestamp goes (`FrameTimestamps`, docs/executor.md):
-//! inside the last block (the CPU devices' default, one scene fewer for lavapipe) or
-//! after every command. Both must give the same images and counts but the timestamps
-//! written inside a block, and a GPU time that is a positive part of the wall time
-//! from submission to completion, frame after frame: loop by loop, recorded and
-//! replayed. Validation on.
+//! Where a frame's closing timestamp goes (`DeviceProfile::frame_timestamps`):
+//! inside the last block (the CPU rasterizer profile's, one scene fewer for
+//! lavapipe) or after every command (the hardware profile's). Both must give the same images
+//! and counts but the timestamps written inside a block, and a GPU time that
+//! is a positive part of the wall time from submission to completion, frame
+//! after frame: loop by loop, recorded and replayed. Validation on.
 
 use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim::vk::{Executor, FrameTimestamps, Recorded};
+use peeltrim::vk::{DeviceProfile, Executor, FrameTimestamps, Recorded};
 
 use crate::algorithms::shipped;
 use crate::{assert_clean, context};
@@ -19,11 +19,14 @@ fn same_frames(name: &str, algo: Algo) {
     let ctx = context();
     let desc = crate::scene_desc(&scene);
     let mut runs = Vec::new();
-    for close in [FrameTimestamps::Outside, FrameTimestamps::Binned] {
-        let mut ex = Executor::new(&ctx, &desc).expect("executor");
+    for frame_timestamps in [FrameTimestamps::Outside, FrameTimestamps::Binned] {
+        let profiled = ctx.with_profile(DeviceProfile {
+            frame_timestamps,
+            ..*ctx.profile()
+        });
+        let mut ex = Executor::new(&profiled, &desc).expect("executor");
         ex.upload(&scene).expect("upload");
         ex.set_pass_timestamps(false);
-        ex.set_frame_timestamps(close);
         let frames: Vec<_> = (0..3).map(|_| ex.frame(&plan).expect("frame")).collect();
         runs.push(frames);
     }

@@ -89,7 +89,7 @@ pub const MAX_PIECES: usize = 48;
 
 /// What one more draw of a piece costs, in pixels of the fetch it saves: a
 /// split is taken only where its free pixels exceed this per added draw.
-/// Rough, from two A/B runs of `examples/embed_ab` (SCS, 800×800, lavapipe,
+/// Rough, from two paired runs of embedded frames (SCS, 800×800, lavapipe,
 /// 2 threads): `interference`'s block, 4 added draws for 0.26 Mpx free, saved
 /// about 2 ms; `drilled_block`'s, 44 added draws for 0.22 Mpx, saved nothing
 /// measurable: about 40 µs a draw, 5,000 pixels.

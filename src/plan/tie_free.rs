@@ -223,30 +223,13 @@ impl TieFree {
         }
     }
 
-    /// These decisions with every final shade keeping the tie rule (A/B
-    /// measurements, `Executor::set_fixed_shade`).
+    /// These decisions with every final shade keeping the tie rule: where the
+    /// device profile allows no depth-equal shade (`Executor::depth_equal_shades`).
     pub fn keep_shade_rule(self) -> TieFree {
         TieFree {
             shade: Vec::new(),
             ..self
         }
-    }
-
-    /// These decisions with every final shade that keeps the rule keeping it
-    /// over its whole rectangle (A/B measurements, `Executor::set_tie_zones`).
-    pub fn without_zones(self) -> TieFree {
-        let shade = self
-            .shade
-            .into_iter()
-            .map(|(k, rules)| {
-                let rules = rules.into_iter().map(|r| match r {
-                    ShadeRule::Zones(_) => ShadeRule::Everywhere,
-                    other => other,
-                });
-                (k, rules.collect())
-            })
-            .collect();
-        TieFree { shade, ..self }
     }
 
     /// Whether every mesh of `meshes` ties only with parallel faces, if at

@@ -160,8 +160,20 @@ impl Embedder {
     }
 
     /// The executor (upload meshes, move the camera, run standalone frames).
-    pub fn executor(&mut self) -> &mut Executor {
+    pub(crate) fn executor(&mut self) -> &mut Executor {
         &mut self.exec
+    }
+
+    /// The images of the last standalone frame, read back to the CPU
+    /// ([`Executor::read_back`]).
+    pub fn read_back(&mut self) -> Result<crate::images::Images, VkError> {
+        self.exec.read_back()
+    }
+
+    /// Whether frames also write the normal buffer, which shadows and the
+    /// blueprint styles read (Kirsch, Nienhaus & Döllner §5.2).
+    pub fn set_normals(&mut self, on: bool) {
+        self.exec.set_normals(on);
     }
 
     /// Shadows recorded after each frame (`None`: none). The executor must write

@@ -39,6 +39,10 @@ pub enum VkError {
     #[error("{0}")]
     FrameTooLarge(String),
     /// The device lacks a feature or format.
+    /// A setting of the environment with a value it does not accept.
+    #[error("{0}")]
+    Config(String),
+
     #[error("the device does not support {0}")]
     Unsupported(String),
     /// A plan (or a call sequence) the executor cannot run.

@@ -8,6 +8,7 @@ use ash::vk;
 
 use super::error::{Check, VkError};
 use super::layer_lock::{self, LayerUse};
+use super::profile::DeviceProfile;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -122,10 +123,12 @@ impl Drop for Shared {
     }
 }
 
-/// A Vulkan instance and device for running plans. Cheap to clone.
+/// A Vulkan instance and device for running plans, and the device's profile
+/// (what the executors and plans assume of it). Cheap to clone.
 #[derive(Clone)]
 pub struct Context {
     pub(crate) shared: Arc<Shared>,
+    profile: DeviceProfile,
 }
 
 unsafe extern "system" fn debug_callback(
@@ -425,6 +428,7 @@ impl Context {
     ) -> Result<Context, VkError> {
         // SAFETY: `physical` belongs to `instance`.
         let props = unsafe { instance.get_physical_device_properties(physical) };
+        let profile = DeviceProfile::detect(&instance, physical);
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let timestamp_valid_bits = families
@@ -471,6 +475,7 @@ impl Context {
             .map_err(|_| VkError::Plan("poisoned".into()))? = Some(allocator);
         Ok(Context {
             shared: Arc::new(shared),
+            profile: profile?,
         })
     }
 
@@ -522,34 +527,32 @@ impl Context {
     }
 
     /// Whether `format` works as a sampled, copyable depth-stencil attachment with
-    /// optimal tiling: what the executor needs of a `--depth-format`.
-    /// `PEELTRIM_EMULATE_NO_D32S8=1` emulates a device without D32S8 (the
-    /// tests of the D24S8 fallback, on lavapipe, which has it).
+    /// optimal tiling: what the executor needs of a `--depth-format`
+    /// ([`DeviceProfile::depth_formats`]).
     pub fn depth_format_usable(&self, format: vk::Format) -> bool {
-        if format == vk::Format::D32_SFLOAT_S8_UINT
-            && std::env::var_os("PEELTRIM_EMULATE_NO_D32S8").is_some_and(|v| v == "1")
-        {
-            return false;
-        }
-        let _layer = self.shared.layer_use();
-        // SAFETY: physical device of this instance; plain query.
-        let fp = unsafe {
-            self.shared
-                .instance
-                .get_physical_device_format_properties(self.shared.physical, format)
-        };
-        fp.optimal_tiling_features.contains(
-            vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
-                | vk::FormatFeatureFlags::SAMPLED_IMAGE
-                | vk::FormatFeatureFlags::TRANSFER_SRC
-                | vk::FormatFeatureFlags::TRANSFER_DST,
-        )
+        self.profile.depth_formats.usable(format)
     }
 
-    /// The device's `subPixelPrecisionBits`: vertices are snapped to 2^-bits pixel
-    /// before rasterization (at least 4 on a conformant device).
+    /// The subpixel precision of the profile's vertex snapping: vertices are
+    /// snapped to 2^-bits pixel before rasterization (at least 4 on a
+    /// conformant device; the emulation's where one is on).
     pub fn subpixel_bits(&self) -> u32 {
-        self.shared.limits.sub_pixel_precision_bits
+        self.profile.subpixel_bits
+    }
+
+    /// What the executors and plans assume of the device
+    /// ([`DeviceProfile::detect`]).
+    pub fn profile(&self) -> &DeviceProfile {
+        &self.profile
+    }
+
+    /// The same device under another profile (tests emulating a coarser
+    /// device: [`DeviceProfile::emulating`]); executors made from it follow it.
+    pub fn with_profile(&self, profile: DeviceProfile) -> Context {
+        Context {
+            shared: self.shared.clone(),
+            profile,
+        }
     }
 
     /// Shared use of the validation layer's table (`vk::layer_lock`) for a host's

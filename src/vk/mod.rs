@@ -9,7 +9,9 @@
 //! command buffers, barriers, query pools, shared with `present`); `cmd_arena`
 //! (the command pools' host allocator: lavapipe's recorded commands); `exec` (the plan
 //! executor and its statistics); `readback` (GPU bytes to output images);
-//! `rounding` (tests: emulating a coarser rasterizer's vertex snapping); `present`
+//! `profile` ([`DeviceProfile`]: what the device is and the workarounds it
+//! needs, set once per context); `rounding` (emulating a coarser rasterizer's
+//! vertex snapping); `present`
 //! (feature `viewer`: a window's surface and swapchain).
 #![warn(unsafe_op_in_unsafe_fn)]
 
@@ -29,6 +31,7 @@ pub(crate) mod memory;
 pub(crate) mod pipeline;
 #[cfg(feature = "present")]
 pub mod present;
+pub mod profile;
 pub(crate) mod readback;
 pub(crate) mod rounding;
 pub mod scissor;
@@ -41,9 +44,10 @@ pub use composite::{COLOR_FORMATS, DEPTH_FORMATS};
 pub use embed::{Embedder, HostTargets};
 pub use error::VkError;
 pub use exec::{
-    BlockJoin, ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame,
-    FrameTimestamps, PassStats, PlanCounts, Recorded, SeqFrame, SeqItem,
+    ClearMode, Counts, DepthFormat, ExecDesc, ExecStats, Executor, Frame, FrameTimestamps,
+    PassStats, PlanCounts, Recorded, SeqFrame, SeqItem,
 };
 pub use host_frame::OffscreenHost;
 pub use instance::{Context, ContextDesc, DeviceChoice};
+pub use profile::{DeviceProfile, ProfileKind};
 pub use rounding::RoundingEmulation;

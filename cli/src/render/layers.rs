@@ -217,14 +217,6 @@ impl LayeredSession {
         }
         Ok(self.gpu.as_mut().expect("made above"))
     }
-
-    /// The next frame runs layer by layer again, as a first frame does (A/B
-    /// measurements of the one-submission frame: `examples/onesubmit_ab.rs`).
-    pub fn forget_layer_counts(&mut self) {
-        if let Some(g) = &mut self.gpu {
-            g.layered = Default::default();
-        }
-    }
 }
 
 /// Renders `scene` with its layers: exactly with the reference (every style),

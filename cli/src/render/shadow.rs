@@ -434,7 +434,7 @@ pub fn embed_shadows(
     algo: Algo,
 ) -> Result<LightView, RenderError> {
     embedder.set_shadow(None);
-    embedder.executor().set_normals(true);
+    embedder.set_normals(true);
     let setup = (depth, depth.precision(ctx.subpixel_bits()));
     let build = peeltrim::plan::BuildOptions::default();
     let shadows = GpuShadows::new(ctx, setup, scene, light, algo, &build)?;

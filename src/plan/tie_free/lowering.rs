@@ -449,7 +449,7 @@ mod tests {
             }
         );
         assert_eq!((fast.ds, fast.stencil, fast.cull), (0, None, Cull::None));
-        // The A/B switch keeps the rule.
+        // Where the device profile allows no depth-equal shade, it keeps the rule.
         assert_eq!(
             free.clone().keep_shade_rule().fixed_function(&shade[1]),
             None

@@ -3,27 +3,23 @@
 //! order, then surfaces), an index buffer, per-mesh colours, bounds, and the
 //! camera-derived matrices the push constants and scissors use.
 //!
-//! A mesh is drawn one of three ways, all three drawing its triangles with the
-//! same corners in the same order (`corners::layout`), from the same f32
-//! positions (one rounding of `p - origin`), so the rasterizer sees
-//! bit-identical triangles and depth-equal tests between them hold:
+//! A mesh is drawn one of two ways, both drawing its triangles with the same
+//! corners in the same order (`corners::layout`), from the same f32 positions
+//! (one rounding of `p - origin`), so the rasterizer sees bit-identical
+//! triangles and depth-equal tests between them hold:
 //! - indexed from its shared corners: the programs that read no interpolated
 //!   output (`FragmentKind::interpolated`), the depth-only, parity, peel and
 //!   clip passes;
 //! - indexed from its lit corners: the shading programs (each triangle's own
-//!   provoking vertex carries its face normal);
-//! - non-indexed from the soup (three vertices a triangle, each with the face
-//!   normal), a buffer of its own built from the other two only when
-//!   `Executor::set_indexed(false)` asks for it (A/B measurements).
+//!   provoking vertex carries its face normal).
 //!
 //! A mesh's triangles are a range of *corners* (`ranges`: three a triangle,
 //! numbered over all meshes): the index buffer holds corner `k`'s shared
-//! vertex at `k` and its lit vertex at `lit_offset + k`, and the soup holds it
-//! at vertex [`SOUP_FIRST`]` + k`, so one range names the same triangles all
-//! three ways. Why indexed: `corners`'s doc (llvmpipe shades each index once
-//! per segment, on lavapipe's serial queue thread). Without a soup the buffers
-//! hold about 60 bytes a triangle of a tessellated sphere (24 a shared corner,
-//! 24 a lit one, 24 of indices), against 72 for the soup alone.
+//! vertex at `k` and its lit vertex at `lit_offset + k`, so one range names
+//! the same triangles both ways. Why indexed: `corners`'s doc (llvmpipe
+//! shades each index once per segment, on lavapipe's serial queue thread).
+//! The buffers hold about 60 bytes a triangle of a tessellated sphere (24 a
+//! shared corner, 24 a lit one, 24 of indices).
 
 use std::sync::Arc;
 
@@ -41,10 +37,6 @@ use crate::vk::error::VkError;
 use crate::vk::instance::Shared;
 use crate::vk::memory::Buffer;
 
-/// Where corner 0 lies in the soup buffer, after its copy of the quad (the
-/// quad is at vertex 0 of both vertex buffers).
-pub(super) const SOUP_FIRST: u32 = 6;
-
 pub(super) struct GpuScene {
     /// The quad, the shared corners, the lit corners (module doc).
     pub vertices: Buffer,
@@ -53,9 +45,6 @@ pub(super) struct GpuScene {
     pub indices: Buffer,
     /// Where the lit corners' indices start in `indices`: the corner count.
     pub lit_offset: u32,
-    /// The quad and then every corner with its face normal, for non-indexed
-    /// draws; built by [`GpuScene::ensure_soup`] only when asked for.
-    pub soup: Option<Buffer>,
     /// `(first corner, corner count)` per mesh; consecutive meshes are
     /// contiguous.
     pub ranges: Vec<(u32, u32)>,
@@ -197,7 +186,6 @@ impl GpuScene {
             vertices,
             indices: index_buffer,
             lit_offset,
-            soup: None,
             ranges,
             corner_slots: slots,
             colors,
@@ -249,26 +237,6 @@ const QUAD: [f32; 36] = [
     -1.0, 1.0, 0.0, 0.0, 0.0, 1.0, //
 ];
 
-/// The soup of the uploaded corners: corner `k` is the position of its shared
-/// vertex and the normal of its triangle's own lit vertex, read back from the
-/// mapped buffers (so bit for bit what the indexed draws see), after the quad.
-fn soup_from(vertices: &[u8], indices: &[u8], lit_offset: u32) -> Vec<f32> {
-    let index =
-        |k: usize| u32::from_ne_bytes(indices[k * 4..k * 4 + 4].try_into().unwrap()) as usize;
-    let float = |v: usize, c: usize| {
-        let at = v * 24 + c * 4;
-        f32::from_ne_bytes(vertices[at..at + 4].try_into().unwrap())
-    };
-    let mut floats = QUAD.to_vec();
-    floats.reserve(lit_offset as usize * 6);
-    for k in 0..lit_offset as usize {
-        let (p, own) = (index(k), index(lit_offset as usize + k - k % 3));
-        floats.extend([float(p, 0), float(p, 1), float(p, 2)]);
-        floats.extend([float(own, 3), float(own, 4), float(own, 5)]);
-    }
-    floats
-}
-
 /// Each triangle's unit face normal, from the mesh's own corner order (not the
 /// drawn rotation), in f32: the one value every vertex that carries it holds.
 fn face_normals(mesh: &crate::scene::Mesh) -> Vec<[f32; 3]> {
@@ -304,22 +272,6 @@ fn corner_floats(
     floats
 }
 
-/// The soup: three vertices a triangle, in the drawn corner order, each with
-/// the face normal.
-fn soup_floats(
-    mesh: &crate::scene::Mesh,
-    l: &Layout,
-    normals: &[[f32; 3]],
-    origin: DVec3,
-) -> Vec<f32> {
-    let corners = l
-        .triangles
-        .iter()
-        .zip(normals)
-        .flat_map(|(t, &n)| t.iter().map(move |&i| (i, n)));
-    corner_floats(mesh, origin, corners)
-}
-
 /// The shared corners: positions only (no program that draws them reads a
 /// normal).
 fn shared_floats(mesh: &crate::scene::Mesh, l: &Layout, origin: DVec3) -> Vec<f32> {
@@ -349,29 +301,6 @@ fn mesh_bounds(mesh: &crate::scene::Mesh) -> Aabb {
         hi = hi.max(*p);
     }
     Aabb { min: lo, max: hi }
-}
-
-impl GpuScene {
-    /// Builds the soup buffer for non-indexed draws, if there is none yet
-    /// (`Executor::set_indexed(false)`).
-    pub(super) fn ensure_soup(&mut self, shared: &Arc<Shared>) -> Result<(), VkError> {
-        if self.soup.is_some() {
-            return Ok(());
-        }
-        let floats = soup_from(
-            self.vertices.mapped()?,
-            self.indices.mapped()?,
-            self.lit_offset,
-        );
-        let usage = vk::BufferUsageFlags::VERTEX_BUFFER;
-        self.soup = Some(filled(
-            shared,
-            "soup",
-            &ne_bytes(&floats, f32::to_ne_bytes),
-            usage,
-        )?);
-        Ok(())
-    }
 }
 
 impl GpuScene {
@@ -420,13 +349,6 @@ impl GpuScene {
             lit_first,
             lit_floats(mesh, &l, &normals, origin),
         )?;
-        if let Some(soup) = &mut scene.soup {
-            write(
-                soup,
-                SOUP_FIRST + first,
-                soup_floats(mesh, &l, &normals, origin),
-            )?;
-        }
         // The indices too: triangles of the same count and layout sizes may
         // still be other triangles.
         let shared_index = l.shared_index.iter().map(|k| shared_first + k);
@@ -452,11 +374,10 @@ impl GpuScene {
 mod tests {
     use super::*;
 
-    /// The soup read back from the uploaded sets is the soup made from the
-    /// mesh, bit for bit, and each corner's shared and lit vertex holds its
-    /// position: the three ways draw the same triangles (module doc).
+    /// Each corner's shared and lit vertex hold the same position, bit for
+    /// bit: the two ways draw the same triangles (module doc).
     #[test]
-    fn the_three_ways_hold_the_same_corners() {
+    fn the_two_ways_hold_the_same_corners() {
         let mut mesh = crate::scene::shapes::make_sphere(0.9, 12, 8);
         for p in &mut mesh.positions {
             *p += DVec3::new(1.1, -2.3, 0.7);
@@ -477,22 +398,13 @@ mod tests {
             .chain(l.lit_index.iter().map(|k| lit_first + k))
             .collect();
         let bytes = |f: &[f32]| ne_bytes(f, f32::to_ne_bytes);
-        let index_bytes = ne_bytes(&indices, u32::to_ne_bytes);
-        let corners = l.shared_index.len() as u32;
-        let soup = soup_from(&bytes(&floats), &index_bytes, corners);
-        let mut want = QUAD.to_vec();
-        want.extend(soup_floats(&mesh, &l, &normals, origin));
-        assert_eq!(bytes(&soup), bytes(&want));
-        for k in 0..corners as usize {
+        let corners = l.shared_index.len();
+        for (k, t) in l.triangles.iter().flatten().enumerate() {
             let at = |v: u32| &floats[v as usize * 6..v as usize * 6 + 3];
-            let s = SOUP_FIRST as usize * 6 + k * 6;
-            assert_eq!(
-                bytes(at(indices[k])),
-                bytes(&soup[s..s + 3]),
-                "shared corner {k}"
-            );
-            let lit = indices[corners as usize + k];
-            assert_eq!(bytes(at(lit)), bytes(&soup[s..s + 3]), "lit corner {k}");
+            let want = position(&mesh, *t, origin);
+            assert_eq!(bytes(at(indices[k])), bytes(&want), "shared corner {k}");
+            let lit = indices[corners + k];
+            assert_eq!(bytes(at(lit)), bytes(&want), "lit corner {k}");
         }
     }
 }

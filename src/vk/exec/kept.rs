@@ -23,7 +23,6 @@ pub(super) struct ReachKey {
     openings: Vec<Option<Rect>>,
     now: KeptImages,
     normals: bool,
-    scissored: bool,
     /// The tie-free decisions its draws are lowered with: a texture only
     /// the lowered draws sampled is written for nobody.
     ties: TieFree,
@@ -37,8 +36,7 @@ impl Executor {
     /// What the clears and copies of a recording of `steps` (`plan` unrolled
     /// to `layers`) reach with the current scissors, for outputs that hold
     /// `now` before it, and what it assumes they hold: the kept result while
-    /// its inputs stay (`plan::memo`). Without scissored clears, clears and
-    /// copies reach whole images.
+    /// its inputs stay (`plan::memo`).
     pub(super) fn recording_reach(
         &mut self,
         plan: &Plan,
@@ -53,35 +51,20 @@ impl Executor {
             openings: self.rects.openings.clone(),
             now: now.clone(),
             normals: self.normals,
-            scissored: self.scissored_clears,
             ties: self.ties.clone(),
         };
         let (w, h) = (self.desc.width, self.desc.height);
         let outputs = reach::outputs(plan.output_ds, self.normals);
         let images = self.reach_images(&outputs);
-        let (rects, scissored, ties) = (&self.rects, self.scissored_clears, &self.ties);
+        let (rects, ties) = (&self.rects, &self.ties);
         let reached = self.reach_memo.get_or_insert_with(key, || {
             let unions = rects.unions();
             let scissor = |s: &Scissor| unions.scissor(s, w, h);
-            Arc::new(match scissored {
-                true => {
-                    // What the draws read as recorded: a texture only tie-free
-                    // draws sampled is read by nobody.
-                    let lowered: Vec<Step> = steps.iter().map(|s| ties.lowered(s)).collect();
-                    let lowered: Vec<&Step> = lowered.iter().collect();
-                    reach::recording_reach(&lowered, scissor, images, now)
-                }
-                false => {
-                    let kept = reach::kept_after(steps, scissor, images, now);
-                    let whole = FrameReach {
-                        clears: Vec::new(),
-                        copies: Vec::new(),
-                        texture_writes: Vec::new(),
-                        kept,
-                    };
-                    (whole, KeptImages::new())
-                }
-            })
+            // What the draws read as recorded: a texture only tie-free draws
+            // sampled is read by nobody.
+            let lowered: Vec<Step> = steps.iter().map(|s| ties.lowered(s)).collect();
+            let lowered: Vec<&Step> = lowered.iter().collect();
+            Arc::new(reach::recording_reach(&lowered, scissor, images, now))
         });
         reached.clone()
     }

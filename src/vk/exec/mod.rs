@@ -70,6 +70,7 @@ use super::error::VkError;
 use super::instance::{Context, Shared};
 use super::memory::Buffer;
 use super::pipeline::Pipelines;
+use super::profile::DeviceProfile;
 use super::submit::{self, Queries, Submitter};
 use super::sync::{self, REST};
 use crate::images::Images;
@@ -87,7 +88,7 @@ use kept::{ReachKey, Reached};
 use read_back::whole_image_region;
 pub(crate) use record::{copy_counts, final_shade, host_barriers, peel_depth, HostShade};
 use record::{Bindings, Group, Recorder};
-pub use record::{BlockJoin, ClearMode, FrameTimestamps};
+pub use record::{ClearMode, FrameTimestamps};
 use recording::Recording;
 use scissors::{OpeningRects, Scissors};
 use targets::Targets;
@@ -176,54 +177,26 @@ pub struct Executor {
     epoch: u64,
     /// Output depth-stencil of the last executed plan (what `read_back` copies).
     last_output: Option<u8>,
-    clears: ClearMode,
-    join: BlockJoin,
     /// Timestamps at every pass (per-pass GPU times) or only around the frame.
     pass_timestamps: bool,
-    /// Where each command buffer's closing timestamp goes (`record::FrameTimestamps`).
-    frame_ts: FrameTimestamps,
-    /// The embedded final shade's insides drawn last (`set_insides_last`).
-    insides_last: bool,
-    /// The embedded final shade cut to the openings (`set_openings`).
-    openings: bool,
     /// The cutter sets of the uploaded scene under its camera
     /// (`set_cut_away`): where the SCS subtractions' scissors
     /// (`plan::Scissor::Openings`) are cut to. Dropped with a new upload.
     cut_away: CutAway,
     /// Where `cut_away` shows each mesh's inside, for its camera.
     opening_rects: OpeningRects,
-    /// Clears reach only what later steps read ([`Executor::set_scissored_clears`]).
-    scissored_clears: bool,
-    /// Vertex snapping of a coarser device, emulated (tests); `None`: off.
-    rounding: Option<super::RoundingEmulation>,
     /// Write the normal buffer with the colour ([`Executor::set_normals`]).
     normals: bool,
-    /// Indexed draws of the shared corners ([`Executor::set_indexed`]).
-    indexed: bool,
-    /// Plain depth tests where no tie is possible ([`Executor::set_tie_free`]).
-    tie_free: bool,
-    /// Depth-equal final shades where no tie is possible
-    /// ([`Executor::set_fixed_shade`]).
-    fixed_shade: bool,
-    /// The shade's tie rule only in tie zones ([`Executor::set_tie_zones`]).
-    tie_zones: bool,
-    /// Parity and clip tie rules as depth tests ([`Executor::set_tie_depth`]).
-    tie_depth: bool,
-    /// One-primitive products shaded in their direct draw
-    /// ([`Executor::set_direct_shade`]).
-    direct_shade: bool,
-    /// The device interpolates depth from unsnapped vertex positions (a CPU
-    /// device): only then is the raster depth as exact as the tie rule's
-    /// plane depth at the pixel centre ([`Executor::set_fixed_shade`]).
-    unsnapped: bool,
+    /// What the device is and the workarounds it needs (the context's).
+    profile: DeviceProfile,
+    /// Stencil-free plans get depth-only images: the device can use the
+    /// set-up's depth-only twin (half the bytes to clear and test where
+    /// D32S8 becomes D32, the same depths).
+    depth_only: bool,
     /// The tie-free decisions for the current plan and camera.
     ties: TieFree,
     /// Keep the accumulate pass's images ([`Executor::set_transparency`]).
     transparency: bool,
-    /// Stencil-free plans get depth-only images ([`Executor::set_depth_only`]).
-    depth_only: bool,
-    /// The device can use the set-up's depth-only twin.
-    depth_only_usable: bool,
     /// Sequence frames' recording and buffers ([`Executor::execute_sequence`]).
     seq: sequence::SeqState,
     /// What the outputs hold now, outside the pixels frames dirtied
@@ -254,19 +227,8 @@ impl Executor {
                 desc.depth_format
             )));
         }
-        // SAFETY: physical device of this instance; plain query.
-        let props = unsafe {
-            shared
-                .instance
-                .get_physical_device_properties(shared.physical)
-        };
-        let cpu = props.device_type == vk::PhysicalDeviceType::CPU;
-        let clears = if cpu {
-            ClearMode::Command
-        } else {
-            ClearMode::LoadOp
-        };
-        let depth_only_usable = ctx.depth_format_usable(desc.depth_format.vk_for(false));
+        let profile = *ctx.profile();
+        let depth_only = ctx.depth_format_usable(desc.depth_format.vk_for(false));
         let pipelines = Pipelines::new(&shared)?;
         let camera = CameraBuffer::new(&shared, pipelines.camera_set_layout)?;
         let submit = Submitter::new(&shared)?;
@@ -297,34 +259,14 @@ impl Executor {
             layers: None,
             epoch: 0,
             last_output: None,
-            clears,
-            join: BlockJoin::Masked,
             pass_timestamps: true,
-            frame_ts: if cpu {
-                FrameTimestamps::Binned
-            } else {
-                FrameTimestamps::Outside
-            },
-            insides_last: true,
-            openings: true,
             cut_away: CutAway::none(),
             opening_rects: OpeningRects::default(),
-            scissored_clears: true,
-            rounding: None,
             normals: false,
-            indexed: true,
-            tie_free: true,
-            fixed_shade: true,
-            tie_zones: true,
-            tie_depth: true,
-            direct_shade: true,
-            // Lavapipe interpolates depth from the unsnapped vertices; hardware
-            // GPUs may not (the H200 does not).
-            unsnapped: cpu,
+            profile,
+            depth_only,
             ties: TieFree::none(),
             transparency: false,
-            depth_only: depth_only_usable,
-            depth_only_usable,
             seq: Default::default(),
             kept: KeptImages::new(),
             kept_unknown: false,
@@ -346,8 +288,7 @@ impl Executor {
         self.cut_away = CutAway::none();
         self.opening_rects.clear();
         self.epoch += 1;
-        drop(_layer);
-        self.ensure_soup()
+        Ok(())
     }
 
     /// Moves the camera of the uploaded scene without uploading its meshes again
@@ -423,7 +364,7 @@ impl Executor {
 
     /// The format of `plan`'s depth images: the set-up's, or its depth-only
     /// twin where no step uses stencil (`plan::formats`) and the device can
-    /// use it ([`Executor::set_depth_only`]).
+    /// use it.
     fn ds_format(&self, plan: &Plan) -> vk::Format {
         let stencil = !self.depth_only || needs_stencil(plan);
         self.desc.depth_format.vk_for(stencil)
@@ -548,7 +489,8 @@ impl Executor {
     fn recorder_and_submitter(&mut self) -> (Recorder<'_>, &Submitter) {
         let flags = self.flags();
         let snap = self
-            .rounding
+            .profile
+            .vertex_snapping_emulation
             .map(|r| r.ndc_step(self.desc.width, self.desc.height))
             .unwrap_or_default();
         let b = Bindings {
@@ -559,16 +501,12 @@ impl Executor {
             scene: self.scene.as_ref().expect("scene uploaded before execute"),
             occlusion: self.occlusion.pool,
             timestamps: (self.shared.timestamp_valid_bits > 0).then_some(self.timestamps.pool),
-            clears: self.clears,
-            join: self.join,
+            clears: self.profile.clears,
             pass_timestamps: self.pass_timestamps,
-            frame_ts: self.frame_ts,
-            insides_last: self.insides_last,
-            openings: self.openings,
+            frame_ts: self.profile.frame_timestamps,
             flags,
             snap,
             normals: self.normals,
-            indexed: self.indexed,
             camera_set: self.camera.set,
             ties: &self.ties,
             mesh_rects: self.rects.unions(),

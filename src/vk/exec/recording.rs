@@ -10,7 +10,6 @@ use super::record::{Group, HostShade};
 use super::scissors::Scissors;
 use super::stats::ExecStats;
 use super::{unroll, Executor};
-use crate::plan::direct_shade::DirectShades;
 use crate::plan::reach::KeptImages;
 use crate::plan::tie_free::TieFree;
 use crate::plan::{Plan, Step};
@@ -187,14 +186,13 @@ impl Executor {
         // The host's shade reads the body's last depth copy: its draws count.
         let reached = self.recording_reach(plan, layers, &steps, now);
         let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
-        let direct_shade = self.direct_shade;
         let mut rec = self.recorder();
         let body = steps.len() - host.map_or(0, |h| h.1);
         rec.use_reach(&reached.0, plan.output_ds);
         // The host's shade draws decide what the last copy covers, as the
         // standalone shade's do.
         rec.plan_shades(&steps);
-        if direct_shade && host.is_none() {
+        if host.is_none() {
             rec.plan_direct_shades(&steps, plan.output_ds);
         }
         rec.plan_blocks(&steps[..body]);
@@ -207,10 +205,7 @@ impl Executor {
         match host {
             Some((h, _)) => {
                 // The same products as the standalone frame's direct shades.
-                let direct = match direct_shade {
-                    true => rec.direct_shades(&steps, plan.output_ds),
-                    false => DirectShades::none(),
-                };
+                let direct = rec.direct_shades(&steps, plan.output_ds);
                 rec.host_shade(h, shade, &direct)?
             }
             None => rec.finish_frame(plan.output_ds),

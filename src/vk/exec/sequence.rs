@@ -88,18 +88,10 @@ struct SeqKey {
     rects: Vec<Rect>,
     epoch: u64,
     ties: TieFree,
-    /// Normals, transparency, clear mode and block joining, pass timestamps, scissored clears and
-    /// the push-constant flags, the emulated vertex snapping: every setting
-    /// the recording depends on.
-    settings: (
-        bool,
-        bool,
-        (super::ClearMode, super::BlockJoin),
-        bool,
-        bool,
-        u32,
-        [u32; 2],
-    ),
+    /// Normals, transparency, pass timestamps and the push-constant flags,
+    /// the emulated vertex snapping: every setting the recording depends on
+    /// (the profile's clears and frame timestamps stay with the executor).
+    settings: (bool, bool, bool, u32, [u32; 2]),
     keep: Option<vk::Buffer>,
     alpha: Option<vk::Buffer>,
 }
@@ -206,11 +198,10 @@ impl Executor {
             settings: (
                 self.normals,
                 self.transparency,
-                (self.clears, self.join),
                 self.pass_timestamps,
-                self.scissored_clears,
                 self.flags(),
-                self.rounding
+                self.profile
+                    .vertex_snapping_emulation
                     .map(|r| r.ndc_step(self.desc.width, self.desc.height))
                     .unwrap_or_default()
                     .map(f32::to_bits),
@@ -290,7 +281,6 @@ impl Executor {
             })
             .collect();
         let (occ_cap, ts_cap) = (self.occlusion.cap, self.timestamps.cap);
-        let scissored_clears = self.scissored_clears;
         let shared = self.shared.clone();
         let keep = self.seq.keep.as_ref().map(|b| b.raw);
         let slot_bytes = self.seq.slot_bytes;
@@ -302,14 +292,12 @@ impl Executor {
             normal: t.normal.as_ref().map(|n| n.raw),
         };
         let (w, h) = (self.desc.width, self.desc.height);
-        let reach = scissored_clears.then(|| self.sequence_reach(items, &flat));
+        let reach = self.sequence_reach(items, &flat);
         // Out of `self` while the recorder borrows it; put back below.
         let alpha = self.seq.alpha.take();
         self.submit.begin(cmd, false)?;
         let mut rec = self.recorder();
-        if let Some(r) = &reach {
-            rec.use_reach(r, 0);
-        }
+        rec.use_reach(&reach, 0);
         rec.begin(cmd, occ_cap, ts_cap);
         let mut ranges = Vec::new();
         let (mut plan_i, mut slot, mut output) = (0, 0u64, 0u8);

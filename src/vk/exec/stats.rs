@@ -27,8 +27,7 @@ pub struct Counts {
     /// contiguously in the vertex buffer and share all state.
     pub draw_calls: u64,
     /// Those of `draw_calls` drawn indexed, from the meshes' shared or lit
-    /// corners (`GpuScene`'s doc): all of them unless `Executor::set_indexed`
-    /// turned indexing off.
+    /// corners (`GpuScene`'s doc): all of them.
     pub indexed_draw_calls: u64,
     /// Full-screen draws, including internal depth copies.
     pub fullscreen_passes: u64,

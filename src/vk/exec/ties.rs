@@ -21,9 +21,7 @@ pub(super) struct TieKey {
     subpixel_bits: u32,
     size: (u32, u32),
     reversed_z: bool,
-    tie_free: bool,
     fixed_shade: bool,
-    zones: bool,
     tie_depth: bool,
 }
 
@@ -32,7 +30,7 @@ impl Executor {
     /// the kept ones while the plan, camera, scene and settings stay
     /// (`plan::memo`; a replayed frame decides nothing anew).
     pub(super) fn decide_ties(&mut self, plan: &Plan) -> TieFree {
-        let Some(scene) = self.scene.as_ref().filter(|_| self.tie_free) else {
+        let Some(scene) = self.scene.as_ref() else {
             return TieFree::none();
         };
         let key = TieKey {
@@ -42,16 +40,14 @@ impl Executor {
             subpixel_bits: self.subpixel_bits(),
             size: (self.desc.width, self.desc.height),
             reversed_z: self.desc.reversed_z,
-            tie_free: self.tie_free,
             fixed_shade: self.depth_equal_shades(),
-            zones: self.tie_zones,
             tie_depth: self.tie_depth(),
         };
         let (desc, bits) = (self.desc, key.subpixel_bits);
-        let (fixed, zones, tie_depth) = (key.fixed_shade, key.zones, key.tie_depth);
+        let (fixed, tie_depth) = (key.fixed_shade, key.tie_depth);
         self.tie_memo
             .get_or_insert_with(key, || {
-                tie_decisions(scene, &desc, bits, plan, fixed, zones).with_tie_depth(tie_depth)
+                tie_decisions(scene, &desc, bits, plan, fixed).with_tie_depth(tie_depth)
             })
             .clone()
     }
@@ -66,7 +62,6 @@ fn tie_decisions(
     subpixel_bits: u32,
     plan: &Plan,
     fixed_shade: bool,
-    zones: bool,
 ) -> TieFree {
     let bounds = scene
         .bounds
@@ -87,9 +82,8 @@ fn tie_decisions(
     let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
     let project = |b: &Aabb| bounds_rect(view, proj, near, std::slice::from_ref(b), w, h);
     let ties = TieFree::new(&scene.ties, &scene.shade_ties, &band, plan, &project);
-    match (fixed_shade, zones) {
-        (true, true) => ties,
-        (true, false) => ties.without_zones(),
-        (false, _) => ties.keep_shade_rule(),
+    match fixed_shade {
+        true => ties,
+        false => ties.keep_shade_rule(),
     }
 }

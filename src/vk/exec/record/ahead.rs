@@ -15,7 +15,7 @@
 //! the final shade's depth-equal draws (one render pass where there were two).
 //! The decision over the steps' summaries ([`Ahead`]) is pure ([`widened`]).
 
-use super::{lower, BlockJoin, BlockKey, Recorder};
+use super::{lower, BlockKey, Recorder};
 use crate::plan::usage::{self, Resource, Usage, Uses};
 use crate::plan::{Draw, Step};
 use crate::vk::scissor::Rect;
@@ -183,11 +183,7 @@ impl Recorder<'_> {
         if writes {
             return own;
         }
-        let masked = self.b.join == BlockJoin::Masked;
-        if let Some(open) = self
-            .block
-            .filter(|b| b.ds == own.ds && (masked || b.n_colors == 0))
-        {
+        if let Some(open) = self.block.filter(|b| b.ds == own.ds) {
             // The depth-stencil image as the block's; nothing else the
             // block attaches (sampling a colour attachment would read what
             // the block writes), nothing that needs a barrier or a clear.
@@ -201,9 +197,6 @@ impl Recorder<'_> {
             if fits {
                 return open;
             }
-        }
-        if !masked {
-            return own;
         }
         let ahead = self.ahead.get(self.next..).unwrap_or_default();
         let wide = widened(

@@ -315,7 +315,7 @@ enum Piece {
     /// none of its front faces (its back faces culled) lies nearer than the
     /// output depth. Only with no merge: after one, the fetch runs on the
     /// visible fragments alone, and the draws a split adds cost more than
-    /// that (`complex`, `examples/embed_ab`).
+    /// that (`complex`, measured on lavapipe).
     WrittenUncut,
 }
 
@@ -407,7 +407,7 @@ fn insides_last(pieces: &[(Cull, Piece, Rect)]) -> Option<Vec<(usize, bool)>> {
 /// does the part of a piece outside its mesh's cutters
 /// (`Piece::WrittenUncut`), drawn the same way. One
 /// merge pixel costs as much as 4 such fragments (fitted on
-/// `examples/embed_ab`, SCS and Goldfeather, 800×800, with the direct pieces
+/// embedded frames on lavapipe, SCS and Goldfeather, 800×800, with the direct pieces
 /// written: the pieces win on `complex` (3.5 fragments per merge pixel) and
 /// `drilled_block` (2.7), which took the merge at 2.5, and on the rest of the
 /// bench's scenes; the example's box with four bites, at 4.2, keeps it).
@@ -601,11 +601,8 @@ impl Recorder<'_> {
             self.host_merge(h, ds, &draws, flags)?;
         }
         let shape: Vec<_> = draws.iter().map(|(d, p, r)| (d.cull, *p, *r)).collect();
-        let order = match self.b.insides_last {
-            true => insides_last(&shape),
-            false => None,
-        }
-        .unwrap_or_else(|| (0..draws.len()).map(|i| (i, false)).collect());
+        let order =
+            insides_last(&shape).unwrap_or_else(|| (0..draws.len()).map(|i| (i, false)).collect());
         self.stats.counts.shade_insides_last += order.iter().filter(|(_, s)| *s).count() as u64;
         for &(i, strict) in &order {
             let (draw, piece, rect) = &draws[i];
@@ -640,7 +637,7 @@ impl Recorder<'_> {
         draws: Vec<(Draw, Piece, Rect)>,
         cut: &CutAway,
     ) -> Vec<(Draw, Piece, Rect)> {
-        if cut.is_empty() || !self.b.openings {
+        if cut.is_empty() {
             return draws;
         }
         let scene = self.b.scene;
@@ -716,8 +713,8 @@ impl Recorder<'_> {
             let cap = cut_away::piece_cap(triangles);
             // Where a cutter can hold a front face of the mesh: the screen
             // rectangles of the world boxes of those faces inside its box
-            // (`CutAway::holes`; A/B: of the two boxes' meeting).
-            let camera = self.b.openings.then_some(&scene.camera);
+            // (`CutAway::holes`).
+            let camera = Some(&scene.camera);
             let holes = |c: MeshId| {
                 let boxes = cut.holes(m, c, &scene.bounds, camera);
                 self.screen_rects(&boxes).collect::<Vec<_>>()

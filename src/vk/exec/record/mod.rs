@@ -146,21 +146,11 @@ pub(super) struct Bindings<'a> {
     /// `None` when the queue has no timestamps.
     pub timestamps: Option<vk::QueryPool>,
     pub clears: ClearMode,
-    pub join: BlockJoin,
     /// A timestamp at every `Step::Pass` (per-pass GPU times); otherwise only
     /// around the command buffer.
     pub pass_timestamps: bool,
     /// Where the frame's closing timestamp goes ([`FrameTimestamps`]).
     pub frame_ts: FrameTimestamps,
-    /// The host's written final shade draws the cavities' insides last, where
-    /// that changes no pixel (`host::insides_last`).
-    pub insides_last: bool,
-    /// The host's final shade is cut to the openings: a mesh's written piece
-    /// checks the output depth only over its front faces inside its cutters
-    /// (`CutAway::holes`), not over the whole meeting of their boxes, and a
-    /// cavity's inside is drawn only where it can be seen through them
-    /// (`CutAway::inside_holes`).
-    pub openings: bool,
     /// Push-constant flags (reversed Z, subpixel precision).
     pub flags: u32,
     /// Emulated vertex snapping step of mesh draws (zero: off).
@@ -168,9 +158,6 @@ pub(super) struct Bindings<'a> {
     /// Write the normal buffer wherever colour is written (Kirsch, Nienhaus & Döllner
     /// §5.2).
     pub normals: bool,
-    /// Mesh draws are indexed from the shared or lit corners (`GpuScene`'s
-    /// doc; `Executor::set_indexed`).
-    pub indexed: bool,
     /// The camera's uniform buffer (set 1 of every pipeline).
     pub camera_set: vk::DescriptorSet,
     /// Which tolerant parity and peel draws run as plain depth tests under the
@@ -192,21 +179,6 @@ pub enum ClearMode {
     /// Lavapipe clears on load far more slowly (docs/executor.md), so CPU
     /// devices use this.
     Command,
-}
-
-/// Which blocks a draw whose program writes no colour may record in
-/// (`record/ahead.rs`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum BlockJoin {
-    /// Any open block on its depth-stencil image, the block's colour writes
-    /// masked, and a block it opens takes the attachments of the colour draws
-    /// that follow (the look-ahead): fewer blocks and barriers (the default).
-    Masked,
-    /// Only blocks without colour attachments. On lavapipe a masked draw
-    /// over many pixels can cost more than the block end it saves (llvmpipe
-    /// of Mesa 22.3 seems to blend into every bound colour buffer, writes
-    /// masked or not; docs/executor.md).
-    DepthOnly,
 }
 
 /// Records steps into command buffers; its image states persist from one
@@ -345,13 +317,7 @@ impl<'a> Recorder<'a> {
         self.dyn_state = None;
         self.push.reset();
         state::record_fixed(self.b.device, cmd, self.b.desc.width, self.b.desc.height);
-        // Non-indexed draws read the soup (`GpuScene`'s doc); both buffers
-        // hold the quad at vertex 0.
-        let vertices = match (self.b.indexed, &self.b.scene.soup) {
-            (true, _) => &self.b.scene.vertices,
-            (false, Some(soup)) => soup,
-            (false, None) => panic!("set_indexed(false) builds the soup before recording"),
-        };
+        let vertices = &self.b.scene.vertices;
         // SAFETY: the vertex and index buffers are live while the recording may
         // be replayed.
         unsafe {

@@ -5,7 +5,6 @@
 
 use ash::vk;
 
-use super::super::gpu_scene::SOUP_FIRST;
 use super::lower::{self, RecordedDraw};
 use super::{state, BlockKey, Recorder};
 use crate::plan::usage::{self, Resource, Usage};
@@ -300,28 +299,21 @@ impl Recorder<'_> {
     /// Draws the corners `first..first + count` (a range of whole triangles
     /// of `GpuScene::ranges`) for a program that reads interpolated
     /// outputs (`lit`: `FragmentKind::interpolated`) or not: indexed from the
-    /// lit or the shared corners, or from the soup itself with indexing off
-    /// (`GpuScene`'s doc: the same triangles all three ways).
+    /// lit or the shared corners (`GpuScene`'s doc: the same triangles both
+    /// ways).
     pub(super) fn draw_corners(&mut self, lit: bool, first: u32, count: u32) {
         if count == 0 {
             return;
         }
         let device = self.b.device;
-        match (self.b.indexed, lit) {
-            // SAFETY: inside a block; the range lies in the soup, bound by
-            // `begin_state` with indexing off.
-            (false, _) => unsafe { device.cmd_draw(self.cmd, count, 1, SOUP_FIRST + first, 0) },
-            (true, lit) => {
-                let offset = match lit {
-                    true => self.b.scene.lit_offset,
-                    false => 0,
-                };
-                // SAFETY: inside a block; the range lies in the index buffer
-                // (`begin_state` bound it), its indices in the vertex buffer.
-                unsafe { device.cmd_draw_indexed(self.cmd, count, 1, first + offset, 0, 0) };
-                self.stats.counts.indexed_draw_calls += 1;
-            }
-        }
+        let offset = match lit {
+            true => self.b.scene.lit_offset,
+            false => 0,
+        };
+        // SAFETY: inside a block; the range lies in the index buffer
+        // (`begin_state` bound it), its indices in the vertex buffer.
+        unsafe { device.cmd_draw_indexed(self.cmd, count, 1, first + offset, 0, 0) };
+        self.stats.counts.indexed_draw_calls += 1;
         self.stats.counts.draw_calls += 1;
     }
 }

@@ -1,0 +1,311 @@
+//! What the device is and how peeltrim works around it, decided once per
+//! physical device: the [`DeviceProfile`] a [`super::Context`] owns. Plans,
+//! pipelines and recordings read it; nothing else asks what kind of device
+//! runs them (in the spirit of wgpu-hal's Vulkan `Workarounds`).
+//!
+//! `PEELTRIM_DEVICE_PROFILE=hardware` ([`PROFILE_ENV`]) forces the hardware
+//! profile on any device: on a CPU rasterizer (lavapipe) the hardware paths
+//! then run — load-op clears, frame timestamps after the frame's commands, no
+//! depth-equal shades — with hardware's vertex snapping emulated at 8
+//! subpixel bits, so that they are tested where no GPU is. `device` (or the
+//! variable unset) keeps the device's own profile.
+
+use ash::vk;
+
+use super::error::VkError;
+use super::exec::{ClearMode, FrameTimestamps};
+use super::rounding::RoundingEmulation;
+
+/// The environment variable that chooses the profile ([`ProfileChoice`]).
+pub const PROFILE_ENV: &str = "PEELTRIM_DEVICE_PROFILE";
+
+/// What kind of rasterizer the profile describes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProfileKind {
+    /// A CPU rasterizer (lavapipe's llvmpipe): it interpolates depth from the
+    /// unsnapped vertex positions and bins each rendering block's draws.
+    CpuRasterizer,
+    /// A hardware GPU: it snaps vertices to its subpixel grid before
+    /// interpolating depth (as the NVIDIA H200 of the tests' logs does).
+    Hardware,
+}
+
+/// Which profile to use: [`PROFILE_ENV`]'s value.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ProfileChoice {
+    /// The device's own (`device`, or the variable unset).
+    #[default]
+    Device,
+    /// The hardware profile on any device (`hardware`).
+    Hardware,
+}
+
+impl ProfileChoice {
+    /// Parses [`PROFILE_ENV`]'s value (`None`: unset).
+    pub fn parse(value: Option<&str>) -> Result<ProfileChoice, VkError> {
+        match value {
+            None | Some("device") => Ok(ProfileChoice::Device),
+            Some("hardware") => Ok(ProfileChoice::Hardware),
+            Some(other) => Err(VkError::Config(format!(
+                "{PROFILE_ENV}='{other}': use 'device' (the device's own profile, the default) or 'hardware'"
+            ))),
+        }
+    }
+
+    /// The choice of this process's environment.
+    pub fn from_env() -> Result<ProfileChoice, VkError> {
+        match std::env::var(PROFILE_ENV) {
+            Ok(v) => Self::parse(Some(&v)),
+            Err(std::env::VarError::NotPresent) => Self::parse(None),
+            Err(std::env::VarError::NotUnicode(v)) => Self::parse(Some(&v.to_string_lossy())),
+        }
+    }
+}
+
+/// Which depth-stencil formats work as sampled, copyable attachments with
+/// optimal tiling (what the executor needs of a depth format).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DepthFormats {
+    /// `D32_SFLOAT_S8_UINT`.
+    pub d32s8: bool,
+    /// `D24_UNORM_S8_UINT`.
+    pub d24s8: bool,
+    /// `D32_SFLOAT`: the depth-only twin of D32S8 for stencil-free plans.
+    pub d32: bool,
+}
+
+impl DepthFormats {
+    /// Whether `format` is usable; formats the executor never uses are not.
+    pub fn usable(&self, format: vk::Format) -> bool {
+        match format {
+            vk::Format::D32_SFLOAT_S8_UINT => self.d32s8,
+            vk::Format::D24_UNORM_S8_UINT => self.d24s8,
+            vk::Format::D32_SFLOAT => self.d32,
+            _ => false,
+        }
+    }
+}
+
+/// The facts of a physical device a profile is made from (pure, for tests).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeviceFacts {
+    /// `PHYSICAL_DEVICE_TYPE_CPU`.
+    pub cpu: bool,
+    /// `subPixelPrecisionBits`.
+    pub subpixel_bits: u32,
+    pub depth_formats: DepthFormats,
+}
+
+/// Every fact and workaround that changes a plan or a recording, set once
+/// from the physical device ([`DeviceProfile::detect`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeviceProfile {
+    pub kind: ProfileKind,
+    /// The raster depth is interpolated from unsnapped vertex positions, so it
+    /// is as exact at the pixel centre as the tie rule's plane depth: the final
+    /// shade may then run depth-`EQUAL` draws where no tie is possible and
+    /// leave the raster depth in the depth output (`plan::tie_free`).
+    pub unsnapped_depth: bool,
+    /// The vertex snapping the tie rule allows for: 2^-bits pixel (the
+    /// emulation's where one is on, else the device's `subPixelPrecisionBits`).
+    pub subpixel_bits: u32,
+    /// Hardware's vertex snapping emulated in the vertex shader
+    /// (`vk::rounding`); `None`: the device's own rasterization.
+    pub vertex_snapping_emulation: Option<RoundingEmulation>,
+    /// How clears are recorded: load ops on hardware, where tile-based and
+    /// other GPUs clear on load for free; clear commands on a CPU rasterizer,
+    /// which clears on load far more slowly.
+    pub clears: ClearMode,
+    /// Where each frame's closing timestamp goes: after every command on
+    /// hardware; inside the last block on a CPU rasterizer, which saves it a
+    /// binned scene per frame.
+    pub frame_timestamps: FrameTimestamps,
+    /// The depth formats the device can use.
+    pub depth_formats: DepthFormats,
+}
+
+impl DeviceProfile {
+    /// The profile of a device with `facts` under `choice`.
+    pub fn from_facts(facts: DeviceFacts, choice: ProfileChoice) -> DeviceProfile {
+        let cpu = facts.cpu && choice == ProfileChoice::Device;
+        let emulation = (facts.cpu && !cpu).then_some(RoundingEmulation::EIGHT_BITS);
+        let profile = DeviceProfile {
+            kind: ProfileKind::Hardware,
+            unsnapped_depth: false,
+            subpixel_bits: facts.subpixel_bits,
+            vertex_snapping_emulation: None,
+            clears: ClearMode::LoadOp,
+            frame_timestamps: FrameTimestamps::Outside,
+            depth_formats: facts.depth_formats,
+        };
+        match (cpu, emulation) {
+            (true, _) => DeviceProfile {
+                kind: ProfileKind::CpuRasterizer,
+                unsnapped_depth: true,
+                clears: ClearMode::Command,
+                frame_timestamps: FrameTimestamps::Binned,
+                ..profile
+            },
+            (false, Some(e)) => profile.emulating(e),
+            (false, None) => profile,
+        }
+    }
+
+    /// The hardware profile with `emulation`'s vertex snapping, on the same
+    /// depth formats: what a test of a coarser device runs with.
+    pub fn emulating(self, emulation: RoundingEmulation) -> DeviceProfile {
+        DeviceProfile {
+            kind: ProfileKind::Hardware,
+            unsnapped_depth: false,
+            subpixel_bits: emulation.subpixel_bits,
+            vertex_snapping_emulation: Some(emulation),
+            clears: ClearMode::LoadOp,
+            frame_timestamps: FrameTimestamps::Outside,
+            depth_formats: self.depth_formats,
+        }
+    }
+
+    /// The profile of `physical` under [`PROFILE_ENV`]'s choice; an error
+    /// names the variable where its value is not one of the accepted ones.
+    /// `PEELTRIM_EMULATE_NO_D32S8=1` emulates a device without D32S8 (the
+    /// tests of the D24S8 fallback, on lavapipe, which has it).
+    pub fn detect(
+        instance: &ash::Instance,
+        physical: vk::PhysicalDevice,
+    ) -> Result<DeviceProfile, VkError> {
+        let choice = ProfileChoice::from_env()?;
+        // SAFETY: `physical` belongs to `instance`; plain queries.
+        let props = unsafe { instance.get_physical_device_properties(physical) };
+        let usable = |format: vk::Format| {
+            // SAFETY: as above.
+            let fp = unsafe { instance.get_physical_device_format_properties(physical, format) };
+            fp.optimal_tiling_features.contains(
+                vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::FormatFeatureFlags::SAMPLED_IMAGE
+                    | vk::FormatFeatureFlags::TRANSFER_SRC
+                    | vk::FormatFeatureFlags::TRANSFER_DST,
+            )
+        };
+        let no_d32s8 = std::env::var_os("PEELTRIM_EMULATE_NO_D32S8").is_some_and(|v| v == "1");
+        let facts = DeviceFacts {
+            cpu: props.device_type == vk::PhysicalDeviceType::CPU,
+            subpixel_bits: props.limits.sub_pixel_precision_bits,
+            depth_formats: DepthFormats {
+                d32s8: !no_d32s8 && usable(vk::Format::D32_SFLOAT_S8_UINT),
+                d24s8: usable(vk::Format::D24_UNORM_S8_UINT),
+                d32: usable(vk::Format::D32_SFLOAT),
+            },
+        };
+        Ok(DeviceProfile::from_facts(facts, choice))
+    }
+
+    /// Whether final shades may run depth-`EQUAL` draws where no tie is
+    /// possible, on a depth image of `format`: only with unsnapped depth and
+    /// D32S8. On D24 the quantized raster depth misses the strict depth bar
+    /// that the plane depth at the pixel centre meets (`vk_tests`
+    /// `classic_assembly`).
+    pub fn depth_equal_shades(&self, format: super::DepthFormat) -> bool {
+        self.unsnapped_depth && format == super::DepthFormat::D32S8
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ALL: DepthFormats = DepthFormats {
+        d32s8: true,
+        d24s8: true,
+        d32: true,
+    };
+
+    fn facts(cpu: bool) -> DeviceFacts {
+        DeviceFacts {
+            cpu,
+            subpixel_bits: 8,
+            depth_formats: ALL,
+        }
+    }
+
+    #[test]
+    fn env_values_parse_or_name_the_variable() {
+        assert_eq!(ProfileChoice::parse(None).unwrap(), ProfileChoice::Device);
+        assert_eq!(
+            ProfileChoice::parse(Some("device")).unwrap(),
+            ProfileChoice::Device
+        );
+        assert_eq!(
+            ProfileChoice::parse(Some("hardware")).unwrap(),
+            ProfileChoice::Hardware
+        );
+        let e = ProfileChoice::parse(Some("gpu")).unwrap_err().to_string();
+        assert!(e.contains(PROFILE_ENV) && e.contains("'gpu'"), "{e}");
+        assert!(e.contains("device") && e.contains("hardware"), "{e}");
+    }
+
+    #[test]
+    fn a_cpu_rasterizer_gets_its_own_paths() {
+        let p = DeviceProfile::from_facts(facts(true), ProfileChoice::Device);
+        assert_eq!(p.kind, ProfileKind::CpuRasterizer);
+        assert!(p.unsnapped_depth);
+        assert_eq!(p.vertex_snapping_emulation, None);
+        assert_eq!(p.clears, ClearMode::Command);
+        assert_eq!(p.frame_timestamps, FrameTimestamps::Binned);
+        assert!(p.depth_equal_shades(super::super::DepthFormat::D32S8));
+        assert!(!p.depth_equal_shades(super::super::DepthFormat::D24S8));
+    }
+
+    #[test]
+    fn hardware_keeps_its_snapping_unemulated() {
+        let facts = DeviceFacts {
+            subpixel_bits: 4,
+            ..facts(false)
+        };
+        for choice in [ProfileChoice::Device, ProfileChoice::Hardware] {
+            let p = DeviceProfile::from_facts(facts, choice);
+            assert_eq!(p.kind, ProfileKind::Hardware);
+            assert!(!p.unsnapped_depth);
+            assert_eq!(p.subpixel_bits, 4);
+            assert_eq!(p.vertex_snapping_emulation, None);
+            assert_eq!(p.clears, ClearMode::LoadOp);
+            assert_eq!(p.frame_timestamps, FrameTimestamps::Outside);
+        }
+    }
+
+    #[test]
+    fn forced_hardware_on_a_cpu_rasterizer_emulates_eight_bit_snapping() {
+        let own = DepthFormats {
+            d32s8: false,
+            ..ALL
+        };
+        let facts = DeviceFacts {
+            depth_formats: own,
+            ..facts(true)
+        };
+        let p = DeviceProfile::from_facts(facts, ProfileChoice::Hardware);
+        assert_eq!(p.kind, ProfileKind::Hardware);
+        assert!(!p.unsnapped_depth);
+        assert_eq!(
+            p.vertex_snapping_emulation,
+            Some(RoundingEmulation::EIGHT_BITS)
+        );
+        assert_eq!(p.subpixel_bits, 8);
+        assert_eq!(p.clears, ClearMode::LoadOp);
+        assert_eq!(p.frame_timestamps, FrameTimestamps::Outside);
+        assert_eq!(p.depth_formats, own);
+        assert!(!p.depth_equal_shades(super::super::DepthFormat::D32S8));
+    }
+
+    #[test]
+    fn depth_formats_answer_for_the_executor_formats_only() {
+        let f = DepthFormats {
+            d32s8: false,
+            d24s8: true,
+            d32: true,
+        };
+        assert!(!f.usable(vk::Format::D32_SFLOAT_S8_UINT));
+        assert!(f.usable(vk::Format::D24_UNORM_S8_UINT));
+        assert!(f.usable(vk::Format::D32_SFLOAT));
+        assert!(!f.usable(vk::Format::D16_UNORM));
+    }
+}
