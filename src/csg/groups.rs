@@ -28,8 +28,8 @@ pub enum GroupKind {
 /// Leaves that are all operands of one operator chain.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Group {
-    pub kind: GroupKind,
-    pub literals: Vec<Literal>,
+    pub(crate) kind: GroupKind,
+    pub(crate) literals: Vec<Literal>,
 }
 
 impl Group {
@@ -77,7 +77,7 @@ pub enum Item {
 }
 
 impl Item {
-    pub fn eval(&self, mut inside: impl FnMut(&Literal) -> bool) -> bool {
+    pub(crate) fn eval(&self, mut inside: impl FnMut(&Literal) -> bool) -> bool {
         match self {
             Item::Literal(l) => l.holds(inside(l)),
             Item::Group(g) => g.eval(inside),
@@ -88,17 +88,17 @@ impl Item {
 /// One entry of a grouped Blist: labels and targets as in [`super::Blist`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GroupedEntry {
-    pub item: Item,
-    pub label: u32,
-    pub if_true: Target,
-    pub if_false: Target,
+    pub(crate) item: Item,
+    pub(crate) label: u32,
+    pub(crate) if_true: Target,
+    pub(crate) if_false: Target,
 }
 
 /// A Blist whose entries are literals or groups. No entries: the universe.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GroupedBlist {
-    pub entries: Vec<GroupedEntry>,
-    pub num_labels: u32,
+    pub(crate) entries: Vec<GroupedEntry>,
+    pub(crate) num_labels: u32,
 }
 
 impl GroupedBlist {

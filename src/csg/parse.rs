@@ -36,7 +36,7 @@ pub enum ParseErrorKind {
 pub struct ParseError {
     /// 1-based column, in characters, of the offending token.
     pub column: usize,
-    pub kind: ParseErrorKind,
+    pub(crate) kind: ParseErrorKind,
     /// The expression as given (for the caret display).
     pub source_text: String,
 }

@@ -75,8 +75,8 @@ impl PNode {
 /// loop over `nodes` is a bottom-up pass and no traversal stack is needed.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PositiveExpr {
-    pub nodes: Vec<PNode>,
-    pub root: PNodeId,
+    pub(crate) nodes: Vec<PNode>,
+    pub(crate) root: PNodeId,
 }
 
 impl PNode {

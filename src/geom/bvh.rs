@@ -178,7 +178,7 @@ fn pad(min: DVec3, max: DVec3) -> (DVec3, DVec3) {
 }
 
 impl MeshBvh {
-    pub fn new(mesh: &Mesh) -> MeshBvh {
+    pub(crate) fn new(mesh: &Mesh) -> MeshBvh {
         let n = mesh.triangles.len();
         let tri_vert = |i: usize| -> [DVec3; 3] {
             let [a, b, c] = mesh.triangles[i];

@@ -89,7 +89,7 @@ pub enum Variant {
 }
 
 impl Variant {
-    pub fn algo(self) -> Algo {
+    pub(crate) fn algo(self) -> Algo {
         match self {
             Variant::Z => Algo::CstZ,
             Variant::I => Algo::CstI,

@@ -5,10 +5,10 @@
 /// A pixel rectangle `[x0, x1) × [y0, y1)`, y downward.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Rect {
-    pub x0: u32,
-    pub y0: u32,
-    pub x1: u32,
-    pub y1: u32,
+    pub(crate) x0: u32,
+    pub(crate) y0: u32,
+    pub(crate) x1: u32,
+    pub(crate) y1: u32,
 }
 
 impl Rect {
@@ -21,18 +21,18 @@ impl Rect {
         }
     }
 
-    pub const EMPTY: Rect = Rect {
+    pub(crate) const EMPTY: Rect = Rect {
         x0: 0,
         y0: 0,
         x1: 0,
         y1: 0,
     };
 
-    pub fn width(&self) -> u32 {
+    pub(crate) fn width(&self) -> u32 {
         self.x1.saturating_sub(self.x0)
     }
 
-    pub fn height(&self) -> u32 {
+    pub(crate) fn height(&self) -> u32 {
         self.y1.saturating_sub(self.y0)
     }
 
@@ -78,7 +78,7 @@ impl Rect {
         }
     }
 
-    pub fn union(&self, o: &Rect) -> Rect {
+    pub(crate) fn union(&self, o: &Rect) -> Rect {
         if self.is_empty() {
             return *o;
         }

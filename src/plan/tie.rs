@@ -69,6 +69,7 @@ pub const SHADE_EPS: f32 = 1.0 / (1u32 << 20) as f32;
 /// The slope part of every non-zero depth tolerance, in snapping steps: the
 /// shaders add `TIE_SLOPES · 2^-bits · fwidth(gl_FragCoord.z)` (module doc). The
 /// shaders hold the same literal (`shaders/tie.glsl`), checked by a test.
+#[cfg(test)]
 pub const TIE_SLOPES: f32 = 1.0;
 
 /// With reversed Z the shaders scale eps by `REVERSED_SCALE · z`: 2⁻²³ z, between

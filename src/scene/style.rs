@@ -23,7 +23,7 @@ pub enum Style {
 }
 
 impl Style {
-    pub const ALL: [Style; 5] = [
+    pub(crate) const ALL: [Style; 5] = [
         Style::Opaque,
         Style::Transparent,
         Style::Blueprint,

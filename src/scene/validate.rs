@@ -123,6 +123,7 @@ pub fn signed_volume(mesh: &Mesh) -> f64 {
 }
 
 /// Number of triangles of zero area (collinear or coincident corners).
+#[cfg(test)]
 pub fn degenerate_triangles(mesh: &Mesh) -> usize {
     mesh.triangles
         .iter()

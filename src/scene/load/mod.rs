@@ -62,7 +62,7 @@ pub struct LoadOptions {
 
 /// Largest `segments` / `rings`, and of their product.
 pub const MAX_DIVISIONS: u32 = 65536;
-pub const MAX_GRID: u64 = 1 << 24;
+pub(crate) const MAX_GRID: u64 = 1 << 24;
 /// Largest image side accepted from `[render]` or `--size`.
 pub const MAX_SIZE: u32 = 16384;
 /// Largest world-space coordinate of a drawn vertex: far inside `f32` (the

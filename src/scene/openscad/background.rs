@@ -22,14 +22,14 @@ use crate::scene::{fit, Primitive, Scene, Solid};
 pub struct Background {
     /// `background_<node>_L<line>`, the solid's name once shown.
     pub name: String,
-    pub primitives: Vec<Primitive>,
-    pub expr: Expr,
+    pub(crate) primitives: Vec<Primitive>,
+    pub(crate) expr: Expr,
     /// The warning the scene carries while the part is left out.
     pub warning: String,
 }
 
 impl Background {
-    pub fn new(
+    pub(crate) fn new(
         path: &Path,
         node: String,
         pos: Pos,

@@ -60,7 +60,7 @@ pub struct ScadError {
 }
 
 impl ScadError {
-    pub fn new(pos: Pos, message: impl Into<String>) -> Self {
+    pub(crate) fn new(pos: Pos, message: impl Into<String>) -> Self {
         ScadError {
             pos,
             message: message.into(),

@@ -59,7 +59,6 @@ use std::time::Instant;
 use ash::vk;
 
 pub use super::conv::DepthFormat;
-pub use batch::PreparedFrame;
 pub(crate) use embed::{Output, Unrolled};
 pub(crate) use normals::copy_to_host;
 pub use sequence::{PlanCounts, SeqFrame, SeqItem};
