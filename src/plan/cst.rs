@@ -83,8 +83,12 @@ const FAR: f32 = 1.0;
 /// Which variant of Hable & Rossignac §8.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Variant {
+    /// `cst-z`: trim against the Z form (i-nodes and complemented u-nodes).
     Z,
+    /// `cst-i`: trim against the i-nodes only (optimization 2).
     I,
+    /// `cst-i` with same-operator leaves grouped and classified by a stencil
+    /// counter (optimization 3).
     G,
 }
 
