@@ -21,7 +21,9 @@ use super::positive::{Literal, PNode, PNodeId, PositiveExpr};
 /// The operator of a group.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GroupKind {
+    /// An intersection chain: a point is in the group when it is in all of it.
     Inter,
+    /// A union chain: a point is in the group when it is in any of it.
     Union,
 }
 
@@ -72,7 +74,9 @@ impl Group {
 /// What one grouped Blist entry classifies.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Item {
+    /// One literal, classified by its parity bit.
     Literal(Literal),
+    /// A group of literals, classified by a stencil counter.
     Group(Group),
 }
 

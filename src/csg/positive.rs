@@ -36,8 +36,11 @@ impl Literal {
 pub enum PNode {
     /// A leaf occurrence with its complement flag.
     Leaf {
+        /// The primitive (mesh index).
         prim: u32,
+        /// This occurrence's leaf: the same primitive may occur several times.
         leaf: LeafId,
+        /// Whether the occurrence is complemented (`!P`).
         negated: bool,
     },
     /// `a + b`
@@ -284,6 +287,7 @@ impl PositiveExpr {
 pub enum Restricted {
     /// Every remaining point has this value.
     Constant(bool),
+    /// The expression left where it is not constant.
     Expr(PositiveExpr),
 }
 

@@ -12,6 +12,7 @@ pub struct Rect {
 }
 
 impl Rect {
+    /// The whole `width` × `height` image.
     pub fn full(width: u32, height: u32) -> Rect {
         Rect {
             x0: 0,
@@ -36,10 +37,12 @@ impl Rect {
         self.y1.saturating_sub(self.y0)
     }
 
+    /// The number of pixels.
     pub fn area(&self) -> u64 {
         self.width() as u64 * self.height() as u64
     }
 
+    /// Whether it holds no pixel.
     pub fn is_empty(&self) -> bool {
         self.area() == 0
     }
