@@ -31,6 +31,7 @@ impl Style {
         Style::BlueprintTransparent,
     ];
 
+    /// The name on the command line (`--style`).
     pub fn name(self) -> &'static str {
         match self {
             Style::Opaque => "opaque",

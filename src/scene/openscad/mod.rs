@@ -47,7 +47,9 @@ pub const DEFAULT_BACKGROUND: [u8; 3] = [0xff, 0xff, 0xe5];
 /// A 1-based line and column.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct Pos {
+    /// The line, from 1.
     pub line: usize,
+    /// The column in characters, from 1.
     pub col: usize,
 }
 
@@ -55,7 +57,9 @@ pub struct Pos {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{}:{}: {message}", pos.line, pos.col)]
 pub struct ScadError {
+    /// Where in the file.
     pub pos: Pos,
+    /// What is wrong.
     pub message: String,
 }
 
@@ -73,9 +77,11 @@ impl ScadError {
 pub struct ScadPrimitive {
     /// The node kind (`cube`, `sphere`, ...).
     pub node: String,
+    /// The node's line in the file.
     pub line: usize,
     /// World space: the composed `multmatrix` applied.
     pub mesh: Mesh,
+    /// The composed `multmatrix` from the file's root to the node.
     pub matrix: DMat4,
     /// From `color()` (alpha kept for transparency), `#`, or OpenSCAD's defaults.
     pub rgba: [f32; 4],
@@ -86,8 +92,11 @@ pub struct ScadPrimitive {
 /// them, and warnings (`file:line:col: text`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
+    /// The primitives, in order of appearance.
     pub primitives: Vec<Primitive>,
+    /// The solid: the file's CSG tree over the primitives.
     pub expr: Expr,
+    /// Non-fatal remarks (`file:line:col: text`), one line each.
     pub warnings: Vec<String>,
     /// The `%` background parts, kept apart from the solid
     /// ([`background::show`] adds them to a scene).
