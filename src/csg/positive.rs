@@ -9,7 +9,7 @@
 
 use super::expr::{Expr, LeafId, Node};
 
-/// Index of a node in [`PositiveExpr::nodes`].
+/// Index of a node in `PositiveExpr::nodes`.
 pub type PNodeId = u32;
 
 /// A literal of the positive form: a leaf occurrence, possibly complemented.

@@ -3,7 +3,7 @@
 //! sweep the screen to rewrite stencil values — built by one module per algorithm
 //! and executed by [`crate::vk`]. Nothing here touches `ash`.
 //!
-//! A plan is also a cost model: it can be printed ([`print`]) and its executed
+//! A plan is also a cost model: it can be printed ([`print`](mod@print)) and its executed
 //! counts (rasterized triangles, full-screen passes, swept pixels) are
 //! deterministic, unlike timings on a shared machine.
 #![deny(unsafe_code)]
@@ -220,11 +220,11 @@ pub struct Prepared {
     pub eye_inside: Vec<bool>,
     /// Per mesh: an orthographic near plane cuts this primitive, so parity counted
     /// from it is inverted at some pixels only; plans get the per-pixel
-    /// correction of [`eye`].
+    /// correction of `plan::eye`.
     pub near_cut: Vec<bool>,
     /// The scene's surfaces, in file order (drawn by the CST plans only).
     pub surfaces: Vec<PreparedSurface>,
-    /// Per primitive: what SCS orders its cutters by ([`scs::Hull`]); none
+    /// Per primitive: what SCS orders its cutters by (`plan::scs::Hull`); none
     /// from [`Prepared::from_parts`].
     pub hulls: std::sync::Arc<Vec<scs::Hull>>,
     /// Where the camera's rays come from; `None` from [`Prepared::from_parts`].
@@ -476,7 +476,7 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
     })
 }
 
-/// Layer `layer` (1-based) of Kirsch's depth peeling ([`kirsch::plan_layer`]),
+/// Layer `layer` (1-based) of Kirsch's depth peeling (`plan::kirsch::plan_layer`),
 /// with the eye correction and the checks of [`build_with`].
 pub fn build_kirsch_layer(
     prep: &Prepared,

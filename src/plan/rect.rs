@@ -66,7 +66,7 @@ impl Rect {
         }
     }
 
-    /// The pixels in both; [`Rect::EMPTY`] when they do not meet.
+    /// The pixels in both; an empty rectangle when they do not meet.
     pub fn intersect(&self, o: &Rect) -> Rect {
         let r = Rect {
             x0: self.x0.max(o.x0),

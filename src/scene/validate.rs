@@ -147,7 +147,7 @@ impl Mesh {
         Some(Aabb { min, max })
     }
 
-    /// Signed volume, see [`signed_volume`].
+    /// Signed volume (the free function `signed_volume`).
     pub fn signed_volume(&self) -> f64 {
         signed_volume(self)
     }

@@ -1,6 +1,6 @@
 //! OpenSCAD's `%` (background) modifier: a subtree that is never part of the
 //! solid, which OpenSCAD's preview draws see-through in grey
-//! ([`super::convert::BACKGROUND_COLOR`], alpha 128/255). Each `%` subtree is
+//! (`convert::BACKGROUND_COLOR`, alpha 128/255). Each `%` subtree is
 //! converted to a set of its own ([`Background`]) and kept beside the scene
 //! (`Appearance::background`); [`show`] adds the parts as solids of their own
 //! with that alpha where the algorithm composites transparent layers

@@ -2,11 +2,11 @@
 //! already evaluated) as scenes, so a model renders as OpenSCAD's preview would
 //! draw it — without OpenCSG's z-fighting or its term limit.
 //!
-//! - [`lex`] and [`parse`]: the file into a tree of nodes (iterative, located
+//! - `lex` and `parse`: the file into a tree of nodes (iterative, located
 //!   errors `file:line:col`).
-//! - [`tessellate`]: OpenSCAD 2021.01's exact facets of cube, sphere, cylinder
+//! - `tessellate`: OpenSCAD 2021.01's exact facets of cube, sphere, cylinder
 //!   and polyhedron.
-//! - [`convert`]: the tree into primitives and one CSG expression (OpenSCAD's
+//! - `convert`: the tree into primitives and one CSG expression (OpenSCAD's
 //!   CSG-tree semantics: operators, transforms, colours, modifiers).
 //!
 //! [`read_model`] gives the primitives and expression; `scene::load` makes a
