@@ -39,9 +39,9 @@ mod kept;
 #[cfg(test)]
 mod tests;
 
-pub use kept::{assume, holds, kept_after, KeptImages};
 #[cfg(test)]
 use kept::Kept;
+pub use kept::{assume, holds, kept_after, KeptImages};
 
 /// Pixels beyond a draw's scissor that its fragment programs may read: the tie
 /// test's neighbour fetch (`shaders/tie.glsl`, one texel), which a helper

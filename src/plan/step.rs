@@ -86,7 +86,7 @@ pub struct StencilFace {
 /// The full stencil state of a draw. Masks and reference apply to both faces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct StencilState {
-    /// Ops and compare for front faces (and for full-screen rectangles).
+    /// Ops and compare for front faces.
     pub front: StencilFace,
     /// Ops and compare for back faces.
     pub back: StencilFace,
@@ -474,7 +474,7 @@ pub struct Loop {
     pub head: Vec<Step>,
     /// Steps run after a head that passed samples, before the next iteration.
     pub tail: Vec<Step>,
-    /// The bound on iterations (the depth complexity a plan allows for).
+    /// The most iterations run, whatever the counts (a bound on the depth complexity).
     pub max_iterations: u32,
 }
 
