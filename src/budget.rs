@@ -14,11 +14,13 @@ use std::sync::OnceLock;
 /// A memory budget in bytes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Budget {
+    /// The bytes that estimated plans and images may take.
     pub bytes: u64,
     /// Where it came from, for the message.
     pub source: BudgetSource,
 }
 
+/// Where a [`Budget`] came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BudgetSource {
     /// Half of the physical memory or of the address-space limit.
@@ -43,8 +45,11 @@ pub enum BudgetSource {
     }
 )]
 pub struct OverBudget {
+    /// The work refused.
     pub what: String,
+    /// Its estimated memory in bytes.
     pub estimate: u64,
+    /// The budget it exceeds.
     pub budget: Budget,
     /// What the user can change instead.
     pub fix: String,

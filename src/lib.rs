@@ -4,12 +4,13 @@
 //!
 //! This documentation is the **embedding API**: what a host engine needs to draw
 //! CSG into its own frames (below). The crate root re-exports all of it; the
-//! `embed` module holds the mesh-level types. The command line (`peeltrim`),
-//! the benches and the tests use the internal layers too — `csg` (the Boolean
-//! algebra), `scene` (scene files, tessellation, cameras), `geom`, `plan` (every
-//! algorithm as a list of steps), `vk` (the executor), `reference` (the exact CPU
-//! ray caster), `output`, `render`, `bench`, `viewer` — which are public for them
-//! but hidden here and not a stable API (docs/architecture.md).
+//! `embed` module holds the mesh-level types. The command line (the
+//! `peeltrim-cli` crate: rendering, output files, benches, viewer), the exact CPU
+//! ray caster (the `peeltrim-reference` crate) and the tests use the lower layers
+//! too — `csg` (the Boolean algebra), `scene` (scene files, tessellation,
+//! cameras), `geom`, `plan` (every algorithm as a list of steps), `vk` (the
+//! executor) — which are public for them but not a stable API
+//! (docs/architecture.md).
 //!
 //! # Embedding in a host Vulkan engine
 //!

@@ -171,18 +171,6 @@ impl<'a> ActiveZones<'a> {
     }
 }
 
-/// Z forms of all leaves, indexed by [`LeafId`].
-pub fn z_forms(pos: &PositiveExpr) -> Vec<PositiveExpr> {
-    let z = ActiveZones::new(pos);
-    z.leaves().map(|l| z.z_form(l)).collect()
-}
-
-/// I forms of all leaves, indexed by [`LeafId`].
-pub fn i_forms(pos: &PositiveExpr) -> Vec<PositiveExpr> {
-    let z = ActiveZones::new(pos);
-    z.leaves().map(|l| z.i_form(l)).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -36,12 +36,12 @@ pub enum Target {
 /// One literal of a Blist with its label and its two successors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BlistEntry {
-    pub prim: u32,
-    pub leaf: LeafId,
-    pub negated: bool,
-    pub label: u32,
-    pub if_true: Target,
-    pub if_false: Target,
+    pub(crate) prim: u32,
+    pub(crate) leaf: LeafId,
+    pub(crate) negated: bool,
+    pub(crate) label: u32,
+    pub(crate) if_true: Target,
+    pub(crate) if_false: Target,
 }
 
 impl BlistEntry {
@@ -59,8 +59,8 @@ impl BlistEntry {
 /// (exits not counted). No entries means the universe (every point is in it).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Blist {
-    pub entries: Vec<BlistEntry>,
-    pub num_labels: u32,
+    pub(crate) entries: Vec<BlistEntry>,
+    pub(crate) num_labels: u32,
 }
 
 /// Bits needed to store `values` distinct values (at least 1).

@@ -21,15 +21,17 @@ use super::positive::{Literal, PNode, PNodeId, PositiveExpr};
 /// The operator of a group.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GroupKind {
+    /// An intersection chain: a point is in the group when it is in all of it.
     Inter,
+    /// A union chain: a point is in the group when it is in any of it.
     Union,
 }
 
 /// Leaves that are all operands of one operator chain.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Group {
-    pub kind: GroupKind,
-    pub literals: Vec<Literal>,
+    pub(crate) kind: GroupKind,
+    pub(crate) literals: Vec<Literal>,
 }
 
 impl Group {
@@ -72,12 +74,14 @@ impl Group {
 /// What one grouped Blist entry classifies.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Item {
+    /// One literal, classified by its parity bit.
     Literal(Literal),
+    /// A group of literals, classified by a stencil counter.
     Group(Group),
 }
 
 impl Item {
-    pub fn eval(&self, mut inside: impl FnMut(&Literal) -> bool) -> bool {
+    pub(crate) fn eval(&self, mut inside: impl FnMut(&Literal) -> bool) -> bool {
         match self {
             Item::Literal(l) => l.holds(inside(l)),
             Item::Group(g) => g.eval(inside),
@@ -88,17 +92,17 @@ impl Item {
 /// One entry of a grouped Blist: labels and targets as in [`super::Blist`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GroupedEntry {
-    pub item: Item,
-    pub label: u32,
-    pub if_true: Target,
-    pub if_false: Target,
+    pub(crate) item: Item,
+    pub(crate) label: u32,
+    pub(crate) if_true: Target,
+    pub(crate) if_false: Target,
 }
 
 /// A Blist whose entries are literals or groups. No entries: the universe.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GroupedBlist {
-    pub entries: Vec<GroupedEntry>,
-    pub num_labels: u32,
+    pub(crate) entries: Vec<GroupedEntry>,
+    pub(crate) num_labels: u32,
 }
 
 impl GroupedBlist {

@@ -42,7 +42,9 @@ pub const MAX_DEPTH: usize = 20_000;
 /// order OpenSCAD lists them, repetitions kept).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ScadProduct {
+    /// The primitives intersected.
     pub intersected: Vec<u32>,
+    /// The primitives subtracted.
     pub subtracted: Vec<u32>,
 }
 
@@ -53,15 +55,24 @@ impl ScadProduct {
     }
 }
 
+/// Why an expression cannot be normalized into products as OpenSCAD does.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum NormalizeError {
     #[error(
         "the normalized tree grows past {limit} nodes (OpenSCAD's limit): \
          OpenSCAD cannot preview this expression"
     )]
-    TooLarge { limit: u64 },
+    /// The normalized tree outgrows OpenSCAD's node limit.
+    TooLarge {
+        /// The limit.
+        limit: u64,
+    },
     #[error("the expression is {depth} levels deep (at most {MAX_DEPTH} are normalized)")]
-    TooDeep { depth: usize },
+    /// The expression is nested deeper than [`MAX_DEPTH`].
+    TooDeep {
+        /// Its depth.
+        depth: usize,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -26,7 +26,10 @@ pub enum ParseErrorKind {
     /// A `(` never closed.
     UnclosedOpen,
     /// An operand was expected (after an operator, `(` or `!`, or at the start).
-    ExpectedOperand { found: Option<char> },
+    ExpectedOperand {
+        /// The character found instead (`None`: the end of the expression).
+        found: Option<char>,
+    },
     /// A character outside the grammar.
     UnexpectedChar(char),
 }
@@ -36,6 +39,7 @@ pub enum ParseErrorKind {
 pub struct ParseError {
     /// 1-based column, in characters, of the offending token.
     pub column: usize,
+    /// What is wrong.
     pub kind: ParseErrorKind,
     /// The expression as given (for the caret display).
     pub source_text: String,

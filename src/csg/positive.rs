@@ -9,7 +9,7 @@
 
 use super::expr::{Expr, LeafId, Node};
 
-/// Index of a node in [`PositiveExpr::nodes`].
+/// Index of a node in `PositiveExpr::nodes`.
 pub type PNodeId = u32;
 
 /// A literal of the positive form: a leaf occurrence, possibly complemented.
@@ -36,8 +36,11 @@ impl Literal {
 pub enum PNode {
     /// A leaf occurrence with its complement flag.
     Leaf {
+        /// The primitive (mesh index).
         prim: u32,
+        /// This occurrence's leaf: the same primitive may occur several times.
         leaf: LeafId,
+        /// Whether the occurrence is complemented (`!P`).
         negated: bool,
     },
     /// `a + b`
@@ -75,8 +78,8 @@ impl PNode {
 /// loop over `nodes` is a bottom-up pass and no traversal stack is needed.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PositiveExpr {
-    pub nodes: Vec<PNode>,
-    pub root: PNodeId,
+    pub(crate) nodes: Vec<PNode>,
+    pub(crate) root: PNodeId,
 }
 
 impl PNode {
@@ -284,6 +287,7 @@ impl PositiveExpr {
 pub enum Restricted {
     /// Every remaining point has this value.
     Constant(bool),
+    /// The expression left where it is not constant.
     Expr(PositiveExpr),
 }
 

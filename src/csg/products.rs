@@ -20,6 +20,7 @@ use super::positive::{PNode, PositiveExpr};
 /// One product: the intersection of its literals (an empty product is the universe).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Product {
+    /// The literals intersected, each a primitive or its complement.
     pub literals: Vec<Literal>,
 }
 
@@ -32,7 +33,12 @@ pub enum ProductError {
         "the sum-of-products form grows to at least {at_least} products (limit {limit}); \
          use an algorithm that works on the tree, e.g. --algo cst-i"
     )]
-    TooLarge { at_least: u64, limit: usize },
+    TooLarge {
+        /// Candidate products counted when the limit was passed.
+        at_least: u64,
+        /// The product limit.
+        limit: usize,
+    },
     /// Few products but long ones: a deep difference chain of distinct
     /// primitives (`A − (B − (C − …))`) has n/2 products of up to n literals.
     #[error(
@@ -40,7 +46,12 @@ pub enum ProductError {
          its products are too long; use an algorithm that works on the tree, e.g. --algo cst-i, \
          or write the expression with fewer nested differences"
     )]
-    TooManyLiterals { at_least: u64, limit: u64 },
+    TooManyLiterals {
+        /// Literals built when the limit was passed.
+        at_least: u64,
+        /// The literal limit ([`MAX_LITERALS`]).
+        limit: u64,
+    },
 }
 
 /// The most literals the expansion may build over all its stages (bounds its

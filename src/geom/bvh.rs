@@ -36,7 +36,9 @@ pub struct Crossing {
 /// A line (`t` over all reals) prepared for the watertight test.
 #[derive(Clone, Copy, Debug)]
 pub struct Line {
+    /// The point at `t = 0`.
     pub origin: DVec3,
+    /// The direction: the point at `t` is `origin + t * dir`.
     pub dir: DVec3,
     inv_dir: DVec3,
     kx: usize,
@@ -48,6 +50,8 @@ pub struct Line {
 }
 
 impl Line {
+    /// The line through `origin` along `dir` (not normalized), with the
+    /// watertight test's axis permutation and shear precomputed.
     pub fn new(origin: DVec3, dir: DVec3) -> Line {
         let a = dir.abs();
         let kz = if a.x >= a.y && a.x >= a.z {
@@ -73,10 +77,12 @@ impl Line {
         }
     }
 
+    /// The whole line a camera ray lies on (`t` measured along the ray).
     pub fn from_ray(ray: &crate::scene::camera::Ray) -> Line {
         Line::new(ray.origin, ray.dir)
     }
 
+    /// The point at parameter `t`.
     pub fn at(&self, t: f64) -> DVec3 {
         self.origin + self.dir * t
     }
@@ -178,7 +184,7 @@ fn pad(min: DVec3, max: DVec3) -> (DVec3, DVec3) {
 }
 
 impl MeshBvh {
-    pub fn new(mesh: &Mesh) -> MeshBvh {
+    pub(crate) fn new(mesh: &Mesh) -> MeshBvh {
         let n = mesh.triangles.len();
         let tri_vert = |i: usize| -> [DVec3; 3] {
             let [a, b, c] = mesh.triangles[i];
@@ -313,17 +319,21 @@ impl MeshBvh {
 /// A crossing of a scene line with shape `shape` (index into [`SceneBvh::shapes`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WorldCrossing {
+    /// The shape crossed (mesh index).
     pub shape: u32,
+    /// Where and how the line crosses it.
     pub crossing: Crossing,
 }
 
 /// The world wrapper: several shapes, each with its world AABB tested first.
 #[derive(Clone, Debug, Default)]
 pub struct SceneBvh {
+    /// One hierarchy per mesh, in mesh-index order.
     pub shapes: Vec<MeshBvh>,
 }
 
 impl SceneBvh {
+    /// Builds a hierarchy for each mesh, in order.
     pub fn new<'a>(meshes: impl IntoIterator<Item = &'a Mesh>) -> SceneBvh {
         SceneBvh {
             shapes: meshes.into_iter().map(MeshBvh::new).collect(),

@@ -15,7 +15,7 @@
 //! - `cst-z`: trim against the Z form (i-nodes and complemented u-nodes);
 //! - `cst-i`: trim against the i-nodes only (optimization 2);
 //! - `cst-g`: as `cst-i`, with same-operator leaves grouped and classified by a
-//!   stencil counter (optimization 3; see [`group`]).
+//!   stencil counter (optimization 3; see `group`).
 //!
 //! Every variant peels only the front faces of positive and the back faces of
 //! negative leaves (optimization 1: opaque rendering shows only where rays enter
@@ -83,13 +83,17 @@ const FAR: f32 = 1.0;
 /// Which variant of Hable & Rossignac §8.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Variant {
+    /// `cst-z`: trim against the Z form (i-nodes and complemented u-nodes).
     Z,
+    /// `cst-i`: trim against the i-nodes only (optimization 2).
     I,
+    /// `cst-i` with same-operator leaves grouped and classified by a stencil
+    /// counter (optimization 3).
     G,
 }
 
 impl Variant {
-    pub fn algo(self) -> Algo {
+    pub(crate) fn algo(self) -> Algo {
         match self {
             Variant::Z => Algo::CstZ,
             Variant::I => Algo::CstI,

@@ -62,6 +62,7 @@ impl DirectShades {
     }
 
     /// The meshes whose direct draw shades.
+    #[cfg(test)]
     pub fn meshes(&self) -> &[MeshId] {
         &self.meshes
     }

@@ -52,6 +52,7 @@ impl<K: PartialEq, V> Memo<K, V> {
     }
 
     /// How many results were computed.
+    #[cfg(test)]
     pub fn misses(&self) -> u64 {
         self.misses
     }

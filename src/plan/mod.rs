@@ -3,7 +3,7 @@
 //! sweep the screen to rewrite stencil values — built by one module per algorithm
 //! and executed by [`crate::vk`]. Nothing here touches `ash`.
 //!
-//! A plan is also a cost model: it can be printed ([`print`]) and its executed
+//! A plan is also a cost model: it can be printed ([`print`](mod@print)) and its executed
 //! counts (rasterized triangles, full-screen passes, swept pixels) are
 //! deterministic, unlike timings on a shared machine.
 #![deny(unsafe_code)]
@@ -79,6 +79,7 @@ pub enum Algo {
 }
 
 impl Algo {
+    /// Every algorithm, in the command line's order.
     pub const ALL: [Algo; 11] = [
         Algo::Reference,
         Algo::Goldfeather,
@@ -92,6 +93,7 @@ impl Algo {
         Algo::Kirsch,
         Algo::Scs,
     ];
+    /// The name on the command line (`--algo`).
     pub fn name(self) -> &'static str {
         match self {
             Algo::Reference => "reference",
@@ -107,6 +109,7 @@ impl Algo {
             Algo::Scs => "scs",
         }
     }
+    /// The algorithm named `s` on the command line, if any.
     pub fn parse(s: &str) -> Option<Algo> {
         Algo::ALL.into_iter().find(|a| a.name() == s)
     }
@@ -118,33 +121,46 @@ impl std::fmt::Display for Algo {
     }
 }
 
+/// Why no plan can be built for a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
     #[error("the scene has no solid to draw: add a [csg] expr or a [[solid]]")]
+    /// The scene has no solid (and the algorithm draws no surface).
     NoSolid,
     #[error(
         "surfaces are drawn by cst-z, cst-i and cst-g; {0} draws solids only and this \
          scene has none (use --algo cst-i, or --algo reference)"
     )]
+    /// The scene has surfaces only, and the algorithm is not a CST variant.
     SurfacesNeedCst(Algo),
     #[error(
         "the Blist needs {labels} labels, more than 7 stencil bits hold with the parity bit; \
          rebalance the expression (or use --algo cst-i, which classifies smaller active zones)"
     )]
-    TooManyLabels { labels: u32 },
+    /// The Blist needs more labels than the stencil bits beside the parity bit hold.
+    TooManyLabels {
+        /// The labels the Blist needs.
+        labels: u32,
+    },
     #[error(
         "{algo} needs {} stencil bits ({label_bits} for Blist labels, {counter_bits} for a group counter), \
          more than the 8 a depth-stencil format has; use --algo cst-i",
         *label_bits as u32 + *counter_bits as u32
     )]
+    /// Blist labels and a group counter need more than the 8 stencil bits.
     StencilBits {
+        /// The algorithm.
         algo: &'static str,
+        /// The bits for Blist labels.
         label_bits: u8,
+        /// The bits for the group counter (CST-G's optimization 3).
         counter_bits: u8,
     },
     #[error("algorithm '{0}' is not implemented yet")]
+    /// The algorithm has no plan builder.
     NotImplemented(Algo),
     #[error("{0}")]
+    /// The sum of products is too large to draw (Goldfeather, Trickle, Kirsch, SCS).
     Products(String),
     /// The plan's estimated memory exceeds the budget ([`crate::budget`]).
     #[error("{0}")]
@@ -152,8 +168,11 @@ pub enum PlanError {
     /// The plan's estimated work exceeds what any device renders in reasonable time.
     #[error("{what}, over the limit of {limit} (a frame would take minutes); {fix}")]
     TooMuchWork {
+        /// The work counted (products, passes, ...) and how much of it.
         what: String,
+        /// The limit it exceeds.
         limit: u64,
+        /// What the user can change instead.
         fix: String,
     },
 }
@@ -167,7 +186,9 @@ pub struct PreparedSurface {
     pub trim: PositiveExpr,
     /// Its complement !V in positive form (possibly unbounded: fine for trimming).
     pub trim_out: PositiveExpr,
+    /// What CST keeps of the surface.
     pub keep: Keep,
+    /// The colour of the part inside V, for [`Keep::Paint`].
     pub paint_color: [u8; 3],
 }
 
@@ -199,11 +220,11 @@ pub struct Prepared {
     pub eye_inside: Vec<bool>,
     /// Per mesh: an orthographic near plane cuts this primitive, so parity counted
     /// from it is inverted at some pixels only; plans get the per-pixel
-    /// correction of [`eye`].
+    /// correction of `plan::eye`.
     pub near_cut: Vec<bool>,
     /// The scene's surfaces, in file order (drawn by the CST plans only).
     pub surfaces: Vec<PreparedSurface>,
-    /// Per primitive: what SCS orders its cutters by ([`scs::Hull`]); none
+    /// Per primitive: what SCS orders its cutters by (`plan::scs::Hull`); none
     /// from [`Prepared::from_parts`].
     pub hulls: std::sync::Arc<Vec<scs::Hull>>,
     /// Where the camera's rays come from; `None` from [`Prepared::from_parts`].
@@ -366,6 +387,7 @@ impl Prepared {
         }
     }
 
+    /// The triangles of `meshes`, summed.
     pub fn triangles_in(&self, meshes: &[MeshId]) -> usize {
         meshes
             .iter()
@@ -454,7 +476,7 @@ pub fn build_with(algo: Algo, prep: &Prepared, opts: &BuildOptions) -> Result<Pl
     })
 }
 
-/// Layer `layer` (1-based) of Kirsch's depth peeling ([`kirsch::plan_layer`]),
+/// Layer `layer` (1-based) of Kirsch's depth peeling (`plan::kirsch::plan_layer`),
 /// with the eye correction and the checks of [`build_with`].
 pub fn build_kirsch_layer(
     prep: &Prepared,

@@ -10,12 +10,16 @@ use super::Prepared;
 /// Static cost of a list of steps, loops counted once.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct StaticCounts {
+    /// Draw steps.
     pub draws: u64,
+    /// Draws that rasterize meshes (footprint passes included).
     pub mesh_draws: u64,
+    /// Draws of a full-screen rectangle.
     pub fullscreen_passes: u64,
     /// Full-screen passes cut to a mesh's footprint ([`Geometry::Footprint`]),
     /// counted in `mesh_draws` too.
     pub footprint_passes: u64,
+    /// Triangles the mesh draws rasterize.
     pub triangles: u64,
 }
 
@@ -29,6 +33,7 @@ impl StaticCounts {
     }
 }
 
+/// The static counts of `steps`: each loop's head and tail counted once.
 pub fn count(steps: &[Step], prep: &Prepared) -> StaticCounts {
     let mut c = StaticCounts::default();
     for s in steps {

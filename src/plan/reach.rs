@@ -39,7 +39,9 @@ mod kept;
 #[cfg(test)]
 mod tests;
 
-pub use kept::{assume, holds, kept_after, Kept, KeptImages};
+#[cfg(test)]
+use kept::Kept;
+pub use kept::{assume, holds, kept_after, KeptImages};
 
 /// Pixels beyond a draw's scissor that its fragment programs may read: the tie
 /// test's neighbour fetch (`shaders/tie.glsl`, one texel), which a helper
@@ -251,6 +253,7 @@ fn items<'s>(steps: &[&'s Step]) -> Vec<Item<'s>> {
 /// what the outputs hold after (module doc). `scissor` resolves a draw's
 /// scissor (an empty one: the draw is skipped); outputs are only ever drawn
 /// into and cleared, never copied into.
+#[cfg(test)]
 pub fn frame_reach(
     steps: &[&Step],
     scissor: impl Fn(&Scissor) -> Rect,

@@ -5,13 +5,14 @@
 /// A pixel rectangle `[x0, x1) × [y0, y1)`, y downward.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Rect {
-    pub x0: u32,
-    pub y0: u32,
-    pub x1: u32,
-    pub y1: u32,
+    pub(crate) x0: u32,
+    pub(crate) y0: u32,
+    pub(crate) x1: u32,
+    pub(crate) y1: u32,
 }
 
 impl Rect {
+    /// The whole `width` × `height` image.
     pub fn full(width: u32, height: u32) -> Rect {
         Rect {
             x0: 0,
@@ -21,25 +22,27 @@ impl Rect {
         }
     }
 
-    pub const EMPTY: Rect = Rect {
+    pub(crate) const EMPTY: Rect = Rect {
         x0: 0,
         y0: 0,
         x1: 0,
         y1: 0,
     };
 
-    pub fn width(&self) -> u32 {
+    pub(crate) fn width(&self) -> u32 {
         self.x1.saturating_sub(self.x0)
     }
 
-    pub fn height(&self) -> u32 {
+    pub(crate) fn height(&self) -> u32 {
         self.y1.saturating_sub(self.y0)
     }
 
+    /// The number of pixels.
     pub fn area(&self) -> u64 {
         self.width() as u64 * self.height() as u64
     }
 
+    /// Whether it holds no pixel.
     pub fn is_empty(&self) -> bool {
         self.area() == 0
     }
@@ -63,7 +66,7 @@ impl Rect {
         }
     }
 
-    /// The pixels in both; [`Rect::EMPTY`] when they do not meet.
+    /// The pixels in both; an empty rectangle when they do not meet.
     pub fn intersect(&self, o: &Rect) -> Rect {
         let r = Rect {
             x0: self.x0.max(o.x0),
@@ -78,7 +81,7 @@ impl Rect {
         }
     }
 
-    pub fn union(&self, o: &Rect) -> Rect {
+    pub(crate) fn union(&self, o: &Rect) -> Rect {
         if self.is_empty() {
             return *o;
         }

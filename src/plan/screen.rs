@@ -23,7 +23,9 @@ pub const MARGIN_PX: f64 = 2.0;
 /// projections.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScreenBox {
+    /// The corner with the smallest pixel coordinates.
     pub lo: DVec2,
+    /// The corner with the largest pixel coordinates.
     pub hi: DVec2,
 }
 

@@ -769,6 +769,7 @@ pub struct Sequence {
 
 /// Groups `ys` by overlapping world boxes (connected components: an exit from
 /// one `Yj` can only land inside a `Yk` whose box meets its own).
+#[cfg(test)]
 pub fn sequence(ys: &[Lit], prep: &Prepared) -> Sequence {
     sequence_within(ys, prep, &Cell::new(order::MAX_PAIR_TESTS))
 }

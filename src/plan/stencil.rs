@@ -118,6 +118,7 @@ pub fn toggle_parity(reference: u8, compare_mask: u8, bit: u8) -> StencilState {
 
 /// A software stencil unit, for tests: what one fragment that passed (or failed)
 /// the depth test does to a stencil value under `state` on a front face.
+#[cfg(test)]
 pub fn simulate(state: &StencilState, value: u8, depth_pass: bool) -> u8 {
     let f = &state.front;
     let passes = compare(
@@ -144,6 +145,7 @@ pub fn simulate(state: &StencilState, value: u8, depth_pass: bool) -> u8 {
 }
 
 /// Vulkan's stencil compare: `reference OP stencil` (both already masked).
+#[cfg(test)]
 fn compare(op: CompareOp, reference: u8, stencil: u8) -> bool {
     match op {
         CompareOp::Never => false,

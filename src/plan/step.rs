@@ -13,27 +13,48 @@ pub type Tex = u8;
 /// Index of a mesh: primitives in file order (0-based), then surfaces.
 pub type MeshId = u32;
 
+/// A depth or stencil compare (Vulkan's `VkCompareOp`): the test passes when the
+/// fragment's depth (or the stencil reference) compares so with the stored value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CompareOp {
+    /// Never passes.
     Never,
+    /// Passes when the new value is less: for depth, strictly nearer.
     Less,
+    /// Passes when the values are equal (bit-exact for depth).
     Equal,
+    /// Passes when the new value is less or equal: for depth, nearer or tied.
     LessOrEqual,
+    /// Passes when the new value is greater: for depth, strictly farther.
     Greater,
+    /// Passes when the values differ.
     NotEqual,
+    /// Passes when the new value is greater or equal: for depth, farther or tied.
     GreaterOrEqual,
+    /// Always passes (test disabled).
     Always,
 }
 
+/// What a stencil test outcome does to the stored value (Vulkan's `VkStencilOp`);
+/// only the bits of [`StencilState::write_mask`] change.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum StencilOp {
+    /// Leaves the value.
     Keep,
+    /// Sets it to 0 (clears labels or a parity bit).
     Zero,
+    /// Writes [`StencilState::reference`] (sets a Blist label or a flag).
     Replace,
+    /// Adds 1, saturating at 255 (counts layers or products).
     IncrementAndClamp,
+    /// Subtracts 1, stopping at 0.
     DecrementAndClamp,
+    /// Flips the bits: with a one-bit write mask, toggles a parity bit (an odd count
+    /// of faces in front of the candidate means inside, Goldfeather's and Blister's parity).
     Invert,
+    /// Adds 1 modulo 256.
     IncrementAndWrap,
+    /// Subtracts 1 modulo 256.
     DecrementAndWrap,
 }
 
@@ -41,33 +62,48 @@ pub enum StencilOp {
 /// counter-clockwise ones seen from the eye, i.e. outward-facing ones.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Cull {
+    /// Rasterizes both orientations (parity draws count every face).
     None,
+    /// Discards back faces: only the front faces, where rays enter the solid.
     Back,
+    /// Discards front faces: only the back faces, where rays leave the solid.
     Front,
 }
 
 /// Stencil ops and compare for one face orientation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct StencilFace {
+    /// The stencil test: `reference & compare_mask` against the stored value `& compare_mask`.
     pub compare: CompareOp,
+    /// Applied where the stencil test fails.
     pub fail: StencilOp,
+    /// Applied where the stencil and the depth test pass.
     pub pass: StencilOp,
+    /// Applied where the stencil test passes and the depth test fails.
     pub depth_fail: StencilOp,
 }
 
 /// The full stencil state of a draw. Masks and reference apply to both faces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct StencilState {
+    /// Ops and compare for front faces.
     pub front: StencilFace,
+    /// Ops and compare for back faces.
     pub back: StencilFace,
+    /// The stencil bits the compare reads (a Blist label, a parity bit, a counter).
     pub compare_mask: u8,
+    /// The stencil bits the ops may change.
     pub write_mask: u8,
+    /// The value compared against and written by [`StencilOp::Replace`].
     pub reference: u8,
 }
 
+/// The depth test and depth write of a draw against its depth-stencil image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct DepthState {
+    /// The compare of the fragment depth against the stored depth (standard Z).
     pub compare: CompareOp,
+    /// Whether fragments that pass the depth test write their depth.
     pub write: bool,
 }
 
@@ -80,14 +116,22 @@ pub enum Geometry {
     Meshes(Vec<MeshId>),
     /// A rectangle covering the (scissored) screen at constant normalized depth
     /// (`0.0` near, `1.0` far).
-    FullScreen { depth: f32 },
+    FullScreen {
+        /// The rectangle's normalized depth.
+        depth: f32,
+    },
     /// The pixels the faces of mesh `mesh` that the draw's cull keeps cover,
     /// at constant normalized depth `depth`: a full-screen pass cut to the
     /// mesh's footprint. The executor collapses the viewport's depth range to
     /// `depth`, so the mesh is clipped, and covers the pixels, exactly as its
     /// own draws with the same cull and scissor (`gl_Position` is invariant).
     /// SCS's reject sweep of a product drawn in the output (`plan::scs`).
-    Footprint { mesh: MeshId, depth: f32 },
+    Footprint {
+        /// The mesh whose footprint the pass covers.
+        mesh: MeshId,
+        /// The normalized depth of every covered pixel.
+        depth: f32,
+    },
 }
 
 impl Geometry {
@@ -106,14 +150,18 @@ impl Geometry {
 /// crosses the near plane), so full-screen passes only sweep what they can change.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Scissor {
+    /// The whole image.
     Full,
+    /// The rectangle of these meshes' bounds.
     BoundsOf(Vec<MeshId>),
     /// The rectangle of `meshes` cut to the rectangle of all of `within` (one
     /// union, where [`Scissor::Overlap`] cuts to each mesh of `and`): a draw whose effect is
     /// read only where `within`'s faces can be (Goldfeather's parity draws of a
     /// large primitive clipping a small literal's surface).
     Within {
+        /// The meshes whose bounds the draw may touch.
         meshes: Vec<MeshId>,
+        /// The meshes whose one union of bounds cuts that rectangle.
         within: Vec<MeshId>,
     },
     /// The rectangle of `BoundsOf(of)` clipped to the rectangle of each mesh of
@@ -122,7 +170,9 @@ pub enum Scissor {
     /// peeled leaf has candidates (Hable & Rossignac §4). Empty when they do not
     /// meet.
     Overlap {
+        /// The meshes whose bounds make the rectangle.
         of: Vec<MeshId>,
+        /// The meshes each of whose rectangles cuts it.
         and: Vec<MeshId>,
     },
     /// The rectangle of the meshes `first..end`, a run of consecutive ids: what
@@ -130,7 +180,9 @@ pub enum Scissor {
     /// Blist entry; a list of all n meshes on each of n sweeps made its plan
     /// quadratic (15 GB for 10⁵ nested differences).
     Run {
+        /// The first mesh of the run.
         first: MeshId,
+        /// One past the last mesh of the run.
         end: MeshId,
     },
     /// [`Scissor::Overlap`] of `[of]` and `and`, cut to where the inside of
@@ -140,7 +192,9 @@ pub enum Scissor {
     /// the product's front face or on another cutter's exit lies inside `of`
     /// only there (docs/embedding.md).
     Openings {
+        /// The cutter the SCS subtraction draws.
         of: MeshId,
+        /// The meshes each of whose rectangles cuts it, as in [`Scissor::Overlap`].
         and: Vec<MeshId>,
     },
 }
@@ -187,15 +241,28 @@ pub enum Fragment {
     /// Shaded colour (flat, headlight, two-sided) and primitive id of the mesh.
     Shade,
     /// Paint colour (given as RGB) and the mesh's primitive id: CST painting.
-    Paint { rgb: [u8; 3] },
+    Paint {
+        /// The paint colour (the surface's `paint_color`).
+        rgb: [u8; 3],
+    },
     /// Background colour and primitive id 0 (resets of rejected pixels).
     Background,
     /// Depth peeling: discard fragments not strictly behind texture `prev` at this
     /// pixel; write the fragment's depth into texture `out`. With `shade`, also
     /// write colour and primitive id.
-    Peel { prev: Tex, out: Tex, shade: bool },
+    Peel {
+        /// The texture holding the previous layer's depth.
+        prev: Tex,
+        /// The texture receiving this layer's depth.
+        out: Tex,
+        /// Also write shaded colour and primitive id.
+        shade: bool,
+    },
     /// Write the fragment's depth into texture `out` (and nothing else).
-    WriteDepth { out: Tex },
+    WriteDepth {
+        /// The texture receiving the fragment depth.
+        out: Tex,
+    },
     /// Keep only fragments at or in front of texture `tex` plus `eps` (normalized
     /// depth); no colour output. Parity counting that treats faces coincident with
     /// the candidate (within `eps`) as in front of it, so the point classified is
@@ -207,7 +274,12 @@ pub enum Fragment {
     /// that holds `tex`'s depth wherever the draw's result is read, so where no
     /// face can tie ([`super::tie_free`]) the executor runs it as a plain
     /// `LessOrEqual` (`Less` for a negative `eps`) depth test instead.
-    NearerThan { tex: Tex, eps: f32 },
+    NearerThan {
+        /// The texture holding the candidate's depth.
+        tex: Tex,
+        /// The signed tie tolerance (normalized depth).
+        eps: f32,
+    },
     /// [`Fragment::NearerThan`] in the parity draw (every face, bit inverted)
     /// of a convex mesh the rays start outside of, whose bit only its exit
     /// reads: a draw of its back faces tested depth `Greater` that clears the
@@ -216,7 +288,12 @@ pub enum Fragment {
     /// executor draws only its front faces, tested `LessOrEqual` with no
     /// fragment shader (OpenCSG's SCS subtraction: front faces, then back
     /// faces); elsewhere it is `NearerThan` (`plan::scs`).
-    ParityBeforeExit { tex: Tex, eps: f32 },
+    ParityBeforeExit {
+        /// The texture holding the candidate's depth.
+        tex: Tex,
+        /// The signed tie tolerance, as [`Fragment::NearerThan`]'s.
+        eps: f32,
+    },
     /// The tie rule's compare of SCS's [`Fragment::ParityBeforeExit`] or
     /// [`Fragment::BehindThan`] moved into the depth test: the fragment depth,
     /// moved nearer by the tolerance `eps` (signed, as theirs) and the slope
@@ -227,7 +304,10 @@ pub enum Fragment {
     /// texture's writes. Never planned: the executor's lowering of a draw
     /// that may meet a tie, where the image holds that depth exactly (D32)
     /// and the draw's meshes tie only with parallel faces ([`super::tie_free`]).
-    TieDepth { eps: f32 },
+    TieDepth {
+        /// The signed tie tolerance, as the draw's it replaces.
+        eps: f32,
+    },
     /// Shade and write the primitive id only where the fragment's depth is within
     /// `eps` (normalized depth) of texture `tex` at this pixel: depth-equal shading
     /// with a documented tolerance, so coincident faces of several primitives all
@@ -238,8 +318,11 @@ pub enum Fragment {
     /// since a culled face may still be the lowest index coincident with the
     /// visible one.
     ShadeNearDepth {
+        /// The depth texture holding the visible surface's depth.
         tex: Tex,
+        /// The tolerance of the depth-equal test (normalized depth).
         eps: f32,
+        /// The faces the depth-equal form culls.
         equal_cull: Cull,
     },
     /// Keep only fragments behind texture `tex` by more than `eps`: the
@@ -253,7 +336,12 @@ pub enum Fragment {
     /// image holding `tex`'s depth wherever its result is read, so where no face
     /// can tie ([`super::tie_free`]) the executor runs it as a plain `Greater`
     /// (`GreaterOrEqual` for a negative `eps`) depth test.
-    BehindThan { tex: Tex, eps: f32 },
+    BehindThan {
+        /// The texture holding the candidate's depth.
+        tex: Tex,
+        /// The signed tie tolerance, as [`Fragment::NearerThan`]'s.
+        eps: f32,
+    },
     /// The depth of texture `tex` as the fragment depth, only where this
     /// fragment is behind it by more than the tolerance `eps` (the opposite of
     /// [`Fragment::NearerThan`]'s test, ties decided alike) and `tex` is not
@@ -261,42 +349,73 @@ pub enum Fragment {
     /// positive primitive in one draw of its back faces (`plan::scs`). With
     /// `eps` 0 the test is exact and the program fetches one texel (the
     /// executor's rewrite where no face can tie, [`super::tie_free`]).
-    MergeBehind { tex: Tex, eps: f32 },
+    MergeBehind {
+        /// The texture holding the candidate's depth, written as the fragment depth.
+        tex: Tex,
+        /// The tie tolerance, as [`Fragment::NearerThan`]'s.
+        eps: f32,
+    },
     /// Full-screen copy of texture `src` into the fragment depth (`gl_FragDepth`),
     /// discarding pixels where `src` holds the far value 1.0 (nothing there).
-    DepthFromTexture { src: Tex },
+    DepthFromTexture {
+        /// The texture copied into the fragment depth.
+        src: Tex,
+    },
     /// Tolerant depth peeling: discard fragments not behind texture `prev` by more
     /// than `eps` (normalized depth; kept: `z - eps > prev`); write the fragment's
     /// depth into texture `out`. Depth-stencil ops apply to the kept fragments only.
-    PeelTolerant { prev: Tex, out: Tex, eps: f32 },
+    PeelTolerant {
+        /// The texture holding the previous layer's depth.
+        prev: Tex,
+        /// The texture receiving this layer's depth.
+        out: Tex,
+        /// How far behind `prev` a kept fragment must be (normalized depth).
+        eps: f32,
+    },
     /// Full-screen copy of texture `src` into texture `out` at the pixels the draw's
     /// stencil (and depth) tests pass; the fragment depth is the rectangle's.
-    CopyTexel { src: Tex, out: Tex },
+    CopyTexel {
+        /// The texture read.
+        src: Tex,
+        /// The texture written.
+        out: Tex,
+    },
     /// Shaded colour and primitive id, only where the fragment depth equals texture
     /// `tex` at this pixel bit-exactly (other fragments are discarded before the
     /// depth test writes anything). Exact because `gl_Position` is invariant: a mesh
     /// redrawn with the same transform reproduces the depths a `Peel` recorded. CST
     /// merges a trimmed surface into the final image with it (Hable & Rossignac §4,
     /// Render(S)).
-    ShadeAtDepth { tex: Tex },
+    ShadeAtDepth {
+        /// The texture holding the depth the surface was peeled at.
+        tex: Tex,
+    },
     /// [`Fragment::ShadeAtDepth`] without colour targets: the depth only, where
     /// the fragment depth equals texture `tex` bit-exactly. A solid's CST merge,
     /// whose colour and id the final depth-equal shading
     /// ([`Fragment::ShadeNearDepth`]) overwrites at every pixel it wins.
-    DepthAtDepth { tex: Tex },
+    DepthAtDepth {
+        /// The texture holding the depth the surface was peeled at.
+        tex: Tex,
+    },
 }
 
 /// One rasterization.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Draw {
+    /// What the draw rasterizes.
     pub geometry: Geometry,
+    /// The scissor rectangle: where the draw may touch pixels.
     pub scissor: Scissor,
+    /// The face orientation discarded before rasterization.
     pub cull: Cull,
     /// The depth-stencil image tested and written.
     pub ds: Ds,
+    /// The depth test and write.
     pub depth: DepthState,
     /// `None`: stencil test disabled.
     pub stencil: Option<StencilState>,
+    /// The fragment program: texture reads and tests, colour targets written.
     pub fragment: Fragment,
     /// Count samples passing this draw with an occlusion query; a [`Loop`] stops
     /// when the counted draws of its `head` pass no sample.
@@ -328,9 +447,21 @@ impl Draw {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Clear {
     /// Depth (`0.0` near, `1.0` far) and stencil of one depth-stencil image.
-    DepthStencil { ds: Ds, depth: f32, stencil: u8 },
+    DepthStencil {
+        /// The image cleared.
+        ds: Ds,
+        /// The normalized depth it holds after (`1.0`: nothing drawn yet).
+        depth: f32,
+        /// The stencil value it holds after (`0`: no label, even parity).
+        stencil: u8,
+    },
     /// A depth texture to a normalized depth value.
-    Texture { tex: Tex, depth: f32 },
+    Texture {
+        /// The texture cleared.
+        tex: Tex,
+        /// The normalized depth it holds after.
+        depth: f32,
+    },
     /// Colour to the background, primitive id to 0.
     Color,
 }
@@ -339,28 +470,39 @@ pub enum Clear {
 /// no sample (or after `max_iterations`); otherwise run `tail` and repeat.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Loop {
+    /// Steps run on every iteration: a peel, whose counted draws say whether a layer was left.
     pub head: Vec<Step>,
+    /// Steps run after a head that passed samples, before the next iteration.
     pub tail: Vec<Step>,
+    /// The most iterations run, whatever the counts (a bound on the depth complexity).
     pub max_iterations: u32,
 }
 
+/// One command of a plan; a plan runs its steps in order.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Step {
     /// Starts a named pass group: a timestamp boundary in `stats.json` and a
     /// heading in the plan printout. Groups with the same name are summed.
     Pass(String),
+    /// A whole-image clear.
     Clear(Clear),
+    /// A rasterization.
     Draw(Draw),
     /// Copy one depth texture into another (same size and format).
     CopyTexture {
+        /// The texture read.
         src: Tex,
+        /// The texture written.
         dst: Tex,
     },
     /// Copy the depth of a depth-stencil image into a depth texture.
     CopyDepthToTexture {
+        /// The depth-stencil image whose depth is read.
         ds: Ds,
+        /// The texture written.
         dst: Tex,
     },
+    /// A data-dependent repeat (a peel loop).
     Loop(Loop),
 }
 
@@ -377,6 +519,7 @@ pub struct Plan {
     pub stencil_bits: u8,
     /// The depth-stencil image whose depth is the visible surface at the end.
     pub output_ds: Ds,
+    /// The frame's work, in execution order.
     pub steps: Vec<Step>,
 }
 

@@ -60,15 +60,16 @@ use super::{
 
 /// Depth tolerance of depth-equal shading and tolerant parity (normalized depth,
 /// 2⁻²⁰ ≈ 9.5e-7, about 16 quanta of a 24-bit buffer): faces of several
-/// primitives closer than this (plus the slope term, [`TIE_SLOPES`]) to the
+/// primitives closer than this (plus the slope term, `TIE_SLOPES`) to the
 /// visible point count as coincident, and the lowest index wins (`prim.png`,
 /// docs/precision.md). With reversed Z (a float buffer, relative precision) the
-/// shaders scale it by [`REVERSED_SCALE`] times the depth value.
+/// shaders scale it by `REVERSED_SCALE` times the depth value.
 pub const SHADE_EPS: f32 = 1.0 / (1u32 << 20) as f32;
 
 /// The slope part of every non-zero depth tolerance, in snapping steps: the
 /// shaders add `TIE_SLOPES · 2^-bits · fwidth(gl_FragCoord.z)` (module doc). The
 /// shaders hold the same literal (`shaders/tie.glsl`), checked by a test.
+#[cfg(test)]
 pub const TIE_SLOPES: f32 = 1.0;
 
 /// With reversed Z the shaders scale eps by `REVERSED_SCALE · z`: 2⁻²³ z, between

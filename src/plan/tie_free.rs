@@ -1,6 +1,6 @@
 //! Plain depth tests where the tie rule cannot change a draw's result
 //! (docs/executor.md). The tolerant parity and peel shaders
-//! (`nearer_than`, `peel_tolerant`, [`super::tie`]) decide per fragment whether a
+//! (`nearer_than`, `peel_tolerant`, `plan::tie`) decide per fragment whether a
 //! face is coincident with the depth in a texture; they `discard` and write
 //! stencil, so llvmpipe runs every fragment of the draw through them before its
 //! depth and stencil tests. Where no face of the drawn meshes can come within
@@ -51,7 +51,7 @@
 //! depth moved by the tolerance, against the depth-stencil image, which on D32
 //! holds the texture's float. They then read no texture, so SCS's exits write
 //! none and no barrier separates its batches. Only for meshes whose possible
-//! partners are parallel to them ([`TieGaps::ties_flat`]): the depth test
+//! partners are parallel to them (`TieGaps::ties_flat`): the depth test
 //! always widens by the slope term, the shader only where the gradients agree.
 //!
 //! A shade draw of a mesh that keeps the rule runs it only inside the screen
@@ -59,7 +59,7 @@
 //! rectangle ([`ShadeRule`], `plan::tie_zones`); the copy then covers those
 //! rectangles only.
 //!
-//! Which meshes are tie-free comes from [`TieGaps`] (camera-independent: the
+//! Which meshes are tie-free comes from `TieGaps` (camera-independent: the
 //! smallest distance between a mesh's faces and a parallel, overlapping face)
 //! and [`TieBand`] (the band's width in world units for one camera, image size
 //! and vertex snapping): a mesh is tie-free for a tolerance when its smallest gap

@@ -71,13 +71,6 @@ impl TrickleOptions {
     }
 }
 
-/// The view-space thickness that `eps` (normalized depth) spans at view depth `z`
-/// for a perspective projection with planes `near` and `far`: features thinner than
-/// this along the ray are lost.
-pub fn eps_in_view_space(eps: f64, near: f64, far: f64, z: f64) -> f64 {
-    eps * z * z * (far - near) / (far * near)
-}
-
 /// The scratch depth-stencil image: buffer 3's depth test and the `ff` stencil bit.
 const SCAN: Ds = 1;
 /// Buffer 2, buffer 3, and buffer 2 at the start of a round.

@@ -43,7 +43,9 @@ pub struct Camera {
 /// perspective ray is distance, not view depth (see [`Camera::view_depth`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
+    /// Where the ray starts (the eye, or a point of the orthographic eye plane).
     pub origin: DVec3,
+    /// The unit direction.
     pub dir: DVec3,
 }
 

@@ -157,18 +157,23 @@ pub struct ExprBuilder {
 }
 
 impl ExprBuilder {
+    /// A leaf naming primitive `prim`; returns its node.
     pub fn leaf(&mut self, prim: u32) -> u32 {
         self.push(Node::Leaf { prim })
     }
+    /// The complement of node `a`.
     pub fn not(&mut self, a: u32) -> u32 {
         self.push(Node::Not(a))
     }
+    /// The union of nodes `a` and `b`.
     pub fn union(&mut self, a: u32, b: u32) -> u32 {
         self.push(Node::Union(a, b))
     }
+    /// The intersection of nodes `a` and `b`.
     pub fn inter(&mut self, a: u32, b: u32) -> u32 {
         self.push(Node::Inter(a, b))
     }
+    /// Node `a` minus node `b`.
     pub fn diff(&mut self, a: u32, b: u32) -> u32 {
         self.push(Node::Diff(a, b))
     }
@@ -176,6 +181,7 @@ impl ExprBuilder {
         self.nodes.push(n);
         self.nodes.len() as u32 - 1
     }
+    /// The expression rooted at node `root`.
     pub fn build(self, root: u32) -> Expr {
         Expr {
             nodes: self.nodes,

@@ -24,10 +24,16 @@ pub(super) struct LightT {
 pub enum Light {
     /// Parallel light travelling along `direction` (unit; from the light towards
     /// the scene): an orthographic shadow map.
-    Directional { direction: DVec3 },
+    Directional {
+        /// The unit direction the light travels in.
+        direction: DVec3,
+    },
     /// Light from a point outside the drawn geometry's bounding sphere: a
     /// perspective shadow map.
-    Point { position: DVec3 },
+    Point {
+        /// The light's position in world space.
+        position: DVec3,
+    },
 }
 
 /// Margin around the bounding sphere in the light's view, so no silhouette

@@ -23,7 +23,7 @@ pub enum Style {
 }
 
 impl Style {
-    pub const ALL: [Style; 5] = [
+    pub(crate) const ALL: [Style; 5] = [
         Style::Opaque,
         Style::Transparent,
         Style::Blueprint,
@@ -31,6 +31,7 @@ impl Style {
         Style::BlueprintTransparent,
     ];
 
+    /// The name on the command line (`--style`).
     pub fn name(self) -> &'static str {
         match self {
             Style::Opaque => "opaque",

@@ -123,6 +123,7 @@ pub fn signed_volume(mesh: &Mesh) -> f64 {
 }
 
 /// Number of triangles of zero area (collinear or coincident corners).
+#[cfg(test)]
 pub fn degenerate_triangles(mesh: &Mesh) -> usize {
     mesh.triangles
         .iter()
@@ -146,7 +147,7 @@ impl Mesh {
         Some(Aabb { min, max })
     }
 
-    /// Signed volume, see [`signed_volume`].
+    /// Signed volume (the free function `signed_volume`).
     pub fn signed_volume(&self) -> f64 {
         signed_volume(self)
     }

@@ -125,6 +125,7 @@ pub(crate) unsafe fn record_host_pass(
 /// # Safety
 ///
 /// As [`record_host_pass`]; `embedder`'s frames-in-flight contract holds for `cmd`.
+#[cfg(feature = "present")]
 pub(crate) unsafe fn record_host_frame(
     device: &ash::Device,
     cmd: vk::CommandBuffer,

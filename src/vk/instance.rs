@@ -24,8 +24,10 @@ pub enum DeviceChoice {
     Gpu,
 }
 
+/// How to create a [`Context`]: which device, and whether to validate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ContextDesc {
+    /// Which kind of device to pick.
     pub device: DeviceChoice,
     /// Enable `VK_LAYER_KHRONOS_validation` and collect its warnings and errors.
     pub validation: bool,

@@ -100,12 +100,6 @@ impl FragmentKind {
         )
     }
 
-    /// Whether the program has a variant that also writes the normal buffer
-    /// (`shaders/seen_normal.glsl`; the shading programs).
-    pub fn writes_normals(self) -> bool {
-        self.spirv_normals().is_some()
-    }
-
     /// The variant writing the normal buffer, for those that have one.
     fn spirv_normals(self) -> Option<&'static [u8]> {
         macro_rules! spv {

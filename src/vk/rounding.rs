@@ -15,6 +15,7 @@
 /// device may use).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RoundingEmulation {
+    /// The sub-pixel precision emulated: vertices snap to `2^-subpixel_bits` pixel.
     pub subpixel_bits: u32,
 }
 

@@ -23,6 +23,7 @@ pub struct RectUnions {
 }
 
 impl RectUnions {
+    /// The unions of `rects` (one per mesh), built in levels of doubling spans.
     pub fn new(rects: &[Rect]) -> RectUnions {
         let mut levels = vec![rects.to_vec()];
         let mut span = 1;

@@ -37,15 +37,28 @@ const MASK_FORMAT: vk::Format = vk::Format::R8_UNORM;
 /// member a mat4 or vec4), in world units relative to one origin.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ShadowParams {
+    /// An eye pixel's `(nx·d, ny·d, d, 1)` (perspective) or `(nx, ny, d, 1)`
+    /// (orthographic), NDC `(nx, ny)` and view depth `d`, to world (column-major).
     pub eye_unproject: [f32; 16],
+    /// World to the light's clip space, standard depth (column-major).
     pub light_clip: [f32; 16],
+    /// The eye camera: near, far, 1 when orthographic, 1 when reversed depth.
     pub eye_cam: [f32; 4],
+    /// The light's map camera, laid out as `eye_cam`.
     pub map_cam: [f32; 4],
+    /// The eye position (xyz); w 1 for perspective.
     pub eye_pos: [f32; 4],
+    /// The eye's unit view direction (xyz).
     pub eye_fwd: [f32; 4],
+    /// The light's eye position (xyz); w 1 for a point light.
     pub light_pos: [f32; 4],
+    /// The light's unit view direction (xyz); w a map texel's world size
+    /// (orthographic) or that size per unit of light view depth (perspective).
     pub light_fwd: [f32; 4],
+    /// The eye image's width and height, then the map's.
     pub sizes: [f32; 4],
+    /// 1 for float depth (D32) else 0; `2^-(subpixel bits + 1)`; the number
+    /// of closed primitives (higher ids are open surfaces); unused.
     pub prec: [f32; 4],
 }
 
@@ -518,8 +531,11 @@ impl ShadowPass {
 /// rendered standalone on its own executor beforehand, and the pass recorded
 /// after each frame, before the composite, with `params` of the current camera.
 pub struct EmbeddedShadow {
+    /// The shadow test pass, recorded after each frame.
     pub pass: ShadowPass,
+    /// The executor holding the light's depth map.
     pub map: Executor,
+    /// The pass's uniform block for the current camera.
     pub params: ShadowParams,
 }
 

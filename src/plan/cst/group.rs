@@ -340,6 +340,7 @@ impl GroupTrimmer {
     pub fn blist(&self) -> &GroupedBlist {
         &self.blist
     }
+    #[cfg(test)]
     pub fn layout(&self) -> GroupLayout {
         self.layout
     }

@@ -46,7 +46,9 @@ pub enum Side {
 /// A layer's plan and the CSTs it runs (leaves peeled and trimmed).
 #[derive(Clone, Debug)]
 pub struct LayerPlan {
+    /// The layer's plan.
     pub plan: Plan,
+    /// How many CSTs (a leaf peeled and trimmed against its active zone) it runs.
     pub csts: usize,
 }
 

@@ -12,9 +12,9 @@ use crate::csg::LeafId;
 /// The leaf whose boundary is peeled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Peeled {
-    pub prim: MeshId,
-    pub leaf: LeafId,
-    pub negated: bool,
+    pub(crate) prim: MeshId,
+    pub(crate) leaf: LeafId,
+    pub(crate) negated: bool,
     /// Which boundary points the peel's candidates are.
     pub candidates: Candidates,
 }

@@ -16,15 +16,15 @@ use crate::scene::Aabb;
 /// peeled leaf.
 #[derive(Clone, Debug)]
 pub struct TrimVolume {
-    pub blist: Blist,
-    pub relation: Vec<Relation>,
+    pub(crate) blist: Blist,
+    pub(crate) relation: Vec<Relation>,
 }
 
 /// One leaf's CST: what is peeled, how, and against what.
 #[derive(Clone, Debug)]
 pub struct LeafCst {
-    pub peeled: Peeled,
-    pub peel_cull: Cull,
+    pub(crate) peeled: Peeled,
+    pub(crate) peel_cull: Cull,
     /// `None`: the zone is the universe (no trimming).
     pub volume: Option<TrimVolume>,
     /// The zone's expression (`None` for the universe).

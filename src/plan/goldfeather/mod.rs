@@ -74,8 +74,8 @@ pub const CLIP_EPS: f32 = 1.0 / (1 << 19) as f32;
 /// One literal of a product, as the plan builders need it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Lit {
-    pub prim: MeshId,
-    pub negated: bool,
+    pub(crate) prim: MeshId,
+    pub(crate) negated: bool,
 }
 
 impl Lit {

@@ -55,11 +55,11 @@ impl TieFree {
         }
     }
 
-    /// A final shade's draw as OpenCSG's depth-`EQUAL` shading ([module
-    /// doc](self)), whatever the decisions: `None` for other draws. It culls
-    /// the faces that are never visible (`equal_cull`,
-    /// [`super::VisibleSides`]): it passes only at its own faces' raster
-    /// depth, so a culled face could pass only where it crosses the visible
+    /// A final shade's draw as OpenCSG's depth-`EQUAL` shading
+    /// ([`tie_free`](crate::plan::tie_free)), whatever the decisions: `None` for
+    /// other draws. It culls the faces that are never visible (`equal_cull`,
+    /// [`VisibleSides`](crate::plan::VisibleSides)): it passes only at its own
+    /// faces' raster depth, so a culled face could pass only where it crosses the visible
     /// one, and it is drawn only where it cannot tie with it.
     pub fn depth_equal(draw: &Draw) -> Option<Draw> {
         let Fragment::ShadeNearDepth { equal_cull, .. } = draw.fragment else {
@@ -77,7 +77,7 @@ impl TieFree {
     }
 
     /// The draw with plain tests in place of the tie rule, when the rule cannot
-    /// change its result ([module doc](self)); `None` otherwise.
+    /// change its result ([`tie_free`](crate::plan::tie_free)); `None` otherwise.
     pub fn fixed_function(&self, draw: &Draw) -> Option<Draw> {
         let meshes: &[MeshId] = match &draw.geometry {
             Geometry::Mesh(m) => std::slice::from_ref(m),

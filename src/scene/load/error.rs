@@ -8,30 +8,46 @@ use super::Loader;
 /// A user mistake in a scene file (or a file it names).
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
+    /// The file cannot be read.
     #[error("{}: cannot read the scene file: {source}", path.display())]
     Read {
+        /// The file.
         path: PathBuf,
+        /// Why it cannot be read.
         source: std::io::Error,
     },
     /// TOML syntax, unknown keys, wrong types, missing keys: with line and column.
     #[error("{}:{line}:{column}: {message}\n{snippet}", path.display())]
     Syntax {
+        /// The file.
         path: PathBuf,
+        /// The 1-based line of the mistake.
         line: usize,
+        /// The 1-based column of the mistake.
         column: usize,
+        /// What is wrong.
         message: String,
+        /// The source around the mistake, with a caret under it.
         snippet: String,
     },
     /// A file that is not a scene (e.g. OpenSCAD source).
     #[error("{}: {message}", path.display())]
-    Unsupported { path: PathBuf, message: String },
+    Unsupported {
+        /// The file.
+        path: PathBuf,
+        /// What it is and what to do instead.
+        message: String,
+    },
     /// A value that parses but is not valid, located by its key path.
     #[error("{}{}: {key}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
     Invalid {
+        /// The file.
         path: PathBuf,
         /// Line of the table the key belongs to, when known.
         line: Option<usize>,
+        /// The key, as a path from the top-level table.
         key: String,
+        /// What is wrong with the value.
         message: String,
     },
 }

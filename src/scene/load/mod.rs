@@ -16,9 +16,9 @@
 //!   `trim`/`keep`/`paint_color` on a primitive.
 //! - A torus needs `minor_radius < radius` (otherwise it self-intersects).
 //! - `segments` and `rings` are at most 65536 and their product at most 2^24, and
-//!   the meshes' estimated memory ([`super::cost`]) must fit the memory budget.
+//!   the meshes' estimated memory (`scene::cost`) must fit the memory budget.
 //! - Vectors are exactly 3 numbers (`vector.rs`); a file named `.scad` is
-//!   refused as OpenSCAD source ([`super::kind`]).
+//!   refused as OpenSCAD source (`scene::kind`).
 //! - Surface `keep` defaults to `"in"`, `paint_color` to `"#c02020"`; a `trim`
 //!   may be unbounded (e.g. `!A`), a solid may not.
 //! - Names share one namespace across primitives and surfaces; solid names are
@@ -62,7 +62,7 @@ pub struct LoadOptions {
 
 /// Largest `segments` / `rings`, and of their product.
 pub const MAX_DIVISIONS: u32 = 65536;
-pub const MAX_GRID: u64 = 1 << 24;
+pub(crate) const MAX_GRID: u64 = 1 << 24;
 /// Largest image side accepted from `[render]` or `--size`.
 pub const MAX_SIZE: u32 = 16384;
 /// Largest world-space coordinate of a drawn vertex: far inside `f32` (the

@@ -94,13 +94,6 @@ impl<'a> Args<'a> {
             })
             .transpose()
     }
-
-    /// A vector of numbers (any length).
-    pub fn numbers(&self, name: &str) -> Result<Option<Vec<f64>>, ScadError> {
-        self.get(name)
-            .map(|v| numbers(v, &self.what(name)))
-            .transpose()
-    }
 }
 
 /// A finite number: `inf` and `nan` cannot make geometry.

@@ -1,6 +1,6 @@
 //! OpenSCAD's `%` (background) modifier: a subtree that is never part of the
 //! solid, which OpenSCAD's preview draws see-through in grey
-//! ([`super::convert::BACKGROUND_COLOR`], alpha 128/255). Each `%` subtree is
+//! (`convert::BACKGROUND_COLOR`, alpha 128/255). Each `%` subtree is
 //! converted to a set of its own ([`Background`]) and kept beside the scene
 //! (`Appearance::background`); [`show`] adds the parts as solids of their own
 //! with that alpha where the algorithm composites transparent layers
@@ -22,14 +22,14 @@ use crate::scene::{fit, Primitive, Scene, Solid};
 pub struct Background {
     /// `background_<node>_L<line>`, the solid's name once shown.
     pub name: String,
-    pub primitives: Vec<Primitive>,
-    pub expr: Expr,
+    pub(crate) primitives: Vec<Primitive>,
+    pub(crate) expr: Expr,
     /// The warning the scene carries while the part is left out.
     pub warning: String,
 }
 
 impl Background {
-    pub fn new(
+    pub(crate) fn new(
         path: &Path,
         node: String,
         pos: Pos,

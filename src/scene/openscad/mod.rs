@@ -2,11 +2,11 @@
 //! already evaluated) as scenes, so a model renders as OpenSCAD's preview would
 //! draw it — without OpenCSG's z-fighting or its term limit.
 //!
-//! - [`lex`] and [`parse`]: the file into a tree of nodes (iterative, located
+//! - `lex` and `parse`: the file into a tree of nodes (iterative, located
 //!   errors `file:line:col`).
-//! - [`tessellate`]: OpenSCAD 2021.01's exact facets of cube, sphere, cylinder
+//! - `tessellate`: OpenSCAD 2021.01's exact facets of cube, sphere, cylinder
 //!   and polyhedron.
-//! - [`convert`]: the tree into primitives and one CSG expression (OpenSCAD's
+//! - `convert`: the tree into primitives and one CSG expression (OpenSCAD's
 //!   CSG-tree semantics: operators, transforms, colours, modifiers).
 //!
 //! [`read_model`] gives the primitives and expression; `scene::load` makes a
@@ -47,7 +47,9 @@ pub const DEFAULT_BACKGROUND: [u8; 3] = [0xff, 0xff, 0xe5];
 /// A 1-based line and column.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct Pos {
+    /// The line, from 1.
     pub line: usize,
+    /// The column in characters, from 1.
     pub col: usize,
 }
 
@@ -55,12 +57,14 @@ pub struct Pos {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{}:{}: {message}", pos.line, pos.col)]
 pub struct ScadError {
+    /// Where in the file.
     pub pos: Pos,
+    /// What is wrong.
     pub message: String,
 }
 
 impl ScadError {
-    pub fn new(pos: Pos, message: impl Into<String>) -> Self {
+    pub(crate) fn new(pos: Pos, message: impl Into<String>) -> Self {
         ScadError {
             pos,
             message: message.into(),
@@ -73,9 +77,11 @@ impl ScadError {
 pub struct ScadPrimitive {
     /// The node kind (`cube`, `sphere`, ...).
     pub node: String,
+    /// The node's line in the file.
     pub line: usize,
     /// World space: the composed `multmatrix` applied.
     pub mesh: Mesh,
+    /// The composed `multmatrix` from the file's root to the node.
     pub matrix: DMat4,
     /// From `color()` (alpha kept for transparency), `#`, or OpenSCAD's defaults.
     pub rgba: [f32; 4],
@@ -86,8 +92,11 @@ pub struct ScadPrimitive {
 /// them, and warnings (`file:line:col: text`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
+    /// The primitives, in order of appearance.
     pub primitives: Vec<Primitive>,
+    /// The solid: the file's CSG tree over the primitives.
     pub expr: Expr,
+    /// Non-fatal remarks (`file:line:col: text`), one line each.
     pub warnings: Vec<String>,
     /// The `%` background parts, kept apart from the solid
     /// ([`background::show`] adds them to a scene).

@@ -59,7 +59,6 @@ use std::time::Instant;
 use ash::vk;
 
 pub use super::conv::DepthFormat;
-pub use batch::PreparedFrame;
 pub(crate) use embed::{Output, Unrolled};
 pub(crate) use normals::copy_to_host;
 pub use sequence::{PlanCounts, SeqFrame, SeqItem};
@@ -95,10 +94,14 @@ use targets::Targets;
 use ties::TieKey;
 use unrolled::{add_gpu_times, layers_fit, unroll};
 
+/// What an [`Executor`] renders into: its images' size and depth format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ExecDesc {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// The format of the plans' depth-stencil images.
     pub depth_format: DepthFormat,
     /// Reversed depth (near 1, far 0); meant for `D32S8`.
     pub reversed_z: bool,
@@ -107,7 +110,9 @@ pub struct ExecDesc {
 /// A frame's images (read back) and statistics.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Frame {
+    /// The colour, primitive-id and depth images read back.
     pub images: Images,
+    /// What the frame drew and how long it took.
     pub stats: ExecStats,
 }
 
@@ -215,6 +220,7 @@ pub struct Executor {
 }
 
 impl Executor {
+    /// An executor of plans into images of `desc` on `ctx`'s device.
     pub fn new(ctx: &Context, desc: &ExecDesc) -> Result<Executor, VkError> {
         let _layer = ctx.shared.layer_use();
         if desc.width == 0 || desc.height == 0 {
@@ -276,6 +282,7 @@ impl Executor {
         })
     }
 
+    /// The size and formats it was created with.
     pub fn desc(&self) -> &ExecDesc {
         &self.desc
     }

@@ -43,11 +43,19 @@ type Normals = Vec<[f32; 3]>;
 #[derive(Clone, Debug, PartialEq)]
 pub enum SeqItem {
     /// A plan, its loops unrolled to `loops` (one count per top-level loop).
-    Plan { plan: Plan, loops: Vec<u32> },
+    Plan {
+        /// The plan.
+        plan: Plan,
+        /// Iterations of each of its top-level loops.
+        loops: Vec<u32>,
+    },
     /// Blends the last plan's layer into the accumulation target
     /// ([`Executor::accumulate`]); `first` starts it from zero with the
     /// sequence's opacity table.
-    Accumulate { first: bool },
+    Accumulate {
+        /// Start the accumulation from zero.
+        first: bool,
+    },
     /// Copies the last plan's images (colour, id, output depth; normals when
     /// on) into the next slot of the keep buffer ([`Executor::read_kept`]).
     Keep,
@@ -65,7 +73,9 @@ pub struct PlanCounts {
 /// A sequence frame's statistics and each plan's counts, in item order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SeqFrame {
+    /// The whole sequence's statistics.
     pub stats: ExecStats,
+    /// What the GPU counted in each plan, in item order.
     pub plans: Vec<PlanCounts>,
 }
 

@@ -80,6 +80,7 @@ pub struct Counts {
     /// `shade_fixed_draws`, and in `shade_written_draws` where they write
     /// their depth), and the sum of their scissor areas.
     pub shade_uncut_draws: u64,
+    /// The sum of the scissor areas of those pieces (see `shade_uncut_draws`).
     pub shade_uncut_pixels: u64,
     /// In an embedded frame: the sum of the scissor areas of the pieces that
     /// write their depth and fetch the output depth on every fragment in
@@ -90,6 +91,7 @@ pub struct Counts {
     /// pieces at their mesh's cutters added (`plan::cut_away`: a piece split
     /// into `k` counts `k - 1`); the standalone frame has none of them.
     pub shade_split_draws: u64,
+    /// The triangles of those added draws (see `shade_split_draws`).
     pub shade_split_triangles: u64,
     /// Draws of the final shade (depth-equal or tie-rule) that cull the side
     /// of their mesh that is never visible (`plan::VisibleSides`): about half
