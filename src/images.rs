@@ -26,4 +26,3 @@ pub fn shade(rgb: [u8; 3], cos: f64) -> [u8; 4] {
     let c = |v: u8| (v as f64 * k).round().clamp(0.0, 255.0) as u8;
     [c(rgb[0]), c(rgb[1]), c(rgb[2]), 255]
 }
-

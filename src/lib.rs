@@ -89,8 +89,8 @@ pub mod scene;
 pub mod vk;
 
 pub use csg::{Expr, Node};
-pub use images::Images;
 pub use embed::{CsgExpr, CsgScene, EmbedDesc, EmbedError, LoopCounts, MeshInput};
+pub use images::Images;
 pub use plan::Algo;
 pub use scene::{Camera, Projection};
 pub use vk::{

@@ -5,10 +5,10 @@
 
 use std::path::PathBuf;
 
-use peeltrim_cli::bench::{families, run_and_report, BenchConfig, BenchScene};
 use peeltrim::plan::Algo;
-use peeltrim_cli::render::DepthSetup;
 use peeltrim::vk::DeviceChoice;
+use peeltrim_cli::bench::{families, run_and_report, BenchConfig, BenchScene};
+use peeltrim_cli::render::DepthSetup;
 
 fn main() {
     let root = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/.."));

@@ -7,10 +7,10 @@ use std::process::ExitCode;
 use anyhow::{bail, Context as _, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 
-use peeltrim_cli::bench::{self, families, BenchConfig, BenchScene};
 use peeltrim::plan::Algo;
-use peeltrim_cli::render::{self, DepthSetup, RenderOptions};
 use peeltrim::scene::{self, LoadOptions};
+use peeltrim_cli::bench::{self, families, BenchConfig, BenchScene};
+use peeltrim_cli::render::{self, DepthSetup, RenderOptions};
 
 #[derive(Parser)]
 #[command(
@@ -277,6 +277,12 @@ enum Cmd {
         scene: PathBuf,
         #[arg(long, default_value = "blister", value_parser = parse_algo)]
         algo: Algo,
+        /// The device profile the plan passes decide for: "device" (the
+        /// Vulkan device's own, PEELTRIM_DEVICE_PROFILE applied), "cpu" (a CPU
+        /// rasterizer such as lavapipe: unsnapped depth) or "hardware" (a GPU
+        /// that snaps vertices to 8 subpixel bits). The last two need no device.
+        #[arg(long, value_name = "PROFILE", default_value = "device")]
+        device_profile: String,
         #[command(flatten)]
         scad: ScadArgs,
     },
@@ -612,7 +618,12 @@ fn run(cli: Cli) -> Result<ExitCode> {
             gpu,
             scad,
         } => return view(&scene, algo, size, &gpu, scad),
-        Cmd::Plan { scene, algo, scad } => {
+        Cmd::Plan {
+            scene,
+            algo,
+            device_profile,
+            scad,
+        } => {
             let scene = load(&scene, None, scad)?;
             let prep = peeltrim::plan::Prepared::new(&scene)?;
             for w in prep.warnings(algo) {
@@ -628,14 +639,69 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 }
                 r => r?,
             };
-            emit(&peeltrim::plan::print::print(
-                &plan,
-                &prep,
-                &scene.mesh_names(),
-            ))?;
+            let profile = plan_profile(&device_profile)?;
+            let mut text = peeltrim::plan::print::print(&plan, &prep, &scene.mesh_names());
+            text.push_str(&print_passes(&plan, &scene, &profile));
+            emit(&text)?;
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The profile `peeltrim plan --device-profile` names.
+fn plan_profile(name: &str) -> Result<peeltrim::vk::DeviceProfile> {
+    use peeltrim::vk::profile::{DepthFormats, DeviceFacts, ProfileChoice};
+    let facts = |cpu| DeviceFacts {
+        cpu,
+        subpixel_bits: 8,
+        depth_formats: DepthFormats {
+            d32s8: true,
+            d24s8: true,
+            d32: true,
+        },
+    };
+    Ok(match name {
+        "cpu" => peeltrim::vk::DeviceProfile::from_facts(facts(true), ProfileChoice::Device),
+        "hardware" => peeltrim::vk::DeviceProfile::from_facts(facts(false), ProfileChoice::Device),
+        "device" => {
+            let ctx = peeltrim::vk::Context::new(&peeltrim::vk::ContextDesc {
+                device: peeltrim::vk::DeviceChoice::Auto,
+                validation: false,
+            })?;
+            *ctx.profile()
+        }
+        other => bail!("--device-profile '{other}': use device, cpu or hardware"),
+    })
+}
+
+/// The plan passes' result (`plan::passes`): each draw as it is recorded
+/// under `profile` with the default depth set-up (D32S8, reversed Z).
+fn print_passes(
+    plan: &peeltrim::plan::Plan,
+    scene: &peeltrim::scene::Scene,
+    profile: &peeltrim::vk::DeviceProfile,
+) -> String {
+    use std::fmt::Write as _;
+    let facts = profile.pass_facts(peeltrim::vk::DepthFormat::D32S8);
+    let (w, h) = (scene.render.width, scene.render.height);
+    let lowered = peeltrim::plan::passes::lower_plan(plan, scene, w, h, true, &facts);
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "\n# After the plan passes: {:?} profile, {} subpixel bits, depth-equal shades {}, {w}x{h}, D32S8 reversed\n",
+        profile.kind,
+        facts.subpixel_bits,
+        if facts.depth_equal_shades { "on" } else { "off" },
+    );
+    let mut pass = None;
+    for d in &lowered {
+        if pass != Some(&d.pass) {
+            let _ = writeln!(out, "{}", d.pass);
+            pass = Some(&d.pass);
+        }
+        let _ = writeln!(out, "  draw {:3}: {}", d.index, d.recorded);
+    }
+    out
 }
 
 #[cfg(feature = "viewer")]

@@ -9,10 +9,10 @@ use serde::Serialize;
 
 use crate::output::Images;
 use peeltrim::plan::{self, Algo, PlanError, Prepared};
-use peeltrim_reference::precision::DepthPrecision;
 use peeltrim::scene::camera::DepthConvention;
 use peeltrim::scene::Scene;
 use peeltrim::vk;
+use peeltrim_reference::precision::DepthPrecision;
 
 pub mod edges;
 mod gpu_layers;

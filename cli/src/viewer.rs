@@ -27,10 +27,10 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
-use peeltrim::embed::{CsgScene, EmbedDesc, EmbedError, LoopCounts};
 use crate::output::Images;
-use peeltrim::plan::Algo;
 use crate::render::{self, DepthSetup, RenderError};
+use peeltrim::embed::{CsgScene, EmbedDesc, EmbedError, LoopCounts};
+use peeltrim::plan::Algo;
 use peeltrim::scene::{fit, Camera, Projection, Scene};
 use peeltrim::vk::{self, present, present::Presented, present::Presenter};
 

@@ -4,11 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
-use peeltrim_cli::output::Images;
 use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim_reference::compare::{compare, CompareReport};
-use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 use peeltrim::scene::{self, LoadOptions, Scene};
+use peeltrim_cli::output::Images;
+use peeltrim_cli::render::{DepthSetup, GpuRenderer};
+use peeltrim_reference::compare::{compare, CompareReport};
 
 pub const SIZE: (u32, u32) = (128, 128);
 

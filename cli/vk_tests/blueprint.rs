@@ -10,11 +10,11 @@
 //! `[[surface]]`s are left out here (their first layer is not the opaque image).
 
 use peeltrim::plan::{self, Algo, Prepared};
+use peeltrim_cli::render::edges::{edge_map, EdgeRule};
+use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 use peeltrim_reference::compare::boundary_mask;
 use peeltrim_reference::edge_compare::compare_edges;
 use peeltrim_reference::{render_layers, LayerLimit};
-use peeltrim_cli::render::edges::{edge_map, EdgeRule};
-use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 
 use crate::algorithms::{load, shipped_scenes, SIZE};
 

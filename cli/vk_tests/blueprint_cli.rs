@@ -46,8 +46,13 @@ fn layers_out_writes_normals_and_edges_by_the_rule() {
         // edges.png is the rule applied to this layer's own files.
         let (w, h, edges) = peeltrim_cli::output::read_edges(&dir).unwrap();
         assert_eq!((w, h), (64, 48));
-        let want =
-            peeltrim_cli::render::edges::edge_map(&img.depth, &normals, 64, 48, &Default::default());
+        let want = peeltrim_cli::render::edges::edge_map(
+            &img.depth,
+            &normals,
+            64,
+            48,
+            &Default::default(),
+        );
         assert_eq!(edges, want, "layer {k}");
         let count = edges.iter().filter(|&&e| e).count() as u64;
         assert_eq!(edge_pixels[k - 1].as_u64(), Some(count));

@@ -5,9 +5,9 @@
 use std::path::Path;
 
 use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim_reference as reference;
-use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 use peeltrim::scene::{self, Scene};
+use peeltrim_cli::render::{DepthSetup, GpuRenderer};
+use peeltrim_reference as reference;
 
 const ALGOS: [Algo; 3] = [Algo::Goldfeather, Algo::GoldfeatherLayered, Algo::Trickle];
 

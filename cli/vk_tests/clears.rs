@@ -4,10 +4,10 @@
 //! hold the background, the far depth and id 0 — after replays, camera moves
 //! and other plans on the same executor.
 
-use peeltrim_cli::output::Images;
 use peeltrim::plan::{build, Algo, Plan, Prepared};
 use peeltrim::scene::{Camera, Projection, Scene};
 use peeltrim::vk::Executor;
+use peeltrim_cli::output::Images;
 
 use crate::{algorithms, assert_clean, context};
 

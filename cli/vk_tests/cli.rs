@@ -419,7 +419,8 @@ fn bench_baseline_opencsg_missing_says_how_to_build() {
 /// the program is not built.
 #[test]
 fn bench_baseline_opencsg_matches_reference_when_built() {
-    let program = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("tools/opencsg-bench/opencsg-bench");
+    let program = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+        .join("tools/opencsg-bench/opencsg-bench");
     if !program.is_file() {
         eprintln!("skipped: {} is not built", program.display());
         return;

@@ -6,9 +6,9 @@
 use std::path::Path;
 
 use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim_reference::compare::compare;
-use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 use peeltrim::scene::{load_str, LoadOptions, Scene};
+use peeltrim_cli::render::{DepthSetup, GpuRenderer};
+use peeltrim_reference::compare::compare;
 
 const SIZE: u32 = 128;
 

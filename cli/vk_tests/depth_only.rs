@@ -6,12 +6,12 @@
 //! format back. Validation on throughout.
 
 use ash::vk;
-use peeltrim_cli::output::Images;
 use peeltrim::plan::formats::needs_stencil;
 use peeltrim::plan::{build, Algo, Plan, Prepared};
-use peeltrim_reference::compare::compare;
 use peeltrim::scene::Scene;
 use peeltrim::vk::{DepthFormat, ExecDesc, Executor, Frame};
+use peeltrim_cli::output::Images;
+use peeltrim_reference::compare::compare;
 
 use crate::algorithms::load_text;
 // A block minus a bore (the subtraction counts parity in the stencil), and

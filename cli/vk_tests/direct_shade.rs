@@ -6,9 +6,9 @@
 //! elsewhere no direct draw shades.
 
 use peeltrim::plan::{self, Algo, Prepared, Step};
+use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 use peeltrim_reference::compare::compare;
 use peeltrim_reference::precision::spec_depth_check;
-use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 
 use crate::algorithms::{load_text, SIZE};
 

@@ -10,8 +10,8 @@ use peeltrim::Algo;
 /// read, and the validation layer reports nothing.
 #[test]
 fn bench_pairs_time_equal_work() {
-    use peeltrim_cli::bench::embedded::{measure, MIN_PAIRS};
     use peeltrim::plan::{self, Prepared};
+    use peeltrim_cli::bench::embedded::{measure, MIN_PAIRS};
     use peeltrim_cli::render::{DepthSetup, GpuRenderer};
     let mut scene = crate::algorithms::load(&crate::setup::scenes_dir().join("coincident.toml"));
     (scene.render.width, scene.render.height) = (96, 80);

@@ -3,13 +3,13 @@
 //! and depth; the transparent composite's colour; highlight; the opaque image
 //! unchanged; other algorithms refused.
 
-use peeltrim_cli::output::Images;
 use peeltrim::plan::Algo;
-use peeltrim_reference::compare::{boundary_mask, compare};
-use peeltrim_cli::render::layers::{render_layered, LayerOptions, LayeredFrame};
-use peeltrim_cli::render::{self, RenderError};
 use peeltrim::scene::load;
 use peeltrim::scene::Scene;
+use peeltrim_cli::output::Images;
+use peeltrim_cli::render::layers::{render_layered, LayerOptions, LayeredFrame};
+use peeltrim_cli::render::{self, RenderError};
+use peeltrim_reference::compare::{boundary_mask, compare};
 
 use crate::setup::options;
 
@@ -241,8 +241,8 @@ fn other_algorithms_refuse_layers() {
 /// farther, for layers 1–3; and a style composes from them.
 #[test]
 fn cst_layer_edge_maps_match_the_reference() {
-    use peeltrim_reference::{render_layers_read, LayerLimit, LayerReading};
     use peeltrim_cli::render::edges::edge_map;
+    use peeltrim_reference::{render_layers_read, LayerLimit, LayerReading};
     let mut checked = 0;
     for name in ["drilled_block.toml", "complex.toml"] {
         // Large enough that a layer has a thousand edge pixels or more: the 1%

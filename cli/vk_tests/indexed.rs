@@ -6,9 +6,9 @@
 //! throughout.
 
 use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim_reference::compare::compare;
-use peeltrim_cli::render::{DepthSetup, FrameStats, GpuRenderer};
 use peeltrim::vk::RoundingEmulation;
+use peeltrim_cli::render::{DepthSetup, FrameStats, GpuRenderer};
+use peeltrim_reference::compare::compare;
 
 use crate::algorithms::{shipped, shipped_with_reference};
 

@@ -5,15 +5,15 @@
 //! reference's; its layers' edge maps (from the executor's normal buffer) match
 //! the reference's, and so does a style composed from them.
 
-use peeltrim_cli::output::Images;
 use peeltrim::plan::Algo;
-use peeltrim_reference::compare::compare;
-use peeltrim_reference::{render_layers_read, LayerLimit, LayerReading, LayerStack};
+use peeltrim::scene::style::Style;
+use peeltrim::scene::Scene;
+use peeltrim_cli::output::Images;
 use peeltrim_cli::render::edges::edge_map;
 use peeltrim_cli::render::layers::{render_layered, LayerOptions, LayeredFrame};
 use peeltrim_cli::render::DepthSetup;
-use peeltrim::scene::style::Style;
-use peeltrim::scene::Scene;
+use peeltrim_reference::compare::compare;
+use peeltrim_reference::{render_layers_read, LayerLimit, LayerReading, LayerStack};
 
 use crate::algorithms::{check_algo, load, shipped_scenes, SIZE};
 use crate::setup::options;

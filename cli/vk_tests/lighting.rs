@@ -7,10 +7,10 @@
 //! `Shade`, the tie rule's `ShadeNearDepth`, CST's `ShadeAtDepth`, the peels'
 //! `PeelShade`), perspective and orthographic.
 
-use peeltrim_cli::output::Images;
 use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 use peeltrim::scene::Scene;
+use peeltrim_cli::output::Images;
+use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 
 use crate::algorithms::{load_text, SIZE};
 

@@ -6,9 +6,9 @@
 //! first (layer by layer) frame's, bit for bit.
 
 use peeltrim::plan::Algo;
-use peeltrim_cli::render::layers::{render_layered_in, LayerOptions, LayeredFrame, LayeredSession};
 use peeltrim::scene::{load, Scene};
 use peeltrim::vk::Recorded;
+use peeltrim_cli::render::layers::{render_layered_in, LayerOptions, LayeredFrame, LayeredSession};
 
 use crate::setup::options;
 

@@ -6,8 +6,8 @@
 use std::path::PathBuf;
 
 use peeltrim::plan::Algo;
-use peeltrim_cli::render::DepthSetup;
 use peeltrim::scene::{self, LoadOptions, Scene};
+use peeltrim_cli::render::DepthSetup;
 
 use super::algorithms::{depth_tolerance, run_gpu};
 use super::scad_models::plate_with_holes;

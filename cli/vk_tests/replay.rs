@@ -5,10 +5,10 @@
 
 use glam::DQuat;
 use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim_reference::compare::compare;
-use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 use peeltrim::scene::{Camera, Scene};
 use peeltrim::vk::Recorded;
+use peeltrim_cli::render::{DepthSetup, GpuRenderer};
+use peeltrim_reference::compare::compare;
 
 use crate::algorithms::{load, SIZE};
 

@@ -11,13 +11,13 @@
 //! near-tangent crossings of two surfaces may take the lower index over a band
 //! wider than the one-pixel boundary margin: primitive mismatches ≤ 0.5% there.
 
-use peeltrim_cli::output::Images;
 use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim_reference::compare::{compare, CompareReport};
-use peeltrim_reference::precision::{spec_depth_check, SpecDepthReport};
-use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 use peeltrim::scene::Scene;
 use peeltrim::vk::RoundingEmulation;
+use peeltrim_cli::output::Images;
+use peeltrim_cli::render::{DepthSetup, GpuRenderer};
+use peeltrim_reference::compare::{compare, CompareReport};
+use peeltrim_reference::precision::{spec_depth_check, SpecDepthReport};
 
 use crate::algorithms::{load, shipped_scenes};
 
@@ -80,8 +80,7 @@ fn check_with(algo: Algo, rounding: RoundingEmulation, prim_bar: f64, depth: Dep
     let mut failures = Vec::new();
     for path in shipped_scenes() {
         let scene = load(&path);
-        let reference =
-            peeltrim_reference::render(&scene, scene.render.width, scene.render.height);
+        let reference = peeltrim_reference::render(&scene, scene.render.width, scene.render.height);
         let name = path.file_stem().unwrap().to_string_lossy().to_string();
         let Some((r, d)) = run(&scene, algo, depth, Some(rounding), &reference) else {
             continue;

@@ -6,8 +6,8 @@
 
 use peeltrim::plan::screen::ScreenBox;
 use peeltrim::plan::{self, Algo, Prepared, Step};
-use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 use peeltrim::scene::Scene;
+use peeltrim_cli::render::{DepthSetup, GpuRenderer};
 
 use crate::algorithms::{CST_PRIM, SIZE};
 

@@ -4,13 +4,13 @@
 //! exact reference, with per-primitive opacities; and interference combined
 //! with opacities and `--layers` on an assembly made for this test.
 
-use peeltrim_cli::output::Images;
 use peeltrim::plan::Algo;
-use peeltrim_reference::compare::{boundary_mask, compare};
-use peeltrim_reference::layers::blend_colors;
+use peeltrim::scene::{self, LoadOptions};
+use peeltrim_cli::output::Images;
 use peeltrim_cli::render::interference::gpu_interference;
 use peeltrim_cli::render::layers::LayerOptions;
-use peeltrim::scene::{self, LoadOptions};
+use peeltrim_reference::compare::{boundary_mask, compare};
+use peeltrim_reference::layers::blend_colors;
 
 use crate::gpu_layers::layered;
 use crate::setup::options;

@@ -6,12 +6,12 @@
 
 use std::path::PathBuf;
 
-use peeltrim_cli::output::Images;
 use peeltrim::plan::Algo;
-use peeltrim_reference::precision::spec_depth_check;
-use peeltrim_cli::render::{DepthSetup, GpuRenderer, RenderOptions};
 use peeltrim::scene::Scene;
 use peeltrim::vk::{DeviceChoice, DeviceProfile};
+use peeltrim_cli::output::Images;
+use peeltrim_cli::render::{DepthSetup, GpuRenderer, RenderOptions};
+use peeltrim_reference::precision::spec_depth_check;
 
 /// The device of every GPU test. A malformed value is a test failure, not a
 /// silent fallback.

@@ -8,10 +8,10 @@
 
 use glam::DVec3;
 use peeltrim::plan::Algo;
-use peeltrim_reference::compare::boundary_mask;
-use peeltrim_cli::render::{self, shadow};
 use peeltrim::scene::light::Light;
 use peeltrim::scene::{self, LoadOptions, Scene};
+use peeltrim_cli::render::{self, shadow};
+use peeltrim_reference::compare::boundary_mask;
 
 use crate::setup::options;
 

@@ -9,9 +9,9 @@
 use std::path::Path;
 
 use peeltrim::plan::Algo;
-use peeltrim_cli::render::DepthSetup;
 use peeltrim::scene::{load_str, LoadOptions, Scene};
 use peeltrim::vk::RoundingEmulation;
+use peeltrim_cli::render::DepthSetup;
 
 use crate::rounding::{run, BAR};
 

@@ -5,10 +5,10 @@
 
 use peeltrim::plan::step::{Fragment, Step};
 use peeltrim::plan::{self, Algo, Prepared};
+use peeltrim::vk::Recorded;
+use peeltrim_cli::render::{DepthSetup, FrameStats, GpuRenderer};
 use peeltrim_reference::compare::compare;
 use peeltrim_reference::precision::spec_depth_check;
-use peeltrim_cli::render::{DepthSetup, FrameStats, GpuRenderer};
-use peeltrim::vk::Recorded;
 
 use crate::algorithms::{load, shipped, shipped_with_reference, SIZE};
 
@@ -21,7 +21,14 @@ fn tolerant() -> impl Iterator<Item = Algo> {
 }
 
 /// One frame of `algo` on the shipped scene `name`.
-fn frame(name: &str, algo: Algo) -> (peeltrim_cli::output::Images, FrameStats, peeltrim::scene::Scene) {
+fn frame(
+    name: &str,
+    algo: Algo,
+) -> (
+    peeltrim_cli::output::Images,
+    FrameStats,
+    peeltrim::scene::Scene,
+) {
     let scene = shipped(name);
     let prep = Prepared::new(&scene).expect("prepared");
     let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{algo}: {e}"));

@@ -5,8 +5,8 @@
 //! (`DeviceProfile::depth_equal_shades`) every shade draw keeps the rule.
 
 use peeltrim::plan::{self, Algo};
-use peeltrim_reference::compare::compare;
 use peeltrim_cli::render::{DepthSetup, GpuRenderer};
+use peeltrim_reference::compare::compare;
 
 use crate::algorithms::shipped_with_reference;
 

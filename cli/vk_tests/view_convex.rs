@@ -5,8 +5,8 @@
 //! peeling paths are kept, and the convex path would be wrong there).
 
 use peeltrim::plan::{self, Algo, Plan, Prepared, Step};
-use peeltrim_cli::render::DepthSetup;
 use peeltrim::scene::{self, LoadOptions, Scene};
+use peeltrim_cli::render::DepthSetup;
 
 use crate::algorithms::{depth_tolerance, SIZE};
 
@@ -49,8 +49,9 @@ fn passes(p: &Plan) -> Vec<&str> {
 /// mismatch fractions and whether the depth passes; asserts no validation message.
 fn render(scene: &Scene, plan: &Plan, depth: DepthSetup) -> (f64, f64, bool) {
     let reference = peeltrim_reference::render(scene, SIZE.0, SIZE.1);
-    let mut gpu = peeltrim_cli::render::GpuRenderer::new(scene, crate::setup::device(), depth, true)
-        .expect("a Vulkan device");
+    let mut gpu =
+        peeltrim_cli::render::GpuRenderer::new(scene, crate::setup::device(), depth, true)
+            .expect("a Vulkan device");
     let frame = gpu.frame(plan).expect("frame");
     let msgs = gpu.validation_messages();
     assert!(msgs.is_empty(), "{}: validation: {msgs:#?}", plan.algo);

@@ -7,11 +7,11 @@
 //! primitive's back face on the visible face, its lower index winning), and
 //! culls where only lower indices tie with it, changing no pixel.
 
-use peeltrim_cli::output::Images;
 use peeltrim::plan::{self, Algo, Cull, Fragment, Plan, Prepared, Step};
-use peeltrim_reference::compare::{compare, CompareReport};
-use peeltrim_cli::render::{DepthSetup, FrameStats, GpuRenderer};
 use peeltrim::scene::Scene;
+use peeltrim_cli::output::Images;
+use peeltrim_cli::render::{DepthSetup, FrameStats, GpuRenderer};
+use peeltrim_reference::compare::{compare, CompareReport};
 
 use crate::algorithms::{load_text, shipped, shipped_with_reference, SIZE};
 

@@ -7,8 +7,8 @@
 
 use peeltrim::plan::tie_free::TieFree;
 use peeltrim::plan::{self, Algo, Plan, Prepared, Step};
-use peeltrim_reference::compare::compare;
 use peeltrim::scene::Scene;
+use peeltrim_reference::compare::compare;
 
 use crate::algorithms::{load_text, shipped, SIZE};
 use crate::visible_side::{frame, interior};

@@ -91,9 +91,9 @@ pub fn render_interference(scene: &Scene, width: u32, height: u32) -> Interferen
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
     use peeltrim::scene::fixtures::*;
     use peeltrim::scene::{Projection, Solid};
-    use glam::DVec3;
 
     /// Boxes a = [-1,1]³ and b = [0,2]×[-0.5,0.5]×[-1,0.5] in two solids, c far
     /// away in a third: a and b interfere on x ∈ (0, 1), |y| < 0.5; c with none.

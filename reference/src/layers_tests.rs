@@ -3,10 +3,10 @@
 //! point classification (every layer is a boundary point, entering/leaving alternate).
 
 use super::*;
-use peeltrim::scene::fixtures::*;
 use crate::raycast::tests::random_scene;
-use peeltrim::scene::{Projection, Solid};
 use glam::DVec3;
+use peeltrim::scene::fixtures::*;
+use peeltrim::scene::{Projection, Solid};
 
 /// Orthographic view down −Z from z = 5, 4 units high: pixel centre x maps to
 /// world `(x + 0.5) / 10 − 2` at 40 × 40.

@@ -13,11 +13,11 @@ pub mod products_reading;
 pub mod raycast;
 pub mod shadow;
 
-/// The BVH lives in [`peeltrim::geom`], shared with the plan builders.
-pub use peeltrim::geom::bvh;
 pub use bvh::{Crossing, Line, MeshBvh, SceneBvh, WorldCrossing};
 pub use compare::{compare, CompareError, CompareReport};
 pub use layers::{render_layers, render_layers_read, LayerHit, LayerLimit, LayerStack};
+/// The BVH lives in [`peeltrim::geom`], shared with the plan builders.
+pub use peeltrim::geom::bvh;
 pub use products_reading::LayerReading;
 pub use raycast::{render, render_with_normals};
 pub use raycast::{Hit, Prepared, GROUP_TOL_REL};

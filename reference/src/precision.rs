@@ -23,9 +23,9 @@
 //! [`DepthPrecision::allowed`] is the sum; [`spec_depth_check`] measures a render
 //! against it.
 
-use peeltrim::Images;
 use peeltrim::scene::camera::DepthConvention;
 use peeltrim::scene::{Camera, Projection};
+use peeltrim::Images;
 
 /// A depth set-up as the specification's bounds see it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -168,8 +168,8 @@ pub fn spec_depth_check(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use peeltrim::scene::fixtures;
     use glam::DVec3;
+    use peeltrim::scene::fixtures;
 
     fn cam() -> Camera {
         fixtures::camera(DVec3::new(0.0, 0.0, 10.0), DVec3::ZERO, 40.0, 1.0, 100.0)

@@ -92,9 +92,9 @@ pub fn product_scene(scene: &Scene, limit: usize) -> Result<(Scene, Vec<u32>), P
 #[cfg(test)]
 mod tests {
     use super::*;
-    use peeltrim::scene::fixtures::{self, ExprBuilder};
     use crate::layers::Layers;
     use glam::DVec3;
+    use peeltrim::scene::fixtures::{self, ExprBuilder};
 
     /// Two boxes overlapping along the view axis, as one solid `a + b`.
     fn overlapping() -> Scene {

@@ -393,9 +393,9 @@ pub fn render_with_normals(scene: &Scene, width: u32, height: u32) -> (Images, V
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
+    use glam::DVec3;
     use peeltrim::scene::fixtures::*;
     use peeltrim::scene::{Keep, Projection};
-    use glam::DVec3;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 

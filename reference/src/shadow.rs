@@ -46,9 +46,9 @@ pub fn shadow_rays(scene: &Scene, light: &Light, width: u32, height: u32) -> Vec
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
     use peeltrim::scene::fixtures::*;
     use peeltrim::scene::Projection;
-    use glam::DVec3;
 
     /// A small box floating over a slab, lit from straight above and seen from
     /// above: the slab is shadowed exactly under the box, lit elsewhere; the

@@ -491,8 +491,7 @@ mod tests {
     #[test]
     fn lines_through_shared_edges_and_vertices_hit_once() {
         // A grid-tessellated box: each face split into 4x4 quads, vertices shared.
-        let mesh =
-            crate::scene::fixtures::grid_box_mesh(DVec3::splat(-1.0), DVec3::splat(1.0), 4);
+        let mesh = crate::scene::fixtures::grid_box_mesh(DVec3::splat(-1.0), DVec3::splat(1.0), 4);
         let bvh = MeshBvh::new(&mesh);
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let mut targets = vec![];

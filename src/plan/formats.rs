@@ -32,11 +32,11 @@ pub fn needs_stencil(plan: &Plan) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::fixtures::block_minus_spheres;
     use crate::plan::{
         build, Algo, CompareOp, Fragment, Geometry, Loop, Prepared, StencilFace, StencilOp,
         StencilState,
     };
+    use crate::scene::fixtures::block_minus_spheres;
 
     fn with_stencil(mut step: Step) -> Step {
         if let Step::Draw(d) = &mut step {

@@ -270,8 +270,8 @@ impl Builder<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::fixtures::block_minus_spheres;
     use crate::plan::{build, Algo};
+    use crate::scene::fixtures::block_minus_spheres;
     use crate::scene::fixtures::{self, ExprBuilder};
     use glam::DVec3;
 

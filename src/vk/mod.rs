@@ -34,7 +34,8 @@ pub mod present;
 pub mod profile;
 pub(crate) mod readback;
 pub(crate) mod rounding;
-pub mod scissor;
+/// Screen rectangles of scissors, from the plan's passes.
+pub use crate::plan::scissor;
 pub mod shadow;
 mod stages;
 pub(crate) mod submit;

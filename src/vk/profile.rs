@@ -207,6 +207,16 @@ impl DeviceProfile {
     pub fn depth_equal_shades(&self, format: super::DepthFormat) -> bool {
         self.unsnapped_depth && format == super::DepthFormat::D32S8
     }
+
+    /// What the plan passes (`plan::passes`) read of this profile, on depth
+    /// images of `format`.
+    pub fn pass_facts(&self, format: super::DepthFormat) -> crate::plan::passes::PassFacts {
+        crate::plan::passes::PassFacts {
+            subpixel_bits: self.subpixel_bits,
+            depth_equal_shades: self.depth_equal_shades(format),
+            tie_depth: format == super::DepthFormat::D32S8,
+        }
+    }
 }
 
 #[cfg(test)]

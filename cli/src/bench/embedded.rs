@@ -11,9 +11,9 @@
 
 use serde::Serialize;
 
+use crate::render::GpuRenderer;
 use peeltrim::embed::{CsgScene, EmbedDesc, LoopCounts};
 use peeltrim::plan::{Algo, Plan};
-use crate::render::GpuRenderer;
 use peeltrim::scene::Scene;
 use peeltrim::vk::embed::HostPath;
 use peeltrim::vk::{ExecStats, OffscreenHost};

@@ -27,11 +27,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use crate::output::Images;
-use peeltrim::plan::{self, Algo, Prepared};
-use peeltrim_reference::compare::{compare, CompareReport};
 use crate::render::{DepthSetup, FrameStats, GpuRenderer};
+use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::scene::{self, LoadOptions, Scene};
 use peeltrim::vk::DeviceChoice;
+use peeltrim_reference::compare::{compare, CompareReport};
 
 /// What to run.
 #[derive(Clone, Debug)]

@@ -12,8 +12,8 @@ use serde::Serialize;
 
 use super::{median_iqr, BenchConfig, Record};
 use crate::output::Images;
-use peeltrim::plan::{self, Algo, Prepared};
 use crate::render::{interference, shadow, DepthSetup, GpuRenderer};
+use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::scene::Scene;
 
 /// The shadow figures of one run (`results.json` key `shadow`): each timed
@@ -159,8 +159,12 @@ fn shadow_frames(
 pub fn shadowed_reference(scene: &Scene, reference: &Images) -> Images {
     let mut shown = reference.clone();
     if let Some(light) = &scene.appearance.light {
-        let rays =
-            peeltrim_reference::shadow::shadow_rays(scene, light, reference.width, reference.height);
+        let rays = peeltrim_reference::shadow::shadow_rays(
+            scene,
+            light,
+            reference.width,
+            reference.height,
+        );
         shadow::apply(&mut shown.color, &rays, light);
     }
     shown

@@ -22,12 +22,12 @@ use serde::Serialize;
 
 use super::report::error_figures;
 use super::{median_iqr, Record, RunCounts};
-use peeltrim::csg::normalize::{normalize, ScadProduct, OPENSCAD_NODE_LIMIT};
 use crate::output::Images;
+use peeltrim::csg::normalize::{normalize, ScadProduct, OPENSCAD_NODE_LIMIT};
 use peeltrim::plan::Prepared;
-use peeltrim_reference::compare::compare;
 use peeltrim::scene::camera::{DepthConvention, Projection};
 use peeltrim::scene::Scene;
+use peeltrim_reference::compare::compare;
 
 /// The variants the program runs: SCS and Goldfeather with occlusion queries,
 /// and Automatic (OpenCSG's own choice, as OpenSCAD uses it).

@@ -8,8 +8,8 @@ use std::fmt::Write;
 use std::path::Path;
 
 use super::{BenchError, Record};
-use peeltrim_reference::compare::CompareReport;
 use peeltrim::vk::Counts;
+use peeltrim_reference::compare::CompareReport;
 
 /// The CST paper's §8 table (GeForce 6800 GT, 800×800): Prims, Blister, Z, I, G in ms.
 pub const PAPER_TABLE: [(&str, u32, [f64; 4]); 2] = [

@@ -18,10 +18,10 @@ use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::Images;
 use peeltrim::plan::cst::Variant;
 use peeltrim::plan::{Algo, Prepared};
+use peeltrim::scene::{Appearance, Scene, Solid};
 use peeltrim_reference::interference::SOLID_ALPHA;
 use peeltrim_reference::interference::{InterferingPair, INTERFERENCE_RGB};
 use peeltrim_reference::layers::blend_colors;
-use peeltrim::scene::{Appearance, Scene, Solid};
 
 /// The GPU's interference of a frame.
 #[derive(Clone, Debug, PartialEq)]

@@ -20,12 +20,12 @@ use super::{Frame, FrameStats, GpuRenderer, RenderError, RenderOptions};
 use crate::output::{write_edges, write_images, write_normals, Images, OutputError};
 use peeltrim::plan::cst::Variant;
 use peeltrim::plan::{Algo, PlanError, Prepared};
+use peeltrim::scene::Scene;
+use peeltrim::vk::ExecStats;
 use peeltrim_reference::highlight::{highlight_at, highlight_pixel, Highlighted, HIGHLIGHT_RGB};
 use peeltrim_reference::interference::{render_interference, InterferingPair};
 use peeltrim_reference::layers::blend_colors;
 use peeltrim_reference::{render_layers_read, LayerLimit, LayerReading};
-use peeltrim::scene::Scene;
-use peeltrim::vk::ExecStats;
 
 /// What the command line asks of layers and transparency.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -21,13 +21,13 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::{DepthSetup, Frame, GpuRenderer, RenderError, RenderOptions};
+use glam::{DMat4, DVec3};
 use peeltrim::plan::{Algo, Plan, Prepared};
-use peeltrim_reference::precision::DepthPrecision;
 use peeltrim::scene::camera::DepthConvention;
 use peeltrim::scene::light::Light;
 use peeltrim::scene::{Camera, Projection, Scene};
 use peeltrim::vk::{self, shadow::ShadowParams};
-use glam::{DMat4, DVec3};
+use peeltrim_reference::precision::DepthPrecision;
 
 /// The shadow map's side over the eye image's larger side.
 pub const SHADOW_MAP_SCALE: u32 = 2;

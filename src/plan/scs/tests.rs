@@ -1,8 +1,8 @@
 //! Unit tests of the SCS plan builder (module documentation of [`super`]).
 use super::*;
 use crate::plan::goldfeather::CLIP_EPS;
-use crate::scene::fixtures::block_minus_spheres;
 use crate::plan::print::count;
+use crate::scene::fixtures::block_minus_spheres;
 
 /// Boxes along x: 1–2 overlap, 2–3 touch, 4 and 5 stand alone; 6–7 overlap.
 fn row_of_boxes() -> Prepared {

@@ -30,7 +30,7 @@ use gpu_allocator::MemoryLocation;
 use super::corners::{self, Layout};
 use super::ExecDesc;
 use crate::geom::ties::TieGaps;
-use crate::plan::visible_ties::visible_ties;
+use crate::plan::passes::SceneTies;
 use crate::scene::camera::DepthConvention;
 use crate::scene::{Aabb, Camera, Projection, Scene};
 use crate::vk::error::VkError;
@@ -63,12 +63,10 @@ pub(super) struct GpuScene {
     /// First vertex of the full-screen quad (6 vertices), in both vertex
     /// buffers.
     pub quad_first: u32,
-    /// Which meshes' faces could meet the tie rule (`geom::ties`); unknown
-    /// (every mesh possibly tied) once a mesh was moved.
-    pub ties: TieGaps,
-    /// Those of `ties` that may hold a visible point of the solid, which the
-    /// final shade reads (`plan::visible_ties`); unknown with `ties`.
-    pub shade_ties: TieGaps,
+    /// Which meshes' faces could meet the tie rule, and those the final
+    /// shade can see (`plan::passes::SceneTies`); unknown (every mesh
+    /// possibly tied) once a mesh was moved.
+    pub ties: SceneTies,
 }
 
 /// What the shaders and scissors derive from the camera.
@@ -174,14 +172,7 @@ impl GpuScene {
             &ne_bytes(&floats, f32::to_ne_bytes),
             vk::BufferUsageFlags::VERTEX_BUFFER,
         )?;
-        let refs: Vec<&crate::scene::Mesh> = meshes.iter().map(|(m, _)| *m).collect();
-        let ties = TieGaps::new(&refs);
-        // The solids' union (the opaque shade) and each solid (the layers).
-        let mut exprs: Vec<_> = crate::plan::union_of_solids(scene).into_iter().collect();
-        if scene.solids.len() > 1 {
-            exprs.extend(scene.solids.iter().map(|s| s.expr.clone()));
-        }
-        let shade_ties = visible_ties(&ties, &refs, &exprs, scene.primitives.len());
+        let ties = SceneTies::of_scene(scene);
         Ok(GpuScene {
             vertices,
             indices: index_buffer,
@@ -196,7 +187,6 @@ impl GpuScene {
             cam: camera_state(&scene.camera, desc, origin),
             quad_first,
             ties,
-            shade_ties,
         })
     }
 }
@@ -364,8 +354,11 @@ impl GpuScene {
         mapped[lit_at..lit_at + half].copy_from_slice(&bytes[half..]);
         scene.bounds[i] = mesh_bounds(mesh);
         // The gaps were the old geometry's: no draw is taken as tie-free now.
-        scene.ties = TieGaps::unknown(scene.ranges.len());
-        scene.shade_ties = scene.ties.clone();
+        let unknown = TieGaps::unknown(scene.ranges.len());
+        scene.ties = SceneTies {
+            ties: unknown.clone(),
+            shade_ties: unknown,
+        };
         Ok(())
     }
 }

@@ -2,6 +2,9 @@
 //! Timings vary from run to run; counts are deterministic (two runs of one plan
 //! on one scene and camera give equal counts).
 
+use crate::plan::lower::Lowering;
+use crate::plan::scissor::Rect;
+use crate::plan::{Cull, Draw};
 use serde::Serialize;
 
 /// GPU time and draw count of all `Step::Pass` groups of one name.
@@ -288,5 +291,27 @@ impl ExecStats {
         c.pipelines_created += o.pipelines_created;
         c.loop_iterations.extend_from_slice(&o.loop_iterations);
         c.samples_counted += o.samples_counted;
+    }
+}
+
+impl Counts {
+    /// Counts one draw `d` lowered `how` (`plan::lower`), cut to `scissor`.
+    pub(crate) fn count_lowering(&mut self, how: Lowering, d: &Draw, scissor: Rect) {
+        match how {
+            Lowering::Planned => {}
+            Lowering::TieRule => self.tie_rule_draws += 1,
+            Lowering::DirectShade => self.direct_shade_draws += 1,
+            Lowering::FixedFunction { shade: true } => {
+                self.shade_fixed_draws += 1;
+                self.shade_culled_draws += (d.cull != Cull::None) as u64;
+            }
+            Lowering::FixedFunction { shade: false } => self.tie_free_draws += 1,
+            Lowering::TieDepth => self.tie_depth_draws += 1,
+            Lowering::ShadeRule { culled } => {
+                self.shade_rule_draws += 1;
+                self.shade_rule_pixels += scissor.area();
+                self.shade_culled_draws += culled as u64;
+            }
+        }
     }
 }

@@ -5,10 +5,10 @@
 
 use super::gpu_scene::GpuScene;
 use super::{ExecDesc, Executor};
-use crate::plan::tie_free::{TieBand, TieFree};
+use crate::plan::passes::{self, PassFacts, View};
+use crate::plan::tie_free::TieFree;
 use crate::plan::Plan;
-use crate::scene::{Aabb, Camera};
-use crate::vk::scissor::bounds_rect;
+use crate::scene::Camera;
 
 /// Everything the tie-free decisions of a plan depend on
 /// ([`Executor::decide_ties`]): the plan, the camera, the scene (`epoch`) and
@@ -47,43 +47,35 @@ impl Executor {
         let (fixed, tie_depth) = (key.fixed_shade, key.tie_depth);
         self.tie_memo
             .get_or_insert_with(key, || {
-                tie_decisions(scene, &desc, bits, plan, fixed).with_tie_depth(tie_depth)
+                tie_decisions(scene, &desc, bits, plan, fixed, tie_depth)
             })
             .clone()
     }
 }
 
-/// `plan`'s tie-free decisions on `scene` under its camera (`plan::tie_free`),
-/// for a device snapping vertices to `subpixel_bits`; every final shade keeps
-/// the tie rule unless `fixed_shade`.
+/// `plan`'s tie-free decisions on `scene` under its camera: the tie-free
+/// pass (`plan::passes::tie_free`) on the uploaded scene's view.
 fn tie_decisions(
     scene: &GpuScene,
     desc: &ExecDesc,
     subpixel_bits: u32,
     plan: &Plan,
     fixed_shade: bool,
+    tie_depth: bool,
 ) -> TieFree {
-    let bounds = scene
-        .bounds
-        .iter()
-        .fold(crate::geom::bounds(&[]), |a, b| Aabb {
-            min: a.min.min(b.min),
-            max: a.max.max(b.max),
-        });
-    let band = TieBand::new(
-        &scene.camera,
-        desc.width,
-        desc.height,
+    let view = View {
+        camera: &scene.camera,
+        view: scene.cam.view,
+        proj: scene.cam.proj,
+        width: desc.width,
+        height: desc.height,
+        reversed_z: desc.reversed_z,
+        bounds: &scene.bounds,
+    };
+    let facts = PassFacts {
         subpixel_bits,
-        desc.reversed_z,
-        &bounds,
-    );
-    let (w, h) = (desc.width, desc.height);
-    let (view, proj, near) = (scene.cam.view, scene.cam.proj, scene.camera.near);
-    let project = |b: &Aabb| bounds_rect(view, proj, near, std::slice::from_ref(b), w, h);
-    let ties = TieFree::new(&scene.ties, &scene.shade_ties, &band, plan, &project);
-    match fixed_shade {
-        true => ties,
-        false => ties.keep_shade_rule(),
-    }
+        depth_equal_shades: fixed_shade,
+        tie_depth,
+    };
+    passes::tie_free(plan, &view, &scene.ties, &facts)
 }

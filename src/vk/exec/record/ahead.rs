@@ -15,7 +15,8 @@
 //! the final shade's depth-equal draws (one render pass where there were two).
 //! The decision over the steps' summaries ([`Ahead`]) is pure ([`widened`]).
 
-use super::{lower, BlockKey, Recorder};
+use super::{BlockKey, Recorder};
+use crate::plan::lower;
 use crate::plan::usage::{self, Resource, Usage, Uses};
 use crate::plan::{Draw, Step};
 use crate::vk::scissor::Rect;

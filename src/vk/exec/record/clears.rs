@@ -21,11 +21,12 @@
 //! the calling thread (`rep stos` rows, ~9% of a small CST frame's CPU before
 //! this), so the region is what it costs (docs/executor.md).
 
+use crate::plan::lower;
 use std::collections::VecDeque;
 
 use ash::vk;
 
-use super::{lower, BlockKey, ClearMode, Recorder};
+use super::{BlockKey, ClearMode, Recorder};
 use crate::plan::reach::{self, cleared, ClearNeed, FrameReach};
 use crate::plan::usage::{Resource, Usage};
 use crate::plan::{Clear, Draw};

@@ -45,7 +45,6 @@ mod blocks;
 mod clears;
 mod fullscreen;
 mod host;
-mod lower;
 mod push;
 mod shade;
 mod step;

@@ -13,9 +13,9 @@
 
 use std::collections::VecDeque;
 
-use super::lower::Lowering;
 use super::{BlockKey, Recorder};
 use crate::plan::direct_shade::DirectShades;
+use crate::plan::lower::Lowering;
 use crate::plan::reach::READ_MARGIN;
 use crate::plan::tie_free::ShadeCopy;
 use crate::plan::tie_zones::{self, MAX_RULE_RECTS};
@@ -121,7 +121,9 @@ impl Recorder<'_> {
             .filter(|r| !r.is_empty())
             .collect();
         for &r in &rects {
-            Lowering::ShadeRule { culled }.count(rule, r, &mut self.stats.counts);
+            self.stats
+                .counts
+                .count_lowering(Lowering::ShadeRule { culled }, rule, r);
             self.draw_in(rule, r)?;
         }
         for r in tie_zones::subtract(scissor, &rects) {

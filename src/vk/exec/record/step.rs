@@ -5,8 +5,8 @@
 
 use ash::vk;
 
-use super::lower::{self, RecordedDraw};
 use super::{state, BlockKey, Recorder};
+use crate::plan::lower::{self, RecordedDraw};
 use crate::plan::usage::{self, Resource, Usage};
 use crate::plan::{Draw, Fragment, Geometry, Scissor, Step};
 use crate::vk::conv;
@@ -143,7 +143,7 @@ impl Recorder<'_> {
         if seen.is_empty() {
             return Ok(false);
         }
-        how.count(draw, seen, &mut self.stats.counts);
+        self.stats.counts.count_lowering(how, draw, seen);
         self.draw_in(draw, seen)?;
         Ok(true)
     }

@@ -1,5 +1,6 @@
-//! One lowering of a plan draw into what the recorder records:
-//! `Recorder::draw` records this answer and the look-ahead
+//! The lowering pass: one plan draw becomes what is recorded for it.
+//! `Recorder::draw` records this answer, `peeltrim plan` prints it (`passes`),
+//! and the look-ahead
 //! (`record/ahead.rs`) summarizes the same answer, so the two can never
 //! disagree about which block a draw asks for. In order:
 //!
@@ -21,14 +22,13 @@ use std::borrow::Cow;
 
 use crate::plan::direct_shade::DirectShades;
 use crate::plan::reach;
+use crate::plan::scissor::{Rect, RectUnions};
 use crate::plan::tie_free::TieFree;
 use crate::plan::{Cull, Draw, Fragment, Geometry};
-use crate::vk::exec::stats::Counts;
-use crate::vk::scissor::{Rect, RectUnions};
 
 /// What the recorder records for one plan draw.
 #[derive(Clone, Debug, PartialEq)]
-pub(super) enum RecordedDraw<'a> {
+pub(crate) enum RecordedDraw<'a> {
     /// Nothing: its scissor is empty on screen (no pixel could change, no
     /// sample could pass).
     OffScreen,
@@ -49,7 +49,7 @@ pub(super) enum RecordedDraw<'a> {
 
 /// How a draw recorded as one draw came to be what it is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Lowering {
+pub(crate) enum Lowering {
     /// As planned (a dead texture write already depth-only), no tie rule.
     Planned,
     /// A parity, clip, merge or peel draw keeping its tie rule.
@@ -78,39 +78,17 @@ impl RecordedDraw<'_> {
     }
 }
 
-impl Lowering {
-    /// Counts one draw `d` lowered this way, cut to `scissor`.
-    pub fn count(self, d: &Draw, scissor: Rect, counts: &mut Counts) {
-        match self {
-            Lowering::Planned => {}
-            Lowering::TieRule => counts.tie_rule_draws += 1,
-            Lowering::DirectShade => counts.direct_shade_draws += 1,
-            Lowering::FixedFunction { shade: true } => {
-                counts.shade_fixed_draws += 1;
-                counts.shade_culled_draws += (d.cull != Cull::None) as u64;
-            }
-            Lowering::FixedFunction { shade: false } => counts.tie_free_draws += 1,
-            Lowering::TieDepth => counts.tie_depth_draws += 1,
-            Lowering::ShadeRule { culled } => {
-                counts.shade_rule_draws += 1;
-                counts.shade_rule_pixels += scissor.area();
-                counts.shade_culled_draws += culled as u64;
-            }
-        }
-    }
-}
-
 /// Whether `draw`'s texture write is dead, taking the next of
 /// `plan::reach::FrameReach::texture_writes`' answers (`next`: one per draw
 /// that writes a texture, in order; none planned: kept).
-pub(super) fn dead_write(draw: &Draw, next: impl FnOnce() -> Option<bool>) -> bool {
+pub(crate) fn dead_write(draw: &Draw, next: impl FnOnce() -> Option<bool>) -> bool {
     reach::written_texture(draw).is_some() && next() == Some(false)
 }
 
 /// What the recorder records for `draw` (its texture write dead when
 /// `dead_write`), cut to `scissor` on screen, under tie decisions `ties` and
 /// direct shades `direct` ([module doc](self)).
-pub(super) fn lower<'a>(
+pub(crate) fn lower<'a>(
     draw: &'a Draw,
     dead_write: bool,
     scissor: Rect,
@@ -184,7 +162,7 @@ pub(super) fn lower<'a>(
 /// cutter that is never positive shows its inside (its back faces, the front
 /// ones culled) only through an opening of a product it cuts. A draw that
 /// keeps the tie rule may win a tie on another product's face, anywhere.
-pub(super) fn seen_inside(d: &Draw, how: Lowering, scissor: Rect, openings: &RectUnions) -> Rect {
+pub(crate) fn seen_inside(d: &Draw, how: Lowering, scissor: Rect, openings: &RectUnions) -> Rect {
     match (how, d.cull, &d.geometry) {
         (Lowering::FixedFunction { shade: true }, Cull::Front, Geometry::Mesh(c)) => {
             match openings.opening(*c) {

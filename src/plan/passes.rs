@@ -1,0 +1,325 @@
+//! The plan passes: the fixed pipeline that turns an algorithm's plan into
+//! what the executor records, under a device profile and a view. Each pass is a
+//! pure function of the plan, the scene's geometry, the camera and the
+//! profile's facts ([`PassFacts`]); the executor runs these same functions
+//! (kept per plan and camera, `plan::memo`) and records their answers, and
+//! `peeltrim plan --device-profile P` prints them ([`lower_plan`]). In order:
+//!
+//! 1. **scissors**: each mesh's screen rectangle, its world box clipped to the
+//!    near plane and projected ([`scissor::bounds_rect`]); a draw's scissor is
+//!    the union of its meshes' ([`RectUnions::scissor`]);
+//! 2. **tie-free decisions** ([`tie_free`], `plan::tie_free`): which tolerant
+//!    parity, clip, peel and shade draws cannot meet the tie rule of
+//!    coincident faces (Rossignac & Wu, §4: the ε-tolerant depth comparisons)
+//!    under this camera and snapping, and so run as plain depth tests; the
+//!    final shade's depth-equal draws only where the profile's rasterizer
+//!    interpolates depth from unsnapped vertices;
+//! 3. **direct shades** (`plan::direct_shade`): a one-primitive product is
+//!    shaded in its own visible-surface draw, and the final shade skips it;
+//! 4. **lowering** (`plan::lower`): each draw becomes what is recorded — off
+//!    screen, dropped, a direct shade, fixed-function, tie-depth, or the tie
+//!    rule (over tie zones only, `plan::tie_zones`).
+//!
+//! One pass runs at record time because it depends on what earlier frames
+//! left in the output images: the reach of clears and copies
+//! (`plan::reach`), which cuts each to the pixels later steps read.
+
+use std::borrow::Cow;
+
+use glam::DMat4;
+
+use super::direct_shade::DirectShades;
+use super::lower::{lower, Lowering, RecordedDraw};
+use super::scissor::{self, Rect, RectUnions};
+use super::tie_free::{TieBand, TieFree};
+use super::visible_ties::visible_ties;
+use super::{Plan, Step};
+use crate::geom::ties::TieGaps;
+use crate::scene::camera::DepthConvention;
+use crate::scene::{Aabb, Camera, Mesh, Scene};
+
+/// What the passes need of a device profile (`vk::DeviceProfile`) and the
+/// depth set-up: the facts that change what is recorded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PassFacts {
+    /// Subpixel bits the rasterizer snaps vertices to (the tie band's width).
+    pub subpixel_bits: u32,
+    /// The final shade may draw tie-free meshes as depth-equal draws: the
+    /// raster depth is as exact as the tie rule's plane depth (a rasterizer
+    /// that interpolates depth from unsnapped vertices, on D32S8).
+    pub depth_equal_shades: bool,
+    /// Parity and clip draws that may meet a tie run the rule as their depth
+    /// test (`Fragment::TieDepth`): the depth image holds the texture's float
+    /// (D32S8).
+    pub tie_depth: bool,
+}
+
+/// Which meshes' faces could meet the tie rule (`geom::ties`), and those of
+/// them that may hold a visible point of the solid (`plan::visible_ties`),
+/// which the final shade reads.
+#[derive(Clone, Debug)]
+pub struct SceneTies {
+    /// Every mesh's possible tie partners.
+    pub ties: TieGaps,
+    /// The ties the final shade can see.
+    pub shade_ties: TieGaps,
+}
+
+impl SceneTies {
+    /// The ties of `scene`'s primitives, then its surfaces (the executor's
+    /// mesh order).
+    pub fn of_scene(scene: &Scene) -> SceneTies {
+        let meshes = scene_meshes(scene);
+        let ties = TieGaps::new(&meshes);
+        // The solids' union (the opaque shade) and each solid (the layers).
+        let mut exprs: Vec<_> = super::union_of_solids(scene).into_iter().collect();
+        if scene.solids.len() > 1 {
+            exprs.extend(scene.solids.iter().map(|s| s.expr.clone()));
+        }
+        let shade_ties = visible_ties(&ties, &meshes, &exprs, scene.primitives.len());
+        SceneTies { ties, shade_ties }
+    }
+}
+
+/// `scene`'s meshes in the executor's order: primitives, then surfaces.
+pub(crate) fn scene_meshes(scene: &Scene) -> Vec<&Mesh> {
+    let prims = scene.primitives.iter().map(|p| &p.mesh);
+    prims
+        .chain(scene.surfaces.iter().map(|s| &s.mesh))
+        .collect()
+}
+
+/// The view the passes decide for: the camera and its matrices, the image
+/// size and depth convention, and each mesh's world box.
+#[derive(Clone, Copy, Debug)]
+pub struct View<'a> {
+    /// The camera (near plane, projection).
+    pub camera: &'a Camera,
+    /// World to view.
+    pub view: DMat4,
+    /// View to clip, in the depth convention of `reversed_z`.
+    pub proj: DMat4,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Reversed depth (near = 1).
+    pub reversed_z: bool,
+    /// Each mesh's world box, in the executor's mesh order.
+    pub bounds: &'a [Aabb],
+}
+
+impl View<'_> {
+    /// Pass 1: each mesh's screen rectangle.
+    pub fn mesh_rects(&self) -> Vec<Rect> {
+        let (w, h) = (self.width, self.height);
+        let (view, proj, near) = (self.view, self.proj, self.camera.near);
+        let project =
+            |b: &Aabb| scissor::bounds_rect(view, proj, near, std::slice::from_ref(b), w, h);
+        self.bounds.iter().map(project).collect()
+    }
+}
+
+/// Pass 2: `plan`'s tie-free decisions under `view` on a device with `facts`
+/// (`plan::tie_free`): every final shade keeps the tie rule unless
+/// `facts.depth_equal_shades`.
+pub fn tie_free(plan: &Plan, view: &View, ties: &SceneTies, facts: &PassFacts) -> TieFree {
+    let all = view
+        .bounds
+        .iter()
+        .fold(crate::geom::bounds(&[]), |a, b| Aabb {
+            min: a.min.min(b.min),
+            max: a.max.max(b.max),
+        });
+    let band = TieBand::new(
+        view.camera,
+        view.width,
+        view.height,
+        facts.subpixel_bits,
+        view.reversed_z,
+        &all,
+    );
+    let (w, h) = (view.width, view.height);
+    let (v, p, near) = (view.view, view.proj, view.camera.near);
+    let project = |b: &Aabb| scissor::bounds_rect(v, p, near, std::slice::from_ref(b), w, h);
+    let decided = TieFree::new(&ties.ties, &ties.shade_ties, &band, plan, &project);
+    let decided = match facts.depth_equal_shades {
+        true => decided,
+        false => decided.keep_shade_rule(),
+    };
+    decided.with_tie_depth(facts.tie_depth)
+}
+
+/// Pass 3: the one-primitive products of `steps` shaded in their direct draws.
+pub fn direct_shades(steps: &[&Step], output_ds: u8, ties: &TieFree) -> DirectShades {
+    DirectShades::decide(steps, output_ds, |m, eps| ties.shade_depth_equal(m, eps))
+}
+
+/// One draw of a plan as the passes lower it: where it is in the plan and
+/// what is recorded for it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoweredDraw {
+    /// Index of the draw among the plan's draws, loop bodies once, in order.
+    pub index: usize,
+    /// The plan's pass the draw belongs to (its last `Step::Pass`).
+    pub pass: String,
+    /// What is recorded, in words.
+    pub recorded: String,
+}
+
+/// Every pass on `plan` for `scene` at `width`×`height` on a device with
+/// `facts`: each draw's lowering, loop bodies listed once. The printout of
+/// `peeltrim plan --device-profile`. Reach (what clears and copies keep) is
+/// left out: it depends on earlier frames.
+pub fn lower_plan(
+    plan: &Plan,
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    reversed_z: bool,
+    facts: &PassFacts,
+) -> Vec<LoweredDraw> {
+    let convention = match reversed_z {
+        true => DepthConvention::Reversed,
+        false => DepthConvention::Standard,
+    };
+    let camera = &scene.camera;
+    let bounds: Vec<Aabb> = scene_meshes(scene)
+        .iter()
+        .map(|m| crate::geom::bounds(&m.positions))
+        .collect();
+    let view = View {
+        camera,
+        view: camera.view(),
+        proj: camera.proj(width as f64 / height as f64, convention),
+        width,
+        height,
+        reversed_z,
+        bounds: &bounds,
+    };
+    let rects = RectUnions::new(&view.mesh_rects());
+    let ties = tie_free(plan, &view, &SceneTies::of_scene(scene), facts);
+    let mut flat = Vec::new();
+    for s in &plan.steps {
+        flatten(s, &mut flat);
+    }
+    let direct = direct_shades(&flat, plan.output_ds, &ties);
+    let mut out = Vec::new();
+    let mut pass = String::new();
+    for s in flat {
+        match s {
+            Step::Pass(p) => pass = p.to_string(),
+            Step::Draw(d) => {
+                let rect = rects.scissor(&d.scissor, width, height);
+                let recorded = describe(&lower(d, false, rect, &ties, &direct));
+                out.push(LoweredDraw {
+                    index: out.len(),
+                    pass: pass.clone(),
+                    recorded,
+                });
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// `s` and the steps of its loop bodies, once each, in order.
+fn flatten<'a>(s: &'a Step, out: &mut Vec<&'a Step>) {
+    match s {
+        Step::Loop(l) => l.head.iter().chain(&l.tail).for_each(|b| flatten(b, out)),
+        other => out.push(other),
+    }
+}
+
+/// What is recorded for a lowered draw, in words.
+pub(crate) fn describe(d: &RecordedDraw) -> String {
+    let draw = |d: &Cow<super::Draw>| format!("{:?} {:?}", d.fragment, d.depth.compare);
+    match d {
+        RecordedDraw::OffScreen => "nothing (off screen)".into(),
+        RecordedDraw::Dropped => "nothing (its product is shaded by its direct draw)".into(),
+        RecordedDraw::One(d, how) => {
+            let why = match how {
+                Lowering::Planned => "as planned",
+                Lowering::TieRule => "tie rule",
+                Lowering::DirectShade => "direct shade",
+                Lowering::FixedFunction { shade: true } => "depth-equal shade",
+                Lowering::FixedFunction { shade: false } => "tie-free: plain depth test",
+                Lowering::TieDepth => "tie rule as the depth test",
+                Lowering::ShadeRule { culled: true } => {
+                    "shade with the tie rule, hidden faces culled"
+                }
+                Lowering::ShadeRule { culled: false } => "shade with the tie rule",
+            };
+            format!("{why}: {}", draw(d))
+        }
+        RecordedDraw::Zoned { rule, zones, .. } => format!(
+            "tie rule in {} zone(s), depth-equal elsewhere: {}",
+            zones.len(),
+            draw(rule)
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::{build, Algo, Prepared};
+    use crate::scene::fixtures::block_minus_spheres;
+
+    const CPU: PassFacts = PassFacts {
+        subpixel_bits: 8,
+        depth_equal_shades: true,
+        tie_depth: true,
+    };
+    const HARDWARE: PassFacts = PassFacts {
+        depth_equal_shades: false,
+        ..CPU
+    };
+
+    fn lowered(algo: Algo, facts: &PassFacts) -> Vec<LoweredDraw> {
+        let scene = block_minus_spheres(4);
+        let plan = build(algo, &Prepared::new(&scene).unwrap()).unwrap();
+        lower_plan(&plan, &scene, 200, 150, true, facts)
+    }
+
+    #[test]
+    fn every_draw_of_the_plan_is_lowered_once() {
+        let scene = block_minus_spheres(4);
+        let plan = build(Algo::Goldfeather, &Prepared::new(&scene).unwrap()).unwrap();
+        let mut flat = Vec::new();
+        plan.steps.iter().for_each(|s| flatten(s, &mut flat));
+        let draws = flat.iter().filter(|s| matches!(s, Step::Draw(_))).count();
+        let l = lower_plan(&plan, &scene, 200, 150, true, &CPU);
+        assert_eq!(l.len(), draws);
+        assert!(l.iter().enumerate().all(|(i, d)| d.index == i));
+    }
+
+    #[test]
+    fn only_a_profile_with_unsnapped_depth_gets_depth_equal_shades() {
+        for algo in [Algo::Goldfeather, Algo::CstI, Algo::Scs] {
+            let cpu = lowered(algo, &CPU);
+            let hw = lowered(algo, &HARDWARE);
+            assert_eq!(cpu.len(), hw.len(), "{algo}");
+            let equal = |l: &[LoweredDraw]| {
+                l.iter()
+                    .filter(|d| {
+                        d.recorded.starts_with("depth-equal shade")
+                            || d.recorded.contains("depth-equal elsewhere")
+                    })
+                    .count()
+            };
+            assert!(equal(&cpu) > 0, "{algo}: {cpu:#?}");
+            assert_eq!(equal(&hw), 0, "{algo}: {hw:#?}");
+        }
+    }
+
+    #[test]
+    fn the_spheres_cannot_tie_so_their_parity_draws_are_plain_depth_tests() {
+        let l = lowered(Algo::Goldfeather, &HARDWARE);
+        assert!(
+            l.iter().any(|d| d.recorded.starts_with("tie-free")),
+            "{l:#?}"
+        );
+    }
+}
