@@ -43,6 +43,7 @@ pub enum VkError {
     #[error("{0}")]
     Config(String),
 
+    /// The device lacks a format or feature the work needs.
     #[error("the device does not support {0}")]
     Unsupported(String),
     /// A plan (or a call sequence) the executor cannot run.

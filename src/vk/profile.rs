@@ -93,6 +93,7 @@ pub struct DeviceFacts {
     pub cpu: bool,
     /// `subPixelPrecisionBits`.
     pub subpixel_bits: u32,
+    /// The depth-stencil formats the executor can use.
     pub depth_formats: DepthFormats,
 }
 
@@ -100,6 +101,7 @@ pub struct DeviceFacts {
 /// from the physical device ([`DeviceProfile::detect`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DeviceProfile {
+    /// A CPU rasterizer or a hardware GPU.
     pub kind: ProfileKind,
     /// The raster depth is interpolated from unsnapped vertex positions, so it
     /// is as exact at the pixel centre as the tie rule's plane depth: the final
