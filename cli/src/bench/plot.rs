@@ -272,6 +272,15 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
     Ok(files)
 }
 
+/// A log axis's tick: `0.1`, `1`, `1000`, `1e-4`.
+fn tick(v: f64) -> String {
+    if (1e-3..1e6).contains(&v) {
+        format!("{}", (v * 1e3).round() / 1e3)
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
 /// A percentage for an axis label: `10%`, `0.5%`, `1e-3%`.
 fn percent(v: f64) -> String {
     if v >= 1.0 {
@@ -336,6 +345,8 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
     } else {
         (1e-3, 1.0)
     };
+    // A hair wider, so rounding leaves the end decades' ticks inside.
+    let (ylo, yhi) = (ylo * 0.999, yhi * 1.001);
     let mut series: Vec<(&str, &str)> = pts.iter().map(|p| (p.2, p.3)).collect();
     series.sort_by_key(|&(a, d)| (algo_style(a).1, d));
     series.dedup();
@@ -528,7 +539,8 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
     // Whole decades, at least two on each axis, so every axis has labelled ticks.
     let decades = |lo: f64, hi: f64| {
         let l = 10f64.powf(lo.log10().floor());
-        (l, 10f64.powf(hi.log10().ceil()).max(l * 100.0))
+        // A hair wider, so rounding leaves the end decades' ticks inside.
+        (l * 0.999, 10f64.powf(hi.log10().ceil()).max(l * 100.0) * 1.001)
     };
     let (x0, x1) = decades(xmin, xmax);
     let (y0, y1) = decades(ymin, ymax);
@@ -550,8 +562,8 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
         .configure_mesh()
         .x_desc("n (primitives, log)")
         .y_desc("median frame ms (log)")
-        .x_label_formatter(&|v| format!("{v}"))
-        .y_label_formatter(&|v| format!("{v}"))
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
         .label_style(("sans-serif", 13))
         .draw()
         .map_err(|e| err(path, e))?;
