@@ -90,18 +90,19 @@ struct LayerArgs {
     /// where hidden (comma-separated primitive names)
     #[arg(long, value_name = "NAME[,NAME]", value_delimiter = ',')]
     highlight: Vec<String>,
-    /// How a union of products is layered (Kirsch, Nienhaus & Döllner §7): `solid`
-    /// (one volume, the reference's default) or `products` (each on its own,
-    /// kirsch's)
+    // Kirsch, Nienhaus & Döllner §7.
+    /// How a union of products is layered: `solid` (the union peeled as one
+    /// volume; the reference's default) or `products` (each product peeled on
+    /// its own, as kirsch does)
     #[arg(long, value_name = "solid|products", value_parser = parse_reading)]
     layer_reading: Option<peeltrim_reference::LayerReading>,
     /// Assemblies: solids semi-transparent, where two solids intersect opaque in
     /// red; stats.json lists the interfering pairs (same as [render] interference = true)
     #[arg(long)]
     interference: bool,
+    // Kirsch, Nienhaus & Döllner §5.
     /// How color.png shows the layers (overrides [render] style): opaque,
-    /// transparent, blueprint, wireframe or blueprint-transparent (Kirsch,
-    /// Nienhaus & Döllner §5)
+    /// transparent, blueprint, wireframe or blueprint-transparent
     #[arg(long, value_parser = peeltrim::scene::style::parse_style)]
     style: Option<peeltrim::scene::style::Style>,
     /// Edge rule: a depth jump larger than this fraction of the nearer depth is a
