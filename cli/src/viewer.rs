@@ -267,7 +267,7 @@ impl App {
         let (ctx, presenter) = Presenter::new(&desc, display, handle, [inner.width, inner.height])?;
         let (depth, why) = self.opts.depth.resolve_on(&ctx, self.opts.depth_fallback);
         if let Some(why) = why {
-            eprintln!("peeltrim view: {why}");
+            eprintln!("peeltrim: warning: {why}");
         }
         self.opts.depth = depth;
         eprintln!(
@@ -448,7 +448,7 @@ impl App {
             match self.show_csg(size) {
                 Ok(s) => s,
                 Err(ViewerError::Embed(e @ (EmbedError::Plan(_) | EmbedError::Algo(_)))) => {
-                    eprintln!("peeltrim view: {}: {e}", self.algo);
+                    eprintln!("peeltrim: warning: {} cannot draw this scene: {e}", self.algo);
                     self.failed = Some(self.algo);
                     Presented::Shown
                 }
