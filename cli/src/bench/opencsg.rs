@@ -565,6 +565,8 @@ mod tests {
             (12.0, 9.0, 15.0)
         );
         assert_eq!((gf.frames, gf.gpu_ms_iqr), (10, 2.0));
+        // The frame fields hold the same wall time as for our runs.
+        assert_eq!((gf.frame_ms_median, gf.frame_ms_iqr), (12.0, 2.0));
         // The later run failed: the earlier one's figures stand.
         let scs = &merged[1].0;
         assert_eq!((scs.algo.as_str(), scs.gpu_ms_median), ("opencsg-scs", 4.0));

@@ -586,3 +586,33 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
     root.present().map_err(|e| err(path, e))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every algorithm and OpenCSG variant has a marker of its own and a
+    /// colour of its own.
+    #[test]
+    fn each_variant_has_its_own_marker_and_colour() {
+        let mut names: Vec<String> = ALGOS.iter().map(|a| a.to_string()).collect();
+        for v in ["goldfeather", "scs", "automatic"] {
+            names.push(format!("{}{v}", super::super::opencsg::PREFIX));
+        }
+        let styles: Vec<(RGBColor, usize)> = names.iter().map(|n| algo_style(n)).collect();
+        for (i, a) in styles.iter().enumerate() {
+            for (j, b) in styles.iter().enumerate().skip(i + 1) {
+                assert_ne!(a.1, b.1, "{} and {} share a marker", names[i], names[j]);
+                assert_ne!(a.0, b.0, "{} and {} share a colour", names[i], names[j]);
+            }
+        }
+        assert!(styles.iter().all(|s| s.1 < 18), "18 markers");
+    }
+
+    #[test]
+    fn log_ticks_read_short() {
+        assert_eq!(tick(0.1 * 1.0000001), "0.1");
+        assert_eq!(tick(1000.0), "1000");
+        assert_eq!(tick(1e-5), "1e-5");
+    }
+}
