@@ -134,6 +134,11 @@ pub fn pick(
         "the speckle-free algorithms"
     };
     p.reason = match runner_up {
+        Some((r, rms)) if (rms - ms).abs() < 1e-3 => format!(
+            "lowest estimated frame time among {among}: {ms:.1} ms, as for {r} (the same \
+             work; a tie goes to the earlier of cst-i, cst-z, cst-g, blister, goldfeather, \
+             goldfeather-layered), estimated from the plan's draws, triangles and pixels"
+        ),
         Some((r, rms)) => format!(
             "lowest estimated frame time among {among}: {ms:.1} ms against {rms:.1} ms for {r}, \
              estimated from the plan's draws, triangles and pixels"
