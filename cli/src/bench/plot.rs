@@ -281,14 +281,14 @@ fn tick(v: f64) -> String {
     }
 }
 
-/// A percentage for an axis label: `10%`, `0.5%`, `1e-3%`.
+/// A percentage for an axis label: `10%`, `0.5%`, `0.001%`, `1e-4%`.
 fn percent(v: f64) -> String {
     if v >= 1.0 {
         format!("{v:.0}%")
-    } else if v >= 0.01 {
+    } else if v >= 0.000_999 {
         format!(
             "{}%",
-            format!("{v:.2}")
+            format!("{v:.3}")
                 .trim_end_matches('0')
                 .trim_end_matches('.')
         )
