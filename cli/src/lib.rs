@@ -4,6 +4,7 @@
 //! calls into these; the GPU tests use them to run what the binary runs.
 #![warn(unsafe_op_in_unsafe_fn)]
 
+pub mod auto;
 pub mod bench;
 pub mod output;
 pub mod render;

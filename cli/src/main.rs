@@ -69,11 +69,11 @@ struct GpuArgs {
     max_products: usize,
 }
 
-/// Layers of the solid and transparency (docs/transparency-and-blueprints.md).
+/// Layers of the solid and transparency.
 #[derive(clap::Args, Clone)]
 struct LayerArgs {
     /// Peel at most N layers of the solid (N >= 1; default: all)
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, value_name = "N", value_parser = parse_layers, allow_hyphen_values = true)]
     layers: Option<u32>,
     /// Stop peeling at the first layer covering fewer than N pixels
     #[arg(long, value_name = "N", default_value_t = 0)]
@@ -90,18 +90,19 @@ struct LayerArgs {
     /// where hidden (comma-separated primitive names)
     #[arg(long, value_name = "NAME[,NAME]", value_delimiter = ',')]
     highlight: Vec<String>,
-    /// How a union of products is layered (Kirsch, Nienhaus & Döllner §7): `solid`
-    /// (one volume, the reference's default) or `products` (each on its own,
-    /// kirsch's)
+    // Kirsch, Nienhaus & Döllner §7.
+    /// How a union of products is layered: `solid` (the union peeled as one
+    /// volume; the reference's default) or `products` (each product peeled on
+    /// its own, as kirsch does)
     #[arg(long, value_name = "solid|products", value_parser = parse_reading)]
     layer_reading: Option<peeltrim_reference::LayerReading>,
     /// Assemblies: solids semi-transparent, where two solids intersect opaque in
     /// red; stats.json lists the interfering pairs (same as [render] interference = true)
     #[arg(long)]
     interference: bool,
+    // Kirsch, Nienhaus & Döllner §5.
     /// How color.png shows the layers (overrides [render] style): opaque,
-    /// transparent, blueprint, wireframe or blueprint-transparent (Kirsch,
-    /// Nienhaus & Döllner §5)
+    /// transparent, blueprint, wireframe or blueprint-transparent
     #[arg(long, value_parser = peeltrim::scene::style::parse_style)]
     style: Option<peeltrim::scene::style::Style>,
     /// Edge rule: a depth jump larger than this fraction of the nearer depth is a
@@ -111,6 +112,88 @@ struct LayerArgs {
     /// Edge rule: normals further apart than this many degrees make a crease edge
     #[arg(long, value_name = "DEGREES", default_value_t = 30.0)]
     edge_angle: f64,
+}
+
+/// A usage error (a bad flag or value): exit status 2, as clap's own.
+#[derive(Debug)]
+struct Usage(String);
+
+impl std::fmt::Display for Usage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Usage {}
+
+/// Returns a [`Usage`] error from the enclosing function.
+macro_rules! usage {
+    ($($t:tt)*) => {
+        return Err(Usage(format!($($t)*)).into())
+    };
+}
+
+/// `--algo`: one algorithm, or `auto` (picked per scene).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum AlgoArg {
+    Auto,
+    One(Algo),
+}
+
+impl AlgoArg {
+    /// The algorithm: the one given, or auto's pick for `scene` (drawn in
+    /// layers when `layered`), printed on stderr.
+    fn resolve(
+        self,
+        scene: &scene::Scene,
+        layered: bool,
+        build: &peeltrim::plan::BuildOptions,
+    ) -> (Algo, Option<peeltrim_cli::auto::AutoPick>) {
+        match self {
+            AlgoArg::One(a) => (a, None),
+            AlgoArg::Auto => match peeltrim::plan::Prepared::new(scene) {
+                Ok(prep) => {
+                    let p = peeltrim_cli::auto::pick(
+                        scene,
+                        &prep,
+                        scene.render.width,
+                        scene.render.height,
+                        layered,
+                        build,
+                    );
+                    eprintln!("peeltrim: auto: {} ({})", p.picked, p.reason);
+                    (p.algo(), Some(p))
+                }
+                // The scene cannot be prepared: CST-I reports why.
+                Err(_) => (Algo::CstI, None),
+            },
+        }
+    }
+}
+
+fn parse_algo_arg(s: &str) -> Result<AlgoArg, String> {
+    if s == "auto" {
+        return Ok(AlgoArg::Auto);
+    }
+    parse_algo(s).map(AlgoArg::One)
+}
+
+/// A whole number of at least 1, for `what`.
+fn positive(s: &str, what: &str) -> Result<u32, String> {
+    match s.trim().parse::<u64>() {
+        Ok(n) if (1..=u32::MAX as u64).contains(&n) => Ok(n as u32),
+        _ => Err(format!(
+            "'{s}' is not a number of {what}: give a whole number of at least 1, e.g. 3"
+        )),
+    }
+}
+
+fn parse_layers(s: &str) -> Result<u32, String> {
+    positive(s, "layers")
+}
+
+fn parse_frames(s: &str) -> Result<u32, String> {
+    positive(s, "frames")
 }
 
 fn parse_reading(s: &str) -> Result<peeltrim_reference::LayerReading, String> {
@@ -170,12 +253,20 @@ fn parse_eps(s: &str) -> Result<f32, String> {
 enum Cmd {
     /// Render a scene with one algorithm into color.png, depth.npy, prim.png, stats.json
     Render {
+        /// The scene: a .toml scene file, or an OpenSCAD model exported as .csg
+        /// (File > Export > Export as CSG)
         scene: PathBuf,
-        #[arg(long, default_value = "reference", value_parser = parse_algo)]
-        algo: Algo,
+        /// The algorithm: auto (per scene, the one expected to be fastest among
+        /// the speckle-free ones; stats.json says which and why), reference (the
+        /// exact CPU ray caster), or a GPU algorithm: goldfeather,
+        /// goldfeather-layered, trickle, blister, cst-z, cst-i, cst-g,
+        /// blister-paper, kirsch, scs
+        #[arg(long, default_value = "auto", value_parser = parse_algo_arg)]
+        algo: AlgoArg,
         /// Image size WxH (overrides [render] width/height)
-        #[arg(long, value_parser = parse_size)]
+        #[arg(long, value_parser = parse_size, allow_hyphen_values = true)]
         size: Option<(u32, u32)>,
+        /// The folder to write color.png, depth.npy, prim.png and stats.json into
         #[arg(long, default_value = "out")]
         out: PathBuf,
         #[command(flatten)]
@@ -193,20 +284,27 @@ enum Cmd {
         scad: ScadArgs,
     },
     /// Compare two render output directories (depth.npy and prim.png)
-    Compare { a: PathBuf, b: PathBuf },
+    Compare {
+        /// A folder `render` wrote
+        a: PathBuf,
+        /// Another folder `render` wrote, of the same size
+        b: PathBuf,
+    },
     /// Time algorithms on scenes (speed against error); writes results.json,
     /// results.csv, summary.md, plots/ and images/ into --out
     Bench {
-        /// Scene files (default: every scenes/*.toml and scenes/openscad/*.csg)
+        /// Scene files, .toml or OpenSCAD .csg (default: every scenes/*.toml and
+        /// scenes/openscad/*.csg of the source tree)
         scenes: Vec<PathBuf>,
-        /// Comma-separated algorithms, or "all"
+        /// Comma-separated algorithms, or "all"; the tables mark the row
+        /// `--algo auto` would pick for each scene
         #[arg(long, default_value = "all")]
         algos: String,
         /// Image size WxH (overrides each scene's [render] size; default 400x400)
-        #[arg(long, value_parser = parse_size)]
+        #[arg(long, value_parser = parse_size, allow_hyphen_values = true)]
         size: Option<(u32, u32)>,
-        /// Timed frames per run (after warm-up)
-        #[arg(long, default_value_t = 10)]
+        /// Timed frames per run (after warm-up), at least 1
+        #[arg(long, default_value = "10", value_parser = parse_frames, allow_hyphen_values = true)]
         frames: u32,
         /// Untimed warm-up frames per run
         #[arg(long, default_value_t = 1)]
@@ -261,11 +359,18 @@ enum Cmd {
     /// cst-z, cst-i, cst-g, blister-paper), R resets the camera, S saves view.png, Esc/Q quit.
     /// PEELTRIM_VIEW_FRAMES=N renders N frames and exits.
     View {
+        /// The scene: a .toml scene file, or an OpenSCAD model exported as .csg
+        /// (File > Export > Export as CSG)
         scene: PathBuf,
-        #[arg(long, default_value = "cst-i", value_parser = parse_algo)]
-        algo: Algo,
+        /// The algorithm: auto (per scene, the one expected to be fastest among
+        /// the speckle-free ones; stats.json says which and why), reference (the
+        /// exact CPU ray caster), or a GPU algorithm: goldfeather,
+        /// goldfeather-layered, trickle, blister, cst-z, cst-i, cst-g,
+        /// blister-paper, kirsch, scs
+        #[arg(long, default_value = "auto", value_parser = parse_algo_arg)]
+        algo: AlgoArg,
         /// Initial window size WxH (overrides [render] width/height)
-        #[arg(long, value_parser = parse_size)]
+        #[arg(long, value_parser = parse_size, allow_hyphen_values = true)]
         size: Option<(u32, u32)>,
         #[command(flatten)]
         gpu: GpuArgs,
@@ -274,9 +379,16 @@ enum Cmd {
     },
     /// Print an algorithm's plan (the steps it records) for a scene
     Plan {
+        /// The scene: a .toml scene file, or an OpenSCAD model exported as .csg
+        /// (File > Export > Export as CSG)
         scene: PathBuf,
-        #[arg(long, default_value = "blister", value_parser = parse_algo)]
-        algo: Algo,
+        /// The algorithm: auto (per scene, the one expected to be fastest among
+        /// the speckle-free ones; stats.json says which and why), reference (the
+        /// exact CPU ray caster), or a GPU algorithm: goldfeather,
+        /// goldfeather-layered, trickle, blister, cst-z, cst-i, cst-g,
+        /// blister-paper, kirsch, scs
+        #[arg(long, default_value = "auto", value_parser = parse_algo_arg)]
+        algo: AlgoArg,
         /// The device profile the plan passes decide for: "device" (the
         /// Vulkan device's own, PEELTRIM_DEVICE_PROFILE applied), "cpu" (a CPU
         /// rasterizer such as lavapipe: unsnapped depth) or "hardware" (a GPU
@@ -298,13 +410,22 @@ fn parse_algo(s: &str) -> Result<Algo, String> {
     })
 }
 
+/// `--algos`: a list (`auto` in it is dropped: every table marks auto's row).
 fn parse_algos(s: &str) -> Result<Vec<Algo>> {
     if s.trim() == "all" {
         return Ok(Algo::ALL.to_vec());
     }
-    s.split(',')
-        .map(|a| parse_algo(a.trim()).map_err(anyhow::Error::msg))
-        .collect()
+    let mut v = Vec::new();
+    for a in s.split(',').map(str::trim).filter(|a| *a != "auto") {
+        match parse_algo(a) {
+            Ok(a) => v.push(a),
+            Err(e) => usage!("--algos: {e}"),
+        }
+    }
+    if v.is_empty() {
+        usage!("--algos names no algorithm to run; e.g. --algos cst-i,blister");
+    }
+    Ok(v)
 }
 
 /// "block-spheres:4,16,64" -> ("block-spheres", [4, 16, 64])
@@ -319,8 +440,10 @@ fn parse_family(s: &str) -> Result<(String, Vec<u32>)> {
                 .filter(|&n| n >= 1 && n <= 65536)
         })
         .collect::<Option<Vec<u32>>>()
-        .with_context(|| {
-            format!("--family '{s}': sizes must be positive integers, e.g. block-spheres:4,16,64")
+        .ok_or_else(|| {
+            Usage(format!(
+                "--family '{s}': sizes must be positive integers, e.g. block-spheres:4,16,64"
+            ))
         })?;
     Ok((name.to_string(), ns))
 }
@@ -369,7 +492,7 @@ fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
     // Reversed Z unless asked otherwise; only the default falls back to d24s8.
     let depth = match (g.depth_format, g.reversed_z) {
         (Some(DepthFormatArg::D24s8), true) => {
-            bail!("--reversed-z needs a floating-point depth buffer: use --depth-format d32s8")
+            usage!("--reversed-z needs a floating-point depth buffer: use --depth-format d32s8")
         }
         (Some(DepthFormatArg::D24s8), false) => DepthSetup::D24S8,
         (_, _) if g.standard_z => DepthSetup::D32S8,
@@ -381,7 +504,7 @@ fn render_options(algo: Algo, g: &GpuArgs) -> Result<RenderOptions> {
         DeviceArg::Gpu => peeltrim::vk::DeviceChoice::Gpu,
     };
     if g.max_products == 0 {
-        bail!("--max-products must be at least 1");
+        usage!("--max-products must be at least 1");
     }
     let mut build = peeltrim::plan::BuildOptions {
         trickle_eps: g.trickle_eps,
@@ -415,7 +538,7 @@ fn load_shown(
         scene::openscad::background::show(&mut scene);
     }
     for w in &scene.warnings {
-        eprintln!("warning: {w}");
+        eprintln!("peeltrim: warning: {w}");
     }
     Ok(scene)
 }
@@ -434,10 +557,13 @@ fn run(cli: Cli) -> Result<ExitCode> {
             layers,
             scad,
         } => {
-            let opts = render_options(algo, &gpu)?;
+            let mut opts = render_options(Algo::Reference, &gpu)?;
             peeltrim_cli::output::check_out_dir(&out, "--out")?;
-            let mut scene =
-                load_shown(&scene, size, scad, render::layers::draws_transparency(algo))?;
+            let background = match algo {
+                AlgoArg::Auto => true,
+                AlgoArg::One(a) => render::layers::draws_transparency(a),
+            };
+            let mut scene = load_shown(&scene, size, scad, background)?;
             if layers.alpha.is_some() {
                 scene.appearance.alpha = layers.alpha;
             }
@@ -459,6 +585,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 highlight: highlight_indices(&scene, &layers.highlight)?,
                 reading: layers.layer_reading,
             };
+            let (algo, auto) = algo.resolve(&scene, lopts.wanted(&scene), &opts.build);
+            opts.algo = algo;
             if lopts.wanted(&scene) && scene.appearance.light.is_some() {
                 eprintln!("peeltrim: warning: [light] is ignored with layers, transparency, highlight or interference: shadows are drawn on opaque renders");
             }
@@ -467,7 +595,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     eprintln!("peeltrim: warning: {w}");
                 }
             }
-            let (frame, layer_images) = match if lopts.wanted(&scene) {
+            let (mut frame, layer_images) = match if lopts.wanted(&scene) {
                 render::layers::render_layered(&scene, &opts, &lopts)
                     .map(|l| (l.frame.clone(), Some(l)))
             } else {
@@ -477,11 +605,15 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     e @ (render::RenderError::Plan(peeltrim::plan::PlanError::NotImplemented(_))
                     | render::RenderError::Unsupported { .. }),
                 ) => {
-                    eprintln!("peeltrim: {e}");
+                    eprintln!("peeltrim: error: {e}");
                     return Ok(ExitCode::from(2));
                 }
                 r => r?,
             };
+            frame.stats.auto = auto;
+            if frame.images.prim.iter().all(|&p| p == 0) {
+                eprintln!("{}", empty_image_warning(&scene));
+            }
             if let (true, Some(l)) = (lopts.write_layers, &layer_images) {
                 render::layers::write_layers(&out, l)
                     .with_context(|| format!("writing layers into {}", out.display()))?;
@@ -625,16 +757,17 @@ fn run(cli: Cli) -> Result<ExitCode> {
             scad,
         } => {
             let scene = load(&scene, None, scad)?;
+            let (algo, _) = algo.resolve(&scene, false, &Default::default());
             let prep = peeltrim::plan::Prepared::new(&scene)?;
             for w in prep.warnings(algo) {
                 eprintln!("peeltrim: warning: {w}");
             }
             if algo == Algo::Reference {
-                bail!("the reference ray caster has no GPU plan; choose a GPU algorithm");
+                usage!("the reference ray caster has no GPU plan; choose a GPU algorithm or auto");
             }
             let plan = match peeltrim::plan::build(algo, &prep) {
                 Err(e @ peeltrim::plan::PlanError::NotImplemented(_)) => {
-                    eprintln!("peeltrim: {e}");
+                    eprintln!("peeltrim: error: {e}");
                     return Ok(ExitCode::from(2));
                 }
                 r => r?,
@@ -670,7 +803,7 @@ fn plan_profile(name: &str) -> Result<peeltrim::vk::DeviceProfile> {
             })?;
             *ctx.profile()
         }
-        other => bail!("--device-profile '{other}': use device, cpu or hardware"),
+        other => usage!("--device-profile '{other}': use device, cpu or hardware"),
     })
 }
 
@@ -707,13 +840,24 @@ fn print_passes(
 #[cfg(feature = "viewer")]
 fn view(
     path: &Path,
-    algo: Algo,
+    algo: AlgoArg,
     size: Option<(u32, u32)>,
     gpu: &GpuArgs,
     scad: ScadArgs,
 ) -> Result<ExitCode> {
-    let opts = render_options(algo, gpu)?;
+    let opts = render_options(Algo::Reference, gpu)?;
+    // No display at all: say so before loading anything.
+    if ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .all(|k| std::env::var_os(k).is_none_or(|v| v.is_empty()))
+    {
+        return Err(peeltrim_cli::viewer::ViewerError::NoDisplay(
+            peeltrim_cli::viewer::display_vars(),
+        )
+        .into());
+    }
     let scene = load(path, size, scad)?;
+    let (algo, _) = algo.resolve(&scene, false, &opts.build);
     let frames = match std::env::var("PEELTRIM_VIEW_FRAMES") {
         Ok(v) => Some(
             v.trim()
@@ -741,14 +885,14 @@ fn view(
 #[cfg(not(feature = "viewer"))]
 fn view(
     path: &Path,
-    _algo: Algo,
+    _algo: AlgoArg,
     size: Option<(u32, u32)>,
     _gpu: &GpuArgs,
     scad: ScadArgs,
 ) -> Result<ExitCode> {
     load(path, size, scad)?;
     eprintln!(
-        "peeltrim: this build has no viewer (built without the `viewer` feature); \
+        "peeltrim: error: this build has no viewer (built without the `viewer` feature); \
          rebuild with `cargo build --features viewer` (on by default), or use \
          `peeltrim render` and open color.png"
     );
@@ -787,7 +931,7 @@ fn blist_json(input: &str, scad: ScadArgs) -> Result<serde_json::Value> {
     };
     let positive = PositiveExpr::from_expr(&expr);
     if !positive.is_bounded() {
-        eprintln!("warning: the expression is unbounded (a scene would refuse it as a solid)");
+        eprintln!("peeltrim: warning: the expression is unbounded (a scene would refuse it as a solid)");
     }
     let blist = Blist::new(&positive);
     Ok(blist.to_json(&names))
@@ -821,13 +965,63 @@ fn emit(text: &str) -> std::io::Result<()> {
     }
 }
 
+/// The warning for an image with nothing in it: whether the camera sees none
+/// of the scene's meshes, or sees them and the solid is empty there.
+fn empty_image_warning(scene: &scene::Scene) -> String {
+    let seen = peeltrim::plan::Prepared::new(scene).is_ok_and(|prep| {
+        let c = peeltrim_cli::bench::estimate::SceneCosts::new(
+            scene,
+            &prep,
+            scene.render.width,
+            scene.render.height,
+        );
+        let all: Vec<u32> = (0..(scene.primitives.len() + scene.surfaces.len()) as u32).collect();
+        c.layers(&all) > 0
+    });
+    if seen {
+        "peeltrim: warning: the image is empty: the camera sees the primitives but the solid \
+         has nothing there (check the expression, e.g. a difference that removes everything)"
+            .into()
+    } else {
+        "peeltrim: warning: the image is empty: nothing of the scene is in view of the camera; \
+         check the [camera] eye, target and fov, or leave [camera] out to fit it to the scene"
+            .into()
+    }
+}
+
+/// clap's error in this program's voice: `peeltrim: error: ...` and exit 2
+/// for a usage error; help and version go to stdout with exit 0.
+fn clap_exit(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            let _ = e.print();
+            ExitCode::SUCCESS
+        }
+        _ => {
+            let text = e.render().to_string();
+            let text = text.trim_end();
+            let text = text.strip_prefix("error: ").unwrap_or(text);
+            eprintln!("peeltrim: error: {text}");
+            ExitCode::from(2)
+        }
+    }
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return clap_exit(e),
+    };
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
             eprintln!("peeltrim: error: {}", chain(&e));
-            ExitCode::from(1)
+            if e.downcast_ref::<Usage>().is_some() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::from(1)
+            }
         }
     }
 }

@@ -123,6 +123,9 @@ pub struct RenderOptions {
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct FrameStats {
     pub algo: String,
+    /// With `--algo auto`: what was picked and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto: Option<crate::auto::AutoPick>,
     pub width: u32,
     pub height: u32,
     pub device: String,
@@ -389,6 +392,7 @@ impl GpuRenderer {
             exec,
             layers: None,
             shadow: None,
+            auto: None,
         }
     }
 

@@ -143,6 +143,9 @@ pub struct ViewOptions {
 pub enum ViewerError {
     #[error("cannot open a window: {0} (is DISPLAY or WAYLAND_DISPLAY set?)")]
     Window(String),
+    /// No display to open a window on (no X server or Wayland compositor).
+    #[error("view opens a window and found no display to open it on ({0}); write images with `peeltrim render` instead, or run `xvfb-run peeltrim view ...` for scripted use")]
+    NoDisplay(String),
     #[error(transparent)]
     Render(#[from] RenderError),
     #[error(transparent)]
@@ -195,9 +198,19 @@ struct App {
     error: Option<ViewerError>,
 }
 
+/// The display variables as set, for the no-display message.
+pub fn display_vars() -> String {
+    let var = |k: &str| match std::env::var(k) {
+        Ok(v) if !v.is_empty() => format!("{k}={v}"),
+        _ => format!("{k} unset"),
+    };
+    format!("{}, {}", var("DISPLAY"), var("WAYLAND_DISPLAY"))
+}
+
 /// Opens the window and runs until it is closed.
 pub fn run(scene: Scene, opts: ViewOptions) -> Result<(), ViewerError> {
-    let event_loop = EventLoop::new().map_err(|e| ViewerError::Window(e.to_string()))?;
+    // winit's error names its own source file, which tells a user nothing.
+    let event_loop = EventLoop::new().map_err(|_| ViewerError::NoDisplay(display_vars()))?;
     event_loop.set_control_flow(ControlFlow::Wait);
     let mut app = App {
         gpu: None,
@@ -254,7 +267,7 @@ impl App {
         let (ctx, presenter) = Presenter::new(&desc, display, handle, [inner.width, inner.height])?;
         let (depth, why) = self.opts.depth.resolve_on(&ctx, self.opts.depth_fallback);
         if let Some(why) = why {
-            eprintln!("peeltrim view: {why}");
+            eprintln!("peeltrim: warning: {why}");
         }
         self.opts.depth = depth;
         eprintln!(
@@ -435,7 +448,7 @@ impl App {
             match self.show_csg(size) {
                 Ok(s) => s,
                 Err(ViewerError::Embed(e @ (EmbedError::Plan(_) | EmbedError::Algo(_)))) => {
-                    eprintln!("peeltrim view: {}: {e}", self.algo);
+                    eprintln!("peeltrim: warning: {} cannot draw this scene: {e}", self.algo);
                     self.failed = Some(self.algo);
                     Presented::Shown
                 }

@@ -74,6 +74,8 @@ fn render_reference_writes_contract_files() {
     let o = run(&[
         "render",
         &scene("paper_example.toml"),
+        "--algo",
+        "reference",
         "--size",
         "64x48",
         "--out",

@@ -185,7 +185,7 @@ fn large_expressions_render_or_are_refused_at_once() {
     let o = run(&super::render_args(
         &small,
         "32x32",
-        &[],
+        &["--algo", "reference"],
         refp.to_str().unwrap(),
     ));
     assert!(o.status.success(), "{}", stderr(&o));
@@ -374,4 +374,141 @@ fn an_unknown_device_profile_is_a_clear_error() {
     let out = dir.join("hardware");
     let o = run("hardware", out.to_str().unwrap());
     assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// One voice for every error: `peeltrim: error: …` on stderr; exit 2 for a
+/// usage error (a bad flag or value, clap's included), 1 for input and
+/// runtime errors; `--help` and `--version` succeed.
+#[test]
+fn errors_speak_one_voice_with_usage_2_and_input_1() {
+    let gear = scene("gear.toml");
+    let usage: [&[&str]; 6] = [
+        &["render", &gear, "--no-such-flag"],
+        &["render", &gear, "--algo", "zbuffer"],
+        &["render"],
+        &["bench", &gear, "--frames", "0"],
+        &["render", &gear, "--depth-format", "d24s8", "--reversed-z"],
+        &["frobnicate"],
+    ];
+    for args in usage {
+        let o = run(args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(e.starts_with("peeltrim: error: "), "{args:?}: {e}");
+        assert!(!e.contains("\nerror:"), "{args:?}: {e}");
+    }
+    let input: [&[&str]; 2] = [
+        &["render", "/nonexistent/scene.toml"],
+        &["plan", "/nonexistent/scene.toml", "--algo", "cst-i"],
+    ];
+    for args in input {
+        let o = run(args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(e.starts_with("peeltrim: error: "), "{args:?}: {e}");
+    }
+    for args in [&["--help"][..], &["--version"], &["render", "--help"]] {
+        let o = run(args);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+        assert!(!o.stdout.is_empty());
+    }
+}
+
+/// The messages of common mistakes, each saying what is accepted in words.
+#[test]
+fn common_mistakes_get_plain_messages() {
+    let gear = scene("gear.toml");
+    let o = run(&["render", &gear, "--layers", "0"]);
+    assert_error(&o, &["'0' is not a number of layers", "at least 1"]);
+    assert!(!stderr(&o).contains("4294967295"), "{}", stderr(&o));
+    // A negative size is read as the value it was meant as, and refused.
+    let o = run(&["render", &gear, "--size", "-200x200"]);
+    assert_error(&o, &["size '-200x200' is not WxH with positive integers"]);
+    let o = run(&["bench", &gear, "--frames", "0"]);
+    assert_error(&o, &["'0' is not a number of frames", "at least 1"]);
+    // The missing file is named once.
+    let dir = tmp("mistakes");
+    let o = run(&["bench", "/tmp/none-peeltrim.toml", "--out", dir.join("b").to_str().unwrap()]);
+    assert_error(&o, &["/tmp/none-peeltrim.toml"]);
+    assert_eq!(stderr(&o).matches("/tmp/none-peeltrim.toml").count(), 1, "{}", stderr(&o));
+    // Help describes SCENE and says what files are accepted, on its own.
+    for cmd in ["render", "view", "plan"] {
+        let o = run(&[cmd, "--help"]);
+        let h = String::from_utf8_lossy(&o.stdout);
+        assert!(h.contains("<SCENE>  The scene: a .toml scene file"), "{cmd}: {h}");
+        assert!(h.contains(".csg"), "{cmd}: {h}");
+        assert!(h.contains("[default: auto]"), "{cmd}: {h}");
+        assert!(!h.contains("docs/") && !h.contains('§'), "{cmd}: {h}");
+    }
+}
+
+/// `view` without a display says so in one line and what to do instead.
+#[cfg(feature = "viewer")]
+#[test]
+fn view_without_a_display_says_so() {
+    let o = super::bin()
+        .args(["view", &scene("gear.toml")])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    assert_error(&o, &["no display", "peeltrim render", "xvfb-run"]);
+    assert_eq!(stderr(&o).trim_end().lines().count(), 1, "{}", stderr(&o));
+    assert!(!stderr(&o).contains(".rs:"), "{}", stderr(&o));
+}
+
+/// A camera looking away from the scene renders an empty image with a warning.
+#[test]
+fn a_camera_that_sees_nothing_warns() {
+    let dir = tmp("away");
+    let p = write(
+        &dir,
+        "away.toml",
+        &format!("{AB}[csg]\nexpr = \"A - B\"\n[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 10.0]\n"),
+    );
+    let out = dir.join("o");
+    let o = run(&super::render_args(&p, "16x16", &["--algo", "reference"], out.to_str().unwrap()));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("peeltrim: warning: the image is empty: nothing of the scene is in view"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&super::render_args(&scene("gear.toml"), "16x16", &["--algo", "reference"], out.to_str().unwrap()));
+    assert!(!stderr(&o).contains("image is empty"), "{}", stderr(&o));
+}
+
+/// The zones' memory estimate reads as a sentence.
+#[test]
+fn the_zones_budget_message_is_a_sentence() {
+    let dir = tmp("zones");
+    let p = expr_scene(&dir, "inter.toml", &chain(300, " "));
+    let o = run(&["plan", &p, "--algo", "cst-i", "--memory-budget", "64K"]);
+    assert_error(&o, &["the zones, about", "literals in all", "), would need about"]);
+}
+
+/// `--algo auto` (the default) picks a speckle-free algorithm per scene and
+/// says which and why in stats.json.
+#[test]
+fn auto_is_the_default_and_says_why() {
+    let dir = tmp("auto");
+    for name in ["gear.toml", "drilled_block.toml", "trimmed_surface.toml"] {
+        let out = dir.join(name);
+        let o = run(&super::render_args(&scene(name), "32x32", &[], out.to_str().unwrap()));
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let st: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
+        let algo = st["algo"].as_str().unwrap();
+        assert_eq!(st["auto"]["picked"], algo, "{st}");
+        assert!(!["scs", "trickle", "blister-paper", "reference"].contains(&algo), "{name}: {algo}");
+        assert!(st["auto"]["reason"].as_str().unwrap().contains("estimated"), "{st}");
+        assert!(st["auto"]["estimates"]["cst-i"].as_f64().is_some(), "{st}");
+        assert!(st["auto"]["estimates"].get("scs").is_none(), "{st}");
+        if name == "trimmed_surface.toml" {
+            assert!(algo.starts_with("cst-"), "{name}: {algo}");
+        }
+    }
+    let o = run(&["plan", &scene("gear.toml")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("peeltrim: auto: "), "{}", stderr(&o));
 }

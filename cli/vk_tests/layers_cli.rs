@@ -14,6 +14,10 @@ pub(super) fn render(name: &str, out: &std::path::Path, extra: &[&str]) -> std::
         out.to_str().unwrap(),
     ];
     args.extend_from_slice(extra);
+    // The reference unless the case names its algorithm.
+    if !extra.contains(&"--algo") {
+        args.extend(["--algo", "reference"]);
+    }
     run(&args)
 }
 

@@ -286,3 +286,68 @@ fn background_parts_are_drawn_see_through_where_layers_are() {
         "{prim_off} of {n} pixels name another primitive"
     );
 }
+
+/// Every unsupported node of a model is reported at once, in file order with
+/// its line; with --skip-unsupported the warnings come in file order too.
+#[test]
+fn every_unsupported_node_is_reported_in_file_order() {
+    let d = tmp("scad-unsupported-all");
+    let f = write(
+        &d,
+        "many.csg",
+        "group() {\n  hull() { cube(size = 1); }\n  group() {\n    minkowski() { cube(size = 1); }\n  }\n  circle(r = 1);\n  cube(size = 1);\n}\n",
+    );
+    let out = d.join("o");
+    let o = run(&["render", &f, "--size", "8x8", "--out", out.to_str().unwrap()]);
+    assert_error(
+        &o,
+        &[
+            "many.csg:2:3:",
+            "3 nodes are not supported: `hull` (line 2), `minkowski` (line 4), `circle` (a 2D shape or an import) (line 6)",
+            "--skip-unsupported",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let o = run(&[
+        "render",
+        &f,
+        "--skip-unsupported",
+        "--size",
+        "8x8",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    let at = |s: &str| e.find(s).unwrap_or_else(|| panic!("{s} in {e}"));
+    assert!(at("many.csg:2:3: `hull`") < at("many.csg:4:5: `minkowski`"), "{e}");
+    assert!(at("many.csg:4:5: `minkowski`") < at("many.csg:6:3: `circle`"), "{e}");
+}
+
+/// The fitted camera frames a model's `%` (background) parts too: a part far
+/// from the solid is in the picture of an algorithm that draws it.
+#[test]
+fn the_fitted_camera_holds_background_parts() {
+    let d = tmp("scad-background-fit");
+    let f = write(
+        &d,
+        "far.csg",
+        "group() {\n  cube(size = 2);\n  %multmatrix([[1, 0, 0, 30], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2);\n}\n",
+    );
+    let out = d.join("o");
+    let o = run(&[
+        "render",
+        &f,
+        "--algo",
+        "reference",
+        "--size",
+        "64x64",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let images = peeltrim_cli::output::read_images(&out).unwrap_or_else(|e| panic!("{e}"));
+    // Primitive 1 is the solid's cube, 2 the background part's.
+    assert!(images.prim.iter().any(|&p| p == 1), "the solid is in view");
+    assert!(images.prim.iter().any(|&p| p == 2), "the % part is in view");
+}

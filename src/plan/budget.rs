@@ -92,8 +92,16 @@ pub fn check_cst(prep: &Prepared, variant: Variant) -> Result<(), PlanError> {
             fix: fix.to_string(),
         });
     }
+    // The budget's message goes on "… would need about N of memory": the
+    // zones are its subject.
+    let zones = || {
+        format!(
+            "{algo} trims each of the {} leaves against its active zone; the zones, about {estimate} literals in all (quadratic in the leaves for a long intersection or difference chain),",
+            lits.len()
+        )
+    };
     budget
-        .check(what, estimate.saturating_mul(per), fix)
+        .check(zones, estimate.saturating_mul(per), fix)
         .map_err(PlanError::OverBudget)
 }
 

@@ -144,6 +144,11 @@ pub struct Record {
     /// A digest of the plan's steps: runs with equal digests ran the same plan
     /// (CST-G where its counter pays for no group is CST-I's plan).
     pub plan_digest: String,
+    /// Whether `--algo auto` picks this algorithm for this scene and size.
+    pub auto_pick: bool,
+    /// `--algo auto`'s estimate of this algorithm's frame (ms), for a candidate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_estimate_ms: Option<f64>,
 }
 
 impl Record {
@@ -190,6 +195,8 @@ impl Record {
             interference: None,
             timing: rounds::Timing::Alone,
             plan_digest: String::new(),
+            auto_pick: false,
+            auto_estimate_ms: None,
         }
     }
 
@@ -201,7 +208,8 @@ impl Record {
 
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
-    #[error("{path}: {source}")]
+    /// The scene's error names its file.
+    #[error("{source}")]
     Scene {
         path: PathBuf,
         source: scene::SceneError,
@@ -317,6 +325,10 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 }
                 _ => None,
             };
+            let auto = prep
+                .as_ref()
+                .ok()
+                .map(|p| crate::auto::pick(&scene, p, w, h, false, &cfg.build));
             // OpenCSG (a separate process) runs before and after our rounds; its
             // figures are the median of both runs (`opencsg::merge_runs`).
             let run_opencsg = |b: &opencsg::OpenCsgBaseline, when: &str| {
@@ -405,6 +417,10 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                                 ));
                                 rec.estimate = Some(est);
                             }
+                        }
+                        if let Some(a) = &auto {
+                            rec.auto_pick = a.algo() == algo;
+                            rec.auto_estimate_ms = a.estimates.get(algo.name()).copied();
                         }
                         records.push(rec);
                         bar.inc(1);
@@ -711,6 +727,8 @@ fn finish(
         interference: modes::interference(cfg, scene, algo, depth)?,
         timing: rounds::Timing::Alone,
         plan_digest: digest(plan),
+        auto_pick: false,
+        auto_estimate_ms: None,
     };
     Ok((rec, shadowed.map_or(images, |(_, i)| i)))
 }

@@ -10,6 +10,7 @@ use std::sync::OnceLock;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::report::error_figures;
 use super::{BenchError, Record};
@@ -43,38 +44,9 @@ fn canvas(
     Ok(root)
 }
 
-/// The chart of a one-panel plot on `root`: captioned with the title and the
-/// depth set-up, room for both axes' labels.
-fn one_panel<'a, 'b>(
-    root: &'a DrawingArea<BitMapBackend<'b>, Shift>,
-    title: &str,
-    depth: &str,
-) -> ChartBuilder<'a, 'b, BitMapBackend<'b>> {
-    let mut chart = ChartBuilder::on(root);
-    chart
-        .caption(format!("{title} ({depth})"), ("sans-serif", 22))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(70);
-    chart
-}
-
-/// Draws `chart`'s series labels at `at` on a translucent white box.
-fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
-    chart: &mut ChartContext<'a, DB, CT>,
-    path: &Path,
-    at: SeriesLabelPosition,
-) -> Result<(), BenchError> {
-    chart
-        .configure_series_labels()
-        .position(at)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(path, e))
-}
-
-const PALETTE: [RGBColor; 10] = [
+/// Twenty colours told apart at a glance (Tableau's 20, dark and light of each
+/// hue), for pass kinds and algorithms.
+const PALETTE: [RGBColor; 20] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -83,24 +55,159 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
     RGBColor(127, 127, 127),
-    RGBColor(23, 190, 207),
     RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+    RGBColor(174, 199, 232),
+    RGBColor(255, 187, 120),
+    RGBColor(152, 223, 138),
+    RGBColor(255, 152, 150),
+    RGBColor(197, 176, 213),
+    RGBColor(196, 156, 148),
+    RGBColor(247, 182, 210),
+    RGBColor(199, 199, 199),
+    RGBColor(219, 219, 141),
+    RGBColor(158, 218, 229),
 ];
 
-fn algo_color(algo: &str) -> RGBColor {
-    let order = [
-        "blister",
-        "cst-z",
-        "cst-i",
-        "cst-g",
-        "goldfeather",
-        "goldfeather-layered",
-        "trickle",
-        "reference",
-        "kirsch",
-        "scs",
-    ];
-    PALETTE[order.iter().position(|a| *a == algo).unwrap_or(7)]
+/// Our algorithms, each with its own colour and marker.
+const ALGOS: [&str; 12] = [
+    "blister",
+    "cst-z",
+    "cst-i",
+    "cst-g",
+    "goldfeather",
+    "goldfeather-layered",
+    "trickle",
+    "reference",
+    "kirsch",
+    "scs",
+    "blister-paper",
+    "auto",
+];
+
+/// OpenCSG's variants: dark colours and markers of their own.
+const OPENCSG_COLORS: [RGBColor; 4] = [
+    RGBColor(0, 0, 0),
+    RGBColor(90, 60, 0),
+    RGBColor(0, 70, 90),
+    RGBColor(110, 0, 70),
+];
+
+/// An algorithm's (or an OpenCSG variant's) colour and marker number.
+fn algo_style(algo: &str) -> (RGBColor, usize) {
+    if let Some(v) = algo.strip_prefix(super::opencsg::PREFIX) {
+        let i = ["goldfeather", "scs", "automatic", "*"]
+            .iter()
+            .position(|x| *x == v)
+            .unwrap_or(3);
+        // Filled with a white centre: circle, triangle, square, diamond.
+        return (OPENCSG_COLORS[i], 12 + i);
+    }
+    match ALGOS.iter().position(|a| *a == algo) {
+        Some(i) => (PALETTE[i], i),
+        None => (PALETTE[7], 7),
+    }
+}
+
+
+/// Runs `body` with `mk`, a function from a position to marker `n` (of 12:
+/// filled and hollow circles, triangles, squares and diamonds, crosses,
+/// pluses) in `color`. A macro: each marker is an element type of its own.
+macro_rules! with_marker {
+    ($n:expr, $color:expr, |$mk:ident| $body:expr) => {{
+        let n: usize = $n;
+        let color: RGBColor = $color;
+        let line = color.stroke_width(2);
+        // 0-5 filled, 6-11 hollow, 12-17 filled with a white centre.
+        let style = if (n / 6) % 3 == 1 { line } else { color.filled() };
+        let dot = if (n / 6) % 3 == 2 { WHITE.filled() } else { TRANSPARENT.filled() };
+        match n % 6 {
+            0 => {
+                let $mk = |p| {
+                    EmptyElement::at(p) + Circle::new((0, 0), 5, style) + Circle::new((0, 0), 2, dot)
+                };
+                $body
+            }
+            1 => {
+                let $mk = |p| {
+                    EmptyElement::at(p)
+                        + TriangleMarker::new((0, 0), 7, style)
+                        + Circle::new((0, 1), 2, dot)
+                };
+                $body
+            }
+            2 => {
+                let $mk = |p| {
+                    EmptyElement::at(p)
+                        + Rectangle::new([(-5, -5), (5, 5)], style)
+                        + Circle::new((0, 0), 2, dot)
+                };
+                $body
+            }
+            3 => {
+                let $mk = |p| {
+                    EmptyElement::at(p)
+                        + Polygon::new(vec![(0, -7), (7, 0), (0, 7), (-7, 0)], style)
+                        + Circle::new((0, 0), 2, dot)
+                };
+                $body
+            }
+            4 => {
+                let $mk = |p| EmptyElement::at(p) + Cross::new((0, 0), 5, line);
+                $body
+            }
+            _ => {
+                let $mk = |p| {
+                    EmptyElement::at(p)
+                        + PathElement::new(vec![(-7, 0), (7, 0)], line)
+                        + PathElement::new(vec![(0, -7), (0, 7)], line)
+                };
+                $body
+            }
+        }
+    }};
+}
+
+/// A legend entry's mark: a marker number, a colour swatch, or a line.
+#[derive(Clone, Copy)]
+enum Mark {
+    Marker(usize),
+    Swatch,
+    Line(usize),
+}
+
+/// Draws a legend of `entries` (mark, colour, text) down `area`, beside the
+/// data, under `heading`.
+fn side_legend(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    path: &Path,
+    heading: &str,
+    entries: &[(Mark, RGBColor, String)],
+) -> Result<(), BenchError> {
+    area.draw(&Text::new(
+        heading.to_string(),
+        (10, 30),
+        ("sans-serif", 15).into_font(),
+    ))
+    .map_err(|e| err(path, e))?;
+    for (i, (mark, color, text)) in entries.iter().enumerate() {
+        let y = 60 + 22 * i as i32;
+        match *mark {
+            Mark::Marker(n) => with_marker!(n, *color, |mk| area.draw(&mk((20, y)))),
+            Mark::Swatch => area.draw(&Rectangle::new([(13, y - 7), (27, y + 7)], color.filled())),
+            Mark::Line(n) => area
+                .draw(&PathElement::new(vec![(8, y), (32, y)], color.stroke_width(2)))
+                .and_then(|_| with_marker!(n, *color, |mk| area.draw(&mk((20, y))))),
+        }
+        .map_err(|e| err(path, e))?;
+        area.draw(&Text::new(
+            text.clone(),
+            (40, y - 8),
+            ("sans-serif", 14).into_font(),
+        ))
+        .map_err(|e| err(path, e))?;
+    }
+    Ok(())
 }
 
 /// Writes all plots; returns the files written.
@@ -133,10 +240,14 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
             continue;
         }
         let p = dir.join(format!("time_vs_error_{scene}_{w}x{h}.png"));
-        time_vs_error(&p, &format!("{scene} {w}x{h}: GPU time vs error"), &rows)?;
+        time_vs_error(&p, &format!("{scene} {w}x{h}: frame time vs error"), &rows)?;
         files.push(p);
         let p = dir.join(format!("passes_{scene}_{w}x{h}.png"));
-        pass_breakdown(&p, &format!("{scene} {w}x{h}: GPU time per pass"), &rows)?;
+        pass_breakdown(
+            &p,
+            &format!("{scene} {w}x{h}: GPU time per pass, one frame timed at every pass"),
+            &rows,
+        )?;
         files.push(p);
     }
     let mut families: Vec<String> = records.iter().filter_map(|r| r.family.clone()).collect();
@@ -153,7 +264,7 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
         let p = dir.join(format!("scaling_{fam}.png"));
         scaling(
             &p,
-            &format!("{fam}: GPU time vs number of primitives"),
+            &format!("{fam}: frame time vs number of primitives"),
             &rows,
         )?;
         files.push(p);
@@ -161,27 +272,23 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
     Ok(files)
 }
 
-/// Marker of a depth set-up in the time-vs-error plot (colour is the algorithm).
-fn depth_marker<DB: DrawingBackend, C: Clone + 'static>(
-    depth: &str,
-    at: C,
-    color: RGBColor,
-) -> DynElement<'static, DB, C> {
-    match depth {
-        "d24s8" => Circle::new(at, 5, color.filled()).into_dyn(),
-        "d32s8" => TriangleMarker::new(at, 7, color.filled()).into_dyn(),
-        _ => Cross::new(at, 6, color.stroke_width(2)).into_dyn(),
+/// A log axis's tick: `0.1`, `1`, `1000`, `1e-4`.
+fn tick(v: f64) -> String {
+    if (1e-3..1e6).contains(&v) {
+        format!("{}", (v * 1e3).round() / 1e3)
+    } else {
+        format!("{v:.0e}")
     }
 }
 
-/// A percentage for an axis label: `10%`, `0.5%`, `1e-3%`.
+/// A percentage for an axis label: `10%`, `0.5%`, `0.001%`, `1e-4%`.
 fn percent(v: f64) -> String {
     if v >= 1.0 {
         format!("{v:.0}%")
-    } else if v >= 0.01 {
+    } else if v >= 0.000_999 {
         format!(
             "{}%",
-            format!("{v:.2}")
+            format!("{v:.3}")
                 .trim_end_matches('0')
                 .trim_end_matches('.')
         )
@@ -190,19 +297,38 @@ fn percent(v: f64) -> String {
     }
 }
 
-/// x: median GPU ms; y: interior coverage + primitive mismatches (% of pixels) on
-/// a log scale (whole decades), with exact results (error 0, which a log axis
-/// cannot show) in a strip of their own below it. A legend beside the plot
-/// (colour: algorithm, marker: depth set-up) instead of a label at each point,
-/// which overlapped.
+/// The depth set-ups of `rows`: one goes into the title, several into each
+/// legend entry.
+fn depth_title(rows: &[&Record]) -> (Option<String>, bool) {
+    let mut d: Vec<&str> = rows
+        .iter()
+        .filter(|r| !r.algo.starts_with(super::opencsg::PREFIX))
+        .map(|r| r.depth_setup.as_str())
+        .collect();
+    d.sort();
+    d.dedup();
+    match d[..] {
+        [one] => (Some(one.to_string()), false),
+        _ => (None, true),
+    }
+}
+
+/// x: median frame time (ms, first submission to idle; OpenCSG's: its wall
+/// time to glFinish); y: interior coverage + primitive mismatches (% of
+/// pixels) on a log scale of at least two whole decades, with exact results
+/// (error 0, which a log axis cannot show) in a strip of their own below it.
+/// Each variant (algorithm, and depth set-up when several ran) has its own
+/// colour and marker, named in a legend beside the plot.
 fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError> {
+    let (depth, per_depth) = depth_title(rows);
+    let opencsg = rows.iter().any(|r| r.algo.starts_with(super::opencsg::PREFIX));
     let pts: Vec<(f64, f64, &str, &str)> = rows
         .iter()
         .map(|r| {
             let (c, p, _) = error_figures(r);
             let e = (c.max(0.0) + p.max(0.0)) * 100.0;
             (
-                r.gpu_ms_median,
+                r.frame_ms_median,
                 if e.is_finite() { e } else { 0.0 },
                 r.algo.as_str(),
                 r.depth_setup.as_str(),
@@ -214,18 +340,25 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
     let (ymin, ymax) = nonzero.fold((f64::INFINITY, 0.0f64), |(a, b), e| (a.min(e), b.max(e)));
     let (ylo, yhi) = if ymax > 0.0 {
         let lo = 10f64.powf(ymin.log10().floor());
-        (lo, 10f64.powf(ymax.log10().ceil()).max(lo * 10.0))
+        // At least two decades, so the axis has three labelled ticks.
+        (lo, 10f64.powf(ymax.log10().ceil()).max(lo * 100.0))
     } else {
         (1e-3, 1.0)
     };
+    // A hair wider, so rounding leaves the end decades' ticks inside.
+    let (ylo, yhi) = (ylo * 0.999, yhi * 1.001);
     let mut series: Vec<(&str, &str)> = pts.iter().map(|p| (p.2, p.3)).collect();
-    series.sort();
+    series.sort_by_key(|&(a, d)| (algo_style(a).1, d));
     series.dedup();
     let root = canvas(path, (1150, 650))?;
+    let full_title = match &depth {
+        Some(d) => format!("{title} (depth set-up {d})"),
+        None => title.to_string(),
+    };
     let root = root
-        .titled(title, ("sans-serif", 22))
+        .titled(&full_title, ("sans-serif", 22))
         .map_err(|e| err(path, e))?;
-    let (plot, legend) = root.split_horizontally(900);
+    let (plot, legend_area) = root.split_horizontally(880);
     let (top, bottom) = plot.split_vertically(470);
     let mut chart = ChartBuilder::on(&top)
         .margin(15)
@@ -236,7 +369,7 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
         .map_err(|e| err(path, e))?;
     chart
         .configure_mesh()
-        .y_desc("interior coverage + primitive mismatches (% of pixels, log)")
+        .y_desc("coverage + primitive mismatches (% of pixels, log)")
         .y_label_formatter(&|v| percent(*v))
         .label_style(("sans-serif", 13))
         .draw()
@@ -253,50 +386,48 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
         .y_labels(1)
         .y_label_formatter(&|_| "0 (exact)".to_string())
         .label_style(("sans-serif", 13))
-        .x_desc("median GPU time per frame (ms; OpenCSG: wall time)")
+        .x_desc(if opencsg {
+            "median frame time (ms, submission to idle; OpenCSG: to glFinish)"
+        } else {
+            "median frame time (ms, submission to idle)"
+        })
         .draw()
         .map_err(|e| err(path, e))?;
-    for (i, &(algo, depth)) in series.iter().enumerate() {
-        // OpenCSG's rows (a baseline, timed by wall clock) are black.
-        let c = if algo.starts_with(super::opencsg::PREFIX) {
-            BLACK
+    let mut entries = Vec::new();
+    for (i, &(algo, d)) in series.iter().enumerate() {
+        let (c, m) = algo_style(algo);
+        // Several depth set-ups: the same algorithm's set-ups differ in marker.
+        let m = if per_depth { m + 16 * i } else { m };
+        let mine = || pts.iter().filter(move |p| p.2 == algo && p.3 == d);
+        with_marker!(m, c, |mk| zero
+            .draw_series(mine().filter(|p| p.1 == 0.0).map(|p| mk((p.0, 0.0))))
+            .map(|_| ())
+            .map_err(|e| err(path, e)))?;
+        with_marker!(m, c, |mk| chart
+            .draw_series(mine().filter(|p| p.1 > 0.0).map(|p| mk((p.0, p.1))))
+            .map(|_| ())
+            .map_err(|e| err(path, e)))?;
+        let text = if per_depth && !algo.starts_with(super::opencsg::PREFIX) {
+            format!("{algo}, {d}")
         } else {
-            algo_color(algo)
+            algo.to_string()
         };
-        let mine = || pts.iter().filter(move |p| p.2 == algo && p.3 == depth);
-        zero.draw_series(
-            mine()
-                .filter(|p| p.1 == 0.0)
-                .map(|p| depth_marker(depth, (p.0, 0.0), c)),
-        )
-        .map_err(|e| err(path, e))?;
-        chart
-            .draw_series(
-                mine()
-                    .filter(|p| p.1 > 0.0)
-                    .map(|p| depth_marker(depth, (p.0, p.1), c)),
-            )
-            .map_err(|e| err(path, e))?;
-        let y = 40 + 20 * i as i32;
-        legend
-            .draw(&depth_marker(depth, (12, y), c))
-            .map_err(|e| err(path, e))?;
-        legend
-            .draw(&Text::new(
-                format!("{algo} {depth}"),
-                (26, y - 7),
-                ("sans-serif", 14).into_font(),
-            ))
-            .map_err(|e| err(path, e))?;
+        entries.push((Mark::Marker(m), c, text));
     }
+    side_legend(&legend_area, path, "algorithm", &entries)?;
     root.present().map_err(|e| err(path, e))?;
     Ok(())
 }
 
-/// Stacked bars: for each algorithm (first depth set-up), its passes' GPU ms.
+/// Stacked bars: for each algorithm (first depth set-up), the GPU ms of its
+/// passes in one frame timed with a timestamp at every pass (a frame of its
+/// own: its total is not the table's median frame).
 fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError> {
     let depth = rows[0].depth_setup.clone();
-    let rows: Vec<&&Record> = rows.iter().filter(|r| r.depth_setup == depth).collect();
+    let rows: Vec<&&Record> = rows
+        .iter()
+        .filter(|r| r.depth_setup == depth && r.per_pass.is_some())
+        .collect();
     let mut pass_names: Vec<String> = Vec::new();
     let mut bars: Vec<(String, BTreeMap<String, f64>)> = Vec::new();
     for r in &rows {
@@ -313,31 +444,50 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
         .iter()
         .map(|(_, m)| m.values().sum::<f64>())
         .fold(0.0, f64::max)
-        * 1.2
+        * 1.15
         + 1e-3;
     let n = bars.len().max(1);
-    let root = canvas(path, (900, 600))?;
-    let mut chart = one_panel(&root, title, &depth)
+    let whole = canvas(path, (1100, 650))?;
+    let root = whole
+        .titled(
+            &format!("{title} (depth set-up {depth})"),
+            ("sans-serif", 20),
+        )
+        .map_err(|e| err(path, e))?;
+    let (plot, legend_area) = root.split_horizontally(820);
+    let mut chart = ChartBuilder::on(&plot)
+        .margin(15)
+        .x_label_area_size(60)
+        .y_label_area_size(70)
         .build_cartesian_2d(0.0..n as f64, 0.0..ymax)
         .map_err(|e| err(path, e))?;
     chart
         .configure_mesh()
         .disable_x_mesh()
-        .disable_x_axis()
-        .y_desc("GPU ms (median frame)")
+        .x_labels(0)
+        .y_desc("GPU ms in the timestamped frame")
+        .label_style(("sans-serif", 13))
         .draw()
         .map_err(|e| err(path, e))?;
-    // Each bar is labelled with its algorithm and total above it.
+    // Each bar: its total above it, its algorithm under the axis.
+    let centred = |size: u32| {
+        ("sans-serif", size)
+            .into_font()
+            .into_text_style(&whole)
+            .pos(Pos::new(HPos::Center, VPos::Top))
+    };
     for (i, (algo, m)) in bars.iter().enumerate() {
         let total: f64 = m.values().sum();
-        chart
-            .draw_series(std::iter::once(Text::new(
-                format!("{algo} ({total:.1})"),
-                (i as f64 + 0.15, total + ymax * 0.03),
-                ("sans-serif", 15).into_font(),
-            )))
+        let (x, y) = chart.backend_coord(&(i as f64 + 0.5, total));
+        whole
+            .draw(&Text::new(format!("{total:.1}"), (x, y - 20), centred(14)))
+            .map_err(|e| err(path, e))?;
+        let (x, y) = chart.backend_coord(&(i as f64 + 0.5, 0.0));
+        whole
+            .draw(&Text::new(algo.clone(), (x, y + 8), centred(14)))
             .map_err(|e| err(path, e))?;
     }
+    let mut entries = Vec::new();
     for (pi, pass) in pass_names.iter().enumerate() {
         let color = PALETTE[pi % PALETTE.len()];
         let rects: Vec<Rectangle<(f64, f64)>> = bars
@@ -355,18 +505,18 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
                 )
             })
             .collect();
-        chart
-            .draw_series(rects)
-            .map_err(|e| err(path, e))?
-            .label(pass.clone())
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled()));
+        chart.draw_series(rects).map_err(|e| err(path, e))?;
+        entries.push((Mark::Swatch, color, pass.clone()));
     }
-    legend(&mut chart, path, SeriesLabelPosition::MiddleRight)?;
+    // The first pass at the bottom of each bar: the legend lists top down.
+    entries.reverse();
+    side_legend(&legend_area, path, "pass (top of the bar first)", &entries)?;
     root.present().map_err(|e| err(path, e))?;
     Ok(())
 }
 
-/// Log-log lines: median GPU ms against n, one line per algorithm (first depth set-up).
+/// Log-log lines: median frame ms against n, one line per algorithm (first
+/// depth set-up), each with its own colour and marker.
 fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError> {
     let depth = rows[0].depth_setup.clone();
     let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
@@ -375,7 +525,7 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
         lines
             .entry(r.algo.clone())
             .or_default()
-            .push((n.max(1.0), r.gpu_ms_median.max(1e-3)));
+            .push((n.max(1.0), r.frame_ms_median.max(1e-3)));
     }
     for v in lines.values_mut() {
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -386,31 +536,83 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
         .fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
     let ys = lines.values().flatten().map(|p| p.1);
     let (ymin, ymax) = ys.fold((f64::INFINITY, 0.0f64), |(a, b), y| (a.min(y), b.max(y)));
-    let root = canvas(path, (900, 600))?;
-    let mut chart = one_panel(&root, title, &depth)
-        .build_cartesian_2d(
-            (xmin * 0.8..xmax * 1.25).log_scale(),
-            (ymin * 0.8..ymax * 1.25).log_scale(),
+    // Whole decades, at least two on each axis, so every axis has labelled ticks.
+    let decades = |lo: f64, hi: f64| {
+        let l = 10f64.powf(lo.log10().floor());
+        // A hair wider, so rounding leaves the end decades' ticks inside.
+        (l * 0.999, 10f64.powf(hi.log10().ceil()).max(l * 100.0) * 1.001)
+    };
+    let (x0, x1) = decades(xmin, xmax);
+    let (y0, y1) = decades(ymin, ymax);
+    let root = canvas(path, (1100, 650))?;
+    let root = root
+        .titled(
+            &format!("{title} (depth set-up {depth})"),
+            ("sans-serif", 20),
         )
+        .map_err(|e| err(path, e))?;
+    let (plot, legend_area) = root.split_horizontally(850);
+    let mut chart = ChartBuilder::on(&plot)
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
         .map_err(|e| err(path, e))?;
     chart
         .configure_mesh()
-        .x_desc("n (primitives)")
-        .y_desc("median GPU ms per frame")
+        .x_desc("n (primitives, log)")
+        .y_desc("median frame ms (log)")
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .label_style(("sans-serif", 13))
         .draw()
         .map_err(|e| err(path, e))?;
-    for (algo, pts) in &lines {
-        let c = algo_color(algo);
+    let mut entries = Vec::new();
+    let mut algos: Vec<&String> = lines.keys().collect();
+    algos.sort_by_key(|a| algo_style(a).1);
+    for algo in algos {
+        let pts = &lines[algo];
+        let (c, m) = algo_style(algo);
         chart
             .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
-            .map_err(|e| err(path, e))?
-            .label(algo.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
-        chart
-            .draw_series(pts.iter().map(|&(x, y)| Circle::new((x, y), 3, c.filled())))
             .map_err(|e| err(path, e))?;
+        with_marker!(m, c, |mk| chart
+            .draw_series(pts.iter().map(|&(x, y)| mk((x, y))))
+            .map(|_| ())
+            .map_err(|e| err(path, e)))?;
+        entries.push((Mark::Line(m), c, algo.clone()));
     }
-    legend(&mut chart, path, SeriesLabelPosition::UpperLeft)?;
+    side_legend(&legend_area, path, "algorithm", &entries)?;
     root.present().map_err(|e| err(path, e))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every algorithm and OpenCSG variant has a marker of its own and a
+    /// colour of its own.
+    #[test]
+    fn each_variant_has_its_own_marker_and_colour() {
+        let mut names: Vec<String> = ALGOS.iter().map(|a| a.to_string()).collect();
+        for v in ["goldfeather", "scs", "automatic"] {
+            names.push(format!("{}{v}", super::super::opencsg::PREFIX));
+        }
+        let styles: Vec<(RGBColor, usize)> = names.iter().map(|n| algo_style(n)).collect();
+        for (i, a) in styles.iter().enumerate() {
+            for (j, b) in styles.iter().enumerate().skip(i + 1) {
+                assert_ne!(a.1, b.1, "{} and {} share a marker", names[i], names[j]);
+                assert_ne!(a.0, b.0, "{} and {} share a colour", names[i], names[j]);
+            }
+        }
+        assert!(styles.iter().all(|s| s.1 < 18), "18 markers");
+    }
+
+    #[test]
+    fn log_ticks_read_short() {
+        assert_eq!(tick(0.1 * 1.0000001), "0.1");
+        assert_eq!(tick(1000.0), "1000");
+        assert_eq!(tick(1e-5), "1e-5");
+    }
 }

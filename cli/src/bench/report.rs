@@ -7,6 +7,8 @@
 use std::fmt::Write;
 use std::path::Path;
 
+use serde::Serialize;
+
 use super::{BenchError, Record};
 use peeltrim::vk::Counts;
 use peeltrim_reference::compare::CompareReport;
@@ -233,8 +235,9 @@ pub fn summary(records: &[Record]) -> String {
             let c = |of: CountOf| frame_count(r, of).unwrap_or_else(|| "-".into());
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.2} ± {:.2} | {:.2} | {:.2} | {:.1} | {} | {} | {} | {:.3} | {:.3} | {:.2e} |",
+                "| {}{} | {} | {:.2} ± {:.2} | {:.2} | {:.2} | {:.1} | {} | {} | {} | {:.3} | {:.3} | {:.2e} |",
                 r.algo,
+                if r.auto_pick { " (auto)" } else { "" },
                 r.depth_setup,
                 r.gpu_ms_median,
                 r.gpu_ms_iqr,
@@ -251,11 +254,198 @@ pub fn summary(records: &[Record]) -> String {
         }
         s.push('\n');
     }
+    s.push_str(&auto_table(records));
     s.push_str(&super::checks::section(records));
     s.push_str(&super::modes::summary(records));
     s.push_str(&super::opencsg::side_by_side(records));
     s.push_str(&embedded_table(records));
     s.push_str(&paper_table(records));
+    s
+}
+
+/// Whether a run is correct for the `auto` table: it ran, and its interior
+/// coverage and primitive mismatches are within [`AUTO_TOLERANCE`] of the
+/// lowest any run of the same scene, size and depth set-up reached.
+fn correct(r: &Record, rows: &[&Record]) -> bool {
+    let best = |f: fn(&Record) -> f64| {
+        rows.iter()
+            .filter(|x| x.ran() && x.error.is_some())
+            .map(|x| f(x))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let (cov, prim, _) = error_figures(r);
+    r.ran()
+        && r.error.is_some()
+        && cov <= best(|x| error_figures(x).0) + AUTO_TOLERANCE
+        && prim <= best(|x| error_figures(x).1) + AUTO_TOLERANCE
+}
+
+/// The time the auto table compares: on a software rasterizer (lavapipe) the
+/// process's CPU time over the frame (`frame_cpu_ms`: the rasterizer's work,
+/// steady on a loaded machine, where wall time varies severalfold), else the
+/// frame's wall time.
+pub fn auto_ms(r: &Record) -> f64 {
+    if r.device.contains("llvmpipe") || r.device.contains("lavapipe") {
+        r.frame_cpu_ms_median
+    } else {
+        r.frame_ms_median
+    }
+}
+
+/// Mismatch (fraction of the pixels) a run may have above the best run of its
+/// scene and still count as correct: 0.001 %, under one pixel in 100,000.
+pub const AUTO_TOLERANCE: f64 = 1e-5;
+
+/// One row of the `auto` table: per scene, size and depth set-up, auto's pick
+/// against the fastest correct run (frame time, median).
+#[derive(Clone, Debug, Serialize)]
+pub struct AutoRow {
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    pub depth_setup: String,
+    pub picked: String,
+    pub picked_ms: f64,
+    pub picked_correct: bool,
+    pub fastest: String,
+    pub fastest_ms: f64,
+    /// picked_ms / fastest_ms.
+    pub slowdown: f64,
+    /// The pick ran the fastest's plan (CST-G is CST-I's plan where its
+    /// counter pays for no group): a hit, whatever the timing noise.
+    pub same_plan: bool,
+    /// The fastest correct run of the algorithms auto may pick.
+    pub fastest_candidate: Option<String>,
+    pub fastest_candidate_ms: Option<f64>,
+    /// The pick is that run, or runs its plan.
+    pub candidate_hit: bool,
+}
+
+impl AutoRow {
+    /// Whether auto picked the fastest correct run (or its very plan).
+    pub fn hit(&self) -> bool {
+        self.picked == self.fastest || self.same_plan
+    }
+}
+
+/// The `auto` rows of a bench (scenes where auto picked an algorithm that ran).
+pub fn auto_rows(records: &[Record]) -> Vec<AutoRow> {
+    let mut out = Vec::new();
+    let mut keys: Vec<(String, u32, u32, String)> = Vec::new();
+    for r in records {
+        let k = (r.scene.clone(), r.width, r.height, r.depth_setup.clone());
+        if r.auto_pick && !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    for (scene, w, h, depth) in keys {
+        let rows: Vec<&Record> = records
+            .iter()
+            .filter(|r| {
+                r.scene == scene && r.width == w && r.height == h
+                    && r.algo != "reference"
+                    && (r.depth_setup == depth || r.algo == "opencsg")
+            })
+            .collect();
+        let Some(picked) = rows.iter().find(|r| r.auto_pick && r.ran()) else {
+            continue;
+        };
+        let Some(fastest) = rows
+            .iter()
+            .filter(|r| r.algo != "opencsg" && correct(r, &rows))
+            .min_by(|a, b| auto_ms(a).total_cmp(&auto_ms(b)))
+        else {
+            continue;
+        };
+        let cand = rows
+            .iter()
+            .filter(|r| {
+                peeltrim::plan::Algo::parse(&r.algo).is_some_and(crate::auto::speckle_free)
+                    && correct(r, &rows)
+            })
+            .min_by(|a, b| auto_ms(a).total_cmp(&auto_ms(b)));
+        out.push(AutoRow {
+            fastest_candidate: cand.map(|c| c.algo.clone()),
+            fastest_candidate_ms: cand.map(|c| auto_ms(c)),
+            candidate_hit: cand.is_some_and(|c| {
+                c.algo == picked.algo
+                    || (!c.plan_digest.is_empty() && c.plan_digest == picked.plan_digest)
+            }),
+            scene: scene.clone(),
+            width: w,
+            height: h,
+            depth_setup: depth.clone(),
+            picked: picked.algo.clone(),
+            picked_ms: auto_ms(picked),
+            picked_correct: correct(picked, &rows),
+            fastest: fastest.algo.clone(),
+            fastest_ms: auto_ms(fastest),
+            slowdown: auto_ms(picked) / auto_ms(fastest).max(1e-9),
+            same_plan: !picked.plan_digest.is_empty() && picked.plan_digest == fastest.plan_digest,
+        });
+    }
+    out
+}
+
+/// Markdown: how often `--algo auto` picked the fastest correct algorithm.
+pub fn auto_table(records: &[Record]) -> String {
+    let rows = auto_rows(records);
+    if rows.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from("## --algo auto against the fastest correct run
+
+");
+    s.push_str("Times are medians: on lavapipe the process's CPU time over a frame (`frame_cpu_ms`, the rasterizer's work, steady on a loaded machine), else the frame's wall time (`frame_ms`). Correct: interior coverage and primitive mismatches within 0.001 % of the pixels of the best run of the scene. Auto picks among the speckle-free algorithms by the plan's estimate; it cannot pick an algorithm the bench did not run. A pick that runs the fastest's very plan counts as a hit.
+
+");
+    s.push_str("| scene | size | auto picks | its ms | correct | fastest correct candidate | its ms | fastest correct | its ms | auto / fastest |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    for r in &rows {
+        let _ = writeln!(
+            s,
+            "| {} | {}×{} | {}{} | {:.2} | {} | {} | {} | {} | {:.2} | {:.2} |",
+            r.scene,
+            r.width,
+            r.height,
+            r.picked,
+            if r.same_plan && r.picked != r.fastest { " (same plan)" } else { "" },
+            r.picked_ms,
+            if r.picked_correct { "yes" } else { "no" },
+            r.fastest_candidate.as_deref().unwrap_or("-"),
+            r.fastest_candidate_ms.map_or("-".into(), |m| format!("{m:.2}")),
+            r.fastest,
+            r.fastest_ms,
+            r.slowdown
+        );
+    }
+    let cand_hits = rows.iter().filter(|r| r.candidate_hit).count();
+    let _ = writeln!(
+        s,
+        "\nAuto picked the fastest correct of the algorithms it may pick (cst-i, cst-z, cst-g, blister, goldfeather, goldfeather-layered: those that ran) on {cand_hits} of {} scenes.",
+        rows.len()
+    );
+    let hits = rows.iter().filter(|r| r.hit()).count();
+    let misses: Vec<f64> = rows
+        .iter()
+        .filter(|r| !r.hit())
+        .map(|r| r.slowdown)
+        .collect();
+    let _ = write!(
+        s,
+        "Auto picked the fastest correct run of all on {hits} of {} scenes",
+        rows.len()
+    );
+    if !misses.is_empty() {
+        let mean = misses.iter().sum::<f64>() / misses.len() as f64;
+        let worst = misses.iter().cloned().fold(0.0, f64::max);
+        let _ = write!(
+            s,
+            "; where it did not, its pick took {mean:.2}× the fastest's time on average (worst {worst:.2}×)"
+        );
+    }
+    s.push_str(".
+
+");
     s
 }
 

@@ -251,7 +251,7 @@ impl Loader<'_> {
             }
         }
 
-        self.finish(file, opts, primitives, solids, surfaces, false)
+        self.finish(file, opts, primitives, solids, surfaces, None)
     }
 
     /// `[csg] openscad = "model.csg"`: the OpenSCAD model is the whole scene.
@@ -307,13 +307,22 @@ impl Loader<'_> {
             name: file.name.clone().unwrap_or_else(|| "csg".to_string()),
             expr: model.expr,
         }];
-        let mut scene = self.finish(file, opts, model.primitives, solids, Vec::new(), true)?;
+        let mut scene = self.finish(
+            file,
+            opts,
+            model.primitives,
+            solids,
+            Vec::new(),
+            Some(&model.background),
+        )?;
         scene.appearance.background = model.background;
         Ok(scene)
     }
 
     /// Render settings and the camera, then the scene. `openscad`: OpenSCAD's
-    /// defaults (its view direction with Z up, field of view and background).
+    /// defaults (its view direction with Z up, field of view and background),
+    /// and the model's `%` parts, which the fitted camera holds too (they are
+    /// drawn where the algorithm draws transparency).
     pub(super) fn finish(
         mut self,
         file: FileT,
@@ -321,7 +330,7 @@ impl Loader<'_> {
         primitives: Vec<Primitive>,
         solids: Vec<Solid>,
         surfaces: Vec<Surface>,
-        openscad: bool,
+        openscad: Option<&[crate::scene::openscad::background::Background]>,
     ) -> Result<Scene, SceneError> {
         // Render settings.
         let r = file
@@ -332,7 +341,7 @@ impl Loader<'_> {
             width: r.and_then(|r| r.0.width).unwrap_or(800),
             height: r.and_then(|r| r.0.height).unwrap_or(800),
             background: r.and_then(|r| r.0.background).map_or(
-                if openscad {
+                if openscad.is_some() {
                     crate::scene::openscad::DEFAULT_BACKGROUND
                 } else {
                     [0x20, 0x20, 0x20]
@@ -395,7 +404,18 @@ impl Loader<'_> {
             .map(|p| &p.mesh)
             .chain(surfaces.iter().map(|s| &s.mesh))
             .collect();
-        let default = if openscad {
+        // The camera frames the `%` parts too.
+        let fitted: Vec<&Mesh> = drawn
+            .iter()
+            .copied()
+            .chain(
+                openscad
+                    .unwrap_or_default()
+                    .iter()
+                    .flat_map(|b| b.primitives.iter().map(|p| &p.mesh)),
+            )
+            .collect();
+        let default = if openscad.is_some() {
             CameraT {
                 eye: Some(vector::raw(
                     crate::scene::openscad::default_view_dir().to_array(),
@@ -407,7 +427,7 @@ impl Loader<'_> {
         } else {
             CameraT::fitted_default()
         };
-        let camera = self.camera(file.camera.as_ref(), &default, &render, &drawn)?;
+        let camera = self.camera(file.camera.as_ref(), &default, &render, &fitted)?;
         if let Some(l) = &file.light {
             let light = crate::scene::light::resolve(l.get_ref(), drawn.iter().copied())
                 .map_err(|(key, m)| self.invalid(self.line(l.span()), key, m))?;

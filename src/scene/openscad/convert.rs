@@ -147,6 +147,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         ctx: vec![None; tree.nodes.len()],
         background_roots: Vec::new(),
         mesh_bytes: 0,
+        unsupported: Vec::new(),
     };
     let roots = c.roots();
     let base = Ctx {
@@ -170,6 +171,34 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
             c.ctx[ch as usize] = c.enter(ch, child)?;
         }
     }
+    // Every unsupported node at once, in file order.
+    if !c.unsupported.is_empty() {
+        c.unsupported.sort_by_key(|(p, _)| (p.line, p.col));
+        let (pos, first) = c.unsupported[0].clone();
+        let fix = format!(
+            "peeltrim reads {SUPPORTED}; remove {}, or pass --skip-unsupported to drop {} (and {} children) with a warning",
+            if c.unsupported.len() == 1 { "the node" } else { "the nodes" },
+            if c.unsupported.len() == 1 { "it" } else { "them" },
+            if c.unsupported.len() == 1 { "its" } else { "their" },
+        );
+        let message = if c.unsupported.len() == 1 {
+            format!("{first} is not supported: {fix}")
+        } else {
+            let all: Vec<String> = c
+                .unsupported
+                .iter()
+                .map(|(p, what)| format!("{what} (line {})", p.line))
+                .collect();
+            format!(
+                "{} nodes are not supported: {}; {fix}",
+                all.len(),
+                all.join(", ")
+            )
+        };
+        return Err(ScadError::new(pos, message));
+    }
+    // Warnings in file order (nodes are entered level by level).
+    c.warnings.sort_by_key(|w| warning_pos(w));
     // Primitives in order of appearance.
     let mut out = Vec::new();
     let mut nodes: Vec<E> = Vec::new();
@@ -254,6 +283,15 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         warnings: c.warnings,
         background,
     })
+}
+
+/// A warning's leading `line:col:`, for sorting into file order (none: last).
+fn warning_pos(w: &str) -> (usize, usize) {
+    let mut it = w.splitn(3, ':');
+    match (it.next().map(str::parse), it.next().map(str::parse)) {
+        (Some(Ok(l)), Some(Ok(c))) => (l, c),
+        _ => (usize::MAX, usize::MAX),
+    }
 }
 
 /// Keeps only what the solid reaches: primitives its leaves name (still in
@@ -364,6 +402,8 @@ struct Converter<'a> {
     background_roots: Vec<u32>,
     /// Estimated bytes of the meshes tessellated so far (`scene::cost`).
     mesh_bytes: u64,
+    /// Unsupported nodes met (without --skip-unsupported), each with what it is.
+    unsupported: Vec<(super::Pos, String)>,
 }
 
 impl Converter<'_> {
@@ -420,12 +460,9 @@ impl Converter<'_> {
                 ));
                 return Ok(None);
             }
-            return Err(ScadError::new(
-                node.pos,
-                format!(
-                    "{what} is not supported: peeltrim reads {SUPPORTED}; remove the node, or pass --skip-unsupported to drop it (and its children) with a warning"
-                ),
-            ));
+            // Reported with every other one once all are found.
+            self.unsupported.push((node.pos, what));
+            return Ok(None);
         };
         if is_primitive(k) && !node.children.is_empty() {
             return Err(ScadError::new(
