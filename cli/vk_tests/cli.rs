@@ -584,3 +584,35 @@ fn bench_interleaves_frames_and_states_the_cst_ordering() {
         "{summary}"
     );
 }
+
+/// `plan --device-profile`: the plan passes' result. Under the CPU rasterizer
+/// profile (unsnapped depth) the final shade's tie-free draws are depth-equal
+/// draws; under the hardware profile none is, and the plan before the passes
+/// is the same; an unknown profile is a usage error.
+#[test]
+fn plan_prints_the_passes_result_under_each_profile() {
+    let gear = scene("gear.toml");
+    let plan = |profile: &str| {
+        let o = run(&["plan", &gear, "--algo", "goldfeather", "--device-profile", profile]);
+        assert!(o.status.success(), "{profile}: {}", stderr(&o));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let (cpu, hw) = (plan("cpu"), plan("hardware"));
+    let split = |t: &str| {
+        let (before, after) = t.split_once("# After the plan passes").expect("the passes' section");
+        (before.to_string(), after.to_string())
+    };
+    let ((cpu_plan, cpu_passes), (hw_plan, hw_passes)) = (split(&cpu), split(&hw));
+    assert_eq!(cpu_plan, hw_plan, "the algorithm's plan does not depend on the profile");
+    assert!(cpu_passes.contains("CpuRasterizer") && hw_passes.contains("Hardware"));
+    let equal = |t: &str| t.matches("depth-equal").count();
+    assert!(equal(&cpu_passes) > 0, "{cpu_passes}");
+    assert_eq!(equal(&hw_passes), 1, "only the heading's 'depth-equal shades off': {hw_passes}");
+    assert_eq!(
+        cpu_passes.matches("  draw ").count(),
+        hw_passes.matches("  draw ").count()
+    );
+    let o = run(&["plan", &gear, "--device-profile", "gpu"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("use device, cpu or hardware"), "{}", stderr(&o));
+}
