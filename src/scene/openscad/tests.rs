@@ -866,3 +866,21 @@ fn hostile_two_d_input_is_a_located_error_or_a_render() {
         false,
     );
 }
+
+#[test]
+fn concave_polyhedron_faces_are_ear_clipped() {
+    // OpenSCAD's polyhedron-concave-test: a hexagon with a notch, 5 high. A
+    // fan from the first point would fold triangles over the notch.
+    let m = model("polyhedron(points = [[0, 0, 0], [2, 4, 0], [8, 4, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0], [0, 0, 5], [2, 4, 5], [8, 4, 5], [10, 0, 5], [10, 10, 5], [0, 10, 5]], faces = [[0, 1, 2, 3, 4, 5], [0, 6, 7], [0, 7, 1], [1, 7, 8], [1, 8, 2], [2, 8, 9], [2, 9, 3], [3, 9, 10], [3, 10, 4], [4, 10, 11], [4, 11, 5], [5, 11, 6], [5, 6, 0], [11, 10, 9, 8, 7, 6]], convexity = 2);");
+    let mesh = &m.primitives[0].mesh;
+    closed_outward(mesh);
+    assert!((signed_volume(mesh) - 340.0).abs() < 1e-9);
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+        let n = (b - a).cross(c - a);
+        if a.z == b.z && b.z == c.z {
+            // Bottom faces point down, top faces up: none folded.
+            assert!(n.z * (a.z - 2.5) > 0.0, "{t:?}");
+        }
+    }
+}
