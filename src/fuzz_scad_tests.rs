@@ -116,6 +116,15 @@ fn primitive() -> BoxedStrategy<Scad> {
             let bad = b2 || b3 || b4 || (b1 && !empty);
             scad(format!("cylinder({f}, h = {h}, r1 = {r1}, r2 = {r2}, center = true);"), bad)
         }),
+        // Extrusions of 2D CSG, self-intersecting outlines included; a vector
+        // is a legal `scale` and `square` size.
+        3 => (value(), value(), value(), value()).prop_map(move |((h, b1), (t, b2), (s, b3), (r, b4))| {
+            let b3 = b3 && s != "[1, 2]";
+            scad(format!("linear_extrude(height = {h}, twist = {t}, scale = {s}) {{ difference() {{ square(size = [{r}, 2], center = true); circle(r = {r}, $fn = 8); polygon(points = [[0, 0], [{r}, 0], [0, {h}], [{r}, {h}]]); }} }}"), b1 || b2 || b3 || b4)
+        }),
+        2 => (value(), value()).prop_map(move |((a, b1), (r, b2))| {
+            scad(format!("rotate_extrude(angle = {a}, $fn = 10) multmatrix(m = [[1, 0, 0, 3], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) {{ square(size = {r}); polygon(points = [[0, 0], [1, 0], [1, {r}]], paths = [[0, 1, 2]]); }}"), b1 || b2)
+        }),
         1 => Just(scad(
             "polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]], convexity = 1);".into(),
             false,
@@ -126,8 +135,8 @@ fn primitive() -> BoxedStrategy<Scad> {
             "polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);",
             "polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces = [[0, 1, 99999999999]]);",
             "polyhedron(points = [[0, 0, 0]], faces = [[0, 0]]);",
-            "square(size = [1, 1]);",
-            "linear_extrude(height = 2) circle(r = 1);",
+            "linear_extrude(height = 2) polygon(points = [[0, 0], [1, 0], [0, nan]]);",
+            "rotate_extrude(angle = 360) circle(r = 1, $fn = 1e9);",
             "cube(size = [1, 1, 1]) cube();",
         ])
         .prop_map(move |s| scad(s.to_string(), true)),

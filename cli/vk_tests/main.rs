@@ -23,6 +23,7 @@ mod limits;
 mod many_products;
 mod one_submit;
 mod openscad;
+mod openscad_extrude;
 mod replay;
 mod rounding;
 mod scad_models;

@@ -13,14 +13,21 @@
 //!   below it, the outermost `color` winning as in 2021.01; `#` highlights.
 //! - `!` makes the first such node the only root (its ancestors' transforms are
 //!   not applied, as in OpenSCAD).
+//! - Below `linear_extrude` / `rotate_extrude` the tree is 2D: `multmatrix`
+//!   keeps its x/y part, operators stay operators, and each `circle`, `square`
+//!   or `polygon` becomes one extruded primitive (`super::extrude`). The
+//!   extrusion itself is the union of its children. A 2D shape among 3D objects,
+//!   or a 3D object in a 2D subtree, is dropped with a warning, as OpenSCAD's
+//!   CGAL evaluation drops it.
 //!
-//! Three passes over the pre-order arena, none recursive: top-down contexts
-//! (ascending index), primitives in order of appearance, bottom-up operators
-//! (descending index).
+//! Four passes over the pre-order arena, none recursive: top-down contexts
+//! (ascending index), 2D regions and extrusion counts (descending), primitives
+//! in order of appearance, bottom-up operators (descending index).
 
-use glam::{DMat4, DVec3};
+use glam::{DAffine2, DMat4, DVec2, DVec3};
 
 use super::args::{self, Args};
+use super::extrude::{self, Extents, Op2, Region};
 use super::parse::{Node, Tree, ValueKind};
 use super::tessellate::{self, Resolution, F_MINIMUM};
 use super::{ScadError, ScadPrimitive};
@@ -62,6 +69,11 @@ enum Kind {
     Sphere,
     Cylinder,
     Polyhedron,
+    Circle,
+    Square,
+    Polygon,
+    LinearExtrude,
+    RotateExtrude,
 }
 
 fn kind(name: &str) -> Option<Kind> {
@@ -75,27 +87,43 @@ fn kind(name: &str) -> Option<Kind> {
         "sphere" => Kind::Sphere,
         "cylinder" => Kind::Cylinder,
         "polyhedron" => Kind::Polyhedron,
+        "circle" => Kind::Circle,
+        "square" => Kind::Square,
+        "polygon" => Kind::Polygon,
+        "linear_extrude" => Kind::LinearExtrude,
+        "rotate_extrude" => Kind::RotateExtrude,
         _ => return None,
     })
 }
 
-const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, union, difference, intersection, group, color, render";
-const TWO_D: &[&str] = &[
-    "square",
-    "circle",
-    "polygon",
-    "text",
-    "offset",
-    "projection",
-    "import",
-    "surface",
-];
+const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render";
+const TWO_D: &[&str] = &["text", "offset", "projection", "import", "surface"];
 
 fn is_primitive(k: Kind) -> bool {
+    is_3d_primitive(k) || is_2d_primitive(k)
+}
+
+fn is_3d_primitive(k: Kind) -> bool {
     matches!(
         k,
         Kind::Cube | Kind::Sphere | Kind::Cylinder | Kind::Polyhedron
     )
+}
+
+fn is_2d_primitive(k: Kind) -> bool {
+    matches!(k, Kind::Circle | Kind::Square | Kind::Polygon)
+}
+
+fn is_extrusion(k: Kind) -> bool {
+    matches!(k, Kind::LinearExtrude | Kind::RotateExtrude)
+}
+
+/// Inside an extrusion: which one, and the 2D `multmatrix` composed below it
+/// (OpenSCAD keeps a 3D matrix's x/y rows and columns for 2D children).
+#[derive(Clone, Copy, Debug)]
+struct Plane {
+    extrusion: u32,
+    matrix: DAffine2,
 }
 
 /// What a node's subtree inherits.
@@ -110,6 +138,8 @@ struct Ctx {
     negated: bool,
     /// Inside a `%` background subtree.
     background: bool,
+    /// Inside an extrusion (its 2D subtree).
+    plane: Option<Plane>,
 }
 
 /// A node's contribution to its parent.
@@ -148,6 +178,9 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         background_roots: Vec::new(),
         mesh_bytes: 0,
         unsupported: Vec::new(),
+        extrusion_args: vec![None; tree.nodes.len()],
+        regions: vec![None; tree.nodes.len()],
+        extrusions: vec![None; tree.nodes.len()],
     };
     let roots = c.roots();
     let base = Ctx {
@@ -156,6 +189,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         highlight: false,
         negated: false,
         background: false,
+        plane: None,
     };
     for &r in &roots {
         c.ctx[r as usize] = c.enter(r, base)?;
@@ -197,6 +231,14 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         };
         return Err(ScadError::new(pos, message));
     }
+    // A background root's term is its own set, not its parent's child. In order
+    // of appearance (the arena's pre-order; top-level nodes are entered first).
+    c.background_roots.sort_unstable();
+    let mut is_background_root = vec![false; tree.nodes.len()];
+    for &r in &c.background_roots {
+        is_background_root[r as usize] = true;
+    }
+    c.two_d(&is_background_root)?;
     // Warnings in file order (nodes are entered level by level).
     c.warnings.sort_by_key(|w| warning_pos(w));
     // Primitives in order of appearance.
@@ -220,13 +262,6 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
             }
             None => Term::Empty,
         });
-    }
-    // A background root's term is its own set, not its parent's child. In order
-    // of appearance (the arena's pre-order; top-level nodes are entered first).
-    c.background_roots.sort_unstable();
-    let mut is_background_root = vec![false; tree.nodes.len()];
-    for &r in &c.background_roots {
-        is_background_root[r as usize] = true;
     }
     // Operators bottom-up.
     for i in (0..tree.nodes.len()).rev() {
@@ -404,6 +439,56 @@ struct Converter<'a> {
     mesh_bytes: u64,
     /// Unsupported nodes met (without --skip-unsupported), each with what it is.
     unsupported: Vec<(super::Pos, String)>,
+    /// Per node: an extrusion's arguments (from `enter`).
+    extrusion_args: Vec<Option<ExtrusionArgs>>,
+    /// Per node: a 2D primitive's region, in its extrusion's plane.
+    regions: Vec<Option<Region>>,
+    /// Per node: an extrusion with its counts resolved against its 2D child.
+    extrusions: Vec<Option<Extrusion>>,
+}
+
+/// `linear_extrude` or `rotate_extrude` as read from the node.
+#[derive(Clone, Copy, Debug)]
+enum ExtrusionArgs {
+    Linear {
+        h1: f64,
+        h2: f64,
+        twist: f64,
+        scale: DVec2,
+        slices: Option<u64>,
+        res: Resolution,
+    },
+    Rotate {
+        angle: f64,
+        res: Resolution,
+    },
+}
+
+impl ExtrusionArgs {
+    /// Whether the counts depend on the 2D child's vertices.
+    fn needs_child(&self) -> bool {
+        match *self {
+            ExtrusionArgs::Linear {
+                twist,
+                scale,
+                slices,
+                ..
+            } => slices.is_none() && (twist != 0.0 || scale.x != scale.y),
+            ExtrusionArgs::Rotate { .. } => true,
+        }
+    }
+}
+
+/// An extrusion ready to apply to its 2D primitives (`None`: it makes nothing).
+#[derive(Clone, Copy, Debug)]
+enum Extrusion {
+    Linear(extrude::Linear),
+    Rotate {
+        angle: f64,
+        fragments: u64,
+        min_x: f64,
+    },
+    Empty,
 }
 
 impl Converter<'_> {
@@ -464,6 +549,20 @@ impl Converter<'_> {
             self.unsupported.push((node.pos, what));
             return Ok(None);
         };
+        let misplaced = if parent.plane.is_some() && (is_3d_primitive(k) || is_extrusion(k)) {
+            Some("a 3D object inside a 2D subtree (below an extrusion)")
+        } else if parent.plane.is_none() && is_2d_primitive(k) {
+            Some("a 2D shape among 3D objects (not below linear_extrude or rotate_extrude)")
+        } else {
+            None
+        };
+        if let Some(why) = misplaced {
+            self.warnings.push(format!(
+                "{at}: `{}` is {why}; OpenSCAD drops it, and so does peeltrim (wrap a 2D shape in linear_extrude to give it volume)",
+                node.name
+            ));
+            return Ok(None);
+        }
         if is_primitive(k) && !node.children.is_empty() {
             return Err(ScadError::new(
                 node.pos,
@@ -472,7 +571,27 @@ impl Converter<'_> {
         }
         ctx.highlight |= node.modifiers.highlight;
         match k {
-            Kind::Multmatrix => ctx.matrix = parent.matrix * self.matrix(node)?,
+            Kind::Multmatrix => {
+                let m = self.matrix(node)?;
+                match &mut ctx.plane {
+                    Some(plane) => {
+                        plane.matrix = plane.matrix
+                            * DAffine2::from_cols(
+                                m.x_axis.truncate().truncate(),
+                                m.y_axis.truncate().truncate(),
+                                m.w_axis.truncate().truncate(),
+                            )
+                    }
+                    None => ctx.matrix = parent.matrix * m,
+                }
+            }
+            Kind::LinearExtrude | Kind::RotateExtrude => {
+                self.extrusion_args[i as usize] = Some(self.extrusion_args(node, k)?);
+                ctx.plane = Some(Plane {
+                    extrusion: i,
+                    matrix: DAffine2::IDENTITY,
+                });
+            }
             Kind::Color => {
                 let c = self.color(node)?;
                 ctx.color = parent.color.or(Some(c));
@@ -610,6 +729,7 @@ impl Converter<'_> {
                 tessellate::cylinder(h, r1, r2, a.boolean("center")?.unwrap_or(false), n)
             }
             Kind::Polyhedron => self.polyhedron(node)?,
+            Kind::Circle | Kind::Square | Kind::Polygon => self.extruded(i, node, ctx)?,
             _ => unreachable!("only primitives are tessellated"),
         };
         let Some(local) = local else {
@@ -640,15 +760,8 @@ impl Converter<'_> {
         }))
     }
 
-    /// `get_fragments_from_r` with `$fa`/`$fs` clamped as OpenSCAD does, and a cap
-    /// on the vertex count (`rings_div`: 2 for a sphere's rings, 1 otherwise).
-    fn fragments(
-        &mut self,
-        node: &Node,
-        a: &Args,
-        r: f64,
-        rings_div: u64,
-    ) -> Result<u64, ScadError> {
+    /// `$fn`, `$fa`, `$fs` of a node, `$fa`/`$fs` clamped as OpenSCAD does.
+    fn resolution(&mut self, a: &Args) -> Result<Resolution, ScadError> {
         let mut res = Resolution::default();
         if let Some(v) = a.get("$fn") {
             res.fn_ = args::number(v, "`$fn`")?;
@@ -665,6 +778,19 @@ impl Converter<'_> {
                 }
             }
         }
+        Ok(res)
+    }
+
+    /// `get_fragments_from_r` with `$fa`/`$fs` clamped as OpenSCAD does, and a cap
+    /// on the vertex count (`rings_div`: 2 for a sphere's rings, 1 otherwise).
+    fn fragments(
+        &mut self,
+        node: &Node,
+        a: &Args,
+        r: f64,
+        rings_div: u64,
+    ) -> Result<u64, ScadError> {
+        let res = self.resolution(a)?;
         let n = tessellate::fragments(r, res);
         let rings = n.div_ceil(rings_div);
         if n > MAX_DIVISIONS as u64 || (rings_div == 2 && n.saturating_mul(rings) > MAX_GRID) {
@@ -803,4 +929,411 @@ fn hex_color(s: &str) -> Option<[f64; 4]> {
     };
     let a = if h.len() == 8 { b(6)? } else { 1.0 };
     Some([b(0)?, b(2)?, b(4)?, a])
+}
+
+/// 2D shapes and extrusions (`super::extrude` says why each 2D primitive is
+/// extruded on its own).
+impl Converter<'_> {
+    /// `linear_extrude(height, center, twist, slices, scale)` or
+    /// `rotate_extrude(angle)`, as OpenSCAD 2021.01's modules read them.
+    fn extrusion_args(&mut self, node: &Node, k: Kind) -> Result<ExtrusionArgs, ScadError> {
+        let (positional, known): (&[&'static str], &[&'static str]) = match k {
+            Kind::LinearExtrude => (
+                &["height", "center", "convexity", "twist", "slices", "scale"],
+                &["file", "layer", "origin", "v"],
+            ),
+            _ => (&["angle", "convexity"], &["file", "layer", "origin"]),
+        };
+        let a = Args::new(node, positional, known, &mut self.warnings)?;
+        if let Some(v) = a.get("file") {
+            return Err(ScadError::new(
+                v.pos,
+                format!(
+                    "`{}` of an imported file is not supported: export the profile as 2D shapes (circle, square, polygon) instead",
+                    node.name
+                ),
+            ));
+        }
+        let res = self.resolution(&a)?;
+        if k == Kind::RotateExtrude {
+            let mut angle = a.number("angle")?.unwrap_or(360.0);
+            if !(-360.0..=360.0).contains(&angle) {
+                angle = 360.0;
+            }
+            return Ok(ExtrusionArgs::Rotate { angle, res });
+        }
+        let height = a.number("height")?.unwrap_or(100.0);
+        let (h1, h2) = if a.boolean("center")?.unwrap_or(false) {
+            (-height / 2.0, height / 2.0)
+        } else {
+            (0.0, height)
+        };
+        let twist = a.number("twist")?.unwrap_or(0.0);
+        let slices = match a.get("slices") {
+            None => None,
+            Some(v) => {
+                let n = args::number(v, "`slices` of `linear_extrude`")?;
+                if n > MAX_DIVISIONS as f64 {
+                    return Err(ScadError::new(
+                        v.pos,
+                        format!("`slices` of `linear_extrude` is {n}; at most {MAX_DIVISIONS} are accepted: lower it"),
+                    ));
+                }
+                Some(n.max(1.0) as u64)
+            }
+        };
+        let mut scale = match a.get("scale") {
+            None => DVec2::ONE,
+            Some(v) if matches!(v.kind, ValueKind::Number(_)) => {
+                DVec2::splat(args::number(v, "`scale` of `linear_extrude`")?)
+            }
+            Some(v) => match args::numbers(v, "`scale` of `linear_extrude`")?[..] {
+                [x, y] => DVec2::new(x, y),
+                _ => {
+                    return Err(ScadError::new(
+                        v.pos,
+                        "`scale` of `linear_extrude` must be a number or [x, y]",
+                    ))
+                }
+            },
+        };
+        if scale.min_element() < 0.0 {
+            let pos = a.get("scale").map(|v| v.pos).unwrap_or(node.pos);
+            self.warnings.push(format!(
+                "{}:{}: a negative `scale` of `linear_extrude` is taken as 0, as OpenSCAD does",
+                pos.line, pos.col
+            ));
+            scale = scale.max(DVec2::ZERO);
+        }
+        Ok(ExtrusionArgs::Linear {
+            h1,
+            h2,
+            twist,
+            scale,
+            slices,
+            res,
+        })
+    }
+
+    /// Each 2D primitive's region; each extrusion's counts, from its 2D child
+    /// evaluated with `i_overlay` where the counts need it (bottom-up).
+    fn two_d(&mut self, is_background_root: &[bool]) -> Result<(), ScadError> {
+        let tree = self.tree;
+        let mut evaluated: Vec<Option<Region>> = vec![None; tree.nodes.len()];
+        for i in (0..tree.nodes.len()).rev() {
+            let (Some(ctx), Some(k)) = (self.ctx[i], kind(&tree.nodes[i].name)) else {
+                continue;
+            };
+            let node = &tree.nodes[i];
+            let Some(plane) = ctx.plane else { continue };
+            let needs =
+                self.extrusion_args[plane.extrusion as usize].is_some_and(|e| e.needs_child());
+            if is_2d_primitive(k) {
+                let r = self.region(node, k, &plane.matrix)?;
+                if needs {
+                    evaluated[i] = Some(r.clone());
+                }
+                self.regions[i] = Some(r);
+                continue;
+            }
+            let kids: Vec<Region> = if needs {
+                node.children
+                    .iter()
+                    .filter(|&&ch| !is_background_root[ch as usize])
+                    .filter_map(|&ch| evaluated[ch as usize].take())
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            let op = match k {
+                Kind::Difference => Op2::Difference,
+                Kind::Intersection => Op2::Intersection,
+                _ => Op2::Union,
+            };
+            if plane.extrusion as usize != i {
+                if needs && !kids.is_empty() {
+                    evaluated[i] = Some(extrude::boolean(op, kids));
+                }
+                continue;
+            }
+            let child = extrude::boolean(Op2::Union, kids);
+            let e = self.resolve(i, node, &child)?;
+            self.extrusions[i] = Some(e);
+        }
+        Ok(())
+    }
+
+    /// The extrusion's counts against its evaluated 2D child.
+    fn resolve(&mut self, i: usize, node: &Node, child: &Region) -> Result<Extrusion, ScadError> {
+        let Some(args) = self.extrusion_args[i] else {
+            unreachable!("extrusion arguments are read on entry")
+        };
+        let n = match args {
+            ExtrusionArgs::Linear {
+                h1,
+                h2,
+                twist,
+                scale,
+                slices,
+                res,
+            } => {
+                if h2 - h1 <= 0.0 {
+                    return Ok(Extrusion::Empty);
+                }
+                let slices = slices
+                    .unwrap_or_else(|| extrude::default_slices(child, h2 - h1, twist, scale, res));
+                if slices > MAX_DIVISIONS as u64 {
+                    return Err(ScadError::new(
+                        node.pos,
+                        format!("`linear_extrude` would have {slices} slices (from $fn = {}, $fa = {}, $fs = {}); at most {MAX_DIVISIONS} are accepted: give `slices`, or raise $fa/$fs", res.fn_, res.fa, res.fs),
+                    ));
+                }
+                return Ok(Extrusion::Linear(extrude::Linear {
+                    h1,
+                    h2,
+                    twist,
+                    scale,
+                    slices,
+                }));
+            }
+            ExtrusionArgs::Rotate { angle, res } => {
+                if angle == 0.0 {
+                    return Ok(Extrusion::Empty);
+                }
+                let e = Extents::of(child);
+                if !e.one_side() {
+                    self.warnings.push(format!(
+                        "{}:{}: all points of a `rotate_extrude` profile must have the same sign of x (range {} to {}); OpenSCAD makes nothing of it, and so does peeltrim",
+                        node.pos.line, node.pos.col, e.min_x, e.max_x
+                    ));
+                    return Ok(Extrusion::Empty);
+                }
+                (extrude::rotate_fragments(&e, angle, res), angle, e.min_x)
+            }
+        };
+        let (fragments, angle, min_x) = n;
+        if fragments > MAX_DIVISIONS as u64 {
+            return Err(ScadError::new(
+                node.pos,
+                format!("`rotate_extrude` would have {fragments} fragments; at most {MAX_DIVISIONS} are accepted: lower $fn or raise $fa/$fs"),
+            ));
+        }
+        Ok(Extrusion::Rotate {
+            angle,
+            fragments,
+            min_x,
+        })
+    }
+
+    /// A 2D primitive's region in its extrusion's plane (`m` applied).
+    fn region(&mut self, node: &Node, k: Kind, m: &DAffine2) -> Result<Region, ScadError> {
+        let det = m.matrix2.determinant();
+        let r = match k {
+            Kind::Circle => {
+                let a = Args::new(node, &["r"], &["d"], &mut self.warnings)?;
+                let r = match a.number("d")? {
+                    Some(d) => d / 2.0,
+                    None => a.number("r")?.unwrap_or(1.0),
+                };
+                let n = self.fragments(node, &a, r, 1)?;
+                extrude::circle(r, n).transformed(m)
+            }
+            Kind::Square => {
+                let a = Args::new(node, &["size", "center"], &[], &mut self.warnings)?;
+                let size = match a.get("size") {
+                    None => DVec2::ONE,
+                    Some(v) if matches!(v.kind, ValueKind::Number(_)) => {
+                        DVec2::splat(args::number(v, "`size` of `square`")?)
+                    }
+                    Some(v) => match args::numbers(v, "`size` of `square`")?[..] {
+                        [x, y] => DVec2::new(x, y),
+                        _ => {
+                            return Err(ScadError::new(
+                                v.pos,
+                                "`size` of `square` must be a number or [x, y]",
+                            ))
+                        }
+                    },
+                };
+                extrude::square(size, a.boolean("center")?.unwrap_or(false)).transformed(m)
+            }
+            _ => self.polygon(node, m)?,
+        };
+        let big = r
+            .shapes
+            .iter()
+            .flatten()
+            .flatten()
+            .any(|p| !(p.abs().max_element() <= extrude::MAX_COORD));
+        if big {
+            return Err(ScadError::new(
+                node.pos,
+                format!(
+                    "`{}` reaches coordinates beyond ±{:e} (after its transforms); scale the model down",
+                    node.name,
+                    extrude::MAX_COORD
+                ),
+            ));
+        }
+        if !(det.abs() > 1e-300) {
+            self.warnings.push(format!(
+                "{}:{}: `{}` is flattened by a singular 2D multmatrix; OpenSCAD removes it, and so does peeltrim",
+                node.pos.line, node.pos.col, node.name
+            ));
+            return Ok(Region::default());
+        }
+        Ok(r)
+    }
+
+    fn polygon(&mut self, node: &Node, m: &DAffine2) -> Result<Region, ScadError> {
+        let a = Args::new(
+            node,
+            &["points", "paths", "convexity"],
+            &[],
+            &mut self.warnings,
+        )?;
+        let Some(pv) = a.get("points") else {
+            return Err(ScadError::new(
+                node.pos,
+                "`polygon` needs `points = [[x, y], ...]`",
+            ));
+        };
+        let points = args::vector(pv, "`points` of `polygon`")?
+            .iter()
+            .map(|p| {
+                let n = args::numbers(p, "a point of `polygon`")?;
+                match n[..] {
+                    [x, y] | [x, y, _]
+                        if x.abs() <= extrude::MAX_COORD && y.abs() <= extrude::MAX_COORD =>
+                    {
+                        Ok(DVec2::new(x, y))
+                    }
+                    [_, _] | [_, _, _] => Err(ScadError::new(
+                        p.pos,
+                        format!(
+                            "a point of `polygon` is beyond ±{:e}; scale the model down",
+                            extrude::MAX_COORD
+                        ),
+                    )),
+                    _ => Err(ScadError::new(
+                        p.pos,
+                        format!(
+                            "a point of `polygon` must be [x, y], not {} numbers",
+                            n.len()
+                        ),
+                    )),
+                }
+            })
+            .collect::<Result<Vec<DVec2>, _>>()?;
+        let paths: Vec<Vec<DVec2>> = match a.get("paths") {
+            None => vec![points.clone()],
+            Some(v) => args::vector(v, "`paths` of `polygon`")?
+                .iter()
+                .enumerate()
+                .map(|(k, path)| {
+                    args::vector(path, "a path of `polygon`")?
+                        .iter()
+                        .map(|x| {
+                            args::index(x, &format!("path {k} of `polygon`"), points.len())
+                                .map(|i| points[i as usize])
+                        })
+                        .collect::<Result<Vec<DVec2>, _>>()
+                })
+                .collect::<Result<_, _>>()?,
+        };
+        // The memory budget, before the polygon library sees the points.
+        let total: usize = paths.iter().map(|p| p.len()).sum();
+        self.mesh_bytes = self
+            .mesh_bytes
+            .saturating_add(cost::mesh_bytes(total as u64 * 2, total as u64 * 4));
+        crate::budget::current()
+            .check(
+                || {
+                    format!(
+                        "`polygon` with {total} path points (with the model's meshes before it)"
+                    )
+                },
+                self.mesh_bytes,
+                "use fewer points",
+            )
+            .map_err(|e| ScadError::new(node.pos, e.to_string()))?;
+        Ok(extrude::polygon(&paths, m))
+    }
+
+    /// A 2D primitive extruded by its extrusion, in the extrusion's frame.
+    fn extruded(&mut self, i: usize, node: &Node, ctx: &Ctx) -> Result<Option<Mesh>, ScadError> {
+        let Some(plane) = ctx.plane else {
+            unreachable!("2D primitives outside an extrusion are dropped on entry")
+        };
+        let Some(region) = self.regions[i].take() else {
+            return Ok(None);
+        };
+        let Some(e) = self.extrusions[plane.extrusion as usize] else {
+            return Ok(None);
+        };
+        if region.is_empty() || matches!(e, Extrusion::Empty) {
+            return Ok(None);
+        }
+        let cap = extrude::cap(&region).map_err(|why| {
+            ScadError::new(
+                node.pos,
+                format!(
+                    "`{}` cannot be extruded: {why}; simplify the outline",
+                    node.name
+                ),
+            )
+        })?;
+        let n = region.vertex_count() as u64;
+        let levels = match e {
+            Extrusion::Linear(l) => l.slices + 1,
+            Extrusion::Rotate { fragments, .. } => fragments + 1,
+            Extrusion::Empty => 0,
+        };
+        let (v, t) = (
+            n.saturating_mul(levels),
+            n.saturating_mul(levels).saturating_mul(2),
+        );
+        self.mesh_bytes = self.mesh_bytes.saturating_add(cost::mesh_bytes(v, t));
+        crate::budget::current()
+            .check(
+                || {
+                    format!(
+                        "`{}` extruded ({v} vertices; with the model's meshes before it)",
+                        node.name
+                    )
+                },
+                self.mesh_bytes,
+                "lower slices, $fn or the point count",
+            )
+            .map_err(|e| ScadError::new(node.pos, e.to_string()))?;
+        let mut mesh = match e {
+            Extrusion::Linear(l) => extrude::linear_mesh(&region, &cap, &l),
+            Extrusion::Rotate {
+                angle,
+                fragments,
+                min_x,
+            } => extrude::rotate_mesh(&region, &cap, angle, fragments, min_x),
+            Extrusion::Empty => return Ok(None),
+        };
+        if let Err(p) = check_closed(&mesh) {
+            return Err(ScadError::new(
+                node.pos,
+                format!(
+                    "`{}` extruded is not a closed solid ({}); simplify the outline",
+                    node.name,
+                    p.describe(&mesh)
+                ),
+            ));
+        }
+        let v = signed_volume(&mesh);
+        if v == 0.0 || !v.is_finite() {
+            return Ok(None);
+        }
+        if v < 0.0 {
+            for t in &mut mesh.triangles {
+                t.swap(1, 2);
+            }
+        }
+        Ok(Some(mesh))
+    }
 }

@@ -6,6 +6,9 @@
 //!   errors `file:line:col`).
 //! - `tessellate`: OpenSCAD 2021.01's exact facets of cube, sphere, cylinder
 //!   and polyhedron.
+//! - `extrude`: the 2D shapes `circle`, `square`, `polygon` and their
+//!   `linear_extrude` / `rotate_extrude`, each 2D primitive extruded to its own
+//!   closed mesh so 2D Booleans become 3D ones (why that is exact: its doc).
 //! - `convert`: the tree into primitives and one CSG expression (OpenSCAD's
 //!   CSG-tree semantics: operators, transforms, colours, modifiers).
 //!
@@ -18,6 +21,7 @@
 pub(crate) mod args;
 pub mod background;
 pub(crate) mod convert;
+pub(crate) mod extrude;
 pub(crate) mod lex;
 pub(crate) mod parse;
 pub(crate) mod tessellate;

@@ -12,7 +12,9 @@
 //! - Cylinder: `r1` at `z1`, `r2` at `z2` (`0, h`, or `±h/2` centred), fragments
 //!   from the larger radius, one apex vertex where a radius is 0.
 //! - Polyhedron: OpenSCAD lists faces clockwise seen from outside; each face is
-//!   fan-triangulated from its first point and reversed to our CCW.
+//!   triangulated in its plane (ear clipping by `earcutr`, so concave faces stay
+//!   inside their outline, as OpenSCAD's own tessellator keeps them; a fan from
+//!   the first point where that fails) and reversed to our CCW.
 //!
 //! Degenerate sizes (a radius, height or extent ≤ 0) give `None`: OpenSCAD makes
 //! an empty object of them, which the converter treats as the empty set.
@@ -214,6 +216,12 @@ pub fn cylinder(h: f64, r1: f64, r2: f64, center: bool, n: u64) -> Option<Mesh> 
 pub fn polyhedron(points: Vec<DVec3>, faces: &[Vec<u32>]) -> Option<Mesh> {
     let mut triangles = Vec::new();
     for f in faces {
+        if f.len() > 3 {
+            if let Some(tris) = ear_clip(&points, f) {
+                triangles.extend(tris);
+                continue;
+            }
+        }
         for k in 1..f.len().saturating_sub(1) {
             triangles.push([f[0], f[k + 1], f[k]]);
         }
@@ -225,4 +233,44 @@ pub fn polyhedron(points: Vec<DVec3>, faces: &[Vec<u32>]) -> Option<Mesh> {
         positions: points,
         triangles,
     })
+}
+
+/// Ear-clipped triangles of face `f` (OpenSCAD's clockwise order), projected
+/// on the plane its Newell normal is most aligned with, reversed to CCW.
+/// `None` for a face with no area or that earcut cannot triangulate fully.
+fn ear_clip(points: &[DVec3], f: &[u32]) -> Option<Vec<[u32; 3]>> {
+    let p = |i: usize| points[f[i] as usize];
+    let n = (0..f.len()).fold(DVec3::ZERO, |n, i| n + p(i).cross(p((i + 1) % f.len())));
+    let a = n.abs();
+    let (u, v) = if a.z >= a.x && a.z >= a.y {
+        (0, 1)
+    } else if a.x >= a.y {
+        (1, 2)
+    } else {
+        (2, 0)
+    };
+    let flat: Vec<f64> = (0..f.len()).flat_map(|i| [p(i)[u], p(i)[v]]).collect();
+    let q = |i: usize| glam::DVec2::new(flat[2 * i], flat[2 * i + 1]);
+    let area: f64 = (0..f.len()).map(|i| q(i).perp_dot(q((i + 1) % f.len()))).sum();
+    if !(area.abs() > 0.0) {
+        return None;
+    }
+    let tri = earcutr::earcut(&flat, &[], 2).ok()?;
+    if tri.len() / 3 != f.len() - 2 {
+        return None;
+    }
+    Some(
+        tri.chunks(3)
+            .map(|t| {
+                let s = (q(t[1]) - q(t[0])).perp_dot(q(t[2]) - q(t[0]));
+                // Same turn as the face's own order, then reversed to CCW.
+                let (a, b, c) = if (s > 0.0) == (area > 0.0) {
+                    (t[0], t[1], t[2])
+                } else {
+                    (t[0], t[2], t[1])
+                };
+                [f[a], f[c], f[b]]
+            })
+            .collect(),
+    )
 }

@@ -393,15 +393,10 @@ fn unsupported_nodes_and_geometry_errors() {
     for node in [
         "hull() { cube(); }",
         "minkowski() { cube(); }",
-        "linear_extrude(height = 2) { square(size = [1, 1]); }",
-        "rotate_extrude(angle = 360) { square(size = [1, 1]); }",
         "import(file = \"a.stl\");",
         "surface(file = \"a.dat\");",
         "text(text = \"hi\");",
         "projection(cut = false) { cube(); }",
-        "circle(r = 1);",
-        "square(size = [1, 1]);",
-        "polygon(points = [[0, 0], [1, 0], [0, 1]]);",
         "resize(newsize = [1, 1, 1]) { cube(); }",
     ] {
         let name = &node[..node.find('(').unwrap()];
@@ -596,7 +591,7 @@ fn background_parts_are_sets_of_their_own() {
     assert!(m
         .warnings
         .iter()
-        .any(|w| w.contains("`square`") && w.contains("background part")));
+        .any(|w| w.contains("`square`") && w.contains("2D shape among 3D")));
     assert_eq!(m.background[1].name, "background_cube_L5");
     // Names are unique over the solid and the parts.
     let mut names: Vec<&str> = m
@@ -644,4 +639,248 @@ fn background_parts_are_sets_of_their_own() {
     }
     assert!(scene.appearance.background.is_empty());
     assert_eq!(super::background::show(&mut scene), 0);
+}
+
+// ---------------------------------------------------------------- 2D and extrusions
+
+fn volume(m: &Model) -> f64 {
+    m.primitives.iter().map(|p| signed_volume(&p.mesh)).sum()
+}
+
+fn warned(m: &Model, what: &str) -> bool {
+    m.warnings.iter().any(|w| w.contains(what))
+}
+
+#[test]
+fn linear_extrude_of_circle_square_polygon() {
+    // circle(r = 10): min(360/12, 10·2π/2) → 30 fragments; one slice.
+    let m = model("linear_extrude(height = 3, center = true, convexity = 1, scale = [1, 1], $fn = 0, $fa = 12, $fs = 2) circle($fn = 0, $fa = 12, $fs = 2, r = 10);");
+    assert_eq!(m.primitives.len(), 1);
+    let mesh = &m.primitives[0].mesh;
+    closed_outward(mesh);
+    assert_eq!(mesh.positions.len(), 60);
+    let z: Vec<f64> = mesh.positions.iter().map(|p| p.z).collect();
+    assert!(z.iter().all(|&z| z == -1.5 || z == 1.5));
+    // square and d = diameter.
+    let m = model("linear_extrude(height = 2) square(size = [3, 4], center = false);");
+    assert!((volume(&m) - 24.0).abs() < 1e-9);
+    let m = model("linear_extrude(height = 1) circle(d = 4, $fn = 4);");
+    assert!((volume(&m) - 8.0).abs() < 1e-9);
+    // A concave polygon (an L) and its area.
+    let m = model("linear_extrude(height = 1) polygon(points = [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], paths = undef, convexity = 1);");
+    closed_outward(&m.primitives[0].mesh);
+    assert!((volume(&m) - 3.0).abs() < 1e-6, "{}", volume(&m));
+}
+
+#[test]
+fn polygon_paths_fill_by_the_even_odd_rule() {
+    // Three nested squares: 36 − 16 + 4 by even-odd.
+    let m = model("linear_extrude(height = 1) polygon(points = [[-3, -3], [3, -3], [3, 3], [-3, 3], [-2, -2], [2, -2], [2, 2], [-2, 2], [-1, -1], [1, -1], [1, 1], [-1, 1]], paths = [[0, 1, 2, 3], [4, 5, 6, 7], [8, 9, 10, 11]]);");
+    for p in &m.primitives {
+        closed_outward(&p.mesh);
+    }
+    assert!((volume(&m) - 24.0).abs() < 1e-6, "{}", volume(&m));
+    // A hole given in the same direction as the outline is still a hole.
+    let m = model("linear_extrude(height = 2) polygon(points = [[0, 0], [4, 0], [4, 4], [0, 4], [1, 1], [3, 1], [3, 3], [1, 3]], paths = [[0, 1, 2, 3], [4, 5, 6, 7]]);");
+    assert!((volume(&m) - 24.0).abs() < 1e-6);
+    // A self-intersecting bow tie: two triangles of area 1 each.
+    let m = model("linear_extrude(height = 1) polygon(points = [[0, 0], [2, 2], [2, 0], [0, 2]]);");
+    closed_outward(&m.primitives[0].mesh);
+    assert!((volume(&m) - 2.0).abs() < 1e-6, "{}", volume(&m));
+}
+
+#[test]
+fn two_d_booleans_become_3d_booleans() {
+    let m = model("linear_extrude(height = 2) difference() { square(size = [10, 10], center = true); circle(r = 2, $fn = 16); }\nmultmatrix([[1, 0, 0, 20], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) linear_extrude(height = 2) intersection() { square(size = 4, center = true); multmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) square(size = 4, center = true); }");
+    assert_eq!(m.primitives.len(), 4);
+    assert!(inside(&m, DVec3::new(4.0, 0.0, 1.0)));
+    assert!(!inside(&m, DVec3::new(0.0, 0.0, 1.0)), "the hole");
+    assert!(!inside(&m, DVec3::new(4.0, 0.0, 2.5)), "above");
+    // The intersection moved by the outer multmatrix: x in [20, 22].
+    assert!(inside(&m, DVec3::new(21.0, 0.0, 1.0)));
+    assert!(!inside(&m, DVec3::new(19.0, 0.0, 1.0)));
+    // A mirroring 2D transform keeps the solid outward.
+    let m = model("linear_extrude(height = 1) multmatrix([[-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) polygon(points = [[0, 0], [2, 0], [0, 2]]);");
+    closed_outward(&m.primitives[0].mesh);
+    assert!(m.primitives[0].mesh.positions.iter().all(|p| p.x <= 0.0));
+}
+
+#[test]
+fn linear_extrude_slices_twist_and_scale() {
+    // twist 30, height 10, square(10): 3 slices (4 rings of 4).
+    let m = model("linear_extrude(height = 10, center = false, convexity = 1, twist = 30, scale = [1, 1], $fn = 0, $fa = 12, $fs = 2) square(size = [10, 10], center = false);");
+    let mesh = &m.primitives[0].mesh;
+    closed_outward(mesh);
+    assert_eq!(mesh.positions.len(), 16);
+    // A positive twist turns clockwise seen from +Z: (10, 0) goes below y = 0.
+    let top: Vec<DVec3> = mesh
+        .positions
+        .iter()
+        .filter(|p| p.z == 10.0)
+        .copied()
+        .collect();
+    assert!(
+        top.iter()
+            .any(|p| (p.x - 8.660254).abs() < 1e-5 && (p.y + 5.0).abs() < 1e-5),
+        "{top:?}"
+    );
+    // scale [2, 1]: ceil(sqrt(Δ² + h²) / $fs) = 8 slices for a 10-high square(10).
+    let m = model("linear_extrude(height = 10, scale = [2, 1]) square(size = [10, 10]);");
+    assert_eq!(m.primitives[0].mesh.positions.len(), 4 * 9);
+    closed_outward(&m.primitives[0].mesh);
+    // `slices` given.
+    let m = model(
+        "linear_extrude(height = 10, twist = 90, slices = 5) square(size = 1, center = true);",
+    );
+    assert_eq!(m.primitives[0].mesh.positions.len(), 4 * 6);
+    // scale 0: a cone to one apex; volume h·A/3.
+    let m = model("linear_extrude(height = 3, scale = 0) square(size = 2, center = true);");
+    let mesh = &m.primitives[0].mesh;
+    closed_outward(mesh);
+    assert_eq!(mesh.positions.len(), 5);
+    assert!((volume(&m) - 4.0).abs() < 1e-9);
+    // scale 0 on one axis: a wedge, still closed; twisted to 0 as well.
+    let m = model("linear_extrude(height = 3, scale = [1, 0]) square(size = 2, center = true);");
+    closed_outward(&m.primitives[0].mesh);
+    assert!((volume(&m) - 6.0).abs() < 1e-9);
+    let m = model("linear_extrude(height = 3, twist = 90, scale = 0) circle(r = 1, $fn = 12);");
+    closed_outward(&m.primitives[0].mesh);
+    // A negative scale is taken as 0; a height ≤ 0 makes nothing.
+    let m = model("linear_extrude(height = 3, scale = -2) square(size = 2);cube();");
+    assert!(warned(&m, "negative `scale`"));
+    let e = err("linear_extrude(height = -3) square(size = 2);");
+    assert!(e.contains("no solid"), "{e}");
+}
+
+#[test]
+fn rotate_extrude_fragments_and_angles() {
+    // circle(1) at x = 3: fragments from x = 4 → 13.
+    let m = model("rotate_extrude(angle = 360, convexity = 2, $fn = 0, $fa = 12, $fs = 2) multmatrix([[1, 0, 0, 3], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) circle($fn = 0, $fa = 12, $fs = 2, r = 1);");
+    let mesh = &m.primitives[0].mesh;
+    closed_outward(mesh);
+    assert_eq!(mesh.positions.len(), 5 * 13);
+    // The first ring on −X at 360°.
+    assert!(mesh.positions[..5]
+        .iter()
+        .all(|p| p.x < 0.0 && p.y.abs() < 1e-12));
+    // 90°: 13 · 90/360 truncated → 3 fragments, 4 rings, starting on +X.
+    let m = model("rotate_extrude(angle = 90) multmatrix([[1, 0, 0, 3], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) circle(r = 1);");
+    let mesh = &m.primitives[0].mesh;
+    closed_outward(mesh);
+    assert_eq!(mesh.positions.len(), 5 * 4);
+    assert!(mesh.positions[..5]
+        .iter()
+        .all(|p| p.x > 0.0 && p.y.abs() < 1e-12));
+    // A profile with a hole, revolved; a profile touching the axis.
+    let m = model("rotate_extrude($fn = 8) polygon(points = [[1, 0], [3, 0], [3, 2], [1, 2], [1.5, 0.5], [2.5, 0.5], [2.5, 1.5], [1.5, 1.5]], paths = [[0, 1, 2, 3], [4, 5, 6, 7]]);");
+    closed_outward(&m.primitives[0].mesh);
+    let m =
+        model("rotate_extrude(angle = -120, $fn = 9) polygon(points = [[0, 0], [2, 0], [0, 2]]);");
+    closed_outward(&m.primitives[0].mesh);
+    // Negative x profiles revolve too; a profile across the axis makes nothing.
+    let m = model("rotate_extrude($fn = 8) multmatrix([[1, 0, 0, -3], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) square(size = 1);");
+    closed_outward(&m.primitives[0].mesh);
+    let m = model("cube();\nrotate_extrude() square(size = 2, center = true);");
+    assert_eq!(m.primitives.len(), 1);
+    assert!(warned(&m, "same sign of x"), "{:?}", m.warnings);
+}
+
+#[test]
+fn mixed_dimensions_are_dropped_with_a_warning() {
+    let m = model("group() {\n  cube();\n  square(size = 3);\n}\nlinear_extrude(height = 1) { circle(r = 1); sphere(r = 1); }");
+    assert_eq!(m.primitives.len(), 2);
+    assert!(
+        warned(&m, ":3:3:") && warned(&m, "2D shape among 3D"),
+        "{:?}",
+        m.warnings
+    );
+    assert!(warned(&m, "3D object inside a 2D subtree"));
+    let e = err("square(size = 3);");
+    assert!(e.contains("no solid"), "{e}");
+}
+
+#[test]
+fn hostile_two_d_input_is_a_located_error_or_a_render() {
+    for (src, at, want) in [
+        ("linear_extrude(height = nan) square();", "nan", "infinite or NaN"),
+        ("linear_extrude(height = 1, twist = inf) square();", "inf", "infinite or NaN"),
+        ("linear_extrude(height = 1) circle(r = -inf);", "-inf", "infinite or NaN"),
+        ("linear_extrude(height = 1) square(size = [1, nan]);", "nan", "infinite or NaN"),
+        ("linear_extrude(height = 1) polygon(points = [[0, 0], [1, nan], [0, 1]]);", "nan", "infinite or NaN"),
+        ("linear_extrude(height = 1) polygon(points = [[0, 0], [1, 0], [0, 1]], paths = [[0, 1, 7]]);", "7]", "not a point index"),
+        ("linear_extrude(height = 1) polygon(points = [[0, 0], [1e300, 0], [0, 1]]);", "[1e300", "beyond"),
+        ("linear_extrude(height = 1) polygon(points = [[0, 0, 0, 0]]);", "[0, 0, 0, 0]", "must be [x, y]"),
+        ("linear_extrude(height = 1) polygon();", "polygon", "needs `points ="),
+        ("linear_extrude(height = 1) square(size = [1, 2, 3]);", "[1, 2, 3]", "[x, y]"),
+        ("linear_extrude(height = 1, slices = 1e9) square();", "1e9", "at most"),
+        ("linear_extrude(height = 1, twist = 1e300) square();", "linear", "slices"),
+        ("rotate_extrude($fn = 1e9) square();", "rotate", "fragments"),
+        ("linear_extrude(height = 1, scale = [1, 2, 3]) square();", "[1, 2, 3]", "[x, y]"),
+        ("linear_extrude(height = 1) square() { cube(); }", "square", "no children"),
+        ("linear_extrude(file = \"a.dxf\", height = 1);", "\"a.dxf", "imported file"),
+    ] {
+        let e = err(src);
+        let at = format!("t.csg:1:{}:", src.find(at).unwrap() + 1);
+        assert!(e.starts_with(&at) && e.contains(want), "{src}: {e}");
+    }
+    // Degenerate outlines and sizes are the empty set.
+    for src in [
+        "linear_extrude(height = 1) polygon(points = [[0, 0], [1, 1], [2, 2]]);",
+        "linear_extrude(height = 1) polygon(points = [[0, 0], [1, 1]]);",
+        "linear_extrude(height = 1) polygon(points = []);",
+        "linear_extrude(height = 1) polygon(points = [[0, 0], [1, 0], [0, 1]], paths = []);",
+        "linear_extrude(height = 1) square(size = [-1, 2]);",
+        "linear_extrude(height = 1) circle(r = 0);",
+        "linear_extrude(height = 1) polygon(points = [[0, 0], [1e-300, 0], [0, 1e-300]]);",
+        "linear_extrude(height = 1) multmatrix([[0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) square();",
+        "rotate_extrude(angle = 0) square();",
+        "linear_extrude(height = 1);",
+    ] {
+        let e = err(src);
+        assert!(e.contains("no solid"), "{src}: {e}");
+    }
+    // 10^5 points: a star outline, in bounded time.
+    let n = 100_000;
+    let pts: Vec<String> = (0..n)
+        .map(|i| {
+            let a = i as f64 / n as f64 * std::f64::consts::TAU;
+            let r = if i % 2 == 0 { 10.0 } else { 9.0 };
+            format!("[{}, {}]", r * a.cos(), r * a.sin())
+        })
+        .collect();
+    let t = std::time::Instant::now();
+    let m = model(&format!(
+        "linear_extrude(height = 1) polygon(points = [{}]);",
+        pts.join(", ")
+    ));
+    closed_outward(&m.primitives[0].mesh);
+    assert!(t.elapsed().as_secs() < 60, "{:?}", t.elapsed());
+    // The same points, scrambled into a self-crossing tangle: a render or an error, no panic.
+    let tangled: Vec<String> = (0..2000).map(|i| pts[(i * 7919) % n].clone()).collect();
+    let _ = model_from_str(
+        &format!(
+            "linear_extrude(height = 1, twist = 40) polygon(points = [{}]);",
+            tangled.join(", ")
+        ),
+        Path::new("t.csg"),
+        false,
+    );
+}
+
+#[test]
+fn concave_polyhedron_faces_are_ear_clipped() {
+    // OpenSCAD's polyhedron-concave-test: a hexagon with a notch, 5 high. A
+    // fan from the first point would fold triangles over the notch.
+    let m = model("polyhedron(points = [[0, 0, 0], [2, 4, 0], [8, 4, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0], [0, 0, 5], [2, 4, 5], [8, 4, 5], [10, 0, 5], [10, 10, 5], [0, 10, 5]], faces = [[0, 1, 2, 3, 4, 5], [0, 6, 7], [0, 7, 1], [1, 7, 8], [1, 8, 2], [2, 8, 9], [2, 9, 3], [3, 9, 10], [3, 10, 4], [4, 10, 11], [4, 11, 5], [5, 11, 6], [5, 6, 0], [11, 10, 9, 8, 7, 6]], convexity = 2);");
+    let mesh = &m.primitives[0].mesh;
+    closed_outward(mesh);
+    assert!((signed_volume(mesh) - 340.0).abs() < 1e-9);
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+        let n = (b - a).cross(c - a);
+        if a.z == b.z && b.z == c.z {
+            // Bottom faces point down, top faces up: none folded.
+            assert!(n.z * (a.z - 2.5) > 0.0, "{t:?}");
+        }
+    }
 }
