@@ -127,16 +127,6 @@ impl Region {
     }
 }
 
-/// Ring area (positive counter-clockwise).
-#[cfg(test)]
-fn area(ring: &[DVec2]) -> f64 {
-    let n = ring.len();
-    (0..n)
-        .map(|i| ring[i].perp_dot(ring[(i + 1) % n]))
-        .sum::<f64>()
-        / 2.0
-}
-
 /// `circle(r)` with `n` fragments: point `i` at `360 i / n` degrees.
 pub fn circle(r: f64, n: u64) -> Region {
     if r <= 0.0 {
@@ -641,12 +631,3 @@ pub fn rotate_mesh(r: &Region, cap: &[[u32; 3]], angle: f64, fragments: u64, min
     }
 }
 
-/// Whether every ring is counter-clockwise for outer rings: used by tests.
-#[cfg(test)]
-pub(crate) fn oriented(r: &Region) -> bool {
-    r.shapes.iter().all(|s| {
-        s.iter()
-            .enumerate()
-            .all(|(k, ring)| (area(ring) > 0.0) == (k == 0))
-    })
-}
