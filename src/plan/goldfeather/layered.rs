@@ -32,6 +32,14 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         let pos: Vec<MeshId> = p.iter().filter(|l| !l.negated).map(|l| l.prim).collect();
         let neg: Vec<MeshId> = p.iter().filter(|l| l.negated).map(|l| l.prim).collect();
         let all: Vec<MeshId> = p.iter().map(|l| l.prim).collect();
+        // The product lies inside each of its positive primitives, so its
+        // visible points project into the overlap of their rectangles: the
+        // layers, clips and merges need nothing outside it (as SCS's products,
+        // `Region::Intersection`). A product of complements only is unbounded.
+        let region = match pos.is_empty() {
+            true => Region::Union(all.clone()),
+            false => Region::Intersection(pos.clone()),
+        };
         steps.push(Step::Pass("layer".into()));
         steps.push(Step::Clear(Clear::Texture {
             tex: PREV,
@@ -48,9 +56,16 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                 shade: false,
             };
             let geometry = Geometry::Meshes(meshes.clone());
+            let scissor = match &region {
+                Region::Union(_) => Scissor::BoundsOf(meshes),
+                Region::Intersection(inside) => Scissor::Overlap {
+                    of: meshes,
+                    and: inside.clone(),
+                },
+            };
             draws.push(into_surface(
                 geometry,
-                Scissor::BoundsOf(meshes),
+                scissor,
                 cull,
                 peel,
                 true,
@@ -61,8 +76,8 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             src: CUR,
             dst: SURF,
         }];
-        tail.extend(clip_steps(p, &all, opts.eps, &prep.eye_inside));
-        tail.extend(merge_steps(&all));
+        tail.extend(clip_steps_in(p, &region, opts.eps, &prep.eye_inside));
+        tail.extend(merge_steps_in(&region));
         steps.push(super::super::common::peel_loop(
             prep, &all, head, tail, CUR, PREV,
         ));
