@@ -129,7 +129,12 @@ fn check(algo: Algo, name: &str, sc: &Scene) {
     let reference = peeltrim_reference::render(sc, SIZE, SIZE);
     let prep = Prepared::new(sc).expect("prepared");
     let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{name} {algo}: {e}"));
-    let mut gpu = GpuRenderer::new(sc, crate::setup::device(), DepthSetup::D24S8, true)
+    let mut gpu = GpuRenderer::new(
+        sc,
+        crate::setup::device(),
+        crate::setup::usable(DepthSetup::D24S8),
+        true,
+    )
         .expect("a Vulkan device");
     let frame = gpu
         .frame(&plan)
@@ -257,7 +262,12 @@ fn check_surfaces(algo: Algo, name: &str, sc: &Scene) {
     let reference = peeltrim_reference::render(sc, SIZE, SIZE);
     let prep = Prepared::new(sc).expect("prepared");
     let plan = plan::build(algo, &prep).expect("plan");
-    let mut gpu = GpuRenderer::new(sc, crate::setup::device(), DepthSetup::D24S8, true)
+    let mut gpu = GpuRenderer::new(
+        sc,
+        crate::setup::device(),
+        crate::setup::usable(DepthSetup::D24S8),
+        true,
+    )
         .expect("a Vulkan device");
     let frame = gpu.frame(&plan).expect("frame");
     assert!(gpu.validation_messages().is_empty());
