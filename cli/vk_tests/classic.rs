@@ -258,7 +258,7 @@ fn classic_block_minus_spheres_layered_is_kn() {
         crate::setup::usable(DepthSetup::D24S8),
         true,
     )
-        .expect("a Vulkan device");
+    .expect("a Vulkan device");
     let mut tris = Vec::new();
     let mut skipped = Vec::new();
     for algo in ALGOS {

@@ -135,7 +135,7 @@ fn check(algo: Algo, name: &str, sc: &Scene) {
         crate::setup::usable(DepthSetup::D24S8),
         true,
     )
-        .expect("a Vulkan device");
+    .expect("a Vulkan device");
     let frame = gpu
         .frame(&plan)
         .unwrap_or_else(|e| panic!("{name} {algo}: {e}"));
@@ -268,7 +268,7 @@ fn check_surfaces(algo: Algo, name: &str, sc: &Scene) {
         crate::setup::usable(DepthSetup::D24S8),
         true,
     )
-        .expect("a Vulkan device");
+    .expect("a Vulkan device");
     let frame = gpu.frame(&plan).expect("frame");
     assert!(gpu.validation_messages().is_empty());
     let (w, h) = (SIZE as usize, SIZE as usize);

@@ -11,7 +11,6 @@ use peeltrim_reference::compare::compare;
 use peeltrim_reference::{render_layers_read, LayerLimit, LayerReading, LayerStack};
 use peeltrim_cli::render::edges::edge_map;
 use peeltrim_cli::render::layers::{render_layered, LayerOptions, LayeredFrame};
-use peeltrim_cli::render::DepthSetup;
 use peeltrim::scene::style::Style;
 use peeltrim::scene::Scene;
 

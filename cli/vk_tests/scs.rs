@@ -909,7 +909,7 @@ expr = "Slab - A - B"
 /// nothing) and back, still the same images. Validation on.
 #[test]
 fn subtractions_and_insides_cut_to_the_openings_change_no_pixel() {
-    use peeltrim_cli::render::{DepthSetup, GpuRenderer};
+    use peeltrim_cli::render::GpuRenderer;
     for name in [
         "drilled_block",
         "complex",

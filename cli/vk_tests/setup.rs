@@ -160,9 +160,3 @@ pub fn usable_setups() -> Vec<DepthSetup> {
         })
         .collect()
 }
-
-/// Prints that a test is skipped for want of `what` (a capability the
-/// device lacks), for `tools/test.sh`'s log; the test then returns.
-pub fn skip(test: &str, what: &str) {
-    eprintln!("{test}: skipped: the device lacks {what}");
-}
