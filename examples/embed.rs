@@ -230,6 +230,34 @@ impl Host {
         .map_err(|e| e.to_string())
     }
 
+    /// `want` if the device can render to it as a depth attachment with
+    /// optimal tiling, else the first of D32S8, D24S8 and D32 it can (a host
+    /// picks the formats its device supports: SwiftShader and AMD GPUs have
+    /// no D24S8), said on stderr.
+    fn depth_format(&self, want: vk::Format) -> vk::Format {
+        let ok = |f: vk::Format| {
+            // SAFETY: `physical` belongs to `instance`; a plain query.
+            let fp = unsafe {
+                self.instance
+                    .get_physical_device_format_properties(self.physical, f)
+            };
+            fp.optimal_tiling_features
+                .contains(vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT)
+        };
+        let fallbacks = [
+            vk::Format::D32_SFLOAT_S8_UINT,
+            vk::Format::D24_UNORM_S8_UINT,
+            vk::Format::D32_SFLOAT,
+        ];
+        match std::iter::once(want).chain(fallbacks).find(|&f| ok(f)) {
+            Some(f) if f != want => {
+                eprintln!("note: the device lacks host depth format {want:?}: {f:?} instead");
+                f
+            }
+            _ => want,
+        }
+    }
+
     fn memory(
         &self,
         req: vk::MemoryRequirements,
@@ -718,7 +746,17 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         frames_in_flight: inflight,
         loop_counts: setup.loop_counts,
         algo: setup.algo,
-        internal_depth: setup.internal_depth,
+        // peeltrim's own depth: D32S8 where the device lacks the one asked for.
+        internal_depth: match ctx.depth_format_usable(setup.internal_depth.vk()) {
+            true => setup.internal_depth,
+            false => {
+                eprintln!(
+                    "note: the device lacks {:?}: D32S8 for peeltrim's depth",
+                    setup.internal_depth
+                );
+                DepthFormat::D32S8
+            }
+        },
     };
     let mut csg = match setup.drilled {
         true => drilled_csg(&ctx, &desc)?,
@@ -730,7 +768,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
             .set_cut_away(peeltrim::plan::cut_away::CutAway::none());
     }
 
-    let (color_format, depth_format) = (setup.color_format, setup.depth_format);
+    let (color_format, depth_format) = (setup.color_format, host.depth_format(setup.depth_format));
     let srgb = matches!(
         color_format,
         vk::Format::R8G8B8A8_SRGB | vk::Format::B8G8R8A8_SRGB

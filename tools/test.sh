@@ -19,6 +19,18 @@ cargo test "$@"
 # with a hardware GPU's 8-bit vertex snapping emulated, validation on.
 PEELTRIM_DEVICE_PROFILE=hardware cargo test -p peeltrim-cli --test vk_tests "$@"
 PEELTRIM_DEVICE_PROFILE=hardware cargo test -p peeltrim --test embed "$@"
+# The GPU tests and the embedding example's tests again on SwiftShader, a
+# second Vulkan implementation that shares no code with lavapipe (it snaps
+# vertices like hardware, has no D24S8; ../shared/swiftshader/README.md),
+# where a checkout has it beside it (CI does); a fresh clone does not.
+swiftshader_icd="$(pwd)/../shared/swiftshader/vk_swiftshader_icd.json"
+if [ -f "$swiftshader_icd" ]; then
+    swiftshader_icd="$(cd "$(dirname "$swiftshader_icd")" && pwd)/$(basename "$swiftshader_icd")"
+    VK_ICD_FILENAMES="$swiftshader_icd" cargo test -p peeltrim-cli --test vk_tests "$@"
+    VK_ICD_FILENAMES="$swiftshader_icd" cargo test -p peeltrim --test embed "$@"
+else
+    echo "SwiftShader runs skipped: no ../shared/swiftshader/vk_swiftshader_icd.json beside this checkout"
+fi
 # The embedding example as a program (a host with its own device and the
 # validation layer; exits non-zero on a mismatch or any validation message).
 # tests/embed.rs runs the same code as tests.

@@ -786,6 +786,7 @@ fn plan_profile(name: &str) -> Result<peeltrim::vk::DeviceProfile> {
     use peeltrim::vk::profile::{DepthFormats, DeviceFacts, ProfileChoice};
     let facts = |cpu| DeviceFacts {
         cpu,
+        unsnapped_depth: cpu,
         subpixel_bits: 8,
         depth_formats: DepthFormats {
             d32s8: true,

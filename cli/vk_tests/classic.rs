@@ -35,7 +35,12 @@ fn depth_quantum(scene: &Scene, reference: &peeltrim_cli::output::Images) -> f64
 /// Renders `scene` with each algorithm and compares with the reference; returns
 /// one line per algorithm and panics (after printing all) on a failed bound.
 fn check(name: &str, algos: &[Algo], max_interior_mismatch: f64) {
-    check_with(name, algos, max_interior_mismatch, DepthSetup::D24S8)
+    check_with(
+        name,
+        algos,
+        max_interior_mismatch,
+        crate::setup::usable(DepthSetup::D24S8),
+    )
 }
 
 fn check_with(name: &str, algos: &[Algo], max_interior_mismatch: f64, depth: DepthSetup) {
@@ -247,8 +252,13 @@ fn classic_block_minus_spheres_layered_is_kn() {
     scene.render.height = 128;
     let reference = reference::render(&scene, 128, 128);
     let prep = Prepared::new(&scene).expect("prepared");
-    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::D24S8, true)
-        .expect("a Vulkan device");
+    let mut gpu = GpuRenderer::new(
+        &scene,
+        crate::setup::device(),
+        crate::setup::usable(DepthSetup::D24S8),
+        true,
+    )
+    .expect("a Vulkan device");
     let mut tris = Vec::new();
     let mut skipped = Vec::new();
     for algo in ALGOS {

@@ -129,8 +129,13 @@ fn check(algo: Algo, name: &str, sc: &Scene) {
     let reference = peeltrim_reference::render(sc, SIZE, SIZE);
     let prep = Prepared::new(sc).expect("prepared");
     let plan = plan::build(algo, &prep).unwrap_or_else(|e| panic!("{name} {algo}: {e}"));
-    let mut gpu = GpuRenderer::new(sc, crate::setup::device(), DepthSetup::D24S8, true)
-        .expect("a Vulkan device");
+    let mut gpu = GpuRenderer::new(
+        sc,
+        crate::setup::device(),
+        crate::setup::usable(DepthSetup::D24S8),
+        true,
+    )
+    .expect("a Vulkan device");
     let frame = gpu
         .frame(&plan)
         .unwrap_or_else(|e| panic!("{name} {algo}: {e}"));
@@ -257,8 +262,13 @@ fn check_surfaces(algo: Algo, name: &str, sc: &Scene) {
     let reference = peeltrim_reference::render(sc, SIZE, SIZE);
     let prep = Prepared::new(sc).expect("prepared");
     let plan = plan::build(algo, &prep).expect("plan");
-    let mut gpu = GpuRenderer::new(sc, crate::setup::device(), DepthSetup::D24S8, true)
-        .expect("a Vulkan device");
+    let mut gpu = GpuRenderer::new(
+        sc,
+        crate::setup::device(),
+        crate::setup::usable(DepthSetup::D24S8),
+        true,
+    )
+    .expect("a Vulkan device");
     let frame = gpu.frame(&plan).expect("frame");
     assert!(gpu.validation_messages().is_empty());
     let (w, h) = (SIZE as usize, SIZE as usize);

@@ -11,7 +11,6 @@ use peeltrim::scene::Scene;
 use peeltrim_cli::output::Images;
 use peeltrim_cli::render::edges::edge_map;
 use peeltrim_cli::render::layers::{render_layered, LayerOptions, LayeredFrame};
-use peeltrim_cli::render::DepthSetup;
 use peeltrim_reference::compare::compare;
 use peeltrim_reference::{render_layers_read, LayerLimit, LayerReading, LayerStack};
 
@@ -21,7 +20,7 @@ use crate::setup::options;
 /// The bar on the first layer: 0.05% interior mismatches.
 #[test]
 fn kirsch_matches_reference_on_shipped_scenes() {
-    check_algo(Algo::Kirsch, &DepthSetup::ALL, 0.0005, 0.0005);
+    check_algo(Algo::Kirsch, &crate::setup::usable_setups(), 0.0005, 0.0005);
 }
 
 fn kirsch_layers(scene: &Scene, max: u32) -> Option<LayeredFrame> {

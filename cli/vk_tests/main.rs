@@ -12,6 +12,7 @@ mod clears;
 mod concurrency;
 mod cst;
 mod depth_only;
+mod depth_probe;
 mod direct_shade;
 mod embed;
 mod gpu_layers;
@@ -534,6 +535,14 @@ fn depth_formats_agree() {
         (DepthFormat::D32S8, true),
     ]
     .into_iter()
+    // A device without D24S8 (SwiftShader) compares the two D32S8 conventions.
+    .filter(|&(f, _)| {
+        let ok = ctx.depth_format_usable(f.vk());
+        if !ok {
+            eprintln!("note: the device lacks {f:?}: not compared");
+        }
+        ok
+    })
     .map(|(depth_format, reversed_z)| {
         run(
             &ctx,
@@ -547,7 +556,7 @@ fn depth_formats_agree() {
         )
     })
     .collect();
-    let a = &frames[1].images;
+    let a = &frames[frames.len() - 2].images;
     assert!(a.prim.contains(&2) && a.prim.contains(&1));
     for f in &frames {
         let b = &f.images;

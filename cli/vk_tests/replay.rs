@@ -100,9 +100,11 @@ fn recording_sets_only_the_state_that_changes() {
 }
 
 /// A plan recorded anew (≤ 1 µs per draw) draws what its first
-/// recording drew, pixel for pixel, with the same commands; lavapipe's
-/// recorded commands live in the command pool's arena (`vk::cmd_arena`), which
-/// a re-recording reuses without growing.
+/// recording drew, pixel for pixel, with the same commands. Whatever host
+/// memory a driver takes for recorded commands through the command pool's
+/// arena (`vk::cmd_arena`) is reused by a re-recording without growing it.
+/// How much it takes is the driver's affair (lavapipe: a block per command;
+/// SwiftShader: none through the callbacks), so it is printed, not asserted.
 #[test]
 fn a_plan_recorded_anew_draws_the_images_of_its_first_recording() {
     for (name, algo) in [
@@ -123,12 +125,10 @@ fn a_plan_recorded_anew_draws_the_images_of_its_first_recording() {
         assert_eq!(times.len(), reps as usize);
         let after = gpu.command_arena();
         let c = &first.stats.exec.counts;
-        // At least one host block per draw and state command, each recording.
         let per_recording = (after.small + after.large - before.small - before.large) / reps as u64;
-        assert!(
-            per_recording >= c.draws + c.state_commands,
-            "{name}: {per_recording} arena blocks per recording of {} draws",
-            c.draws
+        eprintln!(
+            "{name}: {per_recording} arena blocks per recording of {} draws and {} state commands",
+            c.draws, c.state_commands
         );
         assert_eq!(after.chunks, before.chunks, "{name}: the arena grew");
         let again = gpu.frame(&plan).unwrap();

@@ -285,7 +285,7 @@ color = "#d04040"
     assert!(reference.prim.iter().any(|&q| q == 10), "S8's hole shows");
     assert!(!reference.prim.contains(&2), "F cuts nothing");
     let tol = crate::algorithms::depth_tolerance(&scene);
-    for depth in peeltrim_cli::render::DepthSetup::ALL {
+    for depth in crate::setup::usable_setups() {
         let (r, stats, depth_ok) =
             crate::algorithms::run_gpu(&scene, Algo::Scs, depth, &reference, tol).unwrap();
         let c = &stats.exec.counts;
@@ -534,7 +534,7 @@ fn assert_swept(
     use peeltrim_cli::render::{DepthSetup, GpuRenderer};
     let tol = crate::algorithms::depth_tolerance(scene);
     let mut depth_only = 0;
-    for depth in DepthSetup::ALL {
+    for depth in crate::setup::usable_setups() {
         let mut gpu = GpuRenderer::new(scene, crate::setup::device(), depth, true)
             .expect("a Vulkan device (lavapipe)");
         for frame in 0..3 {
@@ -565,8 +565,13 @@ fn assert_swept(
     for &i in sweeps.iter().rev() {
         unswept.steps.remove(i);
     }
-    let mut gpu = GpuRenderer::new(scene, crate::setup::device(), DepthSetup::ALL[0], true)
-        .expect("a Vulkan device (lavapipe)");
+    let mut gpu = GpuRenderer::new(
+        scene,
+        crate::setup::device(),
+        crate::setup::usable(DepthSetup::ALL[0]),
+        true,
+    )
+    .expect("a Vulkan device (lavapipe)");
     let frame = gpu.frame(&unswept).unwrap();
     let r = peeltrim_reference::compare::compare(reference, &frame.images).expect("same size");
     assert!(r.coverage_mismatch_interior > 100, "{r:?}");
@@ -733,7 +738,7 @@ fn the_shade_and_the_output_clears_are_cut_to_the_products() {
     let whole = with_shade_scissors(&p, |m| plan::Scissor::BoundsOf(vec![m]));
     let reference = peeltrim_reference::render(&scene, SIZE.0, SIZE.1);
     let tol = crate::algorithms::depth_tolerance(&scene);
-    for depth in DepthSetup::ALL {
+    for depth in crate::setup::usable_setups() {
         let mut cut = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
             .expect("a Vulkan device (lavapipe)");
         let mut old = GpuRenderer::new(&scene, crate::setup::device(), depth, true)
@@ -756,8 +761,13 @@ fn the_shade_and_the_output_clears_are_cut_to_the_products() {
         }
     }
     let ball_only = with_shade_scissors(&p, within(vec![2]));
-    let mut gpu = GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::ALL[0], true)
-        .expect("a Vulkan device (lavapipe)");
+    let mut gpu = GpuRenderer::new(
+        &scene,
+        crate::setup::device(),
+        crate::setup::usable(DepthSetup::ALL[0]),
+        true,
+    )
+    .expect("a Vulkan device (lavapipe)");
     let f = gpu.frame(&ball_only).unwrap();
     let r = peeltrim_reference::compare::compare(&reference, &f.images).unwrap();
     assert!(r.coverage_mismatch_interior > 100, "{r:?}");
@@ -849,8 +859,13 @@ expr = "Slab - A - B"
     // mouths with their exits: the same image, far fewer pixels.
     use peeltrim_cli::render::{DepthSetup, GpuRenderer};
     let gpu = || {
-        GpuRenderer::new(&scene, crate::setup::device(), DepthSetup::ALL[2], true)
-            .expect("a Vulkan device (lavapipe)")
+        GpuRenderer::new(
+            &scene,
+            crate::setup::device(),
+            crate::setup::usable(DepthSetup::ALL[2]),
+            true,
+        )
+        .expect("a Vulkan device (lavapipe)")
     };
     // Against the clip as it was (each over its bore's whole rectangle),
     // with the same sets.
@@ -894,7 +909,7 @@ expr = "Slab - A - B"
 /// nothing) and back, still the same images. Validation on.
 #[test]
 fn subtractions_and_insides_cut_to_the_openings_change_no_pixel() {
-    use peeltrim_cli::render::{DepthSetup, GpuRenderer};
+    use peeltrim_cli::render::GpuRenderer;
     for name in [
         "drilled_block",
         "complex",
@@ -909,7 +924,7 @@ fn subtractions_and_insides_cut_to_the_openings_change_no_pixel() {
         for algo in [Algo::Scs, Algo::Goldfeather] {
             let p = plan::build(algo, &prep).unwrap();
             let mut insides_cut = 0;
-            for depth in DepthSetup::ALL {
+            for depth in crate::setup::usable_setups() {
                 let gpu = || {
                     GpuRenderer::new(&scene, crate::setup::device(), depth, true)
                         .expect("a Vulkan device (lavapipe)")

@@ -120,3 +120,43 @@ pub fn assert_layer_edges(
         layer + 1
     );
 }
+
+/// Whether the test device can use `setup`'s depth format
+/// (`DeviceProfile::depth_formats`; SwiftShader and AMD GPUs have no D24S8).
+pub fn has_depth(setup: DepthSetup) -> bool {
+    profile()
+        .depth_formats
+        .usable(setup.exec_format().0.vk())
+}
+
+/// `want`, or D32S8 where the device lacks `want`'s format (D24S8 on
+/// SwiftShader), said on stderr: a test that renders on D24S8 for its
+/// quantized depth checks the same images against the reference on D32S8.
+pub fn usable(want: DepthSetup) -> DepthSetup {
+    match has_depth(want) {
+        true => want,
+        false => {
+            eprintln!(
+                "note: the device lacks {}: {} instead",
+                want.name(),
+                DepthSetup::D32S8.name()
+            );
+            DepthSetup::D32S8
+        }
+    }
+}
+
+/// `DepthSetup::ALL` without the set-ups whose format the device lacks, each
+/// left out with a note.
+pub fn usable_setups() -> Vec<DepthSetup> {
+    DepthSetup::ALL
+        .into_iter()
+        .filter(|&d| {
+            let ok = has_depth(d);
+            if !ok {
+                eprintln!("note: the device lacks {}: not run", d.name());
+            }
+            ok
+        })
+        .collect()
+}

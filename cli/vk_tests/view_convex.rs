@@ -123,12 +123,11 @@ fn the_l_bracket_takes_the_convex_paths_from_its_scene_camera() {
             // peels; layered Goldfeather peels the product's layers anyway).
             assert_eq!(p.loops().count(), 0, "{algo}");
         }
-        let depths: &[DepthSetup] = if algo == Algo::Scs {
-            &DepthSetup::ALL
-        } else {
-            &[DepthSetup::D24S8]
+        let depths = match algo == Algo::Scs {
+            true => crate::setup::usable_setups(),
+            false => vec![crate::setup::usable(DepthSetup::D24S8)],
         };
-        for &depth in depths {
+        for depth in depths {
             assert_matches(&scene, &p, depth);
         }
     }
@@ -145,7 +144,7 @@ fn along_the_notch_the_l_bracket_is_peeled_and_must_be() {
         assert_matches(
             &scene,
             &plan::build(algo, &prep).unwrap(),
-            DepthSetup::D24S8,
+            crate::setup::usable(DepthSetup::D24S8),
         );
     }
     // Called convex here, SCS takes the farther arm's front face where a ray
@@ -154,7 +153,7 @@ fn along_the_notch_the_l_bracket_is_peeled_and_must_be() {
     wrong.view_convex[0] = true;
     let fast = plan::build(Algo::Scs, &wrong).unwrap();
     assert!(passes(&fast).contains(&"scs-front"));
-    let (cov, prim, _) = render(&scene, &fast, DepthSetup::D24S8);
+    let (cov, prim, _) = render(&scene, &fast, crate::setup::usable(DepthSetup::D24S8));
     assert!(
         cov > 0.001 || prim > 0.001,
         "the convex path is wrong along the notch: coverage {cov} primitive {prim}"

@@ -430,7 +430,8 @@ impl Context {
     ) -> Result<Context, VkError> {
         // SAFETY: `physical` belongs to `instance`.
         let props = unsafe { instance.get_physical_device_properties(physical) };
-        let profile = DeviceProfile::detect(&instance, physical);
+        // The depth probe needs the device: measured below, once `Shared` is.
+        let facts_instance = instance.clone();
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let timestamp_valid_bits = families
@@ -475,10 +476,12 @@ impl Context {
             .allocator
             .get_mut()
             .map_err(|_| VkError::Plan("poisoned".into()))? = Some(allocator);
-        Ok(Context {
-            shared: Arc::new(shared),
-            profile: profile?,
-        })
+        let shared = Arc::new(shared);
+        let profile = DeviceProfile::detect(&facts_instance, physical, |bits, format| {
+            let probe = super::depth_probe::measure(&shared, bits, format)?;
+            Ok(probe.is_some_and(|p| p.unsnapped()))
+        })?;
+        Ok(Context { shared, profile })
     }
 
     /// Wraps a device created by an embedding application (a host engine).

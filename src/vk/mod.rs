@@ -10,7 +10,8 @@
 //! (the command pools' host allocator: lavapipe's recorded commands); `exec` (the plan
 //! executor and its statistics); `readback` (GPU bytes to output images);
 //! `profile` ([`DeviceProfile`]: what the device is and the workarounds it
-//! needs, set once per context); `rounding` (emulating a coarser rasterizer's
+//! needs, set once per context); `depth_probe` (the draw that measures
+//! whether depth is interpolated from unsnapped vertices); `rounding` (emulating a coarser rasterizer's
 //! vertex snapping); `present`
 //! (feature `viewer`: a window's surface and swapchain).
 #![warn(unsafe_op_in_unsafe_fn)]
@@ -19,6 +20,7 @@ pub mod cmd_arena;
 pub(crate) mod composite;
 pub(crate) mod conv;
 pub(crate) mod cpu_clock;
+pub mod depth_probe;
 pub mod embed;
 pub(crate) mod error;
 pub(crate) mod exec;

@@ -22,8 +22,10 @@ pub const PROFILE_ENV: &str = "PEELTRIM_DEVICE_PROFILE";
 /// What kind of rasterizer the profile describes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ProfileKind {
-    /// A CPU rasterizer (lavapipe's llvmpipe): it interpolates depth from the
-    /// unsnapped vertex positions and bins each rendering block's draws.
+    /// A CPU rasterizer (lavapipe's llvmpipe, SwiftShader): it bins each
+    /// rendering block's draws. Whether it snaps vertices before interpolating
+    /// depth is measured apart ([`DeviceProfile::unsnapped_depth`]): lavapipe
+    /// does not, SwiftShader does.
     CpuRasterizer,
     /// A hardware GPU: it snaps vertices to its subpixel grid before
     /// interpolating depth (as the NVIDIA H200 of the tests' logs does).
@@ -89,8 +91,12 @@ impl DepthFormats {
 /// The facts of a physical device a profile is made from (pure, for tests).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DeviceFacts {
-    /// `PHYSICAL_DEVICE_TYPE_CPU`.
+    /// `PHYSICAL_DEVICE_TYPE_CPU`: chooses the clear and timestamp placement
+    /// only (costs, not correctness).
     pub cpu: bool,
+    /// Depth is interpolated from unsnapped vertex positions, as measured by
+    /// the probe draw (`vk::depth_probe`); never assumed from `cpu`.
+    pub unsnapped_depth: bool,
     /// `subPixelPrecisionBits`.
     pub subpixel_bits: u32,
     /// The depth-stencil formats the executor can use.
@@ -103,7 +109,8 @@ pub struct DeviceFacts {
 pub struct DeviceProfile {
     /// A CPU rasterizer or a hardware GPU.
     pub kind: ProfileKind,
-    /// The raster depth is interpolated from unsnapped vertex positions, so it
+    /// The raster depth is interpolated from unsnapped vertex positions
+    /// (measured once per device by a probe draw, `vk::depth_probe`), so it
     /// is as exact at the pixel centre as the tie rule's plane depth: the final
     /// shade may then run depth-`EQUAL` draws where no tie is possible and
     /// leave the raster depth in the depth output (`plan::tie_free`).
@@ -143,13 +150,16 @@ impl DeviceProfile {
         match (cpu, emulation) {
             (true, _) => DeviceProfile {
                 kind: ProfileKind::CpuRasterizer,
-                unsnapped_depth: true,
+                unsnapped_depth: facts.unsnapped_depth,
                 clears: ClearMode::Command,
                 frame_timestamps: FrameTimestamps::Binned,
                 ..profile
             },
             (false, Some(e)) => profile.emulating(e),
-            (false, None) => profile,
+            (false, None) => DeviceProfile {
+                unsnapped_depth: facts.unsnapped_depth && choice == ProfileChoice::Device,
+                ..profile
+            },
         }
     }
 
@@ -170,10 +180,15 @@ impl DeviceProfile {
     /// The profile of `physical` under [`PROFILE_ENV`]'s choice; an error
     /// names the variable where its value is not one of the accepted ones.
     /// `PEELTRIM_EMULATE_NO_D32S8=1` emulates a device without D32S8 (the
-    /// tests of the D24S8 fallback, on lavapipe, which has it).
+    /// tests of the D24S8 fallback, on lavapipe, which has it);
+    /// `PEELTRIM_EMULATE_NO_D24S8=1` one without D24S8 (as SwiftShader and AMD
+    /// GPUs are). `unsnapped_depth` measures the device's depth interpolation
+    /// (`vk::depth_probe`; given its subpixel bits and a D32 format it can
+    /// draw into); it is not called under the hardware choice, which snaps.
     pub fn detect(
         instance: &ash::Instance,
         physical: vk::PhysicalDevice,
+        unsnapped_depth: impl FnOnce(u32, Option<vk::Format>) -> Result<bool, VkError>,
     ) -> Result<DeviceProfile, VkError> {
         let choice = ProfileChoice::from_env()?;
         // SAFETY: `physical` belongs to `instance`; plain queries.
@@ -188,15 +203,30 @@ impl DeviceProfile {
                     | vk::FormatFeatureFlags::TRANSFER_DST,
             )
         };
-        let no_d32s8 = std::env::var_os("PEELTRIM_EMULATE_NO_D32S8").is_some_and(|v| v == "1");
+        let emulate_no = |v: &str| std::env::var_os(v).is_some_and(|v| v == "1");
+        let depth_formats = DepthFormats {
+            d32s8: !emulate_no("PEELTRIM_EMULATE_NO_D32S8")
+                && usable(vk::Format::D32_SFLOAT_S8_UINT),
+            d24s8: !emulate_no("PEELTRIM_EMULATE_NO_D24S8")
+                && usable(vk::Format::D24_UNORM_S8_UINT),
+            d32: usable(vk::Format::D32_SFLOAT),
+        };
+        let subpixel_bits = props.limits.sub_pixel_precision_bits;
+        let probe_format = [
+            (depth_formats.d32, vk::Format::D32_SFLOAT),
+            (depth_formats.d32s8, vk::Format::D32_SFLOAT_S8_UINT),
+        ]
+        .into_iter()
+        .find_map(|(ok, f)| ok.then_some(f));
+        let unsnapped_depth = match choice {
+            ProfileChoice::Hardware => false,
+            ProfileChoice::Device => unsnapped_depth(subpixel_bits, probe_format)?,
+        };
         let facts = DeviceFacts {
             cpu: props.device_type == vk::PhysicalDeviceType::CPU,
-            subpixel_bits: props.limits.sub_pixel_precision_bits,
-            depth_formats: DepthFormats {
-                d32s8: !no_d32s8 && usable(vk::Format::D32_SFLOAT_S8_UINT),
-                d24s8: usable(vk::Format::D24_UNORM_S8_UINT),
-                d32: usable(vk::Format::D32_SFLOAT),
-            },
+            unsnapped_depth,
+            subpixel_bits,
+            depth_formats,
         };
         Ok(DeviceProfile::from_facts(facts, choice))
     }
@@ -234,6 +264,7 @@ mod tests {
     fn facts(cpu: bool) -> DeviceFacts {
         DeviceFacts {
             cpu,
+            unsnapped_depth: cpu,
             subpixel_bits: 8,
             depth_formats: ALL,
         }
@@ -265,6 +296,30 @@ mod tests {
         assert_eq!(p.frame_timestamps, FrameTimestamps::Binned);
         assert!(p.depth_equal_shades(super::super::DepthFormat::D32S8));
         assert!(!p.depth_equal_shades(super::super::DepthFormat::D24S8));
+    }
+
+    /// A CPU device whose probe finds snapped depth (SwiftShader) keeps its
+    /// CPU clears but gets no depth-equal shade; an unsnapped GPU would.
+    #[test]
+    fn unsnapped_depth_is_the_measurement_not_the_device_type() {
+        let snapping_cpu = DeviceFacts {
+            unsnapped_depth: false,
+            ..facts(true)
+        };
+        let p = DeviceProfile::from_facts(snapping_cpu, ProfileChoice::Device);
+        assert_eq!(p.kind, ProfileKind::CpuRasterizer);
+        assert_eq!(p.clears, ClearMode::Command);
+        assert!(!p.unsnapped_depth);
+        assert!(!p.depth_equal_shades(super::super::DepthFormat::D32S8));
+        let exact_gpu = DeviceFacts {
+            unsnapped_depth: true,
+            ..facts(false)
+        };
+        let p = DeviceProfile::from_facts(exact_gpu, ProfileChoice::Device);
+        assert_eq!(p.kind, ProfileKind::Hardware);
+        assert!(p.depth_equal_shades(super::super::DepthFormat::D32S8));
+        let p = DeviceProfile::from_facts(exact_gpu, ProfileChoice::Hardware);
+        assert!(!p.unsnapped_depth);
     }
 
     #[test]
