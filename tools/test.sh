@@ -21,7 +21,7 @@ PEELTRIM_DEVICE_PROFILE=hardware cargo test -p peeltrim-cli --test vk_tests "$@"
 PEELTRIM_DEVICE_PROFILE=hardware cargo test -p peeltrim --test embed "$@"
 # The GPU tests and the embedding example's tests again on SwiftShader, a
 # second Vulkan implementation that shares no code with lavapipe (it snaps
-# vertices like hardware, has no D24S8; ../shared/swiftshader/README.md),
+# vertices like hardware and has no D24S8),
 # where a checkout has it beside it (CI does); a fresh clone does not.
 swiftshader_icd="$(pwd)/../shared/swiftshader/vk_swiftshader_icd.json"
 if [ -f "$swiftshader_icd" ]; then
