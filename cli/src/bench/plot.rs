@@ -482,9 +482,11 @@ fn pass_breakdown(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Benc
         whole
             .draw(&Text::new(format!("{total:.1}"), (x, y - 20), centred(14)))
             .map_err(|e| err(path, e))?;
+        // Every other name one line lower, so long neighbours never overlap.
         let (x, y) = chart.backend_coord(&(i as f64 + 0.5, 0.0));
+        let below = 8 + 20 * (i as i32 % 2);
         whole
-            .draw(&Text::new(algo.clone(), (x, y + 8), centred(14)))
+            .draw(&Text::new(algo.clone(), (x, y + below), centred(14)))
             .map_err(|e| err(path, e))?;
     }
     let mut entries = Vec::new();
