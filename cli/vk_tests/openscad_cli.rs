@@ -112,13 +112,12 @@ fn bad_models_are_located_errors() {
     let cases: &[(&str, &[&str])] = &[
         ("hull() { cube(size = 1); }", &["x.csg:2:3:", "`hull`", "not supported", "--skip-unsupported"]),
         ("minkowski() { cube(size = 1); }", &["x.csg:2:3:", "`minkowski`"]),
-        ("linear_extrude(height = 1) { square(size = 1); }", &["x.csg:2:3:", "`linear_extrude`"]),
-        ("rotate_extrude() { square(size = 1); }", &["x.csg:2:3:", "`rotate_extrude`"]),
+        ("resize(newsize = [2, 2, 2]) { cube(size = 1); }", &["x.csg:2:3:", "`resize`"]),
         ("import(file = \"a.stl\");", &["x.csg:2:3:", "`import`"]),
         ("surface(file = \"a.dat\");", &["x.csg:2:3:", "`surface`"]),
         ("text(text = \"a\");", &["x.csg:2:3:", "`text`"]),
         ("projection() { cube(size = 1); }", &["x.csg:2:3:", "`projection`"]),
-        ("circle(r = 1);", &["x.csg:2:3:", "`circle`", "2D"]),
+        ("offset(r = 1) { square(size = 1); }", &["x.csg:2:3:", "`offset`", "2D"]),
         ("cube(size = [1, 2 3]);", &["x.csg:2:21:", "expected `,` or `]`"]),
         ("sphere(r = inf);", &["x.csg:2:14:", "infinite or NaN"]),
         ("cube(size = [1, nan, 1]);", &["x.csg:2:19:", "infinite or NaN"]),
@@ -295,7 +294,7 @@ fn every_unsupported_node_is_reported_in_file_order() {
     let f = write(
         &d,
         "many.csg",
-        "group() {\n  hull() { cube(size = 1); }\n  group() {\n    minkowski() { cube(size = 1); }\n  }\n  circle(r = 1);\n  cube(size = 1);\n}\n",
+        "group() {\n  hull() { cube(size = 1); }\n  group() {\n    minkowski() { cube(size = 1); }\n  }\n  offset(r = 1) { square(size = 1); }\n  cube(size = 1);\n}\n",
     );
     let out = d.join("o");
     let o = run(&["render", &f, "--size", "8x8", "--out", out.to_str().unwrap()]);
@@ -303,7 +302,7 @@ fn every_unsupported_node_is_reported_in_file_order() {
         &o,
         &[
             "many.csg:2:3:",
-            "3 nodes are not supported: `hull` (line 2), `minkowski` (line 4), `circle` (a 2D shape or an import) (line 6)",
+            "3 nodes are not supported: `hull` (line 2), `minkowski` (line 4), `offset` (a 2D shape or an import) (line 6)",
             "--skip-unsupported",
         ],
     );
@@ -321,7 +320,7 @@ fn every_unsupported_node_is_reported_in_file_order() {
     let e = stderr(&o);
     let at = |s: &str| e.find(s).unwrap_or_else(|| panic!("{s} in {e}"));
     assert!(at("many.csg:2:3: `hull`") < at("many.csg:4:5: `minkowski`"), "{e}");
-    assert!(at("many.csg:4:5: `minkowski`") < at("many.csg:6:3: `circle`"), "{e}");
+    assert!(at("many.csg:4:5: `minkowski`") < at("many.csg:6:3: `offset`"), "{e}");
 }
 
 /// The fitted camera frames a model's `%` (background) parts too: a part far
