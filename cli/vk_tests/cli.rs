@@ -462,6 +462,9 @@ fn depth_setup_defaults_to_reversed_d32() {
         (&["--depth-format", "d24s8"], "d24s8"),
     ];
     for (i, (flags, want)) in cases.iter().enumerate() {
+        if *want == "d24s8" && !require(caps().d24s8, "D24S8") {
+            continue;
+        }
         let dir = tmp(&format!("depth-setup-{i}"));
         let mut args = vec![
             "render",
@@ -615,4 +618,44 @@ fn plan_prints_the_passes_result_under_each_profile() {
     let o = run(&["plan", &gear, "--device-profile", "gpu"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("use device, cpu or hardware"), "{}", stderr(&o));
+}
+
+/// What the test device offers that some CLI tests need (the device the
+/// binary will pick with `--device cpu`), asked once.
+struct Caps {
+    d24s8: bool,
+    /// The instance can make X11 surfaces (the viewer's window under xvfb).
+    xlib_surface: bool,
+}
+
+fn caps() -> &'static Caps {
+    static CAPS: std::sync::OnceLock<Caps> = std::sync::OnceLock::new();
+    CAPS.get_or_init(|| {
+        let ctx = peeltrim::vk::Context::new(&peeltrim::vk::ContextDesc {
+            device: peeltrim::vk::DeviceChoice::Cpu,
+            validation: false,
+        })
+        .expect("a Vulkan device");
+        // SAFETY: loading the system's Vulkan loader; only queried here.
+        let entry = unsafe { ash::Entry::load() }.expect("the Vulkan loader");
+        // SAFETY: a plain query of the loader.
+        let exts = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .unwrap_or_default();
+        let xlib_surface = exts.iter().any(|e| {
+            e.extension_name_as_c_str()
+                .is_ok_and(|n| n.to_bytes() == b"VK_KHR_xlib_surface")
+        });
+        Caps {
+            d24s8: ctx.profile().depth_formats.d24s8,
+            xlib_surface,
+        }
+    })
+}
+
+/// Whether the test device has `what` (`has`); prints the skip line when not.
+fn require(has: bool, what: &str) -> bool {
+    if !has {
+        eprintln!("skipped: the device lacks {what}");
+    }
+    has
 }

@@ -277,6 +277,9 @@ fn bench_finishes_with_its_table_without_system_fonts() {
 /// is not replaced but refused with the flag to change.
 #[test]
 fn without_d32s8_render_and_bench_fall_back_to_d24s8() {
+    if !super::require(super::caps().d24s8, "D24S8") {
+        return;
+    }
     let dir = tmp("nod32");
     let s = scene("gear.toml");
     let no_d32 = |args: &[&str]| {

@@ -33,6 +33,11 @@ fn view_with(
 /// does, says so, and draws its frames without a validation message.
 #[test]
 fn the_viewer_falls_back_to_d24s8_without_d32s8() {
+    if !super::require(super::caps().d24s8, "D24S8")
+        || !super::require(super::caps().xlib_surface, "X11 surfaces (VK_KHR_xlib_surface)")
+    {
+        return;
+    }
     let out = view_with(
         &scene("gear.toml"),
         "cst-i",
@@ -52,6 +57,9 @@ fn the_viewer_falls_back_to_d24s8_without_d32s8() {
 
 #[test]
 fn the_viewer_records_the_csg_into_its_swapchain_frames() {
+    if !super::require(super::caps().xlib_surface, "X11 surfaces (VK_KHR_xlib_surface)") {
+        return;
+    }
     // shadow_block has a `[light]`: the light's map once, the shadow pass
     // recorded into every frame.
     for (file, algo) in [
