@@ -28,6 +28,7 @@ if [ -f "$swiftshader_icd" ]; then
     swiftshader_icd="$(cd "$(dirname "$swiftshader_icd")" && pwd)/$(basename "$swiftshader_icd")"
     VK_ICD_FILENAMES="$swiftshader_icd" cargo test -p peeltrim-cli --test vk_tests "$@"
     VK_ICD_FILENAMES="$swiftshader_icd" cargo test -p peeltrim --test embed "$@"
+    VK_ICD_FILENAMES="$swiftshader_icd" cargo test -p peeltrim-cli --test cli "$@"
 else
     echo "SwiftShader runs skipped: no ../shared/swiftshader/vk_swiftshader_icd.json beside this checkout"
 fi
