@@ -97,7 +97,7 @@ fn kind(name: &str) -> Option<Kind> {
 }
 
 const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render";
-const TWO_D: &[&str] = &["text", "offset", "projection", "import", "surface"];
+const TWO_D: &[&str] = &["text", "offset", "projection", "import"];
 
 fn is_primitive(k: Kind) -> bool {
     is_3d_primitive(k) || is_2d_primitive(k)
