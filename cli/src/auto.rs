@@ -113,7 +113,8 @@ pub fn pick(
             }
         };
         let ms = costs.estimate(&plan, prep, &AUTO_MODEL).seconds * 1e3;
-        p.estimates.insert(algo.name().into(), (ms * 1e3).round() / 1e3);
+        p.estimates
+            .insert(algo.name().into(), (ms * 1e3).round() / 1e3);
         if best.map_or(true, |(_, b)| ms < b) {
             best = Some((algo, ms));
         }

@@ -932,7 +932,9 @@ fn blist_json(input: &str, scad: ScadArgs) -> Result<serde_json::Value> {
     };
     let positive = PositiveExpr::from_expr(&expr);
     if !positive.is_bounded() {
-        eprintln!("peeltrim: warning: the expression is unbounded (a scene would refuse it as a solid)");
+        eprintln!(
+            "peeltrim: warning: the expression is unbounded (a scene would refuse it as a solid)"
+        );
     }
     let blist = Blist::new(&positive);
     Ok(blist.to_json(&names))

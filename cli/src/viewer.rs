@@ -448,7 +448,10 @@ impl App {
             match self.show_csg(size) {
                 Ok(s) => s,
                 Err(ViewerError::Embed(e @ (EmbedError::Plan(_) | EmbedError::Algo(_)))) => {
-                    eprintln!("peeltrim: warning: {} cannot draw this scene: {e}", self.algo);
+                    eprintln!(
+                        "peeltrim: warning: {} cannot draw this scene: {e}",
+                        self.algo
+                    );
                     self.failed = Some(self.algo);
                     Presented::Shown
                 }

@@ -596,28 +596,48 @@ fn bench_interleaves_frames_and_states_the_cst_ordering() {
 fn plan_prints_the_passes_result_under_each_profile() {
     let gear = scene("gear.toml");
     let plan = |profile: &str| {
-        let o = run(&["plan", &gear, "--algo", "goldfeather", "--device-profile", profile]);
+        let o = run(&[
+            "plan",
+            &gear,
+            "--algo",
+            "goldfeather",
+            "--device-profile",
+            profile,
+        ]);
         assert!(o.status.success(), "{profile}: {}", stderr(&o));
         String::from_utf8(o.stdout).unwrap()
     };
     let (cpu, hw) = (plan("cpu"), plan("hardware"));
     let split = |t: &str| {
-        let (before, after) = t.split_once("# After the plan passes").expect("the passes' section");
+        let (before, after) = t
+            .split_once("# After the plan passes")
+            .expect("the passes' section");
         (before.to_string(), after.to_string())
     };
     let ((cpu_plan, cpu_passes), (hw_plan, hw_passes)) = (split(&cpu), split(&hw));
-    assert_eq!(cpu_plan, hw_plan, "the algorithm's plan does not depend on the profile");
+    assert_eq!(
+        cpu_plan, hw_plan,
+        "the algorithm's plan does not depend on the profile"
+    );
     assert!(cpu_passes.contains("CpuRasterizer") && hw_passes.contains("Hardware"));
     let equal = |t: &str| t.matches("depth-equal").count();
     assert!(equal(&cpu_passes) > 0, "{cpu_passes}");
-    assert_eq!(equal(&hw_passes), 1, "only the heading's 'depth-equal shades off': {hw_passes}");
+    assert_eq!(
+        equal(&hw_passes),
+        1,
+        "only the heading's 'depth-equal shades off': {hw_passes}"
+    );
     assert_eq!(
         cpu_passes.matches("  draw ").count(),
         hw_passes.matches("  draw ").count()
     );
     let o = run(&["plan", &gear, "--device-profile", "gpu"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("use device, cpu or hardware"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("use device, cpu or hardware"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// What the test device offers that some CLI tests need (the device the
@@ -639,8 +659,8 @@ fn caps() -> &'static Caps {
         // SAFETY: loading the system's Vulkan loader; only queried here.
         let entry = unsafe { ash::Entry::load() }.expect("the Vulkan loader");
         // SAFETY: a plain query of the loader.
-        let exts = unsafe { entry.enumerate_instance_extension_properties(None) }
-            .unwrap_or_default();
+        let exts =
+            unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
         let xlib_surface = exts.iter().any(|e| {
             e.extension_name_as_c_str()
                 .is_ok_and(|n| n.to_bytes() == b"VK_KHR_xlib_surface")

@@ -431,14 +431,27 @@ fn common_mistakes_get_plain_messages() {
     assert_error(&o, &["'0' is not a number of frames", "at least 1"]);
     // The missing file is named once.
     let dir = tmp("mistakes");
-    let o = run(&["bench", "/tmp/none-peeltrim.toml", "--out", dir.join("b").to_str().unwrap()]);
+    let o = run(&[
+        "bench",
+        "/tmp/none-peeltrim.toml",
+        "--out",
+        dir.join("b").to_str().unwrap(),
+    ]);
     assert_error(&o, &["/tmp/none-peeltrim.toml"]);
-    assert_eq!(stderr(&o).matches("/tmp/none-peeltrim.toml").count(), 1, "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o).matches("/tmp/none-peeltrim.toml").count(),
+        1,
+        "{}",
+        stderr(&o)
+    );
     // Help describes SCENE and says what files are accepted, on its own.
     for cmd in ["render", "view", "plan"] {
         let o = run(&[cmd, "--help"]);
         let h = String::from_utf8_lossy(&o.stdout);
-        assert!(h.contains("<SCENE>  The scene: a .toml scene file"), "{cmd}: {h}");
+        assert!(
+            h.contains("<SCENE>  The scene: a .toml scene file"),
+            "{cmd}: {h}"
+        );
         assert!(h.contains(".csg"), "{cmd}: {h}");
         assert!(h.contains("[default: auto]"), "{cmd}: {h}");
         assert!(!h.contains("docs/") && !h.contains('§'), "{cmd}: {h}");
@@ -470,14 +483,25 @@ fn a_camera_that_sees_nothing_warns() {
         &format!("{AB}[csg]\nexpr = \"A - B\"\n[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 10.0]\n"),
     );
     let out = dir.join("o");
-    let o = run(&super::render_args(&p, "16x16", &["--algo", "reference"], out.to_str().unwrap()));
+    let o = run(&super::render_args(
+        &p,
+        "16x16",
+        &["--algo", "reference"],
+        out.to_str().unwrap(),
+    ));
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("peeltrim: warning: the image is empty: nothing of the scene is in view"),
+        stderr(&o)
+            .contains("peeltrim: warning: the image is empty: nothing of the scene is in view"),
         "{}",
         stderr(&o)
     );
-    let o = run(&super::render_args(&scene("gear.toml"), "16x16", &["--algo", "reference"], out.to_str().unwrap()));
+    let o = run(&super::render_args(
+        &scene("gear.toml"),
+        "16x16",
+        &["--algo", "reference"],
+        out.to_str().unwrap(),
+    ));
     assert!(!stderr(&o).contains("image is empty"), "{}", stderr(&o));
 }
 
@@ -487,7 +511,10 @@ fn the_zones_budget_message_is_a_sentence() {
     let dir = tmp("zones");
     let p = expr_scene(&dir, "inter.toml", &chain(300, " "));
     let o = run(&["plan", &p, "--algo", "cst-i", "--memory-budget", "64K"]);
-    assert_error(&o, &["the zones, about", "literals in all", "), would need about"]);
+    assert_error(
+        &o,
+        &["the zones, about", "literals in all", "), would need about"],
+    );
 }
 
 /// `--algo auto` (the default) picks a speckle-free algorithm per scene and
@@ -497,14 +524,25 @@ fn auto_is_the_default_and_says_why() {
     let dir = tmp("auto");
     for name in ["gear.toml", "drilled_block.toml", "trimmed_surface.toml"] {
         let out = dir.join(name);
-        let o = run(&super::render_args(&scene(name), "32x32", &[], out.to_str().unwrap()));
+        let o = run(&super::render_args(
+            &scene(name),
+            "32x32",
+            &[],
+            out.to_str().unwrap(),
+        ));
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         let st: serde_json::Value =
             serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
         let algo = st["algo"].as_str().unwrap();
         assert_eq!(st["auto"]["picked"], algo, "{st}");
-        assert!(!["scs", "trickle", "blister-paper", "reference"].contains(&algo), "{name}: {algo}");
-        assert!(st["auto"]["reason"].as_str().unwrap().contains("estimated"), "{st}");
+        assert!(
+            !["scs", "trickle", "blister-paper", "reference"].contains(&algo),
+            "{name}: {algo}"
+        );
+        assert!(
+            st["auto"]["reason"].as_str().unwrap().contains("estimated"),
+            "{st}"
+        );
         assert!(st["auto"]["estimates"]["cst-i"].as_f64().is_some(), "{st}");
         assert!(st["auto"]["estimates"].get("scs").is_none(), "{st}");
         if name == "trimmed_surface.toml" {

@@ -297,7 +297,14 @@ fn every_unsupported_node_is_reported_in_file_order() {
         "group() {\n  hull() { cube(size = 1); }\n  group() {\n    minkowski() { cube(size = 1); }\n  }\n  offset(r = 1) { square(size = 1); }\n  cube(size = 1);\n}\n",
     );
     let out = d.join("o");
-    let o = run(&["render", &f, "--size", "8x8", "--out", out.to_str().unwrap()]);
+    let o = run(&[
+        "render",
+        &f,
+        "--size",
+        "8x8",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert_error(
         &o,
         &[
@@ -319,8 +326,14 @@ fn every_unsupported_node_is_reported_in_file_order() {
     assert!(o.status.success(), "{}", stderr(&o));
     let e = stderr(&o);
     let at = |s: &str| e.find(s).unwrap_or_else(|| panic!("{s} in {e}"));
-    assert!(at("many.csg:2:3: `hull`") < at("many.csg:4:5: `minkowski`"), "{e}");
-    assert!(at("many.csg:4:5: `minkowski`") < at("many.csg:6:3: `offset`"), "{e}");
+    assert!(
+        at("many.csg:2:3: `hull`") < at("many.csg:4:5: `minkowski`"),
+        "{e}"
+    );
+    assert!(
+        at("many.csg:4:5: `minkowski`") < at("many.csg:6:3: `offset`"),
+        "{e}"
+    );
 }
 
 /// The fitted camera frames a model's `%` (background) parts too: a part far

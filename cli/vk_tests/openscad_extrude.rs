@@ -7,8 +7,8 @@
 //! the test also checks that they draw without holes or speckle.
 
 use peeltrim::plan::Algo;
-use peeltrim_cli::render::DepthSetup;
 use peeltrim::scene::{self, LoadOptions};
+use peeltrim_cli::render::DepthSetup;
 
 use super::algorithms::{depth_tolerance, run_gpu};
 

@@ -124,9 +124,7 @@ pub fn assert_layer_edges(
 /// Whether the test device can use `setup`'s depth format
 /// (`DeviceProfile::depth_formats`; SwiftShader and AMD GPUs have no D24S8).
 pub fn has_depth(setup: DepthSetup) -> bool {
-    profile()
-        .depth_formats
-        .usable(setup.exec_format().0.vk())
+    profile().depth_formats.usable(setup.exec_format().0.vk())
 }
 
 /// `want`, or D32S8 where the device lacks `want`'s format (D24S8 on

@@ -92,10 +92,13 @@ fn a_depth_equal_final_shade_matches_the_reference() {
     // D24S8.
     let name = "drilled_block";
     let (scene, prep, reference) = shipped_with_reference(name);
-    let setups = crate::setup::usable_setups().into_iter().map(|d| (d, None)).chain([(
-        DepthSetup::DEFAULT,
-        Some(peeltrim::vk::RoundingEmulation::EIGHT_BITS),
-    )]);
+    let setups = crate::setup::usable_setups()
+        .into_iter()
+        .map(|d| (d, None))
+        .chain([(
+            DepthSetup::DEFAULT,
+            Some(peeltrim::vk::RoundingEmulation::EIGHT_BITS),
+        )]);
     let mut failures = Vec::new();
     for (depth, rounding) in setups {
         for algo in tolerant() {
@@ -278,10 +281,13 @@ fn scs_runs_its_tie_rule_as_the_depth_test() {
     let name = "complex";
     let (scene, prep, reference) = shipped_with_reference(name);
     let plan = plan::build(Algo::Scs, &prep).expect("scs");
-    let setups = crate::setup::usable_setups().into_iter().map(|d| (d, None)).chain([(
-        DepthSetup::DEFAULT,
-        Some(peeltrim::vk::RoundingEmulation::EIGHT_BITS),
-    )]);
+    let setups = crate::setup::usable_setups()
+        .into_iter()
+        .map(|d| (d, None))
+        .chain([(
+            DepthSetup::DEFAULT,
+            Some(peeltrim::vk::RoundingEmulation::EIGHT_BITS),
+        )]);
     let mut failures = Vec::new();
     for (depth, rounding) in setups {
         let mut gpu = GpuRenderer::emulating(&scene, crate::setup::device(), depth, true, rounding)

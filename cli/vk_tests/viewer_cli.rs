@@ -34,7 +34,10 @@ fn view_with(
 #[test]
 fn the_viewer_falls_back_to_d24s8_without_d32s8() {
     if !super::require(super::caps().d24s8, "D24S8")
-        || !super::require(super::caps().xlib_surface, "X11 surfaces (VK_KHR_xlib_surface)")
+        || !super::require(
+            super::caps().xlib_surface,
+            "X11 surfaces (VK_KHR_xlib_surface)",
+        )
     {
         return;
     }
@@ -57,7 +60,10 @@ fn the_viewer_falls_back_to_d24s8_without_d32s8() {
 
 #[test]
 fn the_viewer_records_the_csg_into_its_swapchain_frames() {
-    if !super::require(super::caps().xlib_surface, "X11 surfaces (VK_KHR_xlib_surface)") {
+    if !super::require(
+        super::caps().xlib_surface,
+        "X11 surfaces (VK_KHR_xlib_surface)",
+    ) {
         return;
     }
     // shadow_block has a `[light]`: the light's map once, the shadow pass

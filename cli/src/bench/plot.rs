@@ -109,7 +109,6 @@ fn algo_style(algo: &str) -> (RGBColor, usize) {
     }
 }
 
-
 /// Runs `body` with `mk`, a function from a position to marker `n` (of 12:
 /// filled and hollow circles, triangles, squares and diamonds, crosses,
 /// pluses) in `color`. A macro: each marker is an element type of its own.
@@ -119,12 +118,22 @@ macro_rules! with_marker {
         let color: RGBColor = $color;
         let line = color.stroke_width(2);
         // 0-5 filled, 6-11 hollow, 12-17 filled with a white centre.
-        let style = if (n / 6) % 3 == 1 { line } else { color.filled() };
-        let dot = if (n / 6) % 3 == 2 { WHITE.filled() } else { TRANSPARENT.filled() };
+        let style = if (n / 6) % 3 == 1 {
+            line
+        } else {
+            color.filled()
+        };
+        let dot = if (n / 6) % 3 == 2 {
+            WHITE.filled()
+        } else {
+            TRANSPARENT.filled()
+        };
         match n % 6 {
             0 => {
                 let $mk = |p| {
-                    EmptyElement::at(p) + Circle::new((0, 0), 5, style) + Circle::new((0, 0), 2, dot)
+                    EmptyElement::at(p)
+                        + Circle::new((0, 0), 5, style)
+                        + Circle::new((0, 0), 2, dot)
                 };
                 $body
             }
@@ -196,7 +205,10 @@ fn side_legend(
             Mark::Marker(n) => with_marker!(n, *color, |mk| area.draw(&mk((20, y)))),
             Mark::Swatch => area.draw(&Rectangle::new([(13, y - 7), (27, y + 7)], color.filled())),
             Mark::Line(n) => area
-                .draw(&PathElement::new(vec![(8, y), (32, y)], color.stroke_width(2)))
+                .draw(&PathElement::new(
+                    vec![(8, y), (32, y)],
+                    color.stroke_width(2),
+                ))
                 .and_then(|_| with_marker!(n, *color, |mk| area.draw(&mk((20, y))))),
         }
         .map_err(|e| err(path, e))?;
@@ -321,7 +333,9 @@ fn depth_title(rows: &[&Record]) -> (Option<String>, bool) {
 /// colour and marker, named in a legend beside the plot.
 fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError> {
     let (depth, per_depth) = depth_title(rows);
-    let opencsg = rows.iter().any(|r| r.algo.starts_with(super::opencsg::PREFIX));
+    let opencsg = rows
+        .iter()
+        .any(|r| r.algo.starts_with(super::opencsg::PREFIX));
     let pts: Vec<(f64, f64, &str, &str)> = rows
         .iter()
         .map(|r| {
@@ -542,7 +556,10 @@ fn scaling(path: &Path, title: &str, rows: &[&Record]) -> Result<(), BenchError>
     let decades = |lo: f64, hi: f64| {
         let l = 10f64.powf(lo.log10().floor());
         // A hair wider, so rounding leaves the end decades' ticks inside.
-        (l * 0.999, 10f64.powf(hi.log10().ceil()).max(l * 100.0) * 1.001)
+        (
+            l * 0.999,
+            10f64.powf(hi.log10().ceil()).max(l * 100.0) * 1.001,
+        )
     };
     let (x0, x1) = decades(xmin, xmax);
     let (y0, y1) = decades(ymin, ymax);

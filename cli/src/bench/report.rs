@@ -342,7 +342,9 @@ pub fn auto_rows(records: &[Record]) -> Vec<AutoRow> {
         let rows: Vec<&Record> = records
             .iter()
             .filter(|r| {
-                r.scene == scene && r.width == w && r.height == h
+                r.scene == scene
+                    && r.width == w
+                    && r.height == h
                     && r.algo != "reference"
                     && (r.depth_setup == depth || r.algo == "opencsg")
             })
@@ -393,9 +395,11 @@ pub fn auto_table(records: &[Record]) -> String {
     if rows.is_empty() {
         return String::new();
     }
-    let mut s = String::from("## --algo auto against the fastest correct run
+    let mut s = String::from(
+        "## --algo auto against the fastest correct run
 
-");
+",
+    );
     s.push_str("Times are medians: on lavapipe the process's CPU time over a frame (`frame_cpu_ms`, the rasterizer's work, steady on a loaded machine), else the frame's wall time (`frame_ms`). Correct: interior coverage and primitive mismatches within 0.001 % of the pixels of the best run of the scene. Auto picks among the speckle-free algorithms by the plan's estimate; it cannot pick an algorithm the bench did not run. A pick that runs the fastest's very plan counts as a hit.
 
 ");
@@ -408,11 +412,16 @@ pub fn auto_table(records: &[Record]) -> String {
             r.width,
             r.height,
             r.picked,
-            if r.same_plan && r.picked != r.fastest { " (same plan)" } else { "" },
+            if r.same_plan && r.picked != r.fastest {
+                " (same plan)"
+            } else {
+                ""
+            },
             r.picked_ms,
             if r.picked_correct { "yes" } else { "no" },
             r.fastest_candidate.as_deref().unwrap_or("-"),
-            r.fastest_candidate_ms.map_or("-".into(), |m| format!("{m:.2}")),
+            r.fastest_candidate_ms
+                .map_or("-".into(), |m| format!("{m:.2}")),
             r.fastest,
             r.fastest_ms,
             r.slowdown
@@ -443,9 +452,11 @@ pub fn auto_table(records: &[Record]) -> String {
             "; where it did not, its pick took {mean:.2}× the fastest's time on average (worst {worst:.2}×)"
         );
     }
-    s.push_str(".
+    s.push_str(
+        ".
 
-");
+",
+    );
     s
 }
 

@@ -63,13 +63,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                     and: inside.clone(),
                 },
             };
-            draws.push(into_surface(
-                geometry,
-                scissor,
-                cull,
-                peel,
-                true,
-            ));
+            draws.push(into_surface(geometry, scissor, cull, peel, true));
         }
         let head = peel_head(draws);
         let mut tail = vec![Step::CopyTexture {

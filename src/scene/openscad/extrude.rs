@@ -630,4 +630,3 @@ pub fn rotate_mesh(r: &Region, cap: &[[u32; 3]], angle: f64, fragments: u64, min
         triangles,
     }
 }
-

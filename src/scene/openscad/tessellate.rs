@@ -251,7 +251,9 @@ fn ear_clip(points: &[DVec3], f: &[u32]) -> Option<Vec<[u32; 3]>> {
     };
     let flat: Vec<f64> = (0..f.len()).flat_map(|i| [p(i)[u], p(i)[v]]).collect();
     let q = |i: usize| glam::DVec2::new(flat[2 * i], flat[2 * i + 1]);
-    let area: f64 = (0..f.len()).map(|i| q(i).perp_dot(q((i + 1) % f.len()))).sum();
+    let area: f64 = (0..f.len())
+        .map(|i| q(i).perp_dot(q((i + 1) % f.len())))
+        .sum();
     if !(area.abs() > 0.0) {
         return None;
     }
