@@ -28,7 +28,7 @@ use glam::{DAffine2, DMat4, DVec2, DVec3};
 
 use super::args::{self, Args};
 use super::extrude::{self, Extents, Op2, Region};
-use super::parse::{Node, Tree, ValueKind};
+use super::parse::{Node, Tree, Value, ValueKind};
 use super::tessellate::{self, Resolution, F_MINIMUM};
 use super::{ScadError, ScadPrimitive};
 use crate::csg::expr::{Node as E, NodeId};
@@ -984,18 +984,7 @@ impl Converter<'_> {
         };
         let mut scale = match a.get("scale") {
             None => DVec2::ONE,
-            Some(v) if matches!(v.kind, ValueKind::Number(_)) => {
-                DVec2::splat(args::number(v, "`scale` of `linear_extrude`")?)
-            }
-            Some(v) => match args::numbers(v, "`scale` of `linear_extrude`")?[..] {
-                [x, y] => DVec2::new(x, y),
-                _ => {
-                    return Err(ScadError::new(
-                        v.pos,
-                        "`scale` of `linear_extrude` must be a number or [x, y]",
-                    ))
-                }
-            },
+            Some(v) => number_or_pair(v, "`scale` of `linear_extrude`")?,
         };
         if scale.min_element() < 0.0 {
             let pos = a.get("scale").map(|v| v.pos).unwrap_or(node.pos);
@@ -1142,18 +1131,7 @@ impl Converter<'_> {
                 let a = Args::new(node, &["size", "center"], &[], &mut self.warnings)?;
                 let size = match a.get("size") {
                     None => DVec2::ONE,
-                    Some(v) if matches!(v.kind, ValueKind::Number(_)) => {
-                        DVec2::splat(args::number(v, "`size` of `square`")?)
-                    }
-                    Some(v) => match args::numbers(v, "`size` of `square`")?[..] {
-                        [x, y] => DVec2::new(x, y),
-                        _ => {
-                            return Err(ScadError::new(
-                                v.pos,
-                                "`size` of `square` must be a number or [x, y]",
-                            ))
-                        }
-                    },
+                    Some(v) => number_or_pair(v, "`size` of `square`")?,
                 };
                 extrude::square(size, a.boolean("center")?.unwrap_or(false)).transformed(m)
             }
@@ -1335,5 +1313,20 @@ impl Converter<'_> {
             }
         }
         Ok(Some(mesh))
+    }
+}
+
+/// `v` as OpenSCAD's "a number or [x, y]" argument (`square`'s size,
+/// `linear_extrude`'s scale): a number stands for both.
+fn number_or_pair(v: &Value, what: &str) -> Result<DVec2, ScadError> {
+    if matches!(v.kind, ValueKind::Number(_)) {
+        return Ok(DVec2::splat(args::number(v, what)?));
+    }
+    match args::numbers(v, what)?[..] {
+        [x, y] => Ok(DVec2::new(x, y)),
+        _ => Err(ScadError::new(
+            v.pos,
+            format!("{what} must be a number or [x, y]"),
+        )),
     }
 }
