@@ -29,14 +29,16 @@ use glam::{DAffine2, DMat4, DVec2, DVec3};
 use super::args::{self, Args};
 use super::extrude::{self, Extents, Op2, Region};
 use super::parse::{Node, Tree, Value, ValueKind};
+use super::pieces::{self, Piece};
 use super::tessellate::{self, Resolution, F_MINIMUM};
-use super::{ScadError, ScadPrimitive};
+use super::{mesh_import, orient, surface, ScadError, ScadPrimitive};
 use crate::csg::expr::{Node as E, NodeId};
 use crate::csg::Expr;
 use crate::scene::cost;
 use crate::scene::load::{MAX_DIVISIONS, MAX_GRID};
 use crate::scene::validate::{check_closed, signed_volume, MeshProblem};
 use crate::scene::Mesh;
+use std::path::Path;
 
 /// OpenSCAD's (Cornfield) colours: faces of the solid, faces of subtracted
 /// parts, and `#` highlighted subtrees (with its alpha).
@@ -74,6 +76,11 @@ enum Kind {
     Polygon,
     LinearExtrude,
     RotateExtrude,
+    Hull,
+    Minkowski,
+    Resize,
+    Import,
+    Surface,
 }
 
 fn kind(name: &str) -> Option<Kind> {
@@ -92,12 +99,17 @@ fn kind(name: &str) -> Option<Kind> {
         "polygon" => Kind::Polygon,
         "linear_extrude" => Kind::LinearExtrude,
         "rotate_extrude" => Kind::RotateExtrude,
+        "hull" => Kind::Hull,
+        "minkowski" => Kind::Minkowski,
+        "resize" => Kind::Resize,
+        "import" => Kind::Import,
+        "surface" => Kind::Surface,
         _ => return None,
     })
 }
 
-const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render";
-const TWO_D: &[&str] = &["text", "offset", "projection", "import"];
+const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render, 3D hull, minkowski and resize, import of STL/OFF, surface";
+const TWO_D: &[&str] = &["text", "offset", "projection"];
 
 fn is_primitive(k: Kind) -> bool {
     is_3d_primitive(k) || is_2d_primitive(k)
@@ -106,8 +118,18 @@ fn is_primitive(k: Kind) -> bool {
 fn is_3d_primitive(k: Kind) -> bool {
     matches!(
         k,
-        Kind::Cube | Kind::Sphere | Kind::Cylinder | Kind::Polyhedron
+        Kind::Cube
+            | Kind::Sphere
+            | Kind::Cylinder
+            | Kind::Polyhedron
+            | Kind::Import
+            | Kind::Surface
     )
+}
+
+/// Evaluated from their children's vertices (`super::pieces`).
+fn is_evaluated(k: Kind) -> bool {
+    matches!(k, Kind::Hull | Kind::Minkowski | Kind::Resize)
 }
 
 fn is_2d_primitive(k: Kind) -> bool {
@@ -140,6 +162,8 @@ struct Ctx {
     background: bool,
     /// Inside an extrusion (its 2D subtree).
     plane: Option<Plane>,
+    /// The outermost `hull`, `minkowski` or `resize` at or above the node.
+    inside: Option<u32>,
 }
 
 /// A node's contribution to its parent.
@@ -169,10 +193,13 @@ pub struct BackgroundTree {
     pub expr: Expr,
 }
 
-pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadError> {
+/// `base`: the folder `import` and `surface` paths are relative to.
+pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Converted, ScadError> {
     let mut c = Converter {
         tree,
         skip_unsupported,
+        base,
+        own_matrix: vec![None; tree.nodes.len()],
         warnings: Vec::new(),
         ctx: vec![None; tree.nodes.len()],
         background_roots: Vec::new(),
@@ -190,6 +217,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         negated: false,
         background: false,
         plane: None,
+        inside: None,
     };
     for &r in &roots {
         c.ctx[r as usize] = c.enter(r, base)?;
@@ -239,6 +267,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         is_background_root[r as usize] = true;
     }
     c.two_d(&is_background_root)?;
+    let mut pieces = c.evaluate(&is_background_root)?;
     // Warnings in file order (nodes are entered level by level).
     c.warnings.sort_by_key(|w| warning_pos(w));
     // Primitives in order of appearance.
@@ -249,6 +278,27 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         let (Some(ctx), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
             continue;
         };
+        if let Some(root) = ctx.inside {
+            if root as usize == i {
+                let leaves: Vec<Term> = pieces[i]
+                    .take()
+                    .unwrap_or_default()
+                    .into_iter()
+                    .filter_map(|p| c.place_piece(p, &ctx))
+                    .map(|p| {
+                        out.push(p);
+                        push(
+                            &mut nodes,
+                            E::Leaf {
+                                prim: out.len() as u32 - 1,
+                            },
+                        )
+                    })
+                    .collect();
+                *slot = Some(union(&mut nodes, &leaves));
+            }
+            continue;
+        }
         if !is_primitive(k) {
             continue;
         }
@@ -265,10 +315,10 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
     }
     // Operators bottom-up.
     for i in (0..tree.nodes.len()).rev() {
-        let (Some(_), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
+        let (Some(ctx), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
             continue;
         };
-        if is_primitive(k) {
+        if is_primitive(k) || ctx.inside.is_some() {
             continue;
         }
         let kids: Vec<Term> = tree.nodes[i]
@@ -431,6 +481,10 @@ fn push(nodes: &mut Vec<E>, n: E) -> Term {
 struct Converter<'a> {
     tree: &'a Tree,
     skip_unsupported: bool,
+    /// The folder of the `.csg` file.
+    base: &'a Path,
+    /// Per node: a 3D `multmatrix`'s own matrix.
+    own_matrix: Vec<Option<DMat4>>,
     warnings: Vec<String>,
     ctx: Vec<Option<Ctx>>,
     /// The outermost `%` nodes entered.
@@ -534,21 +588,11 @@ impl Converter<'_> {
             } else {
                 format!("`{}`", node.name)
             };
-            if self.skip_unsupported || ctx.background {
-                let why = if ctx.background {
-                    "in a `%` background part"
-                } else {
-                    "--skip-unsupported"
-                };
-                self.warnings.push(format!(
-                    "{at}: {what} is not supported and was dropped with its children ({why}): the picture lacks it"
-                ));
-                return Ok(None);
-            }
-            // Reported with every other one once all are found.
-            self.unsupported.push((node.pos, what));
-            return Ok(None);
+            return Ok(self.unsupported_node(node, &ctx, what));
         };
+        if let Some(what) = self.refused_here(k, node, &parent) {
+            return Ok(self.unsupported_node(node, &ctx, what));
+        }
         let misplaced = if parent.plane.is_some() && (is_3d_primitive(k) || is_extrusion(k)) {
             Some("a 3D object inside a 2D subtree (below an extrusion)")
         } else if parent.plane.is_none() && is_2d_primitive(k) {
@@ -562,6 +606,9 @@ impl Converter<'_> {
                 node.name
             ));
             return Ok(None);
+        }
+        if is_evaluated(k) {
+            ctx.inside = parent.inside.or(Some(i));
         }
         if is_primitive(k) && !node.children.is_empty() {
             return Err(ScadError::new(
@@ -582,7 +629,10 @@ impl Converter<'_> {
                                 m.w_axis.truncate().truncate(),
                             )
                     }
-                    None => ctx.matrix = parent.matrix * m,
+                    None => {
+                        ctx.matrix = parent.matrix * m;
+                        self.own_matrix[i as usize] = Some(m);
+                    }
                 }
             }
             Kind::LinearExtrude | Kind::RotateExtrude => {
@@ -599,6 +649,56 @@ impl Converter<'_> {
             _ => {}
         }
         Ok(Some(ctx))
+    }
+
+    /// Drops an unsupported node with a warning (`--skip-unsupported`, or in a
+    /// background part), or keeps it for the error that lists them all.
+    fn unsupported_node(&mut self, node: &Node, ctx: &Ctx, what: String) -> Option<Ctx> {
+        if self.skip_unsupported || ctx.background {
+            let why = if ctx.background {
+                "in a `%` background part"
+            } else {
+                "--skip-unsupported"
+            };
+            self.warnings.push(format!(
+                "{}:{}: {what} is not supported and was dropped with its children ({why}): the picture lacks it",
+                node.pos.line, node.pos.col
+            ));
+        } else {
+            // Reported with every other one once all are found.
+            self.unsupported.push((node.pos, what));
+        }
+        None
+    }
+
+    /// A known node kind that peeltrim cannot evaluate where it stands.
+    fn refused_here(&self, k: Kind, node: &Node, parent: &Ctx) -> Option<String> {
+        let name = &node.name;
+        if parent.plane.is_some() && (is_evaluated(k) || k == Kind::Import) {
+            return Some(format!("`{name}` of 2D shapes (inside an extrusion)"));
+        }
+        if k == Kind::Import {
+            let file = node
+                .args
+                .iter()
+                .find(|a| a.name.as_deref() == Some("file") || a.name.is_none())
+                .and_then(|a| match &a.value.kind {
+                    ValueKind::Str(f) => Some(f.to_ascii_lowercase()),
+                    _ => None,
+                })
+                .unwrap_or_default();
+            if [".dxf", ".svg"].iter().any(|e| file.ends_with(e)) {
+                return Some(format!("`{name}` of a 2D file (DXF or SVG)"));
+            }
+        }
+        if let (Some(root), Kind::Difference | Kind::Intersection) = (parent.inside, k) {
+            let r = &self.tree.nodes[root as usize];
+            return Some(format!(
+                "`{name}` inside `{}` (line {}): the hull, Minkowski sum or bounding box of a {name} needs its evaluated boundary, a mesh Boolean that peeltrim does not compute; move the {name} outside the `{}`",
+                r.name, r.pos.line, r.name
+            ));
+        }
+        None
     }
 
     fn matrix(&mut self, node: &Node) -> Result<DMat4, ScadError> {
@@ -620,7 +720,22 @@ impl Converter<'_> {
             ));
         }
         for (r, row) in rows.iter().enumerate() {
-            let nums = args::numbers(row, what)?;
+            // An infinite or NaN entry is undef to OpenSCAD, which keeps the
+            // identity's entry there.
+            if args::has_non_finite(row) {
+                self.warnings.push(format!(
+                    "{}:{}: {what}: row {} holds an infinite or NaN number, which OpenSCAD reads as undef and replaces by the identity's entry; so does peeltrim",
+                    row.pos.line, row.pos.col, r + 1
+                ));
+            }
+            let nums: Vec<f64> = args::vector(row, what)?
+                .iter()
+                .enumerate()
+                .map(|(c, x)| match x.kind {
+                    ValueKind::Number(n) if !n.is_finite() => Ok(if r == c { 1.0 } else { 0.0 }),
+                    _ => args::number(x, what),
+                })
+                .collect::<Result<_, _>>()?;
             if nums.len() != 4 {
                 return Err(ScadError::new(
                     row.pos,
@@ -685,9 +800,70 @@ impl Converter<'_> {
         k: Kind,
         ctx: &Ctx,
     ) -> Result<Option<ScadPrimitive>, ScadError> {
+        let node = &self.tree.nodes[i];
+        let Some(local) = self.local(i, k, ctx)? else {
+            return Ok(None);
+        };
+        let rgba = self.rgba(ctx);
+        Ok(self.place(&node.name, node.pos, local, rgba, ctx))
+    }
+
+    /// A piece of an evaluated subtree, placed by the subtree's context.
+    fn place_piece(&mut self, p: pieces::Piece, ctx: &Ctx) -> Option<ScadPrimitive> {
+        if !(p.mesh.signed_volume() > 0.0) {
+            self.warnings.push(format!(
+                "{}:{}: `{}` encloses no volume where it stands (flattened by a transform); it is the empty set",
+                p.pos.line, p.pos.col, p.node
+            ));
+            return None;
+        }
+        self.place(&p.node, p.pos, p.mesh, p.rgba, ctx)
+    }
+
+    /// The colour of a primitive in context `ctx`.
+    fn rgba(&self, ctx: &Ctx) -> [f32; 4] {
+        if ctx.background {
+            BACKGROUND_COLOR
+        } else if ctx.highlight {
+            HIGHLIGHT_COLOR
+        } else {
+            ctx.color
+                .unwrap_or(if ctx.negated { BACK_COLOR } else { FRONT_COLOR })
+        }
+    }
+
+    /// Places a local mesh by the context's matrix; `None` when that is singular.
+    fn place(
+        &mut self,
+        name: &str,
+        pos: super::Pos,
+        local: Mesh,
+        rgba: [f32; 4],
+        ctx: &Ctx,
+    ) -> Option<ScadPrimitive> {
+        let det = ctx.matrix.determinant();
+        if !det.is_finite() || det.abs() < 1e-300 {
+            self.warnings.push(format!(
+                "{}:{}: `{name}` is flattened by a singular multmatrix (determinant {det}); it encloses no volume and is the empty set",
+                pos.line, pos.col
+            ));
+            return None;
+        }
+        Some(ScadPrimitive {
+            node: name.to_string(),
+            line: pos.line,
+            mesh: crate::scene::shapes::apply_transform(&local, &ctx.matrix),
+            matrix: ctx.matrix,
+            rgba,
+        })
+    }
+
+    /// Primitive `i`'s mesh in its own frame (an extruded 2D shape: in its
+    /// extrusion's); `None` for a degenerate one.
+    fn local(&mut self, i: usize, k: Kind, ctx: &Ctx) -> Result<Option<Mesh>, ScadError> {
         let tree = self.tree;
         let node = &tree.nodes[i];
-        let local = match k {
+        Ok(match k {
             Kind::Cube => {
                 let a = Args::new(node, &["size", "center"], &[], &mut self.warnings)?;
                 let size = match a.get("size") {
@@ -730,34 +906,10 @@ impl Converter<'_> {
             }
             Kind::Polyhedron => self.polyhedron(node)?,
             Kind::Circle | Kind::Square | Kind::Polygon => self.extruded(i, node, ctx)?,
+            Kind::Import => self.import(node)?,
+            Kind::Surface => self.surface(node)?,
             _ => unreachable!("only primitives are tessellated"),
-        };
-        let Some(local) = local else {
-            return Ok(None);
-        };
-        let det = ctx.matrix.determinant();
-        if !det.is_finite() || det.abs() < 1e-300 {
-            self.warnings.push(format!(
-                "{}:{}: `{}` is flattened by a singular multmatrix (determinant {det}); it encloses no volume and is the empty set",
-                node.pos.line, node.pos.col, node.name
-            ));
-            return Ok(None);
-        }
-        let rgba = if ctx.background {
-            BACKGROUND_COLOR
-        } else if ctx.highlight {
-            HIGHLIGHT_COLOR
-        } else {
-            ctx.color
-                .unwrap_or(if ctx.negated { BACK_COLOR } else { FRONT_COLOR })
-        };
-        Ok(Some(ScadPrimitive {
-            node: node.name.clone(),
-            line: node.pos.line,
-            mesh: crate::scene::shapes::apply_transform(&local, &ctx.matrix),
-            matrix: ctx.matrix,
-            rgba,
-        }))
+        })
     }
 
     /// `$fn`, `$fa`, `$fs` of a node, `$fa`/`$fs` clamped as OpenSCAD does.
@@ -841,7 +993,17 @@ impl Converter<'_> {
                 "`polyhedron` needs `points = [[x, y, z], ...]`",
             ));
         };
-        let points = args::vector(pv, "`points` of `polyhedron`")?
+        let point_values = args::vector(pv, "`points` of `polyhedron`")?;
+        if let Some(bad) = point_values.iter().find(|p| args::has_non_finite(p)) {
+            // OpenSCAD reads `nan`/`inf` in a `.csg` as undef, cannot make the
+            // point a vec3, and drops the polyhedron with an error.
+            self.warnings.push(format!(
+                "{}:{}: a point of `polyhedron` has an infinite or NaN coordinate; OpenSCAD drops the polyhedron, and so does peeltrim",
+                bad.pos.line, bad.pos.col
+            ));
+            return Ok(None);
+        }
+        let points = point_values
             .iter()
             .map(|p| args::vec3(p, "a point of `polyhedron`"))
             .collect::<Result<Vec<DVec3>, _>>()?;
@@ -873,9 +1035,17 @@ impl Converter<'_> {
             tri_face.extend(std::iter::repeat(fi).take(idx.len() - 2));
             faces.push(idx);
         }
-        let Some(mesh) = tessellate::polyhedron(points, &faces) else {
+        let Some(mut mesh) = tessellate::polyhedron(points, &faces) else {
             return Ok(None);
         };
+        if let Err(MeshProblem::SameDirection { .. }) = check_closed(&mesh) {
+            if let Ok(n) = orient::reorient(&mut mesh) {
+                self.warnings.push(format!(
+                    "{}:{}: `polyhedron`: its faces disagree in orientation; {n} triangle(s) were reversed to agree with their neighbours (OpenSCAD's preview draws it; its CGAL render drops it as not closed): list every face clockwise seen from outside",
+                    node.pos.line, node.pos.col
+                ));
+            }
+        }
         let bad = |msg: String| {
             ScadError::new(
                 node.pos,
@@ -1176,6 +1346,13 @@ impl Converter<'_> {
                 "`polygon` needs `points = [[x, y], ...]`",
             ));
         };
+        if args::has_non_finite(pv) {
+            self.warnings.push(format!(
+                "{}:{}: a point of `polygon` has an infinite or NaN coordinate; OpenSCAD drops the polygon, and so does peeltrim",
+                pv.pos.line, pv.pos.col
+            ));
+            return Ok(Region::default());
+        }
         let points = args::vector(pv, "`points` of `polygon`")?
             .iter()
             .map(|p| {
@@ -1328,5 +1505,271 @@ fn number_or_pair(v: &Value, what: &str) -> Result<DVec2, ScadError> {
             v.pos,
             format!("{what} must be a number or [x, y]"),
         )),
+    }
+}
+
+/// `hull`, `minkowski` and `resize` subtrees (`super::pieces`), and the
+/// imported meshes.
+impl Converter<'_> {
+    /// Each evaluated node's pieces, bottom-up (its children's taken), in the
+    /// frame of the node's parent.
+    fn evaluate(
+        &mut self,
+        is_background_root: &[bool],
+    ) -> Result<Vec<Option<Vec<Piece>>>, ScadError> {
+        let tree = self.tree;
+        let mut pieces: Vec<Option<Vec<Piece>>> = (0..tree.nodes.len()).map(|_| None).collect();
+        for i in (0..tree.nodes.len()).rev() {
+            let (Some(ctx), Some(k)) = (self.ctx[i], kind(&tree.nodes[i].name)) else {
+                continue;
+            };
+            if ctx.inside.is_none() {
+                continue;
+            }
+            let node = &tree.nodes[i];
+            let kids: Vec<Vec<Piece>> = node
+                .children
+                .iter()
+                .filter(|&&ch| !is_background_root[ch as usize])
+                .filter_map(|&ch| pieces[ch as usize].take())
+                .collect();
+            let at = |e: String| ScadError::new(node.pos, format!("`{}`: {e}", node.name));
+            let out = match k {
+                _ if is_primitive(k) => match self.local(i, k, &ctx)? {
+                    Some(mesh) => vec![Piece {
+                        node: node.name.clone(),
+                        pos: node.pos,
+                        mesh,
+                        rgba: self.rgba(&ctx),
+                        convex: matches!(k, Kind::Cube | Kind::Sphere | Kind::Cylinder)
+                            .then_some(true),
+                    }],
+                    None => Vec::new(),
+                },
+                Kind::Multmatrix => match self.own_matrix[i] {
+                    Some(m) => pieces::transform(kids.concat(), &m),
+                    None => kids.concat(),
+                },
+                Kind::Hull => pieces::hull(kids.concat(), node.pos, self.rgba(&ctx)).map_err(at)?,
+                Kind::Minkowski => {
+                    pieces::minkowski(kids, node.pos, self.rgba(&ctx)).map_err(at)?
+                }
+                Kind::Resize => {
+                    let (newsize, auto) = self.resize_args(node)?;
+                    let all = kids.concat();
+                    match pieces::resize_scale(&all, newsize, auto) {
+                        Ok(s) => pieces::transform(all, &DMat4::from_scale(s)),
+                        Err(e) => {
+                            self.warnings
+                                .push(format!("{}:{}: `resize`: {e}", node.pos.line, node.pos.col));
+                            all
+                        }
+                    }
+                }
+                _ => kids.concat(),
+            };
+            pieces[i] = Some(out);
+        }
+        Ok(pieces)
+    }
+
+    /// `resize(newsize, auto)`: `newsize` [x, y] or [x, y, z] (0: keep),
+    /// `auto` a boolean or one per axis.
+    fn resize_args(&mut self, node: &Node) -> Result<(DVec3, [bool; 3]), ScadError> {
+        let a = Args::new(
+            node,
+            &["newsize", "auto", "convexity"],
+            &[],
+            &mut self.warnings,
+        )?;
+        let mut newsize = DVec3::ZERO;
+        if let Some(v) = a.get("newsize") {
+            let n = args::numbers(v, "`newsize` of `resize`")?;
+            if !(2..=3).contains(&n.len()) || n.iter().any(|&x| x < 0.0) {
+                return Err(ScadError::new(
+                    v.pos,
+                    "`newsize` of `resize` must be [x, y, z] of sizes ≥ 0 (0 keeps that axis)",
+                ));
+            }
+            for (k, x) in n.into_iter().enumerate() {
+                newsize[k] = x;
+            }
+        }
+        let mut auto = [false; 3];
+        if let Some(v) = a.get("auto") {
+            let truth = |v: &Value| match v.kind {
+                ValueKind::Bool(b) => Ok(b),
+                ValueKind::Number(n) => Ok(n != 0.0),
+                _ => Err(ScadError::new(
+                    v.pos,
+                    "`auto` of `resize` must be true, false or one of them per axis",
+                )),
+            };
+            match &v.kind {
+                ValueKind::Vector(items) => {
+                    for (k, x) in items.iter().take(3).enumerate() {
+                        auto[k] = truth(x)?;
+                    }
+                }
+                _ => auto = [truth(v)?; 3],
+            }
+        }
+        Ok((newsize, auto))
+    }
+
+    /// `file` of `import` or `surface`, relative to the `.csg` file's folder.
+    fn file_arg(&self, node: &Node, a: &Args) -> Result<std::path::PathBuf, ScadError> {
+        match a.get("file").map(|v| (&v.kind, v.pos)) {
+            Some((ValueKind::Str(f), _)) => Ok(self.base.join(f)),
+            Some((_, pos)) => Err(ScadError::new(
+                pos,
+                format!("`file` of `{}` must be a string", node.name),
+            )),
+            None => Err(ScadError::new(
+                node.pos,
+                format!("`{}` needs `file = \"...\"`", node.name),
+            )),
+        }
+    }
+
+    /// Charges `bytes` of mesh to the model's budget.
+    fn charge(
+        &mut self,
+        node: &Node,
+        what: String,
+        bytes: u64,
+        fix: &str,
+    ) -> Result<(), ScadError> {
+        self.mesh_bytes = self.mesh_bytes.saturating_add(bytes);
+        crate::budget::current()
+            .check(
+                || format!("{what} (with the model's meshes before it)"),
+                self.mesh_bytes,
+                fix,
+            )
+            .map_err(|e| ScadError::new(node.pos, e.to_string()))
+    }
+
+    /// `import(file)` of an STL or OFF mesh.
+    fn import(&mut self, node: &Node) -> Result<Option<Mesh>, ScadError> {
+        let a = Args::new(
+            node,
+            &["file", "layer", "convexity", "origin", "scale"],
+            &[
+                "width",
+                "height",
+                "filename",
+                "center",
+                "dpi",
+                "id",
+                "timestamp",
+            ],
+            &mut self.warnings,
+        )?;
+        let path = self.file_arg(node, &a)?;
+        let located = |e: String| {
+            ScadError::new(
+                node.pos,
+                format!("`import`: {e} (the path is relative to the .csg file's folder)"),
+            )
+        };
+        let len = std::fs::metadata(&path)
+            .map_err(|e| located(format!("cannot read {}: {e}", path.display())))?
+            .len();
+        // At least 50 bytes a triangle (binary STL; ASCII STL and OFF take more).
+        self.charge(
+            node,
+            format!("the imported file {} ({len} bytes)", path.display()),
+            cost::mesh_bytes(len / 50, len / 50 * 2),
+            "simplify the mesh (fewer triangles)",
+        )?;
+        let mesh = mesh_import::read(&path).map_err(located)?;
+        self.closed_solid(node, mesh, &path.display().to_string())
+    }
+
+    /// `surface(file, center, invert)`: a height map (`super::surface`).
+    fn surface(&mut self, node: &Node) -> Result<Option<Mesh>, ScadError> {
+        let a = Args::new(
+            node,
+            &["file", "center", "invert", "convexity"],
+            &["timestamp"],
+            &mut self.warnings,
+        )?;
+        let path = self.file_arg(node, &a)?;
+        let located = |e: String| {
+            ScadError::new(
+                node.pos,
+                format!(
+                    "`surface`: {}: {e} (the path is relative to the .csg file's folder)",
+                    path.display()
+                ),
+            )
+        };
+        let len = std::fs::metadata(&path)
+            .map_err(|e| located(e.to_string()))?
+            .len();
+        // A PNG's pixels can be many more than its bytes: the decoder's own
+        // limits bound those; a `.dat` has at most one value per 2 bytes.
+        self.charge(
+            node,
+            format!("the height map {} ({len} bytes)", path.display()),
+            cost::mesh_bytes(len, len * 2),
+            "use a smaller height map",
+        )?;
+        let bytes = std::fs::read(&path).map_err(|e| located(e.to_string()))?;
+        let h = surface::heights(&bytes, a.boolean("invert")?.unwrap_or(false)).map_err(located)?;
+        if let Some(why) = &h.stopped {
+            self.warnings.push(format!(
+                "{}:{}: `surface`: {}: {why}",
+                node.pos.line,
+                node.pos.col,
+                path.display()
+            ));
+        }
+        let cells = h.z.len() as u64 * h.z.first().map_or(0, |r| r.len()) as u64;
+        self.charge(
+            node,
+            format!("the height map {} ({cells} cells)", path.display()),
+            cost::mesh_bytes(cells * 2, cells * 4),
+            "use a smaller height map",
+        )?;
+        Ok(surface::mesh(&h, a.boolean("center")?.unwrap_or(false)))
+    }
+}
+
+impl Converter<'_> {
+    /// An imported mesh as a solid: closed (faces that disagree in orientation
+    /// reversed, with a warning, as for `polyhedron`) and outward.
+    fn closed_solid(
+        &mut self,
+        node: &Node,
+        mut mesh: Mesh,
+        file: &str,
+    ) -> Result<Option<Mesh>, ScadError> {
+        let bad = |why: String| {
+            ScadError::new(
+                node.pos,
+                format!("`{}` of {file}: the mesh is not a closed, consistently oriented surface: {why}; repair it (close the holes) in a mesh editor", node.name),
+            )
+        };
+        match check_closed(&mesh) {
+            Ok(()) => {}
+            Err(MeshProblem::SameDirection { .. }) => {
+                let n = orient::reorient(&mut mesh).map_err(|p| bad(p.describe(&mesh)))?;
+                self.warnings.push(format!(
+                    "{}:{}: `{}` of {file}: its faces disagree in orientation; {n} triangle(s) were reversed to agree with their neighbours",
+                    node.pos.line, node.pos.col, node.name
+                ));
+            }
+            Err(p) => return Err(bad(p.describe(&mesh))),
+        }
+        let v = signed_volume(&mesh);
+        if v < 0.0 {
+            return Err(ScadError::new(
+                node.pos,
+                format!("`{}` of {file}: the mesh is inside out (negative signed volume: its triangles wind clockwise seen from outside); reverse the vertex order of every face", node.name),
+            ));
+        }
+        Ok((v > 0.0).then_some(mesh))
     }
 }
