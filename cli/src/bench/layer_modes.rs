@@ -98,13 +98,14 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
     );
     let mut out = Vec::new();
     for bs in scenes {
-        let mut scene =
-            scene::load(&bs.path, &LoadOptions { size: Some((w, h)) }).map_err(|source| {
-                BenchError::Scene {
-                    path: bs.path.clone(),
-                    source,
-                }
-            })?;
+        let mut scene = scene::load(
+            &crate::scad::csg_for(&bs.path).map_err(BenchError::Other)?,
+            &LoadOptions { size: Some((w, h)) },
+        )
+        .map_err(|source| BenchError::Scene {
+            path: bs.path.clone(),
+            source,
+        })?;
         if scene.solids.is_empty() {
             bar.inc((MODES.len() * algos.len()) as u64);
             continue;

@@ -278,13 +278,14 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
     let mut records = Vec::new();
     for bs in scenes {
         for &(w, h) in &cfg.sizes {
-            let scene =
-                scene::load(&bs.path, &LoadOptions { size: Some((w, h)) }).map_err(|source| {
-                    BenchError::Scene {
-                        path: bs.path.clone(),
-                        source,
-                    }
-                })?;
+            let scene = scene::load(
+                &crate::scad::csg_for(&bs.path).map_err(BenchError::Other)?,
+                &LoadOptions { size: Some((w, h)) },
+            )
+            .map_err(|source| BenchError::Scene {
+                path: bs.path.clone(),
+                source,
+            })?;
             let label = scene_label(&bs.path);
             bar.set_message(format!("{label} {w}x{h}: reference"));
             crate::render::check_frame_budget(w, h, false)
