@@ -145,6 +145,9 @@ fn primitive() -> BoxedStrategy<Scad> {
             "polyhedron(points = [[0, 0, 0]], faces = [[0, 0]]);",
             "rotate_extrude(angle = 360) circle(r = 1, $fn = 1e9);",
             "cube(size = [1, 1, 1]) cube();",
+            "import(file = \"missing.stl\");",
+            "surface(file = \"missing.dat\", center = true);",
+            "hull() { difference() { cube(); sphere(); } }",
         ])
         .prop_map(move |s| scad(s.to_string(), true)),
     ]

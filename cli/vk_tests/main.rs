@@ -24,6 +24,7 @@ mod limits;
 mod many_products;
 mod one_submit;
 mod openscad;
+mod openscad_3d;
 mod openscad_extrude;
 mod replay;
 mod rounding;

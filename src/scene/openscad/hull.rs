@@ -43,7 +43,23 @@ pub fn convex_hull(points: &[DVec3]) -> Option<Mesh> {
     if pts.len() < 4 {
         return None;
     }
-    let mut input: Vec<Vec<f64>> = pts.iter().map(|p| p.map(f64::from_bits).to_vec()).collect();
+    // `chull`'s integers are the coordinates times 2⁵²: above 2⁹⁰⁰ they would
+    // overflow `f64` first, so such sets are scaled by a power of two (exact)
+    // and scaled back.
+    let max = pts
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, &b| m.max(f64::from_bits(b).abs()));
+    let shift = if max > 2f64.powi(900) {
+        max.log2().ceil() as i32 - 900
+    } else {
+        0
+    };
+    let down = 2f64.powi(-shift);
+    let mut input: Vec<Vec<f64>> = pts
+        .iter()
+        .map(|p| p.map(|b| f64::from_bits(b) * down).to_vec())
+        .collect();
     if input.len() > PREFILTER {
         // Points within 1e-12 of the extent from a facet are dropped here;
         // they move the hull by no more than that. A failure leaves the exact
@@ -58,7 +74,11 @@ pub fn convex_hull(points: &[DVec3]) -> Option<Mesh> {
     }
     let hull = chull::ConvexHullWrapper::try_new(&input, None).ok()?;
     let (verts, idx) = hull.vertices_indices();
-    let positions: Vec<DVec3> = verts.iter().map(|v| DVec3::new(v[0], v[1], v[2])).collect();
+    let up = 2f64.powi(shift);
+    let positions: Vec<DVec3> = verts
+        .iter()
+        .map(|v| DVec3::new(v[0], v[1], v[2]) * up)
+        .collect();
     let centre = positions.iter().copied().sum::<DVec3>() / positions.len() as f64;
     let triangles: Vec<[u32; 3]> = idx
         .chunks_exact(3)

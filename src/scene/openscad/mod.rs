@@ -22,6 +22,8 @@ pub(crate) mod args;
 pub mod background;
 pub(crate) mod convert;
 pub(crate) mod extrude;
+#[cfg(test)]
+mod fuzz3d;
 pub(crate) mod hull;
 pub(crate) mod lex;
 pub(crate) mod mesh_import;

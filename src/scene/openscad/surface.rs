@@ -42,8 +42,16 @@ pub fn heights(bytes: &[u8], invert: bool) -> Result<Heights, String> {
 }
 
 fn png(bytes: &[u8], invert: bool) -> Result<Heights, String> {
-    let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Png)
-        .map_err(|e| format!("not a PNG image peeltrim can decode: {e}"))?
+    // The decoder allocates no more than the memory budget (its pixels, then
+    // their RGBA copy: a quarter each).
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(crate::budget::current().bytes / 4);
+    let mut reader =
+        image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
+    reader.limits(limits);
+    let img = reader
+        .decode()
+        .map_err(|e| format!("not a PNG image peeltrim can decode within the memory budget: {e}"))?
         .to_rgba8();
     let (w, h) = img.dimensions();
     let z = (0..h)
