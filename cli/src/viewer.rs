@@ -545,9 +545,10 @@ impl App {
                 w.set_title(&self.title());
             }
             if let Some((saved, load_ms)) = self.reloaded.take() {
+                let path = self.watch.as_ref().map(|w| w.path().to_path_buf());
                 eprintln!(
                     "peeltrim view: reloaded {}: {:.0} ms from save to new frame ({load_ms:.0} ms of it loading)",
-                    self.scene.path.display(),
+                    path.unwrap_or_else(|| self.scene.path.clone()).display(),
                     crate::watch::ms_since(saved)
                 );
                 self.count_reload(el);
