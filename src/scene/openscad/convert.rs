@@ -1075,8 +1075,12 @@ impl Converter<'_> {
         }
         let v = signed_volume(&mesh);
         if v < 0.0 {
-            return Err(bad(
-                "it is inside out (its faces are counter-clockwise seen from outside); OpenSCAD lists each face clockwise seen from outside: reverse the point order of every face".to_string(),
+            for t in &mut mesh.triangles {
+                t.swap(1, 2);
+            }
+            self.warnings.push(format!(
+                "{}:{}: `polyhedron` is inside out (its faces are counter-clockwise seen from outside); turned outward, as OpenSCAD renders it: list each face clockwise seen from outside",
+                node.pos.line, node.pos.col
             ));
         }
         if v == 0.0 {
@@ -1585,14 +1589,20 @@ impl Converter<'_> {
         let mut newsize = DVec3::ZERO;
         if let Some(v) = a.get("newsize") {
             let n = args::numbers(v, "`newsize` of `resize`")?;
-            if !(2..=3).contains(&n.len()) || n.iter().any(|&x| x < 0.0) {
+            if !(2..=3).contains(&n.len()) {
                 return Err(ScadError::new(
                     v.pos,
-                    "`newsize` of `resize` must be [x, y, z] of sizes ≥ 0 (0 keeps that axis)",
+                    "`newsize` of `resize` must be [x, y, z] (0 keeps that axis)",
+                ));
+            }
+            if n.iter().any(|&x| x < 0.0) {
+                self.warnings.push(format!(
+                    "{}:{}: a negative `newsize` of `resize` keeps that axis (as 0 does), as in OpenSCAD",
+                    v.pos.line, v.pos.col
                 ));
             }
             for (k, x) in n.into_iter().enumerate() {
-                newsize[k] = x;
+                newsize[k] = x.max(0.0);
             }
         }
         let mut auto = [false; 3];
@@ -1629,6 +1639,25 @@ impl Converter<'_> {
                 node.pos,
                 format!("`{}` needs `file = \"...\"`", node.name),
             )),
+        }
+    }
+
+    /// The length of an imported file; `None` (with OpenSCAD's warning: the
+    /// node is the empty set, the rest renders) when it cannot be opened.
+    fn file_len(&mut self, node: &Node, path: &Path) -> Option<u64> {
+        match std::fs::metadata(path) {
+            Ok(m) if m.is_file() => Some(m.len()),
+            r => {
+                let why = r.map_or_else(|e| e.to_string(), |_| "not a file".to_string());
+                self.warnings.push(format!(
+                    "{}:{}: `{}`: cannot open {} ({why}; the path is relative to the .csg file's folder); OpenSCAD warns and makes nothing of it, and so does peeltrim",
+                    node.pos.line,
+                    node.pos.col,
+                    node.name,
+                    path.display()
+                ));
+                None
+            }
         }
     }
 
@@ -1673,9 +1702,9 @@ impl Converter<'_> {
                 format!("`import`: {e} (the path is relative to the .csg file's folder)"),
             )
         };
-        let len = std::fs::metadata(&path)
-            .map_err(|e| located(format!("cannot read {}: {e}", path.display())))?
-            .len();
+        let Some(len) = self.file_len(node, &path) else {
+            return Ok(None);
+        };
         // At least 50 bytes a triangle (binary STL; ASCII STL and OFF take more).
         self.charge(
             node,
@@ -1705,9 +1734,9 @@ impl Converter<'_> {
                 ),
             )
         };
-        let len = std::fs::metadata(&path)
-            .map_err(|e| located(e.to_string()))?
-            .len();
+        let Some(len) = self.file_len(node, &path) else {
+            return Ok(None);
+        };
         // A PNG's pixels can be many more than its bytes: the decoder's own
         // limits bound those; a `.dat` has at most one value per 2 bytes.
         self.charge(

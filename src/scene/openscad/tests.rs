@@ -302,9 +302,10 @@ fn polyhedron_clockwise_faces_become_ccw() {
         e.starts_with("t.csg:1:1:") && e.contains("same direction"),
         "{e}"
     );
-    // Counter-clockwise faces: inside out.
-    let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]);");
-    assert!(e.contains("inside out"), "{e}");
+    // Counter-clockwise faces: inside out, turned outward with a warning.
+    let m = model("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]);");
+    closed_outward(&m.primitives[0].mesh);
+    assert!(warned(&m, "inside out"), "{:?}", m.warnings);
     let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0]], faces = [[0, 1, 7]]);");
     assert!(e.contains("point index"), "{e}");
 }
