@@ -495,6 +495,14 @@ pub enum Step {
         /// The texture written.
         dst: Tex,
     },
+    /// Copy a depth-stencil image, depth and stencil, into another (same size
+    /// and format).
+    CopyDepthStencil {
+        /// The depth-stencil image read.
+        src: Ds,
+        /// The depth-stencil image written.
+        dst: Ds,
+    },
     /// Copy the depth of a depth-stencil image into a depth texture.
     CopyDepthToTexture {
         /// The depth-stencil image whose depth is read.

@@ -120,6 +120,10 @@ impl Walk<'_> {
                     let f = self.faces(Resource::Texture(*src));
                     self.held.insert(Resource::Texture(*dst), f);
                 }
+                Step::CopyDepthStencil { src, dst } => {
+                    let f = self.faces(Resource::DepthStencil(*src));
+                    self.held.insert(Resource::DepthStencil(*dst), f);
+                }
                 Step::CopyDepthToTexture { ds, dst } => {
                     let f = self.faces(Resource::DepthStencil(*ds));
                     self.held.insert(Resource::Texture(*dst), f);
