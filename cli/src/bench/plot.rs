@@ -1,6 +1,6 @@
 //! PNG plots of benchmark results (plotters, bitmap backend): time against error
 //! per scene, time against the number of primitives for the scaling families,
-//! and per-pass time breakdowns. Text uses DejaVu Sans (Debian's
+//! per-pass time breakdowns, and every run against its rasterization floor. Text uses DejaVu Sans (Debian's
 //! fonts-dejavu-core, installed by tools/setup.sh).
 #![deny(unsafe_code)]
 
@@ -262,6 +262,15 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
         )?;
         files.push(p);
     }
+    let floor_rows: Vec<&Record> = records
+        .iter()
+        .filter(|r| r.family.is_none() && super::floor::multiple(r).is_some())
+        .collect();
+    if !floor_rows.is_empty() {
+        let p = dir.join("floor.png");
+        floor_multiples(&p, &floor_rows)?;
+        files.push(p);
+    }
     let mut families: Vec<String> = records.iter().filter_map(|r| r.family.clone()).collect();
     families.sort();
     families.dedup();
@@ -427,6 +436,89 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
             algo.to_string()
         };
         entries.push((Mark::Marker(m), c, text));
+    }
+    side_legend(&legend_area, path, "algorithm", &entries)?;
+    root.present().map_err(|e| err(path, e))?;
+    Ok(())
+}
+
+/// Dots: every run's frame as a multiple of its scene's rasterization floor
+/// (log), scenes along x, one colour and marker per algorithm, the floor
+/// itself the line at 1.
+fn floor_multiples(path: &Path, rows: &[&Record]) -> Result<(), BenchError> {
+    let mut scenes: Vec<String> = Vec::new();
+    for r in rows {
+        let s = format!("{} {}x{}", r.scene, r.width, r.height);
+        if !scenes.contains(&s) {
+            scenes.push(s);
+        }
+    }
+    let pts: Vec<(usize, f64, &str)> = rows
+        .iter()
+        .filter_map(|r| {
+            let s = format!("{} {}x{}", r.scene, r.width, r.height);
+            let x = scenes.iter().position(|t| *t == s)?;
+            Some((x, super::floor::multiple(r)?, r.algo.as_str()))
+        })
+        .collect();
+    let ymax = pts.iter().map(|p| p.1).fold(1.0, f64::max);
+    let yhi = 10f64.powf(ymax.log10().ceil()).max(10.0) * 1.001;
+    let mut algos: Vec<&str> = pts.iter().map(|p| p.2).collect();
+    algos.sort_by_key(|a| algo_style(a).1);
+    algos.dedup();
+    let n = scenes.len().max(1);
+    let whole = canvas(path, (1150, 650))?;
+    let root = whole
+        .titled(
+            "frame time as a multiple of the rasterization floor (one z-buffered draw of all triangles)",
+            ("sans-serif", 19),
+        )
+        .map_err(|e| err(path, e))?;
+    let (plot, legend_area) = root.split_horizontally(880);
+    let mut chart = ChartBuilder::on(&plot)
+        .margin(15)
+        .x_label_area_size(60)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..n as f64, (0.999..yhi).log_scale())
+        .map_err(|e| err(path, e))?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(0)
+        .y_desc("frame time / floor (log)")
+        .y_label_formatter(&|v| format!("{}×", tick(*v)))
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(|e| err(path, e))?;
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            vec![(0.0, 1.0), (n as f64, 1.0)],
+            BLACK.stroke_width(2),
+        )))
+        .map_err(|e| err(path, e))?;
+    let centred = ("sans-serif", 13)
+        .into_font()
+        .into_text_style(&whole)
+        .pos(Pos::new(HPos::Center, VPos::Top));
+    for (i, s) in scenes.iter().enumerate() {
+        // Every other name one line lower, so long neighbours never overlap.
+        let (x, y) = chart.backend_coord(&(i as f64 + 0.5, 0.999));
+        let below = 8 + 18 * (i as i32 % 2);
+        whole
+            .draw(&Text::new(s.clone(), (x, y + below), centred.clone()))
+            .map_err(|e| err(path, e))?;
+    }
+    let mut entries = Vec::new();
+    for (k, &algo) in algos.iter().enumerate() {
+        let (c, m) = algo_style(algo);
+        // Each algorithm a little apart within its scene's column.
+        let dx = 0.15 + 0.7 * (k as f64 + 0.5) / algos.len() as f64;
+        let mine = pts.iter().filter(|p| p.2 == algo);
+        with_marker!(m, c, |mk| chart
+            .draw_series(mine.map(|p| mk((p.0 as f64 + dx, p.1))))
+            .map(|_| ())
+            .map_err(|e| err(path, e)))?;
+        entries.push((Mark::Marker(m), c, algo.to_string()));
     }
     side_legend(&legend_area, path, "algorithm", &entries)?;
     root.present().map_err(|e| err(path, e))?;
