@@ -277,7 +277,7 @@ pub fn lower_plan(
                 }
             }
             Step::CopyTexture { .. }
-            | Step::CopyDepthStencil { .. }
+            | Step::CopyDepthBound { .. }
             | Step::CopyDepthToTexture { .. } => {
                 let what = format!(
                     "{} reaches {}",

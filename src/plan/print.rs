@@ -109,7 +109,7 @@ fn print_steps(out: &mut String, steps: &[Step], prep: &Prepared, names: &[Strin
                 let _ = writeln!(out, "{pad}clear {c:?}");
             }
             Step::CopyTexture { .. }
-            | Step::CopyDepthStencil { .. }
+            | Step::CopyDepthBound { .. }
             | Step::CopyDepthToTexture { .. } => {
                 let _ = writeln!(out, "{pad}{}", copy_words(s));
             }
@@ -158,7 +158,9 @@ fn print_steps(out: &mut String, steps: &[Step], prep: &Prepared, names: &[Strin
 pub(crate) fn copy_words(step: &Step) -> String {
     match step {
         Step::CopyTexture { src, dst } => format!("copy tex{src} -> tex{dst}"),
-        Step::CopyDepthStencil { src, dst } => format!("copy depth-stencil ds{src} -> ds{dst}"),
+        Step::CopyDepthBound { src, dst } => {
+            format!("copy depth-stencil ds{src} -> ds{dst} (a bound)")
+        }
         Step::CopyDepthToTexture { ds, dst } => format!("copy depth ds{ds} -> tex{dst}"),
         _ => String::new(),
     }

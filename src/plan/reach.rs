@@ -72,7 +72,7 @@ pub struct Images<'a> {
 pub struct FrameReach {
     /// For every image every `Clear` clears, in order ([`cleared`]).
     pub clears: Vec<ClearNeed>,
-    /// For every `CopyTexture`, `CopyDepthStencil` and `CopyDepthToTexture`,
+    /// For every `CopyTexture`, `CopyDepthBound` and `CopyDepthToTexture`,
     /// in order: the region
     /// to copy (empty: nobody reads the copy).
     pub copies: Vec<Rect>,
@@ -351,7 +351,7 @@ fn reach_of_items(
                 copies.push(region);
             }
             Step::CopyTexture { .. } => copies.push(Rect::EMPTY),
-            Step::CopyDepthStencil { src, dst } if src != dst => {
+            Step::CopyDepthBound { src, dst } if src != dst => {
                 let region = take(&mut live, Resource::DepthStencil(*dst));
                 let src = live
                     .entry(Resource::DepthStencil(*src))
@@ -359,7 +359,7 @@ fn reach_of_items(
                 *src = src.union(&region);
                 copies.push(region);
             }
-            Step::CopyDepthStencil { .. } => copies.push(Rect::EMPTY),
+            Step::CopyDepthBound { .. } => copies.push(Rect::EMPTY),
             // A full-screen draw reading the depth at the pixel it writes.
             Step::CopyDepthToTexture { ds, dst } => {
                 let region = take(&mut live, Resource::Texture(*dst));

@@ -496,8 +496,12 @@ pub enum Step {
         dst: Tex,
     },
     /// Copy a depth-stencil image, depth and stencil, into another (same size
-    /// and format).
-    CopyDepthStencil {
+    /// and format) as a bound: the draws that follow are depth-tested against
+    /// it, and no step reads `dst`'s depth as a surface at a pixel no later
+    /// draw replaced (layered Goldfeather's peel starts at the output depth
+    /// resolved so far). So it brings no faces a tolerant draw could tie with
+    /// (`plan::tie_context`).
+    CopyDepthBound {
         /// The depth-stencil image read.
         src: Ds,
         /// The depth-stencil image written.

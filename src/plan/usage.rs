@@ -153,7 +153,7 @@ impl Step {
                 (Resource::Texture(*src), Usage::CopySrc),
                 (Resource::Texture(*dst), Usage::CopyDst),
             ]),
-            Step::CopyDepthStencil { src, dst } => Uses::of(&[
+            Step::CopyDepthBound { src, dst } => Uses::of(&[
                 (Resource::DepthStencil(*src), Usage::CopySrc),
                 (Resource::DepthStencil(*dst), Usage::CopyDst),
             ]),

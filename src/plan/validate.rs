@@ -104,7 +104,7 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
                 tex(*src)?;
                 tex(*dst)?;
             }
-            Step::CopyDepthStencil { src, dst } => {
+            Step::CopyDepthBound { src, dst } => {
                 ds(*src)?;
                 ds(*dst)?;
                 if *dst == plan.output_ds {
@@ -242,12 +242,12 @@ mod tests {
 
     #[test]
     fn copies_depth_stencil_only_out_of_the_output() {
-        let mut p = plan(vec![Step::CopyDepthStencil { src: 0, dst: 1 }]);
+        let mut p = plan(vec![Step::CopyDepthBound { src: 0, dst: 1 }]);
         p.depth_stencils = 2;
         assert_eq!(validate(&p, 1), Ok(()));
-        p.steps = vec![Step::CopyDepthStencil { src: 1, dst: 0 }];
+        p.steps = vec![Step::CopyDepthBound { src: 1, dst: 0 }];
         assert_eq!(validate(&p, 1), Err(InvalidPlan::CopyIntoOutput(0)));
-        p.steps = vec![Step::CopyDepthStencil { src: 0, dst: 2 }];
+        p.steps = vec![Step::CopyDepthBound { src: 0, dst: 2 }];
         assert!(matches!(
             validate(&p, 1),
             Err(InvalidPlan::DepthStencil { index: 2, .. })

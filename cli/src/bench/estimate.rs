@@ -235,7 +235,7 @@ impl SceneCosts {
                     c.mesh_pixels += rect.area();
                 }
                 Step::CopyTexture { .. }
-                | Step::CopyDepthStencil { .. }
+                | Step::CopyDepthBound { .. }
                 | Step::CopyDepthToTexture { .. } => {
                     c.copied_pixels += full;
                 }

@@ -76,7 +76,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         // The surface image starts as a copy of the output: its depth is
         // the bound, its stencil 0 (this plan never writes the output's).
         let mut head = peel_head(draws);
-        head[1] = Step::CopyDepthStencil {
+        head[1] = Step::CopyDepthBound {
             src: OUTPUT,
             dst: SURFACE,
         };

@@ -60,7 +60,7 @@ fn simulate(
             }
             Step::CopyTexture { .. }
             | Step::CopyDepthToTexture { .. }
-            | Step::CopyDepthStencil { .. } => {
+            | Step::CopyDepthBound { .. } => {
                 let rect = copies
                     .as_mut()
                     .map_or(full, |c| *c.next().expect("a region per copy"));
@@ -71,7 +71,7 @@ fn simulate(
                     Step::CopyDepthToTexture { ds, dst } => {
                         (Resource::DepthStencil(ds), Resource::Texture(dst))
                     }
-                    Step::CopyDepthStencil { src, dst } => {
+                    Step::CopyDepthBound { src, dst } => {
                         (Resource::DepthStencil(src), Resource::DepthStencil(dst))
                     }
                     _ => unreachable!("a copy"),
@@ -156,7 +156,7 @@ fn random_frame(seed: u64) -> Vec<Step> {
             6 => draw(Fragment::DepthFromTexture { src: t }, ds, m),
             7 => draw(Fragment::WriteDepth { out: t }, ds, m),
             // Never into the output (`plan::validate`).
-            8 => Step::CopyDepthStencil { src: 0, dst: 1 },
+            8 => Step::CopyDepthBound { src: 0, dst: 1 },
             _ => draw(Fragment::None, ds, m),
         });
     }

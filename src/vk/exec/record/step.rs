@@ -33,7 +33,7 @@ impl Recorder<'_> {
             Step::CopyTexture { src, dst } => {
                 self.copy_image(step, Resource::Texture(*src), Resource::Texture(*dst))
             }
-            Step::CopyDepthStencil { src, dst } => self.copy_image(
+            Step::CopyDepthBound { src, dst } => self.copy_image(
                 step,
                 Resource::DepthStencil(*src),
                 Resource::DepthStencil(*dst),
@@ -47,7 +47,7 @@ impl Recorder<'_> {
         Ok(())
     }
 
-    /// `Step::CopyTexture` or `Step::CopyDepthStencil`: image `src` into `dst`
+    /// `Step::CopyTexture` or `Step::CopyDepthBound`: image `src` into `dst`
     /// (same format), every aspect, where later steps read it (`plan::reach`).
     fn copy_image(&mut self, step: &Step, src: Resource, dst: Resource) {
         let rect = self.copy_region();
