@@ -1,19 +1,18 @@
 //! The rasterization floor: one plain z-buffered draw of every solid
-//! primitive's triangles, back faces culled, shaded, into a cleared depth and
-//! colour target — the scene drawn as if it were not CSG. Every image-based
-//! CSG algorithm submits each primitive's triangles at least once, rasterizes
-//! its potentially visible faces into a depth buffer and shades the visible
-//! surface (Goldfeather, Hultquist & Fuchs §3; Rossignac & Wu §2), so a frame
-//! of the same scene, size and depth set-up costs about this at the least:
-//! the bench reports each algorithm's frame as a multiple of it. It is not a
-//! CSG image.
+//! primitive's triangles, back faces culled, depth only, into a cleared depth
+//! target (a z-prepass of the scene as if it were not CSG). Every image-based
+//! CSG algorithm submits each primitive's triangles at least once and
+//! rasterizes its potentially visible faces into a depth buffer (Goldfeather,
+//! Hultquist & Fuchs §3; Rossignac & Wu §2), then shades, so no frame of the
+//! same scene, size and depth set-up costs less: the bench reports each
+//! algorithm's frame as a multiple of it. It is not a CSG image.
 #![deny(unsafe_code)]
 
 use super::step::*;
 use super::Prepared;
 
-/// The floor's plan for `prep`: clears, then one depth-tested, shaded draw
-/// of all solid meshes, back faces culled.
+/// The floor's plan for `prep`: clears, then one depth-tested, depth-only
+/// draw of all solid meshes, back faces culled.
 pub fn plan(prep: &Prepared) -> Plan {
     let mut steps = super::common::init_output(0, 1.0);
     steps.push(Step::Pass("floor".into()));
@@ -28,7 +27,7 @@ pub fn plan(prep: &Prepared) -> Plan {
                 write: true,
             },
             stencil: None,
-            fragment: Fragment::Shade,
+            fragment: Fragment::None,
             count_samples: false,
         }));
     }

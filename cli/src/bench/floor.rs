@@ -80,7 +80,7 @@ pub fn section(records: &[Record]) -> String {
         return String::new();
     }
     let mut s = String::from("## Against the rasterization floor\n\n");
-    s.push_str("The floor is one plain z-buffered draw of all of the scene's primitive triangles (back faces culled, shaded) on the same device, size and depth set-up: no image-based CSG frame costs less. Each cell is the run's frame time (as in the auto table) divided by the floor's; `opencsg` is compared with the floor of the default depth set-up.\n\n");
+    s.push_str("The floor is one plain z-buffered draw of all of the scene's primitive triangles (back faces culled, depth only) on the same device, size and depth set-up: no image-based CSG frame costs less. Each cell is the run's frame time (as in the auto table) divided by the floor's; `opencsg` is compared with the floor of the default depth set-up.\n\n");
     let _ = write!(s, "| scene | size | floor ms |");
     for a in &algos {
         let _ = write!(s, " {a} |");
