@@ -36,7 +36,7 @@ pub fn read(path: &Path) -> Result<Mesh, String> {
     match ext.as_deref() {
         Some("stl") => parse_stl(&bytes),
         Some("off") => parse_off(&String::from_utf8_lossy(&bytes)),
-        _ => Err("peeltrim imports .stl and .off meshes (3MF and AMF have no maintained Rust reader it could use): convert the file to STL".into()),
+        _ => Err("peeltrim imports .stl and .off meshes (3MF and AMF are not read yet): convert the file to STL or OFF".into()),
     }
     .map_err(|e| format!("{}: {e}", path.display()))
 }
