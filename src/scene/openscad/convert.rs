@@ -694,8 +694,8 @@ impl Converter<'_> {
         if let (Some(root), Kind::Difference | Kind::Intersection) = (parent.inside, k) {
             let r = &self.tree.nodes[root as usize];
             return Some(format!(
-                "`{name}` inside `{}` (line {}): the hull, Minkowski sum or bounding box of a {name} needs its evaluated boundary, a mesh Boolean that peeltrim does not compute; move the {name} outside the `{}`",
-                r.name, r.pos.line, r.name
+                "`{name}` inside `{}` (line {}), whose result needs the {name}'s evaluated boundary (a mesh Boolean peeltrim does not compute)",
+                r.name, r.pos.line
             ));
         }
         None
