@@ -12,7 +12,9 @@
 //! for an `_SRGB` host colour format, which decodes the colour it writes;
 //! `#ifdef HOST_WRITE` gives `host_write` and `host_write_srgb` (the host draw
 //! that writes its depth, with no merge before it), and `#ifdef FLAT` gives
-//! `flat` (`mesh.vert` without the interpolated outputs). A
+//! `flat` (`mesh.vert` without the interpolated outputs), and `#ifdef MS`
+//! gives `ms` (the depth texture multisampled, read at the invocation's own
+//! sample: `shaders/depth_tex.glsl`). A
 //! variant rather than a push-constant branch because lavapipe runs both sides
 //! of a uniform branch for every fragment.
 
@@ -45,7 +47,8 @@ fn main() {
         );
         // (defines, suffix): compiled when the source tests each define the
         // variant adds to a leading `HOST` (`composite.frag` tests only `HOST_SRGB`).
-        let variants: [(&[&str], &str); 6] = [
+        let variants: [(&[&str], &str); 7] = [
+            (&["MS"], "ms"),
             (&["NORMALS"], "normals"),
             (&["FLAT"], "flat"),
             (&["HOST"], "host"),

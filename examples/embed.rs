@@ -757,6 +757,7 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
                 DepthFormat::D32S8
             }
         },
+        samples: 1,
     };
     let mut csg = match setup.drilled {
         true => drilled_csg(&ctx, &desc)?,
@@ -1235,6 +1236,7 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
             height: extent[1],
             depth_format: peeltrim::vk::DepthFormat::D32S8,
             reversed_z: false,
+            samples: 1,
         },
     )
     .map_err(|e| e.to_string())?;

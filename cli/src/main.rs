@@ -67,6 +67,18 @@ struct GpuArgs {
     /// Goldfeather's and Trickle's limit on the sum-of-products size
     #[arg(long, default_value_t = peeltrim::plan::goldfeather::DEFAULT_PRODUCT_LIMIT)]
     max_products: usize,
+    /// Samples per pixel (antialiasing): 1, 2, 4 or 8 where the device
+    /// supports it; each sample is classified, colour averaged, depth.npy and
+    /// prim.png from sample 0 [default: the scene's `[render] samples`, 1]
+    #[arg(long, value_parser = parse_samples)]
+    samples: Option<u32>,
+}
+
+fn parse_samples(s: &str) -> Result<u32, String> {
+    match s.parse::<u32>() {
+        Ok(n) if peeltrim::vk::SAMPLE_COUNTS.contains(&n) => Ok(n),
+        _ => Err(format!("'{s}' is not a sample count: use 1, 2, 4 or 8")),
+    }
 }
 
 /// Layers of the solid and transparency.
@@ -564,6 +576,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 AlgoArg::One(a) => render::layers::draws_transparency(a),
             };
             let mut scene = load_shown(&scene, size, scad, background)?;
+            if let Some(n) = gpu.samples {
+                scene.render.samples = n;
+            }
             if layers.alpha.is_some() {
                 scene.appearance.alpha = layers.alpha;
             }
@@ -603,7 +618,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
             } {
                 Err(
                     e @ (render::RenderError::Plan(peeltrim::plan::PlanError::NotImplemented(_))
-                    | render::RenderError::Unsupported { .. }),
+                    | render::RenderError::Unsupported { .. }
+                    | render::RenderError::Multisampled(_)),
                 ) => {
                     eprintln!("peeltrim: error: {e}");
                     return Ok(ExitCode::from(2));

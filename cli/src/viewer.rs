@@ -368,6 +368,7 @@ impl App {
                 algo: self.algo,
                 loop_counts: LoopCounts::Estimate,
                 internal_depth: self.opts.depth.exec_format().0,
+                samples: 1,
             };
             gpu.csg = Some(CsgScene::from_scene(&gpu.ctx, &self.scene, &desc)?);
             attach = true;

@@ -131,6 +131,7 @@ fn scene(meshes: Vec<Mesh>) -> Scene {
             width: W,
             height: H,
             background: BG,
+            samples: 1,
         },
         primitives: meshes
             .into_iter()
@@ -213,6 +214,7 @@ fn std_desc() -> ExecDesc {
         height: H,
         depth_format: DepthFormat::D32S8,
         reversed_z: false,
+        samples: 1,
     }
 }
 
@@ -224,6 +226,7 @@ fn scene_desc(sc: &Scene) -> ExecDesc {
         height: sc.render.height,
         depth_format: DepthFormat::D32S8,
         reversed_z: true,
+        samples: 1,
     }
 }
 
@@ -439,6 +442,7 @@ fn peel_loop_stops_after_two_layers() {
         &ctx,
         ExecDesc {
             reversed_z: true,
+            samples: 1,
             ..std_desc()
         },
         &sc,
@@ -485,6 +489,7 @@ fn depth_copies_round_trip() {
     for reversed_z in [false, true] {
         let desc = ExecDesc {
             reversed_z,
+            samples: 1,
             ..std_desc()
         };
         let mut steps = clear_all();
@@ -549,6 +554,7 @@ fn depth_formats_agree() {
             ExecDesc {
                 depth_format,
                 reversed_z,
+                samples: 1,
                 ..std_desc()
             },
             &sc,
@@ -599,6 +605,7 @@ fn paint_write_depth_and_restore() {
         p.output_ds = 1;
         let desc = ExecDesc {
             reversed_z,
+            samples: 1,
             ..std_desc()
         };
         let f = run(&ctx, desc, &sc, &p);

@@ -254,6 +254,8 @@ impl Composite {
                     // Only the depth aspect is written: no stencil attachment.
                     stencil_format: vk::Format::UNDEFINED,
                     layout: self.layout,
+                    samples: 1,
+                    sample_shading: false,
                     blend: None,
                 },
             )

@@ -253,6 +253,8 @@ fn draw(shared: &Arc<Shared>, bits: u32, format: vk::Format) -> Result<Vec<f32>,
                 depth_format: format,
                 stencil_format,
                 layout,
+                samples: 1,
+                sample_shading: false,
                 blend: None,
             },
         );

@@ -115,6 +115,13 @@ impl Embedder {
     pub fn new(ctx: &Context, desc: &ExecDesc, frames_in_flight: u32) -> Result<Embedder, VkError> {
         let _layer = ctx.shared.layer_use();
         let shared = ctx.shared.clone();
+        if desc.samples > 1 {
+            return Err(VkError::Unsupported(format!(
+                "embedding into a host frame of {} samples per pixel: the host passes \
+                 draw into single-sample targets; use samples 1",
+                desc.samples
+            )));
+        }
         let mut exec = Executor::new(ctx, desc)?;
         // Nobody reads an embedded frame's per-pass GPU times, and lavapipe
         // ends its binned scene at each timestamp: only the frame's two.

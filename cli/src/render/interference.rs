@@ -250,6 +250,7 @@ fn render_interference_with(
             algo: opts.algo.name().to_string(),
             width: w,
             height: h,
+            samples: 1,
             device: gpu.device_name(),
             depth_setup: Some(gpu.depth_setup().name()),
             exec,

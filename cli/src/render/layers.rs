@@ -241,6 +241,11 @@ pub fn render_layered_in(
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
+    if scene.render.samples > 1 {
+        return Err(RenderError::Multisampled(
+            "layers, transparency, highlight, interference and styles",
+        ));
+    }
     if opts.algo != Algo::Reference && super::interference::handles(scene, lopts) {
         return super::interference::layered_frame(session, scene, opts, lopts);
     }
@@ -341,6 +346,7 @@ fn render_layered_gpu(
         algo: opts.algo.name().to_string(),
         width: scene.render.width,
         height: scene.render.height,
+        samples: scene.render.samples,
         device: gpu.device_name(),
         depth_setup: Some(gpu.depth_setup().name()),
         stencil_bits: frame.stats.stencil_bits,

@@ -250,6 +250,7 @@ impl GpuShadows {
                 height: size,
                 depth_format,
                 reversed_z,
+                samples: 1,
             },
         )?;
         map.upload(&ls)?;

@@ -434,6 +434,7 @@ fn host_pipeline(h: &HostShade, kind: FragmentKind) -> PipelineDesc {
         color_formats: vec![h.color.1],
         depth_stencil_format: Some(h.depth.1),
         normals: false,
+        samples: 1,
     }
 }
 

@@ -1,0 +1,28 @@
+#version 450
+// The read-back of a multisampled frame (vk::resolve), one full-screen pass
+// into single-sample images: colour the mean of the pixel's samples (the
+// 8-bit sRGB-encoded values averaged, as a UNORM resolve does), primitive id
+// and depth those of sample 0, the sample docs/executor.md defines for
+// `prim.png` and `depth.npy`.
+// The frame's samples per pixel (naga's GLSL has no textureSamples).
+layout(push_constant) uniform Push {
+    int samples;
+} pc;
+layout(set = 0, binding = 0) uniform texture2DMS u_color;
+layout(set = 0, binding = 1) uniform utexture2DMS u_prim;
+layout(set = 0, binding = 2) uniform texture2DMS u_depth;
+layout(set = 0, binding = 3) uniform sampler u_samp;
+layout(location = 0) out vec4 o_color;
+layout(location = 1) out uint o_prim;
+
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    int n = pc.samples;
+    vec4 sum = vec4(0.0);
+    for (int i = 0; i < n; i++) {
+        sum += texelFetch(sampler2DMS(u_color, u_samp), p, i);
+    }
+    o_color = sum / float(n);
+    o_prim = texelFetch(usampler2DMS(u_prim, u_samp), p, 0).r;
+    gl_FragDepth = texelFetch(sampler2DMS(u_depth, u_samp), p, 0).r;
+}
