@@ -1,8 +1,9 @@
 #version 450
 // The read-back of a multisampled frame (vk::resolve), one full-screen pass
 // into single-sample images: colour the mean of the pixel's samples (the
-// 8-bit sRGB-encoded values averaged, as a UNORM resolve does), primitive id
-// and depth those of sample 0, the sample docs/executor.md defines for
+// 8-bit sRGB-encoded values averaged, as a UNORM resolve does), alpha the
+// pixel's coverage (the fraction of its samples with a primitive), primitive
+// id and depth those of sample 0, the sample docs/executor.md defines for
 // `prim.png` and `depth.npy`.
 // The frame's samples per pixel (naga's GLSL has no textureSamples).
 layout(push_constant) uniform Push {
@@ -18,11 +19,13 @@ layout(location = 1) out uint o_prim;
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     int n = pc.samples;
-    vec4 sum = vec4(0.0);
+    vec3 sum = vec3(0.0);
+    float covered = 0.0;
     for (int i = 0; i < n; i++) {
-        sum += texelFetch(sampler2DMS(u_color, u_samp), p, i);
+        sum += texelFetch(sampler2DMS(u_color, u_samp), p, i).rgb;
+        covered += texelFetch(usampler2DMS(u_prim, u_samp), p, i).r != 0u ? 1.0 : 0.0;
     }
-    o_color = sum / float(n);
+    o_color = vec4(sum, covered) / float(n);
     o_prim = texelFetch(usampler2DMS(u_prim, u_samp), p, 0).r;
     gl_FragDepth = texelFetch(sampler2DMS(u_depth, u_samp), p, 0).r;
 }

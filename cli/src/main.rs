@@ -638,6 +638,20 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 .with_context(|| format!("writing images into {}", out.display()))?;
             peeltrim_cli::output::write_stats(&out, &frame.stats)
                 .with_context(|| format!("writing stats.json into {}", out.display()))?;
+            let coverage_png = out.join("coverage.png");
+            match &frame.coverage {
+                Some(c) => peeltrim_cli::output::write_coverage(
+                    &out,
+                    frame.images.width,
+                    frame.images.height,
+                    c,
+                )
+                .with_context(|| format!("writing coverage.png into {}", out.display()))?,
+                // A single-sample render leaves no stale coverage beside it.
+                None if coverage_png.exists() => std::fs::remove_file(&coverage_png)
+                    .with_context(|| format!("removing {}", coverage_png.display()))?,
+                None => {}
+            }
             eprintln!(
                 "{}: {}x{} with {} in {:.1} ms (gpu {:.2} ms) -> {}",
                 scene.path.display(),
@@ -665,6 +679,10 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 report: peeltrim_reference::compare::CompareReport,
                 #[serde(skip_serializing_if = "Option::is_none")]
                 edges: Option<peeltrim_reference::edge_compare::EdgeAgreement>,
+                /// With a `coverage.png` in both folders (multisampled
+                /// renders): coverage fractions and resolved colours.
+                #[serde(skip_serializing_if = "Option::is_none")]
+                samples: Option<peeltrim_reference::compare::SampleReport>,
             }
             let edges = if a.join("edges.png").exists() && b.join("edges.png").exists() {
                 let (w, h, ea) = peeltrim_cli::output::read_edges(&a)?;
@@ -678,7 +696,24 @@ fn run(cli: Cli) -> Result<ExitCode> {
             } else {
                 None
             };
-            let out = Out { report, edges };
+            let cov = (
+                peeltrim_cli::output::read_coverage(&a)?,
+                peeltrim_cli::output::read_coverage(&b)?,
+            );
+            let samples = match cov {
+                (Some((_, _, ca)), Some((_, _, cb))) => Some(
+                    peeltrim_reference::compare::compare_samples(&ia, &ca, &ib, &cb)?,
+                ),
+                (Some(_), None) | (None, Some(_)) => bail!(
+                    "only one folder has a coverage.png: compare two renders with the same --samples"
+                ),
+                (None, None) => None,
+            };
+            let out = Out {
+                report,
+                edges,
+                samples,
+            };
             emit(&format!("{}\n", serde_json::to_string_pretty(&out)?))?;
         }
         Cmd::Bench {

@@ -161,6 +161,9 @@ pub struct FrameStats {
 pub struct Frame {
     pub images: Images,
     pub stats: FrameStats,
+    /// With samples above 1: each pixel's covered samples ×255 over the
+    /// samples (`coverage.png`; `vk::Executor::coverage`).
+    pub coverage: Option<Vec<u8>>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -203,11 +206,17 @@ pub fn check_frame_budget(
 /// The CPU reference: exact ray casting.
 pub fn render_reference(scene: &Scene) -> Frame {
     let t = Instant::now();
-    let images = peeltrim_reference::render(scene, scene.render.width, scene.render.height);
+    let (images, _, coverage) =
+        peeltrim_reference::render_samples(scene, scene.render.width, scene.render.height);
+    let coverage = (scene.render.samples > 1).then_some(coverage);
     let mut stats = reference_stats(&images, t.elapsed().as_secs_f64() * 1e3);
     stats.samples = scene.render.samples;
     stats.rays = stats.rays.map(|r| r * scene.render.samples as u64);
-    Frame { images, stats }
+    Frame {
+        images,
+        stats,
+        coverage,
+    }
 }
 
 /// The reference's `stats.json` for `images` cast in `cpu_ms`.
@@ -522,7 +531,12 @@ impl GpuRenderer {
     pub fn frame(&mut self, plan: &plan::Plan) -> Result<Frame, RenderError> {
         let stats = self.execute(plan)?;
         let images = self.read_back()?;
-        Ok(Frame { images, stats })
+        let coverage = self.exec.coverage().map(<[u8]>::to_vec);
+        Ok(Frame {
+            images,
+            stats,
+            coverage,
+        })
     }
 }
 

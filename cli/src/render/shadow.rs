@@ -487,7 +487,14 @@ pub fn gpu_shadowed(
         return Err(RenderError::Validation(msgs));
     }
     let classes = classify(&images.prim, &mask);
-    Ok((Frame { images, stats }, classes))
+    Ok((
+        Frame {
+            images,
+            stats,
+            coverage: None,
+        },
+        classes,
+    ))
 }
 
 /// One frame of `scene` lit by `light`, shadows included: the reference casts

@@ -224,6 +224,8 @@ pub struct Executor {
     reach_memo: Memo<ReachKey, Arc<Reached>>,
     /// The read-back's resolve pass and images, with samples above 1.
     resolve: Option<crate::vk::resolve::Resolve>,
+    /// The last read-back's coverage, with samples above 1 ([`Executor::coverage`]).
+    coverage: Option<Vec<u8>>,
 }
 
 impl Executor {
@@ -288,7 +290,15 @@ impl Executor {
             tie_memo: Memo::new(MEMO_CAP),
             reach_memo: Memo::new(MEMO_CAP),
             resolve: None,
+            coverage: None,
         })
+    }
+
+    /// The last read-back's coverage per pixel, row-major, with samples above
+    /// 1: the samples a primitive covers, times 255 over the samples, rounded
+    /// (`None` at one sample, where it is 255 wherever `prim` is not 0).
+    pub fn coverage(&self) -> Option<&[u8]> {
+        self.coverage.as_deref()
     }
 
     /// The size and formats it was created with.

@@ -81,6 +81,8 @@ impl Executor {
             .unwrap_or(&[]);
         let scene = self.scene.as_ref().expect("scene uploaded");
         let plane = plane as usize;
+        // The resolve's alpha is the coverage (`shaders/resolve.frag`).
+        self.coverage = (samples > 1).then(|| bytes[3..plane].iter().step_by(4).copied().collect());
         Ok(decode(
             Raw {
                 width: w,
