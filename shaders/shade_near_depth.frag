@@ -20,7 +20,13 @@ layout(push_constant) uniform Push {
 #include "draw.glsl"
 #include "camera.glsl"
 #include "depth_tex.glsl"
+#ifdef MS
+// Interpolated at this invocation's sample, where gl_FragCoord is
+// (plane_depth steps from where v_world projects to gl_FragCoord.xy).
+layout(location = 0) sample in vec3 v_world;
+#else
 layout(location = 0) in vec3 v_world;
+#endif
 #include "light.glsl"
 layout(location = 0) out vec4 o_color;
 #ifndef HOST

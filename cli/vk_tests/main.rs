@@ -22,6 +22,7 @@ mod kirsch;
 mod lighting;
 mod limits;
 mod many_products;
+mod msaa;
 mod one_submit;
 mod openscad;
 mod openscad_extrude;

@@ -7,7 +7,8 @@
 //! `sampledImageIntegerSampleCounts` (Vulkan specification, "Limits"), and
 //! the device must have `sampleRateShading` (the peel, parity and tie tests
 //! run once per sample, "Sample Shading"). Sample positions are the standard
-//! ones ("Standard Sample Locations"), which the reference uses too.
+//! ones ("Standard Sample Locations", `standardSampleLocations` required),
+//! which the reference uses too.
 
 use ash::vk;
 
@@ -34,9 +35,11 @@ impl Context {
             & l.sampled_image_color_sample_counts
             & l.sampled_image_depth_sample_counts
             & l.sampled_image_integer_sample_counts;
+        let standard = l.standard_sample_locations == vk::TRUE;
+        let ms = self.shared.sample_rate_shading && standard;
         SAMPLE_COUNTS
             .into_iter()
-            .filter(|&n| n == 1 || (self.shared.sample_rate_shading && all.contains(flag(n))))
+            .filter(|&n| n == 1 || (ms && all.contains(flag(n))))
             .collect()
     }
 
@@ -54,8 +57,8 @@ impl Context {
         }
         let list: Vec<String> = supported.iter().map(u32::to_string).collect();
         let why = if self.shared.sample_rate_shading {
-            "framebufferColor/Depth/StencilSampleCounts and \
-             sampledImageColor/Depth/IntegerSampleCounts"
+            "framebufferColor/Depth/StencilSampleCounts, \
+             sampledImageColor/Depth/IntegerSampleCounts and standardSampleLocations"
         } else {
             "it has no sampleRateShading"
         };
