@@ -781,6 +781,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     bench::opencsg::OpenCsgBaseline::locate(opencsg_bench, !opencsg_no_bbox)
                 }),
                 embedded,
+                samples: gpu.samples,
             };
             let records = bench::run_and_report(&cfg, &list)?;
             emit(&bench::report::summary(&records))?;

@@ -64,6 +64,8 @@ pub struct BenchConfig {
     /// `--embedded`: also time each GPU run through the embedding path
     /// ([`embedded`]).
     pub embedded: bool,
+    /// `--samples`: samples per pixel of every frame (else each scene's own).
+    pub samples: Option<u32>,
 }
 
 /// One benchmark run: one scene, size, algorithm and depth set-up.
@@ -75,6 +77,8 @@ pub struct Record {
     pub prims: usize,
     pub width: u32,
     pub height: u32,
+    /// Samples per pixel (`--samples`).
+    pub samples: u32,
     pub algo: String,
     pub depth_setup: String,
     /// Why the requested set-up was replaced by D24S8, if it was.
@@ -162,6 +166,7 @@ impl Record {
             prims: 0,
             width: 0,
             height: 0,
+            samples: 1,
             algo: algo.to_string(),
             depth_setup: depth.to_string(),
             depth_setup_fallback: None,
@@ -278,13 +283,16 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
     let mut records = Vec::new();
     for bs in scenes {
         for &(w, h) in &cfg.sizes {
-            let scene =
+            let mut scene =
                 scene::load(&bs.path, &LoadOptions { size: Some((w, h)) }).map_err(|source| {
                     BenchError::Scene {
                         path: bs.path.clone(),
                         source,
                     }
                 })?;
+            if let Some(n) = cfg.samples {
+                scene.render.samples = n;
+            }
             let label = scene_label(&bs.path);
             bar.set_message(format!("{label} {w}x{h}: reference"));
             crate::render::check_frame_budget(w, h, false)
@@ -300,6 +308,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 prims: scene.primitives.iter().filter(|p| p.used).count(),
                 width: w,
                 height: h,
+                samples: scene.render.samples,
                 ..Record::blank(algo, depth)
             };
             if cfg.algos.contains(&Algo::Reference) {
@@ -693,6 +702,7 @@ fn finish(
         prims: 0,
         width: images.width,
         height: images.height,
+        samples: scene.render.samples,
         algo: algo.name().into(),
         depth_setup: gpu.depth_setup().name().into(),
         depth_setup_fallback: gpu.depth_setup_fallback(),
