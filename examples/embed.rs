@@ -168,8 +168,15 @@ impl Host {
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .maintenance4(true);
+        // And `sampleRateShading` where the device has it (multisampled
+        // embedding runs peeltrim's depth tests once per sample).
+        // SAFETY: `physical` belongs to `instance`; a plain query.
+        let supported = unsafe { instance.get_physical_device_features(physical) };
+        let features = vk::PhysicalDeviceFeatures::default()
+            .sample_rate_shading(supported.sample_rate_shading == vk::TRUE);
         let dci = vk::DeviceCreateInfo::default()
             .queue_create_infos(&qci)
+            .enabled_features(&features)
             .push_next(&mut f13);
         // SAFETY: valid create info for a device of this instance.
         let device = unsafe { instance.create_device(physical, &dci, None) }

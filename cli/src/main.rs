@@ -845,6 +845,7 @@ fn plan_profile(name: &str) -> Result<peeltrim::vk::DeviceProfile> {
             d24s8: true,
             d32: true,
         },
+        sample_depth: true,
     };
     Ok(match name {
         "cpu" => peeltrim::vk::DeviceProfile::from_facts(facts(true), ProfileChoice::Device),

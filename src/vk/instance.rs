@@ -493,10 +493,18 @@ impl Context {
             .get_mut()
             .map_err(|_| VkError::Plan("poisoned".into()))? = Some(allocator);
         let shared = Arc::new(shared);
-        let profile = DeviceProfile::detect(&facts_instance, physical, |bits, format| {
-            let probe = super::depth_probe::measure(&shared, bits, format)?;
-            Ok(probe.is_some_and(|p| p.unsnapped()))
-        })?;
+        let profile = DeviceProfile::detect(
+            &facts_instance,
+            physical,
+            |bits, format| {
+                let probe = super::depth_probe::measure(&shared, bits, format)?;
+                Ok(probe.is_some_and(|p| p.unsnapped()))
+            },
+            |bits, format, samples| {
+                let probe = super::sample_depth_probe::measure(&shared, bits, format, samples)?;
+                Ok(probe.per_sample())
+            },
+        )?;
         Ok(Context { shared, profile })
     }
 

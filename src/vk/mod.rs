@@ -37,6 +37,7 @@ pub mod profile;
 pub(crate) mod readback;
 pub(crate) mod resolve;
 pub(crate) mod rounding;
+pub mod sample_depth_probe;
 pub(crate) mod samples;
 /// Screen rectangles of scissors, from the plan's passes.
 pub use crate::plan::scissor;

@@ -8,7 +8,9 @@
 //! the device must have `sampleRateShading` (the peel, parity and tie tests
 //! run once per sample, "Sample Shading"). Sample positions are the standard
 //! ones ("Standard Sample Locations", `standardSampleLocations` required),
-//! which the reference uses too.
+//! which the reference uses too. And the device must interpolate
+//! `gl_FragCoord.z` at the sample in a program run once per sample, as
+//! measured by `vk::sample_depth_probe` (`DeviceProfile::sample_depth`).
 
 use ash::vk;
 
@@ -36,7 +38,7 @@ impl Context {
             & l.sampled_image_depth_sample_counts
             & l.sampled_image_integer_sample_counts;
         let standard = l.standard_sample_locations == vk::TRUE;
-        let ms = self.shared.sample_rate_shading && standard;
+        let ms = self.shared.sample_rate_shading && standard && self.profile().sample_depth;
         SAMPLE_COUNTS
             .into_iter()
             .filter(|&n| n == 1 || (ms && all.contains(flag(n))))
@@ -56,11 +58,14 @@ impl Context {
             return Ok(());
         }
         let list: Vec<String> = supported.iter().map(u32::to_string).collect();
-        let why = if self.shared.sample_rate_shading {
+        let why = if !self.shared.sample_rate_shading {
+            "it has no sampleRateShading"
+        } else if !self.profile().sample_depth {
+            "under sample-rate shading its gl_FragCoord.z is not the sample's own depth \
+             (measured: vk::sample_depth_probe), which the per-sample depth tests need"
+        } else {
             "framebufferColor/Depth/StencilSampleCounts, \
              sampledImageColor/Depth/IntegerSampleCounts and standardSampleLocations"
-        } else {
-            "it has no sampleRateShading"
         };
         Err(VkError::Unsupported(format!(
             "{samples} samples per pixel ({}: {why}); use --samples {}",
