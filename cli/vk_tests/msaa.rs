@@ -1,15 +1,16 @@
 //! Multisampled frames (4 samples per pixel) of every GPU algorithm on every
 //! shipped scene, against the reference cast at Vulkan's standard sample
 //! locations: each pixel's coverage fraction within 1/8 of the reference's on
-//! 99.9% of pixels; interior pixels (sample 0's primitive and coverage) with
-//! no more mismatches against the reference than the single-sample frame has,
-//! within 2 pixels; no validation message. Also the refusals: a
+//! 99.9% of pixels; interior pixels (sample 0's primitive and coverage)
+//! exactly as the reference's sample 0, but for ties within the
+//! rasterizer's subpixel precision; no validation message. Also the refusals: a
 //! sample count the device lacks, and the features that stay single-sample.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Mutex, OnceLock};
 
+use glam::DVec3;
 use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::scene::Scene;
 use peeltrim_cli::output::Images;
@@ -87,6 +88,96 @@ fn frame(scene: &Scene, algo: Algo, samples: u32) -> Option<Frame> {
     Some(f)
 }
 
+/// Interior pixels (the reference's, `boundary_mask`) where the multisampled
+/// frame's sample 0 differs from the reference's: (ties, other mismatches).
+/// A mismatch is a tie where a ray within the rasterizer's subpixel
+/// precision of sample 0 (twice 2^-`subpixel_bits` pixel, in 8 directions)
+/// sees what the frame names: the reference names the frame's answer there,
+/// or the frame's primitive has a face through the reference's visible
+/// point there, or (where the frame has a hole) another primitive has. The rasterizer decides coverage on vertices snapped to that
+/// grid (lavapipe too, though it interpolates depth unsnapped), so a sample
+/// that close to an edge may fall either way. In gear a tooth's top face
+/// lies in the body's top plane where the two overlap, and lavapipe's
+/// 8-bit coverage puts one sample 1/256 pixel inside a tooth that the exact
+/// ray just misses: the same surface at the same depth, under the tooth's
+/// name (blister, trickle), or a sample on neither face (cst-z: the tooth's
+/// top and the body's each classified inside the other at that edge point).
+/// At one sample no pixel centre comes that close to the tooth's edge.
+fn interior_mismatches(scene: &Scene, reference: &Images, ours: &Images) -> (u64, u64) {
+    let (w, h) = (reference.width, reference.height);
+    let edge = peeltrim_reference::compare::boundary_mask(reference);
+    let cast = peeltrim_reference::raycast::Prepared::new(scene);
+    let (sx, sy) = peeltrim_reference::raycast::sample_positions(SAMPLES)[0];
+    let delta = 2.0 * (-(crate::context().profile().subpixel_bits as f64)).exp2();
+    let n = scene.primitives.len();
+    let (mut ties, mut wrong) = (0, 0);
+    for i in (0..(w * h) as usize).filter(|&i| !edge[i]) {
+        let (a, b) = (reference.prim[i], ours.prim[i]);
+        if a == b {
+            continue;
+        }
+        let (x, y) = ((i as u32 % w) as f64 + sx, (i as u32 / w) as f64 + sy);
+        let sees_b = |(dx, dy): (f64, f64)| {
+            let (x, y) = (x + dx * delta, y + dy * delta);
+            let hit = cast.cast_pixel(x, y, w, h);
+            let named = hit.map_or(0, |h| h.index as u16 + 1);
+            if named == b {
+                return true;
+            }
+            let Some(hit) = hit else {
+                return false;
+            };
+            let ray = scene.camera.ray(x, y, w, h);
+            let through = |k: usize| {
+                let mesh = match k < n {
+                    true => &scene.primitives[k].mesh,
+                    false => &scene.surfaces[k - n].mesh,
+                };
+                mesh.triangles.iter().any(|t| {
+                    let [p, q, r] = t.map(|k| mesh.positions[k as usize]);
+                    ray_triangle(ray.origin, ray.dir, p, q, r)
+                        .is_some_and(|t| (t - hit.t).abs() <= cast.tol)
+                })
+            };
+            match (b as usize).checked_sub(1) {
+                Some(k) => through(k),
+                // A hole: another primitive's face coincides with the
+                // visible one here (its trimming ties with the visible
+                // face's at that face's edge).
+                None => {
+                    (0..n + scene.surfaces.len()).any(|k| k != hit.index as usize && through(k))
+                }
+            }
+        };
+        let around = [-1.0, 0.0, 1.0];
+        let tie = around
+            .iter()
+            .flat_map(|&dx| around.map(|dy| (dx, dy)))
+            .any(sees_b);
+        match tie {
+            true => ties += 1,
+            false => wrong += 1,
+        }
+    }
+    (ties, wrong)
+}
+
+/// Where the ray `o + t·d` meets triangle `pqr` (Möller & Trumbore, "Fast,
+/// minimum storage ray-triangle intersection", 1997), edges included.
+fn ray_triangle(o: DVec3, d: DVec3, p: DVec3, q: DVec3, r: DVec3) -> Option<f64> {
+    let (e1, e2) = (q - p, r - p);
+    let n = d.cross(e2);
+    let det = e1.dot(n);
+    if det.abs() < 1e-15 {
+        return None;
+    }
+    let s = o - p;
+    let u = s.dot(n) / det;
+    let qv = s.cross(e1);
+    let v = d.dot(qv) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0).then(|| e2.dot(qv) / det)
+}
+
 /// The bars of the module doc for `algo` on every shipped scene.
 fn check(algo: Algo) {
     if !device_has_samples() {
@@ -125,17 +216,17 @@ fn check(algo: Algo) {
             many.stats.exec.gpu_ms,
             one.stats.exec.gpu_ms,
         );
-        // Interior pixels are classified as at 1 sample: no more primitive
-        // or coverage mismatches against the reference's sample 0 than the
-        // single-sample frame has against its pixel centres, within
-        // `SLACK` pixels. Sample 0 is not the pixel centre, so a tie crossing
-        // or a feature thinner than a pixel can hold one and not the other.
-        // The paper's Blister has speckles at either, counted and reported
-        // (as `algorithms::blister_paper_speckles_are_counted` does).
-        const SLACK: u64 = 2;
-        let interior_ok = algo == Algo::BlisterPaper
-            || exact.prim_mismatch_interior + exact.coverage_mismatch_interior
-                <= before.prim_mismatch_interior + before.coverage_mismatch_interior + SLACK;
+        // Interior pixels are classified as at 1 sample: no primitive or
+        // coverage mismatch against the reference's sample 0 (cast at the
+        // same location, (0.375, 0.125) in the pixel), except ties within
+        // the rasterizer's precision (`interior_mismatches`). The paper's
+        // Blister has speckles at either sample, counted and reported (as
+        // `algorithms::blister_paper_speckles_are_counted` does).
+        let (ties, wrong) = interior_mismatches(&scene, &ref_img, &many.images);
+        eprintln!(
+            "  interior: {ties} tie(s) within the subpixel precision, {wrong} other mismatch(es)"
+        );
+        let interior_ok = algo == Algo::BlisterPaper || wrong == 0;
         // The paper's Blister's coverage bar is its single-sample one (0.5%:
         // depth-test parity without the tie rule speckles coincident faces).
         let coverage_bar = if algo == Algo::BlisterPaper {
