@@ -41,8 +41,10 @@ use crate::plan::usage::Usage;
 use crate::plan::Plan;
 
 /// The host's attachments for one frame. Both are views of 2D images of
-/// `extent` with one mip level and one layer; see [`Embedder::record`] for the
-/// layouts they must be in.
+/// `extent` with one mip level and one layer, and as many samples per pixel
+/// as the embedder's images (`ExecDesc::samples`, `EmbedDesc::samples`): the
+/// CSG's final shade tests and writes the host's depth per sample, and the
+/// host resolves; see [`Embedder::record`] for the layouts they must be in.
 #[derive(Clone, Copy, Debug)]
 pub struct HostTargets {
     /// A colour view whose format is a float or UNORM/SRGB colour-attachment
@@ -115,13 +117,6 @@ impl Embedder {
     pub fn new(ctx: &Context, desc: &ExecDesc, frames_in_flight: u32) -> Result<Embedder, VkError> {
         let _layer = ctx.shared.layer_use();
         let shared = ctx.shared.clone();
-        if desc.samples > 1 {
-            return Err(VkError::Unsupported(format!(
-                "embedding into a host frame of {} samples per pixel: the host passes \
-                 draw into single-sample targets; use samples 1",
-                desc.samples
-            )));
-        }
         let mut exec = Executor::new(ctx, desc)?;
         // Nobody reads an embedded frame's per-pass GPU times, and lavapipe
         // ends its binned scene at each timestamp: only the frame's two.
@@ -369,6 +364,7 @@ impl Embedder {
                     color: (targets.color_view, targets.color_format),
                     depth: (targets.depth_view, targets.depth_format),
                     srgb: is_srgb(targets.color_format),
+                    samples: d.samples,
                     counts: room.then_some(self.slots[slot].counts.raw),
                     cut_away: &self.cut_away,
                 };
@@ -378,6 +374,15 @@ impl Embedder {
                         .record_unrolled(cmd, plan, &layers, Some((&host, shade)))?;
                 let stats = unrolled.stats.clone();
                 (unrolled, stats)
+            }
+            HostPath::CompositeShadows | HostPath::CompositePlan if d.samples > 1 => {
+                return Err(VkError::Unsupported(format!(
+                    "{} into a host frame of {} samples per pixel: the composite \
+                     (shadows, or a plan that does not end in the final shade: \
+                     blister-paper, CST with trimmed surfaces) reads single-sample \
+                     images; use samples 1 or another algorithm",
+                    plan.algo, d.samples
+                )));
             }
             HostPath::CompositeShadows | HostPath::CompositePlan => {
                 let unrolled = self.exec.record_unrolled(cmd, plan, &layers, None)?;

@@ -132,6 +132,12 @@ impl FragmentKind {
                 Some(include_bytes!(concat!(env!("OUT_DIR"), "/", $f, ".ms.spv")))
             };
         }
+        // The host variants' multisampled twins (`host_ms`, ...).
+        macro_rules! host {
+            ($f:literal) => {
+                Some(include_bytes!(concat!(env!("OUT_DIR"), "/", $f, "_ms.spv")))
+            };
+        }
         match self {
             FragmentKind::Peel => spv!("peel.frag"),
             FragmentKind::PeelShade => spv!("peel_shade.frag"),
@@ -145,6 +151,15 @@ impl FragmentKind {
             FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
             FragmentKind::DepthAtDepth => spv!("depth_at_depth.frag"),
             FragmentKind::CopyDepth => spv!("copy_depth.frag"),
+            FragmentKind::DepthFromTextureHost => host!("depth_from_texture.frag.host"),
+            FragmentKind::ShadeNearDepthHost => host!("shade_near_depth.frag.host"),
+            FragmentKind::ShadeNearDepthHostSrgb => host!("shade_near_depth.frag.host_srgb"),
+            FragmentKind::ShadeAtDepthHost => host!("shade_at_depth.frag.host"),
+            FragmentKind::ShadeAtDepthHostSrgb => host!("shade_at_depth.frag.host_srgb"),
+            FragmentKind::ShadeAtDepthHostWrite => host!("shade_at_depth.frag.host_write"),
+            FragmentKind::ShadeAtDepthHostWriteSrgb => {
+                host!("shade_at_depth.frag.host_write_srgb")
+            }
             _ => None,
         }
     }
