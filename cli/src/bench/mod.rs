@@ -31,7 +31,7 @@ use crate::render::{DepthSetup, FrameStats, GpuRenderer};
 use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::scene::{self, LoadOptions, Scene};
 use peeltrim::vk::DeviceChoice;
-use peeltrim_reference::compare::{compare, CompareReport};
+use peeltrim_reference::compare::{compare, compare_samples, CompareReport, SampleReport};
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -127,6 +127,10 @@ pub struct Record {
     pub per_pass: Option<Vec<peeltrim::vk::PassStats>>,
     /// Error against the reference (the `compare` report).
     pub error: Option<CompareReport>,
+    /// With samples above 1: the coverage fractions and resolved colours
+    /// against the reference's (`compare_samples`).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub coverage: Option<SampleReport>,
     /// Set when the run could not be made (e.g. too many products); other
     /// figures are then zero.
     pub failure: Option<String>,
@@ -192,6 +196,7 @@ impl Record {
             counts: None,
             per_pass: None,
             error: None,
+            coverage: None,
             failure: None,
             estimate: None,
             skipped: None,
@@ -298,7 +303,10 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
             crate::render::check_frame_budget(w, h, false)
                 .map_err(|e| BenchError::Other(format!("{}: {e}", bs.path.display())))?;
             let t = Instant::now();
-            let reference = peeltrim_reference::render(&scene, w, h);
+            // At the scene's samples: the colour their mean, depth and
+            // primitive sample 0's, and each pixel's coverage.
+            let (reference, _, reference_coverage) =
+                peeltrim_reference::render_samples(&scene, w, h);
             let ref_ms = t.elapsed().as_secs_f64() * 1e3;
             bar.inc(1);
             let base = |algo: &str, depth: &str| Record {
@@ -363,6 +371,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 prep: &prep,
                 costs: costs.as_ref(),
                 reference: &reference,
+                reference_coverage: &reference_coverage,
             };
             let timing = rounds::timing(
                 gpu_algos.len(),
@@ -479,6 +488,9 @@ struct RunSetup<'a> {
     /// For the estimate (`None`: `--max-est-s 0`, nothing estimated).
     costs: Option<&'a estimate::SceneCosts>,
     reference: &'a Images,
+    /// The reference's coverage per pixel (covered samples ×255 over the
+    /// samples).
+    reference_coverage: &'a [u8],
 }
 
 /// Why a run has no figures.
@@ -621,6 +633,14 @@ fn finish(
     // scissors grown by the move replays uncut), so an image read after
     // them would not check what was timed.
     let images = gpu.read_back().map_err(|e| e.to_string())?;
+    // Multisampled: the coverage fractions against the reference's.
+    let coverage = match gpu.executor().coverage() {
+        Some(cov) => Some(
+            compare_samples(reference, setup.reference_coverage, &images, cov)
+                .map_err(|e| e.to_string())?,
+        ),
+        None => None,
+    };
     let replayed = frames.iter().filter(|f| f.exec.record_ms == 0.0).count() as u32;
     // The per-pass GPU times, from one frame with a timestamp at every pass.
     let per_pass = match frames.is_empty() {
@@ -729,6 +749,7 @@ fn finish(
         counts: Some(counts),
         per_pass,
         error: Some(error),
+        coverage,
         failure: None,
         estimate: est,
         skipped: None,
