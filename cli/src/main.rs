@@ -899,9 +899,6 @@ fn view(
     gpu: &GpuArgs,
     scad: ScadArgs,
 ) -> Result<ExitCode> {
-    if gpu.samples.is_some_and(|n| n > 1) {
-        usage!("view draws through the embedding, which is single-sample for now: use --samples 1");
-    }
     let opts = render_options(Algo::Reference, gpu)?;
     // No display at all: say so before loading anything.
     if ["DISPLAY", "WAYLAND_DISPLAY"]
@@ -934,6 +931,7 @@ fn view(
             depth_fallback: opts.depth_fallback,
             validation: opts.validation,
             frames,
+            samples: gpu.samples,
         },
     )?;
     Ok(ExitCode::SUCCESS)

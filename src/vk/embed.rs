@@ -411,6 +411,13 @@ impl Embedder {
         })
     }
 
+    /// How [`Embedder::record`] will draw the current plan into the host's
+    /// attachments (`None`: no plan yet). A multisampled embedder records
+    /// only [`HostPath::Direct`] and refuses the composite paths.
+    pub fn next_host_path(&self) -> Option<HostPath> {
+        self.plan.as_ref().map(|p| self.host_path(p))
+    }
+
     /// How `record` draws `plan` into the host's attachments.
     fn host_path(&self, plan: &Plan) -> HostPath {
         if self.shadow.is_some() {
