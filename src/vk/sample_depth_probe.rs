@@ -10,7 +10,8 @@
 //! sample's depth. The specification says that `FragCoord`'s x and y are the
 //! sample's location under sample shading, and of z only that it is "the
 //! interpolated depth value of the primitive" (where it is interpolated is an
-//! open question: KhronosGroup/Vulkan-Docs issue 1544). lavapipe interpolates
+//! open question in the Vulkan-Docs tracker, "Sample Shading and FragCoord
+//! interpolation not fully specified for Z and W"). lavapipe interpolates
 //! it at the sample; SwiftShader gives every sample's invocation the depth of
 //! sample 0 (its `PixelProgram::setBuiltins` sets `fragCoord[2] = z[0]`), and
 //! MoltenVK on Apple GPUs the depth at the pixel centre. On such a device the
