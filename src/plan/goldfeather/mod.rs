@@ -696,8 +696,9 @@ pub(crate) mod tests {
             assert!(!g.steps.iter().any(|s| matches!(s, Step::Loop(_))));
             let lits = n as u64 + 1;
             assert_eq!(gc.mesh_draws, lits * lits + prep.solid_meshes.len() as u64);
-            // Layered: one layer (loop body counted once) draws every mesh twice.
-            assert_eq!(lc.mesh_draws, 2 + lits + prep.solid_meshes.len() as u64);
+            // Layered: the first layer, then the loop body counted once: each
+            // draws the layer (2 draws) and clips it against every literal.
+            assert_eq!(lc.mesh_draws, 2 * (2 + lits) + prep.solid_meshes.len() as u64);
             rows.push((n, gc.triangles, lc.triangles));
         }
         // Triangles per frame grow quadratically for Goldfeather, linearly per
