@@ -25,7 +25,6 @@
 //! in order of appearance, bottom-up operators (descending index).
 
 use glam::{DAffine2, DMat4, DVec2, DVec3};
-use std::path::{Path, PathBuf};
 
 use super::args::{self, Args};
 use super::extrude::{self, Extents, Op2, Region};
@@ -77,7 +76,6 @@ enum Kind {
     LinearExtrude,
     RotateExtrude,
     Text,
-    Import,
     Offset,
     Hull,
     Minkowski,
@@ -100,7 +98,6 @@ fn kind(name: &str) -> Option<Kind> {
         "linear_extrude" => Kind::LinearExtrude,
         "rotate_extrude" => Kind::RotateExtrude,
         "text" => Kind::Text,
-        "import" => Kind::Import,
         "offset" => Kind::Offset,
         "hull" => Kind::Hull,
         "minkowski" => Kind::Minkowski,
@@ -108,7 +105,7 @@ fn kind(name: &str) -> Option<Kind> {
     })
 }
 
-const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, import of DXF/SVG, offset, 2D hull and minkowski, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render";
+const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, 2D hull and minkowski, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render";
 const TWO_D: &[&str] = &["projection"];
 
 fn is_primitive(k: Kind) -> bool {
@@ -129,10 +126,7 @@ fn is_3d_primitive(k: Kind) -> bool {
 }
 
 fn is_2d_primitive(k: Kind) -> bool {
-    matches!(
-        k,
-        Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text | Kind::Import
-    )
+    matches!(k, Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text)
 }
 
 fn is_extrusion(k: Kind) -> bool {
@@ -190,8 +184,7 @@ pub struct BackgroundTree {
     pub expr: Expr,
 }
 
-/// `dir`: the folder of the `.csg` file, which `import` paths are relative to.
-pub fn convert(tree: &Tree, skip_unsupported: bool, dir: &Path) -> Result<Converted, ScadError> {
+pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadError> {
     let n = tree.nodes.len();
     let mut c = Converter {
         tree,
@@ -207,7 +200,6 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, dir: &Path) -> Result<Conver
         extrusions: vec![None; n + 1],
         inside_outline: vec![false; n],
         frames: vec![DAffine2::IDENTITY; n],
-        dir: dir.to_path_buf(),
     };
     let roots = c.roots();
     let base = Ctx {
@@ -480,8 +472,6 @@ struct Converter<'a> {
     /// Per `offset`/`hull`/`minkowski` node: its 2D transform (its children's
     /// outlines are evaluated in its own frame).
     frames: Vec<DAffine2>,
-    /// The `.csg` file's folder (`import` paths).
-    dir: PathBuf,
 }
 
 /// `linear_extrude` or `rotate_extrude` as read from the node.
@@ -565,18 +555,17 @@ impl Converter<'_> {
             self.background_roots.push(i);
             ctx.background = true;
         }
-        // `hull`/`minkowski` of 3D children and `import` of a mesh are 3D nodes
-        // this reader does not build.
+        // `hull`/`minkowski` of 3D children are 3D nodes this reader does not
+        // build.
         let three_d = match kind(&node.name) {
             Some(Kind::Hull | Kind::Minkowski) => parent.plane.is_none(),
-            Some(Kind::Import) => !super::import2d::is_2d(node),
             _ => false,
         };
         let Some(k) = kind(&node.name).filter(|_| !three_d) else {
             let what = if TWO_D.contains(&node.name.as_str()) {
                 format!("`{}` (it needs the 3D boundary)", node.name)
-            } else if three_d && node.name == "import" {
-                "`import` of a mesh (STL, OFF, AMF, 3MF)".to_string()
+            } else if node.name == "import" {
+                "`import` (neither DXF/SVG outlines nor meshes are read yet)".to_string()
             } else if three_d {
                 format!("`{}` of 3D children", node.name)
             } else {
@@ -1211,9 +1200,6 @@ impl Converter<'_> {
                 extrude::square(size, a.boolean("center")?.unwrap_or(false)).transformed(m)
             }
             Kind::Text => super::text::region(node, &mut self.warnings)?.transformed(m),
-            Kind::Import => {
-                super::import2d::region(node, &self.dir, &mut self.warnings)?.transformed(m)
-            }
             _ => self.polygon(node, m)?,
         };
         self.check_extent(node, &r)?;
@@ -1395,6 +1381,12 @@ fn number_or_pair(v: &Value, what: &str) -> Result<DVec2, ScadError> {
     }
 }
 
+/// At most this many edge pairs in a 2D `minkowski` of non-convex outlines
+/// (each a parallelogram for the polygon library).
+const MAX_MINKOWSKI_PAIRS: u64 = 1_000_000;
+/// At most this many estimated crossings of an offset's raw contours.
+const MAX_OFFSET_CROSSINGS: u64 = 5_000_000;
+
 /// Evaluated outlines (`super::outline`) and the plate of a 2D model.
 impl Converter<'_> {
     /// A 2D model (2D nodes and no 3D ones) is drawn as OpenSCAD's preview
@@ -1406,12 +1398,7 @@ impl Converter<'_> {
         let mut two_d = false;
         for node in &tree.nodes {
             match kind(&node.name) {
-                Some(k) if is_2d_primitive(k) || k == Kind::Offset => {
-                    if k == Kind::Import && !super::import2d::is_2d(node) {
-                        return None;
-                    }
-                    two_d = true
-                }
+                Some(k) if is_2d_primitive(k) || k == Kind::Offset => two_d = true,
                 Some(k) if is_3d_primitive(k) || is_extrusion(k) => return None,
                 None if !TWO_D.contains(&node.name.as_str()) => return None,
                 _ => {}
@@ -1487,7 +1474,39 @@ impl Converter<'_> {
                     outline::Join::Round { fragments } => fragments as u64 + 3,
                     _ => 3,
                 };
-                self.charge(node, child.vertex_count() as u64 * per_vertex)?;
+                // Where |delta| spans many edges, the raw contours cross each
+                // other about (|delta| / mean edge length) times per edge.
+                let n = child.vertex_count() as u64;
+                let perimeter: f64 = child
+                    .shapes
+                    .iter()
+                    .flatten()
+                    .map(|ring| {
+                        (0..ring.len())
+                            .map(|j| ring[j].distance(ring[(j + 1) % ring.len()]))
+                            .sum::<f64>()
+                    })
+                    .sum();
+                // Edges within reach of one edge: along the outline, and by
+                // the outline's density in its bounding box.
+                let (lo, hi) = child.shapes.iter().flatten().flatten().fold(
+                    (DVec2::splat(f64::MAX), DVec2::splat(f64::MIN)),
+                    |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+                );
+                let d2 = 2.0 * delta.abs();
+                let area = ((hi.x - lo.x + d2) * (hi.y - lo.y + d2)).max(f64::MIN_POSITIVE);
+                let mean = perimeter / n.max(1) as f64;
+                let along = delta.abs() * n as f64 / perimeter.max(f64::MIN_POSITIVE);
+                let around = n as f64 * d2 * (mean + d2) / area;
+                let reach = along.max(around).ceil().min(n as f64) as u64;
+                let crossings = n.saturating_mul(reach.saturating_add(1));
+                if crossings > MAX_OFFSET_CROSSINGS {
+                    return Err(ScadError::new(
+                        node.pos,
+                        format!("`offset` by {delta} spans about {reach} of its child's {n} outline edges each (about {crossings} crossings of the offset contours); at most {MAX_OFFSET_CROSSINGS} are accepted: use fewer, longer edges or a smaller offset"),
+                    ));
+                }
+                self.charge(node, n.saturating_mul(per_vertex).saturating_add(crossings))?;
                 outline::offset(&child, delta, join)
             }
             Kind::Hull => {
@@ -1503,6 +1522,12 @@ impl Converter<'_> {
                     pieces =
                         pieces.saturating_add(if acc == 0 { 0 } else { acc.saturating_mul(n) });
                     acc = acc.saturating_add(n).max(1);
+                }
+                if pieces > MAX_MINKOWSKI_PAIRS {
+                    return Err(ScadError::new(
+                        node.pos,
+                        format!("`minkowski` of these outlines pairs {pieces} edges; at most {MAX_MINKOWSKI_PAIRS} are accepted: use fewer points (lower $fn)"),
+                    ));
                 }
                 self.charge(node, pieces.saturating_mul(5))?;
                 outline::minkowski(kids)

@@ -22,7 +22,6 @@ pub(crate) mod args;
 pub mod background;
 pub(crate) mod convert;
 pub(crate) mod extrude;
-pub(crate) mod import2d;
 pub(crate) mod lex;
 pub(crate) mod outline;
 pub(crate) mod parse;
@@ -129,8 +128,7 @@ pub fn model_from_str(
 ) -> Result<Model, SceneError> {
     let located = |e: ScadError| located_error(text, path, e);
     let tree = parse::parse(text).map_err(located)?;
-    let dir = path.parent().unwrap_or(Path::new(""));
-    let c = convert::convert(&tree, skip_unsupported, dir).map_err(located)?;
+    let c = convert::convert(&tree, skip_unsupported).map_err(located)?;
     let mut warnings: Vec<String> = c
         .warnings
         .iter()

@@ -233,7 +233,11 @@ pub fn hull(children: &[Region]) -> Region {
 
 /// 2D `minkowski()` of the children, left to right.
 pub fn minkowski(children: Vec<Region>) -> Region {
-    let mut it = children.into_iter().filter(|r| !r.is_empty());
+    // A ⊕ ∅ = ∅.
+    if children.iter().any(Region::is_empty) {
+        return Region::default();
+    }
+    let mut it = children.into_iter();
     let Some(mut acc) = it.next() else {
         return Region::default();
     };

@@ -528,7 +528,7 @@ const PIECES: &[&str] = &[
     "é",
 ];
 
-fn check_outcome(text: &str) {
+pub(super) fn check_outcome(text: &str) {
     match model_from_str(text, Path::new("f.csg"), false) {
         Ok(m) => {
             assert!(!m.primitives.is_empty());

@@ -112,3 +112,175 @@ fn hull_and_minkowski_in_an_extrusion() {
     // Hull and minkowski of 3D children stay refused.
     assert!(err("hull() { cube(size = 1); }").contains("`hull` of 3D children"));
 }
+
+#[test]
+fn hostile_outlines_are_a_located_error_or_a_render() {
+    for (src, at, want) in [
+        (
+            "linear_extrude(height = 1) offset(r = nan) square();",
+            "nan",
+            "infinite or NaN",
+        ),
+        (
+            "linear_extrude(height = 1) offset(delta = inf) square();",
+            "inf",
+            "infinite or NaN",
+        ),
+        (
+            "linear_extrude(height = 1) offset(r = 1, $fn = 1e9) square();",
+            "offset",
+            "fragments",
+        ),
+        (
+            "linear_extrude(height = 1) offset(r = 1e300) square();",
+            "offset",
+            "beyond",
+        ),
+        (
+            "linear_extrude(height = 1) offset(delta = 1e300) square();",
+            "offset",
+            "beyond",
+        ),
+        (
+            "linear_extrude(height = 1) text(text = \"a\", size = 1e300);",
+            "text",
+            "beyond",
+        ),
+        (
+            "linear_extrude(height = 1) text(text = \"ab\", spacing = 1e300);",
+            "text",
+            "beyond",
+        ),
+        (
+            "linear_extrude(height = 1) text(text = \"a\", size = nan);",
+            "nan",
+            "infinite or NaN",
+        ),
+        (
+            "linear_extrude(height = 1) text(text = 3);",
+            "3",
+            "must be a string",
+        ),
+        (
+            "linear_extrude(height = 1) text(text = \"a\", font = 7);",
+            "7",
+            "must be a string",
+        ),
+        ("text(text = \"a\", $fn = 1e9);", "text", "fragments"),
+    ] {
+        let e = err(src);
+        let at = format!("t.csg:1:{}:", src.find(at).unwrap() + 1);
+        assert!(e.starts_with(&at) && e.contains(want), "{src}: {e}");
+    }
+    // Degenerate outlines are the empty set.
+    for src in [
+        "linear_extrude(height = 1) offset(r = -6) square(size = 10);",
+        "linear_extrude(height = 1) offset(delta = 1) polygon(points = [[0, 0], [1, 1], [2, 2]]);",
+        "linear_extrude(height = 1) hull() { polygon(points = [[0, 0], [1, 1], [2, 2]]); }",
+        "linear_extrude(height = 1) hull();",
+        "linear_extrude(height = 1) minkowski() { circle(r = 0); square(); }",
+        "linear_extrude(height = 1) text(text = \"\");",
+        "linear_extrude(height = 1) text(text = \"   \");",
+        "linear_extrude(height = 1) text(text = \"a\", size = 1e-300);",
+        "linear_extrude(height = 1) text(text = \"a\", size = -1);",
+    ] {
+        let e = err(src);
+        assert!(e.contains("no solid"), "{src}: {e}");
+    }
+    // 10^5 points: hull and offset of a star, in bounded time; a tangle of
+    // them offset (self-crossing); too many Minkowski pairs refused.
+    let n = 100_000;
+    let pts: Vec<String> = (0..n)
+        .map(|i| {
+            let a = i as f64 / n as f64 * std::f64::consts::TAU;
+            let r = if i % 2 == 0 { 10.0 } else { 9.0 };
+            format!("[{}, {}]", r * a.cos(), r * a.sin())
+        })
+        .collect();
+    let star = format!("polygon(points = [{}]);", pts.join(", "));
+    let t = std::time::Instant::now();
+    for op in ["hull()", "offset(delta = 0.001)"] {
+        let m = model(&format!("linear_extrude(height = 1) {op} {{ {star} }}"));
+        closed_outward(&m.primitives[0].mesh);
+    }
+    assert!(t.elapsed().as_secs() < 120, "{:?}", t.elapsed());
+    // An offset far wider than the edges would cross itself 10^10 times.
+    let e = err(&format!(
+        "linear_extrude(height = 1) offset(r = 5) {{ {star} }}"
+    ));
+    assert!(
+        e.contains("crossings") && e.starts_with("t.csg:1:28:"),
+        "{e}"
+    );
+    // (Crossings grow with the square of a tangle's size: 300 points.)
+    let tangled: Vec<String> = (0..300).map(|i| pts[(i * 7919) % n].clone()).collect();
+    let tangle = format!("polygon(points = [{}]);", tangled.join(", "));
+    for op in [
+        "offset(r = 0.3)",
+        "offset(delta = -0.3, chamfer = true)",
+        "hull()",
+    ] {
+        super::tests::check_outcome(&format!("linear_extrude(height = 1) {op} {{ {tangle} }}"));
+    }
+    let big: Vec<String> = (0..2000).map(|i| pts[(i * 7919) % n].clone()).collect();
+    let big = format!("polygon(points = [{}]);", big.join(", "));
+    let e = err(&format!(
+        "linear_extrude(height = 1) minkowski() {{ {big} {big} }}"
+    ));
+    assert!(e.contains("at most 1000000"), "{e}");
+    // A long text is refused before any glyph is drawn.
+    let e = err(&format!(
+        "linear_extrude(height = 1) text(text = \"{}\");",
+        "x".repeat(100_000)
+    ));
+    assert!(e.contains("at most 10000"), "{e}");
+}
+
+/// Mutations of a valid 2D export: a model or a located error, never a panic.
+const VALID_2D: &str = "linear_extrude(height = 2, center = false, convexity = 1, scale = [1, 1], $fn = 0, $fa = 12, $fs = 2) {\n\toffset(r = 1, $fn = 0, $fa = 12, $fs = 2) {\n\t\thull() {\n\t\t\tsquare(size = [4, 2], center = false);\n\t\t\tcircle($fn = 8, r = 1);\n\t\t}\n\t}\n\tminkowski() {\n\t\ttext(text = \"Ab\", size = 3, halign = \"center\");\n\t\tcircle($fn = 4, r = 0.2);\n\t}\n\toffset(delta = -0.5, chamfer = true) polygon(points = [[0, 0], [9, 0], [0, 9], [9, 9]]);\n}\n";
+
+const PIECES_2D: &[&str] = &[
+    "offset(",
+    "hull()",
+    "minkowski()",
+    "text(",
+    "square(",
+    "circle(",
+    "polygon(",
+    "r = ",
+    "delta = ",
+    "chamfer = true",
+    "size = ",
+    "\"x\"",
+    "1e300",
+    "-1e300",
+    "nan",
+    "inf",
+    "0",
+    "-1",
+    "1e-300",
+    "[",
+    "]",
+    "(",
+    ")",
+    "{",
+    "}",
+    ";",
+    ",",
+    "$fn = ",
+    "1e9",
+    "points = ",
+    "[[0, 0], [1, 0], [0, 1]]",
+];
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 300, failure_persistence: None, ..proptest::prelude::ProptestConfig::default() })]
+
+    #[test]
+    fn fuzz_mutated_2d_export(a in 0..VALID_2D.len(), len in 0usize..20, pieces in proptest::collection::vec(0..PIECES_2D.len(), 0..4)) {
+        let mut end = (a + len).min(VALID_2D.len());
+        while !VALID_2D.is_char_boundary(end) { end -= 1; }
+        let ins: String = pieces.iter().map(|&i| PIECES_2D[i]).collect();
+        super::tests::check_outcome(&format!("{}{}{}", &VALID_2D[..a], ins, &VALID_2D[end..]));
+    }
+}

@@ -128,6 +128,15 @@ pub fn region(node: &Node, warnings: &mut Vec<String>) -> Result<Region, ScadErr
         return Ok(Region::default());
     }
     let fragments = tessellate::fragments(size, res);
+    if fragments > crate::scene::load::MAX_DIVISIONS as u64 {
+        return Err(ScadError::new(
+            node.pos,
+            format!(
+                "`text` would have {fragments} fragments (from $fn = {}, $fa = {}, $fs = {}); at most {} are accepted: lower $fn or raise $fa/$fs",
+                res.fn_, res.fa, res.fs, crate::scene::load::MAX_DIVISIONS
+            ),
+        ));
+    }
     let segments = (fragments / 8 + 1).max(2) as usize;
     let (data, warning) = face_for(&font);
     if let Some(w) = warning {
@@ -232,6 +241,20 @@ pub fn region(node: &Node, warnings: &mut Vec<String>) -> Result<Region, ScadErr
     }
     if contours.is_empty() {
         return Ok(Region::default());
+    }
+    // Before the polygon library snaps everything to one grid over the extent.
+    if contours
+        .iter()
+        .flatten()
+        .any(|p| !(p[0].abs().max(p[1].abs()) <= super::extrude::MAX_COORD))
+    {
+        return Err(ScadError::new(
+            node.pos,
+            format!(
+                "`text` reaches coordinates beyond ±{:e} (from its size and spacing); scale the model down",
+                super::extrude::MAX_COORD
+            ),
+        ));
     }
     Ok(Region::from_shapes(overlay(
         &contours,
