@@ -19,6 +19,14 @@
 //! fragments up to coincident faces, which classify alike), and the depth
 //! complexity k is the executor's `loop_iterations` minus one per product.
 //! Non-convex primitives need nothing special: their extra faces are extra layers.
+//!
+//! Layers are peeled front to back, so a pixel's first surviving layer is its
+//! nearest visible point, and no farther layer can win the less-than merge.
+//! Each iteration therefore starts the surface image at the output depth
+//! resolved so far instead of far: a pixel already resolved (by an earlier
+//! layer or product) passes no peel fragment, does not keep the loop going, and
+//! rejects the clip draws' fragments behind it in the depth test. The loop runs
+//! to the deepest *unresolved* pixel, not to the product's depth complexity.
 #![deny(unsafe_code)]
 
 use super::*;
@@ -65,7 +73,13 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             };
             draws.push(into_surface(geometry, scissor, cull, peel, true));
         }
-        let head = peel_head(draws);
+        // The surface image starts as a copy of the output: its depth is
+        // the bound, its stencil 0 (this plan never writes the output's).
+        let mut head = peel_head(draws);
+        head[1] = Step::CopyDepthBound {
+            src: OUTPUT,
+            dst: SURFACE,
+        };
         let mut tail = vec![Step::CopyTexture {
             src: CUR,
             dst: SURF,
