@@ -698,7 +698,10 @@ pub(crate) mod tests {
             assert_eq!(gc.mesh_draws, lits * lits + prep.solid_meshes.len() as u64);
             // Layered: the first layer, then the loop body counted once: each
             // draws the layer (2 draws) and clips it against every literal.
-            assert_eq!(lc.mesh_draws, 2 * (2 + lits) + prep.solid_meshes.len() as u64);
+            assert_eq!(
+                lc.mesh_draws,
+                2 * (2 + lits) + prep.solid_meshes.len() as u64
+            );
             rows.push((n, gc.triangles, lc.triangles));
         }
         // Triangles per frame grow quadratically for Goldfeather, linearly per

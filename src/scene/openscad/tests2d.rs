@@ -83,6 +83,17 @@ fn text_matches_openscad() {
     for p in &m.primitives {
         closed_outward(&p.mesh);
     }
+    // Bitstream Vera Sans: DejaVu Sans, as fontconfig maps it on Debian
+    // (OpenSCAD's SVG export of the same text; FreeType's hinting of DejaVu's
+    // instructions moves OpenSCAD's points by up to 0.003).
+    let m = model("text(text = \"H\", size = 10, font = \"Bitstream Vera Sans\");");
+    let h = "M 2.73279,-4.8192 L 7.7103,-4.8192 L 7.7103,-0 L 9.08009,-0 L 9.08009,-10.1248 L 7.7103,-10.1248 L 7.7103,-5.97119 L 2.73279,-5.97119 L 2.73279,-10.1248 L 1.36299,-10.1248 L 1.36299,-0 L 2.73279,-0 z";
+    same_points(&plate_top(&m), &svg_points(h), 4e-3);
+    assert!(
+        !m.warnings.iter().any(|w| w.contains("Vera")),
+        "{:?}",
+        m.warnings
+    );
     // An unknown font: a warning, Liberation Sans.
     let m = model(
         "linear_extrude(height = 1) text(text = \"a\", font = \"Comic Sans MS:style=Bold\");",

@@ -23,7 +23,9 @@
 //!
 //! Fonts: Liberation Sans 2.1 (SIL OFL 1.1, `assets/fonts/`), Regular, Bold,
 //! Italic and Bold Italic, for the default font and every `Liberation Sans`
-//! name; any other family is drawn in Liberation Sans with a warning, as
+//! name; DejaVu Sans (Bitstream Vera licence, `assets/fonts/`, Book only) for
+//! `DejaVu Sans` and `Bitstream Vera Sans`, which fontconfig maps to it on
+//! Debian; any other family is drawn in Liberation Sans with a warning, as
 //! OpenSCAD falls back to its default when fontconfig has no match.
 
 use glam::DVec2;
@@ -40,6 +42,7 @@ const REGULAR: &[u8] = include_bytes!("../../../assets/fonts/LiberationSans-Regu
 const BOLD: &[u8] = include_bytes!("../../../assets/fonts/LiberationSans-Bold.ttf");
 const ITALIC: &[u8] = include_bytes!("../../../assets/fonts/LiberationSans-Italic.ttf");
 const BOLD_ITALIC: &[u8] = include_bytes!("../../../assets/fonts/LiberationSans-BoldItalic.ttf");
+const DEJAVU: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 
 /// At most this many characters per `text` (a guard on the outline size).
 pub const MAX_CHARS: usize = 10_000;
@@ -62,6 +65,15 @@ pub fn face_for(font: &str) -> (&'static [u8], Option<String>) {
         (false, true) => ITALIC,
         (false, false) => REGULAR,
     };
+    let dejavu = ["DejaVu Sans", "Bitstream Vera Sans"]
+        .iter()
+        .any(|f| family.eq_ignore_ascii_case(f));
+    if dejavu {
+        let warning = (bold || italic).then(|| {
+            format!("font \"{font}\": only DejaVu Sans Book is shipped with peeltrim; drawn in it")
+        });
+        return (DEJAVU, warning);
+    }
     let known = family.is_empty() || family.eq_ignore_ascii_case("Liberation Sans");
     let warning = (!known).then(|| {
         format!("font \"{family}\" is not shipped with peeltrim; drawn in Liberation Sans (its default, as OpenSCAD falls back to its default font)")
