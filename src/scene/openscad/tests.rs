@@ -25,6 +25,18 @@ pub(super) fn err(text: &str) -> String {
     }
 }
 
+/// The `n` points of a star outline (radii 10 and 9 alternating), as
+/// OpenSCAD point literals.
+pub(super) fn star_points(n: usize) -> Vec<String> {
+    (0..n)
+        .map(|i| {
+            let a = i as f64 / n as f64 * std::f64::consts::TAU;
+            let r = if i % 2 == 0 { 10.0 } else { 9.0 };
+            format!("[{}, {}]", r * a.cos(), r * a.sin())
+        })
+        .collect()
+}
+
 pub(super) fn closed_outward(m: &Mesh) {
     check_closed(m).unwrap_or_else(|p| panic!("{}", p.describe(m)));
     assert!(signed_volume(m) > 0.0, "inside out");
@@ -841,13 +853,7 @@ fn hostile_two_d_input_is_a_located_error_or_a_render() {
     }
     // 10^5 points: a star outline, in bounded time.
     let n = 100_000;
-    let pts: Vec<String> = (0..n)
-        .map(|i| {
-            let a = i as f64 / n as f64 * std::f64::consts::TAU;
-            let r = if i % 2 == 0 { 10.0 } else { 9.0 };
-            format!("[{}, {}]", r * a.cos(), r * a.sin())
-        })
-        .collect();
+    let pts = star_points(n);
     let t = std::time::Instant::now();
     let m = model(&format!(
         "linear_extrude(height = 1) polygon(points = [{}]);",

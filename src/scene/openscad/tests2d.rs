@@ -4,7 +4,7 @@
 
 use glam::DVec2;
 
-use super::tests::{closed_outward, err, model};
+use super::tests::{closed_outward, err, model, star_points};
 use super::Model;
 
 /// The top cap's vertices (z = 0.5) of a 2D model's plate, sorted.
@@ -201,13 +201,7 @@ fn hostile_outlines_are_a_located_error_or_a_render() {
     // 10^5 points: hull and offset of a star, in bounded time; a tangle of
     // them offset (self-crossing); too many Minkowski pairs refused.
     let n = 100_000;
-    let pts: Vec<String> = (0..n)
-        .map(|i| {
-            let a = i as f64 / n as f64 * std::f64::consts::TAU;
-            let r = if i % 2 == 0 { 10.0 } else { 9.0 };
-            format!("[{}, {}]", r * a.cos(), r * a.sin())
-        })
-        .collect();
+    let pts = star_points(n);
     let star = format!("polygon(points = [{}]);", pts.join(", "));
     let t = std::time::Instant::now();
     for op in ["hull()", "offset(delta = 0.001)"] {
