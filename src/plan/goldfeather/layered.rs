@@ -52,7 +52,23 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         // behind, so it runs once before the loop and its draws only write
         // their depth (a peel test would pass everywhere, at a texture read
         // per fragment); the loop peels behind it.
-        let layer = |first: bool| {
+        // After the first layer, a product of one positive primitive (the
+        // eye outside it, its faces whole) is resolved wherever no
+        // complemented primitive reaches: its first layer there is the
+        // positive's nearest front face. The later layers are cut to the
+        // complements' rectangle.
+        let single = match pos[..] {
+            [x] if !prep.eye_inside[x as usize] && !prep.near_cut[x as usize] => Some(x),
+            _ => None,
+        };
+        let later = match single {
+            Some(inside) => Region::Holes {
+                inside,
+                holes: neg.clone(),
+            },
+            None => region.clone(),
+        };
+        let layer = |first: bool, region: &Region| {
             let mut draws = Vec::new();
             for (meshes, cull) in [(&pos, Cull::Back), (&neg, Cull::Front)] {
                 if meshes.is_empty() {
@@ -67,13 +83,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
                     },
                 };
                 let geometry = Geometry::Meshes(meshes.clone());
-                let scissor = match &region {
-                    Region::Union(_) => Scissor::BoundsOf(meshes.clone()),
-                    Region::Intersection(inside) => Scissor::Overlap {
-                        of: meshes.clone(),
-                        and: inside.clone(),
-                    },
-                };
+                let scissor = region.cut_all(meshes);
                 draws.push(into_surface(geometry, scissor, cull, fragment, !first));
             }
             // The surface image starts as a copy of the output: its depth is
@@ -85,14 +95,17 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             };
             head
         };
-        let mut tail = vec![Step::CopyTexture {
-            src: CUR,
-            dst: SURF,
-        }];
-        tail.extend(clip_steps_in(p, &region, opts.eps, &prep.eye_inside));
-        tail.extend(merge_steps_in(&region));
-        steps.extend(layer(true));
-        steps.extend(tail.iter().cloned());
+        let tail = |region: &Region| {
+            let mut tail = vec![Step::CopyTexture {
+                src: CUR,
+                dst: SURF,
+            }];
+            tail.extend(clip_steps_in(p, region, opts.eps, &prep.eye_inside));
+            tail.extend(merge_steps_in(region));
+            tail
+        };
+        steps.extend(layer(true, &region));
+        steps.extend(tail(&region));
         steps.push(Step::CopyTexture {
             src: CUR,
             dst: PREV,
@@ -100,8 +113,8 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         steps.push(super::super::common::peel_loop(
             prep,
             &all,
-            layer(false),
-            tail,
+            layer(false, &later),
+            tail(&later),
             CUR,
             PREV,
         ));
