@@ -862,7 +862,8 @@ fn plan_profile(name: &str) -> Result<peeltrim::vk::DeviceProfile> {
 }
 
 /// The plan passes' result (`plan::passes`): each draw as it is recorded
-/// under `profile` with the default depth set-up (D32S8, reversed Z).
+/// under `profile` with the default depth set-up (D32S8, reversed Z), and
+/// what each clear and copy reaches.
 fn print_passes(
     plan: &peeltrim::plan::Plan,
     scene: &peeltrim::scene::Scene,
@@ -886,7 +887,12 @@ fn print_passes(
             let _ = writeln!(out, "{}", d.pass);
             pass = Some(&d.pass);
         }
-        let _ = writeln!(out, "  draw {:3}: {}", d.index, d.recorded);
+        let kind = match d.kind {
+            peeltrim::plan::passes::StepKind::Draw => "draw ",
+            peeltrim::plan::passes::StepKind::Clear => "clear",
+            peeltrim::plan::passes::StepKind::Copy => "copy ",
+        };
+        let _ = writeln!(out, "  {kind} {:3}: {}", d.index, d.recorded);
     }
     out
 }

@@ -586,6 +586,22 @@ fn bench_interleaves_frames_and_states_the_cst_ordering() {
             && summary.contains("CST-G = CST-I plan"),
         "{summary}"
     );
+    // Every run against the rasterization floor: one z-buffered draw of the
+    // gear's triangles, which no CSG frame undercuts.
+    for r in rows {
+        let (floor, cpu) = (
+            r["floor"]["frame_cpu_ms"].as_f64(),
+            r["frame_cpu_ms_median"].as_f64(),
+        );
+        assert!(floor.is_some_and(|f| f > 0.0), "{r:#}");
+        assert!(cpu.unwrap() > floor.unwrap(), "{r:#}");
+    }
+    assert!(
+        summary.contains("## Against the rasterization floor")
+            && summary.contains("| gear | 48×48 |"),
+        "{summary}"
+    );
+    assert!(out.join("plots/floor.png").is_file());
 }
 
 /// `plan --device-profile`: the plan passes' result. Under the CPU rasterizer

@@ -1,4 +1,4 @@
-// An L-bracket with mounting holes and a fillet rib (peeltrim issue 13).
+// An L-bracket with mounting holes and a fillet rib.
 $fn = 32;
 thick = 4;
 difference() {

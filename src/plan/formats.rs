@@ -20,6 +20,7 @@ pub fn steps_need_stencil(steps: &[Step]) -> bool {
         Step::Pass(_)
         | Step::Clear(_)
         | Step::CopyTexture { .. }
+        | Step::CopyDepthBound { .. }
         | Step::CopyDepthToTexture { .. } => false,
     })
 }

@@ -16,6 +16,7 @@ pub mod cst;
 pub mod cut_away;
 pub(crate) mod direct_shade;
 pub(crate) mod eye;
+pub mod floor;
 pub mod formats;
 pub mod goldfeather;
 pub(crate) mod kirsch;

@@ -18,11 +18,12 @@
 //!    shaded in its own visible-surface draw, and the final shade skips it;
 //! 4. **lowering** (`plan::lower`): each draw becomes what is recorded — off
 //!    screen, dropped, a direct shade, fixed-function, tie-depth, or the tie
-//!    rule (over tie zones only, `plan::tie_zones`).
-//!
-//! One pass runs at record time because it depends on what earlier frames
-//! left in the output images: the reach of clears and copies
-//! (`plan::reach`), which cuts each to the pixels later steps read.
+//!    rule (over tie zones only, `plan::tie_zones`);
+//! 5. **reach** ([`reach`], `plan::reach`): each clear and copy cut to the
+//!    pixels later steps read of it, as the draws are lowered. It also
+//!    depends on what earlier frames left in the output images, so the
+//!    executor runs it per recording with the outputs' state, and the
+//!    printout shows it for the first frame and for the frames after.
 
 use std::borrow::Cow;
 
@@ -30,6 +31,7 @@ use glam::DMat4;
 
 use super::direct_shade::DirectShades;
 use super::lower::{lower, Lowering, RecordedDraw};
+use super::reach::{self as reach_of, ClearNeed, FrameReach, KeptImages};
 use super::scissor::{self, Rect, RectUnions};
 use super::tie_free::{TieBand, TieFree};
 use super::visible_ties::visible_ties;
@@ -155,22 +157,52 @@ pub fn direct_shades(steps: &[&Step], output_ds: u8, ties: &TieFree) -> DirectSh
     DirectShades::decide(steps, output_ds, |m, eps| ties.shade_depth_equal(m, eps))
 }
 
-/// One draw of a plan as the passes lower it: where it is in the plan and
-/// what is recorded for it.
+/// Pass 5: what the clears and copies of a recording of `steps` (loops
+/// unrolled) reach, its draws lowered with `ties` (a texture only tie-free
+/// draws sampled is read by nobody), for outputs that hold `now` before it;
+/// and what it assumes they hold (`plan::reach::recording_reach`).
+pub fn reach(
+    steps: &[&Step],
+    ties: &TieFree,
+    scissor: impl Fn(&super::Scissor) -> Rect,
+    images: reach_of::Images<'_>,
+    now: &KeptImages,
+) -> (FrameReach, KeptImages) {
+    let lowered: Vec<Step> = steps.iter().map(|s| ties.lowered(s)).collect();
+    let lowered: Vec<&Step> = lowered.iter().collect();
+    reach_of::recording_reach(&lowered, scissor, images, now)
+}
+
+/// The kind of a recorded step in the passes' printout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepKind {
+    /// A draw.
+    Draw,
+    /// A clear of one image.
+    Clear,
+    /// A copy.
+    Copy,
+}
+
+/// One draw, clear or copy of a plan as the passes lower it: where it is in
+/// the plan and what is recorded for it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoweredDraw {
-    /// Index of the draw among the plan's draws, loop bodies once, in order.
+    /// A draw, a clear (one per image cleared) or a copy.
+    pub kind: StepKind,
+    /// Index among the plan's steps of its kind, loop bodies once, in order.
     pub index: usize,
-    /// The plan's pass the draw belongs to (its last `Step::Pass`).
+    /// The plan's pass the step belongs to (its last `Step::Pass`).
     pub pass: String,
     /// What is recorded, in words.
     pub recorded: String,
 }
 
 /// Every pass on `plan` for `scene` at `width`×`height` on a device with
-/// `facts`: each draw's lowering, loop bodies listed once. The printout of
-/// `peeltrim plan --device-profile`. Reach (what clears and copies keep) is
-/// left out: it depends on earlier frames.
+/// `facts`: each draw's lowering and each clear's and copy's reach, loop
+/// bodies listed (and run) once. The printout of `peeltrim plan
+/// --device-profile`. Reach is shown for the first frame and for the frames
+/// after it, whose outputs hold what the one before left.
 pub fn lower_plan(
     plan: &Plan,
     scene: &Scene,
@@ -204,24 +236,85 @@ pub fn lower_plan(
         flatten(s, &mut flat);
     }
     let direct = direct_shades(&flat, plan.output_ds, &ties);
+    let outputs = reach_of::outputs(plan.output_ds, false);
+    let images = reach_of::Images {
+        outputs: &outputs,
+        normals: false,
+        size: (width, height),
+    };
+    let scissor = |s: &super::Scissor| rects.scissor(s, width, height);
+    let (first, _) = reach(&flat, &ties, scissor, images, &KeptImages::new());
+    let (later, _) = reach(&flat, &ties, scissor, images, &first.kept);
+    let (mut clears, mut copies) = (0, 0);
     let mut out = Vec::new();
     let mut pass = String::new();
+    let push = |kind, recorded, pass: &String, out: &mut Vec<LoweredDraw>| {
+        let index = out.iter().filter(|d: &&LoweredDraw| d.kind == kind).count();
+        out.push(LoweredDraw {
+            kind,
+            index,
+            pass: pass.clone(),
+            recorded,
+        });
+    };
     for s in flat {
         match s {
             Step::Pass(p) => pass = p.to_string(),
             Step::Draw(d) => {
                 let rect = rects.scissor(&d.scissor, width, height);
                 let recorded = describe(&lower(d, false, rect, &ties, &direct));
-                out.push(LoweredDraw {
-                    index: out.len(),
-                    pass: pass.clone(),
-                    recorded,
-                });
+                push(StepKind::Draw, recorded, &pass, &mut out);
             }
-            _ => {}
+            Step::Clear(c) => {
+                for r in reach_of::cleared(c, false).iter() {
+                    let what = format!(
+                        "{r:?} reaches {} (later frames: {})",
+                        clear_reach(first.clears[clears], width, height),
+                        clear_reach(later.clears[clears], width, height)
+                    );
+                    clears += 1;
+                    push(StepKind::Clear, what, &pass, &mut out);
+                }
+            }
+            Step::CopyTexture { .. }
+            | Step::CopyDepthBound { .. }
+            | Step::CopyDepthToTexture { .. } => {
+                let what = format!(
+                    "{} reaches {}",
+                    super::print::copy_words(s),
+                    rect_words(first.copies[copies], width, height)
+                );
+                copies += 1;
+                push(StepKind::Copy, what, &pass, &mut out);
+            }
+            Step::Loop(_) => {}
         }
     }
     out
+}
+
+/// A clear's reach in words.
+fn clear_reach(need: ClearNeed, width: u32, height: u32) -> String {
+    match need {
+        ClearNeed::Held => "nothing, held by an earlier clear to the same value".into(),
+        ClearNeed::Reach(r) => rect_words(r, width, height),
+    }
+}
+
+/// A reached region in words.
+fn rect_words(r: Rect, width: u32, height: u32) -> String {
+    match r {
+        _ if r.is_empty() => "nothing".into(),
+        _ if r == Rect::full(width, height) => "the whole image".into(),
+        r => format!(
+            "x {}..{}, y {}..{} ({:.0}% of the image)",
+            r.x0,
+            r.x1,
+            r.y0,
+            r.y1,
+            100.0 * r.area() as f64 / (width as f64 * height as f64)
+        ),
+    }
 }
 
 /// `s` and the steps of its loop bodies, once each, in order.
@@ -291,6 +384,7 @@ mod tests {
         plan.steps.iter().for_each(|s| flatten(s, &mut flat));
         let draws = flat.iter().filter(|s| matches!(s, Step::Draw(_))).count();
         let l = lower_plan(&plan, &scene, 200, 150, true, &CPU);
+        let l: Vec<_> = l.iter().filter(|d| d.kind == StepKind::Draw).collect();
         assert_eq!(l.len(), draws);
         assert!(l.iter().enumerate().all(|(i, d)| d.index == i));
     }
@@ -312,6 +406,29 @@ mod tests {
             assert!(equal(&cpu) > 0, "{algo}: {cpu:#?}");
             assert_eq!(equal(&hw), 0, "{algo}: {hw:#?}");
         }
+    }
+
+    #[test]
+    fn clears_and_copies_show_their_reach_first_and_later() {
+        let l = lowered(Algo::GoldfeatherLayered, &CPU);
+        let of = |k| l.iter().filter(move |d: &&LoweredDraw| d.kind == k);
+        // The output is cleared whole once; later frames only where the
+        // first one drew.
+        let out = of(StepKind::Clear)
+            .find(|d| d.recorded.starts_with("DepthStencil(0)"))
+            .expect("the output's clear");
+        assert!(
+            out.recorded
+                .contains("reaches the whole image (later frames: x "),
+            "{out:?}"
+        );
+        // The layer loop starts its surface image as a copy of the output,
+        // cut to the block's rectangle.
+        let copy = of(StepKind::Copy)
+            .find(|d| d.recorded.starts_with("copy depth-stencil ds0 -> ds1"))
+            .expect("the bound's copy");
+        assert!(copy.recorded.contains("reaches x "), "{copy:?}");
+        assert!(of(StepKind::Draw).count() > 0);
     }
 
     #[test]

@@ -108,11 +108,10 @@ fn print_steps(out: &mut String, steps: &[Step], prep: &Prepared, names: &[Strin
             Step::Clear(c) => {
                 let _ = writeln!(out, "{pad}clear {c:?}");
             }
-            Step::CopyTexture { src, dst } => {
-                let _ = writeln!(out, "{pad}copy tex{src} -> tex{dst}");
-            }
-            Step::CopyDepthToTexture { ds, dst } => {
-                let _ = writeln!(out, "{pad}copy depth ds{ds} -> tex{dst}");
+            Step::CopyTexture { .. }
+            | Step::CopyDepthBound { .. }
+            | Step::CopyDepthToTexture { .. } => {
+                let _ = writeln!(out, "{pad}{}", copy_words(s));
             }
             Step::Loop(l) => {
                 let _ = writeln!(out, "{pad}repeat (at most {}) {{", l.max_iterations);
@@ -152,5 +151,17 @@ fn print_steps(out: &mut String, steps: &[Step], prep: &Prepared, names: &[Strin
                 );
             }
         }
+    }
+}
+
+/// A copy step in words (`copy tex0 -> tex1`); empty for any other step.
+pub(crate) fn copy_words(step: &Step) -> String {
+    match step {
+        Step::CopyTexture { src, dst } => format!("copy tex{src} -> tex{dst}"),
+        Step::CopyDepthBound { src, dst } => {
+            format!("copy depth-stencil ds{src} -> ds{dst} (a bound)")
+        }
+        Step::CopyDepthToTexture { ds, dst } => format!("copy depth ds{ds} -> tex{dst}"),
+        _ => String::new(),
     }
 }

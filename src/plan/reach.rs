@@ -72,7 +72,8 @@ pub struct Images<'a> {
 pub struct FrameReach {
     /// For every image every `Clear` clears, in order ([`cleared`]).
     pub clears: Vec<ClearNeed>,
-    /// For every `CopyTexture` and `CopyDepthToTexture`, in order: the region
+    /// For every `CopyTexture`, `CopyDepthBound` and `CopyDepthToTexture`,
+    /// in order: the region
     /// to copy (empty: nobody reads the copy).
     pub copies: Vec<Rect>,
     /// For every draw that writes a depth texture ([`written_texture`]), in
@@ -350,6 +351,15 @@ fn reach_of_items(
                 copies.push(region);
             }
             Step::CopyTexture { .. } => copies.push(Rect::EMPTY),
+            Step::CopyDepthBound { src, dst } if src != dst => {
+                let region = take(&mut live, Resource::DepthStencil(*dst));
+                let src = live
+                    .entry(Resource::DepthStencil(*src))
+                    .or_insert(Rect::EMPTY);
+                *src = src.union(&region);
+                copies.push(region);
+            }
+            Step::CopyDepthBound { .. } => copies.push(Rect::EMPTY),
             // A full-screen draw reading the depth at the pixel it writes.
             Step::CopyDepthToTexture { ds, dst } => {
                 let region = take(&mut live, Resource::Texture(*dst));

@@ -495,6 +495,18 @@ pub enum Step {
         /// The texture written.
         dst: Tex,
     },
+    /// Copy a depth-stencil image, depth and stencil, into another (same size
+    /// and format) as a bound: the draws that follow are depth-tested against
+    /// it, and no step reads `dst`'s depth as a surface at a pixel no later
+    /// draw replaced (layered Goldfeather's peel starts at the output depth
+    /// resolved so far). So it brings no faces a tolerant draw could tie with
+    /// (`plan::tie_context`).
+    CopyDepthBound {
+        /// The depth-stencil image read.
+        src: Ds,
+        /// The depth-stencil image written.
+        dst: Ds,
+    },
     /// Copy the depth of a depth-stencil image into a depth texture.
     CopyDepthToTexture {
         /// The depth-stencil image whose depth is read.

@@ -16,7 +16,8 @@
 //!
 //! Walking the steps in order: a clear empties an image; a draw adds its
 //! meshes to the texture its program writes and, when it writes depth, to its
-//! depth-stencil image; a copy carries the source's set; a full-screen pass
+//! depth-stencil image; a copy carries the source's set (a depth bound
+//! carries none: it is never read as a surface); a full-screen pass
 //! writing depth from a texture carries that texture's, any other leaves the
 //! image unknown (every mesh). A loop's body is walked until the sets stop
 //! growing, its draws decided on every walk. Draws that are the same in
@@ -119,6 +120,12 @@ impl Walk<'_> {
                 Step::CopyTexture { src, dst } => {
                     let f = self.faces(Resource::Texture(*src));
                     self.held.insert(Resource::Texture(*dst), f);
+                }
+                // A bound: its depth is never read as a surface where no
+                // later draw replaced it.
+                Step::CopyDepthBound { dst, .. } => {
+                    self.held
+                        .insert(Resource::DepthStencil(*dst), Some(BTreeSet::new()));
                 }
                 Step::CopyDepthToTexture { ds, dst } => {
                     let f = self.faces(Resource::DepthStencil(*ds));

@@ -153,6 +153,10 @@ impl Step {
                 (Resource::Texture(*src), Usage::CopySrc),
                 (Resource::Texture(*dst), Usage::CopyDst),
             ]),
+            Step::CopyDepthBound { src, dst } => Uses::of(&[
+                (Resource::DepthStencil(*src), Usage::CopySrc),
+                (Resource::DepthStencil(*dst), Usage::CopyDst),
+            ]),
             Step::CopyDepthToTexture { ds, dst } => Uses::of(&[
                 (Resource::Texture(*dst), Usage::ColorTarget),
                 (Resource::DepthStencil(*ds), Usage::Sampled),

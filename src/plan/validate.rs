@@ -17,6 +17,8 @@ pub enum InvalidPlan {
     NestedLoop,
     #[error("a fragment reads and writes texture {0}")]
     SameTexture(Tex),
+    #[error("depth-stencil {0} is the output: it is drawn into and cleared, never copied into")]
+    CopyIntoOutput(u8),
 }
 
 /// Checks `plan` against a scene of `meshes` meshes.
@@ -101,6 +103,13 @@ pub fn validate(plan: &Plan, meshes: u32) -> Result<(), InvalidPlan> {
             Step::CopyTexture { src, dst } => {
                 tex(*src)?;
                 tex(*dst)?;
+            }
+            Step::CopyDepthBound { src, dst } => {
+                ds(*src)?;
+                ds(*dst)?;
+                if *dst == plan.output_ds {
+                    return Err(InvalidPlan::CopyIntoOutput(*dst));
+                }
             }
             Step::CopyDepthToTexture { ds: d, dst } => {
                 ds(*d)?;
@@ -229,5 +238,19 @@ mod tests {
             max_iterations: 2,
         })]);
         assert_eq!(validate(&p, 1), Err(InvalidPlan::NestedLoop));
+    }
+
+    #[test]
+    fn copies_depth_stencil_only_out_of_the_output() {
+        let mut p = plan(vec![Step::CopyDepthBound { src: 0, dst: 1 }]);
+        p.depth_stencils = 2;
+        assert_eq!(validate(&p, 1), Ok(()));
+        p.steps = vec![Step::CopyDepthBound { src: 1, dst: 0 }];
+        assert_eq!(validate(&p, 1), Err(InvalidPlan::CopyIntoOutput(0)));
+        p.steps = vec![Step::CopyDepthBound { src: 0, dst: 2 }];
+        assert!(matches!(
+            validate(&p, 1),
+            Err(InvalidPlan::DepthStencil { index: 2, .. })
+        ));
     }
 }

@@ -234,7 +234,9 @@ impl SceneCosts {
                     c.triangles += prep.triangles_in(meshes) as u64;
                     c.mesh_pixels += rect.area();
                 }
-                Step::CopyTexture { .. } | Step::CopyDepthToTexture { .. } => {
+                Step::CopyTexture { .. }
+                | Step::CopyDepthBound { .. }
+                | Step::CopyDepthToTexture { .. } => {
                     c.copied_pixels += full;
                 }
                 Step::Loop(l) => {

@@ -12,6 +12,7 @@ pub mod checks;
 pub mod embedded;
 pub mod estimate;
 pub mod families;
+pub mod floor;
 pub mod layer_modes;
 pub mod modes;
 pub mod opencsg;
@@ -157,6 +158,10 @@ pub struct Record {
     /// `--algo auto`'s estimate of this algorithm's frame (ms), for a candidate.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_estimate_ms: Option<f64>,
+    /// The rasterization floor of the same scene, size and depth set-up
+    /// ([`floor`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub floor: Option<floor::Floor>,
 }
 
 impl Record {
@@ -207,6 +212,7 @@ impl Record {
             plan_digest: String::new(),
             auto_pick: false,
             auto_estimate_ms: None,
+            floor: None,
         }
     }
 
@@ -384,8 +390,10 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 rounds::Timing::Interleaved { .. } => vec![&gpu_algos[..]],
                 _ => gpu_algos.chunks(1).collect(),
             };
+            let mut default_floor = None;
             for &depth in &cfg.depth_setups {
                 let mut spare: Option<GpuRenderer> = None;
+                let first = records.len();
                 for &group in &groups {
                     let mut runs = Vec::new();
                     for &algo in group {
@@ -444,14 +452,32 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                         bar.inc(1);
                     }
                 }
+                // The rasterization floor, on the last run's renderer.
+                if let (Some(gpu), Ok(p)) = (spare.as_mut(), &prep) {
+                    bar.set_message(format!("{label} {w}x{h}: floor {}", depth.name()));
+                    match floor::time(gpu, p, cfg.warmup, cfg.frames) {
+                        Ok(f) => {
+                            default_floor.get_or_insert(f);
+                            for r in &mut records[first..] {
+                                r.floor = Some(f);
+                            }
+                        }
+                        Err(e) => bar.println(format!(
+                            "{label} {w}x{h}: the rasterization floor did not run: {e}"
+                        )),
+                    }
+                } else {
+                    bar.println(format!("{label} {w}x{h}: no renderer left for the floor"));
+                }
             }
             if let (Some(b), Some(before)) = (&cfg.baseline, opencsg_before) {
                 bar.set_message(format!("{label} {w}x{h}: opencsg (after)"));
                 let after = run_opencsg(b, "after");
-                for (rec, images) in opencsg::merge_runs(before, after) {
+                for (mut rec, images) in opencsg::merge_runs(before, after) {
                     if let (true, Some(images)) = (cfg.save_images, images) {
                         save(cfg, &label, w, h, &rec.algo, &rec.depth_setup, &images)?;
                     }
+                    rec.floor = default_floor;
                     records.push(rec);
                 }
                 bar.inc(1);
@@ -760,6 +786,7 @@ fn finish(
         plan_digest: digest(plan),
         auto_pick: false,
         auto_estimate_ms: None,
+        floor: None,
     };
     Ok((rec, shadowed.map_or(images, |(_, i)| i)))
 }

@@ -1,6 +1,6 @@
 //! PNG plots of benchmark results (plotters, bitmap backend): time against error
 //! per scene, time against the number of primitives for the scaling families,
-//! and per-pass time breakdowns. Text uses DejaVu Sans (Debian's
+//! per-pass time breakdowns, and every run against its rasterization floor. Text uses DejaVu Sans (Debian's
 //! fonts-dejavu-core, installed by tools/setup.sh).
 #![deny(unsafe_code)]
 
@@ -262,6 +262,15 @@ pub fn write_all(out: &Path, records: &[Record]) -> Result<Vec<PathBuf>, BenchEr
         )?;
         files.push(p);
     }
+    let floor_rows: Vec<&Record> = records
+        .iter()
+        .filter(|r| r.family.is_none() && super::floor::multiple(r).is_some())
+        .collect();
+    if !floor_rows.is_empty() {
+        let p = dir.join("floor.png");
+        floor_multiples(&p, &floor_rows)?;
+        files.push(p);
+    }
     let mut families: Vec<String> = records.iter().filter_map(|r| r.family.clone()).collect();
     families.sort();
     families.dedup();
@@ -437,6 +446,111 @@ fn time_vs_error(path: &Path, title: &str, rows: &[&Record]) -> Result<(), Bench
             algo.to_string()
         };
         entries.push((Mark::Marker(m), c, text));
+    }
+    side_legend(&legend_area, path, "algorithm", &entries)?;
+    root.present().map_err(|e| err(path, e))?;
+    Ok(())
+}
+
+/// Dots: every run's frame as a multiple of its scene's rasterization floor
+/// (log), scenes along x, one colour and marker per algorithm, the floor
+/// itself the line at 1.
+fn floor_multiples(path: &Path, rows: &[&Record]) -> Result<(), BenchError> {
+    // Scenes by name alone when every run has one size, else with the size.
+    let one_size = rows
+        .iter()
+        .all(|r| (r.width, r.height) == (rows[0].width, rows[0].height));
+    let name = |r: &Record| match one_size {
+        true => r.scene.clone(),
+        false => format!("{} {}x{}", r.scene, r.width, r.height),
+    };
+    let mut scenes: Vec<String> = Vec::new();
+    for r in rows {
+        if !scenes.contains(&name(r)) {
+            scenes.push(name(r));
+        }
+    }
+    let pts: Vec<(usize, f64, &str)> = rows
+        .iter()
+        .filter_map(|r| {
+            let x = scenes.iter().position(|t| *t == name(r))?;
+            Some((x, super::floor::multiple(r)?, r.algo.as_str()))
+        })
+        .collect();
+    let (lo, hi) = pts
+        .iter()
+        .fold((1.0f64, 10.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let (ylo, yhi) = (
+        10f64.powf(lo.log10().floor()) * 0.999,
+        10f64.powf(hi.log10().ceil()) * 1.001,
+    );
+    let mut algos: Vec<&str> = pts.iter().map(|p| p.2).collect();
+    algos.sort_by_key(|a| algo_style(a).1);
+    algos.dedup();
+    let n = scenes.len().max(1);
+    let size = match one_size {
+        true => format!(", {}x{}", rows[0].width, rows[0].height),
+        false => String::new(),
+    };
+    let whole = canvas(path, (1150, 650))?;
+    let root = whole
+        .titled(
+            &format!("frame time as a multiple of the rasterization floor (one z-buffered draw of all triangles{size})"),
+            ("sans-serif", 18),
+        )
+        .map_err(|e| err(path, e))?;
+    let (plot, legend_area) = root.split_horizontally(880);
+    let mut chart = ChartBuilder::on(&plot)
+        .margin(15)
+        .x_label_area_size(60)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..n as f64, (ylo..yhi).log_scale())
+        .map_err(|e| err(path, e))?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(0)
+        .y_desc("frame time / floor (log)")
+        .y_label_formatter(&|v| format!("{}×", tick(*v)))
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(|e| err(path, e))?;
+    // The floor, and a light line between scenes.
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            vec![(0.0, 1.0), (n as f64, 1.0)],
+            BLACK.stroke_width(2),
+        )))
+        .map_err(|e| err(path, e))?;
+    chart
+        .draw_series(
+            (1..n)
+                .map(|i| PathElement::new(vec![(i as f64, ylo), (i as f64, yhi)], BLACK.mix(0.15))),
+        )
+        .map_err(|e| err(path, e))?;
+    let centred = ("sans-serif", 13)
+        .into_font()
+        .into_text_style(&whole)
+        .pos(Pos::new(HPos::Center, VPos::Top));
+    for (i, s) in scenes.iter().enumerate() {
+        // Every other name one line lower, so long neighbours never overlap.
+        let (x, y) = chart.backend_coord(&(i as f64 + 0.5, ylo));
+        let below = 8 + 18 * (i as i32 % 2);
+        whole
+            .draw(&Text::new(s.clone(), (x, y + below), centred.clone()))
+            .map_err(|e| err(path, e))?;
+    }
+    let mut entries = Vec::new();
+    for (k, &algo) in algos.iter().enumerate() {
+        let (c, m) = algo_style(algo);
+        // Each algorithm a little apart within its scene's column.
+        let dx = 0.1 + 0.8 * (k as f64 + 0.5) / algos.len() as f64;
+        let mine = pts.iter().filter(|p| p.2 == algo);
+        with_marker!(m, c, |mk| chart
+            .draw_series(mine.map(|p| mk((p.0 as f64 + dx, p.1))))
+            .map(|_| ())
+            .map_err(|e| err(path, e)))?;
+        entries.push((Mark::Marker(m), c, algo.to_string()));
     }
     side_legend(&legend_area, path, "algorithm", &entries)?;
     root.present().map_err(|e| err(path, e))?;

@@ -258,6 +258,7 @@ pub fn summary(records: &[Record]) -> String {
     s.push_str(&super::checks::section(records));
     s.push_str(&super::modes::summary(records));
     s.push_str(&super::opencsg::side_by_side(records));
+    s.push_str(&super::floor::section(records));
     s.push_str(&embedded_table(records));
     s.push_str(&paper_table(records));
     s

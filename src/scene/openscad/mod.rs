@@ -23,10 +23,14 @@ pub mod background;
 pub(crate) mod convert;
 pub(crate) mod extrude;
 pub(crate) mod lex;
+pub(crate) mod outline;
 pub(crate) mod parse;
 pub(crate) mod tessellate;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests2d;
+pub(crate) mod text;
 
 use glam::DMat4;
 use std::collections::HashMap;

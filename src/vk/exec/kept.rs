@@ -5,6 +5,7 @@
 use std::sync::Arc;
 
 use super::Executor;
+use crate::plan::passes;
 use crate::plan::reach::{self, FrameReach, KeptImages};
 use crate::plan::tie_free::TieFree;
 use crate::plan::usage::Resource;
@@ -60,11 +61,7 @@ impl Executor {
         let reached = self.reach_memo.get_or_insert_with(key, || {
             let unions = rects.unions();
             let scissor = |s: &Scissor| unions.scissor(s, w, h);
-            // What the draws read as recorded: a texture only tie-free draws
-            // sampled is read by nobody.
-            let lowered: Vec<Step> = steps.iter().map(|s| ties.lowered(s)).collect();
-            let lowered: Vec<&Step> = lowered.iter().collect();
-            Arc::new(reach::recording_reach(&lowered, scissor, images, now))
+            Arc::new(passes::reach(steps, ties, scissor, images, now))
         });
         reached.clone()
     }

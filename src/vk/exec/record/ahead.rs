@@ -114,7 +114,7 @@ impl Recorder<'_> {
                 Step::Pass(_) if self.b.pass_timestamps => Ahead::Other,
                 Step::Pass(_) => Ahead::Nothing,
                 Step::Clear(_) | Step::Loop(_) => Ahead::Other,
-                Step::CopyTexture { src, dst } => {
+                Step::CopyTexture { src, dst } | Step::CopyDepthBound { src, dst } => {
                     let rect = self.copy_regions.get(copies).copied().unwrap_or(full);
                     copies += 1;
                     match src == dst || rect.is_empty() {

@@ -31,56 +31,13 @@ impl Recorder<'_> {
             }
             Step::Clear(clear) => self.clear(clear),
             Step::CopyTexture { src, dst } => {
-                let rect = self.copy_region();
-                if src == dst || rect.is_empty() {
-                    // Nobody reads the copy.
-                    self.stats.counts.skipped_steps += u64::from(src != dst);
-                    return Ok(());
-                }
-                let uses = step.usage();
-                self.settle_clears(&uses);
-                self.transitions(&uses, false);
-                self.end_block();
-                let (s, d) = (
-                    self.b.targets.image(Resource::Texture(*src)),
-                    self.b.targets.image(Resource::Texture(*dst)),
-                );
-                let layers = vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                };
-                let offset = vk::Offset3D {
-                    x: rect.x0 as i32,
-                    y: rect.y0 as i32,
-                    z: 0,
-                };
-                let region = vk::ImageCopy {
-                    src_subresource: layers,
-                    src_offset: offset,
-                    dst_subresource: layers,
-                    dst_offset: offset,
-                    extent: vk::Extent3D {
-                        width: rect.width(),
-                        height: rect.height(),
-                        depth: 1,
-                    },
-                };
-                self.stats.counts.copied_pixels += rect.area();
-                // SAFETY: outside rendering; both images allow transfer, same format,
-                // in the copy layouts after the barrier above; the region lies in both.
-                unsafe {
-                    self.b.device.cmd_copy_image(
-                        self.cmd,
-                        s.raw,
-                        sync::access(Usage::CopySrc).layout,
-                        d.raw,
-                        sync::access(Usage::CopyDst).layout,
-                        &[region],
-                    )
-                };
+                self.copy_image(step, Resource::Texture(*src), Resource::Texture(*dst))
             }
+            Step::CopyDepthBound { src, dst } => self.copy_image(
+                step,
+                Resource::DepthStencil(*src),
+                Resource::DepthStencil(*dst),
+            ),
             Step::CopyDepthToTexture { ds, dst } => self.copy_depth(step, *ds, *dst)?,
             Step::Draw(draw) => self.draw(draw)?,
             Step::Loop(_) => {
@@ -88,6 +45,57 @@ impl Recorder<'_> {
             }
         }
         Ok(())
+    }
+
+    /// `Step::CopyTexture` or `Step::CopyDepthBound`: image `src` into `dst`
+    /// (same format), every aspect, where later steps read it (`plan::reach`).
+    fn copy_image(&mut self, step: &Step, src: Resource, dst: Resource) {
+        let rect = self.copy_region();
+        if src == dst || rect.is_empty() {
+            // Nobody reads the copy.
+            self.stats.counts.skipped_steps += u64::from(src != dst);
+            return;
+        }
+        let uses = step.usage();
+        self.settle_clears(&uses);
+        self.transitions(&uses, false);
+        self.end_block();
+        let (s, d) = (self.b.targets.image(src), self.b.targets.image(dst));
+        let layers = vk::ImageSubresourceLayers {
+            aspect_mask: s.desc.aspect(),
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let offset = vk::Offset3D {
+            x: rect.x0 as i32,
+            y: rect.y0 as i32,
+            z: 0,
+        };
+        let region = vk::ImageCopy {
+            src_subresource: layers,
+            src_offset: offset,
+            dst_subresource: layers,
+            dst_offset: offset,
+            extent: vk::Extent3D {
+                width: rect.width(),
+                height: rect.height(),
+                depth: 1,
+            },
+        };
+        self.stats.counts.copied_pixels += rect.area();
+        // SAFETY: outside rendering; both images allow transfer, same format,
+        // in the copy layouts after the barrier above; the region lies in both.
+        unsafe {
+            self.b.device.cmd_copy_image(
+                self.cmd,
+                s.raw,
+                sync::access(Usage::CopySrc).layout,
+                d.raw,
+                sync::access(Usage::CopyDst).layout,
+                &[region],
+            )
+        };
     }
 
     /// A draw's scissor lies in its block's render area (`render_area`).
