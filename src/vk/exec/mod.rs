@@ -339,7 +339,7 @@ impl Executor {
         let ds_format = self.ds_format(plan);
         if self.desc.samples > 1 && (normals || transparency) {
             let what = if normals {
-                "the normal buffer (edge maps, --edges and styles)"
+                "the normal buffer (edge maps, --edges, styles and shadows)"
             } else {
                 "the GPU transparency composite (--transparency gpu)"
             };
