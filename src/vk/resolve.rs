@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::composite::bind_fullscreen;
+use super::composite::{bind_fullscreen, write_output_set};
 use super::error::{Check, VkError};
 use super::image::{Image, ImageDesc};
 use super::instance::Shared;
@@ -173,43 +173,10 @@ impl Resolve {
         let rest = sync::access(REST);
         let color_target = sync::access(Usage::ColorTarget);
         let ds_target = sync::access(Usage::DepthStencilTarget);
-        let info = |view| {
-            [vk::DescriptorImageInfo {
-                sampler: vk::Sampler::null(),
-                image_view: view,
-                image_layout: sampled.layout,
-            }]
-        };
-        let (ci, pi, di) = (
-            info(src.color.view),
-            info(src.prim.view),
-            info(src.depth.depth_view),
-        );
-        let si = [vk::DescriptorImageInfo {
-            sampler,
-            image_view: vk::ImageView::null(),
-            image_layout: vk::ImageLayout::UNDEFINED,
-        }];
-        let infos: [(vk::DescriptorType, &[vk::DescriptorImageInfo]); 4] = [
-            (vk::DescriptorType::SAMPLED_IMAGE, &ci),
-            (vk::DescriptorType::SAMPLED_IMAGE, &pi),
-            (vk::DescriptorType::SAMPLED_IMAGE, &di),
-            (vk::DescriptorType::SAMPLER, &si),
-        ];
-        let writes: Vec<vk::WriteDescriptorSet<'_>> = infos
-            .iter()
-            .enumerate()
-            .map(|(b, (ty, i))| {
-                vk::WriteDescriptorSet::default()
-                    .dst_set(self.set)
-                    .dst_binding(b as u32)
-                    .descriptor_type(*ty)
-                    .image_info(i)
-            })
-            .collect();
+        let views = [src.color.view, src.prim.view, src.depth.depth_view];
         // SAFETY: set, views and sampler are live; the set is not in use (the
         // executor's read-back waits for its one-shot command buffers).
-        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        unsafe { write_output_set(device, self.set, views, sampler) };
         let aspect = |i: &Image| i.desc.aspect();
         // This pass's own images are written whole: their old contents go.
         let fresh = sync::Access {
