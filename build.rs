@@ -12,7 +12,11 @@
 //! for an `_SRGB` host colour format, which decodes the colour it writes;
 //! `#ifdef HOST_WRITE` gives `host_write` and `host_write_srgb` (the host draw
 //! that writes its depth, with no merge before it), and `#ifdef FLAT` gives
-//! `flat` (`mesh.vert` without the interpolated outputs). A
+//! `flat` (`mesh.vert` without the interpolated outputs), and `#ifdef MS`
+//! gives `ms` (the depth texture multisampled, read at the invocation's own
+//! sample: `shaders/depth_tex.glsl`), with the host variants as `host_ms`,
+//! `host_srgb_ms`, `host_write_ms` and `host_write_srgb_ms` (the embedded
+//! final shade into a multisampled host frame). A
 //! variant rather than a push-constant branch because lavapipe runs both sides
 //! of a uniform branch for every fragment.
 
@@ -45,7 +49,15 @@ fn main() {
         );
         // (defines, suffix): compiled when the source tests each define the
         // variant adds to a leading `HOST` (`composite.frag` tests only `HOST_SRGB`).
-        let variants: [(&[&str], &str); 6] = [
+        let variants: [(&[&str], &str); 11] = [
+            (&["MS"], "ms"),
+            (&["HOST", "MS"], "host_ms"),
+            (&["HOST", "HOST_SRGB", "MS"], "host_srgb_ms"),
+            (&["HOST", "HOST_WRITE", "MS"], "host_write_ms"),
+            (
+                &["HOST", "HOST_WRITE", "HOST_SRGB", "MS"],
+                "host_write_srgb_ms",
+            ),
             (&["NORMALS"], "normals"),
             (&["FLAT"], "flat"),
             (&["HOST"], "host"),
@@ -55,7 +67,10 @@ fn main() {
         ];
         for (defines, suffix) in variants {
             let tests = |d: &&str| source.lines().any(|l| l.trim() == format!("#ifdef {d}"));
-            let added = &defines[usize::from(defines.len() > 1)..];
+            // A multisampled variant needs every define tested (a host
+            // program that samples a depth texture).
+            let ms = defines.contains(&"MS");
+            let added = &defines[usize::from(defines.len() > 1 && !ms)..];
             if added.iter().all(tests) {
                 let out = Path::new(&out_dir).join(format!("{name}.{suffix}.spv"));
                 compile(&path, stage, &source, defines, &out);

@@ -68,6 +68,15 @@ pub struct Report {
     /// The last frame's pixels cut from the cavities' insides where they
     /// cannot be seen through an opening (`record::host::cut_insides`).
     pub shade_insides_cut_pixels: u64,
+    /// Multisampled frames: pixels whose samples show both the floor and
+    /// the CSG in the reference composite (the edges against the floor),
+    /// those whose resolved colour is within 1/8 of a sample's contrast of
+    /// the reference's mean, and those blended (no sample's pure colour).
+    pub floor_edges: u64,
+    pub floor_edges_ok: u64,
+    pub floor_edges_blended: u64,
+    /// Why the set-up did not run on this device (`None`: it ran).
+    pub skipped: Option<String>,
     /// The last frame's colour image, RGBA, row by row.
     pub image: Image,
     pub validation: Vec<String>,
@@ -86,6 +95,14 @@ impl std::fmt::Debug for Image {
 impl Report {
     pub fn interior_match(&self) -> f64 {
         1.0 - self.mismatched_interior as f64 / self.interior.max(1) as f64
+    }
+
+    /// A multisampled frame's edges against the floor: 99% of them within
+    /// 1/8 of the reference's resolved colour, most of them blended.
+    pub fn floor_edges_antialiased(&self) -> bool {
+        self.floor_edges > 0
+            && self.floor_edges_ok as f64 >= 0.99 * self.floor_edges as f64
+            && 2 * self.floor_edges_blended >= self.floor_edges
     }
 }
 
@@ -168,8 +185,15 @@ impl Host {
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .maintenance4(true);
+        // And `sampleRateShading` where the device has it (multisampled
+        // embedding runs peeltrim's depth tests once per sample).
+        // SAFETY: `physical` belongs to `instance`; a plain query.
+        let supported = unsafe { instance.get_physical_device_features(physical) };
+        let features = vk::PhysicalDeviceFeatures::default()
+            .sample_rate_shading(supported.sample_rate_shading == vk::TRUE);
         let dci = vk::DeviceCreateInfo::default()
             .queue_create_infos(&qci)
+            .enabled_features(&features)
             .push_next(&mut f13);
         // SAFETY: valid create info for a device of this instance.
         let device = unsafe { instance.create_device(physical, &dci, None) }
@@ -289,6 +313,7 @@ impl Host {
         usage: vk::ImageUsageFlags,
         aspect: vk::ImageAspectFlags,
         [w, h]: [u32; 2],
+        samples: u32,
     ) -> (vk::Image, vk::DeviceMemory, vk::ImageView) {
         let ci = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
@@ -300,7 +325,7 @@ impl Host {
             })
             .mip_levels(1)
             .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
+            .samples(vk::SampleCountFlags::from_raw(samples))
             .usage(usage);
         let d = &self.device;
         // SAFETY: valid create info.
@@ -322,7 +347,12 @@ impl Host {
         (image, mem, view)
     }
 
-    fn pipeline(&self, color: vk::Format, depth: vk::Format) -> (vk::Pipeline, vk::PipelineLayout) {
+    fn pipeline(
+        &self,
+        color: vk::Format,
+        depth: vk::Format,
+        samples: u32,
+    ) -> (vk::Pipeline, vk::PipelineLayout) {
         let d = &self.device;
         let module = |bytes: &[u8]| {
             let words = ash::util::read_spv(&mut std::io::Cursor::new(bytes)).expect("SPIR-V");
@@ -367,7 +397,7 @@ impl Host {
             .polygon_mode(vk::PolygonMode::FILL)
             .line_width(1.0);
         let ms = vk::PipelineMultisampleStateCreateInfo::default()
-            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+            .rasterization_samples(vk::SampleCountFlags::from_raw(samples));
         let ds = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(true)
             .depth_write_enable(true);
@@ -672,6 +702,9 @@ pub struct Setup {
     /// depth outside their mesh's cutters (`plan::cut_away`; `false`: every
     /// piece checks, for comparing the two images).
     pub uncut: bool,
+    /// Samples per pixel of the host's colour and depth (and of peeltrim's
+    /// images); above 1 the host resolves its colour before reading it back.
+    pub samples: u32,
 }
 
 impl Setup {
@@ -691,6 +724,7 @@ impl Setup {
             bites: false,
             drilled: false,
             uncut: true,
+            samples: 1,
         }
     }
 }
@@ -757,7 +791,14 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
                 DepthFormat::D32S8
             }
         },
+        samples: setup.samples,
     };
+    if let Err(e) = ctx.check_samples(setup.samples) {
+        return Ok(Report {
+            skipped: Some(e.to_string()),
+            ..Report::default()
+        });
+    }
     let mut csg = match setup.drilled {
         true => drilled_csg(&ctx, &desc)?,
         false => host_csg(&ctx, &desc, setup.ball, setup.bites)?,
@@ -788,19 +829,34 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         })
     };
     let depth_aspect = depth_aspects(depth_format);
+    let samples = setup.samples;
     let (color_img, color_mem, color_view) = host.image(
         color_format,
         vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
         vk::ImageAspectFlags::COLOR,
         extent,
+        samples,
     );
     let (depth_img, depth_mem, depth_view) = host.image(
         depth_format,
         vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
         depth_aspect,
         extent,
+        samples,
     );
-    let (pipeline, layout) = host.pipeline(color_format, depth_format);
+    // A multisampled host resolves its colour into a single-sample image.
+    let resolved = (samples > 1).then(|| {
+        host.image(
+            color_format,
+            vk::ImageUsageFlags::COLOR_ATTACHMENT
+                | vk::ImageUsageFlags::TRANSFER_DST
+                | vk::ImageUsageFlags::TRANSFER_SRC,
+            vk::ImageAspectFlags::COLOR,
+            extent,
+            1,
+        )
+    });
+    let (pipeline, layout) = host.pipeline(color_format, depth_format, samples);
     let bytes = extent[0] as u64 * extent[1] as u64 * 4;
     // SAFETY: valid create info.
     let buffer = unsafe {
@@ -953,7 +1009,14 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         // SAFETY: as above.
         unsafe {
             if last {
-                read_back_color(d, cmd, color_img, attach, buffer, ext);
+                read_back_color(
+                    d,
+                    cmd,
+                    (color_img, resolved.map(|r| r.0)),
+                    attach,
+                    buffer,
+                    ext,
+                );
             }
             d.end_command_buffer(cmd).expect("end");
             let cmds = [cmd];
@@ -981,7 +1044,10 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
             p.swap(0, 2);
         }
     }
-    let mut report = compare(&csg, extent, &pixels);
+    let mut report = match samples {
+        1 => compare(&csg, extent, &pixels),
+        n => compare_samples(&csg, extent, &pixels, n),
+    };
     report.image = Image(pixels);
     report.first_counts = counts.first().cloned().unwrap_or_default();
     report.last_counts = counts.last().cloned().unwrap_or_default();
@@ -1010,7 +1076,10 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
         for (img, mem, view) in [
             (color_img, color_mem, color_view),
             (depth_img, depth_mem, depth_view),
-        ] {
+        ]
+        .into_iter()
+        .chain(resolved)
+        {
             d.destroy_image_view(view, None);
             d.destroy_image(img, None);
             d.free_memory(mem, None);
@@ -1019,47 +1088,93 @@ fn frame(host: &Host, setup: &Setup) -> Result<Report, String> {
     Ok(report)
 }
 
-/// Records the copy of the colour image into `buffer`, visible to the host.
+/// Records the copy of the colour image into `buffer`, visible to the host;
+/// a multisampled one (with its single-sample `resolved` image) resolved
+/// first, the samples averaged (`vkCmdResolveImage`).
 unsafe fn read_back_color(
     d: &ash::Device,
     cmd: vk::CommandBuffer,
-    color_img: vk::Image,
+    (color_img, resolved): (vk::Image, Option<vk::Image>),
     attach: (vk::ImageLayout, vk::AccessFlags),
     buffer: vk::Buffer,
     ext: vk::Extent2D,
 ) {
-    // SAFETY: the caller's: `cmd` is recording outside rendering, the image is
-    // in `attach`'s layout and the buffer holds the image.
+    let src = (
+        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+        vk::AccessFlags::TRANSFER_READ,
+    );
+    let dst = (
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::AccessFlags::TRANSFER_WRITE,
+    );
+    let color = vk::ImageAspectFlags::COLOR;
+    let layers = vk::ImageSubresourceLayers {
+        aspect_mask: color,
+        mip_level: 0,
+        base_array_layer: 0,
+        layer_count: 1,
+    };
+    let extent = vk::Extent3D {
+        width: ext.width,
+        height: ext.height,
+        depth: 1,
+    };
+    // SAFETY: the caller's: `cmd` is recording outside rendering, the images
+    // are live, the colour image in `attach`'s layout, the resolved one
+    // unused.
+    let color_img = match resolved {
+        None => color_img,
+        Some(r) => unsafe {
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[
+                    barrier(color_img, color, attach, src),
+                    barrier(
+                        r,
+                        color,
+                        (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty()),
+                        dst,
+                    ),
+                ],
+            );
+            let region = vk::ImageResolve::default()
+                .src_subresource(layers)
+                .dst_subresource(layers)
+                .extent(extent);
+            d.cmd_resolve_image(cmd, color_img, src.0, r, dst.0, &[region]);
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[barrier(r, color, dst, src)],
+            );
+            r
+        },
+    };
+    // SAFETY: as above; a resolved image is in TRANSFER_SRC_OPTIMAL.
     unsafe {
-        d.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
-            vk::PipelineStageFlags::TRANSFER,
-            vk::DependencyFlags::empty(),
-            &[],
-            &[],
-            &[barrier(
-                color_img,
-                vk::ImageAspectFlags::COLOR,
-                attach,
-                (
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    vk::AccessFlags::TRANSFER_READ,
-                ),
-            )],
-        );
+        if resolved.is_none() {
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[barrier(color_img, color, attach, src)],
+            );
+        }
         let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width: ext.width,
-                height: ext.height,
-                depth: 1,
-            });
+            .image_subresource(layers)
+            .image_extent(extent);
         d.cmd_copy_image_to_buffer(
             cmd,
             color_img,
@@ -1169,6 +1284,112 @@ fn compare(csg: &CsgScene, [w, h]: [u32; 2], pixels: &[[u8; 4]]) -> Report {
     r
 }
 
+/// A multisampled host image (resolved, `samples` per pixel) against the
+/// reference composite cast per sample at Vulkan's standard sample locations
+/// (`peeltrim_reference::sample_positions`): each sample is background, the
+/// floor or the CSG's shaded point, whichever is nearest. Pixels whose
+/// samples agree, with neighbours that agree too, are the interior (as in
+/// [`compare`], the floor hiding the CSG or the CSG the floor at every
+/// sample); pixels whose samples show both the floor and the CSG are the
+/// edges against the floor, whose resolved colour must be the samples'
+/// mean (a UNORM resolve) within 1/8 of their contrast.
+fn compare_samples(csg: &CsgScene, [w, h]: [u32; 2], pixels: &[[u8; 4]], samples: u32) -> Report {
+    let scene = csg.scene();
+    let cast = peeltrim_reference::Prepared::new(scene);
+    let cam = csg.camera();
+    let positions = peeltrim_reference::sample_positions(samples);
+    let mut r = Report {
+        pixels: (w * h) as u64,
+        ..Report::default()
+    };
+    // Per pixel: each sample's class (0 background, 1 floor, 2 CSG) and
+    // whether the floor is in front of the CSG there (both present).
+    let mut classes = vec![Vec::new(); (w * h) as usize];
+    let mut colors = vec![Vec::new(); (w * h) as usize];
+    let mut fronts = vec![Vec::new(); (w * h) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            for &(sx, sy) in positions {
+                let (px, py) = (x as f64 + sx, y as f64 + sy);
+                let ray = cam.ray(px, py, w, h);
+                let t = (FLOOR_Y as f64 - ray.origin.y) / ray.dir.y;
+                let p = ray.origin + ray.dir * t;
+                let floor =
+                    (t > 0.0 && p.x.abs() <= FLOOR_HALF as f64 && p.z.abs() <= FLOOR_HALF as f64)
+                        .then(|| cam.view_depth(p));
+                let hit = cast.cast_pixel(px, py, w, h);
+                let (class, color) = match (floor, hit) {
+                    (Some(f), Some(s)) if f < s.depth => (1, FLOOR_RGB),
+                    (_, Some(s)) => {
+                        let c = peeltrim::images::shade(s.rgb, s.normal.dot(s.dir));
+                        (2, [c[0], c[1], c[2]])
+                    }
+                    (Some(_), None) => (1, FLOOR_RGB),
+                    (None, None) => (0, BG),
+                };
+                if let (Some(f), Some(s)) = (floor, hit) {
+                    fronts[i].push(f < s.depth);
+                }
+                classes[i].push(class);
+                colors[i].push(color);
+            }
+        }
+    }
+    let pure = |i: usize| classes[i].iter().all(|&c| c == classes[i][0]);
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let got = pixels[i];
+            let interior = (-1i32..=1).all(|dy| {
+                (-1i32..=1).all(|dx| {
+                    let (nx, ny) = (x as i32 + dx, y as i32 + dy);
+                    let j = (ny.max(0) as u32 * w + nx.max(0) as u32) as usize;
+                    nx < 0
+                        || ny < 0
+                        || nx >= w as i32
+                        || ny >= h as i32
+                        || (pure(j) && classes[j][0] == classes[i][0])
+                })
+            });
+            if interior {
+                r.interior += 1;
+                let want = classes[i][0];
+                r.mismatched_interior += (classify(got) != want) as u64;
+                if fronts[i].len() == classes[i].len() {
+                    if fronts[i].iter().all(|&f| f) {
+                        r.floor_hides_csg += 1;
+                        r.floor_hides_csg_ok += (classify(got) == 1) as u64;
+                    } else if fronts[i].iter().all(|&f| !f) {
+                        r.csg_hides_floor += 1;
+                        r.csg_hides_floor_ok += (classify(got) == 2) as u64;
+                    }
+                }
+                continue;
+            }
+            if !(classes[i].contains(&1) && classes[i].contains(&2)) {
+                continue;
+            }
+            r.floor_edges += 1;
+            let n = colors[i].len() as f64;
+            let channel = |k: usize| colors[i].iter().map(|c| c[k] as f64).sum::<f64>() / n;
+            let contrast = |k: usize| {
+                let (lo, hi) = colors[i]
+                    .iter()
+                    .fold((255u8, 0u8), |(lo, hi), c| (lo.min(c[k]), hi.max(c[k])));
+                (hi - lo) as f64
+            };
+            let ok = (0..3).all(|k| (got[k] as f64 - channel(k)).abs() <= contrast(k) / 8.0 + 2.0);
+            r.floor_edges_ok += ok as u64;
+            let blended = colors[i]
+                .iter()
+                .all(|c| (0..3).any(|k| got[k].abs_diff(c[k]) > 2));
+            r.floor_edges_blended += blended as u64;
+        }
+    }
+    r
+}
+
 /// Median `frame_ms` (submission to completion) of `frames` frames of `path`'s
 /// solids, standalone (`Executor::execute`) and embedded (recorded into a host
 /// command buffer that the host submits and waits for), plus the embedded
@@ -1235,6 +1456,7 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
             height: extent[1],
             depth_format: peeltrim::vk::DepthFormat::D32S8,
             reversed_z: false,
+            samples: 1,
         },
     )
     .map_err(|e| e.to_string())?;
@@ -1246,12 +1468,14 @@ pub fn bench(path: &std::path::Path, frames: usize) -> Result<[f64; 3], String> 
         vk::ImageUsageFlags::COLOR_ATTACHMENT,
         vk::ImageAspectFlags::COLOR,
         extent,
+        1,
     );
     let depth = host.image(
         depth_format,
         vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
         vk::ImageAspectFlags::DEPTH,
         extent,
+        1,
     );
     let targets = HostTargets {
         color_view: color.2,
@@ -1375,6 +1599,24 @@ pub fn setups() -> Vec<(String, Setup)> {
             };
             (name, setup)
         }))
+        // A 4× multisampled host (colour, depth and peeltrim's images), the
+        // host resolving its colour: the floor cutting through the CSG hides
+        // it per sample, and the edges against it are antialiased.
+        .chain(
+            [(false, Algo::Goldfeather), (true, Algo::CstI)].map(|(reversed_z, algo)| {
+                let name = format!(
+                    "R8G8B8A8_UNORM+D32_SFLOAT {} z, 4 samples, {algo}",
+                    if reversed_z { "reversed" } else { "standard" }
+                );
+                let setup = Setup {
+                    samples: 4,
+                    algo,
+                    frames: 2,
+                    ..Setup::new([160, 120], reversed_z)
+                };
+                (name, setup)
+            }),
+        )
         .collect()
 }
 
@@ -1444,15 +1686,25 @@ fn main() {
     let mut failed = false;
     for (name, setup) in setups() {
         match run(&setup) {
+            Ok(Report {
+                skipped: Some(why), ..
+            }) => println!("{name}: not run: {why}"),
             Ok(r) => {
                 let ok = r.validation.is_empty()
                     && r.interior_match() >= 0.9995
                     && r.floor_hides_csg > 0
-                    && r.csg_hides_floor > 0;
+                    && r.csg_hides_floor > 0
+                    && (setup.samples == 1 || r.floor_edges_antialiased());
                 println!(
                     "{name}: {:.4}% of {} interior pixels match the reference composite; floor hides CSG {}/{}, CSG hides floor {}/{}; loop counts {:?} -> {:?}; depth-equal draws {} ({} writing their depth, {} outside their cutters with no check of the output depth); {} validation messages",
                     r.interior_match() * 100.0, r.interior, r.floor_hides_csg_ok, r.floor_hides_csg, r.csg_hides_floor_ok, r.csg_hides_floor, r.first_counts, r.last_counts, r.shade_fixed_draws, r.shade_written_draws, r.shade_uncut_draws, r.validation.len()
                 );
+                if setup.samples > 1 {
+                    println!(
+                        "  edges against the floor: {} of {} within 1/8 of the reference's resolved colour, {} blended",
+                        r.floor_edges_ok, r.floor_edges, r.floor_edges_blended
+                    );
+                }
                 for m in &r.validation {
                     println!("  validation: {m}");
                 }

@@ -14,8 +14,7 @@ layout(push_constant) uniform Push {
     uint flags;
 } pc;
 #include "draw.glsl"
-layout(set = 0, binding = 0) uniform texture2D u_tex;
-layout(set = 0, binding = 1) uniform sampler u_samp;
+#include "depth_tex.glsl"
 
 #include "tie.glsl"
 

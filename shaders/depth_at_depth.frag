@@ -3,11 +3,10 @@
 // the texture's bit-exactly (a CST peel's kept points, Hable & Rossignac §4
 // Render(S)), for a solid's merge, whose colour and id the final shading writes
 // (plan::cst::peel, Merge::at_depth). Exact because gl_Position is invariant.
-layout(set = 0, binding = 0) uniform texture2D u_tex;
-layout(set = 0, binding = 1) uniform sampler u_samp;
+#include "depth_tex.glsl"
 
 void main() {
-    float kept = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    float kept = tex_fetch(ivec2(gl_FragCoord.xy));
     if (gl_FragCoord.z != kept) {
         discard;
     }

@@ -15,11 +15,10 @@ layout(push_constant) uniform Push {
     uint flags;
 } pc;
 #include "draw.glsl"
-layout(set = 0, binding = 0) uniform texture2D u_tex;
-layout(set = 0, binding = 1) uniform sampler u_samp;
+#include "depth_tex.glsl"
 
 void main() {
-    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    float d = tex_fetch(ivec2(gl_FragCoord.xy));
 #ifdef HOST
     // A far depth fails the host's strict test by itself.
 #else

@@ -12,11 +12,10 @@ layout(push_constant) uniform Push {
     uint flags;
 } pc;
 #include "draw.glsl"
-layout(set = 0, binding = 0) uniform texture2D u_tex;
-layout(set = 0, binding = 1) uniform sampler u_samp;
+#include "depth_tex.glsl"
 
 void main() {
-    float d = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    float d = tex_fetch(ivec2(gl_FragCoord.xy));
     bool reversed = (d_flags & 1u) != 0u;
     bool empty = reversed ? d <= 0.0 : d >= 1.0;
     bool behind = reversed ? gl_FragCoord.z < d : gl_FragCoord.z > d;

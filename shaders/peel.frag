@@ -12,12 +12,11 @@ layout(push_constant) uniform Push {
     uint flags;
 } pc;
 #include "draw.glsl"
-layout(set = 0, binding = 0) uniform texture2D u_tex;
-layout(set = 0, binding = 1) uniform sampler u_samp;
+#include "depth_tex.glsl"
 layout(location = 0) out float o_depth;
 
 bool behind_prev() {
-    float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    float prev = tex_fetch(ivec2(gl_FragCoord.xy));
     return (d_flags & 1u) != 0u ? gl_FragCoord.z < prev : gl_FragCoord.z > prev;
 }
 

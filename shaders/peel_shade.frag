@@ -12,8 +12,7 @@ layout(push_constant) uniform Push {
     uint flags;
 } pc;
 #include "draw.glsl"
-layout(set = 0, binding = 0) uniform texture2D u_tex;
-layout(set = 0, binding = 1) uniform sampler u_samp;
+#include "depth_tex.glsl"
 #include "light.glsl"
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out uint o_prim;
@@ -24,7 +23,7 @@ layout(location = 2) out float o_depth;
 #endif
 
 bool behind_prev() {
-    float prev = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    float prev = tex_fetch(ivec2(gl_FragCoord.xy));
     return (d_flags & 1u) != 0u ? gl_FragCoord.z < prev : gl_FragCoord.z > prev;
 }
 

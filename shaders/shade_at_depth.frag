@@ -34,8 +34,7 @@ layout(push_constant) uniform Push {
 layout(early_fragment_tests) in;
 #endif
 #endif
-layout(set = 0, binding = 0) uniform texture2D u_tex;
-layout(set = 0, binding = 1) uniform sampler u_samp;
+#include "depth_tex.glsl"
 #include "light.glsl"
 layout(location = 0) out vec4 o_color;
 #ifndef HOST
@@ -50,7 +49,7 @@ layout(location = 1) out uint o_prim;
 #endif
 
 void main() {
-    float kept = texelFetch(sampler2D(u_tex, u_samp), ivec2(gl_FragCoord.xy), 0).r;
+    float kept = tex_fetch(ivec2(gl_FragCoord.xy));
     if (gl_FragCoord.z != kept) {
         discard;
     }

@@ -19,9 +19,14 @@ layout(push_constant) uniform Push {
 } pc;
 #include "draw.glsl"
 #include "camera.glsl"
-layout(set = 0, binding = 0) uniform texture2D u_tex;
-layout(set = 0, binding = 1) uniform sampler u_samp;
+#include "depth_tex.glsl"
+#ifdef MS
+// Interpolated at this invocation's sample, where gl_FragCoord is
+// (plane_depth steps from where v_world projects to gl_FragCoord.xy).
+layout(location = 0) sample in vec3 v_world;
+#else
 layout(location = 0) in vec3 v_world;
+#endif
 #include "light.glsl"
 layout(location = 0) out vec4 o_color;
 #ifndef HOST
@@ -64,7 +69,7 @@ bool near_depth(float z, TieTexel t, vec2 dz) {
 // pixel centre. On a device that interpolates unsnapped positions `at` is the
 // pixel centre and this is gl_FragCoord.z.
 float plane_depth(vec2 dz) {
-    vec2 size = vec2(textureSize(sampler2D(u_tex, u_samp), 0));
+    vec2 size = vec2(tex_size());
     vec4 clip = cam.mvp * vec4(v_world, 1.0);
     vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * size;
     return clamp(gl_FragCoord.z + dot(dz, gl_FragCoord.xy - at), 0.0, 1.0);

@@ -1,6 +1,6 @@
 // The tie tolerance of every tolerant shader (plan::tie), included by build.rs
 // (`#include "tie.glsl"`) after the including shader includes `draw.glsl`
-// and declares `u_tex` and `u_samp`. Not a shader of its own.
+// and `depth_tex.glsl`. Not a shader of its own.
 
 #include "tie_band.glsl"
 
@@ -10,8 +10,8 @@ const float SLOPE_AGREEMENT = 0.03125;
 // The texture at `p`, clamped to the image: a helper invocation past the edge
 // (the other half of a quad) reads the edge texel.
 float tie_fetch(ivec2 p) {
-    ivec2 hi = textureSize(sampler2D(u_tex, u_samp), 0) - 1;
-    return texelFetch(sampler2D(u_tex, u_samp), clamp(p, ivec2(0), hi), 0).r;
+    ivec2 hi = tex_size() - 1;
+    return tex_fetch(clamp(p, ivec2(0), hi));
 }
 
 // The texture's depth at this pixel and its one-sided texel differences: `d`,

@@ -54,6 +54,7 @@ fn main() {
         progress: true,
         baseline: None,
         embedded: false,
+        samples: None,
     };
     match run_and_report(&cfg, &scenes) {
         Ok(records) => print!("{}", peeltrim_cli::bench::report::summary(&records)),

@@ -67,6 +67,18 @@ struct GpuArgs {
     /// Goldfeather's and Trickle's limit on the sum-of-products size
     #[arg(long, default_value_t = peeltrim::plan::goldfeather::DEFAULT_PRODUCT_LIMIT)]
     max_products: usize,
+    /// Samples per pixel (antialiasing): 1, 2, 4 or 8 where the device
+    /// supports it; each sample is classified, colour averaged, depth.npy and
+    /// prim.png from sample 0 [default: the scene's `[render] samples`, 1]
+    #[arg(long, value_parser = parse_samples)]
+    samples: Option<u32>,
+}
+
+fn parse_samples(s: &str) -> Result<u32, String> {
+    match s.parse::<u32>() {
+        Ok(n) if peeltrim::vk::SAMPLE_COUNTS.contains(&n) => Ok(n),
+        _ => Err(format!("'{s}' is not a sample count: use 1, 2, 4 or 8")),
+    }
 }
 
 /// Layers of the solid and transparency.
@@ -574,6 +586,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 AlgoArg::One(a) => render::layers::draws_transparency(a),
             };
             let mut scene = load_shown(&scene, size, scad, background)?;
+            if let Some(n) = gpu.samples {
+                scene.render.samples = n;
+            }
             if layers.alpha.is_some() {
                 scene.appearance.alpha = layers.alpha;
             }
@@ -613,7 +628,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
             } {
                 Err(
                     e @ (render::RenderError::Plan(peeltrim::plan::PlanError::NotImplemented(_))
-                    | render::RenderError::Unsupported { .. }),
+                    | render::RenderError::Unsupported { .. }
+                    | render::RenderError::Multisampled(_)),
                 ) => {
                     eprintln!("peeltrim: error: {e}");
                     return Ok(ExitCode::from(2));
@@ -632,6 +648,20 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 .with_context(|| format!("writing images into {}", out.display()))?;
             peeltrim_cli::output::write_stats(&out, &frame.stats)
                 .with_context(|| format!("writing stats.json into {}", out.display()))?;
+            let coverage_png = out.join("coverage.png");
+            match &frame.coverage {
+                Some(c) => peeltrim_cli::output::write_coverage(
+                    &out,
+                    frame.images.width,
+                    frame.images.height,
+                    c,
+                )
+                .with_context(|| format!("writing coverage.png into {}", out.display()))?,
+                // A single-sample render leaves no stale coverage beside it.
+                None if coverage_png.exists() => std::fs::remove_file(&coverage_png)
+                    .with_context(|| format!("removing {}", coverage_png.display()))?,
+                None => {}
+            }
             eprintln!(
                 "{}: {}x{} with {} in {:.1} ms (gpu {:.2} ms) -> {}",
                 scene.path.display(),
@@ -659,6 +689,10 @@ fn run(cli: Cli) -> Result<ExitCode> {
                 report: peeltrim_reference::compare::CompareReport,
                 #[serde(skip_serializing_if = "Option::is_none")]
                 edges: Option<peeltrim_reference::edge_compare::EdgeAgreement>,
+                /// With a `coverage.png` in both folders (multisampled
+                /// renders): coverage fractions and resolved colours.
+                #[serde(skip_serializing_if = "Option::is_none")]
+                samples: Option<peeltrim_reference::compare::SampleReport>,
             }
             let edges = if a.join("edges.png").exists() && b.join("edges.png").exists() {
                 let (w, h, ea) = peeltrim_cli::output::read_edges(&a)?;
@@ -672,7 +706,24 @@ fn run(cli: Cli) -> Result<ExitCode> {
             } else {
                 None
             };
-            let out = Out { report, edges };
+            let cov = (
+                peeltrim_cli::output::read_coverage(&a)?,
+                peeltrim_cli::output::read_coverage(&b)?,
+            );
+            let samples = match cov {
+                (Some((_, _, ca)), Some((_, _, cb))) => Some(
+                    peeltrim_reference::compare::compare_samples(&ia, &ca, &ib, &cb)?,
+                ),
+                (Some(_), None) | (None, Some(_)) => bail!(
+                    "only one folder has a coverage.png: compare two renders with the same --samples"
+                ),
+                (None, None) => None,
+            };
+            let out = Out {
+                report,
+                edges,
+                samples,
+            };
             emit(&format!("{}\n", serde_json::to_string_pretty(&out)?))?;
         }
         Cmd::Bench {
@@ -740,6 +791,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     bench::opencsg::OpenCsgBaseline::locate(opencsg_bench, !opencsg_no_bbox)
                 }),
                 embedded,
+                samples: gpu.samples,
             };
             let records = bench::run_and_report(&cfg, &list)?;
             emit(&bench::report::summary(&records))?;
@@ -804,6 +856,7 @@ fn plan_profile(name: &str) -> Result<peeltrim::vk::DeviceProfile> {
             d24s8: true,
             d32: true,
         },
+        sample_depth: true,
     };
     Ok(match name {
         "cpu" => peeltrim::vk::DeviceProfile::from_facts(facts(true), ProfileChoice::Device),
@@ -902,6 +955,7 @@ fn view(
             depth_fallback: opts.depth_fallback,
             validation: opts.validation,
             frames,
+            samples: gpu.samples,
         },
         watch,
     )?;

@@ -274,6 +274,31 @@ pub fn write_images(dir: impl AsRef<Path>, img: &Images) -> Result<(), OutputErr
     Ok(())
 }
 
+/// Writes `coverage.png` (8-bit greyscale: each pixel's covered samples
+/// ×255 over the samples) of a multisampled render into `dir`.
+pub fn write_coverage(
+    dir: impl AsRef<Path>,
+    width: u32,
+    height: u32,
+    coverage: &[u8],
+) -> Result<(), OutputError> {
+    let path = dir.as_ref().join("coverage.png");
+    image::GrayImage::from_raw(width, height, coverage.to_vec())
+        .expect("one byte per pixel")
+        .save_with_format(&path, image::ImageFormat::Png)
+        .map_err(img_err(&path))
+}
+
+/// Reads `dir`'s `coverage.png` when there is one (a multisampled render).
+pub fn read_coverage(dir: impl AsRef<Path>) -> Result<Option<(u32, u32, Vec<u8>)>, OutputError> {
+    let path = dir.as_ref().join("coverage.png");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let g = image::open(&path).map_err(img_err(&path))?.into_luma8();
+    Ok(Some((g.width(), g.height(), g.into_raw())))
+}
+
 /// Writes `stats.json` (pretty-printed) into `dir` (created if missing).
 pub fn write_stats(
     dir: impl AsRef<Path>,

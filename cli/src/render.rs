@@ -128,6 +128,9 @@ pub struct FrameStats {
     pub auto: Option<crate::auto::AutoPick>,
     pub width: u32,
     pub height: u32,
+    /// Samples per pixel (`--samples`): colour averaged over them, depth and
+    /// primitive ids of sample 0.
+    pub samples: u32,
     pub device: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub depth_setup: Option<&'static str>,
@@ -158,6 +161,9 @@ pub struct FrameStats {
 pub struct Frame {
     pub images: Images,
     pub stats: FrameStats,
+    /// With samples above 1: each pixel's covered samples ×255 over the
+    /// samples (`coverage.png`; `vk::Executor::coverage`).
+    pub coverage: Option<Vec<u8>>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -168,6 +174,11 @@ pub enum RenderError {
     Vk(#[from] vk::VkError),
     #[error("algorithm '{algo}' cannot render {what} yet: use --algo reference")]
     Unsupported { algo: String, what: &'static str },
+    #[error(
+        "{0} with --samples above 1: not supported, they compose single-sample layers \
+         and masks; use --samples 1"
+    )]
+    Multisampled(&'static str),
     #[error("Vulkan validation reported {} message(s); first: {}", .0.len(), .0.first().map(String::as_str).unwrap_or(""))]
     Validation(Vec<String>),
     #[error(transparent)]
@@ -195,9 +206,17 @@ pub fn check_frame_budget(
 /// The CPU reference: exact ray casting.
 pub fn render_reference(scene: &Scene) -> Frame {
     let t = Instant::now();
-    let images = peeltrim_reference::render(scene, scene.render.width, scene.render.height);
-    let stats = reference_stats(&images, t.elapsed().as_secs_f64() * 1e3);
-    Frame { images, stats }
+    let (images, _, coverage) =
+        peeltrim_reference::render_samples(scene, scene.render.width, scene.render.height);
+    let coverage = (scene.render.samples > 1).then_some(coverage);
+    let mut stats = reference_stats(&images, t.elapsed().as_secs_f64() * 1e3);
+    stats.samples = scene.render.samples;
+    stats.rays = stats.rays.map(|r| r * scene.render.samples as u64);
+    Frame {
+        images,
+        stats,
+        coverage,
+    }
 }
 
 /// The reference's `stats.json` for `images` cast in `cpu_ms`.
@@ -206,6 +225,7 @@ fn reference_stats(images: &Images, cpu_ms: f64) -> FrameStats {
         algo: "reference".into(),
         width: images.width,
         height: images.height,
+        samples: 1,
         device: format!(
             "cpu: exact f64 ray casting on {} threads",
             rayon::current_num_threads()
@@ -292,6 +312,7 @@ impl GpuRenderer {
             height: scene.render.height,
             depth_format,
             reversed_z,
+            samples: scene.render.samples,
         };
         let mut exec = vk::Executor::new(&ctx, &desc)?;
         exec.upload(scene)?;
@@ -383,6 +404,7 @@ impl GpuRenderer {
             algo: plan.algo.clone(),
             width: d.width,
             height: d.height,
+            samples: d.samples,
             device: self.ctx.device_name().to_string(),
             depth_setup: Some(self.depth.name()),
             depth_setup_fallback: self.fallback.clone(),
@@ -509,7 +531,12 @@ impl GpuRenderer {
     pub fn frame(&mut self, plan: &plan::Plan) -> Result<Frame, RenderError> {
         let stats = self.execute(plan)?;
         let images = self.read_back()?;
-        Ok(Frame { images, stats })
+        let coverage = self.exec.coverage().map(<[u8]>::to_vec);
+        Ok(Frame {
+            images,
+            stats,
+            coverage,
+        })
     }
 }
 
@@ -517,6 +544,7 @@ impl GpuRenderer {
 /// shadows too ([`shadow`]).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Frame, RenderError> {
     match &scene.appearance.light {
+        Some(_) if scene.render.samples > 1 => Err(RenderError::Multisampled("shadows ([light])")),
         Some(light) => shadow::render_shadowed(scene, opts, light),
         None => render_opaque(scene, opts),
     }

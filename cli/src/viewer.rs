@@ -143,6 +143,10 @@ pub struct ViewOptions {
     pub validation: bool,
     /// Render this many frames and exit (`PEELTRIM_VIEW_FRAMES`); `None`: interactive.
     pub frames: Option<u32>,
+    /// Samples per pixel of the CSG's frames (`--samples`); `None`: 4 where
+    /// the device supports it and the scene has no light (shadows are
+    /// composited single-sample), else 1.
+    pub samples: Option<u32>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -288,14 +292,32 @@ impl App {
             device: self.opts.device,
             validation: self.opts.validation,
         };
-        let (ctx, presenter) = Presenter::new(&desc, display, handle, [inner.width, inner.height])?;
+        let (ctx, mut presenter) =
+            Presenter::new(&desc, display, handle, [inner.width, inner.height])?;
+        let lit = self.scene.appearance.light.is_some();
+        let samples = match self.opts.samples {
+            Some(n) => {
+                ctx.check_samples(n)?;
+                if n > 1 && lit {
+                    return Err(vk::VkError::Unsupported(format!(
+                        "{n} samples per pixel with the scene's [light]: shadows are \
+                         composited single-sample; use --samples 1"
+                    ))
+                    .into());
+                }
+                n
+            }
+            None if !lit && ctx.supported_samples().contains(&4) => 4,
+            None => 1,
+        };
+        presenter.set_samples(samples);
         let (depth, why) = self.opts.depth.resolve_on(&ctx, self.opts.depth_fallback);
         if let Some(why) = why {
             eprintln!("peeltrim: warning: {why}");
         }
         self.opts.depth = depth;
         eprintln!(
-            "peeltrim view: {} on {}",
+            "peeltrim view: {} on {}, {samples} sample(s) per pixel",
             self.scene.path.display(),
             ctx.device_name()
         );
@@ -443,6 +465,7 @@ impl App {
                 algo: self.algo,
                 loop_counts: LoopCounts::Estimate,
                 internal_depth: self.opts.depth.exec_format().0,
+                samples: gpu.presenter.samples(),
             };
             gpu.csg = Some(CsgScene::from_scene(&gpu.ctx, &self.scene, &desc)?);
             attach = true;
@@ -457,6 +480,17 @@ impl App {
         // The light is world-fixed: its map stays; the pass follows the camera.
         if let (Some(lv), Some(sh)) = (&gpu.light, csg.recorder().shadow_mut()) {
             sh.params = lv.params(&self.scene.camera, (extent[0], extent[1]));
+        }
+        // A multisampled frame draws only the direct path: say so before
+        // acquiring a frame, rather than fail inside it.
+        let ms = gpu.presenter.samples();
+        if ms > 1 && csg.recorder().next_host_path() != Some(vk::embed::HostPath::Direct) {
+            return Err(vk::VkError::Unsupported(format!(
+                "its plan is composited single-sample (no final shade into the \
+                 host's targets), and the view runs {ms} samples per pixel: \
+                 use --samples 1"
+            ))
+            .into());
         }
         let far = if reversed_z { 0.0 } else { 1.0 };
         let bg = self.scene.render.background;
@@ -522,6 +556,16 @@ impl App {
         } else {
             match self.show_csg(size) {
                 Ok(s) => s,
+                // An algorithm this frame cannot draw (a plan it cannot make,
+                // or the composite path at several samples per pixel).
+                Err(ViewerError::Vk(e @ vk::VkError::Unsupported(_))) => {
+                    eprintln!(
+                        "peeltrim: warning: {} cannot draw this scene: {e}",
+                        self.algo
+                    );
+                    self.failed = Some(self.algo);
+                    Presented::Shown
+                }
                 Err(ViewerError::Embed(e @ (EmbedError::Plan(_) | EmbedError::Algo(_)))) => {
                     eprintln!(
                         "peeltrim: warning: {} cannot draw this scene: {e}",

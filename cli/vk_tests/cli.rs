@@ -663,6 +663,8 @@ struct Caps {
     d24s8: bool,
     /// The instance can make X11 surfaces (the viewer's window under xvfb).
     xlib_surface: bool,
+    /// The device runs frames at 4 samples per pixel.
+    four_samples: bool,
 }
 
 fn caps() -> &'static Caps {
@@ -685,6 +687,7 @@ fn caps() -> &'static Caps {
         Caps {
             d24s8: ctx.profile().depth_formats.d24s8,
             xlib_surface,
+            four_samples: ctx.supported_samples().contains(&4),
         }
     })
 }

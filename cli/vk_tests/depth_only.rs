@@ -38,6 +38,7 @@ fn executor(ctx: &peeltrim::vk::Context, scene: &Scene, depth_only: bool) -> Exe
         height: scene.render.height,
         depth_format: DepthFormat::D32S8,
         reversed_z: true,
+        samples: 1,
     };
     let mut profile = *ctx.profile();
     profile.depth_formats.d32 &= depth_only;

@@ -22,6 +22,7 @@ mod kirsch;
 mod lighting;
 mod limits;
 mod many_products;
+mod msaa;
 mod one_submit;
 mod openscad;
 mod openscad_3d;
@@ -132,6 +133,7 @@ fn scene(meshes: Vec<Mesh>) -> Scene {
             width: W,
             height: H,
             background: BG,
+            samples: 1,
         },
         primitives: meshes
             .into_iter()
@@ -214,6 +216,7 @@ fn std_desc() -> ExecDesc {
         height: H,
         depth_format: DepthFormat::D32S8,
         reversed_z: false,
+        samples: 1,
     }
 }
 
@@ -225,6 +228,7 @@ fn scene_desc(sc: &Scene) -> ExecDesc {
         height: sc.render.height,
         depth_format: DepthFormat::D32S8,
         reversed_z: true,
+        samples: 1,
     }
 }
 
@@ -440,6 +444,7 @@ fn peel_loop_stops_after_two_layers() {
         &ctx,
         ExecDesc {
             reversed_z: true,
+            samples: 1,
             ..std_desc()
         },
         &sc,
@@ -486,6 +491,7 @@ fn depth_copies_round_trip() {
     for reversed_z in [false, true] {
         let desc = ExecDesc {
             reversed_z,
+            samples: 1,
             ..std_desc()
         };
         let mut steps = clear_all();
@@ -550,6 +556,7 @@ fn depth_formats_agree() {
             ExecDesc {
                 depth_format,
                 reversed_z,
+                samples: 1,
                 ..std_desc()
             },
             &sc,
@@ -600,6 +607,7 @@ fn paint_write_depth_and_restore() {
         p.output_ds = 1;
         let desc = ExecDesc {
             reversed_z,
+            samples: 1,
             ..std_desc()
         };
         let f = run(&ctx, desc, &sc, &p);

@@ -87,7 +87,7 @@ fn toml_scene_names_a_csg() {
         &run(&["blist", &strict]),
         &[
             "hull.csg:2:3:",
-            "`projection` (a 2D shape or an import) is not supported",
+            "`projection` (it needs the 3D boundary) is not supported",
         ],
     );
     let skip = write(
@@ -99,7 +99,7 @@ fn toml_scene_names_a_csg() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         stderr(&o).contains(
-            "hull.csg:2:3: `projection` (a 2D shape or an import) is not supported and was dropped"
+            "hull.csg:2:3: `projection` (it needs the 3D boundary) is not supported and was dropped"
         ),
         "{}",
         stderr(&o)
@@ -118,9 +118,7 @@ fn bad_models_are_located_errors() {
         ("hull() { difference() { cube(size = 1); sphere(r = 1); } }", &["x.csg:2:12:", "`difference` inside `hull` (line 2)", "not supported", "--skip-unsupported"]),
         ("minkowski() { intersection() { cube(size = 1); sphere(r = 1); } }", &["x.csg:2:17:", "`intersection` inside `minkowski`"]),
         ("import(file = \"a.dxf\");", &["x.csg:2:3:", "`import` of a 2D file"]),
-        ("text(text = \"a\");", &["x.csg:2:3:", "`text`"]),
         ("projection() { cube(size = 1); }", &["x.csg:2:3:", "`projection`"]),
-        ("offset(r = 1) { square(size = 1); }", &["x.csg:2:3:", "`offset`", "2D"]),
         ("cube(size = [1, 2 3]);", &["x.csg:2:21:", "expected `,` or `]`"]),
         (
             "polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [1, 3, 2]]);",
@@ -165,7 +163,7 @@ fn bad_models_are_located_errors() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
         stderr(&o).contains(
-            "skip.csg:2:3: `projection` (a 2D shape or an import) is not supported and was dropped"
+            "skip.csg:2:3: `projection` (it needs the 3D boundary) is not supported and was dropped"
         ),
         "{}",
         stderr(&o)
@@ -297,7 +295,7 @@ fn every_unsupported_node_is_reported_in_file_order() {
     let f = write(
         &d,
         "many.csg",
-        "group() {\n  projection() { cube(size = 1); }\n  group() {\n    text(text = \"a\");\n  }\n  offset(r = 1) { square(size = 1); }\n  cube(size = 1);\n}\n",
+        "group() {\n  projection() { cube(size = 1); }\n  group() {\n    import(file = \"a.dxf\");\n  }\n  hull() { difference() { cube(size = 1); sphere(r = 1); } }\n  cube(size = 1);\n}\n",
     );
     let out = d.join("o");
     let o = run(&[
@@ -312,7 +310,7 @@ fn every_unsupported_node_is_reported_in_file_order() {
         &o,
         &[
             "many.csg:2:3:",
-            "3 nodes are not supported: `projection` (a 2D shape or an import) (line 2), `text` (a 2D shape or an import) (line 4), `offset` (a 2D shape or an import) (line 6)",
+            "3 nodes are not supported: `projection` (it needs the 3D boundary) (line 2), `import` of a 2D file (DXF or SVG) (line 4), `difference` inside `hull` (line 6)",
             "--skip-unsupported",
         ],
     );
@@ -330,11 +328,11 @@ fn every_unsupported_node_is_reported_in_file_order() {
     let e = stderr(&o);
     let at = |s: &str| e.find(s).unwrap_or_else(|| panic!("{s} in {e}"));
     assert!(
-        at("many.csg:2:3: `projection`") < at("many.csg:4:5: `text`"),
+        at("many.csg:2:3: `projection`") < at("many.csg:4:5: `import`"),
         "{e}"
     );
     assert!(
-        at("many.csg:4:5: `text`") < at("many.csg:6:3: `offset`"),
+        at("many.csg:4:5: `import`") < at("many.csg:6:12: `difference`"),
         "{e}"
     );
 }

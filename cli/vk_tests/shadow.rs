@@ -200,6 +200,7 @@ fn embedded_frames_have_the_same_shadows() {
             algo: Algo::CstI,
             loop_counts: LoopCounts::Learn,
             internal_depth: format,
+            samples: 1,
         },
     )
     .unwrap_or_else(|e| panic!("{e}"));

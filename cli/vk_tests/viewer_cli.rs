@@ -86,3 +86,53 @@ fn the_viewer_records_the_csg_into_its_swapchain_frames() {
         assert!(err.contains(" draws |"), "{err}");
     }
 }
+
+/// The viewer draws 4 samples per pixel where the device has them (its
+/// swapchain frames resolved from a multisampled colour and depth), 1 with
+/// `--samples 1`; an algorithm whose plan is composited (blister-paper) is
+/// refused at 4 with a warning and the window keeps running.
+#[test]
+fn the_viewer_antialiases_where_the_device_can() {
+    if !super::require(
+        super::caps().xlib_surface,
+        "X11 surfaces (VK_KHR_xlib_surface)",
+    ) {
+        return;
+    }
+    let four = super::caps().four_samples;
+    let run = |algo: &str, extra: &[&str]| {
+        let out = Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 320x240x24"])
+            .arg(env!("CARGO_BIN_EXE_peeltrim"))
+            .args([
+                "view",
+                &scene("gear.toml"),
+                "--size",
+                "96x80",
+                "--algo",
+                algo,
+            ])
+            .args(extra)
+            .env("PEELTRIM_VALIDATION", "1")
+            .env("PEELTRIM_VIEW_FRAMES", "3")
+            .output()
+            .expect("xvfb-run is installed (tools/setup.sh installs xvfb)");
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{algo} {extra:?}: {err}");
+        assert!(
+            !err.contains("vulkan validation"),
+            "{algo} {extra:?}: {err}"
+        );
+        err
+    };
+    let n = if four { 4 } else { 1 };
+    let err = run("cst-i", &[]);
+    assert!(err.contains(&format!("{n} sample(s) per pixel")), "{err}");
+    let err = run("cst-i", &["--samples", "1"]);
+    assert!(err.contains("1 sample(s) per pixel"), "{err}");
+    if four {
+        let err = run("blister-paper", &[]);
+        assert!(err.contains("cannot draw this scene"), "{err}");
+        assert!(err.contains("--samples 1"), "{err}");
+    }
+}

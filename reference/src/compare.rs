@@ -144,9 +144,82 @@ pub fn compare(a: &Images, b: &Images) -> Result<CompareReport, CompareError> {
     })
 }
 
+/// What `compare` adds for two multisampled renders (each with its
+/// per-pixel coverage, `coverage.png`): the coverage fractions and the
+/// resolved colours. Depth and primitive of the defined sample (sample 0)
+/// are [`compare`]'s metrics on the same images.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SampleReport {
+    /// Largest and mean difference of the coverage fraction (0..1).
+    pub coverage_frac_err_max: f64,
+    pub coverage_frac_err_mean: f64,
+    /// Pixels whose coverage fractions differ by more than 1/8, and their
+    /// fraction of all pixels.
+    pub coverage_off_by_eighth: u64,
+    pub coverage_off_by_eighth_frac: f64,
+    /// Largest and mean difference of a resolved colour channel (0..255).
+    pub color_err_max: u8,
+    pub color_err_mean: f64,
+}
+
+/// Compares `b`'s coverage and resolved colour against `a`'s (`cov_*`: each
+/// pixel's covered samples ×255 over the samples).
+pub fn compare_samples(
+    a: &Images,
+    cov_a: &[u8],
+    b: &Images,
+    cov_b: &[u8],
+) -> Result<SampleReport, CompareError> {
+    if (a.width, a.height) != (b.width, b.height) {
+        return Err(CompareError::SizeMismatch(
+            a.width, a.height, b.width, b.height,
+        ));
+    }
+    let n = a.width as usize * a.height as usize;
+    if [cov_a.len(), cov_b.len(), a.color.len(), b.color.len()] != [n; 4] {
+        return Err(CompareError::BadBuffers(a.width, a.height));
+    }
+    let mut r = SampleReport::default();
+    let (mut cov_sum, mut col_sum) = (0.0, 0.0);
+    for i in 0..n {
+        let e = (cov_a[i] as f64 - cov_b[i] as f64).abs() / 255.0;
+        cov_sum += e;
+        r.coverage_frac_err_max = r.coverage_frac_err_max.max(e);
+        // A byte of rounding beside the 1/8.
+        if e > 0.125 + 1.0 / 255.0 {
+            r.coverage_off_by_eighth += 1;
+        }
+        for c in 0..3 {
+            let d = a.color[i][c].abs_diff(b.color[i][c]);
+            r.color_err_max = r.color_err_max.max(d);
+            col_sum += d as f64;
+        }
+    }
+    if n > 0 {
+        r.coverage_frac_err_mean = cov_sum / n as f64;
+        r.coverage_off_by_eighth_frac = r.coverage_off_by_eighth as f64 / n as f64;
+        r.color_err_mean = col_sum / (3 * n) as f64;
+    }
+    Ok(r)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sample_report_counts_coverage_past_an_eighth() {
+        let a = rect(4, 1, 0, 4, 0, 1, 1.0);
+        let cov_a = [255, 191, 128, 0];
+        let cov_b = [255, 128, 128, 64];
+        let r = compare_samples(&a, &cov_a, &a, &cov_b).unwrap();
+        // 191 → 128 is 1/4 off; 0 → 64 is 1/4 off.
+        assert_eq!(r.coverage_off_by_eighth, 2);
+        assert_eq!(r.coverage_off_by_eighth_frac, 0.5);
+        assert!((r.coverage_frac_err_max - 64.0 / 255.0).abs() < 1e-12);
+        assert_eq!(r.color_err_max, 0);
+        assert!(compare_samples(&a, &cov_a[..3], &a, &cov_b).is_err());
+    }
 
     /// A rectangle `[x0, x1) × [y0, y1)` of prim `id` at depth `z` (left half id,
     /// right half id + 1), on background.

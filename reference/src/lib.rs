@@ -19,5 +19,5 @@ pub use layers::{render_layers, render_layers_read, LayerHit, LayerLimit, LayerS
 /// The BVH lives in [`peeltrim::geom`], shared with the plan builders.
 pub use peeltrim::geom::bvh;
 pub use products_reading::LayerReading;
-pub use raycast::{render, render_with_normals};
+pub use raycast::{render, render_samples, render_with_normals, sample_positions};
 pub use raycast::{Hit, Prepared, GROUP_TOL_REL};

@@ -337,7 +337,35 @@ impl<'a> Prepared<'a> {
     }
 }
 
-/// Renders `scene` at `width × height` with the exact reference.
+/// Vulkan's standard sample locations (specification, "Multisampling",
+/// table "Standard sample locations") within a pixel, in sample order, for
+/// 1, 2, 4 and 8 samples: where a device with `standardSampleLocations`
+/// classifies each sample, so the reference casts its rays there too.
+pub fn sample_positions(samples: u32) -> &'static [(f64, f64)] {
+    match samples {
+        2 => &[(0.75, 0.75), (0.25, 0.25)],
+        4 => &[
+            (0.375, 0.125),
+            (0.875, 0.375),
+            (0.125, 0.625),
+            (0.625, 0.875),
+        ],
+        8 => &[
+            (0.5625, 0.3125),
+            (0.4375, 0.6875),
+            (0.8125, 0.5625),
+            (0.3125, 0.1875),
+            (0.1875, 0.8125),
+            (0.0625, 0.4375),
+            (0.6875, 0.9375),
+            (0.9375, 0.0625),
+        ],
+        _ => &[(0.5, 0.5)],
+    }
+}
+
+/// Renders `scene` at `width × height` with the exact reference, at the
+/// scene's samples per pixel (`[render] samples`).
 pub fn render(scene: &Scene, width: u32, height: u32) -> Images {
     render_with_normals(scene, width, height).0
 }
@@ -345,28 +373,65 @@ pub fn render(scene: &Scene, width: u32, height: u32) -> Images {
 /// [`render`], plus the unit geometric normal of the visible triangle per pixel
 /// (zero for background), row-major like the images.
 pub fn render_with_normals(scene: &Scene, width: u32, height: u32) -> (Images, Vec<[f32; 3]>) {
+    let (img, normals, _) = render_samples(scene, width, height);
+    (img, normals)
+}
+
+/// [`render_with_normals`], plus each pixel's coverage: the samples a ray
+/// hits the solid at, times 255 over the samples, rounded (255 or 0 at one
+/// sample). One ray per sample at [`sample_positions`]: the colour is the
+/// mean of the samples' shaded colours (rounded to the nearest byte, as a
+/// UNORM resolve), depth, primitive and normal those of sample 0, the sample
+/// the GPU's read-back reports (`vk::resolve`).
+pub fn render_samples(scene: &Scene, width: u32, height: u32) -> (Images, Vec<[f32; 3]>, Vec<u8>) {
     let prep = Prepared::new(scene);
     let bg = scene.render.background;
     let background = [bg[0], bg[1], bg[2], 255];
-    type Px = ([u8; 4], f32, u16, [f32; 3]);
+    let positions = sample_positions(scene.render.samples);
+    type Px = ([u8; 4], f32, u16, [f32; 3], u8);
     let rows: Vec<Vec<Px>> = (0..height)
         .into_par_iter()
         .map_init(Scratch::default, |s, y| {
             (0..width)
-                .map(
-                    |x| match prep.cast_with(s, x as f64 + 0.5, y as f64 + 0.5, width, height) {
-                        None => (background, f32::INFINITY, 0, [0.0; 3]),
-                        Some(hit) => {
-                            let cos = hit.normal.dot(hit.dir).abs();
-                            (
-                                shade(hit.rgb, cos),
-                                hit.depth as f32,
-                                (hit.index + 1).min(u16::MAX as u32) as u16,
-                                hit.normal.as_vec3().to_array(),
-                            )
+                .map(|x| {
+                    let mut sum = [0u32; 3];
+                    let mut hits = 0u32;
+                    let mut first = None;
+                    for (i, (sx, sy)) in positions.iter().enumerate() {
+                        let px = x as f64 + sx;
+                        let py = y as f64 + sy;
+                        let (c, d, p, nrm) = match prep.cast_with(s, px, py, width, height) {
+                            None => (background, f32::INFINITY, 0, [0.0; 3]),
+                            Some(hit) => {
+                                hits += 1;
+                                let cos = hit.normal.dot(hit.dir).abs();
+                                (
+                                    shade(hit.rgb, cos),
+                                    hit.depth as f32,
+                                    (hit.index + 1).min(u16::MAX as u32) as u16,
+                                    hit.normal.as_vec3().to_array(),
+                                )
+                            }
+                        };
+                        for (a, v) in sum.iter_mut().zip(c) {
+                            *a += v as u32;
                         }
-                    },
-                )
+                        if i == 0 {
+                            first = Some((d, p, nrm));
+                        }
+                    }
+                    let n = positions.len() as f64;
+                    let mean = |a: u32| (a as f64 / n).round() as u8;
+                    let (d, p, nrm) = first.expect("at least one sample");
+                    let cov = (hits as f64 * 255.0 / n).round() as u8;
+                    (
+                        [mean(sum[0]), mean(sum[1]), mean(sum[2]), 255],
+                        d,
+                        p,
+                        nrm,
+                        cov,
+                    )
+                })
                 .collect()
         })
         .collect();
@@ -379,15 +444,17 @@ pub fn render_with_normals(scene: &Scene, width: u32, height: u32) -> (Images, V
         prim: Vec::with_capacity(n),
     };
     let mut normals = Vec::with_capacity(n);
+    let mut coverage = Vec::with_capacity(n);
     for row in rows {
-        for (c, d, p, nrm) in row {
+        for (c, d, p, nrm, cov) in row {
             img.color.push(c);
             img.depth.push(d);
             img.prim.push(p);
             normals.push(nrm);
+            coverage.push(cov);
         }
     }
-    (img, normals)
+    (img, normals, coverage)
 }
 
 #[cfg(test)]

@@ -64,6 +64,10 @@ pub struct EmbedDesc {
     /// peeltrim's own depth-stencil format (default D32S8; D24S8 where the device
     /// lacks it). Independent of the host's depth format.
     pub internal_depth: vk::DepthFormat,
+    /// Samples per pixel of the host's attachments (and of peeltrim's images);
+    /// 1, 2, 4 or 8 where the device supports it
+    /// ([`Context::supported_samples`]).
+    pub samples: u32,
 }
 
 /// The first counts the embedded frame's data-dependent loops are unrolled to.
@@ -95,6 +99,7 @@ impl Default for EmbedDesc {
             algo: Algo::Goldfeather,
             loop_counts: LoopCounts::Estimate,
             internal_depth: vk::DepthFormat::D32S8,
+            samples: 1,
         }
     }
 }
@@ -205,6 +210,7 @@ impl CsgScene {
                 width: desc.extent[0],
                 height: desc.extent[1],
                 background: [0, 0, 0],
+                samples: desc.samples,
             },
             primitives,
             solids: vec![Solid {
@@ -253,6 +259,7 @@ impl CsgScene {
             height: desc.extent[1],
             depth_format: desc.internal_depth,
             reversed_z: desc.reversed_z,
+            samples: desc.samples,
         };
         let mut embedder = Embedder::new(ctx, &exec_desc, desc.frames_in_flight)?;
         embedder.executor().upload(&scene)?;

@@ -245,11 +245,10 @@ pub fn lower_plan(
     let scissor = |s: &super::Scissor| rects.scissor(s, width, height);
     let (first, _) = reach(&flat, &ties, scissor, images, &KeptImages::new());
     let (later, _) = reach(&flat, &ties, scissor, images, &first.kept);
-    let (mut clears, mut copies) = (0, 0);
+    let (mut clears, mut copies, mut draws) = (0, 0, 0);
     let mut out = Vec::new();
     let mut pass = String::new();
-    let push = |kind, recorded, pass: &String, out: &mut Vec<LoweredDraw>| {
-        let index = out.iter().filter(|d: &&LoweredDraw| d.kind == kind).count();
+    let push = |kind, index, recorded, pass: &String, out: &mut Vec<LoweredDraw>| {
         out.push(LoweredDraw {
             kind,
             index,
@@ -263,7 +262,8 @@ pub fn lower_plan(
             Step::Draw(d) => {
                 let rect = rects.scissor(&d.scissor, width, height);
                 let recorded = describe(&lower(d, false, rect, &ties, &direct));
-                push(StepKind::Draw, recorded, &pass, &mut out);
+                push(StepKind::Draw, draws, recorded, &pass, &mut out);
+                draws += 1;
             }
             Step::Clear(c) => {
                 for r in reach_of::cleared(c, false).iter() {
@@ -272,8 +272,8 @@ pub fn lower_plan(
                         clear_reach(first.clears[clears], width, height),
                         clear_reach(later.clears[clears], width, height)
                     );
+                    push(StepKind::Clear, clears, what, &pass, &mut out);
                     clears += 1;
-                    push(StepKind::Clear, what, &pass, &mut out);
                 }
             }
             Step::CopyTexture { .. }
@@ -284,8 +284,8 @@ pub fn lower_plan(
                     super::print::copy_words(s),
                     rect_words(first.copies[copies], width, height)
                 );
+                push(StepKind::Copy, copies, what, &pass, &mut out);
                 copies += 1;
-                push(StepKind::Copy, what, &pass, &mut out);
             }
             Step::Loop(_) => {}
         }

@@ -225,6 +225,7 @@ pub fn scene(camera: Camera, primitives: Vec<Primitive>, expr: Expr) -> Scene {
             width: 64,
             height: 64,
             background: [10, 20, 30],
+            samples: 1,
         },
         primitives,
         solids: vec![Solid {

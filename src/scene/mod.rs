@@ -182,6 +182,9 @@ pub struct RenderSettings {
     pub height: u32,
     /// Background colour (sRGB) of pixels no solid covers.
     pub background: [u8; 3],
+    /// Samples per pixel (1, 2, 4 or 8; `[render] samples`, `--samples`):
+    /// above 1 the GPU classifies every sample and averages the colour.
+    pub samples: u32,
 }
 
 /// A loaded, validated scene.

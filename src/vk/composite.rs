@@ -117,6 +117,55 @@ pub(crate) fn check_host_formats(
 /// and its one descriptor set (set 0 of `layout`), whose images the caller has
 /// made readable, and sets the viewport to the whole extent and the scissor
 /// (within it). Shared by the composite and the shadow pass (`vk::shadow`).
+/// Points `set` at three sampled images — colour, ids, depth, bindings 0–2,
+/// in the sampled layout — and `sampler` (binding 3): the layout of the
+/// composite and resolve passes.
+///
+/// # Safety
+/// `set`, the views and the sampler are live, and no pending command buffer
+/// uses `set`.
+pub(crate) unsafe fn write_output_set(
+    device: &ash::Device,
+    set: vk::DescriptorSet,
+    views: [vk::ImageView; 3],
+    sampler: vk::Sampler,
+) {
+    let sampled = sync::access(Usage::Sampled).layout;
+    let info = |view| {
+        [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: view,
+            image_layout: sampled,
+        }]
+    };
+    let (ci, pi, di) = (info(views[0]), info(views[1]), info(views[2]));
+    let si = [vk::DescriptorImageInfo {
+        sampler,
+        image_view: vk::ImageView::null(),
+        image_layout: vk::ImageLayout::UNDEFINED,
+    }];
+    let infos: [(vk::DescriptorType, &[vk::DescriptorImageInfo]); 4] = [
+        (vk::DescriptorType::SAMPLED_IMAGE, &ci),
+        (vk::DescriptorType::SAMPLED_IMAGE, &pi),
+        (vk::DescriptorType::SAMPLED_IMAGE, &di),
+        (vk::DescriptorType::SAMPLER, &si),
+    ];
+    let writes: Vec<vk::WriteDescriptorSet<'_>> = infos
+        .iter()
+        .enumerate()
+        .map(|(b, (ty, i))| {
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(b as u32)
+                .descriptor_type(*ty)
+                .image_info(i)
+        })
+        .collect();
+    // SAFETY: the caller's: the set, views and sampler are live and the set
+    // is not in use.
+    unsafe { device.update_descriptor_sets(&writes, &[]) };
+}
+
 pub(crate) fn bind_fullscreen(
     device: &ash::Device,
     cmd: vk::CommandBuffer,
@@ -254,6 +303,8 @@ impl Composite {
                     // Only the depth aspect is written: no stencil attachment.
                     stencil_format: vk::Format::UNDEFINED,
                     layout: self.layout,
+                    samples: 1,
+                    sample_shading: false,
                     blend: None,
                 },
             )
@@ -267,41 +318,11 @@ impl Composite {
         out: &super::exec::Output,
         sampler: vk::Sampler,
     ) {
-        let sampled = sync::access(Usage::Sampled).layout;
-        let info = |view| {
-            [vk::DescriptorImageInfo {
-                sampler: vk::Sampler::null(),
-                image_view: view,
-                image_layout: sampled,
-            }]
-        };
-        let (ci, pi, di) = (info(out.color.1), info(out.prim.1), info(out.depth.1));
-        let si = [vk::DescriptorImageInfo {
-            sampler,
-            image_view: vk::ImageView::null(),
-            image_layout: vk::ImageLayout::UNDEFINED,
-        }];
-        let infos: [(vk::DescriptorType, &[vk::DescriptorImageInfo]); 4] = [
-            (vk::DescriptorType::SAMPLED_IMAGE, &ci),
-            (vk::DescriptorType::SAMPLED_IMAGE, &pi),
-            (vk::DescriptorType::SAMPLED_IMAGE, &di),
-            (vk::DescriptorType::SAMPLER, &si),
-        ];
-        let writes: Vec<vk::WriteDescriptorSet<'_>> = infos
-            .iter()
-            .enumerate()
-            .map(|(b, (ty, i))| {
-                vk::WriteDescriptorSet::default()
-                    .dst_set(self.set)
-                    .dst_binding(b as u32)
-                    .descriptor_type(*ty)
-                    .image_info(i)
-            })
-            .collect();
+        let views = [out.color.1, out.prim.1, out.depth.1];
         // SAFETY: set, views and sampler are live; the set is not in use by a
         // pending command buffer (it changes only with the executor's images,
         // which change only when no frame is pending).
-        unsafe { shared.device.update_descriptor_sets(&writes, &[]) };
+        unsafe { write_output_set(&shared.device, self.set, views, sampler) };
     }
 
     /// Draws into the host's attachments (the caller has made peeltrim's output

@@ -37,7 +37,7 @@ use super::sync::{image_barrier, Access};
 const PROBE_VERT: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/depth_probe.vert.spv"));
 
 /// The probe target's side in pixels.
-const SIDE: u32 = 16;
+pub(crate) const SIDE: u32 = 16;
 
 /// Below this largest difference from the unsnapped plane (depth units) the
 /// rasterizer interpolates from unsnapped vertices: a few f32 roundings of
@@ -97,7 +97,7 @@ pub fn vertices(bits: u32) -> ([[f32; 4]; 3], [[f64; 3]; 3]) {
 
 /// The depth of the plane through `v` at (x, y), and whether (x, y) is at
 /// least `margin` pixels inside the triangle.
-fn plane(v: &[[f64; 3]; 3], x: f64, y: f64, margin: f64) -> (f64, bool) {
+pub(crate) fn plane(v: &[[f64; 3]; 3], x: f64, y: f64, margin: f64) -> (f64, bool) {
     let e = |a: [f64; 3], b: [f64; 3], x: f64, y: f64| {
         (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0])
     };
@@ -143,7 +143,102 @@ pub fn compare(depths: &[f32], bits: u32) -> DepthProbe {
     probe
 }
 
-type Key = (u32, u32, u32, [u8; vk::UUID_SIZE]);
+/// A physical device: vendor, device, driver and pipeline-cache UUID (what a
+/// probe's measurement is kept under for the process).
+pub(crate) type Key = (u32, u32, u32, [u8; vk::UUID_SIZE]);
+
+/// The [`Key`] of `shared`'s physical device.
+pub(crate) fn device_key(shared: &Shared) -> Key {
+    // SAFETY: the physical device belongs to the instance; a plain query.
+    let props = unsafe {
+        shared
+            .instance
+            .get_physical_device_properties(shared.physical)
+    };
+    (
+        props.vendor_id,
+        props.device_id,
+        props.driver_version,
+        props.pipeline_cache_uuid,
+    )
+}
+
+/// The probe target's whole area.
+pub(crate) fn area() -> vk::Rect2D {
+    vk::Rect2D {
+        offset: vk::Offset2D::default(),
+        extent: vk::Extent2D {
+            width: SIDE,
+            height: SIDE,
+        },
+    }
+}
+
+/// Records the probe's viewport and scissor (the whole target) and pushes
+/// its triangle for `bits` subpixel bits (`layout`: 48 bytes of vertex push
+/// constants).
+pub(crate) fn set_triangle(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    layout: vk::PipelineLayout,
+    bits: u32,
+) {
+    let (clip, _) = vertices(bits);
+    let bytes: Vec<u8> = clip
+        .iter()
+        .flatten()
+        .flat_map(|f| f.to_ne_bytes())
+        .collect();
+    let viewport = vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: SIDE as f32,
+        height: SIDE as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    };
+    // SAFETY: recording; viewport and scissor are dynamic in the probes'
+    // pipelines, and `layout` declares the 48 bytes pushed.
+    unsafe {
+        d.cmd_set_viewport(cmd, 0, &[viewport]);
+        d.cmd_set_scissor(cmd, 0, &[area()]);
+        d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::VERTEX, 0, &bytes);
+    }
+}
+
+/// A depth attachment of `view` cleared to 1 on load.
+pub(crate) fn cleared_depth(
+    view: vk::ImageView,
+    store: vk::AttachmentStoreOp,
+) -> vk::RenderingAttachmentInfo<'static> {
+    vk::RenderingAttachmentInfo::default()
+        .image_view(view)
+        .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+        .load_op(vk::AttachmentLoadOp::CLEAR)
+        .store_op(store)
+        .clear_value(vk::ClearValue {
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth: 1.0,
+                stencil: 0,
+            },
+        })
+}
+
+/// The copy of a whole probe image's `aspect` into a buffer.
+pub(crate) fn read_region(aspect: vk::ImageAspectFlags) -> vk::BufferImageCopy {
+    vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: aspect,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
+        .image_extent(vk::Extent3D {
+            width: SIDE,
+            height: SIDE,
+            depth: 1,
+        })
+}
 
 /// Measured once per physical device (vendor, device, driver, pipeline-cache
 /// UUID) and process.
@@ -160,18 +255,7 @@ pub(crate) fn measure(
     let Some(format) = format else {
         return Ok(None);
     };
-    // SAFETY: the physical device belongs to the instance; a plain query.
-    let props = unsafe {
-        shared
-            .instance
-            .get_physical_device_properties(shared.physical)
-    };
-    let key = (
-        props.vendor_id,
-        props.device_id,
-        props.driver_version,
-        props.pipeline_cache_uuid,
-    );
+    let key = device_key(shared);
     let mut measured = MEASURED.lock().unwrap_or_else(|e| e.into_inner());
     if let Some((_, p)) = measured.iter().find(|(k, _)| *k == key) {
         return Ok(Some(*p));
@@ -253,6 +337,8 @@ fn draw(shared: &Arc<Shared>, bits: u32, format: vk::Format) -> Result<Vec<f32>,
                 depth_format: format,
                 stencil_format,
                 layout,
+                samples: 1,
+                sample_shading: false,
                 blend: None,
             },
         );
@@ -308,58 +394,23 @@ fn record_and_read(
         attachment.stage,
         &[image_barrier(undefined, attachment, image.raw, aspect)],
     );
-    let depth = vk::RenderingAttachmentInfo::default()
-        .image_view(image.view)
-        .image_layout(attachment.layout)
-        .load_op(vk::AttachmentLoadOp::CLEAR)
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(vk::ClearValue {
-            depth_stencil: vk::ClearDepthStencilValue {
-                depth: 1.0,
-                stencil: 0,
-            },
-        });
-    let area = vk::Rect2D {
-        offset: vk::Offset2D::default(),
-        extent: vk::Extent2D {
-            width: SIDE,
-            height: SIDE,
-        },
-    };
+    let depth = cleared_depth(image.view, vk::AttachmentStoreOp::STORE);
     let with_stencil = aspect.contains(vk::ImageAspectFlags::STENCIL);
     let ri = vk::RenderingInfo::default()
-        .render_area(area)
+        .render_area(area())
         .layer_count(1)
         .depth_attachment(&depth);
     let ri = match with_stencil {
         true => ri.stencil_attachment(&depth),
         false => ri,
     };
-    let (clip, _) = vertices(bits);
-    let bytes: Vec<u8> = clip
-        .iter()
-        .flatten()
-        .flat_map(|f| f.to_ne_bytes())
-        .collect();
-    // SAFETY: recording; the image is in the attachment layout (barrier above),
-    // the pipeline was made for its format; viewport and scissor cover it.
+    // SAFETY: recording; the image is in the attachment layout (barrier above).
+    unsafe { d.cmd_begin_rendering(cmd, &ri) };
+    set_triangle(d, cmd, layout, bits);
+    // SAFETY: the pipeline was made for the image's format; viewport and
+    // scissor cover it.
     unsafe {
-        d.cmd_begin_rendering(cmd, &ri);
         d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
-        d.cmd_set_viewport(
-            cmd,
-            0,
-            &[vk::Viewport {
-                x: 0.0,
-                y: 0.0,
-                width: SIDE as f32,
-                height: SIDE as f32,
-                min_depth: 0.0,
-                max_depth: 1.0,
-            }],
-        );
-        d.cmd_set_scissor(cmd, 0, &[area]);
-        d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::VERTEX, 0, &bytes);
         d.cmd_draw(cmd, 3, 1, 0, 0);
         d.cmd_end_rendering(cmd);
     }
@@ -370,18 +421,7 @@ fn record_and_read(
         transfer.stage,
         &[image_barrier(attachment, transfer, image.raw, aspect)],
     );
-    let region = vk::BufferImageCopy::default()
-        .image_subresource(vk::ImageSubresourceLayers {
-            aspect_mask: vk::ImageAspectFlags::DEPTH,
-            mip_level: 0,
-            base_array_layer: 0,
-            layer_count: 1,
-        })
-        .image_extent(vk::Extent3D {
-            width: SIDE,
-            height: SIDE,
-            depth: 1,
-        });
+    let region = read_region(vk::ImageAspectFlags::DEPTH);
     // SAFETY: the image is in TRANSFER_SRC_OPTIMAL; the buffer holds SIDE² words.
     unsafe { d.cmd_copy_image_to_buffer(cmd, image.raw, transfer.layout, buffer.raw, &[region]) };
     transfer_to_host_barrier(d, cmd);

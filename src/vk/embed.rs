@@ -41,8 +41,10 @@ use crate::plan::usage::Usage;
 use crate::plan::Plan;
 
 /// The host's attachments for one frame. Both are views of 2D images of
-/// `extent` with one mip level and one layer; see [`Embedder::record`] for the
-/// layouts they must be in.
+/// `extent` with one mip level and one layer, and as many samples per pixel
+/// as the embedder's images (`ExecDesc::samples`, `EmbedDesc::samples`): the
+/// CSG's final shade tests and writes the host's depth per sample, and the
+/// host resolves; see [`Embedder::record`] for the layouts they must be in.
 #[derive(Clone, Copy, Debug)]
 pub struct HostTargets {
     /// A colour view whose format is a float or UNORM/SRGB colour-attachment
@@ -362,6 +364,7 @@ impl Embedder {
                     color: (targets.color_view, targets.color_format),
                     depth: (targets.depth_view, targets.depth_format),
                     srgb: is_srgb(targets.color_format),
+                    samples: d.samples,
                     counts: room.then_some(self.slots[slot].counts.raw),
                     cut_away: &self.cut_away,
                 };
@@ -371,6 +374,15 @@ impl Embedder {
                         .record_unrolled(cmd, plan, &layers, Some((&host, shade)))?;
                 let stats = unrolled.stats.clone();
                 (unrolled, stats)
+            }
+            HostPath::CompositeShadows | HostPath::CompositePlan if d.samples > 1 => {
+                return Err(VkError::Unsupported(format!(
+                    "{} into a host frame of {} samples per pixel: the composite \
+                     (shadows, or a plan that does not end in the final shade: \
+                     blister-paper, CST with trimmed surfaces) reads single-sample \
+                     images; use samples 1 or another algorithm",
+                    plan.algo, d.samples
+                )));
             }
             HostPath::CompositeShadows | HostPath::CompositePlan => {
                 let unrolled = self.exec.record_unrolled(cmd, plan, &layers, None)?;
@@ -397,6 +409,13 @@ impl Embedder {
             host_path: Some(path),
             ..stats
         })
+    }
+
+    /// How [`Embedder::record`] will draw the current plan into the host's
+    /// attachments (`None`: no plan yet). A multisampled embedder records
+    /// only [`HostPath::Direct`] and refuses the composite paths.
+    pub fn next_host_path(&self) -> Option<HostPath> {
+        self.plan.as_ref().map(|p| self.host_path(p))
     }
 
     /// How `record` draws `plan` into the host's attachments.

@@ -16,6 +16,8 @@ pub struct ImageDesc {
     pub format: vk::Format,
     pub extent: [u32; 2],
     pub usage: vk::ImageUsageFlags,
+    /// Samples per pixel (1, 2, 4 or 8).
+    pub samples: u32,
 }
 
 impl ImageDesc {
@@ -24,7 +26,13 @@ impl ImageDesc {
             format,
             extent,
             usage: vk::ImageUsageFlags::empty(),
+            samples: 1,
         }
+    }
+
+    pub fn samples(mut self, samples: u32) -> Self {
+        self.samples = samples;
+        self
     }
 
     pub fn usage(mut self, usage: vk::ImageUsageFlags) -> Self {
@@ -65,7 +73,7 @@ impl Image {
             })
             .mip_levels(1)
             .array_layers(1)
-            .samples(vk::SampleCountFlags::TYPE_1)
+            .samples(super::samples::flag(desc.samples))
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(desc.usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE)

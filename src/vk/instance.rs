@@ -80,6 +80,10 @@ pub(crate) struct Shared {
     /// executors of one context may live on different threads.
     pub queue_lock: Mutex<()>,
     pub limits: vk::PhysicalDeviceLimits,
+    /// `sampleRateShading` is enabled: peeltrim's own devices enable it where
+    /// supported; a host's device ([`Context::from_raw`]) is taken to have it
+    /// enabled where supported (its `# Safety` asks for it).
+    pub sample_rate_shading: bool,
     pub timestamp_valid_bits: u32,
     pub device_name: String,
     /// `None` only while dropping: freed before the device.
@@ -328,6 +332,12 @@ impl Context {
             .dynamic_rendering(true)
             // Lets depth-only fragment shaders ignore the shared vertex outputs.
             .maintenance4(true);
+        // Sample-rate shading where the device has it: multisampled frames
+        // run their depth tests and texture reads once per sample.
+        // SAFETY: `physical` was enumerated from `instance`; a plain query.
+        let supported = unsafe { instance.get_physical_device_features(physical) };
+        let features = vk::PhysicalDeviceFeatures::default()
+            .sample_rate_shading(supported.sample_rate_shading == vk::TRUE);
         let device_extensions: Vec<*const c_char> = if present.is_some() {
             vec![ash::khr::swapchain::NAME.as_ptr()]
         } else {
@@ -336,6 +346,7 @@ impl Context {
         let dci = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_ci)
             .enabled_extension_names(&device_extensions)
+            .enabled_features(&features)
             .push_next(&mut f13);
         // SAFETY: valid create info; dynamicRendering is mandatory in Vulkan 1.3.
         let device = match unsafe { instance.create_device(physical, &dci, None) } {
@@ -453,6 +464,10 @@ impl Context {
                 allocation_sizes: Default::default(),
             });
         let layered = debug.is_some() || !owned;
+        // SAFETY: `physical` belongs to `instance`; a plain query.
+        let sample_rate_shading = unsafe { instance.get_physical_device_features(physical) }
+            .sample_rate_shading
+            == vk::TRUE;
         // Build `Shared` first so its Drop cleans up even if the allocator failed.
         let mut shared = Shared {
             entry,
@@ -465,6 +480,7 @@ impl Context {
             queue,
             queue_lock: Mutex::new(()),
             limits: props.limits,
+            sample_rate_shading,
             timestamp_valid_bits,
             device_name,
             allocator: Mutex::new(None),
@@ -477,10 +493,18 @@ impl Context {
             .get_mut()
             .map_err(|_| VkError::Plan("poisoned".into()))? = Some(allocator);
         let shared = Arc::new(shared);
-        let profile = DeviceProfile::detect(&facts_instance, physical, |bits, format| {
-            let probe = super::depth_probe::measure(&shared, bits, format)?;
-            Ok(probe.is_some_and(|p| p.unsnapped()))
-        })?;
+        let profile = DeviceProfile::detect(
+            &facts_instance,
+            physical,
+            |bits, format| {
+                let probe = super::depth_probe::measure(&shared, bits, format)?;
+                Ok(probe.is_some_and(|p| p.unsnapped()))
+            },
+            |bits, format, samples| {
+                let probe = super::sample_depth_probe::measure(&shared, bits, format, samples)?;
+                Ok(probe.per_sample())
+            },
+        )?;
         Ok(Context { shared, profile })
     }
 
@@ -489,7 +513,9 @@ impl Context {
     /// # Safety
     /// - `instance` was created from `entry` with API version 1.3 or later, and
     ///   `device` from `physical_device` of `instance` with Vulkan 1.3 and the
-    ///   `dynamicRendering` and `maintenance4` features enabled;
+    ///   `dynamicRendering` and `maintenance4` features enabled, and
+    ///   `sampleRateShading` too where the physical device supports it
+    ///   (multisampled embedding, `EmbedDesc::samples`);
     /// - `queue` is a queue of family `queue_family`, which supports graphics;
     /// - the instance, device and queue stay valid until this context and every
     ///   executor made from it are dropped; the context does not destroy them;

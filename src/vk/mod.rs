@@ -35,7 +35,10 @@ pub(crate) mod pipeline;
 pub mod present;
 pub mod profile;
 pub(crate) mod readback;
+pub(crate) mod resolve;
 pub(crate) mod rounding;
+pub mod sample_depth_probe;
+pub(crate) mod samples;
 /// Screen rectangles of scissors, from the plan's passes.
 pub use crate::plan::scissor;
 pub mod shadow;
@@ -54,3 +57,4 @@ pub use host_frame::OffscreenHost;
 pub use instance::{Context, ContextDesc, DeviceChoice};
 pub use profile::{DeviceProfile, ProfileKind};
 pub use rounding::RoundingEmulation;
+pub use samples::SAMPLE_COUNTS;

@@ -123,6 +123,66 @@ impl FragmentKind {
         }
     }
 
+    /// The multisampled variant (`MS`, `shaders/depth_tex.glsl`) of the
+    /// programs that sample a depth texture: each fetch reads the
+    /// invocation's own sample. `None` for those that sample none.
+    fn spirv_ms(self) -> Option<&'static [u8]> {
+        macro_rules! spv {
+            ($f:literal) => {
+                Some(include_bytes!(concat!(env!("OUT_DIR"), "/", $f, ".ms.spv")))
+            };
+        }
+        // The host variants' multisampled twins (`host_ms`, ...).
+        macro_rules! host {
+            ($f:literal) => {
+                Some(include_bytes!(concat!(env!("OUT_DIR"), "/", $f, "_ms.spv")))
+            };
+        }
+        match self {
+            FragmentKind::Peel => spv!("peel.frag"),
+            FragmentKind::PeelShade => spv!("peel_shade.frag"),
+            FragmentKind::PeelTolerant => spv!("peel_tolerant.frag"),
+            FragmentKind::DepthFromTexture => spv!("depth_from_texture.frag"),
+            FragmentKind::ShadeNearDepth => spv!("shade_near_depth.frag"),
+            FragmentKind::NearerThan => spv!("nearer_than.frag"),
+            FragmentKind::BehindThan => spv!("behind_than.frag"),
+            FragmentKind::MergeBehind => spv!("merge_behind.frag"),
+            FragmentKind::MergeBehindExact => spv!("merge_behind_exact.frag"),
+            FragmentKind::ShadeAtDepth => spv!("shade_at_depth.frag"),
+            FragmentKind::DepthAtDepth => spv!("depth_at_depth.frag"),
+            FragmentKind::CopyDepth => spv!("copy_depth.frag"),
+            FragmentKind::DepthFromTextureHost => host!("depth_from_texture.frag.host"),
+            FragmentKind::ShadeNearDepthHost => host!("shade_near_depth.frag.host"),
+            FragmentKind::ShadeNearDepthHostSrgb => host!("shade_near_depth.frag.host_srgb"),
+            FragmentKind::ShadeAtDepthHost => host!("shade_at_depth.frag.host"),
+            FragmentKind::ShadeAtDepthHostSrgb => host!("shade_at_depth.frag.host_srgb"),
+            FragmentKind::ShadeAtDepthHostWrite => host!("shade_at_depth.frag.host_write"),
+            FragmentKind::ShadeAtDepthHostWriteSrgb => {
+                host!("shade_at_depth.frag.host_write_srgb")
+            }
+            _ => None,
+        }
+    }
+
+    /// Whether a multisampled pipeline of the program runs once per sample
+    /// (`sampleShadingEnable`, `minSampleShading` 1): every program whose
+    /// output depends on the fragment's own depth or position — it samples a
+    /// depth texture, writes depth, writes a depth into a texture, or
+    /// discards by depth. The shading programs that only write colour and ids
+    /// run once per pixel; the depth and stencil tests decide per sample
+    /// which samples they reach.
+    pub fn per_sample(self) -> bool {
+        !matches!(
+            self,
+            FragmentKind::None
+                | FragmentKind::Shade
+                | FragmentKind::ShadeHost
+                | FragmentKind::ShadeHostSrgb
+                | FragmentKind::Paint
+                | FragmentKind::Background
+        )
+    }
+
     /// The push-constant fields the program reads beyond `flags`, directly or
     /// as `shaders/draw.glsl`'s flat copies from `mesh.vert` (the table the
     /// recorder skips pushes by; `tests::reads_match_the_shader_sources`
@@ -179,7 +239,12 @@ impl FragmentKind {
         self.reads().prim
     }
 
-    fn spirv(self, normals: bool) -> &'static [u8] {
+    fn spirv(self, normals: bool, ms: bool) -> &'static [u8] {
+        if ms {
+            if let Some(code) = self.spirv_ms() {
+                return code;
+            }
+        }
         if normals {
             return self
                 .spirv_normals()
@@ -240,6 +305,8 @@ pub struct PipelineDesc {
     /// The program's variant that also writes the normal buffer (its last colour
     /// attachment).
     pub normals: bool,
+    /// Samples per pixel of the attachments (1, 2, 4 or 8).
+    pub samples: u32,
 }
 
 /// The depth, stencil and cull state of a draw, in Vulkan's terms: baked into
@@ -382,7 +449,8 @@ pub struct Pipelines {
     vertex: vk::ShaderModule,
     /// `mesh.vert`'s `FLAT` variant, for programs that read no interpolated output.
     vertex_flat: vk::ShaderModule,
-    fragments: HashMap<(FragmentKind, bool), vk::ShaderModule>,
+    /// By program, normals variant and multisampled variant.
+    fragments: HashMap<(FragmentKind, bool, bool), vk::ShaderModule>,
     pub(crate) sampler: vk::Sampler,
     pub(crate) set_layout: vk::DescriptorSetLayout,
     /// Set 1: the camera's uniform buffer.
@@ -523,11 +591,12 @@ impl Pipelines {
         state: Option<&RasterState>,
     ) -> Result<vk::Pipeline, VkError> {
         let t = CpuInstant::now();
-        let key = (desc.fragment, desc.normals);
+        let ms = desc.samples > 1;
+        let key = (desc.fragment, desc.normals, ms);
         let fragment = match self.fragments.get(&key) {
             Some(&m) => m,
             None => {
-                let m = shader_module(&self.shared, desc.fragment.spirv(desc.normals))?;
+                let m = shader_module(&self.shared, desc.fragment.spirv(desc.normals, ms))?;
                 self.fragments.insert(key, m);
                 m
             }
@@ -628,6 +697,8 @@ impl Pipelines {
                 depth_format: ds_format,
                 stencil_format,
                 layout: self.layout,
+                samples: desc.samples,
+                sample_shading: desc.fragment.per_sample(),
                 blend: match desc.fragment {
                     FragmentKind::Accumulate => Some(under_blend()),
                     // Depth and stencil only, in a block with colour
@@ -643,8 +714,8 @@ impl Pipelines {
 
 /// What differs between peeltrim's graphics pipelines (the executor's and the
 /// embedding's composite); [`graphics_pipeline`] fills in the fixed rest:
-/// triangle lists, one dynamic viewport and scissor, filled polygons, one
-/// sample, no blending unless `blend` says, dynamic rendering.
+/// triangle lists, one dynamic viewport and scissor, filled polygons, no
+/// blending unless `blend` says, dynamic rendering.
 pub(crate) struct Graphics<'a> {
     pub stages: &'a [vk::PipelineShaderStageCreateInfo<'a>],
     pub vertex_input: &'a vk::PipelineVertexInputStateCreateInfo<'a>,
@@ -656,6 +727,10 @@ pub(crate) struct Graphics<'a> {
     pub depth_format: vk::Format,
     pub stencil_format: vk::Format,
     pub layout: vk::PipelineLayout,
+    /// Samples per pixel of the attachments.
+    pub samples: u32,
+    /// With `samples` > 1: the fragment program runs once per sample.
+    pub sample_shading: bool,
     /// Blending of every colour attachment and the blend constants (`None`:
     /// no blending, all channels written).
     pub blend: Option<(vk::PipelineColorBlendAttachmentState, [f32; 4])>,
@@ -700,7 +775,9 @@ pub(crate) fn graphics_pipeline(
         .cull_mode(g.cull)
         .line_width(1.0);
     let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        .rasterization_samples(super::samples::flag(g.samples))
+        .sample_shading_enable(g.samples > 1 && g.sample_shading)
+        .min_sample_shading(1.0);
     let (each, constants) = g.blend.unwrap_or((
         vk::PipelineColorBlendAttachmentState::default()
             .blend_enable(false)

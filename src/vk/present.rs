@@ -60,8 +60,13 @@ pub struct Presenter {
     views: Vec<vk::ImageView>,
     /// One per swapchain image: signalled by the copy, waited on by the present.
     copied: Vec<vk::Semaphore>,
-    /// The host's depth buffer, at the swapchain's size.
+    /// The host's depth buffer, at the swapchain's size and `samples`.
     depth: Option<Image>,
+    /// Samples per pixel of the embedded frames ([`Presenter::set_samples`]).
+    samples: u32,
+    /// With `samples` above 1: the multisampled colour attachment the CSG is
+    /// recorded into, resolved into the swapchain image.
+    ms_color: Option<Image>,
     frames: Vec<InFlight>,
     next: usize,
     format: vk::Format,
@@ -111,6 +116,8 @@ impl Presenter {
             views: Vec::new(),
             copied: Vec::new(),
             depth: None,
+            samples: 1,
+            ms_color: None,
             frames: Vec::new(),
             next: 0,
             format: vk::Format::UNDEFINED,
@@ -149,6 +156,22 @@ impl Presenter {
         self.stale = true;
     }
 
+    /// Samples per pixel of the frames [`Presenter::present_recorded`] draws
+    /// (one of `Context::supported_samples`; the embedder's): above 1 the
+    /// host's colour and depth are multisampled and resolved into the
+    /// swapchain image. Rebuilds the images with the swapchain.
+    pub fn set_samples(&mut self, samples: u32) {
+        if samples != self.samples {
+            self.samples = samples;
+            self.stale = true;
+        }
+    }
+
+    /// Samples per pixel of the recorded frames.
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
     fn destroy_swapchain(&mut self) {
         let device = &self.shared.device;
         for s in self.copied.drain(..) {
@@ -163,6 +186,7 @@ impl Presenter {
         }
         self.images.clear();
         self.depth = None;
+        self.ms_color = None;
         if self.swapchain != vk::SwapchainKHR::null() {
             // SAFETY: the device is idle (callers wait), no image is acquired.
             unsafe { self.swapchain_fn.destroy_swapchain(self.swapchain, None) };
@@ -262,12 +286,25 @@ impl Presenter {
             let v = unsafe { device.create_image_view(&vci, None) }.check("vkCreateImageView")?;
             self.views.push(v);
         }
+        let size = [extent.width, extent.height];
         self.depth = Some(Image::new(
             &shared,
             "view depth",
-            ImageDesc::new_2d(host_depth_format(&shared), [extent.width, extent.height])
-                .usage(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT),
+            ImageDesc::new_2d(host_depth_format(&shared), size)
+                .usage(vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT)
+                .samples(self.samples),
         )?);
+        if self.samples > 1 {
+            self.ms_color = Some(Image::new(
+                &shared,
+                "view colour",
+                ImageDesc::new_2d(format.format, size)
+                    .usage(
+                        vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+                    )
+                    .samples(self.samples),
+            )?);
+        }
         self.format = format.format;
         self.stale = false;
         Ok(())
@@ -413,8 +450,14 @@ impl Presenter {
         let cmd = frame.submit.cmd;
         frame.submit.begin(cmd, true)?;
         let extent = self.extent;
+        // Multisampled: the CSG into the presenter's own colour, resolved
+        // into the swapchain image below.
+        let target = match &self.ms_color {
+            Some(ms) => (ms.raw, ms.view),
+            None => (image, view),
+        };
         let att = HostAttachments {
-            color: (image, view, self.format),
+            color: (target.0, target.1, self.format),
             depth,
             extent,
         };
@@ -427,19 +470,24 @@ impl Presenter {
         // for that many.
         let stats =
             unsafe { record_host_frame(device, cmd, &att, background, far_depth, embedder) }?;
-        let attach = COLOR_ATTACHMENT.stage;
         let present = super::sync::Access {
             stage: vk::PipelineStageFlags::BOTTOM_OF_PIPE,
             access: vk::AccessFlags::empty(),
             layout: vk::ImageLayout::PRESENT_SRC_KHR,
         };
-        let to_present = super::sync::image_barrier(
-            COLOR_ATTACHMENT,
-            present,
-            image,
-            vk::ImageAspectFlags::COLOR,
-        );
-        submit::image_barriers(device, cmd, attach, present.stage, &[to_present]);
+        let written = match &self.ms_color {
+            Some(ms) => {
+                resolve_into(device, cmd, ms, image, extent);
+                TRANSFER_DST
+            }
+            None => COLOR_ATTACHMENT,
+        };
+        // The acquire is waited for where the swapchain image is first
+        // touched: the colour pass, or the resolve's barrier from that stage.
+        let attach = COLOR_ATTACHMENT.stage;
+        let to_present =
+            super::sync::image_barrier(written, present, image, vk::ImageAspectFlags::COLOR);
+        submit::image_barriers(device, cmd, written.stage, present.stage, &[to_present]);
         frame.submit.end(cmd)?;
         let copied = self.copied[index];
         frame
@@ -617,6 +665,74 @@ fn pick_format(formats: &[vk::SurfaceFormatKHR]) -> Option<vk::SurfaceFormatKHR>
     [vk::Format::B8G8R8A8_UNORM, vk::Format::R8G8B8A8_UNORM]
         .into_iter()
         .find_map(|want| formats.iter().find(|f| f.format == want).copied())
+}
+
+/// The swapchain image's state after a resolve wrote it.
+const TRANSFER_DST: super::sync::Access = super::sync::Access {
+    stage: vk::PipelineStageFlags::TRANSFER,
+    access: vk::AccessFlags::TRANSFER_WRITE,
+    layout: vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+};
+
+/// Records the resolve (the samples averaged, `vkCmdResolveImage`) of the
+/// multisampled colour `ms`, left as a colour attachment by the frame, into
+/// swapchain image `image` (from `UNDEFINED`; left in `TRANSFER_DST`).
+fn resolve_into(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    ms: &Image,
+    image: vk::Image,
+    extent: vk::Extent2D,
+) {
+    let color = vk::ImageAspectFlags::COLOR;
+    let src = super::sync::Access {
+        stage: vk::PipelineStageFlags::TRANSFER,
+        access: vk::AccessFlags::TRANSFER_READ,
+        layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+    };
+    let undefined = super::sync::Access {
+        stage: vk::PipelineStageFlags::COLOR_ATTACHMENT_OUTPUT,
+        access: vk::AccessFlags::empty(),
+        layout: vk::ImageLayout::UNDEFINED,
+    };
+    let barriers = [
+        super::sync::image_barrier(COLOR_ATTACHMENT, src, ms.raw, color),
+        super::sync::image_barrier(undefined, TRANSFER_DST, image, color),
+    ];
+    submit::image_barriers(
+        device,
+        cmd,
+        COLOR_ATTACHMENT.stage,
+        vk::PipelineStageFlags::TRANSFER,
+        &barriers,
+    );
+    let layers = vk::ImageSubresourceLayers {
+        aspect_mask: color,
+        mip_level: 0,
+        base_array_layer: 0,
+        layer_count: 1,
+    };
+    let region = vk::ImageResolve::default()
+        .src_subresource(layers)
+        .dst_subresource(layers)
+        .extent(vk::Extent3D {
+            width: extent.width,
+            height: extent.height,
+            depth: 1,
+        });
+    // SAFETY: recording outside rendering; both images are live, of one
+    // format and size, in the layouts the barriers above set; the swapchain
+    // image has TRANSFER_DST usage (`rebuild`).
+    unsafe {
+        device.cmd_resolve_image(
+            cmd,
+            ms.raw,
+            src.layout,
+            image,
+            TRANSFER_DST.layout,
+            &[region],
+        )
+    };
 }
 
 impl Drop for Presenter {

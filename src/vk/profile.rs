@@ -101,6 +101,10 @@ pub struct DeviceFacts {
     pub subpixel_bits: u32,
     /// The depth-stencil formats the executor can use.
     pub depth_formats: DepthFormats,
+    /// Under sample shading `gl_FragCoord.z` is the sample's own depth, as
+    /// measured by the probe draw (`vk::sample_depth_probe`); `false` where
+    /// the device cannot multisample at all.
+    pub sample_depth: bool,
 }
 
 /// Every fact and workaround that changes a plan or a recording, set once
@@ -131,6 +135,15 @@ pub struct DeviceProfile {
     pub frame_timestamps: FrameTimestamps,
     /// The depth formats the device can use.
     pub depth_formats: DepthFormats,
+    /// A program run once per sample reads the sample's own depth in
+    /// `gl_FragCoord.z` (measured, `vk::sample_depth_probe`): what every
+    /// multisampled frame needs, its per-sample peel, parity and tie tests
+    /// comparing that depth with the same sample's depth textures. The
+    /// Vulkan specification leaves open where z is interpolated under sample
+    /// shading; SwiftShader gives every sample sample 0's depth, and
+    /// peeltrim runs only single-sample frames there
+    /// ([`super::Context::check_samples`]).
+    pub sample_depth: bool,
 }
 
 impl DeviceProfile {
@@ -146,6 +159,7 @@ impl DeviceProfile {
             clears: ClearMode::LoadOp,
             frame_timestamps: FrameTimestamps::Outside,
             depth_formats: facts.depth_formats,
+            sample_depth: facts.sample_depth,
         };
         match (cpu, emulation) {
             (true, _) => DeviceProfile {
@@ -174,6 +188,7 @@ impl DeviceProfile {
             clears: ClearMode::LoadOp,
             frame_timestamps: FrameTimestamps::Outside,
             depth_formats: self.depth_formats,
+            sample_depth: self.sample_depth,
         }
     }
 
@@ -185,10 +200,16 @@ impl DeviceProfile {
     /// GPUs are). `unsnapped_depth` measures the device's depth interpolation
     /// (`vk::depth_probe`; given its subpixel bits and a D32 format it can
     /// draw into); it is not called under the hardware choice, which snaps.
+    /// `sample_depth` measures where a program run once per sample reads its
+    /// depth (`vk::sample_depth_probe`; given the subpixel bits, the D32
+    /// format and the smallest sample count above 1 that the device's
+    /// framebuffers have); it is called only where the device has
+    /// `sampleRateShading` and such a count, whatever the choice.
     pub fn detect(
         instance: &ash::Instance,
         physical: vk::PhysicalDevice,
         unsnapped_depth: impl FnOnce(u32, Option<vk::Format>) -> Result<bool, VkError>,
+        sample_depth: impl FnOnce(u32, vk::Format, u32) -> Result<bool, VkError>,
     ) -> Result<DeviceProfile, VkError> {
         let choice = ProfileChoice::from_env()?;
         // SAFETY: `physical` belongs to `instance`; plain queries.
@@ -222,11 +243,21 @@ impl DeviceProfile {
             ProfileChoice::Hardware => false,
             ProfileChoice::Device => unsnapped_depth(subpixel_bits, probe_format)?,
         };
+        let multisampled = super::sample_depth_probe::smallest_count(&props.limits);
+        // SAFETY: as above.
+        let features = unsafe { instance.get_physical_device_features(physical) };
+        let sample_depth = match (probe_format, multisampled) {
+            (Some(format), Some(n)) if features.sample_rate_shading == vk::TRUE => {
+                sample_depth(subpixel_bits, format, n)?
+            }
+            _ => false,
+        };
         let facts = DeviceFacts {
             cpu: props.device_type == vk::PhysicalDeviceType::CPU,
             unsnapped_depth,
             subpixel_bits,
             depth_formats,
+            sample_depth,
         };
         Ok(DeviceProfile::from_facts(facts, choice))
     }
@@ -267,6 +298,7 @@ mod tests {
             unsnapped_depth: cpu,
             subpixel_bits: 8,
             depth_formats: ALL,
+            sample_depth: true,
         }
     }
 

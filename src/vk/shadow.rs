@@ -235,6 +235,8 @@ impl ShadowPass {
                     depth_format: vk::Format::UNDEFINED,
                     stencil_format: vk::Format::UNDEFINED,
                     layout: self.layout,
+                    samples: 1,
+                    sample_shading: false,
                     blend: Some((one, [keep; 4])),
                 },
             )

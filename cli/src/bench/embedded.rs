@@ -83,6 +83,7 @@ pub fn measure(
         // The standalone path learns its loop counts too: equal work.
         loop_counts: LoopCounts::Learn,
         internal_depth,
+        samples: scene.render.samples,
     };
     let ctx = gpu.context().clone();
     let mut csg = CsgScene::from_scene(&ctx, scene, &desc).map_err(|e| e.to_string())?;

@@ -32,7 +32,7 @@ use crate::render::{DepthSetup, FrameStats, GpuRenderer};
 use peeltrim::plan::{self, Algo, Prepared};
 use peeltrim::scene::{self, LoadOptions, Scene};
 use peeltrim::vk::DeviceChoice;
-use peeltrim_reference::compare::{compare, CompareReport};
+use peeltrim_reference::compare::{compare, compare_samples, CompareReport, SampleReport};
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -65,6 +65,8 @@ pub struct BenchConfig {
     /// `--embedded`: also time each GPU run through the embedding path
     /// ([`embedded`]).
     pub embedded: bool,
+    /// `--samples`: samples per pixel of every frame (else each scene's own).
+    pub samples: Option<u32>,
 }
 
 /// One benchmark run: one scene, size, algorithm and depth set-up.
@@ -76,6 +78,8 @@ pub struct Record {
     pub prims: usize,
     pub width: u32,
     pub height: u32,
+    /// Samples per pixel (`--samples`).
+    pub samples: u32,
     pub algo: String,
     pub depth_setup: String,
     /// Why the requested set-up was replaced by D24S8, if it was.
@@ -124,6 +128,10 @@ pub struct Record {
     pub per_pass: Option<Vec<peeltrim::vk::PassStats>>,
     /// Error against the reference (the `compare` report).
     pub error: Option<CompareReport>,
+    /// With samples above 1: the coverage fractions and resolved colours
+    /// against the reference's (`compare_samples`).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub coverage: Option<SampleReport>,
     /// Set when the run could not be made (e.g. too many products); other
     /// figures are then zero.
     pub failure: Option<String>,
@@ -167,6 +175,7 @@ impl Record {
             prims: 0,
             width: 0,
             height: 0,
+            samples: 1,
             algo: algo.to_string(),
             depth_setup: depth.to_string(),
             depth_setup_fallback: None,
@@ -192,6 +201,7 @@ impl Record {
             counts: None,
             per_pass: None,
             error: None,
+            coverage: None,
             failure: None,
             estimate: None,
             skipped: None,
@@ -284,7 +294,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
     let mut records = Vec::new();
     for bs in scenes {
         for &(w, h) in &cfg.sizes {
-            let scene = scene::load(
+            let mut scene = scene::load(
                 &crate::scad::csg_for(&bs.path).map_err(BenchError::Other)?,
                 &LoadOptions { size: Some((w, h)) },
             )
@@ -292,12 +302,18 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 path: bs.path.clone(),
                 source,
             })?;
+            if let Some(n) = cfg.samples {
+                scene.render.samples = n;
+            }
             let label = scene_label(&bs.path);
             bar.set_message(format!("{label} {w}x{h}: reference"));
             crate::render::check_frame_budget(w, h, false)
                 .map_err(|e| BenchError::Other(format!("{}: {e}", bs.path.display())))?;
             let t = Instant::now();
-            let reference = peeltrim_reference::render(&scene, w, h);
+            // At the scene's samples: the colour their mean, depth and
+            // primitive sample 0's, and each pixel's coverage.
+            let (reference, _, reference_coverage) =
+                peeltrim_reference::render_samples(&scene, w, h);
             let ref_ms = t.elapsed().as_secs_f64() * 1e3;
             bar.inc(1);
             let base = |algo: &str, depth: &str| Record {
@@ -307,6 +323,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 prims: scene.primitives.iter().filter(|p| p.used).count(),
                 width: w,
                 height: h,
+                samples: scene.render.samples,
                 ..Record::blank(algo, depth)
             };
             if cfg.algos.contains(&Algo::Reference) {
@@ -361,6 +378,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
                 prep: &prep,
                 costs: costs.as_ref(),
                 reference: &reference,
+                reference_coverage: &reference_coverage,
             };
             let timing = rounds::timing(
                 gpu_algos.len(),
@@ -497,6 +515,9 @@ struct RunSetup<'a> {
     /// For the estimate (`None`: `--max-est-s 0`, nothing estimated).
     costs: Option<&'a estimate::SceneCosts>,
     reference: &'a Images,
+    /// The reference's coverage per pixel (covered samples ×255 over the
+    /// samples).
+    reference_coverage: &'a [u8],
 }
 
 /// Why a run has no figures.
@@ -639,6 +660,14 @@ fn finish(
     // scissors grown by the move replays uncut), so an image read after
     // them would not check what was timed.
     let images = gpu.read_back().map_err(|e| e.to_string())?;
+    // Multisampled: the coverage fractions against the reference's.
+    let coverage = match gpu.executor().coverage() {
+        Some(cov) => Some(
+            compare_samples(reference, setup.reference_coverage, &images, cov)
+                .map_err(|e| e.to_string())?,
+        ),
+        None => None,
+    };
     let replayed = frames.iter().filter(|f| f.exec.record_ms == 0.0).count() as u32;
     // The per-pass GPU times, from one frame with a timestamp at every pass.
     let per_pass = match frames.is_empty() {
@@ -720,6 +749,7 @@ fn finish(
         prims: 0,
         width: images.width,
         height: images.height,
+        samples: scene.render.samples,
         algo: algo.name().into(),
         depth_setup: gpu.depth_setup().name().into(),
         depth_setup_fallback: gpu.depth_setup_fallback(),
@@ -746,6 +776,7 @@ fn finish(
         counts: Some(counts),
         per_pass,
         error: Some(error),
+        coverage,
         failure: None,
         estimate: est,
         skipped: None,

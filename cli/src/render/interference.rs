@@ -239,6 +239,7 @@ fn render_interference_with(
     exec.counts.submits += inter.submits;
     exec.cpu_ms = t.elapsed().as_secs_f64() * 1e3;
     let frame = Frame {
+        coverage: None,
         images: Images {
             width: w,
             height: h,
@@ -250,6 +251,7 @@ fn render_interference_with(
             algo: opts.algo.name().to_string(),
             width: w,
             height: h,
+            samples: 1,
             device: gpu.device_name(),
             depth_setup: Some(gpu.depth_setup().name()),
             exec,

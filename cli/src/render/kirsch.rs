@@ -118,7 +118,11 @@ pub(super) fn render_layered(
     stats.layers = Some(layer_stats.clone());
     let mut normals = normals.into_iter().map(Some);
     Ok(LayeredFrame {
-        frame: Frame { images, stats },
+        frame: Frame {
+            images,
+            stats,
+            coverage: None,
+        },
         layers: layers
             .into_iter()
             .map(|images| SolidLayer {

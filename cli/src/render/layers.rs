@@ -241,6 +241,11 @@ pub fn render_layered_in(
     opts: &RenderOptions,
     lopts: &LayerOptions,
 ) -> Result<LayeredFrame, RenderError> {
+    if scene.render.samples > 1 {
+        return Err(RenderError::Multisampled(
+            "layers, transparency, highlight, interference and styles",
+        ));
+    }
     if opts.algo != Algo::Reference && super::interference::handles(scene, lopts) {
         return super::interference::layered_frame(session, scene, opts, lopts);
     }
@@ -328,7 +333,14 @@ fn render_layered_gpu(
                 ..c.first
             };
             let stats = FrameStats::default();
-            (c.layers, Frame { images, stats })
+            (
+                c.layers,
+                Frame {
+                    images,
+                    stats,
+                    coverage: None,
+                },
+            )
         }
         None => cpu_composite(gpu, scene, opts, variant, limit)?,
     };
@@ -341,6 +353,7 @@ fn render_layered_gpu(
         algo: opts.algo.name().to_string(),
         width: scene.render.width,
         height: scene.render.height,
+        samples: scene.render.samples,
         device: gpu.device_name(),
         depth_setup: Some(gpu.depth_setup().name()),
         stencil_bits: frame.stats.stencil_bits,
@@ -426,7 +439,11 @@ fn cpu_composite(
     let frame = if let (Some(plan), Some(images)) = (&opaque, peeled.after.take()) {
         // Opaque: the image `render` makes, unchanged, in the layers' submission.
         let stats = gpu.frame_stats(plan, ExecStats::default());
-        Frame { images, stats }
+        Frame {
+            images,
+            stats,
+            coverage: None,
+        }
     } else {
         let n = scene.render.width as usize * scene.render.height as usize;
         let bg = scene.render.background;
@@ -444,6 +461,7 @@ fn cpu_composite(
             .collect();
         let first = peeled.layers.first();
         Frame {
+            coverage: None,
             images: Images {
                 width: scene.render.width,
                 height: scene.render.height,
@@ -481,6 +499,7 @@ fn render_layered_reference(
         let first = stack.layers.first();
         let n = w as usize * h as usize;
         Frame {
+            coverage: None,
             images: Images {
                 width: w,
                 height: h,

@@ -250,6 +250,7 @@ impl GpuShadows {
                 height: size,
                 depth_format,
                 reversed_z,
+                samples: 1,
             },
         )?;
         map.upload(&ls)?;
@@ -486,7 +487,14 @@ pub fn gpu_shadowed(
         return Err(RenderError::Validation(msgs));
     }
     let classes = classify(&images.prim, &mask);
-    Ok((Frame { images, stats }, classes))
+    Ok((
+        Frame {
+            images,
+            stats,
+            coverage: None,
+        },
+        classes,
+    ))
 }
 
 /// One frame of `scene` lit by `light`, shadows included: the reference casts

@@ -48,46 +48,75 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
             true => Region::Union(all.clone()),
             false => Region::Intersection(pos.clone()),
         };
-        steps.push(Step::Pass("layer".into()));
-        steps.push(Step::Clear(Clear::Texture {
-            tex: PREV,
-            depth: 0.0,
-        }));
-        let mut draws = Vec::new();
-        for (meshes, cull) in [(pos, Cull::Back), (neg, Cull::Front)] {
-            if meshes.is_empty() {
-                continue;
-            }
-            let peel = Fragment::Peel {
-                prev: PREV,
-                out: CUR,
-                shade: false,
-            };
-            let geometry = Geometry::Meshes(meshes.clone());
-            let scissor = match &region {
-                Region::Union(_) => Scissor::BoundsOf(meshes),
-                Region::Intersection(inside) => Scissor::Overlap {
-                    of: meshes,
-                    and: inside.clone(),
-                },
-            };
-            draws.push(into_surface(geometry, scissor, cull, peel, true));
-        }
-        // The surface image starts as a copy of the output: its depth is
-        // the bound, its stencil 0 (this plan never writes the output's).
-        let mut head = peel_head(draws);
-        head[1] = Step::CopyDepthBound {
-            src: OUTPUT,
-            dst: SURFACE,
+        // The first layer is the nearest face: no previous layer to peel
+        // behind, so it runs once before the loop and its draws only write
+        // their depth (a peel test would pass everywhere, at a texture read
+        // per fragment); the loop peels behind it.
+        // After the first layer, a product of one positive primitive (the
+        // eye outside it, its faces whole) is resolved wherever no
+        // complemented primitive reaches: its first layer there is the
+        // positive's nearest front face. The later layers are cut to the
+        // complements' rectangle.
+        let single = match pos[..] {
+            [x] if !prep.eye_inside[x as usize] && !prep.near_cut[x as usize] => Some(x),
+            _ => None,
         };
-        let mut tail = vec![Step::CopyTexture {
+        let later = match single {
+            Some(inside) => Region::Holes {
+                inside,
+                holes: neg.clone(),
+            },
+            None => region.clone(),
+        };
+        let layer = |first: bool, region: &Region| {
+            let mut draws = Vec::new();
+            for (meshes, cull) in [(&pos, Cull::Back), (&neg, Cull::Front)] {
+                if meshes.is_empty() {
+                    continue;
+                }
+                let fragment = match first {
+                    true => Fragment::WriteDepth { out: CUR },
+                    false => Fragment::Peel {
+                        prev: PREV,
+                        out: CUR,
+                        shade: false,
+                    },
+                };
+                let geometry = Geometry::Meshes(meshes.clone());
+                let scissor = region.cut_all(meshes);
+                draws.push(into_surface(geometry, scissor, cull, fragment, !first));
+            }
+            // The surface image starts as a copy of the output: its depth is
+            // the bound, its stencil 0 (this plan never writes the output's).
+            let mut head = peel_head(draws);
+            head[1] = Step::CopyDepthBound {
+                src: OUTPUT,
+                dst: SURFACE,
+            };
+            head
+        };
+        let tail = |region: &Region| {
+            let mut tail = vec![Step::CopyTexture {
+                src: CUR,
+                dst: SURF,
+            }];
+            tail.extend(clip_steps_in(p, region, opts.eps, &prep.eye_inside));
+            tail.extend(merge_steps_in(region));
+            tail
+        };
+        steps.extend(layer(true, &region));
+        steps.extend(tail(&region));
+        steps.push(Step::CopyTexture {
             src: CUR,
-            dst: SURF,
-        }];
-        tail.extend(clip_steps_in(p, &region, opts.eps, &prep.eye_inside));
-        tail.extend(merge_steps_in(&region));
+            dst: PREV,
+        });
         steps.push(super::super::common::peel_loop(
-            prep, &all, head, tail, CUR, PREV,
+            prep,
+            &all,
+            layer(false, &later),
+            tail(&later),
+            CUR,
+            PREV,
         ));
     }
     steps.extend(direct);

@@ -403,6 +403,15 @@ pub(crate) fn clip_steps(
 pub(crate) enum Region {
     Union(Vec<MeshId>),
     Intersection(Vec<MeshId>),
+    /// Within `inside`'s rectangle and the rectangle of all of `holes`: the
+    /// pixels where a product of one positive primitive `inside` and
+    /// complemented `holes` can stay unresolved after its first layer
+    /// (layered Goldfeather: elsewhere the first layer is `inside`'s nearest
+    /// front face, which no hole reaches).
+    Holes {
+        inside: MeshId,
+        holes: Vec<MeshId>,
+    },
 }
 
 impl Region {
@@ -413,6 +422,25 @@ impl Region {
             Region::Intersection(ms) => Scissor::Overlap {
                 of: ms[..1].to_vec(),
                 and: ms[1..].to_vec(),
+            },
+            Region::Holes { inside, holes } => Scissor::Overlap {
+                of: holes.clone(),
+                and: vec![*inside],
+            },
+        }
+    }
+
+    /// The rectangle of `meshes` cut to the region.
+    pub(crate) fn cut_all(&self, meshes: &[MeshId]) -> Scissor {
+        match self {
+            Region::Union(_) => Scissor::BoundsOf(meshes.to_vec()),
+            Region::Intersection(inside) => Scissor::Overlap {
+                of: meshes.to_vec(),
+                and: inside.clone(),
+            },
+            Region::Holes { holes, .. } => Scissor::Within {
+                meshes: meshes.to_vec(),
+                within: holes.clone(),
             },
         }
     }
@@ -429,6 +457,7 @@ impl Region {
                 of: vec![m],
                 and: ms.clone(),
             },
+            Region::Holes { .. } => self.cut_all(&[m]),
         }
     }
 }
@@ -683,6 +712,42 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn layered_cuts_its_later_layers_to_the_holes() {
+        let scene = block_minus_spheres(4);
+        let prep = Prepared::new(&scene).unwrap();
+        let l = layered::plan(&prep, &ProductOptions::default()).unwrap();
+        let peel_scissors = |steps: &[Step]| -> Vec<Scissor> {
+            steps
+                .iter()
+                .filter_map(|s| match s {
+                    Step::Draw(d) if d.ds == SURFACE && d.depth.write && d.stencil.is_none() => {
+                        Some(d.scissor.clone())
+                    }
+                    _ => None,
+                })
+                .collect()
+        };
+        // The first layer: within the block's rectangle.
+        let first = peel_scissors(&l.steps);
+        assert!(first.len() >= 2, "{first:?}");
+        assert!(
+            matches!(&first[0], Scissor::Overlap { and, .. } if and == &vec![0]),
+            "{first:?}"
+        );
+        // The loop: within the spheres' rectangle, the block resolved
+        // everywhere else by its first layer.
+        let lp = l.loops().next().expect("a peel loop");
+        let later = peel_scissors(&lp.head);
+        let holes: Vec<MeshId> = (1..=4).collect();
+        assert!(
+            later
+                .iter()
+                .all(|s| matches!(s, Scissor::Within { within, .. } if within == &holes)),
+            "{later:?}"
+        );
+    }
+
+    #[test]
     fn layered_is_kn_and_goldfeather_is_n_squared() {
         let mut rows = Vec::new();
         for n in [4u32, 8, 16, 32] {
@@ -696,8 +761,12 @@ pub(crate) mod tests {
             assert!(!g.steps.iter().any(|s| matches!(s, Step::Loop(_))));
             let lits = n as u64 + 1;
             assert_eq!(gc.mesh_draws, lits * lits + prep.solid_meshes.len() as u64);
-            // Layered: one layer (loop body counted once) draws every mesh twice.
-            assert_eq!(lc.mesh_draws, 2 + lits + prep.solid_meshes.len() as u64);
+            // Layered: the first layer, then the loop body counted once: each
+            // draws the layer (2 draws) and clips it against every literal.
+            assert_eq!(
+                lc.mesh_draws,
+                2 * (2 + lits) + prep.solid_meshes.len() as u64
+            );
             rows.push((n, gc.triangles, lc.triangles));
         }
         // Triangles per frame grow quadratically for Goldfeather, linearly per

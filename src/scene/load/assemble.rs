@@ -348,7 +348,15 @@ impl Loader<'_> {
                 },
                 |c| c.0,
             ),
+            samples: r.and_then(|r| r.0.samples).unwrap_or(1),
         };
+        if ![1, 2, 4, 8].contains(&render.samples) {
+            return Err(self.invalid(
+                r.and_then(|r| r.1),
+                "render: samples",
+                format!("{} is not a sample count: use 1, 2, 4 or 8", render.samples),
+            ));
+        }
         for (k, v) in [("width", render.width), ("height", render.height)] {
             if v == 0 || v > MAX_SIZE {
                 return Err(self.invalid(

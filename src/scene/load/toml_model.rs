@@ -68,6 +68,8 @@ pub(super) struct RenderT {
     pub(super) width: Option<u32>,
     pub(super) height: Option<u32>,
     pub(super) background: Option<Color>,
+    /// Samples per pixel: 1, 2, 4 or 8.
+    pub(super) samples: Option<u32>,
     pub(super) alpha: Option<f64>,
     pub(super) interference: Option<bool>,
     pub(super) style: Option<String>,

@@ -28,6 +28,7 @@ use glam::{DAffine2, DMat4, DVec2, DVec3};
 
 use super::args::{self, Args};
 use super::extrude::{self, Extents, Op2, Region};
+use super::outline;
 use super::parse::{Node, Tree, Value, ValueKind};
 use super::pieces::{self, Piece};
 use super::tessellate::{self, Resolution, F_MINIMUM};
@@ -76,6 +77,8 @@ enum Kind {
     Polygon,
     LinearExtrude,
     RotateExtrude,
+    Text,
+    Offset,
     Hull,
     Minkowski,
     Resize,
@@ -99,6 +102,8 @@ fn kind(name: &str) -> Option<Kind> {
         "polygon" => Kind::Polygon,
         "linear_extrude" => Kind::LinearExtrude,
         "rotate_extrude" => Kind::RotateExtrude,
+        "text" => Kind::Text,
+        "offset" => Kind::Offset,
         "hull" => Kind::Hull,
         "minkowski" => Kind::Minkowski,
         "resize" => Kind::Resize,
@@ -108,11 +113,17 @@ fn kind(name: &str) -> Option<Kind> {
     })
 }
 
-const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render, 3D hull, minkowski and resize, import of STL/OFF, surface";
-const TWO_D: &[&str] = &["text", "offset", "projection"];
+const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, hull, minkowski, resize, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render, import of STL/OFF, surface";
+const TWO_D: &[&str] = &["projection"];
 
 fn is_primitive(k: Kind) -> bool {
-    is_3d_primitive(k) || is_2d_primitive(k)
+    is_3d_primitive(k) || is_2d_primitive(k) || is_outline(k)
+}
+
+/// 2D nodes whose outline is evaluated from their children (`super::outline`)
+/// and extruded as one primitive.
+fn is_outline(k: Kind) -> bool {
+    matches!(k, Kind::Offset | Kind::Hull | Kind::Minkowski)
 }
 
 fn is_3d_primitive(k: Kind) -> bool {
@@ -133,7 +144,7 @@ fn is_evaluated(k: Kind) -> bool {
 }
 
 fn is_2d_primitive(k: Kind) -> bool {
-    matches!(k, Kind::Circle | Kind::Square | Kind::Polygon)
+    matches!(k, Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text)
 }
 
 fn is_extrusion(k: Kind) -> bool {
@@ -195,19 +206,23 @@ pub struct BackgroundTree {
 
 /// `base`: the folder `import` and `surface` paths are relative to.
 pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Converted, ScadError> {
+    let n = tree.nodes.len();
     let mut c = Converter {
         tree,
         skip_unsupported,
         base,
         own_matrix: vec![None; tree.nodes.len()],
         warnings: Vec::new(),
-        ctx: vec![None; tree.nodes.len()],
+        ctx: vec![None; n],
         background_roots: Vec::new(),
         mesh_bytes: 0,
         unsupported: Vec::new(),
-        extrusion_args: vec![None; tree.nodes.len()],
-        regions: vec![None; tree.nodes.len()],
-        extrusions: vec![None; tree.nodes.len()],
+        // One more slot: the plate of a 2D model (`plate::PLATE`).
+        extrusion_args: vec![None; n + 1],
+        regions: vec![None; n],
+        extrusions: vec![None; n + 1],
+        inside_outline: vec![false; n],
+        frames: vec![DAffine2::IDENTITY; n],
     };
     let roots = c.roots();
     let base = Ctx {
@@ -216,7 +231,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
         highlight: false,
         negated: false,
         background: false,
-        plane: None,
+        plane: c.plate(),
         inside: None,
     };
     for &r in &roots {
@@ -227,9 +242,13 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
         let Some(ctx) = c.ctx[i] else { continue };
         let node = &tree.nodes[i];
         let is_diff = kind(&node.name) == Some(Kind::Difference);
+        // Below a 2D `offset`, `hull` or `minkowski`, outlines are evaluated.
+        let inside = c.inside_outline[i]
+            || (ctx.plane.is_some() && kind(&node.name).is_some_and(is_outline));
         for (k, &ch) in node.children.iter().enumerate() {
             let mut child = ctx;
             child.negated ^= is_diff && k > 0;
+            c.inside_outline[ch as usize] = inside;
             c.ctx[ch as usize] = c.enter(ch, child)?;
         }
     }
@@ -299,7 +318,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
             }
             continue;
         }
-        if !is_primitive(k) {
+        if !is_primitive(k) || c.inside_outline[i] {
             continue;
         }
         *slot = Some(match c.primitive(i, k, &ctx)? {
@@ -318,7 +337,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
         let (Some(ctx), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
             continue;
         };
-        if is_primitive(k) || ctx.inside.is_some() {
+        if is_primitive(k) || c.inside_outline[i] || ctx.inside.is_some() {
             continue;
         }
         let kids: Vec<Term> = tree.nodes[i]
@@ -499,6 +518,12 @@ struct Converter<'a> {
     regions: Vec<Option<Region>>,
     /// Per node: an extrusion with its counts resolved against its 2D child.
     extrusions: Vec<Option<Extrusion>>,
+    /// Per node: below an `offset`, `hull` or `minkowski` in the plane (its
+    /// outline is evaluated, not extruded).
+    inside_outline: Vec<bool>,
+    /// Per `offset`/`hull`/`minkowski` node: its 2D transform (its children's
+    /// outlines are evaluated in its own frame).
+    frames: Vec<DAffine2>,
 }
 
 /// `linear_extrude` or `rotate_extrude` as read from the node.
@@ -584,7 +609,7 @@ impl Converter<'_> {
         }
         let Some(k) = kind(&node.name) else {
             let what = if TWO_D.contains(&node.name.as_str()) {
-                format!("`{}` (a 2D shape or an import)", node.name)
+                format!("`{}` (it needs the 3D boundary)", node.name)
             } else {
                 format!("`{}`", node.name)
             };
@@ -595,7 +620,7 @@ impl Converter<'_> {
         }
         let misplaced = if parent.plane.is_some() && (is_3d_primitive(k) || is_extrusion(k)) {
             Some("a 3D object inside a 2D subtree (below an extrusion)")
-        } else if parent.plane.is_none() && is_2d_primitive(k) {
+        } else if parent.plane.is_none() && (is_2d_primitive(k) || k == Kind::Offset) {
             Some("a 2D shape among 3D objects (not below linear_extrude or rotate_extrude)")
         } else {
             None
@@ -607,10 +632,10 @@ impl Converter<'_> {
             ));
             return Ok(None);
         }
-        if is_evaluated(k) {
+        if is_evaluated(k) && parent.plane.is_none() {
             ctx.inside = parent.inside.or(Some(i));
         }
-        if is_primitive(k) && !node.children.is_empty() {
+        if is_primitive(k) && !is_outline(k) && !node.children.is_empty() {
             return Err(ScadError::new(
                 node.pos,
                 format!("`{}` takes no children: end it with `;`", node.name),
@@ -646,6 +671,12 @@ impl Converter<'_> {
                 let c = self.color(node)?;
                 ctx.color = parent.color.or(Some(c));
             }
+            Kind::Offset | Kind::Hull | Kind::Minkowski => {
+                if let Some(plane) = &mut ctx.plane {
+                    self.frames[i as usize] = plane.matrix;
+                    plane.matrix = DAffine2::IDENTITY;
+                }
+            }
             _ => {}
         }
         Ok(Some(ctx))
@@ -674,9 +705,6 @@ impl Converter<'_> {
     /// A known node kind that peeltrim cannot evaluate where it stands.
     fn refused_here(&self, k: Kind, node: &Node, parent: &Ctx) -> Option<String> {
         let name = &node.name;
-        if parent.plane.is_some() && (is_evaluated(k) || k == Kind::Import) {
-            return Some(format!("`{name}` of 2D shapes (inside an extrusion)"));
-        }
         if k == Kind::Import {
             let file = node
                 .args
@@ -690,6 +718,9 @@ impl Converter<'_> {
             if [".dxf", ".svg"].iter().any(|e| file.ends_with(e)) {
                 return Some(format!("`{name}` of a 2D file (DXF or SVG)"));
             }
+        }
+        if parent.plane.is_some() && matches!(k, Kind::Resize | Kind::Import) {
+            return Some(format!("`{name}` of 2D shapes"));
         }
         if let (Some(root), Kind::Difference | Kind::Intersection) = (parent.inside, k) {
             let r = &self.tree.nodes[root as usize];
@@ -905,32 +936,16 @@ impl Converter<'_> {
                 tessellate::cylinder(h, r1, r2, a.boolean("center")?.unwrap_or(false), n)
             }
             Kind::Polyhedron => self.polyhedron(node)?,
-            Kind::Circle | Kind::Square | Kind::Polygon => self.extruded(i, node, ctx)?,
             Kind::Import => self.import(node)?,
             Kind::Surface => self.surface(node)?,
+            _ if ctx.plane.is_some() => self.extruded(i, node, ctx)?,
             _ => unreachable!("only primitives are tessellated"),
         })
     }
 
     /// `$fn`, `$fa`, `$fs` of a node, `$fa`/`$fs` clamped as OpenSCAD does.
     fn resolution(&mut self, a: &Args) -> Result<Resolution, ScadError> {
-        let mut res = Resolution::default();
-        if let Some(v) = a.get("$fn") {
-            res.fn_ = args::number(v, "`$fn`")?;
-        }
-        for (name, slot) in [("$fa", &mut res.fa), ("$fs", &mut res.fs)] {
-            if let Some(v) = a.get(name) {
-                *slot = args::number(v, &format!("`{name}`"))?;
-                if *slot < F_MINIMUM {
-                    self.warnings.push(format!(
-                        "{}:{}: {name} = {} is too small; clamped to {F_MINIMUM} as OpenSCAD does",
-                        v.pos.line, v.pos.col, *slot
-                    ));
-                    *slot = F_MINIMUM;
-                }
-            }
-        }
-        Ok(res)
+        resolution(a, &mut self.warnings)
     }
 
     /// `get_fragments_from_r` with `$fa`/`$fs` clamped as OpenSCAD does, and a cap
@@ -1090,6 +1105,27 @@ impl Converter<'_> {
     }
 }
 
+/// `$fn`, `$fa`, `$fs` of a node, `$fa`/`$fs` clamped as OpenSCAD does.
+pub(super) fn resolution(a: &Args, warnings: &mut Vec<String>) -> Result<Resolution, ScadError> {
+    let mut res = Resolution::default();
+    if let Some(v) = a.get("$fn") {
+        res.fn_ = args::number(v, "`$fn`")?;
+    }
+    for (name, slot) in [("$fa", &mut res.fa), ("$fs", &mut res.fs)] {
+        if let Some(v) = a.get(name) {
+            *slot = args::number(v, &format!("`{name}`"))?;
+            if *slot < F_MINIMUM {
+                warnings.push(format!(
+                    "{}:{}: {name} = {} is too small; clamped to {F_MINIMUM} as OpenSCAD does",
+                    v.pos.line, v.pos.col, *slot
+                ));
+                *slot = F_MINIMUM;
+            }
+        }
+    }
+    Ok(res)
+}
+
 /// `"#rrggbb"` or `"#rrggbbaa"` as components 0 to 1.
 fn hex_color(s: &str) -> Option<[f64; 4]> {
     let h = s.strip_prefix('#')?;
@@ -1189,16 +1225,32 @@ impl Converter<'_> {
             };
             let node = &tree.nodes[i];
             let Some(plane) = ctx.plane else { continue };
+            let inside = self.inside_outline[i];
             let needs =
                 self.extrusion_args[plane.extrusion as usize].is_some_and(|e| e.needs_child());
-            if is_2d_primitive(k) {
-                let r = self.region(node, k, &plane.matrix)?;
+            if is_2d_primitive(k) || is_outline(k) {
+                let r = if is_outline(k) {
+                    let kids = node
+                        .children
+                        .iter()
+                        .filter(|&&ch| !is_background_root[ch as usize])
+                        .filter_map(|&ch| evaluated[ch as usize].take())
+                        .collect();
+                    self.outline(i, k, kids)?
+                } else {
+                    self.region(node, k, &plane.matrix)?
+                };
+                if inside {
+                    evaluated[i] = Some(r);
+                    continue;
+                }
                 if needs {
                     evaluated[i] = Some(r.clone());
                 }
                 self.regions[i] = Some(r);
                 continue;
             }
+            let needs = needs || inside;
             let kids: Vec<Region> = if needs {
                 node.children
                     .iter()
@@ -1309,24 +1361,10 @@ impl Converter<'_> {
                 };
                 extrude::square(size, a.boolean("center")?.unwrap_or(false)).transformed(m)
             }
+            Kind::Text => super::text::region(node, &mut self.warnings)?.transformed(m),
             _ => self.polygon(node, m)?,
         };
-        let big = r
-            .shapes
-            .iter()
-            .flatten()
-            .flatten()
-            .any(|p| !(p.abs().max_element() <= extrude::MAX_COORD));
-        if big {
-            return Err(ScadError::new(
-                node.pos,
-                format!(
-                    "`{}` reaches coordinates beyond ±{:e} (after its transforms); scale the model down",
-                    node.name,
-                    extrude::MAX_COORD
-                ),
-            ));
-        }
+        self.check_extent(node, &r)?;
         if !(det.abs() > 1e-300) {
             self.warnings.push(format!(
                 "{}:{}: `{}` is flattened by a singular 2D multmatrix; OpenSCAD removes it, and so does peeltrim",
@@ -1539,17 +1577,22 @@ impl Converter<'_> {
                 .collect();
             let at = |e: String| ScadError::new(node.pos, format!("`{}`: {e}", node.name));
             let out = match k {
-                _ if is_primitive(k) => match self.local(i, k, &ctx)? {
-                    Some(mesh) => vec![Piece {
-                        node: node.name.clone(),
-                        pos: node.pos,
-                        mesh,
-                        rgba: self.rgba(&ctx),
-                        convex: matches!(k, Kind::Cube | Kind::Sphere | Kind::Cylinder)
-                            .then_some(true),
-                    }],
-                    None => Vec::new(),
-                },
+                // Outlines below a 2D `offset`, `hull` or `minkowski` are
+                // their evaluated node's.
+                _ if self.inside_outline[i] => Vec::new(),
+                _ if is_primitive(k) && (ctx.plane.is_some() || !is_outline(k)) => {
+                    match self.local(i, k, &ctx)? {
+                        Some(mesh) => vec![Piece {
+                            node: node.name.clone(),
+                            pos: node.pos,
+                            mesh,
+                            rgba: self.rgba(&ctx),
+                            convex: matches!(k, Kind::Cube | Kind::Sphere | Kind::Cylinder)
+                                .then_some(true),
+                        }],
+                        None => Vec::new(),
+                    }
+                }
                 Kind::Multmatrix => match self.own_matrix[i] {
                     Some(m) => pieces::transform(kids.concat(), &m),
                     None => kids.concat(),
@@ -1800,5 +1843,195 @@ impl Converter<'_> {
             ));
         }
         Ok((v > 0.0).then_some(mesh))
+    }
+}
+
+/// At most this many edge pairs in a 2D `minkowski` of non-convex outlines
+/// (each a parallelogram for the polygon library).
+const MAX_MINKOWSKI_PAIRS: u64 = 1_000_000;
+/// At most this many estimated crossings of an offset's raw contours.
+const MAX_OFFSET_CROSSINGS: u64 = 5_000_000;
+
+/// Evaluated outlines (`super::outline`) and the plate of a 2D model.
+impl Converter<'_> {
+    /// A 2D model (2D nodes and no 3D ones) is drawn as OpenSCAD's preview
+    /// draws 2D: a plate 1 unit thick centred on z = 0 (OpenSCAD 2021.01's
+    /// `PolySet::render_surface` for 2D). Its plane stands for an extrusion in
+    /// the extra slot `tree.nodes.len()`.
+    fn plate(&mut self) -> Option<Plane> {
+        let tree = self.tree;
+        let mut two_d = false;
+        for node in &tree.nodes {
+            match kind(&node.name) {
+                Some(k) if is_2d_primitive(k) || k == Kind::Offset => two_d = true,
+                Some(k) if is_3d_primitive(k) || is_extrusion(k) => return None,
+                None if !TWO_D.contains(&node.name.as_str()) => return None,
+                _ => {}
+            }
+        }
+        if !two_d {
+            return None;
+        }
+        let plate = tree.nodes.len();
+        let l = extrude::Linear {
+            h1: -0.5,
+            h2: 0.5,
+            twist: 0.0,
+            scale: DVec2::ONE,
+            slices: 1,
+        };
+        self.extrusion_args[plate] = Some(ExtrusionArgs::Linear {
+            h1: l.h1,
+            h2: l.h2,
+            twist: 0.0,
+            scale: DVec2::ONE,
+            slices: Some(1),
+            res: Resolution::default(),
+        });
+        self.extrusions[plate] = Some(Extrusion::Linear(l));
+        self.warnings.push(
+            "1:1: the model is 2D; it is drawn as OpenSCAD's preview draws 2D, a plate 1 unit thick centred on z = 0 (OpenSCAD's render and export make no solid of it)"
+                .to_string(),
+        );
+        Some(Plane {
+            extrusion: plate as u32,
+            matrix: DAffine2::IDENTITY,
+        })
+    }
+
+    /// The outline of `offset`, `hull` or `minkowski` node `i` from its
+    /// children's (evaluated in its frame), placed by its 2D transform.
+    fn outline(&mut self, i: usize, k: Kind, kids: Vec<Region>) -> Result<Region, ScadError> {
+        let node = &self.tree.nodes[i];
+        let r = match k {
+            Kind::Offset => {
+                let a = Args::new(node, &["r"], &["delta", "chamfer"], &mut self.warnings)?;
+                let child = extrude::boolean(Op2::Union, kids);
+                let (delta, join) = match (a.number("r")?, a.number("delta")?) {
+                    (Some(r), _) => {
+                        let n = self.fragments(node, &a, r.abs(), 1)?;
+                        (
+                            r,
+                            outline::Join::Round {
+                                fragments: n as f64,
+                            },
+                        )
+                    }
+                    (None, Some(d)) => (
+                        d,
+                        if a.boolean("chamfer")?.unwrap_or(false) {
+                            outline::Join::Square
+                        } else {
+                            outline::Join::Miter
+                        },
+                    ),
+                    (None, None) => {
+                        let n = self.fragments(node, &a, 1.0, 1)?;
+                        (
+                            1.0,
+                            outline::Join::Round {
+                                fragments: n as f64,
+                            },
+                        )
+                    }
+                };
+                let per_vertex = match join {
+                    outline::Join::Round { fragments } => fragments as u64 + 3,
+                    _ => 3,
+                };
+                // Where |delta| spans many edges, the raw contours cross each
+                // other about (|delta| / mean edge length) times per edge.
+                let n = child.vertex_count() as u64;
+                let perimeter: f64 = child
+                    .shapes
+                    .iter()
+                    .flatten()
+                    .map(|ring| {
+                        (0..ring.len())
+                            .map(|j| ring[j].distance(ring[(j + 1) % ring.len()]))
+                            .sum::<f64>()
+                    })
+                    .sum();
+                // Edges within reach of one edge: along the outline, and by
+                // the outline's density in its bounding box.
+                let (lo, hi) = child.shapes.iter().flatten().flatten().fold(
+                    (DVec2::splat(f64::MAX), DVec2::splat(f64::MIN)),
+                    |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+                );
+                let d2 = 2.0 * delta.abs();
+                let area = ((hi.x - lo.x + d2) * (hi.y - lo.y + d2)).max(f64::MIN_POSITIVE);
+                let mean = perimeter / n.max(1) as f64;
+                let along = delta.abs() * n as f64 / perimeter.max(f64::MIN_POSITIVE);
+                let around = n as f64 * d2 * (mean + d2) / area;
+                let reach = along.max(around).ceil().min(n as f64) as u64;
+                let crossings = n.saturating_mul(reach.saturating_add(1));
+                if crossings > MAX_OFFSET_CROSSINGS {
+                    return Err(ScadError::new(
+                        node.pos,
+                        format!("`offset` by {delta} spans about {reach} of its child's {n} outline edges each (about {crossings} crossings of the offset contours); at most {MAX_OFFSET_CROSSINGS} are accepted: use fewer, longer edges or a smaller offset"),
+                    ));
+                }
+                self.charge_outline(node, n.saturating_mul(per_vertex).saturating_add(crossings))?;
+                outline::offset(&child, delta, join)
+            }
+            Kind::Hull => {
+                Args::new(node, &[], &[], &mut self.warnings)?;
+                outline::hull(&kids)
+            }
+            _ => {
+                Args::new(node, &[], &[], &mut self.warnings)?;
+                let mut pieces = 0u64;
+                let mut acc = 0u64;
+                for r in &kids {
+                    let n = r.vertex_count() as u64;
+                    pieces =
+                        pieces.saturating_add(if acc == 0 { 0 } else { acc.saturating_mul(n) });
+                    acc = acc.saturating_add(n).max(1);
+                }
+                if pieces > MAX_MINKOWSKI_PAIRS {
+                    return Err(ScadError::new(
+                        node.pos,
+                        format!("`minkowski` of these outlines pairs {pieces} edges; at most {MAX_MINKOWSKI_PAIRS} are accepted: use fewer points (lower $fn)"),
+                    ));
+                }
+                self.charge_outline(node, pieces.saturating_mul(5))?;
+                outline::minkowski(kids)
+            }
+        };
+        let r = r.transformed(&self.frames[i]);
+        self.check_extent(node, &r)?;
+        Ok(r)
+    }
+
+    /// Charges `points` 2D points of intermediate outline against the memory
+    /// budget, with the model's meshes so far.
+    fn charge_outline(&mut self, node: &Node, points: u64) -> Result<(), ScadError> {
+        self.charge(
+            node,
+            format!("`{}` with {points} outline points", node.name),
+            cost::mesh_bytes(points, points),
+            "lower $fn or the point count",
+        )
+    }
+
+    /// Refuses outlines beyond `extrude::MAX_COORD` (the polygon library's grid).
+    fn check_extent(&self, node: &Node, r: &Region) -> Result<(), ScadError> {
+        let big = r
+            .shapes
+            .iter()
+            .flatten()
+            .flatten()
+            .any(|p| !(p.abs().max_element() <= extrude::MAX_COORD));
+        if big {
+            return Err(ScadError::new(
+                node.pos,
+                format!(
+                    "`{}` reaches coordinates beyond ±{:e} (after its transforms); scale the model down",
+                    node.name,
+                    extrude::MAX_COORD
+                ),
+            ));
+        }
+        Ok(())
     }
 }

@@ -90,7 +90,7 @@ impl Region {
             .map(|r| r.iter().map(|p| [p.x, p.y]).collect())
             .collect()
     }
-    fn from_shapes(shapes: Vec<Vec<Vec<[f64; 2]>>>) -> Region {
+    pub fn from_shapes(shapes: Vec<Vec<Vec<[f64; 2]>>>) -> Region {
         let shapes: Vec<Vec<Vec<DVec2>>> = shapes
             .into_iter()
             .map(|s| {
@@ -192,7 +192,7 @@ type Paths = Vec<Vec<[f64; 2]>>;
 /// over the half extent (its default grid of 2^30 lets cross products of
 /// edge vectors overflow 64 bits on extreme inputs). Paths with no extent (all
 /// points within 10^-200) are empty, as OpenSCAD's 2^-16 grid makes them.
-fn overlay(
+pub fn overlay(
     subj: &[Vec<[f64; 2]>],
     clip: &[Vec<[f64; 2]>],
     rule: OverlayRule,

@@ -5,9 +5,10 @@
 //!   `BigInt` coordinates (its `ConvexHullWrapper`): every `f64` is scaled by
 //!   2⁵² and truncated, so the orientation tests are exact for any coordinate
 //!   above 2⁻⁵² and coplanar, collinear or repeated points cannot make it
-//!   inconsistent. Large point sets (Minkowski sums) first go through
-//!   `chull`'s floating-point quickhull, which keeps the candidate vertices
-//!   (points within 10⁻¹² of the extent inside a facet may be dropped). Points with no volume between them (fewer than four, all
+//!   inconsistent. Large point sets (Minkowski sums, fine cylinders) first go
+//!   through `chull`'s floating-point quickhull (points within 10⁻¹² of the
+//!   extent inside a facet may be dropped); its hull stands when it is closed
+//!   and outward, and otherwise its vertices go to the exact pass. Points with no volume between them (fewer than four, all
 //!   collinear or coplanar) have no 3D hull: `None`, which OpenSCAD also turns
 //!   into an empty object.
 //! - The Minkowski sum of two convex polytopes is the hull of all pairwise sums
@@ -60,13 +61,19 @@ pub fn convex_hull(points: &[DVec3]) -> Option<Mesh> {
         .iter()
         .map(|p| p.map(|b| f64::from_bits(b) * down).to_vec())
         .collect();
+    let up = 2f64.powi(shift);
     if input.len() > PREFILTER {
         // Points within 1e-12 of the extent from a facet are dropped here;
-        // they move the hull by no more than that. A failure leaves the exact
-        // hull all the points.
+        // they move the hull by no more than that. Where this hull is closed
+        // and outward it is the answer (the exact pass on thousands of
+        // vertices takes seconds); otherwise its vertices, or all the points
+        // if it failed, go to the exact hull.
         let extent = input.iter().flatten().fold(0.0f64, |m, &c| m.max(c.abs()));
         if let Ok(h) = chull::ConvexHull::<f64>::try_new(&input, extent * 1e-12, None) {
-            let (v, _) = h.vertices_indices();
+            let (v, idx) = h.vertices_indices();
+            if let Some(mesh) = outward_mesh(&v, &idx, up) {
+                return Some(mesh);
+            }
             if v.len() >= 4 {
                 input = v;
             }
@@ -74,7 +81,16 @@ pub fn convex_hull(points: &[DVec3]) -> Option<Mesh> {
     }
     let hull = chull::ConvexHullWrapper::try_new(&input, None).ok()?;
     let (verts, idx) = hull.vertices_indices();
-    let up = 2f64.powi(shift);
+    outward_mesh(&verts, &idx, up)
+}
+
+/// A hull's vertices (scaled by `up`) and triangles as a closed outward mesh;
+/// `None` when they are not one (a check keeps a library surprise from
+/// reaching the renderer as a wrong picture).
+fn outward_mesh(verts: &[Vec<f64>], idx: &[usize], up: f64) -> Option<Mesh> {
+    if verts.len() < 4 {
+        return None;
+    }
     let positions: Vec<DVec3> = verts
         .iter()
         .map(|v| DVec3::new(v[0], v[1], v[2]) * up)
@@ -96,8 +112,6 @@ pub fn convex_hull(points: &[DVec3]) -> Option<Mesh> {
         positions,
         triangles,
     };
-    // The exact hull is closed; a check keeps a library surprise from
-    // reaching the renderer as a wrong picture.
     (check_closed(&mesh).is_ok() && signed_volume(&mesh) > 0.0).then_some(mesh)
 }
 

@@ -28,6 +28,7 @@ pub(crate) mod hull;
 pub(crate) mod lex;
 pub(crate) mod mesh_import;
 pub(crate) mod orient;
+pub(crate) mod outline;
 pub(crate) mod parse;
 pub(crate) mod pieces;
 pub(crate) mod surface;
@@ -35,7 +36,10 @@ pub(crate) mod tessellate;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests2d;
+#[cfg(test)]
 mod tests3d;
+pub(crate) mod text;
 
 use glam::DMat4;
 use std::collections::HashMap;

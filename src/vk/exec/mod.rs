@@ -105,6 +105,11 @@ pub struct ExecDesc {
     pub depth_format: DepthFormat,
     /// Reversed depth (near 1, far 0); meant for `D32S8`.
     pub reversed_z: bool,
+    /// Samples per pixel of every plan image (1, 2, 4 or 8; the device's
+    /// [`Context::supported_samples`]). Above 1 the read-back resolves:
+    /// colour averaged, depth and primitive ids of sample 0
+    /// (`vk::resolve`).
+    pub samples: u32,
 }
 
 /// A frame's images (read back) and statistics.
@@ -217,6 +222,10 @@ pub struct Executor {
     /// `plan::reach` regions of recordings, by steps, scissors and what the
     /// outputs hold.
     reach_memo: Memo<ReachKey, Arc<Reached>>,
+    /// The read-back's resolve pass and images, with samples above 1.
+    resolve: Option<crate::vk::resolve::Resolve>,
+    /// The last read-back's coverage, with samples above 1 ([`Executor::coverage`]).
+    coverage: Option<Vec<u8>>,
 }
 
 impl Executor {
@@ -227,6 +236,7 @@ impl Executor {
             return Err(VkError::Plan("image size must be at least 1x1".into()));
         }
         let shared = ctx.shared.clone();
+        ctx.check_samples(desc.samples)?;
         if !ctx.depth_format_usable(desc.depth_format.vk()) {
             return Err(VkError::Unsupported(format!(
                 "{:?} as a sampled, copyable depth-stencil attachment (try the other --depth-format)",
@@ -279,7 +289,16 @@ impl Executor {
             plan_ids: PlanIds::new(PLAN_IDS),
             tie_memo: Memo::new(MEMO_CAP),
             reach_memo: Memo::new(MEMO_CAP),
+            resolve: None,
+            coverage: None,
         })
+    }
+
+    /// The last read-back's coverage per pixel, row-major, with samples above
+    /// 1: the samples a primitive covers, times 255 over the samples, rounded
+    /// (`None` at one sample, where it is 255 wherever `prim` is not 0).
+    pub fn coverage(&self) -> Option<&[u8]> {
+        self.coverage.as_deref()
     }
 
     /// The size and formats it was created with.
@@ -318,6 +337,18 @@ impl Executor {
         let n_tex = plan.textures as usize;
         let (normals, transparency) = (self.normals, self.transparency);
         let ds_format = self.ds_format(plan);
+        if self.desc.samples > 1 && (normals || transparency) {
+            let what = if normals {
+                "the normal buffer (edge maps, --edges, styles and shadows)"
+            } else {
+                "the GPU transparency composite (--transparency gpu)"
+            };
+            return Err(VkError::Unsupported(format!(
+                "{what} with {} samples per pixel: it reads single-sample \
+                 neighbourhoods and layers; use --samples 1",
+                self.desc.samples
+            )));
+        }
         if self
             .targets
             .as_ref()

@@ -9,6 +9,7 @@ use crate::images::Images;
 use crate::vk::error::VkError;
 use crate::vk::memory::Buffer;
 use crate::vk::readback::{decode, Raw};
+use crate::vk::resolve::{Resolve, Sources};
 use crate::vk::submit;
 use crate::vk::sync::{self, REST};
 
@@ -34,16 +35,33 @@ impl Executor {
         let device = &self.shared.device;
         let cmd = self.submit.cmd;
         let buffer = self.readback.as_ref().map(|b| b.raw).unwrap_or_default();
-        self.submit.begin(cmd, true)?;
         let t = self.targets.as_ref().expect("a frame was executed");
+        let samples = self.desc.samples;
+        let key = (t.ds_format, [w, h]);
+        if samples > 1 && self.resolve.as_ref().map(|r| r.key) != Some(key) {
+            self.resolve = None;
+            self.resolve = Some(Resolve::new(&self.shared, key.0, key.1)?);
+        }
+        self.submit.begin(cmd, true)?;
+        let ds = &t.ds[output as usize];
+        // A multisampled frame is copied from its resolve (`vk::resolve`).
+        let (color, prim, depth) = match (&self.resolve, samples > 1) {
+            (Some(r), true) => {
+                let src = Sources {
+                    color: &t.color,
+                    prim: &t.prim,
+                    depth: ds,
+                    samples,
+                };
+                r.record(cmd, &src, self.pipelines.sampler);
+                (&r.color, &r.prim, &r.depth)
+            }
+            _ => (&t.color, &t.prim, ds),
+        };
         let copies = [
-            (&t.color, vk::ImageAspectFlags::COLOR, 0),
-            (&t.prim, vk::ImageAspectFlags::COLOR, plane),
-            (
-                &t.ds[output as usize],
-                vk::ImageAspectFlags::DEPTH,
-                plane * 2,
-            ),
+            (color, vk::ImageAspectFlags::COLOR, 0),
+            (prim, vk::ImageAspectFlags::COLOR, plane),
+            (depth, vk::ImageAspectFlags::DEPTH, plane * 2),
         ];
         // Frames leave every image in `REST`, a copy source.
         let layout = sync::access(REST).layout;
@@ -63,6 +81,8 @@ impl Executor {
             .unwrap_or(&[]);
         let scene = self.scene.as_ref().expect("scene uploaded");
         let plane = plane as usize;
+        // The resolve's alpha is the coverage (`shaders/resolve.frag`).
+        self.coverage = (samples > 1).then(|| bytes[3..plane].iter().step_by(4).copied().collect());
         Ok(decode(
             Raw {
                 width: w,

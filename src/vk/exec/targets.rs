@@ -114,6 +114,10 @@ impl Targets {
         transparency: bool,
     ) -> Result<Targets, VkError> {
         let (w, h) = (desc.width, desc.height);
+        // Every plan image at the frame's samples: a rendering block's
+        // attachments share one count (the normal buffer, edge map and
+        // accumulation target are single-sample: refused with samples above 1).
+        let ms = desc.samples;
         let sh = shared;
         let color_usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
             | vk::ImageUsageFlags::TRANSFER_SRC
@@ -123,12 +127,16 @@ impl Targets {
         let color = Image::new(
             sh,
             "color",
-            ImageDesc::new_2d(format(Resource::Color), [w, h]).usage(out_usage),
+            ImageDesc::new_2d(format(Resource::Color), [w, h])
+                .usage(out_usage)
+                .samples(ms),
         )?;
         let prim = Image::new(
             sh,
             "prim",
-            ImageDesc::new_2d(format(Resource::Prim), [w, h]).usage(out_usage),
+            ImageDesc::new_2d(format(Resource::Prim), [w, h])
+                .usage(out_usage)
+                .samples(ms),
         )?;
         let (normal, edges) = if normals {
             (
@@ -152,12 +160,14 @@ impl Targets {
             ds.push(Image::new(
                 sh,
                 &format!("ds{i}"),
-                ImageDesc::new_2d(ds_format, [w, h]).usage(
-                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
-                        | vk::ImageUsageFlags::SAMPLED
-                        | vk::ImageUsageFlags::TRANSFER_SRC
-                        | vk::ImageUsageFlags::TRANSFER_DST,
-                ),
+                ImageDesc::new_2d(ds_format, [w, h])
+                    .usage(
+                        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                            | vk::ImageUsageFlags::SAMPLED
+                            | vk::ImageUsageFlags::TRANSFER_SRC
+                            | vk::ImageUsageFlags::TRANSFER_DST,
+                    )
+                    .samples(ms),
             )?);
         }
         let mut tex = Vec::new();
@@ -166,7 +176,8 @@ impl Targets {
                 sh,
                 &format!("tex{i}"),
                 ImageDesc::new_2d(vk::Format::R32_SFLOAT, [w, h])
-                    .usage(color_usage | vk::ImageUsageFlags::SAMPLED),
+                    .usage(color_usage | vk::ImageUsageFlags::SAMPLED)
+                    .samples(ms),
             )?);
         }
         let accum_images = if transparency {

@@ -53,6 +53,7 @@ impl Recorder<'_> {
             // A program that writes no colour runs as is, the normal buffer
             // masked with the other attachments.
             normals: kind.writes_color() && key.colors().contains(&Resource::Normal),
+            samples: self.b.desc.samples,
         };
         let (pipeline, fixed) = match self.b.pipelines.get_fixed(&desc, state)? {
             Some(p) => (p, true),

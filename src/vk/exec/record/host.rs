@@ -76,6 +76,9 @@ pub(crate) struct HostShade<'a> {
     pub depth: (vk::ImageView, vk::Format),
     /// The host's colour format is `_SRGB` (drawn with the decoding variant).
     pub srgb: bool,
+    /// Samples per pixel of the host's attachments (peeltrim's images'
+    /// count, `EmbedDesc::samples`).
+    pub samples: u32,
     /// Where the frame's occlusion counts are copied (pairs of `u64` with
     /// availability, room for every counted draw), before the pass's barrier
     /// makes them visible to the host.
@@ -434,6 +437,7 @@ fn host_pipeline(h: &HostShade, kind: FragmentKind) -> PipelineDesc {
         color_formats: vec![h.color.1],
         depth_stencil_format: Some(h.depth.1),
         normals: false,
+        samples: h.samples,
     }
 }
 
