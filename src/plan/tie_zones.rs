@@ -14,10 +14,25 @@
 //! tie-free path's approximation (`plan::tie_free`: a sliver of a pixel at the
 //! crossing line).
 //!
+//! Of the two meshes of a zone only the lower index runs the rule there
+//! ([`ShadeRule::decide`]): the shade draws the meshes in descending index
+//! order and the last writer wins, so at a pixel where several faces tie the
+//! lowest index's rule draw comes last whatever the others drew. Let `w` be
+//! the lowest index whose rule passes at a pixel (the id the rule everywhere
+//! gives). If another mesh's rule passes there too, the two tie, the pixel
+//! lies in their zone, and `w`, the lower of the pair, runs the rule there and
+//! is drawn after it. If no other rule passes, no depth-`EQUAL` draw of
+//! another mesh can pass (the image holds the visible face's raster depth, at
+//! which any face's rule passes; or a rule draw's depth, and only `w`'s rule
+//! passes), and `w`'s own draw, rule or depth-equal, passes: its face is the
+//! visible one. So the higher index of a pair draws depth-equal in their zone
+//! (the gear's 36 teeth, flush with the body, one draw each where each took
+//! the rule in two zones and four depth-equal pieces around them).
+//!
 //! Pure: rectangles come from a projection the executor passes in.
 
 use super::rect::Rect;
-use crate::geom::ties::TieGaps;
+use crate::geom::ties::{TieGaps, TieZone};
 use crate::scene::Aabb;
 
 /// The most rule rectangles of one shade draw (each is a draw; its complement
@@ -34,7 +49,8 @@ pub enum ShadeRule {
     /// No face within the band of another: one depth-equal draw.
     Free,
     /// The tie rule inside these disjoint screen rectangles (clipped later to
-    /// the draw's scissor), depth-equal elsewhere. Empty: no zone on screen.
+    /// the draw's scissor), depth-equal elsewhere. Empty: no zone on screen,
+    /// or only zones whose partner has the lower index.
     Zones(Vec<Rect>),
     /// The tie rule over the whole mesh (no zones known, or the band wider than
     /// the analysis reaches).
@@ -56,6 +72,7 @@ impl ShadeRule {
         }
         let rects = gaps
             .zones_of(m)
+            .filter(|z| wins_over_partner(z, m))
             .filter_map(|z| z.within(band))
             .map(|b| project(&b))
             .collect();
@@ -87,6 +104,19 @@ impl ShadeRule {
             other => other.clone(),
         }
     }
+}
+
+/// Whether mesh `m`'s shade needs the tie rule in zone `z` of its pair:
+/// only where its partner has the higher index (module documentation, the
+/// lower index wins). The final shade draws the meshes in descending index
+/// order ([`crate::plan::shade_near_depth`]), the last writer winning, so at
+/// a tie the lower index's rule draw, drawn after the partner's, is the one
+/// that decides; the higher index's depth-`EQUAL` draw passes only where its
+/// own face is the visible one (bit-exact raster depth), and is overwritten
+/// there by the lower index's rule wherever the two tie. A self-tie (both
+/// sides of the zone the same mesh) names the same primitive either way.
+fn wins_over_partner(z: &TieZone, m: u32) -> bool {
+    z.a != z.b && (z.a == m && z.b > m || z.b == m && z.a > m)
 }
 
 /// At most `max` pairwise disjoint rectangles covering `rects` (empty ones
@@ -293,11 +323,12 @@ mod tests {
         );
         let rule = |m, band| ShadeRule::decide(&gaps, m, band, &flat);
         // Band 0.01: only the flush pair's zone, grown by the band.
+        // Mesh 1 has a partner, of lower index: depth-equal everywhere.
         assert_eq!(rule(0, 0.01), ShadeRule::Zones(vec![r(9, 9, 20, 20)]));
-        assert_eq!(rule(1, 0.01), ShadeRule::Zones(vec![r(9, 9, 20, 20)]));
+        assert_eq!(rule(1, 0.01), ShadeRule::Zones(vec![]));
         assert_eq!(rule(2, 0.01), ShadeRule::Free);
-        // Band 0.1: mesh 2's zone too; mesh 0 has both.
-        assert_eq!(rule(2, 0.1), ShadeRule::Zones(vec![r(49, 49, 61, 61)]));
+        // Band 0.1: mesh 2's zone too, whose rule mesh 0 runs; mesh 0 has both.
+        assert_eq!(rule(2, 0.1), ShadeRule::Zones(vec![]));
         assert_eq!(
             rule(0, 0.1),
             ShadeRule::Zones(vec![r(9, 9, 21, 21), r(49, 49, 61, 61)])
@@ -312,6 +343,88 @@ mod tests {
             ShadeRule::decide(&unknown, 0, 0.01, &flat),
             ShadeRule::Everywhere
         );
+    }
+
+    #[test]
+    fn only_the_lower_index_of_a_pair_runs_the_rule_in_their_zone() {
+        let zone = |a, b| TieZone {
+            a,
+            b,
+            opposite: false,
+            flat: true,
+            gap: 0.0,
+            lo: DVec3::ZERO,
+            hi: DVec3::ONE,
+        };
+        assert!(wins_over_partner(&zone(0, 3), 0));
+        assert!(!wins_over_partner(&zone(0, 3), 3));
+        assert!(wins_over_partner(&zone(5, 2), 2));
+        assert!(!wins_over_partner(&zone(5, 2), 5));
+        assert!(!wins_over_partner(&zone(4, 4), 4), "a self-tie names one id");
+    }
+
+    /// The shade at one pixel, as recorded: meshes `0..n` in descending
+    /// order, each by its rule where `rule_here(m)` or depth-equal elsewhere;
+    /// the last writer's id. `passes`: the meshes whose rule passes there
+    /// (`visible` among them, whose raster depth the image holds). A rule
+    /// draw writes its own depth, which no other mesh's raster equals.
+    fn last_writer(
+        n: u32,
+        passes: &[u32],
+        visible: Option<u32>,
+        rule_here: impl Fn(u32) -> bool,
+    ) -> Option<u32> {
+        let (mut id, mut image_holds_visible) = (None, true);
+        for m in (0..n).rev() {
+            if rule_here(m) {
+                if passes.contains(&m) {
+                    id = Some(m);
+                    image_holds_visible = false;
+                }
+            } else if image_holds_visible && Some(m) == visible {
+                id = Some(m);
+            }
+        }
+        id
+    }
+
+    #[test]
+    fn the_lower_index_rule_alone_gives_the_ids_of_the_rule_everywhere() {
+        // Every pixel configuration of four meshes: which rules pass, which
+        // of those is the visible face. The zones hold every pair of meshes
+        // whose rules pass together (the pixel lies in their zone).
+        let n = 4u32;
+        for set in 0u32..1 << n {
+            let passes: Vec<u32> = (0..n).filter(|m| set & 1 << m != 0).collect();
+            let visibles: Vec<Option<u32>> = match passes.is_empty() {
+                true => vec![None],
+                false => passes.iter().map(|&v| Some(v)).collect(),
+            };
+            for visible in visibles {
+                let everywhere = last_writer(n, &passes, visible, |_| true);
+                assert_eq!(everywhere, passes.first().copied());
+                let zones: Vec<TieZone> = passes
+                    .iter()
+                    .flat_map(|&a| passes.iter().map(move |&b| (a, b)))
+                    .filter(|(a, b)| a < b)
+                    .map(|(a, b)| TieZone {
+                        a,
+                        b,
+                        opposite: false,
+                        flat: true,
+                        gap: 0.0,
+                        lo: DVec3::ZERO,
+                        hi: DVec3::ONE,
+                    })
+                    .collect();
+                let lower = |m: u32| zones.iter().any(|z| z.has(m) && wins_over_partner(z, m));
+                assert_eq!(
+                    last_writer(n, &passes, visible, lower),
+                    everywhere,
+                    "rules passing {passes:?}, visible {visible:?}"
+                );
+            }
+        }
     }
 
     #[test]
