@@ -360,7 +360,10 @@ mod tests {
         assert!(!wins_over_partner(&zone(0, 3), 3));
         assert!(wins_over_partner(&zone(5, 2), 2));
         assert!(!wins_over_partner(&zone(5, 2), 5));
-        assert!(!wins_over_partner(&zone(4, 4), 4), "a self-tie names one id");
+        assert!(
+            !wins_over_partner(&zone(4, 4), 4),
+            "a self-tie names one id"
+        );
     }
 
     /// The shade at one pixel, as recorded: meshes `0..n` in descending

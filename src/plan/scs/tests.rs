@@ -582,3 +582,50 @@ fn cutters_far_apart_on_screen_are_clipped_in_clusters() {
     let one = vec![within(vec![4, 5])];
     assert_eq!(side_by_side, (one.clone(), one));
 }
+
+#[test]
+fn cutters_with_a_plane_between_them_and_a_positive_are_dropped() {
+    use crate::scene::fixtures::{box_mesh, camera, prim, scene, sphere_mesh, ExprBuilder};
+    use glam::DVec3;
+    // (T − S − H): tooth T in the corner of sphere S's box, outside the
+    // sphere (|corner| > radius); H overlaps T. S subtracts nothing.
+    let t = box_mesh(DVec3::new(0.8, 0.8, -0.1), DVec3::new(1.0, 1.0, 0.1));
+    let s = sphere_mesh(DVec3::ZERO, 1.0, 24, 12);
+    let h = box_mesh(DVec3::new(0.9, 0.9, -0.5), DVec3::new(1.2, 1.2, 0.5));
+    let mut e = ExprBuilder::default();
+    let (lt, ls, lh) = (e.leaf(0), e.leaf(1), e.leaf(2));
+    let d = e.diff(lt, ls);
+    let root = e.diff(d, lh);
+    let cam = camera(DVec3::new(0.5, 1.0, 6.0), DVec3::ZERO, 35.0, 1.0, 20.0);
+    let sc = scene(
+        cam,
+        vec![
+            prim("T", t, [200, 0, 0]),
+            prim("S", s, [0, 200, 0]),
+            prim("H", h, [0, 0, 200]),
+        ],
+        e.build(root),
+    );
+    let prep = Prepared::new(&sc).unwrap();
+    // The boxes meet, so the products keep S.
+    let prods = goldfeather::products(&prep, goldfeather::DEFAULT_PRODUCT_LIMIT).unwrap();
+    assert_eq!(prods.len(), 1);
+    assert_eq!(prods[0].len(), 3);
+    let tests = Cell::new(100);
+    let kept = without_apart_cutters(prods.clone(), &prep, &tests);
+    let prims: Vec<(u32, bool)> = kept[0].iter().map(|l| (l.prim, l.negated)).collect();
+    assert_eq!(prims, vec![(0, false), (2, true)]);
+    assert_eq!(tests.get(), 98, "one pair test per cutter and positive");
+    // No tests left: every cutter kept.
+    let none = without_apart_cutters(prods.clone(), &prep, &Cell::new(0));
+    assert_eq!(none, prods);
+    // The plan draws no parity of S.
+    let built = plan(&prep, &ProductOptions::default()).unwrap();
+    let parity_of = |m: u32| {
+        built.steps.iter().any(|s| {
+            matches!(s, Step::Draw(d) if d.geometry == Geometry::Mesh(m)
+                && matches!(d.fragment, Fragment::ParityBeforeExit { .. } | Fragment::NearerThan { .. }))
+        })
+    };
+    assert!(!parity_of(1) && parity_of(2));
+}
