@@ -6,11 +6,14 @@
 //! zones are where its shade runs the rule (`shade_near_depth`); over the rest
 //! of its rectangle it is drawn as the depth-`EQUAL` shade of a tie-free mesh,
 //! which passes exactly where its face is the visible one, as the rule does
-//! where no other face is within the band. The two parts cover disjoint pixels
-//! ([`subtract`]), so no pixel is shaded by both; and a depth-equal part of one
+//! where no other face is within the band. For a few zones the two parts cover
+//! disjoint pixels ([`subtract`]); for more the depth-equal part covers the
+//! whole rectangle, zones included ([`depth_equal_pieces`]: there it writes the
+//! mesh's own id or nothing, fewer draws than the pieces around many small
+//! zones). A depth-equal part of one
 //! mesh and a rule part of another can both pass at a pixel only where the two
-//! tie, which lies in both meshes' zones (a zone belongs to its pair), so both
-//! draw the rule there. Crossing faces, which the zones do not hold, are the
+//! tie, which lies in their zone (a zone belongs to its pair), where the lower
+//! index draws the rule (below). Crossing faces, which the zones do not hold, are the
 //! tie-free path's approximation (`plan::tie_free`: a sliver of a pixel at the
 //! crossing line).
 //!
@@ -35,13 +38,32 @@ use super::rect::Rect;
 use crate::geom::ties::{TieGaps, TieZone};
 use crate::scene::Aabb;
 
-/// The most rule rectangles of one shade draw (each is a draw; its complement
-/// adds at most a few more).
-pub const MAX_RULE_RECTS: usize = 4;
+/// The most rule rectangles of one shade draw (each is a draw).
+pub const MAX_RULE_RECTS: usize = 64;
+
+/// Rule pixels one more rule draw is counted as: two rule rectangles merge
+/// while their bounding rectangle adds fewer pixels than this. A guess in
+/// the spirit of `plan::scs`'s `DRAW_PIXELS`, smaller because a rule pixel
+/// costs more than a plain one (three texel fetches, derivatives, a depth
+/// write after the shader; about 5 ns on lavapipe at 800×800, where a draw
+/// costs 15 µs: docs/perf/2026-12-08-gaps.md). The gear's body ties with the
+/// 36 teeth flush with it, each in a strip of a few hundred pixels at the
+/// rim: four rectangles covered the whole gear (0.36 M rule pixels).
+const RULE_DRAW_PIXELS: u64 = 4096;
+
+/// The depth-equal part of a zoned draw is cut around its rule rectangles
+/// (`subtract`) only while they are at most this many; with more, the
+/// complement's pieces would outnumber them, and the depth-equal draw covers
+/// the draw's whole rectangle ([`depth_equal_pieces`]).
+pub const MAX_CUT_RECTS: usize = 4;
+
+/// The rectangles of the depth copy that opens a final shade (each a
+/// full-screen pass over its rectangle).
+pub const MAX_COPY_RECTS: usize = 4;
 
 /// Zone rectangles are first merged down to this many in bulk (along x),
 /// before the pairwise merge (quadratic in what is left).
-const BULK: usize = 16;
+const BULK: usize = 96;
 
 /// How the final shade draws one mesh under one camera.
 #[derive(Clone, Debug, PartialEq)]
@@ -76,7 +98,7 @@ impl ShadeRule {
             .filter_map(|z| z.within(band))
             .map(|b| project(&b))
             .collect();
-        ShadeRule::Zones(merge(rects, MAX_RULE_RECTS))
+        ShadeRule::Zones(merge_priced(rects, MAX_RULE_RECTS, RULE_DRAW_PIXELS))
     }
 
     /// Whether a recording made with `self` draws the rule wherever one made
@@ -97,9 +119,10 @@ impl ShadeRule {
     /// height` image (a moving camera's recording, like its scissors).
     pub fn grown(&self, mx: u32, my: u32, width: u32, height: u32) -> ShadeRule {
         match self {
-            ShadeRule::Zones(r) => ShadeRule::Zones(merge(
+            ShadeRule::Zones(r) => ShadeRule::Zones(merge_priced(
                 r.iter().map(|r| r.grown(mx, my, width, height)).collect(),
                 MAX_RULE_RECTS,
+                RULE_DRAW_PIXELS,
             )),
             other => other.clone(),
         }
@@ -122,7 +145,13 @@ fn wins_over_partner(z: &TieZone, m: u32) -> bool {
 /// At most `max` pairwise disjoint rectangles covering `rects` (empty ones
 /// dropped): overlapping ones are merged into their bounding rectangle, then
 /// the pair whose bounding rectangle adds the least area, until `max` are left.
-pub fn merge(mut rects: Vec<Rect>, max: usize) -> Vec<Rect> {
+pub fn merge(rects: Vec<Rect>, max: usize) -> Vec<Rect> {
+    merge_priced(rects, max, 0)
+}
+
+/// [`merge`], and then on while the cheapest pair's bounding rectangle adds
+/// at most `draw_pixels` pixels (one draw fewer is worth that many).
+pub fn merge_priced(mut rects: Vec<Rect>, max: usize, draw_pixels: u64) -> Vec<Rect> {
     assert!(max >= 1, "merge to at least one rectangle");
     rects.retain(|r| !r.is_empty());
     if rects.len() > BULK {
@@ -136,16 +165,14 @@ pub fn merge(mut rects: Vec<Rect>, max: usize) -> Vec<Rect> {
             .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
             .find(|&(i, j)| !rects[i].intersect(&rects[j]).is_empty())
             .or_else(|| {
-                (n > max)
-                    .then(|| {
-                        (0..n)
-                            .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
-                            .min_by_key(|&(i, j)| {
-                                let u = rects[i].union(&rects[j]).area();
-                                u - rects[i].area() - rects[j].area()
-                            })
-                    })
-                    .flatten()
+                let added = |(i, j): (usize, usize)| {
+                    let u = rects[i].union(&rects[j]).area();
+                    u - rects[i].area() - rects[j].area()
+                };
+                (0..n)
+                    .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+                    .min_by_key(|&p| added(p))
+                    .filter(|&p| n > max || added(p) <= draw_pixels)
             });
         let Some((i, j)) = pair else {
             return rects;
@@ -158,6 +185,22 @@ pub fn merge(mut rects: Vec<Rect>, max: usize) -> Vec<Rect> {
 
 fn bounding(rects: &[Rect]) -> Rect {
     rects.iter().fold(Rect::EMPTY, |a, r| a.union(r))
+}
+
+/// The rectangles of a zoned shade draw's depth-equal part within `scissor`,
+/// its rule drawn over `rule` (disjoint, within `scissor`): the rest of
+/// `scissor` ([`subtract`]) for a few rule rectangles, `scissor` itself for
+/// more ([`MAX_CUT_RECTS`]). Over a rule rectangle the depth-equal draw writes
+/// the mesh's own id or nothing: it passes where the mesh's raster depth is
+/// the image's, which is the visible face's (the mesh's rule passes there
+/// too) or a rule draw's depth written in its zone (where the mesh ties with
+/// that rule's mesh, and its own rule runs: module documentation).
+pub fn depth_equal_pieces(scissor: Rect, rule: &[Rect]) -> Vec<Rect> {
+    match rule.len() <= MAX_CUT_RECTS {
+        true => subtract(scissor, rule),
+        false if scissor.is_empty() => Vec::new(),
+        false => vec![scissor],
+    }
 }
 
 /// Disjoint rectangles covering exactly the pixels of `outer` outside every
@@ -343,6 +386,46 @@ mod tests {
             ShadeRule::decide(&unknown, 0, 0.01, &flat),
             ShadeRule::Everywhere
         );
+    }
+
+    #[test]
+    fn small_zones_apart_stay_apart_and_near_ones_merge() {
+        // Strips of 40×10 pixels around a 400-pixel ring (the gear's teeth):
+        // each its own draw; the bounding rectangle was the whole ring.
+        let strips: Vec<Rect> = (0..36)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 36.0;
+                let (x, y) = (400.0 + 300.0 * a.cos(), 400.0 + 300.0 * a.sin());
+                r(x as u32, y as u32, x as u32 + 40, y as u32 + 10)
+            })
+            .collect();
+        let priced = merge_priced(strips.clone(), MAX_RULE_RECTS, RULE_DRAW_PIXELS);
+        let area = |rs: &[Rect]| rs.iter().map(Rect::area).sum::<u64>();
+        assert!(priced.len() > 4, "{}", priced.len());
+        assert!(priced.len() <= MAX_RULE_RECTS);
+        assert!(strips.iter().all(|a| priced.iter().any(|b| b.contains(a))));
+        assert!(area(&priced) < area(&strips) * 4, "{priced:?}");
+        assert!(merge(strips.clone(), 4).iter().map(Rect::area).sum::<u64>() > 100_000);
+        // Two strips a pixel apart cost less merged than drawn twice.
+        let near = merge_priced(
+            vec![r(0, 0, 40, 10), r(41, 0, 80, 10)],
+            MAX_RULE_RECTS,
+            RULE_DRAW_PIXELS,
+        );
+        assert_eq!(near, vec![r(0, 0, 80, 10)]);
+    }
+
+    #[test]
+    fn the_depth_equal_part_is_cut_around_a_few_rule_rectangles_only() {
+        let outer = r(0, 0, 100, 100);
+        let few = vec![r(10, 10, 20, 20), r(50, 50, 60, 60)];
+        let pieces = depth_equal_pieces(outer, &few);
+        check_cover(outer, &few, &pieces);
+        let many: Vec<Rect> = (0..MAX_CUT_RECTS as u32 + 1)
+            .map(|i| r(10 * i, 0, 10 * i + 5, 5))
+            .collect();
+        assert_eq!(depth_equal_pieces(outer, &many), vec![outer]);
+        assert_eq!(depth_equal_pieces(Rect::EMPTY, &many), vec![]);
     }
 
     #[test]

@@ -502,6 +502,8 @@ impl Recorder<'_> {
                     .map(|z| z.intersect(&scissor))
                     .filter(|r| !r.is_empty())
                     .collect();
+                // The host's pieces stay disjoint (`writes_depth` below).
+                let rule = tie_zones::merge(rule, tie_zones::MAX_CUT_RECTS);
                 let rest = tie_zones::subtract(scissor, &rule);
                 // Culling what can never win the tie (`plan::visible_side`).
                 let culled = self.b.ties.culled_rule(d).unwrap_or_else(|| d.clone());

@@ -18,7 +18,7 @@ use crate::plan::direct_shade::DirectShades;
 use crate::plan::lower::Lowering;
 use crate::plan::reach::READ_MARGIN;
 use crate::plan::tie_free::ShadeCopy;
-use crate::plan::tie_zones::{self, MAX_RULE_RECTS};
+use crate::plan::tie_zones::{self, MAX_COPY_RECTS};
 use crate::plan::usage::Resource;
 use crate::plan::{Draw, Ds, Step, Tex};
 use crate::vk::error::VkError;
@@ -93,7 +93,7 @@ impl Recorder<'_> {
                 // Without zones, one copy of the meshes' bounds (what the
                 // embedding's host pass copies too).
                 let max = match meshes.iter().any(|(_, z)| z.is_some()) {
-                    true => MAX_RULE_RECTS,
+                    true => MAX_COPY_RECTS,
                     false => 1,
                 };
                 tie_zones::merge(grown, max)
@@ -105,8 +105,9 @@ impl Recorder<'_> {
     /// A final shade's draw of a mesh that can tie only in `zones` (screen
     /// rectangles, disjoint): the tie rule `rule` (culling what never wins
     /// when `culled`, `plan::visible_side`) cut to each of them within
-    /// `scissor`, the depth-equal draw `fixed` cut to each rectangle of the
-    /// rest of `scissor` (`plan::tie_zones`: no pixel gets both).
+    /// `scissor`, the depth-equal draw `fixed` over the pieces
+    /// `plan::tie_zones::depth_equal_pieces` gives (the rest of `scissor`
+    /// for a few zones, all of it for more).
     pub(super) fn zoned_shade(
         &mut self,
         rule: &Draw,
@@ -126,7 +127,7 @@ impl Recorder<'_> {
                 .count_lowering(Lowering::ShadeRule { culled }, rule, r);
             self.draw_in(rule, r)?;
         }
-        for r in tie_zones::subtract(scissor, &rects) {
+        for r in tie_zones::depth_equal_pieces(scissor, &rects) {
             // Outside the zones it cannot tie: a cavity's inside is drawn only
             // where it can be seen (`lower::seen_inside`).
             self.draw_seen(fixed, Lowering::FixedFunction { shade: true }, r)?;
