@@ -215,8 +215,10 @@ expr = "Block - Bubble"
 
 /// Tie-free cutters draw only their front faces in the parity
 /// (`Fragment::ParityBeforeExit`), and their exits test depth `Greater`. A
-/// cutter that lies wholly in front of `z` (the sphere F, outside the ball but
-/// inside its box, between the eye and the ball) then sets its bit with its
+/// cutter that lies wholly in front of `z` (the rod F, which grooves the
+/// ball at one end and crosses between the eye and the ball's near side at
+/// the other; a cutter outside the ball altogether would be dropped from the
+/// product, `plan::scs`) then sets its bit with its
 /// front faces and fails its exit's depth test: the exit must clear the bit
 /// anyway, or the hole S8, which takes the same bit in the next batch right
 /// behind F on screen, would lose its parity there.
@@ -234,9 +236,11 @@ shape = "sphere"
 radius = 1.0
 [[primitive]]
 name = "F"
-shape = "sphere"
-radius = 0.12
-translate = [0.9, 0.9, 0.9]
+shape = "cylinder"
+radius = 0.05
+height = 0.99
+rotate_deg = [45.0, 0.0, 0.0]
+translate = [0.8, 0.55, 0.55]
 color = "#d04040"
 "##,
     );
@@ -283,7 +287,7 @@ color = "#d04040"
     assert_eq!(before_exit, 9);
     let reference = peeltrim_reference::render(&scene, SIZE.0, SIZE.1);
     assert!(reference.prim.iter().any(|&q| q == 10), "S8's hole shows");
-    assert!(!reference.prim.contains(&2), "F cuts nothing");
+    assert!(reference.prim.contains(&2), "F's groove shows");
     let tol = crate::algorithms::depth_tolerance(&scene);
     for depth in crate::setup::usable_setups() {
         let (r, stats, depth_ok) =

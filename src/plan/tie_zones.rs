@@ -70,8 +70,9 @@ const BULK: usize = 96;
 pub enum ShadeRule {
     /// No face within the band of another: one depth-equal draw.
     Free,
-    /// The tie rule inside these disjoint screen rectangles (clipped later to
-    /// the draw's scissor), depth-equal elsewhere. Empty: no zone on screen,
+    /// The tie rule inside these screen rectangles (clipped later to the
+    /// draw's scissor; they may overlap, [`merge_priced`]: a pixel shaded
+    /// twice by one mesh's rule gets the same answer), depth-equal elsewhere. Empty: no zone on screen,
     /// or only zones whose partner has the lower index.
     Zones(Vec<Rect>),
     /// The tie rule over the whole mesh (no zones known, or the band wider than
@@ -146,33 +147,23 @@ fn wins_over_partner(z: &TieZone, m: u32) -> bool {
 /// dropped): overlapping ones are merged into their bounding rectangle, then
 /// the pair whose bounding rectangle adds the least area, until `max` are left.
 pub fn merge(rects: Vec<Rect>, max: usize) -> Vec<Rect> {
-    merge_priced(rects, max, 0)
-}
-
-/// [`merge`], and then on while the cheapest pair's bounding rectangle adds
-/// at most `draw_pixels` pixels (one draw fewer is worth that many).
-pub fn merge_priced(mut rects: Vec<Rect>, max: usize, draw_pixels: u64) -> Vec<Rect> {
-    assert!(max >= 1, "merge to at least one rectangle");
-    rects.retain(|r| !r.is_empty());
-    if rects.len() > BULK {
-        rects.sort_by_key(|r| r.x0 + r.x1);
-        let per = rects.len().div_ceil(BULK);
-        rects = rects.chunks(per).map(bounding).collect();
-    }
+    let mut rects = bulk(rects, max);
     loop {
         let n = rects.len();
         let pair = (0..n)
             .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
             .find(|&(i, j)| !rects[i].intersect(&rects[j]).is_empty())
             .or_else(|| {
-                let added = |(i, j): (usize, usize)| {
-                    let u = rects[i].union(&rects[j]).area();
-                    u - rects[i].area() - rects[j].area()
-                };
-                (0..n)
-                    .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
-                    .min_by_key(|&p| added(p))
-                    .filter(|&p| n > max || added(p) <= draw_pixels)
+                (n > max)
+                    .then(|| {
+                        (0..n)
+                            .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+                            .min_by_key(|&(i, j)| {
+                                let u = rects[i].union(&rects[j]).area();
+                                u - rects[i].area() - rects[j].area()
+                            })
+                    })
+                    .flatten()
             });
         let Some((i, j)) = pair else {
             return rects;
@@ -183,12 +174,53 @@ pub fn merge_priced(mut rects: Vec<Rect>, max: usize, draw_pixels: u64) -> Vec<R
     }
 }
 
+/// At most `max` rectangles covering `rects` (empty ones dropped), which may
+/// overlap: the pair whose bounding rectangle adds the fewest pixels to what
+/// the two cover is merged while more than `max` are left or it adds at most
+/// `draw_pixels` (one draw fewer is worth that many). Unlike [`merge`],
+/// overlapping rectangles are not merged whatever it adds: around a ring of
+/// small zones (the gear's teeth) merging every overlap grew arcs into
+/// rectangles that overlapped across the ring, and the ring into one.
+pub fn merge_priced(rects: Vec<Rect>, max: usize, draw_pixels: u64) -> Vec<Rect> {
+    let mut rects = bulk(rects, max);
+    loop {
+        let n = rects.len();
+        let added = |(i, j): (usize, usize)| {
+            let (a, b) = (&rects[i], &rects[j]);
+            a.union(b).area() + a.intersect(b).area() - a.area() - b.area()
+        };
+        let pair = (0..n)
+            .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+            .min_by_key(|&p| added(p))
+            .filter(|&p| n > max || added(p) <= draw_pixels);
+        let Some((i, j)) = pair else {
+            return rects;
+        };
+        let u = rects[i].union(&rects[j]);
+        rects[i] = u;
+        rects.swap_remove(j);
+    }
+}
+
+/// `rects` without empty ones, merged in bulk along x down to [`BULK`]
+/// where there are more.
+fn bulk(mut rects: Vec<Rect>, max: usize) -> Vec<Rect> {
+    assert!(max >= 1, "merge to at least one rectangle");
+    rects.retain(|r| !r.is_empty());
+    if rects.len() > BULK {
+        rects.sort_by_key(|r| r.x0 + r.x1);
+        let per = rects.len().div_ceil(BULK);
+        rects = rects.chunks(per).map(bounding).collect();
+    }
+    rects
+}
+
 fn bounding(rects: &[Rect]) -> Rect {
     rects.iter().fold(Rect::EMPTY, |a, r| a.union(r))
 }
 
 /// The rectangles of a zoned shade draw's depth-equal part within `scissor`,
-/// its rule drawn over `rule` (disjoint, within `scissor`): the rest of
+/// its rule drawn over `rule` (within `scissor`, overlapping or not): the rest of
 /// `scissor` ([`subtract`]) for a few rule rectangles, `scissor` itself for
 /// more ([`MAX_CUT_RECTS`]). Over a rule rectangle the depth-equal draw writes
 /// the mesh's own id or nothing: it passes where the mesh's raster depth is
@@ -372,10 +404,9 @@ mod tests {
         assert_eq!(rule(2, 0.01), ShadeRule::Free);
         // Band 0.1: mesh 2's zone too, whose rule mesh 0 runs; mesh 0 has both.
         assert_eq!(rule(2, 0.1), ShadeRule::Zones(vec![]));
-        assert_eq!(
-            rule(0, 0.1),
-            ShadeRule::Zones(vec![r(9, 9, 21, 21), r(49, 49, 61, 61)])
-        );
+        // Two zones 28 pixels apart merge (one draw is worth more than the
+        // 2,416 pixels the merge adds, `RULE_DRAW_PIXELS`).
+        assert_eq!(rule(0, 0.1), ShadeRule::Zones(vec![r(9, 9, 61, 61)]));
         assert_eq!(rule(3, 0.1), ShadeRule::Free);
         // Beyond the analysis' cap: the rule everywhere (and for every mesh
         // when nothing is known).

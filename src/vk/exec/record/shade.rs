@@ -103,7 +103,7 @@ impl Recorder<'_> {
     }
 
     /// A final shade's draw of a mesh that can tie only in `zones` (screen
-    /// rectangles, disjoint): the tie rule `rule` (culling what never wins
+    /// rectangles, which may overlap): the tie rule `rule` (culling what never wins
     /// when `culled`, `plan::visible_side`) cut to each of them within
     /// `scissor`, the depth-equal draw `fixed` over the pieces
     /// `plan::tie_zones::depth_equal_pieces` gives (the rest of `scissor`
