@@ -240,7 +240,7 @@ shape = "cylinder"
 radius = 0.05
 height = 0.99
 rotate_deg = [45.0, 0.0, 0.0]
-translate = [0.8, 0.55, 0.55]
+translate = [0.82, 0.55, 0.55]
 color = "#d04040"
 "##,
     );
