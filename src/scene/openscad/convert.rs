@@ -5,10 +5,13 @@
 //! - `group`/`union`/`render` → union; `difference` → the first child minus the
 //!   union of the rest; `intersection`. Unions and intersections are built
 //!   balanced (depth log n) rather than left-deep.
-//! - A child that yields no node (an empty group, a `*` disabled or `%`
-//!   background subtree) vanishes from its parent's child list, as in OpenSCAD's
-//!   pruned tree; a degenerate primitive (`sphere(0)`) is the empty set and
-//!   follows the set algebra (`A ∩ ∅ = ∅`, `A − ∅ = A`).
+//! - A `*` disabled or `%` background subtree, or a dropped node (2D among 3D,
+//!   `--skip-unsupported`), vanishes from its parent's child list. A child
+//!   that yields nothing (an empty group, `render()` or an extrusion without
+//!   children) and a degenerate primitive (`sphere(0)`) are the empty set and
+//!   follow the set algebra (`A ∩ ∅ = ∅`, `∅ − A = ∅`, `A − ∅ = A`), as
+//!   OpenSCAD 2021.01's preview and CGAL render both draw
+//!   `intersection() { cube(); render(); }` as nothing.
 //! - `multmatrix` composes (row-major as printed); `color` colours the primitives
 //!   below it, the outermost `color` winning as in 2021.01; `#` highlights.
 //! - `!` makes the first such node the only root (its ancestors' transforms are
@@ -340,11 +343,14 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
         if is_primitive(k) || c.inside_outline[i] || ctx.inside.is_some() {
             continue;
         }
+        // A child that is there but yields nothing (`render()`, an empty
+        // group) is the empty set; a dropped one (`*`, 2D among 3D, skipped)
+        // is not there.
         let kids: Vec<Term> = tree.nodes[i]
             .children
             .iter()
             .filter(|&&ch| !is_background_root[ch as usize])
-            .filter_map(|&ch| term[ch as usize])
+            .filter_map(|&ch| term[ch as usize].or(c.ctx[ch as usize].map(|_| Term::Empty)))
             .collect();
         term[i] = combine(&mut nodes, k, kids);
     }
