@@ -21,10 +21,12 @@
 pub(crate) mod args;
 pub mod background;
 pub(crate) mod convert;
+pub(crate) mod dxf;
 pub(crate) mod extrude;
 pub(crate) mod lex;
 pub(crate) mod outline;
 pub(crate) mod parse;
+pub(crate) mod svg;
 pub(crate) mod tessellate;
 #[cfg(test)]
 mod tests;
