@@ -38,6 +38,7 @@ use crate::scene::cost;
 use crate::scene::load::{MAX_DIVISIONS, MAX_GRID};
 use crate::scene::validate::{check_closed, signed_volume, MeshProblem};
 use crate::scene::Mesh;
+use std::path::Path;
 
 /// OpenSCAD's (Cornfield) colours: faces of the solid, faces of subtracted
 /// parts, and `#` highlighted subtrees (with its alpha).
@@ -79,6 +80,7 @@ enum Kind {
     Offset,
     Hull,
     Minkowski,
+    Import,
 }
 
 fn kind(name: &str) -> Option<Kind> {
@@ -101,11 +103,12 @@ fn kind(name: &str) -> Option<Kind> {
         "offset" => Kind::Offset,
         "hull" => Kind::Hull,
         "minkowski" => Kind::Minkowski,
+        "import" => Kind::Import,
         _ => return None,
     })
 }
 
-const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, 2D hull and minkowski, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render";
+const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, 2D hull and minkowski, import of DXF/SVG, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render";
 const TWO_D: &[&str] = &["projection"];
 
 fn is_primitive(k: Kind) -> bool {
@@ -126,7 +129,10 @@ fn is_3d_primitive(k: Kind) -> bool {
 }
 
 fn is_2d_primitive(k: Kind) -> bool {
-    matches!(k, Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text)
+    matches!(
+        k,
+        Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text | Kind::Import
+    )
 }
 
 fn is_extrusion(k: Kind) -> bool {
@@ -184,11 +190,13 @@ pub struct BackgroundTree {
     pub expr: Expr,
 }
 
-pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadError> {
+/// `base`: the folder `import` and `surface` paths are relative to.
+pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Converted, ScadError> {
     let n = tree.nodes.len();
     let mut c = Converter {
         tree,
         skip_unsupported,
+        base,
         warnings: Vec::new(),
         ctx: vec![None; n],
         background_roots: Vec::new(),
@@ -452,6 +460,8 @@ fn push(nodes: &mut Vec<E>, n: E) -> Term {
 struct Converter<'a> {
     tree: &'a Tree,
     skip_unsupported: bool,
+    /// The folder of the `.csg` file.
+    base: &'a Path,
     warnings: Vec<String>,
     ctx: Vec<Option<Ctx>>,
     /// The outermost `%` nodes entered.
@@ -564,8 +574,6 @@ impl Converter<'_> {
         let Some(k) = kind(&node.name).filter(|_| !three_d) else {
             let what = if TWO_D.contains(&node.name.as_str()) {
                 format!("`{}` (it needs the 3D boundary)", node.name)
-            } else if node.name == "import" {
-                "`import` (neither DXF/SVG outlines nor meshes are read yet)".to_string()
             } else if three_d {
                 format!("`{}` of 3D children", node.name)
             } else {
@@ -1200,6 +1208,9 @@ impl Converter<'_> {
                 extrude::square(size, a.boolean("center")?.unwrap_or(false)).transformed(m)
             }
             Kind::Text => super::text::region(node, &mut self.warnings)?.transformed(m),
+            Kind::Import => {
+                super::import2d::region(node, self.base, &mut self.warnings)?.transformed(m)
+            }
             _ => self.polygon(node, m)?,
         };
         self.check_extent(node, &r)?;

@@ -23,6 +23,7 @@ pub mod background;
 pub(crate) mod convert;
 pub(crate) mod dxf;
 pub(crate) mod extrude;
+pub(crate) mod import2d;
 pub(crate) mod lex;
 pub(crate) mod outline;
 pub(crate) mod parse;
@@ -130,7 +131,8 @@ pub fn model_from_str(
 ) -> Result<Model, SceneError> {
     let located = |e: ScadError| located_error(text, path, e);
     let tree = parse::parse(text).map_err(located)?;
-    let c = convert::convert(&tree, skip_unsupported).map_err(located)?;
+    let base = path.parent().unwrap_or(Path::new(""));
+    let c = convert::convert(&tree, skip_unsupported, base).map_err(located)?;
     let mut warnings: Vec<String> = c
         .warnings
         .iter()
