@@ -571,9 +571,12 @@ impl Converter<'_> {
             Some(Kind::Hull | Kind::Minkowski) => parent.plane.is_none(),
             _ => false,
         };
-        let Some(k) = kind(&node.name).filter(|_| !three_d) else {
+        let mesh = node.name == "import" && !super::import2d::is_2d_file(node);
+        let Some(k) = kind(&node.name).filter(|_| !three_d && !mesh) else {
             let what = if TWO_D.contains(&node.name.as_str()) {
                 format!("`{}` (it needs the 3D boundary)", node.name)
+            } else if mesh {
+                "`import` of a mesh (STL, OFF: not read yet)".to_string()
             } else if three_d {
                 format!("`{}` of 3D children", node.name)
             } else {

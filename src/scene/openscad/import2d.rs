@@ -15,6 +15,20 @@ use super::{dxf, svg, ScadError};
 /// At most this many bytes per imported 2D file.
 pub const MAX_BYTES: u64 = 256 << 20;
 
+/// Whether an `import` node names a DXF or SVG file (else a mesh).
+pub fn is_2d_file(node: &Node) -> bool {
+    node.args
+        .iter()
+        .find(|a| matches!(a.name.as_deref(), Some("file" | "filename") | None))
+        .is_some_and(|a| match &a.value.kind {
+            ValueKind::Str(f) => {
+                let f = f.to_ascii_lowercase();
+                f.ends_with(".dxf") || f.ends_with(".svg")
+            }
+            _ => false,
+        })
+}
+
 /// The outline of a 2D `import` node; `base` is the `.csg` file's folder.
 pub fn region(node: &Node, base: &Path, warnings: &mut Vec<String>) -> Result<Region, ScadError> {
     let a = Args::new(
@@ -109,9 +123,11 @@ pub fn region(node: &Node, base: &Path, warnings: &mut Vec<String>) -> Result<Re
             let out = svg::read(&text, &o).map_err(fail)?;
             (out.region, out.warnings)
         }
-        _ => return Err(fail(format!(
+        _ => {
+            return Err(fail(format!(
             "a 2D import reads DXF or SVG files, not \"{ext}\"; export the outline as DXF or SVG"
-        ))),
+        )))
+        }
     };
     let name = path.display();
     warnings.extend(notes.into_iter().map(|w| {
