@@ -23,16 +23,25 @@ pub mod background;
 pub(crate) mod convert;
 pub(crate) mod dxf;
 pub(crate) mod extrude;
+#[cfg(test)]
+mod fuzz3d;
+pub(crate) mod hull;
 pub(crate) mod import2d;
 pub(crate) mod lex;
+pub(crate) mod mesh_import;
+pub(crate) mod orient;
 pub(crate) mod outline;
 pub(crate) mod parse;
+pub(crate) mod pieces;
+pub(crate) mod surface;
 pub(crate) mod svg;
 pub(crate) mod tessellate;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod tests2d;
+#[cfg(test)]
+mod tests3d;
 pub(crate) mod text;
 
 use glam::DMat4;
