@@ -86,7 +86,17 @@ enum Kind {
     Minkowski,
     Resize,
     Import,
+    /// `import` of a DXF or SVG file: a 2D primitive (`super::import2d`).
+    ImportOutline,
     Surface,
+}
+
+/// A node's kind; `import` of a DXF or SVG file is a 2D primitive.
+fn kind_of(node: &Node) -> Option<Kind> {
+    match kind(&node.name) {
+        Some(Kind::Import) if super::import2d::is_2d_file(node) => Some(Kind::ImportOutline),
+        k => k,
+    }
 }
 
 fn kind(name: &str) -> Option<Kind> {
@@ -116,7 +126,7 @@ fn kind(name: &str) -> Option<Kind> {
     })
 }
 
-const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, hull, minkowski, resize, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render, import of STL/OFF, surface";
+const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, hull, minkowski, resize, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render, import of STL/OFF/DXF/SVG, surface";
 const TWO_D: &[&str] = &["projection"];
 
 fn is_primitive(k: Kind) -> bool {
@@ -147,7 +157,10 @@ fn is_evaluated(k: Kind) -> bool {
 }
 
 fn is_2d_primitive(k: Kind) -> bool {
-    matches!(k, Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text)
+    matches!(
+        k,
+        Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text | Kind::ImportOutline
+    )
 }
 
 fn is_extrusion(k: Kind) -> bool {
@@ -244,10 +257,10 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
     for i in 0..tree.nodes.len() {
         let Some(ctx) = c.ctx[i] else { continue };
         let node = &tree.nodes[i];
-        let is_diff = kind(&node.name) == Some(Kind::Difference);
+        let is_diff = kind_of(node) == Some(Kind::Difference);
         // Below a 2D `offset`, `hull` or `minkowski`, outlines are evaluated.
-        let inside = c.inside_outline[i]
-            || (ctx.plane.is_some() && kind(&node.name).is_some_and(is_outline));
+        let inside =
+            c.inside_outline[i] || (ctx.plane.is_some() && kind_of(node).is_some_and(is_outline));
         for (k, &ch) in node.children.iter().enumerate() {
             let mut child = ctx;
             child.negated ^= is_diff && k > 0;
@@ -297,7 +310,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
     let mut nodes: Vec<E> = Vec::new();
     let mut term: Vec<Option<Term>> = vec![None; tree.nodes.len()];
     for (i, slot) in term.iter_mut().enumerate() {
-        let (Some(ctx), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
+        let (Some(ctx), Some(k)) = (c.ctx[i], kind_of(&tree.nodes[i])) else {
             continue;
         };
         if let Some(root) = ctx.inside {
@@ -337,7 +350,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
     }
     // Operators bottom-up.
     for i in (0..tree.nodes.len()).rev() {
-        let (Some(ctx), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
+        let (Some(ctx), Some(k)) = (c.ctx[i], kind_of(&tree.nodes[i])) else {
             continue;
         };
         if is_primitive(k) || c.inside_outline[i] || ctx.inside.is_some() {
@@ -613,7 +626,7 @@ impl Converter<'_> {
             self.background_roots.push(i);
             ctx.background = true;
         }
-        let Some(k) = kind(&node.name) else {
+        let Some(k) = kind_of(node) else {
             let what = if TWO_D.contains(&node.name.as_str()) {
                 format!("`{}` (it needs the 3D boundary)", node.name)
             } else {
@@ -711,20 +724,6 @@ impl Converter<'_> {
     /// A known node kind that peeltrim cannot evaluate where it stands.
     fn refused_here(&self, k: Kind, node: &Node, parent: &Ctx) -> Option<String> {
         let name = &node.name;
-        if k == Kind::Import {
-            let file = node
-                .args
-                .iter()
-                .find(|a| a.name.as_deref() == Some("file") || a.name.is_none())
-                .and_then(|a| match &a.value.kind {
-                    ValueKind::Str(f) => Some(f.to_ascii_lowercase()),
-                    _ => None,
-                })
-                .unwrap_or_default();
-            if [".dxf", ".svg"].iter().any(|e| file.ends_with(e)) {
-                return Some(format!("`{name}` of a 2D file (DXF or SVG)"));
-            }
-        }
         if parent.plane.is_some() && matches!(k, Kind::Resize | Kind::Import) {
             return Some(format!("`{name}` of 2D shapes"));
         }
@@ -1226,7 +1225,7 @@ impl Converter<'_> {
         let tree = self.tree;
         let mut evaluated: Vec<Option<Region>> = vec![None; tree.nodes.len()];
         for i in (0..tree.nodes.len()).rev() {
-            let (Some(ctx), Some(k)) = (self.ctx[i], kind(&tree.nodes[i].name)) else {
+            let (Some(ctx), Some(k)) = (self.ctx[i], kind_of(&tree.nodes[i])) else {
                 continue;
             };
             let node = &tree.nodes[i];
@@ -1368,6 +1367,9 @@ impl Converter<'_> {
                 extrude::square(size, a.boolean("center")?.unwrap_or(false)).transformed(m)
             }
             Kind::Text => super::text::region(node, &mut self.warnings)?.transformed(m),
+            Kind::ImportOutline => {
+                super::import2d::region(node, self.base, &mut self.warnings)?.transformed(m)
+            }
             _ => self.polygon(node, m)?,
         };
         self.check_extent(node, &r)?;
@@ -1568,7 +1570,7 @@ impl Converter<'_> {
         let tree = self.tree;
         let mut pieces: Vec<Option<Vec<Piece>>> = (0..tree.nodes.len()).map(|_| None).collect();
         for i in (0..tree.nodes.len()).rev() {
-            let (Some(ctx), Some(k)) = (self.ctx[i], kind(&tree.nodes[i].name)) else {
+            let (Some(ctx), Some(k)) = (self.ctx[i], kind_of(&tree.nodes[i])) else {
                 continue;
             };
             if ctx.inside.is_none() {
@@ -1868,7 +1870,7 @@ impl Converter<'_> {
         let tree = self.tree;
         let mut two_d = false;
         for node in &tree.nodes {
-            match kind(&node.name) {
+            match kind_of(node) {
                 Some(k) if is_2d_primitive(k) || k == Kind::Offset => two_d = true,
                 Some(k) if is_3d_primitive(k) || is_extrusion(k) => return None,
                 None if !TWO_D.contains(&node.name.as_str()) => return None,

@@ -431,7 +431,6 @@ fn modifiers() {
 #[test]
 fn unsupported_nodes_and_geometry_errors() {
     for (node, name) in [
-        ("import(file = \"a.dxf\");", "import"),
         ("projection(cut = false) { cube(); }", "projection"),
         (
             "hull() { difference() { cube(); sphere(); } }",
