@@ -328,11 +328,11 @@ fn every_unsupported_node_is_reported_in_file_order() {
     let e = stderr(&o);
     let at = |s: &str| e.find(s).unwrap_or_else(|| panic!("{s} in {e}"));
     assert!(
-        at("many.csg:2:3: `projection`") < at("many.csg:4:5: `import`"),
+        at("many.csg:2:3: `projection`") < at("many.csg:4:5: `projection`"),
         "{e}"
     );
     assert!(
-        at("many.csg:4:5: `import`") < at("many.csg:6:12: `difference`"),
+        at("many.csg:4:5: `projection`") < at("many.csg:6:12: `difference`"),
         "{e}"
     );
 }

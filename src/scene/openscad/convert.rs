@@ -724,7 +724,12 @@ impl Converter<'_> {
     /// A known node kind that peeltrim cannot evaluate where it stands.
     fn refused_here(&self, k: Kind, node: &Node, parent: &Ctx) -> Option<String> {
         let name = &node.name;
-        if parent.plane.is_some() && matches!(k, Kind::Resize | Kind::Import) {
+        if parent.plane.is_some() && k == Kind::Import {
+            return Some(format!(
+                "`{name}` of a mesh or an unknown file in 2D (2D import reads DXF or SVG)"
+            ));
+        }
+        if parent.plane.is_some() && k == Kind::Resize {
             return Some(format!("`{name}` of 2D shapes"));
         }
         if let (Some(root), Kind::Difference | Kind::Intersection) = (parent.inside, k) {
