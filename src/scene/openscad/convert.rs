@@ -5,10 +5,11 @@
 //! - `group`/`union`/`render` → union; `difference` → the first child minus the
 //!   union of the rest; `intersection`. Unions and intersections are built
 //!   balanced (depth log n) rather than left-deep.
-//! - A `*` disabled or `%` background subtree, or a dropped node (2D among 3D,
-//!   `--skip-unsupported`), vanishes from its parent's child list. A child
+//! - A `*` disabled or `%` background subtree, or a node dropped by
+//!   `--skip-unsupported`, vanishes from its parent's child list. A child
 //!   that yields nothing (an empty group, `render()` or an extrusion without
-//!   children) and a degenerate primitive (`sphere(0)`) are the empty set and
+//!   children, a 2D shape among 3D objects, which OpenSCAD ignores with a
+//!   warning) and a degenerate primitive (`sphere(0)`) are the empty set and
 //!   follow the set algebra (`A ∩ ∅ = ∅`, `∅ − A = ∅`, `A − ∅ = A`), as
 //!   OpenSCAD 2021.01's preview and CGAL render both draw
 //!   `intersection() { cube(); render(); }` as nothing.
@@ -238,6 +239,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
         regions: vec![None; n],
         extrusions: vec![None; n + 1],
         inside_outline: vec![false; n],
+        misplaced: vec![false; n],
         frames: vec![DAffine2::IDENTITY; n],
     };
     let roots = c.roots();
@@ -357,13 +359,16 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
             continue;
         }
         // A child that is there but yields nothing (`render()`, an empty
-        // group) is the empty set; a dropped one (`*`, 2D among 3D, skipped)
-        // is not there.
+        // group, a dropped 2D shape among 3D ones) is the empty set; a `*`
+        // or skipped one is not there.
         let kids: Vec<Term> = tree.nodes[i]
             .children
             .iter()
             .filter(|&&ch| !is_background_root[ch as usize])
-            .filter_map(|&ch| term[ch as usize].or(c.ctx[ch as usize].map(|_| Term::Empty)))
+            .filter_map(|&ch| {
+                let there = c.ctx[ch as usize].is_some() || c.misplaced[ch as usize];
+                term[ch as usize].or(there.then_some(Term::Empty))
+            })
             .collect();
         term[i] = combine(&mut nodes, k, kids);
     }
@@ -540,6 +545,8 @@ struct Converter<'a> {
     /// Per node: below an `offset`, `hull` or `minkowski` in the plane (its
     /// outline is evaluated, not extruded).
     inside_outline: Vec<bool>,
+    /// Per node: a 2D shape among 3D objects or the reverse, dropped.
+    misplaced: Vec<bool>,
     /// Per `offset`/`hull`/`minkowski` node: its 2D transform (its children's
     /// outlines are evaluated in its own frame).
     frames: Vec<DAffine2>,
@@ -649,6 +656,7 @@ impl Converter<'_> {
                 "{at}: `{}` is {why}; OpenSCAD drops it, and so does peeltrim (wrap a 2D shape in linear_extrude to give it volume)",
                 node.name
             ));
+            self.misplaced[i as usize] = true;
             return Ok(None);
         }
         if is_evaluated(k) && parent.plane.is_none() {

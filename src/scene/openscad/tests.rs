@@ -366,6 +366,7 @@ fn empty_primitives_follow_set_algebra() {
         "render();",
         "linear_extrude(height = 1);",
         "minkowski();",
+        "circle(r = 2);",
     ] {
         let m = model(&format!(
             "intersection() {{ cube(size = 1); {empty} }}\ncube(size = 2);"
