@@ -469,10 +469,22 @@ pub(crate) fn clip_steps_in(
     eps: f32,
     eye_inside: &[bool],
 ) -> Vec<Step> {
+    let cut: Vec<(Lit, Scissor)> = against.iter().map(|&b| (b, region.cut(b.prim))).collect();
+    clip_steps_cut(&cut, region.rect(), eps, eye_inside)
+}
+
+/// [`clip_steps`] with each literal's parity draw cut to its own scissor
+/// (where it can hold a surface point) and the sweeps to `sweep`.
+pub(crate) fn clip_steps_cut(
+    against: &[(Lit, Scissor)],
+    sweep: Scissor,
+    eps: f32,
+    eye_inside: &[bool],
+) -> Vec<Step> {
     let mut steps = vec![Step::Pass("clip".into())];
     for chunk in against.chunks(CLIP_BITS as usize) {
         let (mut mask, mut inside) = (0u8, 0u8);
-        for (k, &b) in chunk.iter().enumerate() {
+        for (k, (b, scissor)) in chunk.iter().enumerate() {
             let bit = 1u8 << k;
             mask |= bit;
             if b.negated == eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
@@ -481,12 +493,12 @@ pub(crate) fn clip_steps_in(
             steps.push(clip_parity_draw(
                 b.prim,
                 Cull::None,
-                region.cut(b.prim),
+                scissor.clone(),
                 bit,
                 eps,
             ));
         }
-        steps.push(reject_sweep(mask, inside, region.rect()));
+        steps.push(reject_sweep(mask, inside, sweep.clone()));
     }
     steps
 }
