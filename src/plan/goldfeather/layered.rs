@@ -27,6 +27,17 @@
 //! layer or product) passes no peel fragment, does not keep the loop going, and
 //! rejects the clip draws' fragments behind it in the depth test. The loop runs
 //! to the deepest *unresolved* pixel, not to the product's depth complexity.
+//!
+//! A product `x ∩ ¬c₁ ∩ … ∩ ¬cₙ` of one positive primitive that is convex in
+//! this view, the eye outside it (a block minus holes), is entered once, at
+//! `x`'s front face: every point of it lies at or behind that face. Its first
+//! layer is that face alone, and its later layers are the holes' back faces
+//! behind it; `x` is not drawn again. A point of hole `c`'s back face is never
+//! inside `c` (§4.3) and lies inside another hole only where their boxes meet,
+//! so the later layers are clipped by `x` and by the holes whose boxes meet
+//! another's, each cut to those. Holes that never meet (a drilled block) cost
+//! one parity draw and one sweep per later layer, as Goldfeather's O(n) clips
+//! of each hole's surface do, instead of n + 1 draws and ⌈(n + 1)/8⌉ sweeps.
 #![deny(unsafe_code)]
 
 use super::*;
@@ -77,7 +88,7 @@ pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
         // in front of it lies outside the product), and the later layers are
         // the complements' back faces behind it: the positive is not drawn
         // again.
-        let entry = single.filter(|&x| prep.convex(x));
+        let entry = single.filter(|&x| prep.convex(x) && !neg.is_empty());
         let (first_faces, later_faces) = match entry {
             Some(_) => (vec![(&pos, Cull::Back)], vec![(&neg, Cull::Front)]),
             None => {
