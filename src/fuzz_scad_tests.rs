@@ -61,7 +61,9 @@ fn value() -> BoxedStrategy<(String, bool)> {
         4 => (1i32..10).prop_map(|i| (i.to_string(), false)),
         // `undef` is OpenSCAD's "not given": the parameter's default.
         1 => prop::sample::select(vec!["0", "-0", "1e-300", "-3", "undef"]).prop_map(|s| (s.to_string(), false)),
-        1 => prop::sample::select(vec!["nan", "inf", "-inf", "1e999", "\"x\"", "[1, 2]", "true"])
+        // Infinite and NaN numbers are undef to OpenSCAD: the default, with a warning.
+        1 => prop::sample::select(vec!["nan", "inf", "-inf", "1e999"]).prop_map(|s| (s.to_string(), false)),
+        1 => prop::sample::select(vec!["\"x\"", "[1, 2]", "true"])
             .prop_map(|s| (s.to_string(), true)),
     ]
     .boxed()
@@ -76,7 +78,11 @@ fn empty_size(v: &str) -> bool {
 fn vec3() -> BoxedStrategy<(String, bool)> {
     prop::collection::vec(value(), 3)
         .prop_map(|v| {
-            let bad = v.iter().any(|(_, b)| *b);
+            // A non-finite element makes the whole vector undef (the default).
+            let undef = v
+                .iter()
+                .any(|(s, _)| matches!(s.as_str(), "nan" | "inf" | "-inf" | "1e999"));
+            let bad = v.iter().any(|(_, b)| *b) && !undef;
             (
                 format!(
                     "[{}]",
@@ -92,8 +98,10 @@ fn vec3() -> BoxedStrategy<(String, bool)> {
 fn fragments() -> BoxedStrategy<(String, bool)> {
     prop_oneof![
         20 => (0u32..40).prop_map(|n| (format!("$fn = {n}, $fa = 12, $fs = 2"), false)),
-        1 => prop::sample::select(vec!["1e9", "4294967296", "1e308", "65537", "nan", "inf"])
+        1 => prop::sample::select(vec!["1e9", "4294967296", "1e308", "65537"])
             .prop_map(|s| (format!("$fn = {s}, $fa = 12, $fs = 2"), true)),
+        1 => prop::sample::select(vec!["nan", "inf"])
+            .prop_map(|s| (format!("$fn = {s}, $fa = 12, $fs = 2"), false)),
         1 => Just(("$fn = 0, $fa = 0.01, $fs = 0.01".to_string(), false)),
     ]
     .boxed()
@@ -129,15 +137,15 @@ fn primitive() -> BoxedStrategy<Scad> {
             "polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]], convexity = 1);".into(),
             false,
         )),
-        // Open, inside out, or indexing past the points.
+        // Open, or indexing past the points.
         1 => prop::sample::select(vec![
             "polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [0, 2, 3]]);",
-            "polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);",
             "polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces = [[0, 1, 99999999999]]);",
             "polyhedron(points = [[0, 0, 0]], faces = [[0, 0]]);",
-            "linear_extrude(height = 2) polygon(points = [[0, 0], [1, 0], [0, nan]]);",
             "rotate_extrude(angle = 360) circle(r = 1, $fn = 1e9);",
             "cube(size = [1, 1, 1]) cube();",
+            "import(file = 7);",
+            "hull() { difference() { cube(); sphere(); } }",
         ])
         .prop_map(move |s| scad(s.to_string(), true)),
     ]
@@ -161,6 +169,15 @@ fn tree() -> BoxedStrategy<Scad> {
                 Just(("multmatrix(m = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]])".to_string(), true)),
                 Just(("color([0.2, 0.4, 0.9, 0.5])".to_string(), false)),
                 Just(("color(\"#zz0000\")".to_string(), true)),
+                // Evaluated from their children's vertices; a Boolean or a
+                // non-convex part below them is refused, so their validity
+                // is that of their children at most.
+                Just(("hull()".to_string(), false)),
+                Just(("minkowski()".to_string(), false)),
+                (value(), any::<bool>()).prop_map(|((x, b), auto)| (
+                    format!("resize(newsize = [{x}, 0, 2], auto = {auto})"),
+                    b
+                )),
             ];
             // `%` and `*` subtrees are not evaluated: their errors do not count.
             let modifier = prop::sample::select(vec!["", "", "", "", "#", "%", "*"]);

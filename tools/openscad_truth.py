@@ -71,6 +71,24 @@ def stl_to_obj(stl, obj):
     return c, r, len(out)
 
 
+def absolute_files(csg, src_dir):
+    """`import`/`surface` paths in the export are relative to the .scad's
+    folder; the .csg lives elsewhere, so they are made absolute."""
+    import re
+    with open(csg) as f:
+        text = f.read()
+
+    def fix(m):
+        path = m.group(2)
+        if not os.path.isabs(path):
+            path = os.path.join(src_dir, path)
+        return m.group(1) + path.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+    text = re.sub(r'^(\s*[%#!*]*(?:import|surface)\(file = ")((?:[^"\\]|\\.)*)"', fix, text, flags=re.M)
+    with open(csg, "w") as f:
+        f.write(text)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("files", nargs="+")
@@ -95,6 +113,7 @@ def main():
                 if r.returncode != 0:
                     row["status"] = "openscad export failed"
                     continue
+                absolute_files(csg, os.path.dirname(os.path.abspath(src)))
             else:
                 with open(src) as f, open(csg, "w") as g:
                     g.write(f.read())

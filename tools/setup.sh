@@ -3,8 +3,18 @@
 # Mesa's lavapipe (software Vulkan 1.3), the Khronos validation layers, and a
 # virtual X server (xvfb: the viewer's test runs a window without a display).
 # Idempotent: does nothing when everything is already installed.
+#
+#   tools/setup.sh             # the above
+#   tools/setup.sh --openscad  # also OpenSCAD (to read .scad files directly, and
+#                              # for tools/openscad_truth.py); off by default
 set -euo pipefail
 pkgs=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers xvfb xauth)
+for arg in "$@"; do
+  case "$arg" in
+    --openscad) pkgs+=(openscad) ;;
+    *) echo "tools/setup.sh: unknown option '$arg' (known: --openscad)" >&2; exit 2 ;;
+  esac
+done
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")

@@ -8,5 +8,8 @@ pub mod auto;
 pub mod bench;
 pub mod output;
 pub mod render;
+pub mod scad;
 #[cfg(feature = "viewer")]
 pub mod viewer;
+#[cfg(feature = "viewer")]
+pub mod watch;

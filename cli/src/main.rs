@@ -246,8 +246,9 @@ fn parse_alpha(s: &str) -> Result<f64, String> {
 /// Options for OpenSCAD `.csg` models.
 #[derive(clap::Args, Clone, Copy)]
 struct ScadArgs {
-    /// OpenSCAD models: drop nodes peeltrim cannot draw (hull, minkowski,
-    /// extrusions, 2D shapes, ...) with a warning listing each, instead of failing
+    /// OpenSCAD models: drop nodes peeltrim cannot draw (text, offset,
+    /// projection, Booleans below hull/minkowski/resize, ...) with a warning
+    /// listing each, instead of failing
     #[arg(long)]
     skip_unsupported: bool,
 }
@@ -265,8 +266,9 @@ fn parse_eps(s: &str) -> Result<f32, String> {
 enum Cmd {
     /// Render a scene with one algorithm into color.png, depth.npy, prim.png, stats.json
     Render {
-        /// The scene: a .toml scene file, or an OpenSCAD model exported as .csg
-        /// (File > Export > Export as CSG)
+        /// The scene: a .toml scene file, an OpenSCAD model exported as .csg
+        /// (File > Export > Export as CSG), or an OpenSCAD source .scad
+        /// (exported by `openscad` into a cache)
         scene: PathBuf,
         /// The algorithm: auto (per scene, the one expected to be fastest among
         /// the speckle-free ones; stats.json says which and why), reference (the
@@ -305,7 +307,7 @@ enum Cmd {
     /// Time algorithms on scenes (speed against error); writes results.json,
     /// results.csv, summary.md, plots/ and images/ into --out
     Bench {
-        /// Scene files, .toml or OpenSCAD .csg (default: every scenes/*.toml and
+        /// Scene files, .toml, OpenSCAD .csg or .scad (default: every scenes/*.toml and
         /// scenes/openscad/*.csg of the source tree)
         scenes: Vec<PathBuf>,
         /// Comma-separated algorithms, or "all"; the tables mark the row
@@ -371,8 +373,9 @@ enum Cmd {
     /// cst-z, cst-i, cst-g, blister-paper), R resets the camera, S saves view.png, Esc/Q quit.
     /// PEELTRIM_VIEW_FRAMES=N renders N frames and exits.
     View {
-        /// The scene: a .toml scene file, or an OpenSCAD model exported as .csg
-        /// (File > Export > Export as CSG)
+        /// The scene: a .toml scene file, an OpenSCAD model exported as .csg
+        /// (File > Export > Export as CSG), or an OpenSCAD source .scad
+        /// (exported by `openscad` into a cache)
         scene: PathBuf,
         /// The algorithm: auto (per scene, the one expected to be fastest among
         /// the speckle-free ones; stats.json says which and why), reference (the
@@ -384,6 +387,11 @@ enum Cmd {
         /// Initial window size WxH (overrides [render] width/height)
         #[arg(long, value_parser = parse_size, allow_hyphen_values = true)]
         size: Option<(u32, u32)>,
+        /// Reload the model when its file changes (a .scad file is exported
+        /// again), keeping the camera; a model that fails to load leaves the
+        /// last good picture and shows the error
+        #[arg(long)]
+        watch: bool,
         #[command(flatten)]
         gpu: GpuArgs,
         #[command(flatten)]
@@ -391,8 +399,9 @@ enum Cmd {
     },
     /// Print an algorithm's plan (the steps it records) for a scene
     Plan {
-        /// The scene: a .toml scene file, or an OpenSCAD model exported as .csg
-        /// (File > Export > Export as CSG)
+        /// The scene: a .toml scene file, an OpenSCAD model exported as .csg
+        /// (File > Export > Export as CSG), or an OpenSCAD source .scad
+        /// (exported by `openscad` into a cache)
         scene: PathBuf,
         /// The algorithm: auto (per scene, the one expected to be fastest among
         /// the speckle-free ones; stats.json says which and why), reference (the
@@ -545,7 +554,8 @@ fn load_shown(
     scad: ScadArgs,
     background: bool,
 ) -> Result<scene::Scene> {
-    let mut scene = scene::load_with(path, &LoadOptions { size }, scad.skip_unsupported)?;
+    let csg = peeltrim_cli::scad::csg_for(path).map_err(anyhow::Error::msg)?;
+    let mut scene = scene::load_with(&csg, &LoadOptions { size }, scad.skip_unsupported)?;
     if background {
         scene::openscad::background::show(&mut scene);
     }
@@ -799,9 +809,10 @@ fn run(cli: Cli) -> Result<ExitCode> {
             scene,
             algo,
             size,
+            watch,
             gpu,
             scad,
-        } => return view(&scene, algo, size, &gpu, scad),
+        } => return view(&scene, algo, size, watch, &gpu, scad),
         Cmd::Plan {
             scene,
             algo,
@@ -902,6 +913,7 @@ fn view(
     path: &Path,
     algo: AlgoArg,
     size: Option<(u32, u32)>,
+    watch: bool,
     gpu: &GpuArgs,
     scad: ScadArgs,
 ) -> Result<ExitCode> {
@@ -928,6 +940,12 @@ fn view(
         ),
         Err(_) => None,
     };
+    let watch = watch.then(|| {
+        peeltrim_cli::watch::Watch::new(
+            path,
+            Box::new(move |p: &Path| load(p, size, scad).map_err(|e| format!("{e:#}"))),
+        )
+    });
     peeltrim_cli::viewer::run(
         scene,
         peeltrim_cli::viewer::ViewOptions {
@@ -939,6 +957,7 @@ fn view(
             frames,
             samples: gpu.samples,
         },
+        watch,
     )?;
     Ok(ExitCode::SUCCESS)
 }
@@ -948,6 +967,7 @@ fn view(
     path: &Path,
     _algo: AlgoArg,
     size: Option<(u32, u32)>,
+    _watch: bool,
     _gpu: &GpuArgs,
     scad: ScadArgs,
 ) -> Result<ExitCode> {
@@ -964,7 +984,11 @@ fn view(
 fn blist_json(input: &str, scad: ScadArgs) -> Result<serde_json::Value> {
     use peeltrim::csg::{Blist, PositiveExpr};
     let path = Path::new(input);
-    let (expr, names) = if input.ends_with(".toml") || input.ends_with(".csg") || path.is_file() {
+    let (expr, names) = if input.ends_with(".toml")
+        || input.ends_with(".csg")
+        || input.ends_with(".scad")
+        || path.is_file()
+    {
         let scene = load(path, None, scad)?;
         let expr = peeltrim::plan::union_of_solids(&scene)
             .with_context(|| format!("{}: the scene has no [csg] or [[solid]]", path.display()))?;

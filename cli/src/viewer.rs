@@ -13,6 +13,12 @@
 //! copied to the window instead. `PEELTRIM_VIEW_FRAMES=N` renders N frames
 //! (orbiting a little between them) and exits: a smoke test for machines with a
 //! display.
+//!
+//! With `--watch` ([`crate::watch`]) a saved model is reloaded and re-planned
+//! with the camera kept; stderr prints the time from the save to the new
+//! frame. A model that fails to load leaves the last good picture, with the
+//! error on stderr and in the window title. `PEELTRIM_VIEW_RELOADS=N` exits
+//! after N reloads (for scripted measurements).
 #![deny(unsafe_code)]
 
 use std::collections::VecDeque;
@@ -200,6 +206,14 @@ struct App {
     cursor: Option<(f64, f64)>,
     frames_left: Option<u32>,
     error: Option<ViewerError>,
+    /// `--watch`: the model file, polled.
+    watch: Option<crate::watch::Watch>,
+    /// The last reload's error, shown in the title until a good one.
+    load_error: Option<String>,
+    /// A reloaded scene's save time and load time, until its frame is shown.
+    reloaded: Option<(std::time::SystemTime, f64)>,
+    /// `PEELTRIM_VIEW_RELOADS`: exit after this many more reloads.
+    reloads_left: Option<u32>,
 }
 
 /// The display variables as set, for the no-display message.
@@ -212,7 +226,11 @@ pub fn display_vars() -> String {
 }
 
 /// Opens the window and runs until it is closed.
-pub fn run(scene: Scene, opts: ViewOptions) -> Result<(), ViewerError> {
+pub fn run(
+    scene: Scene,
+    opts: ViewOptions,
+    watch: Option<crate::watch::Watch>,
+) -> Result<(), ViewerError> {
     // winit's error names its own source file, which tells a user nothing.
     let event_loop = EventLoop::new().map_err(|_| ViewerError::NoDisplay(display_vars()))?;
     event_loop.set_control_flow(ControlFlow::Wait);
@@ -233,6 +251,12 @@ pub fn run(scene: Scene, opts: ViewOptions) -> Result<(), ViewerError> {
         dragging: false,
         cursor: None,
         error: None,
+        watch,
+        load_error: None,
+        reloaded: None,
+        reloads_left: std::env::var("PEELTRIM_VIEW_RELOADS")
+            .ok()
+            .and_then(|v| v.trim().parse().ok()),
     };
     event_loop
         .run_app(&mut app)
@@ -328,10 +352,61 @@ impl App {
                 self.draws
             )
         };
+        if let Some(e) = &self.load_error {
+            let first = e.lines().next().unwrap_or("");
+            return format!("peeltrim: {name} | ERROR (last good picture shown): {first}");
+        }
         format!(
             "peeltrim: {name} | {} | {time} | {}x{}",
             self.algo, self.scene.render.width, self.scene.render.height
         )
+    }
+
+    /// `--watch`: reloads a changed model, keeping the camera and window size.
+    fn poll_watch(&mut self, el: &ActiveEventLoop) -> Result<(), ViewerError> {
+        let Some(r) = self.watch.as_mut().and_then(|w| w.poll()) else {
+            return Ok(());
+        };
+        match r.result {
+            Ok(mut scene) => {
+                scene.camera = self.scene.camera;
+                (scene.render.width, scene.render.height) =
+                    (self.scene.render.width, self.scene.render.height);
+                self.home = scene.camera;
+                self.scene = scene;
+                if let Some(gpu) = self.gpu.as_mut() {
+                    // A new plan: no frame in flight may use the old images.
+                    gpu.presenter.wait_frames()?;
+                    gpu.csg = None;
+                    gpu.light = None;
+                }
+                self.last = None;
+                self.failed = None;
+                self.load_error = None;
+                self.reloaded = Some((r.saved, r.load_ms));
+                self.changed();
+            }
+            Err(e) => {
+                eprintln!("peeltrim view: reload failed (the last good picture stays): {e}");
+                self.load_error = Some(e);
+                if let Some(w) = &self.window {
+                    w.set_title(&self.title());
+                }
+                self.count_reload(el);
+            }
+        }
+        Ok(())
+    }
+
+    /// `PEELTRIM_VIEW_RELOADS`: one reload done.
+    fn count_reload(&mut self, el: &ActiveEventLoop) {
+        if let Some(n) = self.reloads_left {
+            let n = n.saturating_sub(1);
+            self.reloads_left = Some(n);
+            if n == 0 {
+                el.exit();
+            }
+        }
     }
 
     /// Shows the CPU reference's image of the current state.
@@ -513,6 +588,15 @@ impl App {
             if let Some(w) = &self.window {
                 w.set_title(&self.title());
             }
+            if let Some((saved, load_ms)) = self.reloaded.take() {
+                let path = self.watch.as_ref().map(|w| w.path().to_path_buf());
+                eprintln!(
+                    "peeltrim view: reloaded {}: {:.0} ms from save to new frame ({load_ms:.0} ms of it loading)",
+                    path.unwrap_or_else(|| self.scene.path.clone()).display(),
+                    crate::watch::ms_since(saved)
+                );
+                self.count_reload(el);
+            }
             if let Some(n) = self.frames_left {
                 eprintln!("peeltrim view: frame: {}", self.title());
                 let n = n.saturating_sub(1);
@@ -666,6 +750,19 @@ impl ApplicationHandler for App {
             self.error = Some(e);
             el.exit();
         }
+    }
+
+    fn about_to_wait(&mut self, el: &ActiveEventLoop) {
+        if self.watch.is_none() || self.window.is_none() {
+            return;
+        }
+        if let Err(e) = self.poll_watch(el) {
+            self.error = Some(e);
+            el.exit();
+        }
+        el.set_control_flow(ControlFlow::WaitUntil(
+            std::time::Instant::now() + crate::watch::POLL,
+        ));
     }
 }
 

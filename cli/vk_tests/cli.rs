@@ -13,6 +13,7 @@ mod layers_cli;
 /// OpenSCAD `.csg` models through the command line.
 mod openscad_cli;
 mod scad_models;
+mod scad_source_cli;
 mod shadow_cli;
 /// `peeltrim view` (the second embedding host) in a virtual X server.
 #[cfg(feature = "viewer")]

@@ -59,14 +59,19 @@ fn openscad_and_other_files_say_what_a_scene_is() {
         "model.scad",
         "difference() {\n  cube(2, center=true);\n  sphere(1.3);\n}\n",
     );
-    let o = run(&["render", &scad]);
+    // Without openscad: how to install it, or to export the .csg.
+    let o = super::bin()
+        .args(["render", &scad])
+        .env("PEELTRIM_OPENSCAD", "/nonexistent/openscad")
+        .env("PEELTRIM_CACHE_DIR", dir.join("cache"))
+        .output()
+        .unwrap();
     assert_error(
         &o,
         &[
             "model.scad",
-            "OpenSCAD source file is not a scene",
-            "TOML",
-            ".csg",
+            "OpenSCAD source file",
+            "apt-get install openscad",
             "Export as CSG",
         ],
     );

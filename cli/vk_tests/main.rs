@@ -25,6 +25,7 @@ mod many_products;
 mod msaa;
 mod one_submit;
 mod openscad;
+mod openscad_3d;
 mod openscad_extrude;
 mod replay;
 mod rounding;

@@ -14,7 +14,9 @@ use super::algorithms::{depth_tolerance, run_gpu};
 
 const SIZE: (u32, u32) = (96, 96);
 
-fn check(name: &str, min_prims: usize) {
+/// Renders `scenes/openscad/NAME` with cst-i against the reference; the
+/// comparison, after asserting the bar (also used by `openscad_3d`).
+pub fn check(name: &str, min_prims: usize) -> peeltrim_reference::compare::CompareReport {
     let path = crate::setup::scenes_dir().join("openscad").join(name);
     let scene =
         scene::load(&path, &LoadOptions { size: Some(SIZE) }).unwrap_or_else(|e| panic!("{e}"));
@@ -37,19 +39,26 @@ fn check(name: &str, min_prims: usize) {
         r.coverage_mismatch_interior_frac <= 0.001 && depth_ok,
         "{name}: {r:?}"
     );
+    r
 }
 
 #[test]
 fn twisted_extrusion_cst_i_matches_reference() {
-    check("twisted_vase.csg", 3);
+    let _ = check("twisted_vase.csg", 3);
 }
 
 #[test]
 fn extruded_profile_with_hole_cst_i_matches_reference() {
-    check("extruded_profile.csg", 10);
+    let _ = check("extruded_profile.csg", 10);
 }
 
 #[test]
 fn rotate_extrude_cst_i_matches_reference() {
-    check("lathe_knob.csg", 10);
+    let _ = check("lathe_knob.csg", 10);
+}
+
+#[test]
+fn imported_dxf_and_svg_outlines_cst_i_match_reference() {
+    // A DXF flange (two layers) and an SVG drop, each one extruded primitive.
+    check("import_outline.csg", 3);
 }

@@ -61,6 +61,29 @@ impl<'a> Args<'a> {
                 ));
             }
         }
+        // OpenSCAD reads `inf` and `nan` in a `.csg` as unknown variables,
+        // that is undef: the parameter takes its default. `multmatrix`'s `m`
+        // (entry by entry) and `polyhedron`'s `points` (the object is dropped)
+        // are read by their nodes.
+        let own = |name: &str| {
+            matches!(
+                (node.name.as_str(), name),
+                ("multmatrix", "m") | ("polyhedron", "points") | ("polygon", "points")
+            )
+        };
+        let mut bad: Vec<(&str, &Value)> = named
+            .iter()
+            .filter(|(n, v)| has_non_finite(v) && !own(n))
+            .map(|(n, v)| (*n, *v))
+            .collect();
+        bad.sort_by_key(|(_, v)| (v.pos.line, v.pos.col));
+        for (name, v) in bad {
+            named.remove(name);
+            warnings.push(format!(
+                "{}:{}: `{name}` of `{}` holds an infinite or NaN number, which OpenSCAD reads as undef; its default is used, as in OpenSCAD",
+                v.pos.line, v.pos.col, node.name
+            ));
+        }
         Ok(Args { node, named })
     }
 
@@ -93,6 +116,15 @@ impl<'a> Args<'a> {
                 )),
             })
             .transpose()
+    }
+}
+
+/// Whether the value holds an infinite or NaN number anywhere.
+pub fn has_non_finite(v: &Value) -> bool {
+    match &v.kind {
+        ValueKind::Number(n) => !n.is_finite(),
+        ValueKind::Vector(items) => items.iter().any(has_non_finite),
+        _ => false,
     }
 }
 

@@ -5,10 +5,13 @@
 //! - `group`/`union`/`render` → union; `difference` → the first child minus the
 //!   union of the rest; `intersection`. Unions and intersections are built
 //!   balanced (depth log n) rather than left-deep.
-//! - A child that yields no node (an empty group, a `*` disabled or `%`
-//!   background subtree) vanishes from its parent's child list, as in OpenSCAD's
-//!   pruned tree; a degenerate primitive (`sphere(0)`) is the empty set and
-//!   follows the set algebra (`A ∩ ∅ = ∅`, `A − ∅ = A`).
+//! - A `*` disabled or `%` background subtree, or a dropped node (2D among 3D,
+//!   `--skip-unsupported`), vanishes from its parent's child list. A child
+//!   that yields nothing (an empty group, `render()` or an extrusion without
+//!   children) and a degenerate primitive (`sphere(0)`) are the empty set and
+//!   follow the set algebra (`A ∩ ∅ = ∅`, `∅ − A = ∅`, `A − ∅ = A`), as
+//!   OpenSCAD 2021.01's preview and CGAL render both draw
+//!   `intersection() { cube(); render(); }` as nothing.
 //! - `multmatrix` composes (row-major as printed); `color` colours the primitives
 //!   below it, the outermost `color` winning as in 2021.01; `#` highlights.
 //! - `!` makes the first such node the only root (its ancestors' transforms are
@@ -30,14 +33,16 @@ use super::args::{self, Args};
 use super::extrude::{self, Extents, Op2, Region};
 use super::outline;
 use super::parse::{Node, Tree, Value, ValueKind};
+use super::pieces::{self, Piece};
 use super::tessellate::{self, Resolution, F_MINIMUM};
-use super::{ScadError, ScadPrimitive};
+use super::{mesh_import, orient, surface, ScadError, ScadPrimitive};
 use crate::csg::expr::{Node as E, NodeId};
 use crate::csg::Expr;
 use crate::scene::cost;
 use crate::scene::load::{MAX_DIVISIONS, MAX_GRID};
 use crate::scene::validate::{check_closed, signed_volume, MeshProblem};
 use crate::scene::Mesh;
+use std::path::Path;
 
 /// OpenSCAD's (Cornfield) colours: faces of the solid, faces of subtracted
 /// parts, and `#` highlighted subtrees (with its alpha).
@@ -79,6 +84,19 @@ enum Kind {
     Offset,
     Hull,
     Minkowski,
+    Resize,
+    Import,
+    /// `import` of a DXF or SVG file: a 2D primitive (`super::import2d`).
+    ImportOutline,
+    Surface,
+}
+
+/// A node's kind; `import` of a DXF or SVG file is a 2D primitive.
+fn kind_of(node: &Node) -> Option<Kind> {
+    match kind(&node.name) {
+        Some(Kind::Import) if super::import2d::is_2d_file(node) => Some(Kind::ImportOutline),
+        k => k,
+    }
 }
 
 fn kind(name: &str) -> Option<Kind> {
@@ -101,11 +119,14 @@ fn kind(name: &str) -> Option<Kind> {
         "offset" => Kind::Offset,
         "hull" => Kind::Hull,
         "minkowski" => Kind::Minkowski,
+        "resize" => Kind::Resize,
+        "import" => Kind::Import,
+        "surface" => Kind::Surface,
         _ => return None,
     })
 }
 
-const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, 2D hull and minkowski, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render";
+const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, hull, minkowski, resize, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render, import of STL/OFF/DXF/SVG, surface";
 const TWO_D: &[&str] = &["projection"];
 
 fn is_primitive(k: Kind) -> bool {
@@ -121,12 +142,25 @@ fn is_outline(k: Kind) -> bool {
 fn is_3d_primitive(k: Kind) -> bool {
     matches!(
         k,
-        Kind::Cube | Kind::Sphere | Kind::Cylinder | Kind::Polyhedron
+        Kind::Cube
+            | Kind::Sphere
+            | Kind::Cylinder
+            | Kind::Polyhedron
+            | Kind::Import
+            | Kind::Surface
     )
 }
 
+/// Evaluated from their children's vertices (`super::pieces`).
+fn is_evaluated(k: Kind) -> bool {
+    matches!(k, Kind::Hull | Kind::Minkowski | Kind::Resize)
+}
+
 fn is_2d_primitive(k: Kind) -> bool {
-    matches!(k, Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text)
+    matches!(
+        k,
+        Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text | Kind::ImportOutline
+    )
 }
 
 fn is_extrusion(k: Kind) -> bool {
@@ -155,6 +189,8 @@ struct Ctx {
     background: bool,
     /// Inside an extrusion (its 2D subtree).
     plane: Option<Plane>,
+    /// The outermost `hull`, `minkowski` or `resize` at or above the node.
+    inside: Option<u32>,
 }
 
 /// A node's contribution to its parent.
@@ -184,11 +220,14 @@ pub struct BackgroundTree {
     pub expr: Expr,
 }
 
-pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadError> {
+/// `base`: the folder `import` and `surface` paths are relative to.
+pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Converted, ScadError> {
     let n = tree.nodes.len();
     let mut c = Converter {
         tree,
         skip_unsupported,
+        base,
+        own_matrix: vec![None; tree.nodes.len()],
         warnings: Vec::new(),
         ctx: vec![None; n],
         background_roots: Vec::new(),
@@ -209,6 +248,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         negated: false,
         background: false,
         plane: c.plate(),
+        inside: None,
     };
     for &r in &roots {
         c.ctx[r as usize] = c.enter(r, base)?;
@@ -217,8 +257,10 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
     for i in 0..tree.nodes.len() {
         let Some(ctx) = c.ctx[i] else { continue };
         let node = &tree.nodes[i];
-        let is_diff = kind(&node.name) == Some(Kind::Difference);
-        let inside = c.inside_outline[i] || kind(&node.name).is_some_and(is_outline);
+        let is_diff = kind_of(node) == Some(Kind::Difference);
+        // Below a 2D `offset`, `hull` or `minkowski`, outlines are evaluated.
+        let inside =
+            c.inside_outline[i] || (ctx.plane.is_some() && kind_of(node).is_some_and(is_outline));
         for (k, &ch) in node.children.iter().enumerate() {
             let mut child = ctx;
             child.negated ^= is_diff && k > 0;
@@ -260,6 +302,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
         is_background_root[r as usize] = true;
     }
     c.two_d(&is_background_root)?;
+    let mut pieces = c.evaluate(&is_background_root)?;
     // Warnings in file order (nodes are entered level by level).
     c.warnings.sort_by_key(|w| warning_pos(w));
     // Primitives in order of appearance.
@@ -267,9 +310,30 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
     let mut nodes: Vec<E> = Vec::new();
     let mut term: Vec<Option<Term>> = vec![None; tree.nodes.len()];
     for (i, slot) in term.iter_mut().enumerate() {
-        let (Some(ctx), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
+        let (Some(ctx), Some(k)) = (c.ctx[i], kind_of(&tree.nodes[i])) else {
             continue;
         };
+        if let Some(root) = ctx.inside {
+            if root as usize == i {
+                let leaves: Vec<Term> = pieces[i]
+                    .take()
+                    .unwrap_or_default()
+                    .into_iter()
+                    .filter_map(|p| c.place_piece(p, &ctx))
+                    .map(|p| {
+                        out.push(p);
+                        push(
+                            &mut nodes,
+                            E::Leaf {
+                                prim: out.len() as u32 - 1,
+                            },
+                        )
+                    })
+                    .collect();
+                *slot = Some(union(&mut nodes, &leaves));
+            }
+            continue;
+        }
         if !is_primitive(k) || c.inside_outline[i] {
             continue;
         }
@@ -286,17 +350,20 @@ pub fn convert(tree: &Tree, skip_unsupported: bool) -> Result<Converted, ScadErr
     }
     // Operators bottom-up.
     for i in (0..tree.nodes.len()).rev() {
-        let (Some(_), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
+        let (Some(ctx), Some(k)) = (c.ctx[i], kind_of(&tree.nodes[i])) else {
             continue;
         };
-        if is_primitive(k) || c.inside_outline[i] {
+        if is_primitive(k) || c.inside_outline[i] || ctx.inside.is_some() {
             continue;
         }
+        // A child that is there but yields nothing (`render()`, an empty
+        // group) is the empty set; a dropped one (`*`, 2D among 3D, skipped)
+        // is not there.
         let kids: Vec<Term> = tree.nodes[i]
             .children
             .iter()
             .filter(|&&ch| !is_background_root[ch as usize])
-            .filter_map(|&ch| term[ch as usize])
+            .filter_map(|&ch| term[ch as usize].or(c.ctx[ch as usize].map(|_| Term::Empty)))
             .collect();
         term[i] = combine(&mut nodes, k, kids);
     }
@@ -452,6 +519,10 @@ fn push(nodes: &mut Vec<E>, n: E) -> Term {
 struct Converter<'a> {
     tree: &'a Tree,
     skip_unsupported: bool,
+    /// The folder of the `.csg` file.
+    base: &'a Path,
+    /// Per node: a 3D `multmatrix`'s own matrix.
+    own_matrix: Vec<Option<DMat4>>,
     warnings: Vec<String>,
     ctx: Vec<Option<Ctx>>,
     /// The outermost `%` nodes entered.
@@ -555,37 +626,17 @@ impl Converter<'_> {
             self.background_roots.push(i);
             ctx.background = true;
         }
-        // `hull`/`minkowski` of 3D children are 3D nodes this reader does not
-        // build.
-        let three_d = match kind(&node.name) {
-            Some(Kind::Hull | Kind::Minkowski) => parent.plane.is_none(),
-            _ => false,
-        };
-        let Some(k) = kind(&node.name).filter(|_| !three_d) else {
+        let Some(k) = kind_of(node) else {
             let what = if TWO_D.contains(&node.name.as_str()) {
                 format!("`{}` (it needs the 3D boundary)", node.name)
-            } else if node.name == "import" {
-                "`import` (neither DXF/SVG outlines nor meshes are read yet)".to_string()
-            } else if three_d {
-                format!("`{}` of 3D children", node.name)
             } else {
                 format!("`{}`", node.name)
             };
-            if self.skip_unsupported || ctx.background {
-                let why = if ctx.background {
-                    "in a `%` background part"
-                } else {
-                    "--skip-unsupported"
-                };
-                self.warnings.push(format!(
-                    "{at}: {what} is not supported and was dropped with its children ({why}): the picture lacks it"
-                ));
-                return Ok(None);
-            }
-            // Reported with every other one once all are found.
-            self.unsupported.push((node.pos, what));
-            return Ok(None);
+            return Ok(self.unsupported_node(node, &ctx, what));
         };
+        if let Some(what) = self.refused_here(k, node, &parent) {
+            return Ok(self.unsupported_node(node, &ctx, what));
+        }
         let misplaced = if parent.plane.is_some() && (is_3d_primitive(k) || is_extrusion(k)) {
             Some("a 3D object inside a 2D subtree (below an extrusion)")
         } else if parent.plane.is_none() && (is_2d_primitive(k) || k == Kind::Offset) {
@@ -599,6 +650,9 @@ impl Converter<'_> {
                 node.name
             ));
             return Ok(None);
+        }
+        if is_evaluated(k) && parent.plane.is_none() {
+            ctx.inside = parent.inside.or(Some(i));
         }
         if is_primitive(k) && !is_outline(k) && !node.children.is_empty() {
             return Err(ScadError::new(
@@ -619,7 +673,10 @@ impl Converter<'_> {
                                 m.w_axis.truncate().truncate(),
                             )
                     }
-                    None => ctx.matrix = parent.matrix * m,
+                    None => {
+                        ctx.matrix = parent.matrix * m;
+                        self.own_matrix[i as usize] = Some(m);
+                    }
                 }
             }
             Kind::LinearExtrude | Kind::RotateExtrude => {
@@ -644,6 +701,47 @@ impl Converter<'_> {
         Ok(Some(ctx))
     }
 
+    /// Drops an unsupported node with a warning (`--skip-unsupported`, or in a
+    /// background part), or keeps it for the error that lists them all.
+    fn unsupported_node(&mut self, node: &Node, ctx: &Ctx, what: String) -> Option<Ctx> {
+        if self.skip_unsupported || ctx.background {
+            let why = if ctx.background {
+                "in a `%` background part"
+            } else {
+                "--skip-unsupported"
+            };
+            self.warnings.push(format!(
+                "{}:{}: {what} is not supported and was dropped with its children ({why}): the picture lacks it",
+                node.pos.line, node.pos.col
+            ));
+        } else {
+            // Reported with every other one once all are found.
+            self.unsupported.push((node.pos, what));
+        }
+        None
+    }
+
+    /// A known node kind that peeltrim cannot evaluate where it stands.
+    fn refused_here(&self, k: Kind, node: &Node, parent: &Ctx) -> Option<String> {
+        let name = &node.name;
+        if parent.plane.is_some() && k == Kind::Import {
+            return Some(format!(
+                "`{name}` of a mesh or an unknown file in 2D (2D import reads DXF or SVG)"
+            ));
+        }
+        if parent.plane.is_some() && k == Kind::Resize {
+            return Some(format!("`{name}` of 2D shapes"));
+        }
+        if let (Some(root), Kind::Difference | Kind::Intersection) = (parent.inside, k) {
+            let r = &self.tree.nodes[root as usize];
+            return Some(format!(
+                "`{name}` inside `{}` (line {}), whose result needs the {name}'s evaluated boundary (a mesh Boolean peeltrim does not compute)",
+                r.name, r.pos.line
+            ));
+        }
+        None
+    }
+
     fn matrix(&mut self, node: &Node) -> Result<DMat4, ScadError> {
         let a = Args::new(node, &["m"], &[], &mut self.warnings)?;
         let Some(v) = a.get("m") else {
@@ -663,7 +761,22 @@ impl Converter<'_> {
             ));
         }
         for (r, row) in rows.iter().enumerate() {
-            let nums = args::numbers(row, what)?;
+            // An infinite or NaN entry is undef to OpenSCAD, which keeps the
+            // identity's entry there.
+            if args::has_non_finite(row) {
+                self.warnings.push(format!(
+                    "{}:{}: {what}: row {} holds an infinite or NaN number, which OpenSCAD reads as undef and replaces by the identity's entry; so does peeltrim",
+                    row.pos.line, row.pos.col, r + 1
+                ));
+            }
+            let nums: Vec<f64> = args::vector(row, what)?
+                .iter()
+                .enumerate()
+                .map(|(c, x)| match x.kind {
+                    ValueKind::Number(n) if !n.is_finite() => Ok(if r == c { 1.0 } else { 0.0 }),
+                    _ => args::number(x, what),
+                })
+                .collect::<Result<_, _>>()?;
             if nums.len() != 4 {
                 return Err(ScadError::new(
                     row.pos,
@@ -728,9 +841,70 @@ impl Converter<'_> {
         k: Kind,
         ctx: &Ctx,
     ) -> Result<Option<ScadPrimitive>, ScadError> {
+        let node = &self.tree.nodes[i];
+        let Some(local) = self.local(i, k, ctx)? else {
+            return Ok(None);
+        };
+        let rgba = self.rgba(ctx);
+        Ok(self.place(&node.name, node.pos, local, rgba, ctx))
+    }
+
+    /// A piece of an evaluated subtree, placed by the subtree's context.
+    fn place_piece(&mut self, p: pieces::Piece, ctx: &Ctx) -> Option<ScadPrimitive> {
+        if !(p.mesh.signed_volume() > 0.0) {
+            self.warnings.push(format!(
+                "{}:{}: `{}` encloses no volume where it stands (flattened by a transform); it is the empty set",
+                p.pos.line, p.pos.col, p.node
+            ));
+            return None;
+        }
+        self.place(&p.node, p.pos, p.mesh, p.rgba, ctx)
+    }
+
+    /// The colour of a primitive in context `ctx`.
+    fn rgba(&self, ctx: &Ctx) -> [f32; 4] {
+        if ctx.background {
+            BACKGROUND_COLOR
+        } else if ctx.highlight {
+            HIGHLIGHT_COLOR
+        } else {
+            ctx.color
+                .unwrap_or(if ctx.negated { BACK_COLOR } else { FRONT_COLOR })
+        }
+    }
+
+    /// Places a local mesh by the context's matrix; `None` when that is singular.
+    fn place(
+        &mut self,
+        name: &str,
+        pos: super::Pos,
+        local: Mesh,
+        rgba: [f32; 4],
+        ctx: &Ctx,
+    ) -> Option<ScadPrimitive> {
+        let det = ctx.matrix.determinant();
+        if !det.is_finite() || det.abs() < 1e-300 {
+            self.warnings.push(format!(
+                "{}:{}: `{name}` is flattened by a singular multmatrix (determinant {det}); it encloses no volume and is the empty set",
+                pos.line, pos.col
+            ));
+            return None;
+        }
+        Some(ScadPrimitive {
+            node: name.to_string(),
+            line: pos.line,
+            mesh: crate::scene::shapes::apply_transform(&local, &ctx.matrix),
+            matrix: ctx.matrix,
+            rgba,
+        })
+    }
+
+    /// Primitive `i`'s mesh in its own frame (an extruded 2D shape: in its
+    /// extrusion's); `None` for a degenerate one.
+    fn local(&mut self, i: usize, k: Kind, ctx: &Ctx) -> Result<Option<Mesh>, ScadError> {
         let tree = self.tree;
         let node = &tree.nodes[i];
-        let local = match k {
+        Ok(match k {
             Kind::Cube => {
                 let a = Args::new(node, &["size", "center"], &[], &mut self.warnings)?;
                 let size = match a.get("size") {
@@ -772,35 +946,11 @@ impl Converter<'_> {
                 tessellate::cylinder(h, r1, r2, a.boolean("center")?.unwrap_or(false), n)
             }
             Kind::Polyhedron => self.polyhedron(node)?,
+            Kind::Import => self.import(node)?,
+            Kind::Surface => self.surface(node)?,
             _ if ctx.plane.is_some() => self.extruded(i, node, ctx)?,
             _ => unreachable!("only primitives are tessellated"),
-        };
-        let Some(local) = local else {
-            return Ok(None);
-        };
-        let det = ctx.matrix.determinant();
-        if !det.is_finite() || det.abs() < 1e-300 {
-            self.warnings.push(format!(
-                "{}:{}: `{}` is flattened by a singular multmatrix (determinant {det}); it encloses no volume and is the empty set",
-                node.pos.line, node.pos.col, node.name
-            ));
-            return Ok(None);
-        }
-        let rgba = if ctx.background {
-            BACKGROUND_COLOR
-        } else if ctx.highlight {
-            HIGHLIGHT_COLOR
-        } else {
-            ctx.color
-                .unwrap_or(if ctx.negated { BACK_COLOR } else { FRONT_COLOR })
-        };
-        Ok(Some(ScadPrimitive {
-            node: node.name.clone(),
-            line: node.pos.line,
-            mesh: crate::scene::shapes::apply_transform(&local, &ctx.matrix),
-            matrix: ctx.matrix,
-            rgba,
-        }))
+        })
     }
 
     /// `$fn`, `$fa`, `$fs` of a node, `$fa`/`$fs` clamped as OpenSCAD does.
@@ -868,7 +1018,17 @@ impl Converter<'_> {
                 "`polyhedron` needs `points = [[x, y, z], ...]`",
             ));
         };
-        let points = args::vector(pv, "`points` of `polyhedron`")?
+        let point_values = args::vector(pv, "`points` of `polyhedron`")?;
+        if let Some(bad) = point_values.iter().find(|p| args::has_non_finite(p)) {
+            // OpenSCAD reads `nan`/`inf` in a `.csg` as undef, cannot make the
+            // point a vec3, and drops the polyhedron with an error.
+            self.warnings.push(format!(
+                "{}:{}: a point of `polyhedron` has an infinite or NaN coordinate; OpenSCAD drops the polyhedron, and so does peeltrim",
+                bad.pos.line, bad.pos.col
+            ));
+            return Ok(None);
+        }
+        let points = point_values
             .iter()
             .map(|p| args::vec3(p, "a point of `polyhedron`"))
             .collect::<Result<Vec<DVec3>, _>>()?;
@@ -900,9 +1060,17 @@ impl Converter<'_> {
             tri_face.extend(std::iter::repeat(fi).take(idx.len() - 2));
             faces.push(idx);
         }
-        let Some(mesh) = tessellate::polyhedron(points, &faces) else {
+        let Some(mut mesh) = tessellate::polyhedron(points, &faces) else {
             return Ok(None);
         };
+        if let Err(MeshProblem::SameDirection { .. }) = check_closed(&mesh) {
+            if let Ok(n) = orient::reorient(&mut mesh) {
+                self.warnings.push(format!(
+                    "{}:{}: `polyhedron`: its faces disagree in orientation; {n} triangle(s) were reversed to agree with their neighbours (OpenSCAD's preview draws it; its CGAL render drops it as not closed): list every face clockwise seen from outside",
+                    node.pos.line, node.pos.col
+                ));
+            }
+        }
         let bad = |msg: String| {
             ScadError::new(
                 node.pos,
@@ -932,8 +1100,12 @@ impl Converter<'_> {
         }
         let v = signed_volume(&mesh);
         if v < 0.0 {
-            return Err(bad(
-                "it is inside out (its faces are counter-clockwise seen from outside); OpenSCAD lists each face clockwise seen from outside: reverse the point order of every face".to_string(),
+            for t in &mut mesh.triangles {
+                t.swap(1, 2);
+            }
+            self.warnings.push(format!(
+                "{}:{}: `polyhedron` is inside out (its faces are counter-clockwise seen from outside); turned outward, as OpenSCAD renders it: list each face clockwise seen from outside",
+                node.pos.line, node.pos.col
             ));
         }
         if v == 0.0 {
@@ -1058,7 +1230,7 @@ impl Converter<'_> {
         let tree = self.tree;
         let mut evaluated: Vec<Option<Region>> = vec![None; tree.nodes.len()];
         for i in (0..tree.nodes.len()).rev() {
-            let (Some(ctx), Some(k)) = (self.ctx[i], kind(&tree.nodes[i].name)) else {
+            let (Some(ctx), Some(k)) = (self.ctx[i], kind_of(&tree.nodes[i])) else {
                 continue;
             };
             let node = &tree.nodes[i];
@@ -1200,6 +1372,9 @@ impl Converter<'_> {
                 extrude::square(size, a.boolean("center")?.unwrap_or(false)).transformed(m)
             }
             Kind::Text => super::text::region(node, &mut self.warnings)?.transformed(m),
+            Kind::ImportOutline => {
+                super::import2d::region(node, self.base, &mut self.warnings)?.transformed(m)
+            }
             _ => self.polygon(node, m)?,
         };
         self.check_extent(node, &r)?;
@@ -1226,6 +1401,13 @@ impl Converter<'_> {
                 "`polygon` needs `points = [[x, y], ...]`",
             ));
         };
+        if args::has_non_finite(pv) {
+            self.warnings.push(format!(
+                "{}:{}: a point of `polygon` has an infinite or NaN coordinate; OpenSCAD drops the polygon, and so does peeltrim",
+                pv.pos.line, pv.pos.col
+            ));
+            return Ok(Region::default());
+        }
         let points = args::vector(pv, "`points` of `polygon`")?
             .iter()
             .map(|p| {
@@ -1381,6 +1563,302 @@ fn number_or_pair(v: &Value, what: &str) -> Result<DVec2, ScadError> {
     }
 }
 
+/// `hull`, `minkowski` and `resize` subtrees (`super::pieces`), and the
+/// imported meshes.
+impl Converter<'_> {
+    /// Each evaluated node's pieces, bottom-up (its children's taken), in the
+    /// frame of the node's parent.
+    fn evaluate(
+        &mut self,
+        is_background_root: &[bool],
+    ) -> Result<Vec<Option<Vec<Piece>>>, ScadError> {
+        let tree = self.tree;
+        let mut pieces: Vec<Option<Vec<Piece>>> = (0..tree.nodes.len()).map(|_| None).collect();
+        for i in (0..tree.nodes.len()).rev() {
+            let (Some(ctx), Some(k)) = (self.ctx[i], kind_of(&tree.nodes[i])) else {
+                continue;
+            };
+            if ctx.inside.is_none() {
+                continue;
+            }
+            let node = &tree.nodes[i];
+            let kids: Vec<Vec<Piece>> = node
+                .children
+                .iter()
+                .filter(|&&ch| !is_background_root[ch as usize])
+                .filter_map(|&ch| pieces[ch as usize].take())
+                .collect();
+            let at = |e: String| ScadError::new(node.pos, format!("`{}`: {e}", node.name));
+            let out = match k {
+                // Outlines below a 2D `offset`, `hull` or `minkowski` are
+                // their evaluated node's.
+                _ if self.inside_outline[i] => Vec::new(),
+                _ if is_primitive(k) && (ctx.plane.is_some() || !is_outline(k)) => {
+                    match self.local(i, k, &ctx)? {
+                        Some(mesh) => vec![Piece {
+                            node: node.name.clone(),
+                            pos: node.pos,
+                            mesh,
+                            rgba: self.rgba(&ctx),
+                            convex: matches!(k, Kind::Cube | Kind::Sphere | Kind::Cylinder)
+                                .then_some(true),
+                        }],
+                        None => Vec::new(),
+                    }
+                }
+                Kind::Multmatrix => match self.own_matrix[i] {
+                    Some(m) => pieces::transform(kids.concat(), &m),
+                    None => kids.concat(),
+                },
+                Kind::Hull => pieces::hull(kids.concat(), node.pos, self.rgba(&ctx)).map_err(at)?,
+                Kind::Minkowski => {
+                    pieces::minkowski(kids, node.pos, self.rgba(&ctx)).map_err(at)?
+                }
+                Kind::Resize => {
+                    let (newsize, auto) = self.resize_args(node)?;
+                    let all = kids.concat();
+                    match pieces::resize_scale(&all, newsize, auto) {
+                        Ok(s) => pieces::transform(all, &DMat4::from_scale(s)),
+                        Err(e) => {
+                            self.warnings
+                                .push(format!("{}:{}: `resize`: {e}", node.pos.line, node.pos.col));
+                            all
+                        }
+                    }
+                }
+                _ => kids.concat(),
+            };
+            pieces[i] = Some(out);
+        }
+        Ok(pieces)
+    }
+
+    /// `resize(newsize, auto)`: `newsize` [x, y] or [x, y, z] (0: keep),
+    /// `auto` a boolean or one per axis.
+    fn resize_args(&mut self, node: &Node) -> Result<(DVec3, [bool; 3]), ScadError> {
+        let a = Args::new(
+            node,
+            &["newsize", "auto", "convexity"],
+            &[],
+            &mut self.warnings,
+        )?;
+        let mut newsize = DVec3::ZERO;
+        if let Some(v) = a.get("newsize") {
+            let n = args::numbers(v, "`newsize` of `resize`")?;
+            if !(2..=3).contains(&n.len()) {
+                return Err(ScadError::new(
+                    v.pos,
+                    "`newsize` of `resize` must be [x, y, z] (0 keeps that axis)",
+                ));
+            }
+            if n.iter().any(|&x| x < 0.0) {
+                self.warnings.push(format!(
+                    "{}:{}: a negative `newsize` of `resize` keeps that axis (as 0 does), as in OpenSCAD",
+                    v.pos.line, v.pos.col
+                ));
+            }
+            for (k, x) in n.into_iter().enumerate() {
+                newsize[k] = x.max(0.0);
+            }
+        }
+        let mut auto = [false; 3];
+        if let Some(v) = a.get("auto") {
+            let truth = |v: &Value| match v.kind {
+                ValueKind::Bool(b) => Ok(b),
+                ValueKind::Number(n) => Ok(n != 0.0),
+                _ => Err(ScadError::new(
+                    v.pos,
+                    "`auto` of `resize` must be true, false or one of them per axis",
+                )),
+            };
+            match &v.kind {
+                ValueKind::Vector(items) => {
+                    for (k, x) in items.iter().take(3).enumerate() {
+                        auto[k] = truth(x)?;
+                    }
+                }
+                _ => auto = [truth(v)?; 3],
+            }
+        }
+        Ok((newsize, auto))
+    }
+
+    /// `file` of `import` or `surface`, relative to the `.csg` file's folder.
+    fn file_arg(&self, node: &Node, a: &Args) -> Result<std::path::PathBuf, ScadError> {
+        match a.get("file").map(|v| (&v.kind, v.pos)) {
+            Some((ValueKind::Str(f), _)) => Ok(self.base.join(f)),
+            Some((_, pos)) => Err(ScadError::new(
+                pos,
+                format!("`file` of `{}` must be a string", node.name),
+            )),
+            None => Err(ScadError::new(
+                node.pos,
+                format!("`{}` needs `file = \"...\"`", node.name),
+            )),
+        }
+    }
+
+    /// The length of an imported file; `None` (with OpenSCAD's warning: the
+    /// node is the empty set, the rest renders) when it cannot be opened.
+    fn file_len(&mut self, node: &Node, path: &Path) -> Option<u64> {
+        match std::fs::metadata(path) {
+            Ok(m) if m.is_file() => Some(m.len()),
+            r => {
+                let why = r.map_or_else(|e| e.to_string(), |_| "not a file".to_string());
+                self.warnings.push(format!(
+                    "{}:{}: `{}`: cannot open {} ({why}; the path is relative to the .csg file's folder); OpenSCAD warns and makes nothing of it, and so does peeltrim",
+                    node.pos.line,
+                    node.pos.col,
+                    node.name,
+                    path.display()
+                ));
+                None
+            }
+        }
+    }
+
+    /// Charges `bytes` of mesh to the model's budget.
+    fn charge(
+        &mut self,
+        node: &Node,
+        what: String,
+        bytes: u64,
+        fix: &str,
+    ) -> Result<(), ScadError> {
+        self.mesh_bytes = self.mesh_bytes.saturating_add(bytes);
+        crate::budget::current()
+            .check(
+                || format!("{what} (with the model's meshes before it)"),
+                self.mesh_bytes,
+                fix,
+            )
+            .map_err(|e| ScadError::new(node.pos, e.to_string()))
+    }
+
+    /// `import(file)` of an STL or OFF mesh.
+    fn import(&mut self, node: &Node) -> Result<Option<Mesh>, ScadError> {
+        let a = Args::new(
+            node,
+            &["file", "layer", "convexity", "origin", "scale"],
+            &[
+                "width",
+                "height",
+                "filename",
+                "center",
+                "dpi",
+                "id",
+                "timestamp",
+            ],
+            &mut self.warnings,
+        )?;
+        let path = self.file_arg(node, &a)?;
+        let located = |e: String| {
+            ScadError::new(
+                node.pos,
+                format!("`import`: {e} (the path is relative to the .csg file's folder)"),
+            )
+        };
+        let Some(len) = self.file_len(node, &path) else {
+            return Ok(None);
+        };
+        // At least 50 bytes a triangle (binary STL; ASCII STL and OFF take more).
+        self.charge(
+            node,
+            format!("the imported file {} ({len} bytes)", path.display()),
+            cost::mesh_bytes(len / 50, len / 50 * 2),
+            "simplify the mesh (fewer triangles)",
+        )?;
+        let mesh = mesh_import::read(&path).map_err(located)?;
+        self.closed_solid(node, mesh, &path.display().to_string())
+    }
+
+    /// `surface(file, center, invert)`: a height map (`super::surface`).
+    fn surface(&mut self, node: &Node) -> Result<Option<Mesh>, ScadError> {
+        let a = Args::new(
+            node,
+            &["file", "center", "invert", "convexity"],
+            &["timestamp"],
+            &mut self.warnings,
+        )?;
+        let path = self.file_arg(node, &a)?;
+        let located = |e: String| {
+            ScadError::new(
+                node.pos,
+                format!(
+                    "`surface`: {}: {e} (the path is relative to the .csg file's folder)",
+                    path.display()
+                ),
+            )
+        };
+        let Some(len) = self.file_len(node, &path) else {
+            return Ok(None);
+        };
+        // A PNG's pixels can be many more than its bytes: the decoder's own
+        // limits bound those; a `.dat` has at most one value per 2 bytes.
+        self.charge(
+            node,
+            format!("the height map {} ({len} bytes)", path.display()),
+            cost::mesh_bytes(len, len * 2),
+            "use a smaller height map",
+        )?;
+        let bytes = std::fs::read(&path).map_err(|e| located(e.to_string()))?;
+        let h = surface::heights(&bytes, a.boolean("invert")?.unwrap_or(false)).map_err(located)?;
+        if let Some(why) = &h.stopped {
+            self.warnings.push(format!(
+                "{}:{}: `surface`: {}: {why}",
+                node.pos.line,
+                node.pos.col,
+                path.display()
+            ));
+        }
+        let cells = h.z.len() as u64 * h.z.first().map_or(0, |r| r.len()) as u64;
+        self.charge(
+            node,
+            format!("the height map {} ({cells} cells)", path.display()),
+            cost::mesh_bytes(cells * 2, cells * 4),
+            "use a smaller height map",
+        )?;
+        Ok(surface::mesh(&h, a.boolean("center")?.unwrap_or(false)))
+    }
+}
+
+impl Converter<'_> {
+    /// An imported mesh as a solid: closed (faces that disagree in orientation
+    /// reversed, with a warning, as for `polyhedron`) and outward.
+    fn closed_solid(
+        &mut self,
+        node: &Node,
+        mut mesh: Mesh,
+        file: &str,
+    ) -> Result<Option<Mesh>, ScadError> {
+        let bad = |why: String| {
+            ScadError::new(
+                node.pos,
+                format!("`{}` of {file}: the mesh is not a closed, consistently oriented surface: {why}; repair it (close the holes) in a mesh editor", node.name),
+            )
+        };
+        match check_closed(&mesh) {
+            Ok(()) => {}
+            Err(MeshProblem::SameDirection { .. }) => {
+                let n = orient::reorient(&mut mesh).map_err(|p| bad(p.describe(&mesh)))?;
+                self.warnings.push(format!(
+                    "{}:{}: `{}` of {file}: its faces disagree in orientation; {n} triangle(s) were reversed to agree with their neighbours",
+                    node.pos.line, node.pos.col, node.name
+                ));
+            }
+            Err(p) => return Err(bad(p.describe(&mesh))),
+        }
+        let v = signed_volume(&mesh);
+        if v < 0.0 {
+            return Err(ScadError::new(
+                node.pos,
+                format!("`{}` of {file}: the mesh is inside out (negative signed volume: its triangles wind clockwise seen from outside); reverse the vertex order of every face", node.name),
+            ));
+        }
+        Ok((v > 0.0).then_some(mesh))
+    }
+}
+
 /// At most this many edge pairs in a 2D `minkowski` of non-convex outlines
 /// (each a parallelogram for the polygon library).
 const MAX_MINKOWSKI_PAIRS: u64 = 1_000_000;
@@ -1397,7 +1875,7 @@ impl Converter<'_> {
         let tree = self.tree;
         let mut two_d = false;
         for node in &tree.nodes {
-            match kind(&node.name) {
+            match kind_of(node) {
                 Some(k) if is_2d_primitive(k) || k == Kind::Offset => two_d = true,
                 Some(k) if is_3d_primitive(k) || is_extrusion(k) => return None,
                 None if !TWO_D.contains(&node.name.as_str()) => return None,
@@ -1506,7 +1984,7 @@ impl Converter<'_> {
                         format!("`offset` by {delta} spans about {reach} of its child's {n} outline edges each (about {crossings} crossings of the offset contours); at most {MAX_OFFSET_CROSSINGS} are accepted: use fewer, longer edges or a smaller offset"),
                     ));
                 }
-                self.charge(node, n.saturating_mul(per_vertex).saturating_add(crossings))?;
+                self.charge_outline(node, n.saturating_mul(per_vertex).saturating_add(crossings))?;
                 outline::offset(&child, delta, join)
             }
             Kind::Hull => {
@@ -1529,7 +2007,7 @@ impl Converter<'_> {
                         format!("`minkowski` of these outlines pairs {pieces} edges; at most {MAX_MINKOWSKI_PAIRS} are accepted: use fewer points (lower $fn)"),
                     ));
                 }
-                self.charge(node, pieces.saturating_mul(5))?;
+                self.charge_outline(node, pieces.saturating_mul(5))?;
                 outline::minkowski(kids)
             }
         };
@@ -1540,22 +2018,13 @@ impl Converter<'_> {
 
     /// Charges `points` 2D points of intermediate outline against the memory
     /// budget, with the model's meshes so far.
-    fn charge(&mut self, node: &Node, points: u64) -> Result<(), ScadError> {
-        self.mesh_bytes = self
-            .mesh_bytes
-            .saturating_add(cost::mesh_bytes(points, points));
-        crate::budget::current()
-            .check(
-                || {
-                    format!(
-                        "`{}` with {points} outline points (with the model's meshes before it)",
-                        node.name
-                    )
-                },
-                self.mesh_bytes,
-                "lower $fn or the point count",
-            )
-            .map_err(|e| ScadError::new(node.pos, e.to_string()))
+    fn charge_outline(&mut self, node: &Node, points: u64) -> Result<(), ScadError> {
+        self.charge(
+            node,
+            format!("`{}` with {points} outline points", node.name),
+            cost::mesh_bytes(points, points),
+            "lower $fn or the point count",
+        )
     }
 
     /// Refuses outlines beyond `extrude::MAX_COORD` (the polygon library's grid).

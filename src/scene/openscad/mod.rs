@@ -21,15 +21,27 @@
 pub(crate) mod args;
 pub mod background;
 pub(crate) mod convert;
+pub(crate) mod dxf;
 pub(crate) mod extrude;
+#[cfg(test)]
+mod fuzz3d;
+pub(crate) mod hull;
+pub(crate) mod import2d;
 pub(crate) mod lex;
+pub(crate) mod mesh_import;
+pub(crate) mod orient;
 pub(crate) mod outline;
 pub(crate) mod parse;
+pub(crate) mod pieces;
+pub(crate) mod surface;
+pub(crate) mod svg;
 pub(crate) mod tessellate;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod tests2d;
+#[cfg(test)]
+mod tests3d;
 pub(crate) mod text;
 
 use glam::DMat4;
@@ -128,7 +140,8 @@ pub fn model_from_str(
 ) -> Result<Model, SceneError> {
     let located = |e: ScadError| located_error(text, path, e);
     let tree = parse::parse(text).map_err(located)?;
-    let c = convert::convert(&tree, skip_unsupported).map_err(located)?;
+    let base = path.parent().unwrap_or(Path::new(""));
+    let c = convert::convert(&tree, skip_unsupported, base).map_err(located)?;
     let mut warnings: Vec<String> = c
         .warnings
         .iter()

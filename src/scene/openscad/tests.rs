@@ -300,15 +300,24 @@ fn polyhedron_clockwise_faces_become_ccw() {
         e.starts_with("t.csg:2:2:") && e.contains("edge") && e.contains("points["),
         "{e}"
     );
-    // One face flipped: two faces traverse an edge the same way.
-    let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 3, 2]]);");
+    // One face flipped: reversed to agree with its neighbours, with a warning.
+    let m = model("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 3, 2]]);");
+    closed_outward(&m.primitives[0].mesh);
     assert!(
-        e.starts_with("t.csg:1:1:") && e.contains("same direction") && e.contains("points[0]"),
+        warned(&m, "1 triangle(s) were reversed"),
+        "{:?}",
+        m.warnings
+    );
+    // A non-manifold edge (three faces) stays an error.
+    let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0], [0, 1, 2]]);");
+    assert!(
+        e.starts_with("t.csg:1:1:") && e.contains("same direction"),
         "{e}"
     );
-    // Counter-clockwise faces: inside out.
-    let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]);");
-    assert!(e.contains("inside out"), "{e}");
+    // Counter-clockwise faces: inside out, turned outward with a warning.
+    let m = model("polyhedron(points = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]);");
+    closed_outward(&m.primitives[0].mesh);
+    assert!(warned(&m, "inside out"), "{:?}", m.warnings);
     let e = err("polyhedron(points = [[0, 0, 0], [1, 0, 0]], faces = [[0, 1, 7]]);");
     assert!(e.contains("point index"), "{e}");
 }
@@ -318,7 +327,7 @@ fn polyhedron_clockwise_faces_become_ccw() {
 #[test]
 fn difference_union_intersection_as_sets() {
     let m = model(
-        "difference() {\n  cube(size = [4, 4, 4], center = true);\n  cube(size = [2, 2, 10], center = true);\n  multmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 1, center = true);\n}\nintersection() {\n  multmatrix([[1, 0, 0, 10], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  multmatrix([[1, 0, 0, 11], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  group();\n}\n",
+        "difference() {\n  cube(size = [4, 4, 4], center = true);\n  cube(size = [2, 2, 10], center = true);\n  multmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 1, center = true);\n}\nintersection() {\n  multmatrix([[1, 0, 0, 10], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  multmatrix([[1, 0, 0, 11], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  *cube(size = 5);\n}\n",
     );
     let names: Vec<&str> = m.primitives.iter().map(|p| p.name.as_str()).collect();
     assert_eq!(
@@ -330,7 +339,7 @@ fn difference_union_intersection_as_sets() {
         (DVec3::new(0.0, 0.0, 0.0), false), // the hole
         (DVec3::new(1.8, 0.0, 0.0), false), // the notch at x = 2
         (DVec3::new(3.0, 0.0, 0.0), false),
-        (DVec3::new(10.5, 0.0, 0.0), true), // intersection; the empty group vanished
+        (DVec3::new(10.5, 0.0, 0.0), true), // intersection; the `*` child vanished
         (DVec3::new(9.5, 0.0, 0.0), false),
     ] {
         assert_eq!(inside(&m, p), want, "{p}");
@@ -350,6 +359,25 @@ fn empty_primitives_follow_set_algebra() {
     assert_eq!(m.expr.nodes, vec![Node::Leaf { prim: 0 }]);
     let e = err("difference() { group(); }\n*cube(size = 1);");
     assert!(e.contains("no solid"), "{e}");
+    // So is a child that yields nothing (OpenSCAD 2021.01 draws these
+    // intersections and this difference as nothing, in preview and render).
+    for empty in [
+        "group();",
+        "render();",
+        "linear_extrude(height = 1);",
+        "minkowski();",
+    ] {
+        let m = model(&format!(
+            "intersection() {{ cube(size = 1); {empty} }}\ncube(size = 2);"
+        ));
+        assert_eq!(m.primitives.len(), 1, "{empty}");
+        assert_eq!(m.primitives[0].name, "cube_L2", "{empty}");
+    }
+    let e = err("difference() { render(); cube(size = 1); }");
+    assert!(e.contains("no solid"), "{e}");
+    // A `%` child is not part of the solid: the intersection is the cube.
+    let m = model("intersection() { cube(size = 1); %sphere(r = 0.2); }");
+    assert_eq!(m.primitives.len(), 1);
 }
 
 #[test]
@@ -402,18 +430,16 @@ fn modifiers() {
 
 #[test]
 fn unsupported_nodes_and_geometry_errors() {
-    for node in [
-        "hull() { cube(); }",
-        "minkowski() { cube(); }",
-        "import(file = \"a.stl\");",
-        "surface(file = \"a.dat\");",
-        "projection(cut = false) { cube(); }",
-        "resize(newsize = [1, 1, 1]) { cube(); }",
+    for (node, name) in [
+        ("projection(cut = false) { cube(); }", "projection"),
+        (
+            "hull() { difference() { cube(); sphere(); } }",
+            "difference",
+        ),
     ] {
-        let name = &node[..node.find('(').unwrap()];
         let e = err(&format!("group() {{\n  cube();\n  {node}\n}}"));
         assert!(
-            e.starts_with("t.csg:3:3:")
+            e.starts_with("t.csg:3:")
                 && e.contains(&format!("`{name}`"))
                 && e.contains("not supported"),
             "{e}"
@@ -426,31 +452,44 @@ fn unsupported_nodes_and_geometry_errors() {
         .unwrap();
         assert_eq!(m.primitives.len(), 1);
         assert!(
-            m.warnings
-                .iter()
-                .any(|w| w.contains(":3:3:") && w.contains(name)),
+            m.warnings.iter().any(|w| w.contains(":3:")),
             "{:?}",
             m.warnings
         );
     }
-    for (src, want) in [
-        ("cube(size = [1, inf, 1]);", "t.csg:1:17:"),
-        ("sphere(r = nan);", "t.csg:1:12:"),
-        ("cylinder(h = -inf, r1 = 1, r2 = 1);", "t.csg:1:14:"),
+    // `inf` and `nan` are undef to OpenSCAD: the parameter's default, the
+    // identity's matrix entry, or the polyhedron dropped (observed with
+    // OpenSCAD 2021.01's CGAL render of such a `.csg`).
+    for (src, want, prims) in [
+        ("cube(size = [1, inf, 1]);", "t.csg:1:13:", 1),
+        ("sphere(r = nan);", "t.csg:1:12:", 1),
+        ("cylinder(h = -inf, r1 = 1, r2 = 1);", "t.csg:1:14:", 1),
         (
             "multmatrix([[1, 0, 0, nan], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube();",
-            "t.csg:1:23:",
+            "t.csg:1:13:",
+            1,
         ),
         (
             "polyhedron(points = [[0, 0, inf]], faces = []);",
-            "t.csg:1:29:",
+            "t.csg:1:22:",
+            0,
         ),
     ] {
-        let e = err(src);
+        let m = model(&format!(
+            "{src}\nmultmatrix([[1, 0, 0, 9], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube();"
+        ));
+        assert_eq!(m.primitives.len(), prims + 1, "{src}");
         assert!(
-            e.starts_with(want) && e.contains("infinite or NaN"),
-            "{src}: {e}"
+            m.warnings
+                .iter()
+                .any(|w| w.starts_with(want) && w.contains("infinite or NaN")),
+            "{src}: {:?}",
+            m.warnings
         );
+        let first = m.primitives[0].mesh.aabb().unwrap();
+        if prims == 1 {
+            assert!(first.max.x <= 1.0 + 1e-12, "{src}: the default size");
+        }
     }
     let e = err("cube(size = 1) { sphere(); }");
     assert!(e.contains("takes no children"), "{e}");
@@ -813,12 +852,31 @@ fn mixed_dimensions_are_dropped_with_a_warning() {
 
 #[test]
 fn hostile_two_d_input_is_a_located_error_or_a_render() {
+    // Infinite or NaN numbers are undef, as OpenSCAD reads them: a warning.
+    for (src, at) in [
+        ("linear_extrude(height = nan) square();", "nan"),
+        ("linear_extrude(height = 1, twist = inf) square();", "inf"),
+        ("linear_extrude(height = 1) circle(r = -inf);", "-inf"),
+        (
+            "linear_extrude(height = 1) square(size = [1, nan]);",
+            "[1, nan]",
+        ),
+        (
+            "linear_extrude(height = 1) polygon(points = [[0, 0], [1, nan], [0, 1]]);",
+            "[[0, 0]",
+        ),
+    ] {
+        let m = model(&format!("{src}\ncube();"));
+        let at = format!("t.csg:1:{}:", src.find(at).unwrap() + 1);
+        assert!(
+            m.warnings
+                .iter()
+                .any(|w| w.starts_with(&at) && w.contains("infinite or NaN")),
+            "{src}: {:?}",
+            m.warnings
+        );
+    }
     for (src, at, want) in [
-        ("linear_extrude(height = nan) square();", "nan", "infinite or NaN"),
-        ("linear_extrude(height = 1, twist = inf) square();", "inf", "infinite or NaN"),
-        ("linear_extrude(height = 1) circle(r = -inf);", "-inf", "infinite or NaN"),
-        ("linear_extrude(height = 1) square(size = [1, nan]);", "nan", "infinite or NaN"),
-        ("linear_extrude(height = 1) polygon(points = [[0, 0], [1, nan], [0, 1]]);", "nan", "infinite or NaN"),
         ("linear_extrude(height = 1) polygon(points = [[0, 0], [1, 0], [0, 1]], paths = [[0, 1, 7]]);", "7]", "not a point index"),
         ("linear_extrude(height = 1) polygon(points = [[0, 0], [1e300, 0], [0, 1]]);", "[1e300", "beyond"),
         ("linear_extrude(height = 1) polygon(points = [[0, 0, 0, 0]]);", "[0, 0, 0, 0]", "must be [x, y]"),
