@@ -1,5 +1,7 @@
 //! `peeltrim view --watch`: the model file is polled (its modification time
-//! and length, every [`POLL`]) and reloaded when it changes, through the same
+//! and length, every [`POLL`]) and reloaded when it has changed and then
+//! stayed the same for one poll (a save caught halfway, the file truncated
+//! and not yet written, is not loaded), through the same
 //! loader as the first load (a `.scad` file is exported again by `openscad`;
 //! the cache is keyed by content). Only the named file is watched: files it
 //! imports, includes or names (OBJ meshes of a TOML scene) are not.
@@ -24,6 +26,8 @@ pub type Loader = Box<dyn FnMut(&Path) -> Result<Scene, String>>;
 pub struct Watch {
     path: PathBuf,
     stamp: Option<(SystemTime, u64)>,
+    /// A change seen at the last poll, loaded when the next one sees it still.
+    pending: Option<(SystemTime, u64)>,
     load: Loader,
 }
 
@@ -45,6 +49,7 @@ impl Watch {
         Watch {
             path: path.to_path_buf(),
             stamp: stamp(path),
+            pending: None,
             load,
         }
     }
@@ -54,14 +59,21 @@ impl Watch {
         &self.path
     }
 
-    /// The reload, when the file changed since the last call (a file that
-    /// vanished, as in the middle of a save by rename, is waited for).
+    /// The reload, when the file changed since it was last loaded and is the
+    /// same as at the last call (a file that vanished, as in the middle of a
+    /// save by rename, is waited for).
     pub fn poll(&mut self) -> Option<Reload> {
         let now = stamp(&self.path)?;
         if Some(now) == self.stamp {
+            self.pending = None;
+            return None;
+        }
+        if self.pending != Some(now) {
+            self.pending = Some(now);
             return None;
         }
         self.stamp = Some(now);
+        self.pending = None;
         let t = std::time::Instant::now();
         let result = (self.load)(&self.path);
         Some(Reload {
@@ -100,6 +112,9 @@ mod tests {
         );
         assert!(w.poll().is_none());
         std::fs::write(&f, "cube(size = [2, 2, 2]);").unwrap();
+        assert!(w.poll().is_none(), "a change waits one poll");
+        std::fs::write(&f, "cube(size = [30, 2, 2]);").unwrap();
+        assert!(w.poll().is_none(), "a change that goes on waits again");
         let r = w.poll().expect("a changed length is a change");
         assert!(r.result.unwrap_err().ends_with("m.csg loaded"));
         assert!(w.poll().is_none());

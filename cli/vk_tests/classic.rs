@@ -44,7 +44,17 @@ fn check(name: &str, algos: &[Algo], max_interior_mismatch: f64) {
 }
 
 fn check_with(name: &str, algos: &[Algo], max_interior_mismatch: f64, depth: DepthSetup) {
-    let scene = load(name);
+    check_scene(name, &load(name), algos, max_interior_mismatch, depth)
+}
+
+fn check_scene(
+    name: &str,
+    scene: &Scene,
+    algos: &[Algo],
+    max_interior_mismatch: f64,
+    depth: DepthSetup,
+) {
+    let scene = scene.clone();
     let reference = reference::render(&scene, scene.render.width, scene.render.height);
     let prep = Prepared::new(&scene).expect("prepared");
     let mut gpu =
@@ -128,6 +138,49 @@ fn check_with(name: &str, algos: &[Algo], max_interior_mismatch: f64, depth: Dep
     let msgs = gpu.validation_messages();
     assert!(msgs.is_empty(), "validation: {msgs:?}");
     assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// Layered Goldfeather enters a convex block once and peels only the holes'
+/// back faces after it, clipped by the holes whose boxes meet: through holes
+/// that stick out above the block (their far walls in front of the block's
+/// top), two dimples that overlap (each one's wall partly inside the other)
+/// and a dimple cut into a through hole's wall.
+#[test]
+fn classic_layered_holes_that_meet_and_stick_out() {
+    use glam::DVec3;
+    use peeltrim::scene::fixtures::{self, ExprBuilder};
+    let mut prims = vec![fixtures::prim(
+        "block",
+        fixtures::box_mesh(DVec3::new(-2.0, -0.5, -1.0), DVec3::new(2.0, 0.5, 1.0)),
+        [200, 160, 60],
+    )];
+    let holes = [
+        fixtures::box_mesh(DVec3::new(-1.6, -0.9, -0.3), DVec3::new(-1.0, 0.9, 0.3)),
+        fixtures::box_mesh(DVec3::new(0.9, -0.9, -0.6), DVec3::new(1.3, 0.9, 0.2)),
+        fixtures::sphere_mesh(DVec3::new(-0.3, 0.5, 0.0), 0.45, 24, 12),
+        fixtures::sphere_mesh(DVec3::new(0.25, 0.5, 0.2), 0.4, 24, 12),
+        fixtures::sphere_mesh(DVec3::new(1.3, 0.5, 0.3), 0.3, 24, 12),
+    ];
+    let mut b = ExprBuilder::default();
+    let mut acc = b.leaf(0);
+    for (i, mesh) in holes.into_iter().enumerate() {
+        prims.push(fixtures::prim(&format!("h{i}"), mesh, [80, 120, 200]));
+        let l = b.leaf(i as u32 + 1);
+        acc = b.diff(acc, l);
+    }
+    let cam = fixtures::camera(DVec3::new(1.0, 3.5, 3.0), DVec3::ZERO, 40.0, 1.0, 12.0);
+    let mut scene = fixtures::scene(cam, prims, b.build(acc));
+    scene.render.width = 128;
+    scene.render.height = 128;
+    for depth in [DepthSetup::D24S8, DepthSetup::D32S8Reversed] {
+        check_scene(
+            "holes-that-meet",
+            &scene,
+            &ALGOS[..2],
+            0.001,
+            crate::setup::usable(depth),
+        );
+    }
 }
 
 #[test]

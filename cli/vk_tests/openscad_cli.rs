@@ -117,7 +117,7 @@ fn bad_models_are_located_errors() {
     let cases: &[(&str, &[&str])] = &[
         ("hull() { difference() { cube(size = 1); sphere(r = 1); } }", &["x.csg:2:12:", "`difference` inside `hull` (line 2)", "not supported", "--skip-unsupported"]),
         ("minkowski() { intersection() { cube(size = 1); sphere(r = 1); } }", &["x.csg:2:17:", "`intersection` inside `minkowski`"]),
-        ("import(file = \"a.dxf\");", &["x.csg:2:3:", "`import` of a 2D file"]),
+        ("linear_extrude(height = 1) import(file = \"a.txt\");", &["x.csg:2:", "DXF or SVG"]),
         ("projection() { cube(size = 1); }", &["x.csg:2:3:", "`projection`"]),
         ("cube(size = [1, 2 3]);", &["x.csg:2:21:", "expected `,` or `]`"]),
         (
@@ -295,7 +295,7 @@ fn every_unsupported_node_is_reported_in_file_order() {
     let f = write(
         &d,
         "many.csg",
-        "group() {\n  projection() { cube(size = 1); }\n  group() {\n    import(file = \"a.dxf\");\n  }\n  hull() { difference() { cube(size = 1); sphere(r = 1); } }\n  cube(size = 1);\n}\n",
+        "group() {\n  projection() { cube(size = 1); }\n  group() {\n    projection() { sphere(r = 1); }\n  }\n  hull() { difference() { cube(size = 1); sphere(r = 1); } }\n  cube(size = 1);\n}\n",
     );
     let out = d.join("o");
     let o = run(&[
@@ -310,7 +310,7 @@ fn every_unsupported_node_is_reported_in_file_order() {
         &o,
         &[
             "many.csg:2:3:",
-            "3 nodes are not supported: `projection` (it needs the 3D boundary) (line 2), `import` of a 2D file (DXF or SVG) (line 4), `difference` inside `hull` (line 6)",
+            "3 nodes are not supported: `projection` (it needs the 3D boundary) (line 2), `projection` (it needs the 3D boundary) (line 4), `difference` inside `hull` (line 6)",
             "--skip-unsupported",
         ],
     );
@@ -328,11 +328,11 @@ fn every_unsupported_node_is_reported_in_file_order() {
     let e = stderr(&o);
     let at = |s: &str| e.find(s).unwrap_or_else(|| panic!("{s} in {e}"));
     assert!(
-        at("many.csg:2:3: `projection`") < at("many.csg:4:5: `import`"),
+        at("many.csg:2:3: `projection`") < at("many.csg:4:5: `projection`"),
         "{e}"
     );
     assert!(
-        at("many.csg:4:5: `import`") < at("many.csg:6:12: `difference`"),
+        at("many.csg:4:5: `projection`") < at("many.csg:6:12: `difference`"),
         "{e}"
     );
 }

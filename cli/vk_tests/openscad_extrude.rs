@@ -56,3 +56,9 @@ fn extruded_profile_with_hole_cst_i_matches_reference() {
 fn rotate_extrude_cst_i_matches_reference() {
     let _ = check("lathe_knob.csg", 10);
 }
+
+#[test]
+fn imported_dxf_and_svg_outlines_cst_i_match_reference() {
+    // A DXF flange (two layers) and an SVG drop, each one extruded primitive.
+    check("import_outline.csg", 3);
+}

@@ -113,6 +113,43 @@ pub(crate) fn check_host_formats(
     Ok(())
 }
 
+/// A descriptor pool with room for one set of `layout` (three sampled images
+/// and a sampler, as [`write_output_set`] writes them), and that set.
+pub(crate) fn output_set(
+    device: &ash::Device,
+    layout: vk::DescriptorSetLayout,
+) -> Result<(vk::DescriptorPool, vk::DescriptorSet), VkError> {
+    let sizes = [
+        vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::SAMPLED_IMAGE,
+            descriptor_count: 3,
+        },
+        vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::SAMPLER,
+            descriptor_count: 1,
+        },
+    ];
+    let pci = vk::DescriptorPoolCreateInfo::default()
+        .max_sets(1)
+        .pool_sizes(&sizes);
+    // SAFETY: valid create info on a live device.
+    let pool =
+        unsafe { device.create_descriptor_pool(&pci, None) }.check("vkCreateDescriptorPool")?;
+    let layouts = [layout];
+    let ai = vk::DescriptorSetAllocateInfo::default()
+        .descriptor_pool(pool)
+        .set_layouts(&layouts);
+    // SAFETY: the pool has room for this one set of a live layout.
+    match unsafe { device.allocate_descriptor_sets(&ai) }.check("vkAllocateDescriptorSets") {
+        Ok(sets) => Ok((pool, sets[0])),
+        Err(e) => {
+            // SAFETY: the pool holds no set and nothing uses it.
+            unsafe { device.destroy_descriptor_pool(pool, None) };
+            Err(e)
+        }
+    }
+}
+
 /// Inside a rendering block of `extent`: binds a full-screen pass's pipeline
 /// and its one descriptor set (set 0 of `layout`), whose images the caller has
 /// made readable, and sets the viewport to the whole extent and the scissor
@@ -248,30 +285,7 @@ impl Composite {
         c.layout = unsafe { device.create_pipeline_layout(&lci, None) }
             .check("vkCreatePipelineLayout")
             .inspect_err(|_| c.destroy(device))?;
-        let sizes = [
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLED_IMAGE,
-                descriptor_count: 3,
-            },
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLER,
-                descriptor_count: 1,
-            },
-        ];
-        let pci = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(1)
-            .pool_sizes(&sizes);
-        // SAFETY: valid create info.
-        c.pool = unsafe { device.create_descriptor_pool(&pci, None) }
-            .check("vkCreateDescriptorPool")
-            .inspect_err(|_| c.destroy(device))?;
-        let ai = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(c.pool)
-            .set_layouts(&set_layouts);
-        // SAFETY: the pool has room for this one set.
-        c.set = unsafe { device.allocate_descriptor_sets(&ai) }
-            .check("vkAllocateDescriptorSets")
-            .inspect_err(|_| c.destroy(device))?[0];
+        (c.pool, c.set) = output_set(device, c.set_layout).inspect_err(|_| c.destroy(device))?;
         c.pipeline = c.make_pipeline(shared).inspect_err(|_| c.destroy(device))?;
         Ok(c)
     }

@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::composite::{bind_fullscreen, write_output_set};
+use super::composite::{bind_fullscreen, output_set, write_output_set};
 use super::error::{Check, VkError};
 use super::image::{Image, ImageDesc};
 use super::instance::Shared;
@@ -109,28 +109,7 @@ impl Resolve {
         // SAFETY: valid create info; the set layout is live.
         r.layout =
             unsafe { device.create_pipeline_layout(&lci, None) }.check("vkCreatePipelineLayout")?;
-        let sizes = [
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLED_IMAGE,
-                descriptor_count: 3,
-            },
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLER,
-                descriptor_count: 1,
-            },
-        ];
-        let pci = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(1)
-            .pool_sizes(&sizes);
-        // SAFETY: valid create info.
-        r.pool =
-            unsafe { device.create_descriptor_pool(&pci, None) }.check("vkCreateDescriptorPool")?;
-        let ai = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(r.pool)
-            .set_layouts(&set_layouts);
-        // SAFETY: the pool has room for this one set.
-        r.set =
-            unsafe { device.allocate_descriptor_sets(&ai) }.check("vkAllocateDescriptorSets")?[0];
+        (r.pool, r.set) = output_set(device, r.set_layout)?;
         let depth_stencil = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(true)
             .depth_write_enable(true)
@@ -184,15 +163,21 @@ impl Resolve {
             layout: vk::ImageLayout::UNDEFINED,
             ..rest
         };
-        let into: Vec<_> = [src.color, src.prim, src.depth]
-            .iter()
-            .map(|i| sync::image_barrier(rest, sampled, i.raw, aspect(i)))
-            .chain([
-                sync::image_barrier(fresh, color_target, self.color.raw, aspect(&self.color)),
-                sync::image_barrier(fresh, color_target, self.prim.raw, aspect(&self.prim)),
-                sync::image_barrier(fresh, ds_target, self.depth.raw, aspect(&self.depth)),
-            ])
-            .collect();
+        // `src`'s images between `from.0` and `to.0`, this pass's colour
+        // images between `from.1` and `to.1`, its depth between `from.2` and
+        // `to.2`.
+        let transitions = |from: [sync::Access; 3], to: [sync::Access; 3]| -> Vec<_> {
+            [src.color, src.prim, src.depth]
+                .iter()
+                .map(|i| sync::image_barrier(from[0], to[0], i.raw, aspect(i)))
+                .chain([
+                    sync::image_barrier(from[1], to[1], self.color.raw, aspect(&self.color)),
+                    sync::image_barrier(from[1], to[1], self.prim.raw, aspect(&self.prim)),
+                    sync::image_barrier(from[2], to[2], self.depth.raw, aspect(&self.depth)),
+                ])
+                .collect()
+        };
+        let into = transitions([rest, fresh, fresh], [sampled, color_target, ds_target]);
         submit::image_barriers(
             device,
             cmd,
@@ -249,15 +234,7 @@ impl Resolve {
         unsafe { device.cmd_draw(cmd, 3, 1, 0, 0) };
         // SAFETY: closes the block begun above.
         unsafe { device.cmd_end_rendering(cmd) };
-        let back: Vec<_> = [src.color, src.prim, src.depth]
-            .iter()
-            .map(|i| sync::image_barrier(sampled, rest, i.raw, aspect(i)))
-            .chain([
-                sync::image_barrier(color_target, rest, self.color.raw, aspect(&self.color)),
-                sync::image_barrier(color_target, rest, self.prim.raw, aspect(&self.prim)),
-                sync::image_barrier(ds_target, rest, self.depth.raw, aspect(&self.depth)),
-            ])
-            .collect();
+        let back = transitions([sampled, color_target, ds_target], [rest; 3]);
         submit::image_barriers(
             device,
             cmd,

@@ -23,7 +23,7 @@ use peeltrim::plan::{self, Algo, Prepared};
 use crate::render::layers::{render_layered_in, LayerOptions, LayeredSession};
 use crate::render::{GpuRenderer, RenderOptions};
 use peeltrim::scene::style::Style;
-use peeltrim::scene::{self, LoadOptions};
+
 use peeltrim::vk::ExecStats;
 
 /// The modes timed: the opaque image, its first four layers composited
@@ -98,14 +98,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<ModeRecord>, 
     );
     let mut out = Vec::new();
     for bs in scenes {
-        let mut scene = scene::load(
-            &crate::scad::csg_for(&bs.path).map_err(BenchError::Other)?,
-            &LoadOptions { size: Some((w, h)) },
-        )
-        .map_err(|source| BenchError::Scene {
-            path: bs.path.clone(),
-            source,
-        })?;
+        let mut scene = super::load_scene(&bs.path, (w, h))?;
         if scene.solids.is_empty() {
             bar.inc((MODES.len() * algos.len()) as u64);
             continue;

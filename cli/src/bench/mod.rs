@@ -294,14 +294,7 @@ pub fn run(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Record>, Benc
     let mut records = Vec::new();
     for bs in scenes {
         for &(w, h) in &cfg.sizes {
-            let mut scene = scene::load(
-                &crate::scad::csg_for(&bs.path).map_err(BenchError::Other)?,
-                &LoadOptions { size: Some((w, h)) },
-            )
-            .map_err(|source| BenchError::Scene {
-                path: bs.path.clone(),
-                source,
-            })?;
+            let mut scene = load_scene(&bs.path, (w, h))?;
             if let Some(n) = cfg.samples {
                 scene.render.samples = n;
             }
@@ -864,6 +857,18 @@ pub fn run_and_report(cfg: &BenchConfig, scenes: &[BenchScene]) -> Result<Vec<Re
         eprintln!("peeltrim: warning: no plots: {e}");
     }
     Ok(records)
+}
+
+/// A bench scene (a `.scad` exported first) at `size`.
+pub(crate) fn load_scene(path: &std::path::Path, size: (u32, u32)) -> Result<Scene, BenchError> {
+    scene::load(
+        &crate::scad::csg_for(path).map_err(BenchError::Other)?,
+        &LoadOptions { size: Some(size) },
+    )
+    .map_err(|source| BenchError::Scene {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 #[cfg(test)]

@@ -469,10 +469,22 @@ pub(crate) fn clip_steps_in(
     eps: f32,
     eye_inside: &[bool],
 ) -> Vec<Step> {
+    let cut: Vec<(Lit, Scissor)> = against.iter().map(|&b| (b, region.cut(b.prim))).collect();
+    clip_steps_cut(&cut, region.rect(), eps, eye_inside)
+}
+
+/// [`clip_steps`] with each literal's parity draw cut to its own scissor
+/// (where it can hold a surface point) and the sweeps to `sweep`.
+pub(crate) fn clip_steps_cut(
+    against: &[(Lit, Scissor)],
+    sweep: Scissor,
+    eps: f32,
+    eye_inside: &[bool],
+) -> Vec<Step> {
     let mut steps = vec![Step::Pass("clip".into())];
     for chunk in against.chunks(CLIP_BITS as usize) {
         let (mut mask, mut inside) = (0u8, 0u8);
-        for (k, &b) in chunk.iter().enumerate() {
+        for (k, (b, scissor)) in chunk.iter().enumerate() {
             let bit = 1u8 << k;
             mask |= bit;
             if b.negated == eye_inside.get(b.prim as usize).copied().unwrap_or(false) {
@@ -481,12 +493,12 @@ pub(crate) fn clip_steps_in(
             steps.push(clip_parity_draw(
                 b.prim,
                 Cull::None,
-                region.cut(b.prim),
+                scissor.clone(),
                 bit,
                 eps,
             ));
         }
-        steps.push(reject_sweep(mask, inside, region.rect()));
+        steps.push(reject_sweep(mask, inside, sweep.clone()));
     }
     steps
 }
@@ -711,40 +723,137 @@ pub(crate) mod tests {
         assert!(!p[0][0].negated && p[0][1..].iter().all(|l| l.negated));
     }
 
+    /// The scissors of the draws into the surface image (the layer draws).
+    fn peel_scissors(steps: &[Step]) -> Vec<(Geometry, Scissor)> {
+        steps
+            .iter()
+            .filter_map(|s| match s {
+                Step::Draw(d) if d.ds == SURFACE && d.depth.write && d.stencil.is_none() => {
+                    Some((d.geometry.clone(), d.scissor.clone()))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The meshes of the parity draws and their scissors.
+    fn parity_draws(steps: &[Step]) -> Vec<(MeshId, Scissor)> {
+        steps
+            .iter()
+            .filter_map(|s| match s {
+                Step::Draw(Draw {
+                    geometry: Geometry::Mesh(m),
+                    fragment: Fragment::NearerThan { .. },
+                    scissor,
+                    ..
+                }) => Some((*m, scissor.clone())),
+                _ => None,
+            })
+            .collect()
+    }
+
     #[test]
-    fn layered_cuts_its_later_layers_to_the_holes() {
+    fn layered_enters_a_convex_block_once_and_peels_only_the_holes_after() {
         let scene = block_minus_spheres(4);
         let prep = Prepared::new(&scene).unwrap();
+        assert!(prep.convex(0));
         let l = layered::plan(&prep, &ProductOptions::default()).unwrap();
-        let peel_scissors = |steps: &[Step]| -> Vec<Scissor> {
-            steps
-                .iter()
-                .filter_map(|s| match s {
-                    Step::Draw(d) if d.ds == SURFACE && d.depth.write && d.stencil.is_none() => {
-                        Some(d.scissor.clone())
-                    }
-                    _ => None,
-                })
-                .collect()
-        };
-        // The first layer: within the block's rectangle.
-        let first = peel_scissors(&l.steps);
-        assert!(first.len() >= 2, "{first:?}");
-        assert!(
-            matches!(&first[0], Scissor::Overlap { and, .. } if and == &vec![0]),
-            "{first:?}"
-        );
-        // The loop: within the spheres' rectangle, the block resolved
-        // everywhere else by its first layer.
-        let lp = l.loops().next().expect("a peel loop");
-        let later = peel_scissors(&lp.head);
         let holes: Vec<MeshId> = (1..=4).collect();
-        assert!(
-            later
-                .iter()
-                .all(|s| matches!(s, Scissor::Within { within, .. } if within == &holes)),
-            "{later:?}"
+        // The first layer: the block's front faces alone, within its
+        // rectangle; clipped by every literal.
+        let at = l.steps.iter().position(|s| matches!(s, Step::Loop(_)));
+        let before = &l.steps[..at.expect("a peel loop")];
+        assert_eq!(
+            peel_scissors(before),
+            vec![(
+                Geometry::Meshes(vec![0]),
+                Scissor::Overlap {
+                    of: vec![0],
+                    and: vec![0]
+                }
+            )]
         );
+        let clipped: Vec<MeshId> = parity_draws(before).iter().map(|d| d.0).collect();
+        assert_eq!(clipped, vec![0, 1, 2, 3, 4]);
+        // The loop: the spheres' back faces alone, within the spheres'
+        // rectangle (the block is resolved everywhere else by its first
+        // layer), clipped by the block only: no two spheres' boxes meet, so
+        // no sphere's wall lies inside another sphere.
+        let lp = l.loops().next().expect("a peel loop");
+        assert_eq!(
+            peel_scissors(&lp.head),
+            vec![(
+                Geometry::Meshes(holes.clone()),
+                Scissor::Within {
+                    meshes: holes.clone(),
+                    within: holes.clone()
+                }
+            )]
+        );
+        assert_eq!(
+            parity_draws(&lp.tail),
+            vec![(
+                0,
+                Scissor::Within {
+                    meshes: vec![0],
+                    within: holes
+                }
+            )]
+        );
+        // One bit, one sweep.
+        let sweeps = lp
+            .tail
+            .iter()
+            .filter(|s| matches!(s, Step::Draw(d) if matches!(d.geometry, Geometry::FullScreen { .. }) && d.ds == SURFACE))
+            .count();
+        assert_eq!(sweeps, 1);
+    }
+
+    #[test]
+    fn layered_later_layers_clip_by_the_holes_that_meet() {
+        // Sphere 2 moved onto sphere 1: their boxes meet, a point of one's
+        // wall may lie inside the other; spheres 0 and 3 meet none.
+        let mut scene = block_minus_spheres(4);
+        let c1 = scene.primitives[2].mesh.positions.iter().sum::<DVec3>()
+            / scene.primitives[2].mesh.positions.len() as f64;
+        scene.primitives[3].mesh = fixtures::sphere_mesh(c1 + DVec3::X * 0.3, 0.4, 12, 6);
+        let prep = Prepared::new(&scene).unwrap();
+        let l = layered::plan(&prep, &ProductOptions::default()).unwrap();
+        let lp = l.loops().next().expect("a peel loop");
+        let within = |m: MeshId, w: Vec<MeshId>| Scissor::Within {
+            meshes: vec![m],
+            within: w,
+        };
+        assert_eq!(
+            parity_draws(&lp.tail),
+            vec![
+                (0, within(0, vec![1, 2, 3, 4])),
+                (2, within(2, vec![3])),
+                (3, within(3, vec![2])),
+            ]
+        );
+    }
+
+    #[test]
+    fn layered_peels_every_literal_after_a_non_convex_positive() {
+        let mut scene = block_minus_spheres(2);
+        let l = fixtures::box_mesh(DVec3::new(-3.0, -1.0, -1.0), DVec3::new(-1.0, 1.0, 1.0));
+        let other = fixtures::box_mesh(DVec3::new(-1.0, -1.0, -1.0), DVec3::new(0.0, 2.0, 1.0));
+        scene.primitives[0].mesh = fixtures::joined(l, other);
+        let prep = Prepared::new(&scene).unwrap();
+        assert!(!prep.convex(0));
+        let l = layered::plan(&prep, &ProductOptions::default()).unwrap();
+        let lp = l.loops().next().expect("a peel loop");
+        // A ray may leave and re-enter the block: its later front faces are
+        // layers too, and any layer may lie inside any sphere (the second
+        // sphere misses the block's box: no literal of the product).
+        let drawn: Vec<Geometry> = peel_scissors(&lp.head).into_iter().map(|d| d.0).collect();
+        assert_eq!(
+            drawn,
+            vec![Geometry::Meshes(vec![0]), Geometry::Meshes(vec![1])]
+        );
+        let clipped: Vec<MeshId> = parity_draws(&lp.tail).iter().map(|d| d.0).collect();
+        assert_eq!(clipped, vec![0, 1]);
     }
 
     #[test]
@@ -761,11 +870,12 @@ pub(crate) mod tests {
             assert!(!g.steps.iter().any(|s| matches!(s, Step::Loop(_))));
             let lits = n as u64 + 1;
             assert_eq!(gc.mesh_draws, lits * lits + prep.solid_meshes.len() as u64);
-            // Layered: the first layer, then the loop body counted once: each
-            // draws the layer (2 draws) and clips it against every literal.
+            // Layered: the first layer (the block) clipped by every literal,
+            // then the loop body counted once: the spheres, clipped by the
+            // block (their boxes do not meet).
             assert_eq!(
                 lc.mesh_draws,
-                2 * (2 + lits) + prep.solid_meshes.len() as u64
+                (1 + lits) + 2 + prep.solid_meshes.len() as u64
             );
             rows.push((n, gc.triangles, lc.triangles));
         }

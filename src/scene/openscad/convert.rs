@@ -5,10 +5,14 @@
 //! - `group`/`union`/`render` → union; `difference` → the first child minus the
 //!   union of the rest; `intersection`. Unions and intersections are built
 //!   balanced (depth log n) rather than left-deep.
-//! - A child that yields no node (an empty group, a `*` disabled or `%`
-//!   background subtree) vanishes from its parent's child list, as in OpenSCAD's
-//!   pruned tree; a degenerate primitive (`sphere(0)`) is the empty set and
-//!   follows the set algebra (`A ∩ ∅ = ∅`, `A − ∅ = A`).
+//! - A `*` disabled or `%` background subtree, or a node dropped by
+//!   `--skip-unsupported`, vanishes from its parent's child list. A child
+//!   that yields nothing (an empty group, `render()` or an extrusion without
+//!   children, a 2D shape among 3D objects, which OpenSCAD ignores with a
+//!   warning) and a degenerate primitive (`sphere(0)`) are the empty set and
+//!   follow the set algebra (`A ∩ ∅ = ∅`, `∅ − A = ∅`, `A − ∅ = A`), as
+//!   OpenSCAD 2021.01's preview and CGAL render both draw
+//!   `intersection() { cube(); render(); }` as nothing.
 //! - `multmatrix` composes (row-major as printed); `color` colours the primitives
 //!   below it, the outermost `color` winning as in 2021.01; `#` highlights.
 //! - `!` makes the first such node the only root (its ancestors' transforms are
@@ -83,7 +87,17 @@ enum Kind {
     Minkowski,
     Resize,
     Import,
+    /// `import` of a DXF or SVG file: a 2D primitive (`super::import2d`).
+    ImportOutline,
     Surface,
+}
+
+/// A node's kind; `import` of a DXF or SVG file is a 2D primitive.
+fn kind_of(node: &Node) -> Option<Kind> {
+    match kind(&node.name) {
+        Some(Kind::Import) if super::import2d::is_2d_file(node) => Some(Kind::ImportOutline),
+        k => k,
+    }
 }
 
 fn kind(name: &str) -> Option<Kind> {
@@ -113,7 +127,7 @@ fn kind(name: &str) -> Option<Kind> {
     })
 }
 
-const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, hull, minkowski, resize, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render, import of STL/OFF, surface";
+const SUPPORTED: &str = "multmatrix, cube, sphere, cylinder, polyhedron, circle, square, polygon, text, offset, hull, minkowski, resize, linear_extrude, rotate_extrude, union, difference, intersection, group, color, render, import of STL/OFF/DXF/SVG, surface";
 const TWO_D: &[&str] = &["projection"];
 
 fn is_primitive(k: Kind) -> bool {
@@ -144,7 +158,10 @@ fn is_evaluated(k: Kind) -> bool {
 }
 
 fn is_2d_primitive(k: Kind) -> bool {
-    matches!(k, Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text)
+    matches!(
+        k,
+        Kind::Circle | Kind::Square | Kind::Polygon | Kind::Text | Kind::ImportOutline
+    )
 }
 
 fn is_extrusion(k: Kind) -> bool {
@@ -222,6 +239,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
         regions: vec![None; n],
         extrusions: vec![None; n + 1],
         inside_outline: vec![false; n],
+        misplaced: vec![false; n],
         frames: vec![DAffine2::IDENTITY; n],
     };
     let roots = c.roots();
@@ -241,10 +259,10 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
     for i in 0..tree.nodes.len() {
         let Some(ctx) = c.ctx[i] else { continue };
         let node = &tree.nodes[i];
-        let is_diff = kind(&node.name) == Some(Kind::Difference);
+        let is_diff = kind_of(node) == Some(Kind::Difference);
         // Below a 2D `offset`, `hull` or `minkowski`, outlines are evaluated.
-        let inside = c.inside_outline[i]
-            || (ctx.plane.is_some() && kind(&node.name).is_some_and(is_outline));
+        let inside =
+            c.inside_outline[i] || (ctx.plane.is_some() && kind_of(node).is_some_and(is_outline));
         for (k, &ch) in node.children.iter().enumerate() {
             let mut child = ctx;
             child.negated ^= is_diff && k > 0;
@@ -294,7 +312,7 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
     let mut nodes: Vec<E> = Vec::new();
     let mut term: Vec<Option<Term>> = vec![None; tree.nodes.len()];
     for (i, slot) in term.iter_mut().enumerate() {
-        let (Some(ctx), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
+        let (Some(ctx), Some(k)) = (c.ctx[i], kind_of(&tree.nodes[i])) else {
             continue;
         };
         if let Some(root) = ctx.inside {
@@ -334,17 +352,23 @@ pub fn convert(tree: &Tree, skip_unsupported: bool, base: &Path) -> Result<Conve
     }
     // Operators bottom-up.
     for i in (0..tree.nodes.len()).rev() {
-        let (Some(ctx), Some(k)) = (c.ctx[i], kind(&tree.nodes[i].name)) else {
+        let (Some(ctx), Some(k)) = (c.ctx[i], kind_of(&tree.nodes[i])) else {
             continue;
         };
         if is_primitive(k) || c.inside_outline[i] || ctx.inside.is_some() {
             continue;
         }
+        // A child that is there but yields nothing (`render()`, an empty
+        // group, a dropped 2D shape among 3D ones) is the empty set; a `*`
+        // or skipped one is not there.
         let kids: Vec<Term> = tree.nodes[i]
             .children
             .iter()
             .filter(|&&ch| !is_background_root[ch as usize])
-            .filter_map(|&ch| term[ch as usize])
+            .filter_map(|&ch| {
+                let there = c.ctx[ch as usize].is_some() || c.misplaced[ch as usize];
+                term[ch as usize].or(there.then_some(Term::Empty))
+            })
             .collect();
         term[i] = combine(&mut nodes, k, kids);
     }
@@ -521,6 +545,8 @@ struct Converter<'a> {
     /// Per node: below an `offset`, `hull` or `minkowski` in the plane (its
     /// outline is evaluated, not extruded).
     inside_outline: Vec<bool>,
+    /// Per node: a 2D shape among 3D objects or the reverse, dropped.
+    misplaced: Vec<bool>,
     /// Per `offset`/`hull`/`minkowski` node: its 2D transform (its children's
     /// outlines are evaluated in its own frame).
     frames: Vec<DAffine2>,
@@ -607,7 +633,7 @@ impl Converter<'_> {
             self.background_roots.push(i);
             ctx.background = true;
         }
-        let Some(k) = kind(&node.name) else {
+        let Some(k) = kind_of(node) else {
             let what = if TWO_D.contains(&node.name.as_str()) {
                 format!("`{}` (it needs the 3D boundary)", node.name)
             } else {
@@ -630,6 +656,7 @@ impl Converter<'_> {
                 "{at}: `{}` is {why}; OpenSCAD drops it, and so does peeltrim (wrap a 2D shape in linear_extrude to give it volume)",
                 node.name
             ));
+            self.misplaced[i as usize] = true;
             return Ok(None);
         }
         if is_evaluated(k) && parent.plane.is_none() {
@@ -705,21 +732,12 @@ impl Converter<'_> {
     /// A known node kind that peeltrim cannot evaluate where it stands.
     fn refused_here(&self, k: Kind, node: &Node, parent: &Ctx) -> Option<String> {
         let name = &node.name;
-        if k == Kind::Import {
-            let file = node
-                .args
-                .iter()
-                .find(|a| a.name.as_deref() == Some("file") || a.name.is_none())
-                .and_then(|a| match &a.value.kind {
-                    ValueKind::Str(f) => Some(f.to_ascii_lowercase()),
-                    _ => None,
-                })
-                .unwrap_or_default();
-            if [".dxf", ".svg"].iter().any(|e| file.ends_with(e)) {
-                return Some(format!("`{name}` of a 2D file (DXF or SVG)"));
-            }
+        if parent.plane.is_some() && k == Kind::Import {
+            return Some(format!(
+                "`{name}` of a mesh or an unknown file in 2D (2D import reads DXF or SVG)"
+            ));
         }
-        if parent.plane.is_some() && matches!(k, Kind::Resize | Kind::Import) {
+        if parent.plane.is_some() && k == Kind::Resize {
             return Some(format!("`{name}` of 2D shapes"));
         }
         if let (Some(root), Kind::Difference | Kind::Intersection) = (parent.inside, k) {
@@ -1220,7 +1238,7 @@ impl Converter<'_> {
         let tree = self.tree;
         let mut evaluated: Vec<Option<Region>> = vec![None; tree.nodes.len()];
         for i in (0..tree.nodes.len()).rev() {
-            let (Some(ctx), Some(k)) = (self.ctx[i], kind(&tree.nodes[i].name)) else {
+            let (Some(ctx), Some(k)) = (self.ctx[i], kind_of(&tree.nodes[i])) else {
                 continue;
             };
             let node = &tree.nodes[i];
@@ -1362,6 +1380,9 @@ impl Converter<'_> {
                 extrude::square(size, a.boolean("center")?.unwrap_or(false)).transformed(m)
             }
             Kind::Text => super::text::region(node, &mut self.warnings)?.transformed(m),
+            Kind::ImportOutline => {
+                super::import2d::region(node, self.base, &mut self.warnings)?.transformed(m)
+            }
             _ => self.polygon(node, m)?,
         };
         self.check_extent(node, &r)?;
@@ -1562,7 +1583,7 @@ impl Converter<'_> {
         let tree = self.tree;
         let mut pieces: Vec<Option<Vec<Piece>>> = (0..tree.nodes.len()).map(|_| None).collect();
         for i in (0..tree.nodes.len()).rev() {
-            let (Some(ctx), Some(k)) = (self.ctx[i], kind(&tree.nodes[i].name)) else {
+            let (Some(ctx), Some(k)) = (self.ctx[i], kind_of(&tree.nodes[i])) else {
                 continue;
             };
             if ctx.inside.is_none() {
@@ -1862,7 +1883,7 @@ impl Converter<'_> {
         let tree = self.tree;
         let mut two_d = false;
         for node in &tree.nodes {
-            match kind(&node.name) {
+            match kind_of(node) {
                 Some(k) if is_2d_primitive(k) || k == Kind::Offset => two_d = true,
                 Some(k) if is_3d_primitive(k) || is_extrusion(k) => return None,
                 None if !TWO_D.contains(&node.name.as_str()) => return None,

@@ -22,10 +22,11 @@ use glam::DVec3;
 use super::super::Mesh;
 use crate::scene::validate::{check_closed, signed_volume};
 
-/// Points above this many are refused before the hull runs (4 to 12 µs a
-/// point in the floating-point pass, by the machine's load: at most about
-/// 0.4 s for this many). A cube ⊕ a sphere of `$fn = 60` is 14 400 points.
-pub const MAX_HULL_POINTS: usize = 30_000;
+/// Points above this many are refused before the hull runs. Where every
+/// point is a vertex of the hull (two fine cylinders), the floating-point pass
+/// takes about 80 µs a point: 1.3 s for this many. A cube ⊕ a sphere of
+/// `$fn = 60` is 14 400 points.
+pub const MAX_HULL_POINTS: usize = 16_000;
 
 /// Above this many points, a floating-point quickhull first keeps the
 /// candidates for the exact one (about 20 µs a point).

@@ -21,10 +21,12 @@
 pub(crate) mod args;
 pub mod background;
 pub(crate) mod convert;
+pub(crate) mod dxf;
 pub(crate) mod extrude;
 #[cfg(test)]
 mod fuzz3d;
 pub(crate) mod hull;
+pub(crate) mod import2d;
 pub(crate) mod lex;
 pub(crate) mod mesh_import;
 pub(crate) mod orient;
@@ -32,6 +34,7 @@ pub(crate) mod outline;
 pub(crate) mod parse;
 pub(crate) mod pieces;
 pub(crate) mod surface;
+pub(crate) mod svg;
 pub(crate) mod tessellate;
 #[cfg(test)]
 mod tests;

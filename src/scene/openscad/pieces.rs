@@ -68,7 +68,15 @@ fn vertices(pieces: &[Piece]) -> Vec<DVec3> {
 
 /// The hull of all pieces: one convex piece, or none when they span no
 /// volume (OpenSCAD's hull of flat or empty children is empty too).
-pub fn hull(pieces: Vec<Piece>, pos: Pos, rgba: [f32; 4]) -> Result<Vec<Piece>, String> {
+pub fn hull(mut pieces: Vec<Piece>, pos: Pos, rgba: [f32; 4]) -> Result<Vec<Piece>, String> {
+    // One convex piece is its own hull.
+    if let [p] = &pieces[..] {
+        if p.convex == Some(true) {
+            let mut p = pieces.remove(0);
+            (p.node, p.pos, p.rgba) = ("hull".into(), pos, rgba);
+            return Ok(vec![p]);
+        }
+    }
     let pts = vertices(&pieces);
     check_points(pts.len())?;
     Ok(hull::convex_hull(&pts)

@@ -327,7 +327,7 @@ fn polyhedron_clockwise_faces_become_ccw() {
 #[test]
 fn difference_union_intersection_as_sets() {
     let m = model(
-        "difference() {\n  cube(size = [4, 4, 4], center = true);\n  cube(size = [2, 2, 10], center = true);\n  multmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 1, center = true);\n}\nintersection() {\n  multmatrix([[1, 0, 0, 10], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  multmatrix([[1, 0, 0, 11], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  group();\n}\n",
+        "difference() {\n  cube(size = [4, 4, 4], center = true);\n  cube(size = [2, 2, 10], center = true);\n  multmatrix([[1, 0, 0, 2], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 1, center = true);\n}\nintersection() {\n  multmatrix([[1, 0, 0, 10], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  multmatrix([[1, 0, 0, 11], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]) cube(size = 2, center = true);\n  *cube(size = 5);\n}\n",
     );
     let names: Vec<&str> = m.primitives.iter().map(|p| p.name.as_str()).collect();
     assert_eq!(
@@ -339,7 +339,7 @@ fn difference_union_intersection_as_sets() {
         (DVec3::new(0.0, 0.0, 0.0), false), // the hole
         (DVec3::new(1.8, 0.0, 0.0), false), // the notch at x = 2
         (DVec3::new(3.0, 0.0, 0.0), false),
-        (DVec3::new(10.5, 0.0, 0.0), true), // intersection; the empty group vanished
+        (DVec3::new(10.5, 0.0, 0.0), true), // intersection; the `*` child vanished
         (DVec3::new(9.5, 0.0, 0.0), false),
     ] {
         assert_eq!(inside(&m, p), want, "{p}");
@@ -359,6 +359,26 @@ fn empty_primitives_follow_set_algebra() {
     assert_eq!(m.expr.nodes, vec![Node::Leaf { prim: 0 }]);
     let e = err("difference() { group(); }\n*cube(size = 1);");
     assert!(e.contains("no solid"), "{e}");
+    // So is a child that yields nothing (OpenSCAD 2021.01 draws these
+    // intersections and this difference as nothing, in preview and render).
+    for empty in [
+        "group();",
+        "render();",
+        "linear_extrude(height = 1);",
+        "minkowski();",
+        "circle(r = 2);",
+    ] {
+        let m = model(&format!(
+            "intersection() {{ cube(size = 1); {empty} }}\ncube(size = 2);"
+        ));
+        assert_eq!(m.primitives.len(), 1, "{empty}");
+        assert_eq!(m.primitives[0].name, "cube_L2", "{empty}");
+    }
+    let e = err("difference() { render(); cube(size = 1); }");
+    assert!(e.contains("no solid"), "{e}");
+    // A `%` child is not part of the solid: the intersection is the cube.
+    let m = model("intersection() { cube(size = 1); %sphere(r = 0.2); }");
+    assert_eq!(m.primitives.len(), 1);
 }
 
 #[test]
@@ -412,7 +432,6 @@ fn modifiers() {
 #[test]
 fn unsupported_nodes_and_geometry_errors() {
     for (node, name) in [
-        ("import(file = \"a.dxf\");", "import"),
         ("projection(cut = false) { cube(); }", "projection"),
         (
             "hull() { difference() { cube(); sphere(); } }",
