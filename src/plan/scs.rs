@@ -126,8 +126,9 @@ const SUB_BITS: usize = CLIP_BITS as usize;
 
 /// Builds the SCS plan.
 pub fn plan(prep: &Prepared, opts: &ProductOptions) -> Result<Plan, PlanError> {
+    let prods = goldfeather::products(prep, opts.limit)?;
+    let prods = without_apart_cutters(prods, prep, &Cell::new(MAX_PRUNE_TESTS));
     let tests = Cell::new(order::MAX_PAIR_TESTS);
-    let prods = without_apart_cutters(goldfeather::products(prep, opts.limit)?, prep, &tests);
     let mut steps = goldfeather::init_steps();
     let (mut loops, mut surface) = (false, false);
     // The first product SCS clips by back faces is drawn first, in the output
@@ -256,8 +257,9 @@ fn shade_within_products(shade: Vec<Step>, prods: &[Vec<Lit>], prep: &Prepared) 
 /// without them each tooth is one direct draw. A cutter that only touches the
 /// positive (a face on a face) subtracts nothing under the tie rule either
 /// (module documentation: a cutter touching `Xi` from outside does not).
-/// At most `tests` pair tests in all (shared with the ordering, [`order`]);
-/// past them cutters are kept.
+/// At most `tests` pair tests in all ([`MAX_PRUNE_TESTS`] in a plan, apart
+/// from the ordering's, [`order::MAX_PAIR_TESTS`]); past them cutters are
+/// kept.
 fn without_apart_cutters(
     prods: Vec<Vec<Lit>>,
     prep: &Prepared,
@@ -284,6 +286,11 @@ fn without_apart_cutters(
         })
         .collect()
 }
+
+/// Most cutter and positive primitive pairs one plan tests for a separating
+/// plane to drop the cutter ([`without_apart_cutters`]), as many as the
+/// ordering's tests: thousands of products keep their cutters past it.
+const MAX_PRUNE_TESTS: usize = 20_000;
 
 /// The subtracted literals of product `p`.
 fn negated(p: &[Lit]) -> Vec<Lit> {
