@@ -1492,7 +1492,19 @@ impl Converter<'_> {
         if region.is_empty() || matches!(e, Extrusion::Empty) {
             return Ok(None);
         }
-        let cap = extrude::cap(&region).map_err(|why| {
+        // Rings that touch at a point (a hole on the outline) fail the
+        // strict triangulation: they are joined there into one ring.
+        let strict = extrude::cap(&region, false);
+        let region = if strict.is_err() {
+            extrude::splice_touching(&extrude::split_touching(&region))
+        } else {
+            region
+        };
+        let cap = match strict {
+            Ok(cap) => Ok(cap),
+            Err(_) => extrude::cap(&region, true),
+        }
+        .map_err(|why| {
             ScadError::new(
                 node.pos,
                 format!(

@@ -387,7 +387,9 @@ pub fn default_slices(child: &Region, h: f64, twist: f64, scale: DVec2, res: Res
 
 /// The cap triangles of `r`, counter-clockwise, indexing its vertices in ring
 /// order (shape by shape). `Err` when the outline cannot be triangulated.
-pub fn cap(r: &Region) -> Result<Vec<[u32; 3]>, String> {
+/// `touching`: rings may repeat a point ([`splice_touching`]); earcut may
+/// then make fewer triangles, accepted when they cover the shape's area.
+pub fn cap(r: &Region, touching: bool) -> Result<Vec<[u32; 3]>, String> {
     if r.convex {
         let n = r.vertex_count() as u32;
         return Ok((1..n.saturating_sub(1)).map(|k| [0, k, k + 1]).collect());
@@ -409,14 +411,41 @@ pub fn cap(r: &Region) -> Result<Vec<[u32; 3]>, String> {
         let n = flat.len() / 2;
         let tri = earcutr::earcut(&flat, &holes, 2)
             .map_err(|e| format!("its outline could not be triangulated ({e:?})"))?;
+        let pts: Vec<DVec2> = shape.iter().flatten().copied().collect();
         let want = n + 2 * holes.len() - 2;
-        if tri.len() / 3 != want {
+        // Rings joined at a point (`splice_touching`): the triangles must
+        // still cover the shape exactly (their areas add up to its area).
+        if tri.len() / 3 != want && !touching {
             return Err(format!(
                 "its outline could not be triangulated ({} of {want} triangles; the outline may touch itself)",
                 tri.len() / 3
             ));
         }
-        let pts: Vec<DVec2> = shape.iter().flatten().copied().collect();
+        if tri.len() / 3 != want {
+            let ring_area = |r: &Vec<DVec2>| {
+                (0..r.len())
+                    .map(|j| r[j].perp_dot(r[(j + 1) % r.len()]))
+                    .sum::<f64>()
+                    .abs()
+                    / 2.0
+            };
+            let area = ring_area(&shape[0]) - shape[1..].iter().map(ring_area).sum::<f64>();
+            let covered: f64 = tri
+                .chunks(3)
+                .map(|t| {
+                    (pts[t[1]] - pts[t[0]])
+                        .perp_dot(pts[t[2]] - pts[t[0]])
+                        .abs()
+                        / 2.0
+                })
+                .sum();
+            if !((covered - area).abs() <= 1e-9 * area.abs().max(f64::MIN_POSITIVE)) {
+                return Err(format!(
+                    "its outline could not be triangulated ({} of {want} triangles, covering {covered} of its area {area}; the outline may cross itself)",
+                    tri.len() / 3
+                ));
+            }
+        }
         let signed: f64 = tri
             .chunks(3)
             .map(|t| (pts[t[1]] - pts[t[0]]).perp_dot(pts[t[2]] - pts[t[0]]))
@@ -428,6 +457,98 @@ pub fn cap(r: &Region) -> Result<Vec<[u32; 3]>, String> {
         base += n as u32;
     }
     Ok(out)
+}
+
+/// `r` with every ring vertex that lies on another ring's edge (of the same
+/// shape) inserted into that edge: the polygon library drops collinear
+/// points, so a hole touching the outline at a point leaves a T-junction that
+/// no closed mesh can have. Exact tests (the library's output is on a grid);
+/// quadratic in the shape's size, so only run when triangulation failed.
+pub fn split_touching(r: &Region) -> Region {
+    let shapes = r
+        .shapes
+        .iter()
+        .map(|shape| {
+            let all: Vec<DVec2> = shape.iter().flatten().copied().collect();
+            shape
+                .iter()
+                .map(|ring| {
+                    let mut out = Vec::with_capacity(ring.len());
+                    for j in 0..ring.len() {
+                        let (a, b) = (ring[j], ring[(j + 1) % ring.len()]);
+                        out.push(a);
+                        let mut on: Vec<DVec2> = all
+                            .iter()
+                            .copied()
+                            .filter(|&p| {
+                                p != a
+                                    && p != b
+                                    && (b - a).perp_dot(p - a) == 0.0
+                                    && (p - a).dot(b - a) > 0.0
+                                    && (p - b).dot(a - b) > 0.0
+                            })
+                            .collect();
+                        on.sort_by(|p, q| {
+                            (*p - a)
+                                .length_squared()
+                                .total_cmp(&(*q - a).length_squared())
+                        });
+                        on.dedup();
+                        out.extend(on);
+                    }
+                    out
+                })
+                .collect()
+        })
+        .collect();
+    Region {
+        shapes,
+        convex: r.convex,
+    }
+}
+
+/// `r` with rings that share a point joined there into one ring (a later
+/// ring spliced into the earlier: `…, p, its other points…, p, …`), as the
+/// bridge of a keyhole without width. Each copy of `p` then bounds one wedge
+/// of the shape, so the extruded walls stay manifold, and earcut triangulates
+/// the joined ring whole. Run after [`split_touching`].
+pub fn splice_touching(r: &Region) -> Region {
+    let key = |p: &DVec2| p.to_array().map(f64::to_bits);
+    let shapes = r
+        .shapes
+        .iter()
+        .map(|shape| {
+            let mut rings = shape.clone();
+            let mut k = 1;
+            while k < rings.len() {
+                let shared = (0..k).find_map(|i| {
+                    let at: std::collections::HashMap<_, usize> = rings[i]
+                        .iter()
+                        .enumerate()
+                        .map(|(j, p)| (key(p), j))
+                        .collect();
+                    rings[k]
+                        .iter()
+                        .enumerate()
+                        .find_map(|(b, p)| at.get(&key(p)).map(|&a| (i, a, b)))
+                });
+                match shared {
+                    Some((i, a, b)) => {
+                        let ring = rings.remove(k);
+                        let joined: Vec<DVec2> =
+                            ring[b + 1..].iter().chain(&ring[..=b]).copied().collect();
+                        rings[i].splice(a + 1..a + 1, joined);
+                    }
+                    None => k += 1,
+                }
+            }
+            rings
+        })
+        .collect();
+    Region {
+        shapes,
+        convex: r.convex,
+    }
 }
 
 /// `linear_extrude` parameters (OpenSCAD's `LinearExtrudeNode`).

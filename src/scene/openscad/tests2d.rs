@@ -295,3 +295,24 @@ proptest::proptest! {
         super::tests::check_outcome(&format!("{}{}{}", &VALID_2D[..a], ins, &VALID_2D[end..]));
     }
 }
+
+#[test]
+fn holes_touching_the_outline_at_a_vertex_extrude() {
+    // A triangular hole whose corner lies on the square's left edge (given
+    // as a vertex of both, and as an evaluated outline).
+    for (src, area) in [
+        ("polygon(points = [[0, 0], [10, 0], [10, 10], [0, 10], [0, 5], [3, 7], [3, 3]], paths = [[0, 1, 2, 3, 4], [4, 5, 6]]);", 94.0),
+        ("offset(delta = 0) difference() { square(size = 10); polygon(points = [[0, 2], [3, 5], [0, 8]]); }", 91.0),
+    ] {
+        let m = model(&format!("linear_extrude(height = 2) {src}"));
+        let v: f64 = m
+            .primitives
+            .iter()
+            .map(|p| {
+                closed_outward(&p.mesh);
+                crate::scene::validate::signed_volume(&p.mesh)
+            })
+            .sum();
+        assert!((v - 2.0 * area).abs() < 1e-9, "{src}: {v}");
+    }
+}
