@@ -75,9 +75,22 @@ pub struct Region {
     pub convex: bool,
 }
 
+/// A ring's signed area (the shoelace sum): positive counter-clockwise.
+pub fn ring_area(ring: &[DVec2]) -> f64 {
+    (0..ring.len())
+        .map(|j| ring[j].perp_dot(ring[(j + 1) % ring.len()]))
+        .sum::<f64>()
+        / 2.0
+}
+
 impl Region {
     pub fn is_empty(&self) -> bool {
         self.shapes.is_empty()
+    }
+    /// The sum of its rings' signed areas.
+    #[cfg(test)]
+    pub fn signed_area(&self) -> f64 {
+        self.rings().map(|r| ring_area(r)).sum()
     }
     fn rings(&self) -> impl Iterator<Item = &Vec<DVec2>> {
         self.shapes.iter().flatten()
@@ -422,14 +435,8 @@ pub fn cap(r: &Region, touching: bool) -> Result<Vec<[u32; 3]>, String> {
             ));
         }
         if tri.len() / 3 != want {
-            let ring_area = |r: &Vec<DVec2>| {
-                (0..r.len())
-                    .map(|j| r[j].perp_dot(r[(j + 1) % r.len()]))
-                    .sum::<f64>()
-                    .abs()
-                    / 2.0
-            };
-            let area = ring_area(&shape[0]) - shape[1..].iter().map(ring_area).sum::<f64>();
+            let area = ring_area(&shape[0]).abs()
+                - shape[1..].iter().map(|r| ring_area(r).abs()).sum::<f64>();
             let covered: f64 = tri
                 .chunks(3)
                 .map(|t| {

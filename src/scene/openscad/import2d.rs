@@ -145,16 +145,7 @@ mod tests {
     use crate::scene::openscad::tessellate::Resolution;
 
     fn area(r: &Region) -> f64 {
-        r.shapes
-            .iter()
-            .flatten()
-            .map(|ring| {
-                (0..ring.len())
-                    .map(|i| ring[i].perp_dot(ring[(i + 1) % ring.len()]))
-                    .sum::<f64>()
-                    / 2.0
-            })
-            .sum()
+        r.signed_area()
     }
 
     /// The shipped model's drawings against OpenSCAD 2021.01's DXF export of

@@ -656,16 +656,7 @@ mod tests {
     }
 
     fn area(r: &Region) -> f64 {
-        r.shapes
-            .iter()
-            .flatten()
-            .map(|ring| {
-                (0..ring.len())
-                    .map(|i| ring[i].perp_dot(ring[(i + 1) % ring.len()]))
-                    .sum::<f64>()
-                    / 2.0
-            })
-            .sum()
+        r.signed_area()
     }
 
     fn bbox(r: &Region) -> [f64; 4] {
