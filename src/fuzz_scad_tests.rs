@@ -17,35 +17,14 @@
 use std::path::Path;
 use std::time::Instant;
 
+use crate::fuzz_tests::{case_limit, runner};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, TestRunner};
 use rand::{Rng, SeedableRng};
 
 use crate::scene::{load_str, LoadOptions, SceneError};
 
 /// As in `fuzz_tests`: huge but legal models are refused by the budget quickly.
 const FUZZ_BUDGET: u64 = 64 << 20;
-
-fn runner(base_cases: u32) -> TestRunner {
-    let mult = std::env::var("PEELTRIM_FUZZ_CASES")
-        .ok()
-        .and_then(|v| v.trim().parse::<u32>().ok())
-        .unwrap_or(1)
-        .max(1);
-    TestRunner::new(Config {
-        cases: base_cases.saturating_mul(mult),
-        failure_persistence: None,
-        ..Config::default()
-    })
-}
-
-fn case_limit() -> std::time::Duration {
-    let ms = std::env::var("PEELTRIM_FUZZ_CASE_MS")
-        .ok()
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or(2000);
-    std::time::Duration::from_millis(ms)
-}
 
 /// Generated `.csg` text; `bad`: definitely an error wherever it is evaluated.
 #[derive(Clone, Debug)]

@@ -30,7 +30,8 @@ fn env_u64(key: &str, default: u64) -> u64 {
         .unwrap_or(default)
 }
 
-fn runner(base_cases: u32) -> TestRunner {
+/// A proptest runner of `base_cases` cases, times `PEELTRIM_FUZZ_CASES`.
+pub(crate) fn runner(base_cases: u32) -> TestRunner {
     let cases = base_cases as u64 * env_u64("PEELTRIM_FUZZ_CASES", 1).max(1);
     TestRunner::new(Config {
         cases: cases.min(u32::MAX as u64) as u32,
@@ -39,7 +40,8 @@ fn runner(base_cases: u32) -> TestRunner {
     })
 }
 
-fn case_limit() -> Duration {
+/// The time one case may take (`PEELTRIM_FUZZ_CASE_MS`, default 2 s).
+pub(crate) fn case_limit() -> Duration {
     Duration::from_millis(env_u64("PEELTRIM_FUZZ_CASE_MS", 2000))
 }
 

@@ -6,26 +6,13 @@
 //! hull is closed, outward and contains its points. Case counts honour
 //! `PEELTRIM_FUZZ_CASES` as the other fuzz tests do.
 
+use crate::fuzz_tests::runner;
 use glam::DVec3;
 use proptest::prelude::*;
-use proptest::test_runner::{Config, TestRunner};
 use std::time::{Duration, Instant};
 
 use super::{hull, mesh_import, surface};
 use crate::scene::validate::{check_closed, signed_volume};
-
-fn runner(base: u32) -> TestRunner {
-    let mult = std::env::var("PEELTRIM_FUZZ_CASES")
-        .ok()
-        .and_then(|v| v.trim().parse::<u32>().ok())
-        .unwrap_or(1)
-        .max(1);
-    TestRunner::new(Config {
-        cases: base.saturating_mul(mult),
-        failure_persistence: None,
-        ..Config::default()
-    })
-}
 
 const LIMIT: Duration = Duration::from_secs(5);
 
