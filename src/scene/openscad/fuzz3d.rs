@@ -71,29 +71,6 @@ fn timed<T>(what: &str, f: impl FnOnce() -> T) -> Result<T, TestCaseError> {
     Ok(r)
 }
 
-fn cube_stl_ascii() -> Vec<u8> {
-    let p = |i: usize| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32];
-    let mut s = String::from("solid c\n");
-    for q in [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ] {
-        for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
-            s += "facet normal 0 0 0\nouter loop\n";
-            for i in t {
-                let v = p(i);
-                s += &format!("vertex {} {} {}\n", v[0], v[1], v[2]);
-            }
-            s += "endloop\nendfacet\n";
-        }
-    }
-    (s + "endsolid c\n").into_bytes()
-}
-
 fn binary_of(ascii: &[u8]) -> Vec<u8> {
     let m = mesh_import::parse_stl(ascii).unwrap();
     let mut b = vec![0u8; 80];
@@ -112,7 +89,7 @@ fn binary_of(ascii: &[u8]) -> Vec<u8> {
 
 #[test]
 fn fuzz_stl_readers() {
-    let ascii = cube_stl_ascii();
+    let ascii = super::tests3d::cube_stl(0.0, 1.0).into_bytes();
     let binary = binary_of(&ascii);
     for src in [ascii, binary] {
         runner(300)

@@ -153,7 +153,8 @@ fn temp_dir(name: &str) -> PathBuf {
     d
 }
 
-fn cube_stl(lo: f32, hi: f32) -> String {
+/// An ASCII STL of the cube from `lo` to `hi` on every axis.
+pub(super) fn cube_stl(lo: f32, hi: f32) -> String {
     let p = |i: usize| {
         [
             if i & 1 != 0 { hi } else { lo },
