@@ -273,17 +273,12 @@ mod tests {
             scale: 1.0,
             res: Resolution::default(),
         };
+        let finite = |r: &Region| r.shapes.iter().flatten().flatten().all(|p| p.is_finite());
         for _ in 0..200 {
             let t = std::time::Instant::now();
             let m = mutate(&mut rng, &dxf_bytes);
             if let Ok(out) = dxf::read(&m, &o) {
-                assert!(out
-                    .region
-                    .shapes
-                    .iter()
-                    .flatten()
-                    .flatten()
-                    .all(|p| p.is_finite()));
+                assert!(finite(&out.region));
             }
             let m = mutate(&mut rng, &svg_bytes);
             if let Ok(out) = svg::read(
@@ -293,13 +288,7 @@ mod tests {
                     center: false,
                 },
             ) {
-                assert!(out
-                    .region
-                    .shapes
-                    .iter()
-                    .flatten()
-                    .flatten()
-                    .all(|p| p.is_finite()));
+                assert!(finite(&out.region));
             }
             assert!(t.elapsed().as_secs() < 10, "slow mutated drawing");
         }
